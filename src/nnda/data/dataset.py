@@ -1,0 +1,325 @@
+"""Datasets in memory and on disk (conventions.md, "Dataset on disk").
+
+A dataset directory holds ``scenario.json`` (manifest: format, version, seed,
+run, the validated scenario), ``detections.parquet`` and ``truth.parquet``.
+A *collection* directory (a Monte Carlo set or a preset group) holds one
+dataset directory per member and a ``collection.json`` manifest listing them.
+Everything is written to a temporary sibling and renamed into place, so a
+failed write leaves nothing behind; readers check format, version and
+schema and name the file and field they refuse.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+import nnda
+from nnda.data.scenario import Scenario, scenario_from_dict
+from nnda.errors import ConfigError, DatasetError
+
+FORMAT = "nnda.dataset"
+COLLECTION_FORMAT = "nnda.collection"
+FORMAT_VERSION = 1
+MANIFEST = "scenario.json"
+COLLECTION_MANIFEST = "collection.json"
+DETECTIONS_FILE = "detections.parquet"
+TRUTH_FILE = "truth.parquet"
+
+
+@dataclass(frozen=True)
+class Detections:
+    """All contacts of a dataset, one entry per detection; arrays of shape (N,).
+
+    Rows are ordered by scan, then by azimuth (the order a rotating antenna
+    reports them). ``range`` m, ``azimuth`` rad in [0, 2 pi) clockwise from
+    north, ``x``/``y`` m from the measured polar values, ``target_id`` is the
+    index of the originating target or -1 for clutter.
+    """
+
+    scan: np.ndarray
+    time: np.ndarray
+    range: np.ndarray
+    azimuth: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    is_clutter: np.ndarray
+    target_id: np.ndarray
+
+
+@dataclass(frozen=True)
+class Truth:
+    """True target states, one row per existing target per scan; arrays of shape (M,).
+
+    ``detected`` says whether the target has a contact in that scan.
+    """
+
+    scan: np.ndarray
+    time: np.ndarray
+    target_id: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    vx: np.ndarray
+    vy: np.ndarray
+    detected: np.ndarray
+
+
+DETECTIONS_SCHEMA = pa.schema([
+    ("scan", pa.int32()), ("time", pa.float64()), ("range", pa.float64()),
+    ("azimuth", pa.float64()), ("x", pa.float64()), ("y", pa.float64()),
+    ("is_clutter", pa.bool_()), ("target_id", pa.int32()),
+])
+TRUTH_SCHEMA = pa.schema([
+    ("scan", pa.int32()), ("time", pa.float64()), ("target_id", pa.int32()),
+    ("x", pa.float64()), ("y", pa.float64()), ("vx", pa.float64()), ("vy", pa.float64()),
+    ("detected", pa.bool_()),
+])
+
+
+@dataclass(frozen=True)
+class Scan:
+    """One antenna sweep as a tracker sees it: index k, time (s) and (N, 2) [range m, azimuth rad]."""
+
+    index: int
+    time: float
+    measurements: np.ndarray
+
+
+@dataclass(frozen=True)
+class Dataset:
+    """One realisation of a scenario: its config, seed, run index, contacts and truth."""
+
+    scenario: Scenario
+    seed: int
+    run: int
+    detections: Detections
+    truth: Truth
+
+    @property
+    def n_scans(self) -> int:
+        return self.scenario.n_scans
+
+    def scan_bounds(self) -> np.ndarray:
+        """Row offsets of each scan in ``detections``: scan k is rows [b[k-1], b[k]), shape (n_scans+1,)."""
+        return np.searchsorted(self.detections.scan, np.arange(1, self.n_scans + 2))
+
+    def scans(self) -> Iterator[Scan]:
+        """The sweeps in order, including empty ones; measurements are (N, 2) [range, azimuth]."""
+        b = self.scan_bounds()
+        polar = np.column_stack([self.detections.range, self.detections.azimuth])
+        period = self.scenario.sensor.scan_period_s
+        for k in range(1, self.n_scans + 1):
+            yield Scan(k, k * period, polar[b[k - 1]:b[k]])
+
+
+# ----------------------------------------------------------------------------- writing
+
+def _table(record, schema: pa.Schema) -> pa.Table:
+    return pa.Table.from_arrays(
+        [pa.array(np.asarray(getattr(record, f.name)), type=f.type) for f in schema], schema=schema
+    )
+
+
+def manifest(dataset: Dataset) -> dict:
+    """The ``scenario.json`` content: what the dataset is, from what, with what."""
+    s = dataset.scenario
+    return {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "nnda_version": nnda.__version__,
+        "seed": dataset.seed,
+        "run": dataset.run,
+        "n_scans": s.n_scans,
+        "n_detections": int(dataset.detections.scan.size),
+        "n_clutter": int(dataset.detections.is_clutter.sum()),
+        "target_names": [t.name for t in s.targets],
+        "scenario": s.model_dump(mode="json"),
+    }
+
+
+def _write_json(path: Path, data: dict) -> None:
+    path.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n")
+
+
+def write_dataset_files(dataset: Dataset, directory: Path) -> None:
+    """Write the three files of a dataset into an existing, empty ``directory``."""
+    _write_json(directory / MANIFEST, manifest(dataset))
+    pq.write_table(_table(dataset.detections, DETECTIONS_SCHEMA), directory / DETECTIONS_FILE)
+    pq.write_table(_table(dataset.truth, TRUTH_SCHEMA), directory / TRUTH_FILE)
+
+
+@contextmanager
+def atomic_directory(out: str | Path, overwrite: bool = False) -> Iterator[Path]:
+    """Yield a temporary sibling of ``out`` to fill; rename it to ``out`` on success.
+
+    On any error the temporary directory is removed and ``out`` is untouched.
+    An existing ``out`` is refused unless ``overwrite`` is true.
+    """
+    out = Path(out)
+    if out.exists() and not overwrite:
+        raise FileExistsError(f"{out}: already exists (pass overwrite to replace it)")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".partial", dir=out.parent))
+    try:
+        yield tmp
+        if out.exists():
+            old = out.with_name(f".{out.name}.{os.getpid()}.old")
+            out.rename(old)
+            tmp.rename(out)
+            shutil.rmtree(old)
+        else:
+            tmp.rename(out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
+def write_dataset(dataset: Dataset, out: str | Path, overwrite: bool = False) -> Path:
+    """Write one dataset directory atomically; returns its path."""
+    with atomic_directory(out, overwrite) as tmp:
+        write_dataset_files(dataset, tmp)
+    return Path(out)
+
+
+def write_collection(
+    members: Iterator[tuple[str, Dataset]], out: str | Path, description: str,
+    overwrite: bool = False, on_member: Callable[[str], None] | None = None,
+) -> Path:
+    """Write datasets as sub-directories of one collection, atomically as a whole.
+
+    ``members`` yields (member name, dataset); ``on_member`` is called after
+    each member is written (progress reporting).
+    """
+    names = []
+    with atomic_directory(out, overwrite) as tmp:
+        for name, dataset in members:
+            (tmp / name).mkdir()
+            write_dataset_files(dataset, tmp / name)
+            names.append(name)
+            if on_member is not None:
+                on_member(name)
+        _write_json(tmp / COLLECTION_MANIFEST, {
+            "format": COLLECTION_FORMAT,
+            "format_version": FORMAT_VERSION,
+            "nnda_version": nnda.__version__,
+            "description": description,
+            "members": names,
+        })
+    return Path(out)
+
+
+# ----------------------------------------------------------------------------- reading
+
+def _read_manifest(path: Path, expected_format: str) -> dict:
+    if not path.is_file():
+        raise DatasetError(f"{path}: missing (not an nnda {expected_format.split('.')[1]} directory?)")
+    try:
+        data = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise DatasetError(f"{path}: not valid JSON ({exc})") from None
+    if not isinstance(data, dict) or data.get("format") != expected_format:
+        found = data.get("format") if isinstance(data, dict) else type(data).__name__
+        raise DatasetError(f"{path}: field 'format' is {found!r}, expected {expected_format!r}")
+    if data.get("format_version") != FORMAT_VERSION:
+        raise DatasetError(
+            f"{path}: field 'format_version' is {data.get('format_version')!r}; this nnda "
+            f"({nnda.__version__}) reads version {FORMAT_VERSION} only"
+        )
+    return data
+
+
+def _read_table(path: Path, schema: pa.Schema, record_type):
+    if not path.is_file():
+        raise DatasetError(f"{path}: missing")
+    try:
+        table = pq.read_table(path)
+    except (pa.ArrowException, OSError) as exc:
+        raise DatasetError(f"{path}: unreadable Parquet file ({exc})") from None
+    for f in schema:
+        if f.name not in table.column_names:
+            raise DatasetError(f"{path}: column {f.name!r} is missing")
+        got = table.schema.field(f.name).type
+        if got != f.type:
+            raise DatasetError(f"{path}: column {f.name!r} has type {got}, expected {f.type}")
+    extra = set(table.column_names) - set(schema.names)
+    if extra:
+        raise DatasetError(f"{path}: unexpected column(s) {sorted(extra)}")
+    columns = {}
+    for f in schema:
+        col = table.column(f.name)
+        if col.null_count:
+            raise DatasetError(f"{path}: column {f.name!r} has {col.null_count} null value(s)")
+        arr = col.to_numpy()
+        if arr.dtype.kind == "f" and not np.isfinite(arr).all():
+            bad = int(np.flatnonzero(~np.isfinite(arr))[0])
+            raise DatasetError(f"{path}: column {f.name!r} has a non-finite value at row {bad}")
+        columns[f.name] = arr
+    return record_type(**columns)
+
+
+def _check_rows(path: Path, scan: np.ndarray, n_scans: int, target_id: np.ndarray, n_targets: int,
+                allow_clutter: bool) -> None:
+    if scan.size and (scan.min() < 1 or scan.max() > n_scans):
+        raise DatasetError(f"{path}: column 'scan' leaves the range 1..{n_scans}")
+    if np.any(np.diff(scan) < 0):
+        raise DatasetError(f"{path}: column 'scan' is not in increasing order")
+    low = -1 if allow_clutter else 0
+    if target_id.size and (target_id.min() < low or target_id.max() >= n_targets):
+        raise DatasetError(f"{path}: column 'target_id' leaves the range {low}..{n_targets - 1}")
+
+
+def read_dataset(path: str | Path) -> Dataset:
+    """Read and validate one dataset directory."""
+    path = Path(path)
+    if not path.is_dir():
+        raise DatasetError(f"{path}: no such dataset directory")
+    meta = _read_manifest(path / MANIFEST, FORMAT)
+    for key in ("seed", "run", "scenario"):
+        if key not in meta:
+            raise DatasetError(f"{path / MANIFEST}: field {key!r} is missing")
+    try:
+        scenario = scenario_from_dict(meta["scenario"], f"{path / MANIFEST} (field 'scenario')")
+    except ConfigError as exc:
+        raise DatasetError(str(exc)) from None
+    detections = _read_table(path / DETECTIONS_FILE, DETECTIONS_SCHEMA, Detections)
+    truth = _read_table(path / TRUTH_FILE, TRUTH_SCHEMA, Truth)
+    n_scans, n_targets = scenario.n_scans, len(scenario.targets)
+    _check_rows(path / DETECTIONS_FILE, detections.scan, n_scans, detections.target_id, n_targets, True)
+    _check_rows(path / TRUTH_FILE, truth.scan, n_scans, truth.target_id, n_targets, False)
+    if not np.array_equal(detections.is_clutter, detections.target_id < 0):
+        raise DatasetError(f"{path / DETECTIONS_FILE}: columns 'is_clutter' and 'target_id' disagree")
+    return Dataset(scenario, int(meta["seed"]), int(meta["run"]), detections, truth)
+
+
+def is_collection(path: str | Path) -> bool:
+    return (Path(path) / COLLECTION_MANIFEST).is_file()
+
+
+def collection_members(path: str | Path) -> list[Path]:
+    """Member dataset directories of a collection, in manifest order."""
+    path = Path(path)
+    meta = _read_manifest(path / COLLECTION_MANIFEST, COLLECTION_FORMAT)
+    members = meta.get("members")
+    if not isinstance(members, list) or not all(isinstance(m, str) for m in members):
+        raise DatasetError(f"{path / COLLECTION_MANIFEST}: field 'members' must be a list of names")
+    return [path / m for m in members]
+
+
+def iter_datasets(path: str | Path) -> Iterator[Dataset]:
+    """Datasets stored at ``path``: the dataset itself, or every member of a collection."""
+    path = Path(path)
+    if is_collection(path):
+        for member in collection_members(path):
+            yield read_dataset(member)
+    else:
+        yield read_dataset(path)

@@ -1,0 +1,221 @@
+"""The reference scenarios of shared/spec/seed-001.md as ready-made configs.
+
+* ``train01`` .. ``train17``: the 17 single-target training scenarios (§3.3)
+  with their gap tables (§3.3.1) and the §3.5 placements;
+* ``T1`` .. ``T7``: each validation trajectory alone (§3.4), 200 s, no gaps;
+* ``S1`` .. ``S6``: the multi-target validation scenarios with Tables 5.12/5.13.
+
+Training presets use the calibrated clutter of §14 (100 points per scan,
+uniform in a 16.6 km square on the target's bounding box); validation
+presets keep 100 points per scan in a square fitted to their targets (see
+`_fitted_clutter`). Groups ``train``, ``trajectories`` and ``validation`` name these sets.
+Trajectories are data: (initial speed m/s, [(duration s, a_t m/s^2,
+a_n m/s^2), ...]) with positive a_n a right turn (spec A6).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from nnda.data.scenario import Clutter, Scenario, Segment, Target
+from nnda.data.trajectory import evaluate
+from nnda.errors import ConfigError
+
+Trajectory = tuple[float, list[tuple[float, float, float]]]
+
+# --- training trajectories TR1-TR12 (spec §3.3) -------------------------------------------------
+TRAINING_TRAJECTORIES: dict[str, Trajectory] = {
+    "TR1": (99.0, [(50, 0, 0), (26, 5, 0)]),
+    "TR2": (99.0, [(80, 0, 0), (100, 0, 5), (80, 0, 0)]),
+    "TR3": (85.0, [(100, 0, 3)]),
+    "TR4": (150.0, [(50, 0, 0), (36, 0, 13), (36, 0, -13), (40, 0, 6)]),
+    "TR5": (85.0, [(30, 3, 5)]),
+    "TR6": (85.0, [(30, 4, 0), (30, -4, 0)]),
+    "TR7": (85.0, [(30, 4, 0), (50, 0, 10.33), (40, 0, 12.88)]),
+    "TR8": (141.4, [(40, 0, 0), (50, 0, -10), (50, 0, -5)]),
+    "TR9": (108.17, [(200, 0, 3.48)]),
+    "TR10": (127.28, [(120, 0, -6.6)]),
+    "TR11": (113.14, [(100, 0, 0), (50, 0, -5)]),  # spec A6: -5 m/s^2
+    "TR12": (160.0, [(40, 0, 11.2), (40, 0, -11.2), (40, 0, 13)]),
+}
+
+# --- gap tables (spec §3.3.1; scan k is at t = 2k s) --------------------------------------------
+_G5_1 = [7, 8, 15, 16, 17, 24, 25, 30, 36, 37, 38]
+_G5_3 = _G5_1 + [42, 43, 47]
+G8 = _G5_3 + [51, 52, 53]
+GAP_TABLES: dict[str, list[int]] = {
+    "none": [],
+    "5.1": _G5_1,
+    "5.2": _G5_1 + [42, 43, 47, 51, 52, 53, 100, 101, 102, 115],
+    "5.3": _G5_3,
+    "G8": G8,
+    "5.5": [7, 8, 15, 16, 17, 24, 25],
+    "5.8": G8 + [63, 64, 65, 71, 72, 85],
+    "scenario9": [7, 8],
+}
+
+# (trajectory, x0 m, y0 m, heading deg clockwise from north, gap table) per training scenario
+TRAINING_SCENARIOS: list[tuple[str, float, float, float, str]] = [
+    ("TR1", -8000, 10000, 45, "none"),
+    ("TR1", 6000, -14000, 315, "5.1"),
+    ("TR2", -16000, -12000, 45, "5.2"),
+    ("TR2", 16000, -10000, 0, "5.2"),
+    ("TR3", -12000, -8000, 45, "5.3"),
+    ("TR4", -20000, -10000, 45, "G8"),
+    ("TR4", 4000, -22000, 315, "G8"),
+    ("TR5", 10000, 10000, 45, "none"),
+    ("TR5", -14000, 12000, 135, "scenario9"),
+    ("TR6", 14000, -6000, 315, "5.5"),
+    ("TR7", -10000, -14000, 45, "G8"),
+    ("TR8", -6000, -16000, 45, "G8"),
+    ("TR8", 14000, 12000, 200, "G8"),
+    ("TR9", -16000, 2000, 45, "5.8"),
+    ("TR10", 12000, -12000, 45, "G8"),
+    ("TR11", -6000, -20000, 45, "G8"),
+    ("TR12", -16000, -8000, 45, "G8"),
+]
+
+# --- validation trajectories T1-T7 (spec §3.4; T1's third section is A5's 50 s) ----------------
+VALIDATION_TRAJECTORIES: dict[str, Trajectory] = {
+    "T1": (70.7, [(50, 0, 0), (50, 0, 4.94), (50, 0, -4.94), (20, 3, 0)]),
+    "T2": (141.4, [(150, 0, 0)]),
+    "T3": (196.0, [(60, 0, 10.3)]),
+    "T4": (103.0, [(150, 0, 0)]),
+    "T5": (85.0, [(20, 5, 0), (45, 0, 6.44), (50, 0, 0)]),
+    "T6": (70.7, [(90, 0, 1.24), (90, 0, -1.24)]),
+    "T7": (85.0, [(20, 5, 0), (45, 0, -6.44), (50, 0, 0)]),
+}
+
+# placements (trajectory, x0, y0, heading) keyed by the name the target takes in a scenario (§3.5)
+PLACEMENTS: dict[str, tuple[str, float, float, float]] = {
+    "T1": ("T1", -12000, -6000, 45),
+    "T2.1": ("T2", -20000, -6000, 45),
+    "T2.2": ("T2", 8000, -18000, 315),
+    "T2": ("T2", -16000, -10000, 90),  # T2 in S6 (and alone)
+    "T3a": ("T3", 6000, 12000, 90),
+    "T3b": ("T3", -6000, 14000, 90),
+    "T3c": ("T3", 14000, -4000, 180),
+    "T4": ("T4", -18000, 6000, 90),
+    "T5": ("T5", -12000, -14000, 45),
+    "T6": ("T6", 2000, -22000, 45),
+    "T7": ("T7", -12200, -13800, 45),
+}
+
+# validation scenarios: targets with their gaps (Tables 5.12 and 5.13), 200 s each
+VALIDATION_SCENARIOS: dict[str, tuple[str, dict[str, list[int]]]] = {
+    "S1": ("T1, two T2 and T3: four targets, no gaps", {"T1": [], "T2.1": [], "T2.2": [], "T3a": []}),
+    "S2": ("T4, T5, T6, T7 (T5/T7 start 280 m apart): four targets, no gaps",
+           {"T4": [], "T5": [], "T6": [], "T7": []}),
+    "S3": ("S2 with the detection gaps of Table 5.12",
+           {"T4": [], "T5": [24, 25, 40, 41, 42], "T6": [15, 25, 26, 27, 85, 86], "T7": [8, 50, 51]}),
+    "S4": ("T1, two T3 and T5: four targets, no gaps", {"T1": [], "T3a": [], "T3b": [], "T5": []}),
+    "S5": ("S4 with the detection gaps of Table 5.13",
+           {"T1": [10, 20, 21, 47, 58, 59, 60], "T3a": [11, 12, 24], "T3b": [9, 16, 17], "T5": []}),
+    "S6": ("T1, T2, three T3 and T5: six targets, no gaps",
+           {"T1": [], "T2": [], "T3a": [], "T3b": [], "T3c": [], "T5": []}),
+}
+VALIDATION_DURATION_S = 200.0
+
+#: Clutter of the validation presets. The spec calibrates its 16.6 km square on
+#: single-target training scenes only (§14); the validation targets spread over
+#: up to 30 km, so these presets keep 100 uniform points per scan but size the
+#: square to the targets' noise-free bounding box plus this margin on each side,
+#: so every target flies through clutter.
+VALIDATION_CLUTTER_MARGIN_M = 2_000.0
+
+
+def _target(name: str, trajectory: Trajectory, x: float, y: float, heading: float,
+            gaps: list[int]) -> Target:
+    speed, sections = trajectory
+    return Target(
+        name=name, x_m=x, y_m=y, heading_deg=heading, speed_m_s=speed, missed_scans=gaps,
+        segments=[Segment(duration_s=d, tangential_accel=at, normal_accel=an or None)
+                  for d, at, an in sections],
+    )
+
+
+def _training(i: int) -> Scenario:
+    traj, x, y, heading, gaps = TRAINING_SCENARIOS[i - 1]
+    target = _target(traj, TRAINING_TRAJECTORIES[traj], x, y, heading, GAP_TABLES[gaps])
+    gap_note = "no gaps" if gaps == "none" else f"gaps of table {gaps}"
+    return Scenario(
+        name=f"train{i:02d}", duration_s=target.duration_s, targets=[target], seed=i,
+        description=f"training scenario {i}: {traj}, {target.duration_s:.0f} s, {gap_note}",
+    )
+
+
+def _fitted_clutter(targets: list[Target]) -> Clutter:
+    """Square clutter covering the targets' bounding box plus the margin (side rounded up to
+    100 m), never smaller than the calibrated default square."""
+    xs, ys = [], []
+    for t in targets:
+        st = evaluate(t, np.linspace(0.0, t.duration_s, 401))
+        xs.append(st.x)
+        ys.append(st.y)
+    x, y = np.concatenate(xs), np.concatenate(ys)
+    extent = max(np.ptp(x), np.ptp(y)) + 2 * VALIDATION_CLUTTER_MARGIN_M
+    return Clutter(side_m=max(Clutter().side_m, 100.0 * math.ceil(extent / 100.0)))
+
+
+def _validation(name: str) -> Scenario:
+    description, members = VALIDATION_SCENARIOS[name]
+    targets = []
+    for tname, gaps in members.items():
+        traj, x, y, heading = PLACEMENTS[tname]
+        targets.append(_target(tname, VALIDATION_TRAJECTORIES[traj], x, y, heading, gaps))
+    return Scenario(name=name, description=f"validation scenario {name}: {description}",
+                    duration_s=VALIDATION_DURATION_S, targets=targets, clutter=_fitted_clutter(targets),
+                    seed=100 + int(name[1:]))
+
+
+#: placement of each validation trajectory when it flies alone
+ALONE = {"T1": "T1", "T2": "T2.1", "T3": "T3a", "T4": "T4", "T5": "T5", "T6": "T6", "T7": "T7"}
+
+
+def _trajectory(name: str) -> Scenario:
+    traj, x, y, heading = PLACEMENTS[ALONE[name]]
+    target = _target(name, VALIDATION_TRAJECTORIES[traj], x, y, heading, [])
+    return Scenario(name=name, description=f"validation trajectory {name} alone, 200 s, no gaps",
+                    duration_s=VALIDATION_DURATION_S, targets=[target], clutter=_fitted_clutter([target]),
+                    seed=200 + int(name[1:]))
+
+
+def _build() -> dict[str, Scenario]:
+    presets = {s.name: s for s in (_training(i) for i in range(1, len(TRAINING_SCENARIOS) + 1))}
+    presets.update({n: _trajectory(n) for n in VALIDATION_TRAJECTORIES})
+    presets.update({n: _validation(n) for n in VALIDATION_SCENARIOS})
+    return presets
+
+
+PRESETS: dict[str, Scenario] = _build()
+
+GROUPS: dict[str, list[str]] = {
+    "train": [f"train{i:02d}" for i in range(1, len(TRAINING_SCENARIOS) + 1)],
+    "trajectories": list(VALIDATION_TRAJECTORIES),
+    "validation": list(VALIDATION_SCENARIOS),
+}
+GROUP_DESCRIPTIONS = {
+    "train": "the 17 training scenarios (one target each) that build the neural training set",
+    "trajectories": "validation trajectories T1-T7, each alone",
+    "validation": "multi-target validation scenarios S1-S6",
+}
+
+
+def preset(name: str) -> Scenario:
+    """The preset scenario ``name``; ConfigError listing the choices if unknown."""
+    try:
+        return PRESETS[name]
+    except KeyError:
+        raise ConfigError(
+            f"unknown preset {name!r}; choose one of {', '.join(PRESETS)} "
+            f"or a group ({', '.join(GROUPS)})"
+        ) from None
+
+
+def resolve(name: str) -> list[Scenario]:
+    """A preset or a group name -> its scenarios."""
+    if name in GROUPS:
+        return [PRESETS[n] for n in GROUPS[name]]
+    return [preset(name)]

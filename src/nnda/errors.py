@@ -1,0 +1,13 @@
+"""Exceptions raised at nnda's boundaries. Each message says what was wrong and where."""
+
+
+class NndaError(Exception):
+    """Base class of every error nnda raises on bad input."""
+
+
+class ConfigError(NndaError, ValueError):
+    """A configuration (scenario, study, tracker) failed validation."""
+
+
+class DatasetError(NndaError, ValueError):
+    """A dataset on disk is missing, corrupt, of another format version or schema."""
