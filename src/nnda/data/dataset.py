@@ -170,6 +170,9 @@ def atomic_directory(out: str | Path, overwrite: bool = False) -> Iterator[Path]
         raise FileExistsError(f"{out}: already exists (pass overwrite to replace it)")
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".partial", dir=out.parent))
+    umask = os.umask(0)
+    os.umask(umask)
+    tmp.chmod(0o777 & ~umask)  # mkdtemp makes it private; the result is an ordinary directory
     try:
         yield tmp
         if out.exists():

@@ -1,0 +1,72 @@
+"""CLI commands of the data stage: ``nnda presets`` and ``nnda generate``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from nnda.data.dataset import write_collection, write_dataset
+from nnda.data.generator import generate_runs
+from nnda.data.presets import GROUP_DESCRIPTIONS, GROUPS, PRESETS, resolve
+from nnda.data.scenario import load_scenario
+from nnda.errors import ConfigError
+
+
+def presets() -> None:
+    """List the preset scenarios and groups of the reference thesis."""
+    table = Table(title="nnda presets (shared/spec/seed-001.md §3)")
+    for col in ("name", "targets", "scans", "description"):
+        table.add_column(col)
+    for name, s in PRESETS.items():
+        table.add_row(name, str(len(s.targets)), str(s.n_scans), s.description)
+    for name, members in GROUPS.items():
+        table.add_row(f"[bold]{name}[/]", "", str(len(members)) + " sets", GROUP_DESCRIPTIONS[name])
+    Console().print(table)
+
+
+def generate(
+    out: Annotated[Path, typer.Option(help="output directory (a dataset, or a collection of them)")],
+    preset: Annotated[str | None, typer.Option(help="preset or group name (see `nnda presets`)")] = None,
+    config: Annotated[Path | None, typer.Option(help="scenario config file (.toml or .json)")] = None,
+    seed: Annotated[int | None, typer.Option(help="seed; defaults to the scenario's own")] = None,
+    runs: Annotated[int, typer.Option(min=1, help="independently seeded Monte Carlo runs")] = 1,
+    overwrite: Annotated[bool, typer.Option(help="replace an existing output directory")] = False,
+) -> None:
+    """Generate datasets from a preset, a preset group or a config file.
+
+    One scenario and one run give a dataset directory; more runs or a group
+    give a collection directory with one dataset per member.
+    """
+    if (preset is None) == (config is None):
+        raise ConfigError("give exactly one of --preset or --config")
+    scenarios = resolve(preset) if preset is not None else [load_scenario(config)]
+    single = len(scenarios) == 1
+    if single and runs == 1:
+        dataset = next(generate_runs(scenarios[0], [0], seed))
+        write_dataset(dataset, out, overwrite)
+        Console().print(f"wrote {out} ({dataset.detections.scan.size} detections)")
+        return
+
+    def members():
+        for scenario in scenarios:
+            for ds in generate_runs(scenario, range(runs), seed):
+                if runs == 1:
+                    yield scenario.name, ds
+                elif single:
+                    yield f"run-{ds.run:04d}", ds
+                else:
+                    yield f"{scenario.name}-run-{ds.run:04d}", ds
+
+    what = preset or str(config)
+    description = f"{what}: {len(scenarios)} scenario(s) x {runs} run(s), seed {seed if seed is not None else 'per scenario'}"
+    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                  TimeElapsedColumn(), transient=False) as bar:
+        task = bar.add_task(f"generating {what}", total=len(scenarios) * runs)
+        write_collection(members(), out, description, overwrite,
+                         on_member=lambda _name: bar.advance(task))
+    Console().print(f"wrote {out} ({len(scenarios) * runs} datasets)")

@@ -1,0 +1,21 @@
+"""CLI commands of the reports stage."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+
+from nnda.data.dataset import read_dataset
+from nnda.reports.scenario_plot import plot_scenario as _plot
+
+
+def plot_scenario(
+    dataset: Annotated[Path, typer.Argument(help="dataset directory")],
+    out: Annotated[Path, typer.Option(help="PNG file to write")],
+) -> None:
+    """Plot a dataset: coverage, clutter, target contacts and true tracks."""
+    _plot(read_dataset(dataset), out)
+    Console().print(f"wrote {out}")
