@@ -47,7 +47,7 @@ def clutter_positions(
     ``centre`` (2,) is the square's or the Gaussian's centre in m.
     Raises ConfigError when the clutter region does not meet the coverage.
     """
-    xs, ys, have, drawn, accepted = [], [], 0, 0, 0
+    xs, ys, have, drawn, accepted = [np.empty(0)], [np.empty(0)], 0, 0, 0
     while have < total:
         rate = accepted / drawn if drawn else 1.0
         batch = max(_MIN_BATCH, int(1.2 * (total - have) / max(rate, 1e-3)))

@@ -9,7 +9,6 @@ import typer
 from rich.console import Console
 
 from nnda.data.dataset import read_dataset
-from nnda.reports.scenario_plot import plot_scenario as _plot
 
 
 def plot_scenario(
@@ -17,5 +16,7 @@ def plot_scenario(
     out: Annotated[Path, typer.Option(help="PNG file to write")],
 ) -> None:
     """Plot a dataset: coverage, clutter, target contacts and true tracks."""
-    _plot(read_dataset(dataset), out)
+    from nnda.reports.scenario_plot import plot_scenario as draw  # matplotlib only when plotting
+
+    draw(read_dataset(dataset), out)
     Console().print(f"wrote {out}")

@@ -1,0 +1,5 @@
+"""``python -m nnda`` runs the command line."""
+
+from nnda.cli import main
+
+main()
