@@ -1,0 +1,87 @@
+"""Track life cycle shared by every tracker (spec §4): initiation window and M/N logic.
+
+* A contact not used by any track becomes an *initiator* (tentative track).
+  On the next scan, each contact at a distance in [D_min, D_max] from it
+  forms a preliminary track with it, D_min = V_min T - 3 sigma_r and
+  D_max = V_max T + 3 sigma_r (§4.2). An initiator with no such contact is
+  discarded; contacts inside some initiator's window do not start initiators
+  themselves (A11).
+* Preliminary tracks pass an M/N test counted from the third scan of their
+  life (§4.4): confirmed at the M-th detection, deleted at the (N-M+1)-th
+  miss. Confirmed tracks are deleted when their consecutive misses exceed
+  ``max_misses`` (§4.5 and A14: survive 3, delete at the 4th).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+from scipy.spatial import cKDTree
+
+from nnda.tracking.output import TrackStatus
+
+
+class LifecycleConfig(BaseModel):
+    """Initiation window and confirmation/deletion counts; defaults are the neural method's (§4.2, §8.6)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    v_min: Annotated[float, Field(ge=0, description="slowest target (m/s) for the initiation window")] = 70.0
+    v_max: Annotated[float, Field(gt=0, description="fastest target (m/s) for the initiation window")] = 200.0
+    m: Annotated[int, Field(ge=1, description="detections that confirm a preliminary track")] = 3
+    n: Annotated[int, Field(ge=1, description="scans of the M/N window")] = 4
+    max_misses: Annotated[int, Field(ge=0, description="consecutive misses a confirmed track survives")] = 3
+
+    @model_validator(mode="after")
+    def _order(self) -> LifecycleConfig:
+        if self.v_min >= self.v_max:
+            raise ValueError("v_min must be below v_max")
+        if self.m > self.n:
+            raise ValueError("M/N needs m <= n")
+        return self
+
+    def window(self, scan_period: float, sigma_range: float) -> tuple[float, float]:
+        """(D_min, D_max) in m for the initiation annulus (§4.2)."""
+        return (max(0.0, self.v_min * scan_period - 3 * sigma_range),
+                self.v_max * scan_period + 3 * sigma_range)
+
+
+def window_pairs(initiators: np.ndarray, contacts: np.ndarray, d_min: float, d_max: float
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """All (initiator, contact) index pairs whose distance lies in [d_min, d_max].
+
+    ``initiators`` (I, 2) and ``contacts`` (J, 2) are Cartesian positions in m.
+    Returns two int64 arrays of equal length, sorted by initiator then contact.
+    A k-d tree keeps this near-linear for thousands of contacts per scan.
+    """
+    if len(initiators) == 0 or len(contacts) == 0:
+        return np.empty(0, np.int64), np.empty(0, np.int64)
+    pairs = cKDTree(initiators).sparse_distance_matrix(cKDTree(contacts), d_max, output_type="ndarray")
+    keep = pairs["v"] >= d_min
+    i, j = pairs["i"][keep].astype(np.int64), pairs["j"][keep].astype(np.int64)
+    order = np.lexsort((j, i))
+    return i[order], j[order]
+
+
+def advance(status: np.ndarray, hits: np.ndarray, misses: np.ndarray, consecutive: np.ndarray,
+            detected: np.ndarray, cfg: LifecycleConfig
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One scan of the M/N and deletion logic for a batch of tracks, all arrays (K,).
+
+    ``hits``/``misses`` count detections and misses since the M/N test began
+    (the scan after the track became preliminary); ``consecutive`` counts
+    consecutive misses. Call once per scan for each existing preliminary or
+    confirmed track. Returns new (status, hits, misses, consecutive).
+    """
+    detected = np.asarray(detected, bool)
+    hits = hits + detected
+    misses = misses + ~detected
+    consecutive = np.where(detected, 0, consecutive + 1)
+    status = status.copy()
+    prelim = status == TrackStatus.PRELIMINARY
+    status[prelim & (hits >= cfg.m)] = TrackStatus.CONFIRMED
+    status[prelim & (misses >= cfg.n - cfg.m + 1)] = TrackStatus.DELETED
+    status[(status == TrackStatus.CONFIRMED) & (consecutive > cfg.max_misses)] = TrackStatus.DELETED
+    return status, hits, misses, consecutive

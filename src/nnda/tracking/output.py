@@ -1,0 +1,49 @@
+"""What every tracker returns per scan (conventions.md, "Interfaces")."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import IntEnum
+
+import numpy as np
+
+
+class TrackStatus(IntEnum):
+    """Life stages of a track (spec §4): initiator -> preliminary -> confirmed -> deleted."""
+
+    TENTATIVE = 0
+    PRELIMINARY = 1
+    CONFIRMED = 2
+    DELETED = 3
+
+
+NO_MEASUREMENT = -1
+
+
+@dataclass(frozen=True)
+class TrackerOutput:
+    """Tracks reported after one scan; every array has the track count K first.
+
+    ``state`` is [x, vx, y, vy] (m, m/s) and ``covariance`` its (4, 4)
+    covariance, both the IMM's combined estimate; ``measurement`` is the row
+    of the scan's measurement array used by the track in this scan, or -1.
+    Tracks deleted in this scan are reported once more with status DELETED.
+    Tentative tracks (single contacts waiting for a second one) are not
+    reported: they have no state yet.
+    """
+
+    scan: int
+    time: float
+    track_id: np.ndarray  # (K,) int64
+    status: np.ndarray  # (K,) int8, TrackStatus values
+    state: np.ndarray  # (K, 4)
+    covariance: np.ndarray  # (K, 4, 4)
+    measurement: np.ndarray  # (K,) int64
+
+    @property
+    def confirmed(self) -> np.ndarray:
+        """Boolean mask of confirmed tracks, (K,)."""
+        return self.status == TrackStatus.CONFIRMED
+
+    def __len__(self) -> int:
+        return int(self.track_id.size)

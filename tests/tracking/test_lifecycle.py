@@ -1,0 +1,84 @@
+"""M/N confirmation, deletion and the initiation window (spec §4)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pydantic import ValidationError
+
+from nnda.tracking.lifecycle import LifecycleConfig, advance, window_pairs
+from nnda.tracking.output import TrackStatus as S
+
+# Spec Table 2.1 (M = 2, N = 3): detection history from scan 3 on -> class
+TABLE_2_1 = {
+    "0": S.PRELIMINARY, "1": S.PRELIMINARY,
+    "00": S.DELETED, "01": S.PRELIMINARY, "10": S.PRELIMINARY, "11": S.CONFIRMED,
+    "010": S.DELETED, "011": S.CONFIRMED, "100": S.DELETED, "101": S.CONFIRMED,
+}
+
+
+def _run(history: str, cfg: LifecycleConfig) -> S:
+    status, hits, misses, consec = (np.array([S.PRELIMINARY]), np.zeros(1, int), np.zeros(1, int), np.zeros(1, int))
+    for c in history:
+        if status[0] == S.DELETED:
+            break
+        status, hits, misses, consec = advance(status, hits, misses, consec, np.array([c == "1"]), cfg)
+    return S(status[0])
+
+
+@pytest.mark.parametrize("history, expected", sorted(TABLE_2_1.items()))
+def test_table_2_1(history, expected):
+    assert _run(history, LifecycleConfig(m=2, n=3)) == expected
+
+
+def test_spec_3_of_4_and_confirmed_track_survives_three_misses():
+    cfg = LifecycleConfig()
+    assert _run("111", cfg) == S.CONFIRMED
+    assert _run("1011", cfg) == S.CONFIRMED
+    assert _run("1001", cfg) == S.DELETED
+    assert _run("111" + "000", cfg) == S.CONFIRMED
+    assert _run("111" + "0001" + "000", cfg) == S.CONFIRMED
+    assert _run("111" + "0000", cfg) == S.DELETED
+    assert _run("111" + "000", cfg.model_copy(update={"max_misses": 2})) == S.DELETED
+
+
+def test_batch_equals_single_tracks():
+    rng = np.random.default_rng(0)
+    cfg = LifecycleConfig()
+    histories = ["".join(rng.choice(["0", "1"], 10)) for _ in range(50)]
+    n = len(histories)
+    status, hits, misses, consec = np.full(n, S.PRELIMINARY), np.zeros(n, int), np.zeros(n, int), np.zeros(n, int)
+    final = status.copy()
+    for k in range(10):
+        alive = status != S.DELETED
+        det = np.array([h[k] == "1" for h in histories])
+        new = advance(status[alive], hits[alive], misses[alive], consec[alive], det[alive], cfg)
+        for arr, val in zip((status, hits, misses, consec), new):
+            arr[alive] = val
+        final = status
+    assert [S(s) for s in final] == [_run(h, cfg) for h in histories]
+
+
+def test_window_matches_spec_values():
+    assert LifecycleConfig().window(2.0, 30.0) == (50.0, 490.0)
+    assert LifecycleConfig(v_min=50, v_max=500).window(2.0, 30.0) == (10.0, 1090.0)
+
+
+def test_window_pairs_against_brute_force():
+    rng = np.random.default_rng(1)
+    a = rng.uniform(0, 5000, (60, 2))
+    b = rng.uniform(0, 5000, (80, 2))
+    i, j = window_pairs(a, b, 50.0, 490.0)
+    d = np.linalg.norm(a[:, None] - b[None], axis=2)
+    ei, ej = np.nonzero((d >= 50) & (d <= 490))
+    np.testing.assert_array_equal(i, ei)
+    np.testing.assert_array_equal(j, ej)
+    e = window_pairs(np.empty((0, 2)), b, 50, 490)
+    assert e[0].size == 0 and e[1].size == 0
+
+
+def test_bad_lifecycle_config():
+    with pytest.raises(ValidationError, match="m <= n"):
+        LifecycleConfig(m=5, n=4)
+    with pytest.raises(ValidationError, match="v_min must be below v_max"):
+        LifecycleConfig(v_min=300)
