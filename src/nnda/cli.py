@@ -16,6 +16,7 @@ import typer
 from rich.console import Console
 
 from nnda.data import commands as data_commands
+from nnda.models import commands as model_commands
 from nnda.reports import commands as report_commands
 from nnda.data.dataset import collection_members
 from nnda.data.presets import GROUPS
@@ -31,6 +32,8 @@ app = typer.Typer(
 
 app.command("presets")(data_commands.presets)
 app.command("generate")(data_commands.generate)
+app.command("train")(model_commands.train)
+app.command("evaluate")(model_commands.evaluate)
 app.command("plot-scenario")(report_commands.plot_scenario)
 
 

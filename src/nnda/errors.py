@@ -11,3 +11,11 @@ class ConfigError(NndaError, ValueError):
 
 class DatasetError(NndaError, ValueError):
     """A dataset on disk is missing, corrupt, of another format version or schema."""
+
+
+class ModelError(NndaError, ValueError):
+    """A model file is missing, corrupt or of another format or feature version, or a model got bad input."""
+
+
+class FilterError(NndaError, ValueError):
+    """A filter got bad input (shape, non-finite value, invalid covariance) or lost positive definiteness."""

@@ -1,0 +1,212 @@
+"""CLI commands of the models stage: ``nnda train`` and ``nnda evaluate``.
+
+``nnda train`` has three modes, each writing one output directory atomically:
+
+* one model (default): ``model.json`` (the model file), ``training.json``
+  (loss per epoch, timing, metrics per subset), ``metrics.md``, ``roc.png``
+  and ``loss.png``;
+* ``--sweep 1-10``: ``--restarts`` fits per hidden size; ``sweep.json``,
+  ``sweep.md``, ``sweep.png``;
+* ``--repeats N``: fits with seeds seed .. seed+N-1 (``--method both`` runs
+  GD and LM on the same splits); ``repeats.json`` and ``repeats.md``, the
+  table in the layout of the spec's Table 6.3 with mean and 95% intervals.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from enum import Enum
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from nnda.data.dataset import atomic_directory
+from nnda.errors import ConfigError
+from nnda.models.metrics import classifier_metrics
+from nnda.models.pairs import PairSet, load_pairs
+from nnda.models.plots import plot_losses, plot_roc, plot_sweep
+from nnda.models.scorer import MODEL_FILE, load_model, save_model
+from nnda.models.tables import fit_table, metrics_table, repeats_table, sweep_table
+
+if TYPE_CHECKING:
+    from nnda.models.experiment import RunSummary
+
+# nnda.models.experiment (torch) is imported inside the training functions, so that
+# the other commands, `nnda evaluate` included, start without loading torch.
+
+
+class MethodChoice(str, Enum):
+    gd = "gd"
+    lm = "lm"
+    both = "both"
+
+
+class InitChoice(str, Enum):
+    nguyen_widrow = "nguyen-widrow"
+    uniform = "uniform"
+
+
+class HistoryChoice(str, Enum):
+    measured = "measured"
+    true = "true"
+
+
+def parse_sizes(text: str) -> list[int]:
+    """Hidden sizes from ``"1-10"``, ``"2,4,6"`` or ``"1-3,8"``; ConfigError if malformed."""
+    sizes: list[int] = []
+    for part in text.split(","):
+        m = re.fullmatch(r"\s*(\d+)\s*(?:-\s*(\d+)\s*)?", part)
+        if not m or int(m.group(1)) < 1 or (m.group(2) and int(m.group(2)) < int(m.group(1))):
+            raise ConfigError(f"--sweep {text!r}: expected sizes >= 1 like 1-10 or 2,4,6")
+        sizes += range(int(m.group(1)), int(m.group(2) or m.group(1)) + 1)
+    return sorted(set(sizes))
+
+
+def _write_json(path: Path, data: dict) -> None:
+    path.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
+
+
+def _describe(pairs: PairSet, data: Path) -> str:
+    return (f"{data}: {len(pairs)} pairs from {len(pairs.names)} dataset(s): {pairs.n_positive} own contact, "
+            f"{pairs.n_clutter} clutter, {pairs.n_other_target} other targets' contacts")
+
+
+def _run_bar(total: int, what: str):
+    bar = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                   TextColumn("{task.fields[info]}"), TimeElapsedColumn())
+    return bar, bar.add_task(what, total=total, info="")
+
+
+def train(
+    data: Annotated[Path, typer.Option(help="dataset or collection directory, e.g. from `nnda generate --preset train`")],
+    out: Annotated[Path, typer.Option(help="output directory")],
+    method: Annotated[MethodChoice, typer.Option(help="gd, lm, or both (with --repeats)")] = MethodChoice.lm,
+    hidden: Annotated[int, typer.Option(min=1, help="hidden tanh units")] = 5,
+    seed: Annotated[int, typer.Option(min=0, help="seed of the split and the initial weights")] = 0,
+    sweep_sizes: Annotated[str | None, typer.Option("--sweep", help="sweep hidden sizes, e.g. 1-10")] = None,
+    restarts: Annotated[int, typer.Option(min=1, help="fits per hidden size in a sweep")] = 10,
+    repeats: Annotated[int, typer.Option(min=1, help="fits with seeds seed..seed+N-1, tabulated")] = 1,
+    history: Annotated[HistoryChoice, typer.Option(
+        help="track history of the pairs: measured contacts (spec) or true positions (spec §14.1)")] = HistoryChoice.measured,
+    init: Annotated[InitChoice, typer.Option(
+        help="initial weights: Nguyen-Widrow (spec A22) or uniform in [-0.5, 0.5]")] = InitChoice.nguyen_widrow,
+    overwrite: Annotated[bool, typer.Option(help="replace an existing output directory")] = False,
+) -> None:
+    """Train the association network on the pairs of a dataset or collection."""
+    if sweep_sizes is not None and repeats > 1:
+        raise ConfigError("give --sweep or --repeats, not both")
+    if method is MethodChoice.both and repeats == 1:
+        raise ConfigError("--method both needs --repeats N (N >= 2); a sweep or a model takes gd or lm")
+    sizes = parse_sizes(sweep_sizes) if sweep_sizes is not None else None
+    options = {"history": history.value, "other_targets": "negative", "max_missed": 3}
+    pairs = load_pairs(data, **options)
+    console = Console()
+    console.print(_describe(pairs, data))
+    provenance = {"data": str(data), "pair_options": options, "dataset_names": list(pairs.names)}
+    with atomic_directory(out, overwrite) as tmp:
+        if sizes is not None:
+            _train_sweep(pairs, method.value, sizes, restarts, seed, init.value, tmp, console)
+        elif repeats > 1:
+            methods = ("gd", "lm") if method is MethodChoice.both else (method.value,)
+            _train_repeats(pairs, methods, hidden, range(seed, seed + repeats), init.value, tmp, console)
+        else:
+            _train_one(pairs, method.value, hidden, seed, init.value, provenance, tmp, console)
+    console.print(f"wrote {out}/")
+
+
+def _train_one(pairs: PairSet, method: str, hidden: int, seed: int, init: str, provenance: dict, tmp: Path,
+               console: Console) -> None:
+    from nnda.models.experiment import fit
+    from nnda.models.trainers import GDSettings, LMSettings
+
+    settings = GDSettings() if method == "gd" else LMSettings()
+    bar, task = _run_bar(settings.max_epochs, f"training {method.upper()} 3-{hidden}-1")
+    with bar:
+        def on_epoch(epoch: int, losses: dict[str, float]) -> None:
+            bar.update(task, completed=epoch, info=f"val MSE {losses['validation']:.4f}")
+        result = fit(pairs, method, hidden, seed, settings, on_epoch, provenance, init)
+        bar.update(task, total=result.training.epochs, completed=result.training.epochs)
+    save_model(result.scorer, tmp / MODEL_FILE)
+    t = result.training
+    _write_json(tmp / "training.json", {
+        "method": method, "n_hidden": hidden, "seed": seed, "epochs": t.epochs, "best_epoch": t.best_epoch,
+        "stop_reason": t.stop_reason, "seconds": t.seconds,
+        "loss_per_epoch": {k: v.tolist() for k, v in t.loss.items()}, "mu_per_epoch": t.mu.tolist(),
+        "metrics": {k: m.as_dict() for k, m in result.metrics.items()},
+    })
+    table = fit_table(result)
+    (tmp / "metrics.md").write_text(table.markdown())
+    labels = pairs.labels
+    plot_roc({"test": (labels[result.split.test], result.scores[result.split.test]),
+              "all pairs": (labels, result.scores)}, tmp / "roc.png", f"ROC, {method.upper()} 3-{hidden}-1")
+    plot_losses(t, tmp / "loss.png")
+    console.print(table.rich())
+
+
+def _train_sweep(pairs: PairSet, method: str, sizes: list[int], restarts: int, seed: int, init: str,
+                 tmp: Path, console: Console) -> None:
+    from nnda.models.experiment import sweep
+
+    bar, task = _run_bar(len(sizes) * restarts, f"sweeping {method.upper()} over hidden sizes")
+    with bar:
+        def on_run(run: RunSummary) -> None:
+            bar.advance(task)
+            bar.update(task, info=f"H={run.n_hidden} test MSE {run.metrics['test'].mse:.4f}")
+        result = sweep(pairs, sizes, restarts, method, seed, on_run, init)
+    table = sweep_table(result)
+    _write_json(tmp / "sweep.json", {"method": method, "hidden_sizes": list(sizes), "restarts": restarts,
+                                     "seed": seed, "init": init, "best_size": result.best_size,
+                                     "runs": [r.as_dict() for r in result.runs]})
+    (tmp / "sweep.md").write_text(table.markdown())
+    plot_sweep(result, tmp / "sweep.png")
+    console.print(table.rich())
+
+
+def _train_repeats(pairs: PairSet, methods: tuple[str, ...], hidden: int, seeds: range, init: str,
+                   tmp: Path, console: Console) -> None:
+    from nnda.models.experiment import repeat
+
+    bar, task = _run_bar(len(seeds) * len(methods), f"training {'+'.join(m.upper() for m in methods)}")
+    with bar:
+        def on_run(run: RunSummary) -> None:
+            bar.advance(task)
+            bar.update(task, info=f"{run.method.upper()} seed {run.seed} test acc {run.metrics['test'].accuracy:.4f}")
+        runs = repeat(pairs, methods, hidden, seeds, on_run, init)
+    table = repeats_table(runs)
+    _write_json(tmp / "repeats.json", {"methods": list(methods), "n_hidden": hidden, "seeds": list(seeds), "init": init,
+                                       "runs": [r.as_dict() for r in runs]})
+    (tmp / "repeats.md").write_text(table.markdown())
+    console.print(table.rich())
+
+
+def evaluate(
+    model: Annotated[Path, typer.Argument(help="model directory (from `nnda train`) or its model.json")],
+    data: Annotated[Path, typer.Option(help="dataset or collection directory to score")],
+    out: Annotated[Path | None, typer.Option(help="directory for evaluation.json, metrics.md and roc.png")] = None,
+    overwrite: Annotated[bool, typer.Option(help="replace an existing output directory")] = False,
+) -> None:
+    """Score every gated pair of a dataset or collection with a trained model and tabulate the metrics.
+
+    Pairs are built with the options the model was trained with.
+    """
+    scorer = load_model(model)
+    recorded = scorer.metadata.get("pair_options", {})
+    options = {k: recorded[k] for k in ("history", "other_targets", "max_missed") if k in recorded}
+    pairs = load_pairs(data, **options)
+    console = Console()
+    console.print(_describe(pairs, data))
+    scores = scorer(pairs.features)
+    metrics = classifier_metrics(pairs.labels, scores)
+    table = metrics_table(f"{model} on {data}", {"all pairs": metrics})
+    if out is not None:
+        with atomic_directory(out, overwrite) as tmp:
+            _write_json(tmp / "evaluation.json", {"model": str(model), "data": str(data),
+                                                  "pair_options": options, "metrics": metrics.as_dict()})
+            (tmp / "metrics.md").write_text(table.markdown())
+            plot_roc({"all pairs": (pairs.labels, scores)}, tmp / "roc.png", f"ROC of {model.name} on {data.name}")
+        console.print(f"wrote {out}/")
+    console.print(table.rich())

@@ -1,0 +1,161 @@
+"""The trained scorer and its model file; plain numpy, no torch (conventions.md, Interfaces).
+
+A model file is one small JSON document::
+
+    {"format": "nnda.model", "format_version": 1,
+     "feature_set": "kinematic-3", "feature_version": 1, "feature_names": [...],
+     "network": {"n_inputs": 3, "n_hidden": 5, "activation": "tanh", "weights": [K floats]},
+     "normaliser": {"kind": "zscore", "mean": [3 floats], "scale": [3 floats]},
+     "metadata": {...training provenance...}}
+
+``weights`` is the flat layout of `nnda.models.mlp`. Floats are written
+with full precision, so a model survives a round trip bit for bit. The file
+is written to a temporary sibling and renamed into place.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+import nnda
+from nnda.errors import ModelError
+from nnda.models.features import FEATURE_NAMES, FEATURE_SET, FEATURE_VERSION
+from nnda.models.mlp import MLPWeights, n_weights
+from nnda.models.preprocessing import Normaliser
+
+MODEL_FORMAT = "nnda.model"
+MODEL_FORMAT_VERSION = 1
+MODEL_FILE = "model.json"
+
+
+@dataclass(frozen=True)
+class Scorer:
+    """Maps raw pair features (N, 3) to scores in (-1, 1); > 0 means "this track's contact"."""
+
+    weights: MLPWeights
+    normaliser: Normaliser
+    feature_set: str = FEATURE_SET
+    feature_version: int = FEATURE_VERSION
+    metadata: dict = field(default_factory=dict)
+
+    def __call__(self, features: np.ndarray) -> np.ndarray:
+        """Scores (N,) of raw features (N, F) as made by `nnda.models.features.pair_features`."""
+        x = np.asarray(features, dtype=float)
+        if x.ndim != 2 or x.shape[1] != self.weights.n_inputs:
+            raise ModelError(f"scorer: features must have shape (N, {self.weights.n_inputs}), got {x.shape}")
+        if not np.isfinite(x).all():
+            bad = int(np.flatnonzero(~np.isfinite(x).all(axis=1))[0])
+            raise ModelError(f"scorer: features row {bad} has a non-finite value {x[bad].tolist()}")
+        return self.weights(self.normaliser.transform(x))
+
+
+def model_document(scorer: Scorer) -> dict:
+    """The JSON content of a model file."""
+    w = scorer.weights
+    return {
+        "format": MODEL_FORMAT,
+        "format_version": MODEL_FORMAT_VERSION,
+        "nnda_version": nnda.__version__,
+        "feature_set": scorer.feature_set,
+        "feature_version": scorer.feature_version,
+        "feature_names": list(FEATURE_NAMES),
+        "network": {"n_inputs": w.n_inputs, "n_hidden": w.n_hidden, "activation": "tanh",
+                    "weights": w.to_vector().tolist()},
+        "normaliser": {"kind": "zscore", "mean": scorer.normaliser.mean.tolist(),
+                       "scale": scorer.normaliser.scale.tolist()},
+        "metadata": scorer.metadata,
+    }
+
+
+def save_model(scorer: Scorer, path: str | Path) -> Path:
+    """Write ``scorer`` to the model file ``path`` atomically; returns the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    text = json.dumps(model_document(scorer), indent=1, sort_keys=True) + "\n"
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _field(doc: dict, key: str, where: Path):
+    if key not in doc:
+        raise ModelError(f"{where}: field {key!r} is missing")
+    return doc[key]
+
+
+def _floats(value, n: int, name: str, where: Path) -> np.ndarray:
+    ok = isinstance(value, list) and len(value) == n and all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
+    if not ok:
+        raise ModelError(f"{where}: field {name!r} must be a list of {n} finite numbers")
+    return np.array(value, dtype=float)
+
+
+def load_model(path: str | Path) -> Scorer:
+    """Read a model file, or the ``model.json`` inside a model directory, into a Scorer.
+
+    Refuses (ModelError, naming the file and field) a missing or unreadable
+    file, another format or format version, and a model built on another
+    feature set or feature version than this nnda computes.
+    """
+    path = Path(path)
+    if path.is_dir():
+        path = path / MODEL_FILE
+    if not path.is_file():
+        raise ModelError(f"{path}: no such model file")
+    try:
+        doc = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ModelError(f"{path}: not valid JSON ({exc})") from None
+    if not isinstance(doc, dict) or doc.get("format") != MODEL_FORMAT:
+        found = doc.get("format") if isinstance(doc, dict) else type(doc).__name__
+        raise ModelError(f"{path}: field 'format' is {found!r}, expected {MODEL_FORMAT!r}")
+    if doc.get("format_version") != MODEL_FORMAT_VERSION:
+        raise ModelError(f"{path}: field 'format_version' is {doc.get('format_version')!r}; this nnda "
+                         f"({nnda.__version__}) reads version {MODEL_FORMAT_VERSION} only")
+    feature_set, feature_version = _field(doc, "feature_set", path), _field(doc, "feature_version", path)
+    if (feature_set, feature_version) != (FEATURE_SET, FEATURE_VERSION):
+        raise ModelError(
+            f"{path}: the model was trained on features {feature_set!r} version {feature_version!r}, "
+            f"but this nnda computes {FEATURE_SET!r} version {FEATURE_VERSION}; retrain it with `nnda train`"
+        )
+    net, norm = _field(doc, "network", path), _field(doc, "normaliser", path)
+    if not isinstance(net, dict) or not isinstance(norm, dict):
+        raise ModelError(f"{path}: fields 'network' and 'normaliser' must be objects")
+    n_inputs, n_hidden = _field(net, "n_inputs", path), _field(net, "n_hidden", path)
+    if n_inputs != len(FEATURE_NAMES) or not isinstance(n_hidden, int) or n_hidden < 1:
+        raise ModelError(f"{path}: field 'network' describes a {n_inputs}-{n_hidden}-1 network; "
+                         f"expected {len(FEATURE_NAMES)} inputs and at least 1 hidden unit")
+    if net.get("activation") != "tanh" or norm.get("kind") != "zscore":
+        raise ModelError(f"{path}: only tanh networks with a zscore normaliser are supported, got "
+                         f"activation {net.get('activation')!r}, normaliser {norm.get('kind')!r}")
+    theta = _floats(_field(net, "weights", path), n_weights(n_inputs, n_hidden), "network.weights", path)
+    mean = _floats(_field(norm, "mean", path), n_inputs, "normaliser.mean", path)
+    scale = _floats(_field(norm, "scale", path), n_inputs, "normaliser.scale", path)
+    if np.any(scale <= 0):
+        raise ModelError(f"{path}: field 'normaliser.scale' must be positive")
+    metadata = doc.get("metadata", {})
+    if not isinstance(metadata, dict):
+        raise ModelError(f"{path}: field 'metadata' must be an object")
+    return Scorer(MLPWeights.from_vector(theta, n_inputs, n_hidden), Normaliser(mean, scale),
+                  feature_set, feature_version, metadata)

@@ -1,0 +1,161 @@
+"""Result tables of the association network, printable (rich) and writable (Markdown).
+
+Layouts follow the spec's Table 6.3 (rows TP, FN, TN, FP, sensitivity,
+specificity, false-positive rate), extended by accuracy, AUC and MSE, and
+for repeated runs by epochs and training time. Over repeated runs a cell
+reads ``mean [lo, hi]``: the mean over seeds and the 95% confidence
+interval of that mean (Student t with n - 1 degrees of freedom).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from rich.table import Table
+from scipy import stats
+
+from nnda.models.metrics import SPEC_TABLE_6_3, ClassifierMetrics
+
+if TYPE_CHECKING:  # the experiment module imports torch; tables are also made without it
+    from nnda.models.experiment import FitResult, RunSummary, SweepResult
+
+#: (row label, metric field, format) of the Table 6.3 layout plus accuracy, AUC and MSE
+MEASURES = (
+    ("TP", "tp", "{:.0f}"),
+    ("FN", "fn", "{:.0f}"),
+    ("TN", "tn", "{:.0f}"),
+    ("FP", "fp", "{:.0f}"),
+    ("Sensitivity", "sensitivity", "{:.4f}"),
+    ("Specificity", "specificity", "{:.4f}"),
+    ("FPR", "fpr", "{:.4f}"),
+    ("Accuracy", "accuracy", "{:.4f}"),
+    ("AUC", "auc", "{:.4f}"),
+    ("MSE", "mse", "{:.4f}"),
+)
+METHOD_NAMES = {"gd": "Gradient descent", "lm": "Levenberg-Marquardt"}
+
+
+@dataclass(frozen=True)
+class TextTable:
+    """A titled table of strings, with an optional note printed under it."""
+
+    title: str
+    header: tuple[str, ...]
+    rows: tuple[tuple[str, ...], ...]
+    note: str = ""
+
+    def rich(self) -> Table:
+        table = Table(title=self.title, caption=self.note or None, caption_justify="left")
+        for i, name in enumerate(self.header):
+            table.add_column(name, justify="left" if i == 0 else "right")
+        for row in self.rows:
+            table.add_row(*row)
+        return table
+
+    def markdown(self) -> str:
+        lines = [f"### {self.title}", "", "| " + " | ".join(self.header) + " |",
+                 "|" + "|".join(["---"] + ["---:"] * (len(self.header) - 1)) + "|"]
+        lines += ["| " + " | ".join(row) + " |" for row in self.rows]
+        if self.note:
+            lines += ["", self.note]
+        return "\n".join(lines) + "\n"
+
+
+def _spec(method: str, key: str, fmt: str) -> str:
+    value = SPEC_TABLE_6_3[method].get(key)
+    return "" if value is None else fmt.format(value)
+
+
+def metrics_table(
+    title: str, columns: dict[str, ClassifierMetrics], spec_method: str | None = None, note: str = "",
+) -> TextTable:
+    """Measures (rows) of each named subset (columns), optionally beside the spec's Table 6.3 column."""
+    header = ("Measure", *columns)
+    if spec_method is not None:
+        header += (f"spec {spec_method.upper()} (all)",)
+    rows = []
+    for label, key, fmt in MEASURES:
+        row = [label, *(fmt.format(getattr(m, key)) for m in columns.values())]
+        if spec_method is not None:
+            row.append(_spec(spec_method, key, fmt))
+        rows.append(tuple(row))
+    return TextTable(title, header, tuple(rows), note)
+
+
+def fit_table(result: FitResult) -> TextTable:
+    """The metrics of one trained model on each subset, beside the spec's figures for its method."""
+    t = result.training
+    note = (f"{t.epochs} epochs (weights of epoch {t.best_epoch}), stopped by {t.stop_reason}, "
+            f"{t.seconds:.3f} s; spec: {SPEC_TABLE_6_3[result.method]['epochs']} epochs")
+    n = result.scorer.weights.n_hidden
+    title = f"{METHOD_NAMES[result.method]}, 3-{n}-1 tanh, seed {result.seed}"
+    return metrics_table(title, result.metrics, result.method, note)
+
+
+def mean_interval(values: Sequence[float], level: float = 0.95) -> tuple[float, float, float]:
+    """Mean of ``values`` and the ``level`` confidence interval of the mean (Student t)."""
+    v = np.asarray(values, dtype=float)
+    mean = float(v.mean())
+    if v.size < 2:
+        return mean, float("nan"), float("nan")
+    half = float(stats.t.ppf(0.5 + level / 2, v.size - 1) * v.std(ddof=1) / np.sqrt(v.size))
+    return mean, mean - half, mean + half
+
+
+def _cell(values: Sequence[float], fmt: str) -> str:
+    mean, lo, hi = mean_interval(values)
+    return f"{fmt.format(mean)} [{fmt.format(lo)}, {fmt.format(hi)}]"
+
+
+def repeats_table(runs: Sequence[RunSummary]) -> TextTable:
+    """GD and LM over seeds: test split and all pairs, beside the spec's Table 6.3 (all pairs)."""
+    methods = [m for m in ("gd", "lm") if any(r.method == m for r in runs)]
+    by_method = {m: [r for r in runs if r.method == m] for m in methods}
+    columns = [(m, subset) for subset in ("test", "all") for m in methods]
+    header = ("Measure", *(f"{m.upper()}, {s}" for m, s in columns), *(f"spec {m.upper()}" for m in methods))
+    rows = []
+    for label, key, fmt in MEASURES:
+        mean_fmt = "{:.1f}" if fmt == "{:.0f}" else fmt  # mean counts get one decimal
+        row = [label, *(_cell([getattr(r.metrics[s], key) for r in by_method[m]], mean_fmt)
+                        for m, s in columns)]
+        rows.append((*row, *(_spec(m, key, fmt) for m in methods)))
+    extra: list[tuple[str, Callable[[RunSummary], float], str, str]] = [
+        ("Epochs run", lambda r: r.epochs, "{:.1f}", "epochs"),
+        ("Best-validation epoch", lambda r: r.best_epoch, "{:.1f}", ""),
+        ("Training time (s)", lambda r: r.seconds, "{:.3f}", ""),
+    ]
+    for label, value, fmt, key in extra:
+        row = [label]
+        for m, s in columns:
+            row.append(_cell([value(r) for r in by_method[m]], fmt) if s == "test" else "")
+        row += [_spec(m, key, "{:.0f}") if key else "" for m in methods]
+        rows.append(tuple(row))
+    n = {m: len(v) for m, v in by_method.items()}
+    hidden = sorted({r.n_hidden for r in runs})
+    stops = {m: sorted({r.stop_reason for r in by_method[m]}) for m in methods}
+    inits = sorted({r.init for r in runs})
+    note = (f"Mean [95% confidence interval of the mean] over {', '.join(f'{n[m]} {m.upper()}' for m in methods)} "
+            f"seeds of split and initialisation ({'/'.join(inits)}); 3-{'/'.join(map(str, hidden))}-1 tanh. "
+            "Stop reasons: "
+            + "; ".join(f"{m.upper()} {', '.join(stops[m])}" for m in methods)
+            + ". Spec values are Table 6.3 (one run, all 2766 pairs).")
+    return TextTable("Classifier results over seeds (spec Table 6.3 layout)", header, tuple(rows), note)
+
+
+def sweep_table(result: SweepResult) -> TextTable:
+    """Mean and std of the test MSE per hidden size (spec A23), with test accuracy and epochs."""
+    mse = result.test_mse
+    acc = result.grid(lambda r: r.metrics["test"].accuracy)
+    epochs = result.grid(lambda r: r.epochs)
+    rows = []
+    for i, h in enumerate(result.hidden_sizes):
+        rows.append((str(h), f"{mse[i].mean():.4f}", f"{mse[i].std(ddof=1) if result.restarts > 1 else 0:.4f}",
+                     f"{acc[i].mean():.4f}", f"{epochs[i].mean():.1f}",
+                     "best" if h == result.best_size else ""))
+    note = (f"{METHOD_NAMES[result.method]}, {result.restarts} restarts per size (seeds of split and "
+            f"initialisation shared across sizes); best = lowest mean test MSE.")
+    return TextTable("Hidden-size sweep", ("Hidden units", "Test MSE mean", "Test MSE std",
+                                           "Test accuracy mean", "Epochs mean", ""), tuple(rows), note)
