@@ -1,0 +1,348 @@
+"""Interacting multiple model (IMM) filter for K tracks at once, spec §5.3 and §7.
+
+`IMM` holds the configuration (motion models, measurement model, transition
+probability matrix, initial mode probabilities) and the steps; the estimates
+of K tracks live in `IMMState` records of batched arrays, so one call runs
+every track (a single track is K = 1):
+
+    imm = IMM()                                   # the spec's CV + CT IMM
+    state = imm.initialise(z1, z2, t1, t2)        # two-point start, (K, 2) polar fixes
+    pred = imm.predict(state, dt)                 # mixing + model predictions, dt (K,) s
+    gate = imm.combined_measurement(pred)         # where to look: z (K, 2), S (K, 2, 2)
+    d2 = imm.mahalanobis(gate, Z)                 # (K, N) against all N contacts
+    ll = imm.log_likelihood(pred, Z)              # (K, N) for MHT scores
+    state = imm.update(pred, z, mask)             # z (K, 2), mask (K,) detected or not
+    x, P = imm.estimate(state)                    # combined [x, vx, y, vy] output
+
+Models of different sizes share one padded layout: model j's state fills the
+first ``models[j].dim`` entries of n = max(dim), the rest (and the matching
+rows and columns of its covariance) stay exactly zero. For mixing, a smaller
+model is extended by those zero entries with variance ``augment_variance``
+(spec default A17: CV gets omega = 0 with variance 0; P_omega = 0.0076 is the
+alternative the spec names); mixing into a smaller model drops the extra rows
+and columns (§7.1.7). The combined output covers the dimensions all models
+share ([x, vx, y, vy] for CV + CT).
+
+Missed scans (§7.1.8): `update` with ``mask`` False returns the prediction
+for that track, so the mode probabilities are the TPM-propagated ones. A
+tracker that follows the spec literally keeps the last posterior of a
+missed track and, at its next contact, predicts once over the whole elapsed
+time (dt = 4, 6 or 8 s); both uses are supported because ``dt`` is per track.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from nnda.errors import FilterError
+from nnda.tracking import kalman
+from nnda.tracking.batch import Batch
+from nnda.tracking.checks import as_array, check_covariance, check_finite, check_nonnegative
+from nnda.tracking.kalman import MeasurementPrediction
+from nnda.tracking.measurement import MeasurementModel, PolarMeasurement
+from nnda.tracking.models import ConstantVelocity, CoordinatedTurn, MotionModel
+from nnda.tracking.two_point import two_point
+
+#: transition probability matrix, rows = from, columns = to (eq. 5.61)
+SPEC_TPM = ((0.99, 0.01), (0.10, 0.90))
+#: initial mode probabilities (eqs. 5.62-5.63)
+SPEC_MU0 = (0.5, 0.5)
+#: tolerance on probabilities summing to one
+PROBABILITY_ATOL = 1e-9
+
+
+@dataclass(frozen=True)
+class IMMState(Batch):
+    """IMM estimates of K tracks with r models (posterior, or predicted inside `IMMPrediction`).
+
+    ``x`` (K, r, n) holds each model's state and ``P`` (K, r, n, n) its
+    covariance, padded with zeros to n = the largest model size; ``mu`` (K, r)
+    the mode probabilities. Build one with `IMM.initialise`, `IMM.from_cv` or
+    the checked `IMM.make_state`.
+    """
+
+    x: np.ndarray
+    P: np.ndarray
+    mu: np.ndarray
+
+
+@dataclass(frozen=True)
+class IMMPrediction(Batch):
+    """One IMM prediction of K tracks.
+
+    ``state`` holds the mixed and predicted model states and, in ``mu``, the
+    predicted mode probabilities mu_j(k+1|k) (eq. 4.47); ``measurement`` the
+    per-model measurement predictions (leading shape (K, r)).
+    """
+
+    state: IMMState
+    measurement: MeasurementPrediction
+
+
+@dataclass(frozen=True)
+class IMM:
+    """An IMM filter configuration and its batched steps (spec §7, defaults from the spec).
+
+    ``models`` are the motion models (CV then CT by default), ``measurement``
+    the measurement model (polar, sigma 30 m and 3 mrad), ``tpm`` the
+    transition probabilities p_ij = P(model j now | model i before), rows
+    summing to one (eq. 5.61), ``mu0`` the initial mode probabilities
+    (eqs. 5.62-5.63) and ``augment_variance`` the variance given to the
+    padding entries of smaller models when mixing (spec A17; default 0).
+    """
+
+    models: tuple[MotionModel, ...] = (ConstantVelocity(), CoordinatedTurn())
+    measurement: MeasurementModel = PolarMeasurement()
+    tpm: tuple[tuple[float, ...], ...] = SPEC_TPM
+    mu0: tuple[float, ...] = SPEC_MU0
+    augment_variance: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "models", tuple(self.models))
+        r = len(self.models)
+        if r == 0:
+            raise FilterError("IMM.models: at least one motion model is needed")
+        if any(m.dim < 4 for m in self.models):
+            raise FilterError("IMM.models: every model state must start with [x, vx, y, vy]")
+        tpm = as_array("IMM.tpm", self.tpm, (r, r))
+        mu0 = as_array("IMM.mu0", self.mu0, (r,))
+        check_finite("IMM.tpm", tpm)
+        check_finite("IMM.mu0", mu0)
+        if (tpm < 0).any() or not np.allclose(tpm.sum(axis=1), 1.0, rtol=0, atol=PROBABILITY_ATOL):
+            raise FilterError(f"IMM.tpm: entries must be >= 0 and every row must sum to 1, got {tpm.tolist()}")
+        if not (tpm.sum(axis=0) > 0).all():
+            raise FilterError(f"IMM.tpm: every model must be reachable (a column is all zero): {tpm.tolist()}")
+        if (mu0 < 0).any() or not np.isclose(mu0.sum(), 1.0, rtol=0, atol=PROBABILITY_ATOL):
+            raise FilterError(f"IMM.mu0: entries must be >= 0 and sum to 1, got {mu0.tolist()}")
+        check_nonnegative("IMM.augment_variance", self.augment_variance)
+        object.__setattr__(self, "tpm", tuple(map(tuple, tpm.tolist())))
+        object.__setattr__(self, "mu0", tuple(mu0.tolist()))
+
+    # ----------------------------------------------------------------- layout
+    @property
+    def n_models(self) -> int:
+        return len(self.models)
+
+    @cached_property
+    def dim(self) -> int:
+        """Padded state size n (the largest model's)."""
+        return max(m.dim for m in self.models)
+
+    @cached_property
+    def output_dim(self) -> int:
+        """Size of the combined output (the dimensions every model has)."""
+        return min(m.dim for m in self.models)
+
+    @cached_property
+    def _tpm(self) -> np.ndarray:
+        return np.array(self.tpm)
+
+    @cached_property
+    def _padded(self) -> bool:
+        return self.output_dim != self.dim
+
+    @cached_property
+    def _own(self) -> np.ndarray:
+        """(r, n) 1 on each model's own state entries, 0 on its padding."""
+        return (np.arange(self.dim) < np.array([m.dim for m in self.models])[:, None]).astype(float)
+
+    @cached_property
+    def _own2(self) -> np.ndarray:
+        return self._own[:, :, None] * self._own[:, None, :]
+
+    @cached_property
+    def _augment(self) -> np.ndarray:
+        """(r, n, n) variance added on the padding diagonal of each model before mixing."""
+        pad = 1.0 - self._own
+        return self.augment_variance * pad[:, :, None] * np.eye(self.dim)
+
+    # ------------------------------------------------------------- creation
+    def initialise(
+        self, z1: np.ndarray, z2: np.ndarray, t1: np.ndarray | float, t2: np.ndarray | float
+    ) -> IMMState:
+        """Start K tracks from their first two measurements z1, z2 (K, 2) at times t1 < t2 (s).
+
+        Two-point CV estimate (eqs. 5.26-5.31) with the analytic covariance
+        (eq. 5.54); each model extends it (CT: omega = 0, variance P_omega,
+        eq. 5.56); mode probabilities ``mu0``.
+        """
+        z1 = as_array("z1", z1, (None, 2))
+        z2 = as_array("z2", z2, (z1.shape[0], 2))
+        self.measurement.validate("z1", z1)
+        self.measurement.validate("z2", z2)
+        dt = np.asarray(t2, dtype=float) - np.asarray(t1, dtype=float)
+        if dt.ndim and dt.shape != (z1.shape[0],):
+            raise FilterError(f"t1, t2: expected scalars or shape ({z1.shape[0]},), got interval shape {dt.shape}")
+        if not np.all(np.isfinite(dt) & (dt > 0)):
+            raise FilterError(f"t1, t2: the second measurement must come after the first, got t2 - t1 = {dt}")
+        p1, _ = self.measurement.position(z1)
+        p2, cov2 = self.measurement.position(z2)
+        return self._from_cv(*two_point(p1, p2, cov2, dt))
+
+    def from_cv(self, x: np.ndarray, P: np.ndarray, mu: np.ndarray | None = None) -> IMMState:
+        """IMM state of K tracks from CV estimates x (K, 4), P (K, 4, 4); every model starts there."""
+        x = as_array("x", x, (None, 4))
+        P = as_array("P", P, (x.shape[0], 4, 4))
+        check_finite("x", x)
+        check_covariance("P", P)
+        state = self._from_cv(x, P)
+        return state if mu is None else IMMState(state.x, state.P, self._checked_mu(mu, len(x)))
+
+    def make_state(self, x: np.ndarray, P: np.ndarray, mu: np.ndarray | None = None) -> IMMState:
+        """A checked IMM state from padded arrays x (K, r, n), P (K, r, n, n), mu (K, r)."""
+        r, n = self.n_models, self.dim
+        x = as_array("x", x, (None, r, n))
+        P = as_array("P", P, (x.shape[0], r, n, n))
+        check_finite("x", x)
+        for j, m in enumerate(self.models):
+            check_covariance(f"P[:, {j}] (model {type(m).__name__})", P[:, j, : m.dim, : m.dim])
+        if (x * (1.0 - self._own)).any() or (P * (1.0 - self._own2)).any():
+            raise FilterError("x, P: entries beyond a model's own state size must be zero")
+        mu = np.broadcast_to(self._mu0_array, (len(x), r)) if mu is None else self._checked_mu(mu, len(x))
+        return IMMState(x, P, np.array(mu, dtype=float))
+
+    @cached_property
+    def _mu0_array(self) -> np.ndarray:
+        return np.array(self.mu0)
+
+    def _checked_mu(self, mu: np.ndarray, K: int) -> np.ndarray:
+        mu = as_array("mu", mu, (K, self.n_models))
+        check_finite("mu", mu)
+        if (mu < 0).any() or not np.allclose(mu.sum(axis=1), 1.0, rtol=0, atol=PROBABILITY_ATOL):
+            raise FilterError("mu: mode probabilities must be >= 0 and sum to 1 per track")
+        return mu
+
+    def _from_cv(self, x: np.ndarray, P: np.ndarray) -> IMMState:
+        K, r, n = len(x), self.n_models, self.dim
+        xs = np.zeros((K, r, n))
+        Ps = np.zeros((K, r, n, n))
+        for j, m in enumerate(self.models):
+            xs[:, j, : m.dim], Ps[:, j, : m.dim, : m.dim] = m.from_cv(x, P)
+        return IMMState(xs, Ps, np.tile(self._mu0_array, (K, 1)))
+
+    # ----------------------------------------------------------------- steps
+    def predict(self, state: IMMState, dt: np.ndarray | float) -> IMMPrediction:
+        """Mix (eqs. 4.46-4.49) and predict every model over ``dt`` (s, scalar or (K,)).
+
+        Also predicts each model's measurement and innovation covariance.
+        """
+        K = len(state)
+        if state.x.shape[1:] != (self.n_models, self.dim):
+            raise FilterError(
+                f"state: expected x of shape (K, {self.n_models}, {self.dim}) for this IMM, got {state.x.shape}"
+            )
+        dt = np.asarray(dt, dtype=float)
+        if dt.ndim:
+            if dt.shape != (K,):
+                raise FilterError(f"dt: expected a scalar or shape ({K},), got {dt.shape}")
+        else:
+            dt = np.full(K, float(dt))
+        if not (dt.min() >= 0 and np.isfinite(dt.max())):
+            raise FilterError(f"dt: intervals must be finite and >= 0 s, got {dt}")
+
+        mu, tpm, x, r, n = state.mu, self._tpm, state.x, self.n_models, self.dim
+        mu_pred = mu @ tpm  # (K, j), eq. 4.47
+        weights = np.swapaxes(tpm * (mu[:, :, None] / mu_pred[:, None, :]), 1, 2)  # mu_{i|j} as (K, j, i), eq. 4.46
+        x0 = weights @ x  # eq. 4.48
+        P_aug = state.P + self._augment if self._padded else state.P
+        spread = x[:, None, :, :] - x0[:, :, None, :]  # (K, j, i, n)
+        P0 = (weights @ P_aug.reshape(K, r, n * n)).reshape(K, r, n, n) + np.swapaxes(
+            spread * weights[..., None], -1, -2
+        ) @ spread  # eq. 4.49
+        if self._padded:
+            x0 = x0 * self._own
+            P0 = P0 * self._own2
+            xp, Pp = np.zeros_like(x0), np.zeros_like(P0)
+        else:
+            xp, Pp = np.empty_like(x0), np.empty_like(P0)
+        for j, m in enumerate(self.models):
+            d = m.dim
+            xp[:, j, :d], Pp[:, j, :d, :d] = kalman.predict(x0[:, j, :d], P0[:, j, :d, :d], m, dt)
+        mp = kalman.predict_measurement(xp, Pp, self.measurement)
+        return IMMPrediction(IMMState(xp, Pp, mu_pred), mp)
+
+    def update(self, pred: IMMPrediction, z: np.ndarray, mask: np.ndarray | None = None) -> IMMState:
+        """Update every model with its track's measurement and the mode probabilities (eqs. 4.50-4.53).
+
+        ``z`` (K, 2) holds one measurement per track; ``mask`` (K,) bool says
+        which tracks have one (default: all). A track without one keeps its
+        prediction, including the TPM-propagated mode probabilities; its row
+        of ``z`` is ignored (it may be NaN).
+        """
+        K = len(pred)
+        z = as_array("z", z, (K, 2))
+        mp, st = pred.measurement, pred.state
+        if mask is not None:
+            mask = np.asarray(mask)
+            if mask.dtype != bool or mask.shape != (K,):
+                raise FilterError(f"mask: expected a boolean array of shape ({K},), got {mask.dtype} {mask.shape}")
+            z = np.where(mask[:, None], z, mp.z[:, 0])
+        self.measurement.validate("z", z)
+        nu = kalman.innovation(z[:, None, :], mp, self.measurement)  # (K, r, 2)
+        x, P = kalman.correct(st.x, st.P, nu, mp)
+        log_lik = kalman.gaussian_log_likelihood(kalman.mahalanobis_2x2(nu, mp.S_inv), mp.log_det_S)
+        mu = st.mu * np.exp(log_lik - log_lik.max(axis=1, keepdims=True))
+        mu /= mu.sum(axis=1, keepdims=True)
+        if mask is not None:
+            x = np.where(mask[:, None, None], x, st.x)
+            P = np.where(mask[:, None, None, None], P, st.P)
+            mu = np.where(mask[:, None], mu, st.mu)
+        return IMMState(x, P, mu)
+
+    # -------------------------------------------------------------- outputs
+    def estimate(self, state: IMMState) -> tuple[np.ndarray, np.ndarray]:
+        """Combined estimate (eqs. 4.54-4.55) on the shared dimensions: x (K, d), P (K, d, d).
+
+        For CV + CT, d = 4 ([x, vx, y, vy], spec §7.1.7). Works on a posterior
+        or on ``pred.state`` (the combined prediction).
+        """
+        d = self.output_dim
+        x, P, mu = state.x[..., :d], state.P[..., :d, :d], state.mu
+        xc = (mu[:, None, :] @ x)[:, 0]
+        dx = x - xc[:, None, :]
+        Pc = (mu[..., None, None] * (P + dx[..., :, None] * dx[..., None, :])).sum(axis=1)
+        return xc, Pc
+
+    def combined_measurement(self, pred: IMMPrediction) -> MeasurementPrediction:
+        """Predicted measurement and innovation covariance of the combined predicted state (K leading).
+
+        This is the IMM's gating prediction (spec §7.2): h and H evaluated at
+        the combined prediction x (eq. 4.54 on the shared dimensions) with
+        S = H P H^T + R.
+        """
+        return kalman.predict_measurement(*self.estimate(pred.state), self.measurement)
+
+    def mahalanobis(self, mp: MeasurementPrediction, Z: np.ndarray) -> np.ndarray:
+        """Squared Mahalanobis distances (*B, N) of N measurements Z (N, 2) from each prediction in ``mp``.
+
+        ``mp`` has leading shape B: (K,) from `combined_measurement`, or (K, r)
+        for ``pred.measurement`` (one distance per model).
+        """
+        Z = self._checked_contacts(Z)
+        nu = self.measurement.residual(Z, mp.z[..., None, :])
+        return kalman.mahalanobis_2x2(nu, mp.S_inv[..., None, :, :])
+
+    def log_likelihood(self, pred: IMMPrediction, Z: np.ndarray) -> np.ndarray:
+        """log p(z | track) (K, N) of N measurements Z (N, 2) under each track's IMM prediction.
+
+        The IMM mixture likelihood log sum_j mu_j(k+1|k) N(z; z_j, S_j)
+        (eqs. 4.50 and 4.53, summed over models), for MHT track scores.
+        """
+        Z = self._checked_contacts(Z)
+        mp = pred.measurement
+        nu = self.measurement.residual(Z[:, None, :], mp.z[:, None, :, :])  # (K, N, r, 2)
+        log_lik = kalman.gaussian_log_likelihood(
+            kalman.mahalanobis_2x2(nu, mp.S_inv[:, None]), mp.log_det_S[:, None]
+        )
+        with np.errstate(divide="ignore"):
+            log_terms = log_lik + np.log(pred.state.mu)[:, None, :]
+        top = log_terms.max(axis=-1)
+        return top + np.log(np.exp(log_terms - top[..., None]).sum(axis=-1))
+
+    def _checked_contacts(self, Z: np.ndarray) -> np.ndarray:
+        Z = as_array("Z", Z, (None, 2))
+        self.measurement.validate("Z", Z)
+        return Z

@@ -1,0 +1,127 @@
+"""Batched (extended) Kalman filter steps, spec §5.1-§5.2.
+
+Every function works on stacks of Gaussian states: means x (..., n) and
+covariances P (..., n, n), with any leading batch shape (K tracks, or K
+tracks x r models inside the IMM). A linear model is the special case whose
+Jacobians are constant, so the same functions run the CV Kalman filter and
+the polar / coordinated-turn EKFs.
+
+Measurements are 2-D, so innovation covariances are inverted with the
+explicit 2 x 2 formula (cheaper than `numpy.linalg.inv` on small stacks).
+The covariance update is P - K S K^T = P - K (P H^T)^T, which equals
+(I - K H) P (eq. 4.24 / 4.42) for the optimal gain and is symmetrised.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from nnda.errors import FilterError
+from nnda.tracking.batch import Batch
+from nnda.tracking.measurement import MeasurementModel
+from nnda.tracking.models import MotionModel
+
+LOG_2PI = float(np.log(2.0 * np.pi))
+
+#: sign pattern of the 2 x 2 adjugate
+_ADJ_SIGN = np.array([[1.0, -1.0], [-1.0, 1.0]])
+
+
+@dataclass(frozen=True)
+class MeasurementPrediction(Batch):
+    """Predicted measurement of a stack of states (leading shape (...)).
+
+    ``z`` (..., 2) is h(x) (eq. 4.38), ``S`` (..., 2, 2) the innovation
+    covariance H P H^T + R (eq. 4.23), ``S_inv`` its inverse, ``log_det_S``
+    (...) log |S|, ``H`` (..., 2, n) the measurement Jacobian (eq. 4.30) and
+    ``PHt`` (..., n, 2) the cross covariance P H^T.
+    """
+
+    z: np.ndarray
+    S: np.ndarray
+    S_inv: np.ndarray
+    log_det_S: np.ndarray
+    H: np.ndarray
+    PHt: np.ndarray
+
+
+def symmetrise(P: np.ndarray) -> np.ndarray:
+    """(P + P^T) / 2 over the last two axes."""
+    return 0.5 * (P + np.swapaxes(P, -1, -2))
+
+
+def predict(x: np.ndarray, P: np.ndarray, model: MotionModel, dt: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+    """EKF prediction (eqs. 4.37, 4.39): x' = f(x), P' = F P F^T + Q.
+
+    ``dt`` (s) is a scalar or has the batch shape of ``x`` without its last axis.
+    """
+    dt = np.asarray(dt, dtype=float)
+    fx, F = model.transition(x, dt)
+    # a contiguous F^T keeps numpy's stacked matmul on its fast path
+    return fx, F @ P @ np.ascontiguousarray(np.swapaxes(F, -1, -2)) + model.noise(dt)
+
+
+def inverse_2x2(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Inverses (..., 2, 2) and determinants (...) of a stack of 2 x 2 matrices."""
+    det = S[..., 0, 0] * S[..., 1, 1] - S[..., 0, 1] * S[..., 1, 0]
+    adjugate = np.swapaxes(S[..., ::-1, ::-1], -1, -2) * _ADJ_SIGN
+    return adjugate / det[..., None, None], det
+
+
+def predict_measurement(x: np.ndarray, P: np.ndarray, measurement: MeasurementModel) -> MeasurementPrediction:
+    """Measurement prediction, Jacobian and innovation covariance of states (..., n).
+
+    Raises FilterError if an innovation covariance is not positive definite
+    (for example a state at the radar's position, or a covariance gone bad).
+    """
+    z, H = measurement.predict(x)
+    PHt = P @ np.swapaxes(H, -1, -2)
+    S = H @ PHt + measurement.R
+    S[..., 1, 0] = S[..., 0, 1]  # equal up to rounding; make S exactly symmetric
+    S_inv, det = inverse_2x2(S)
+    if not (np.minimum(det, S[..., 0, 0]) > 0).all():
+        bad = ~((det > 0) & (S[..., 0, 0] > 0))
+        where = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise FilterError(f"innovation covariance at batch index {where} is not positive definite: {S[where].tolist()}")
+    return MeasurementPrediction(z, S, S_inv, np.log(det), H, PHt)
+
+
+def innovation(z: np.ndarray, mp: MeasurementPrediction, measurement: MeasurementModel) -> np.ndarray:
+    """Innovations nu = z - h(x) (eq. 4.14), azimuths wrapped; z broadcasts against ``mp.z``."""
+    return measurement.residual(z, mp.z)
+
+
+def correct(x: np.ndarray, P: np.ndarray, nu: np.ndarray, mp: MeasurementPrediction) -> tuple[np.ndarray, np.ndarray]:
+    """Kalman correction with innovations nu (..., 2) (eqs. 4.13, 4.22, 4.24 / 4.40-4.42)."""
+    gain = mp.PHt @ mp.S_inv
+    x_new = x + (gain @ nu[..., None])[..., 0]
+    P_new = symmetrise(P - gain @ np.swapaxes(mp.PHt, -1, -2))
+    return x_new, P_new
+
+
+def update(
+    x: np.ndarray, P: np.ndarray, z: np.ndarray, mp: MeasurementPrediction, measurement: MeasurementModel
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Checked EKF update of states (..., n) with measurements z (..., 2).
+
+    Returns the updated means and covariances and the innovations.
+    """
+    z = np.asarray(z, dtype=float)
+    if z.shape[-1:] != (2,):
+        raise FilterError(f"z: expected measurements of shape (..., 2), got {z.shape}")
+    measurement.validate("z", z)
+    nu = innovation(z, mp, measurement)
+    return (*correct(x, P, nu, mp), nu)
+
+
+def mahalanobis_2x2(nu: np.ndarray, S_inv: np.ndarray) -> np.ndarray:
+    """Squared Mahalanobis distances nu^T S^-1 nu (eq. 4.51) for nu (..., 2), S_inv (..., 2, 2)."""
+    n0, n1 = nu[..., 0], nu[..., 1]
+    return S_inv[..., 0, 0] * n0 * n0 + (S_inv[..., 0, 1] + S_inv[..., 1, 0]) * n0 * n1 + S_inv[..., 1, 1] * n1 * n1
+
+
+def gaussian_log_likelihood(d2: np.ndarray, log_det_S: np.ndarray) -> np.ndarray:
+    """log N(nu; 0, S) of 2-D innovations from d2 = nu^T S^-1 nu and log |S| (eq. 4.50)."""
+    return -0.5 * (d2 + log_det_S) - LOG_2PI

@@ -1,0 +1,174 @@
+"""Measurement models: the radar's polar measurement (spec §7.1.3) and a linear position fix.
+
+Both work on batches: states (..., n) whose components 0 and 2 are the
+Cartesian position (x east, y north, m), measurements (..., 2). The polar
+measurement is z = (range m, azimuth rad clockwise from north), with
+h(X) = (sqrt(x^2 + y^2), atan2(x, y)) (eqs. 5.19-5.22); its azimuth
+residuals are wrapped to [-pi, pi) by `nnda.data.sensor.wrap_angle`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+from typing import ClassVar, Protocol
+
+import numpy as np
+
+from nnda.data.scenario import Sensor
+from nnda.data.sensor import cart_to_polar, polar_to_cart, wrap_angle
+from nnda.errors import FilterError
+from nnda.tracking.checks import check_covariance, check_finite, check_positive
+
+
+class MeasurementModel(Protocol):
+    """What the filters need from a (2-D) measurement model."""
+
+    dim: int
+
+    @property
+    def R(self) -> np.ndarray:
+        """Measurement-noise covariance (2, 2)."""
+        ...
+
+    def predict(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Predicted measurements h(x) (..., 2) and the Jacobian H (..., 2, n)."""
+        ...
+
+    def residual(self, z: np.ndarray, z_pred: np.ndarray) -> np.ndarray:
+        """z - z_pred (..., 2), with angles wrapped where the measurement has them."""
+        ...
+
+    def position(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Cartesian positions (..., 2) of measurements and their covariances (..., 2, 2)."""
+        ...
+
+    def validate(self, name: str, z: np.ndarray) -> None:
+        """Raise FilterError unless every measurement in ``z`` (..., 2) is valid."""
+        ...
+
+
+def converted_covariance(
+    r: np.ndarray, azimuth: np.ndarray, sigma_range: float, sigma_azimuth: float
+) -> np.ndarray:
+    """Covariance (..., 2, 2) of the Cartesian position of polar measurements (spec §7.1.6).
+
+    Linearised polar-to-Cartesian errors with the math angle phi = pi/2 - azimuth:
+    sigma_x^2 (eq. 5.44), sigma_y^2 (its mirror) and
+    sigma_xy^2 = (sigma_d^2 - sigma_theta^2 d^2) cos phi sin phi (eq. 5.46 with
+    the spec's correction d^2, ambiguity A16). ``r`` m, ``azimuth`` rad.
+    """
+    r = np.asarray(r, dtype=float)
+    phi = 0.5 * np.pi - np.asarray(azimuth, dtype=float)
+    c, s = np.cos(phi), np.sin(phi)
+    var_d = sigma_range**2
+    var_cross = sigma_azimuth**2 * r * r
+    cov = np.empty((*np.broadcast_shapes(r.shape, phi.shape), 2, 2))
+    cov[..., 0, 0] = var_d * c * c + var_cross * s * s
+    cov[..., 1, 1] = var_d * s * s + var_cross * c * c
+    cov[..., 0, 1] = cov[..., 1, 0] = (var_d - var_cross) * c * s
+    return cov
+
+
+@dataclass(frozen=True)
+class PolarMeasurement:
+    """Range and azimuth from the radar at the origin (spec §7.1.3).
+
+    ``sigma_range`` m and ``sigma_azimuth`` rad give R = diag(sigma_range^2,
+    sigma_azimuth^2) (eq. 5.25); defaults are the spec's 30 m and 3 mrad.
+    The Jacobian is H1/H2 of eqs. 5.23-5.24, padded with zero columns to the
+    state size.
+    """
+
+    sigma_range: float = 30.0
+    sigma_azimuth: float = 3e-3
+    dim: ClassVar[int] = 2
+
+    def __post_init__(self) -> None:
+        check_positive("PolarMeasurement.sigma_range", self.sigma_range)
+        check_positive("PolarMeasurement.sigma_azimuth", self.sigma_azimuth)
+
+    @classmethod
+    def from_sensor(cls, sensor: Sensor) -> PolarMeasurement:
+        """The measurement model of a scenario's radar."""
+        return cls(sensor.sigma_range_m, sensor.sigma_azimuth_rad)
+
+    @cached_property
+    def R(self) -> np.ndarray:
+        return np.diag([self.sigma_range**2, self.sigma_azimuth**2])
+
+    def predict(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """h(x) (..., 2) with azimuth in [0, 2 pi), and H (..., 2, n) at x."""
+        px, py = x[..., 0], x[..., 2]
+        r, azimuth = cart_to_polar(px, py)
+        z = np.empty((*x.shape[:-1], 2))
+        z[..., 0] = r
+        z[..., 1] = azimuth
+        H = np.zeros((*x.shape[:-1], 2, x.shape[-1]))
+        H[..., 0, 0] = px / r
+        H[..., 0, 2] = py / r
+        r2 = r * r
+        H[..., 1, 0] = py / r2
+        H[..., 1, 2] = -px / r2
+        return z, H
+
+    def residual(self, z: np.ndarray, z_pred: np.ndarray) -> np.ndarray:
+        """(range difference m, azimuth difference rad wrapped to [-pi, pi))."""
+        nu = z - z_pred
+        nu[..., 1] = wrap_angle(nu[..., 1])
+        return nu
+
+    def position(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Cartesian positions (eqs. 5.26-5.27) and their covariances (eqs. 5.44-5.46)."""
+        r, azimuth = z[..., 0], z[..., 1]
+        x, y = polar_to_cart(r, azimuth)
+        return np.stack([x, y], axis=-1), converted_covariance(r, azimuth, self.sigma_range, self.sigma_azimuth)
+
+    def validate(self, name: str, z: np.ndarray) -> None:
+        """Finite values and positive ranges."""
+        if np.isfinite(z).all() and (z[..., 0] > 0).all():
+            return
+        check_finite(name, z)
+        if (z[..., 0] <= 0).any():
+            where = tuple(int(i) for i in np.argwhere(z[..., 0] <= 0)[0])
+            raise FilterError(f"{name}: range must be > 0, got {z[..., 0][where]} at index {where}")
+
+
+@dataclass(frozen=True)
+class PositionMeasurement:
+    """A linear Cartesian position fix z = (x, y) = H X + e with e ~ N(0, R).
+
+    ``covariance`` is R (2, 2) in m^2, given as nested sequences; it must be
+    symmetric positive definite.
+    """
+
+    covariance: tuple[tuple[float, float], tuple[float, float]]
+    dim: ClassVar[int] = 2
+
+    def __post_init__(self) -> None:
+        R = np.asarray(self.covariance, dtype=float)
+        if R.shape != (2, 2):
+            raise FilterError(f"PositionMeasurement.covariance: expected shape (2, 2), got {R.shape}")
+        check_covariance("PositionMeasurement.covariance", R)
+        object.__setattr__(self, "covariance", tuple(map(tuple, R.tolist())))
+
+    @cached_property
+    def R(self) -> np.ndarray:
+        return np.array(self.covariance)
+
+    def predict(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Positions (..., 2) and the constant H (..., 2, n) selecting x and y."""
+        H = np.zeros((*x.shape[:-1], 2, x.shape[-1]))
+        H[..., 0, 0] = 1.0
+        H[..., 1, 2] = 1.0
+        return x[..., ::2][..., :2], H
+
+    def residual(self, z: np.ndarray, z_pred: np.ndarray) -> np.ndarray:
+        return z - z_pred
+
+    def position(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The fixes themselves and R for each."""
+        return z, np.broadcast_to(self.R, (*z.shape[:-1], 2, 2))
+
+    def validate(self, name: str, z: np.ndarray) -> None:
+        check_finite(name, z)

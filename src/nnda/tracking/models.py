@@ -1,0 +1,208 @@
+"""Motion models of the IMM: constant velocity (CV) and coordinated turn (CT), spec §7.1.1-§7.1.2.
+
+Every method works on a batch: states of shape (..., n) and sampling
+intervals ``dt`` (s) broadcastable to the batch shape (...). The interval is
+per track and variable (2, 4, 6 or 8 s: the time since the track's last
+update, spec §7).
+
+State vectors (conventions.md): CV [x, vx, y, vy]; CT [x, vx, y, vy, omega],
+metres, m/s and rad/s, omega positive counter-clockwise in the x-east/y-north
+plane (the sign of the spec's CT transition; a pilot's right turn is
+omega < 0). Each model's first four components are the CV state, so a
+two-point CV estimate extends to any model (`from_cv`).
+
+Process noise is ``Q = Gamma diag(sigma^2) Gamma^T`` with the spec's noise
+gains; both models write it as ``Q(T) = T^2 Q2 + T^3 Q3 + T^4 Q4`` with
+constant matrices, which is how it is evaluated for a batch of intervals.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import cached_property
+from typing import ClassVar, Literal, Protocol
+
+import numpy as np
+
+from nnda.errors import FilterError
+from nnda.tracking.checks import check_nonnegative, check_positive
+
+#: powers of T in the process-noise polynomial Q(T) = sum_p T^p Q_p
+_NOISE_POWERS = np.array([2.0, 3.0, 4.0])
+
+#: position and velocity indices of the CV part of every state, [x, vx, y, vy]
+POS = np.array([0, 2])
+VEL = np.array([1, 3])
+
+
+class MotionModel(Protocol):
+    """What the filters need from a motion model (batched over leading axes)."""
+
+    dim: int
+
+    def transition(self, x: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Predicted states f(x) (..., n) and the transition Jacobian (..., n, n).
+
+        ``dt`` (s) is a float array broadcastable to ``x.shape[:-1]``.
+        """
+        ...
+
+    def noise(self, dt: np.ndarray) -> np.ndarray:
+        """Process-noise covariance Q (..., n, n) for intervals dt (...)."""
+        ...
+
+    def from_cv(self, x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """This model's state (..., n) and covariance (..., n, n) from a CV estimate."""
+        ...
+
+
+def _noise(dt: np.ndarray, basis: np.ndarray) -> np.ndarray:
+    """Q(T) = sum_p T^p basis[p] for T of shape (...): returns (..., n, n)."""
+    T = np.asarray(dt, dtype=float)
+    n = basis.shape[-1]
+    return (T[..., None] ** _NOISE_POWERS @ basis.reshape(3, n * n)).reshape(*T.shape, n, n)
+
+
+def _wna_basis(dim: int, sigma_q: float, velocity_power: float) -> np.ndarray:
+    """Noise basis (3, dim, dim) of white-noise acceleration on both axes.
+
+    Per axis the block is sigma_q^2 [[T^4/4, T^3/2], [T^3/2, c T^2]] with
+    c = 1 from Gamma diag Gamma^T and c = 1/2 in the CT matrix as printed.
+    """
+    basis = np.zeros((3, dim, dim))
+    q2 = sigma_q**2
+    for p, v in zip(POS, VEL):
+        basis[2, p, p] = q2 / 4.0  # T^4
+        basis[1, p, v] = basis[1, v, p] = q2 / 2.0  # T^3
+        basis[0, v, v] = q2 * velocity_power  # T^2
+    return basis
+
+
+@dataclass(frozen=True)
+class ConstantVelocity:
+    """Nearly constant velocity with white-noise acceleration, spec §7.1.1.
+
+    Transition F (eq. 5.8), noise gain Gamma (eq. 5.9) and
+    Q = sigma_q^2 Gamma Gamma^T (eq. 5.10). ``sigma_q`` (m/s^2) defaults to the
+    spec's 0.7 a_max = 3.5.
+    """
+
+    sigma_q: float = 3.5
+    dim: ClassVar[int] = 4
+
+    def __post_init__(self) -> None:
+        check_nonnegative("ConstantVelocity.sigma_q", self.sigma_q)
+
+    @cached_property
+    def _basis(self) -> np.ndarray:
+        return _wna_basis(4, self.sigma_q, 1.0)
+
+    def transition(self, x: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """f(x) = F x and F (eq. 5.8) for states (..., 4) and intervals dt (s)."""
+        F = np.empty((*x.shape[:-1], 4, 4))
+        F[:] = _EYE4
+        F[..., 0, 1] = dt
+        F[..., 2, 3] = dt
+        return (F @ x[..., None])[..., 0], F
+
+    def noise(self, dt: np.ndarray) -> np.ndarray:
+        """Q(T) of eq. 5.10, shape (..., 4, 4)."""
+        return _noise(dt, self._basis)
+
+    def from_cv(self, x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The CV estimate itself (eq. 5.30)."""
+        return x, P
+
+
+@dataclass(frozen=True)
+class CoordinatedTurn:
+    """Coordinated turn with an estimated turn rate, spec §7.1.2.
+
+    The transition is the spec's second-order Taylor form f(X) (eq. 5.17),
+    implemented as written (not the exact sin/cos turn), with the EKF Jacobian
+    of eq. 5.18. The turn rate used to propagate is limited to
+    [-omega_max, omega_max] (spec: omega_max = 5 deg/s); the propagated state
+    carries the limited value.
+
+    Process noise Q = Gamma diag(sigma_q^2, sigma_q^2, sigma_omega^2) Gamma^T
+    with Gamma of eq. 5.14 (T^2 on the velocity and turn-rate diagonals, the
+    spec's default A15). ``noise_variant="printed"`` uses the matrix as
+    printed (eq. 5.15, T^2/2 on those diagonals); note that the printed
+    per-axis block [[T^4/4, T^3/2], [T^3/2, T^2/2]] sigma_q^2 has a negative
+    determinant, so it is not a covariance on its own.
+
+    ``omega_var0`` (rad/s)^2 is the initial turn-rate variance P_omega of
+    eq. 5.56; the initial turn rate is 0 (eq. 5.31).
+    """
+
+    sigma_q: float = 5.0
+    sigma_omega: float = 0.044
+    omega_max: float = math.radians(5.0)
+    omega_var0: float = 0.0076
+    noise_variant: Literal["derived", "printed"] = "derived"
+    dim: ClassVar[int] = 5
+
+    def __post_init__(self) -> None:
+        check_nonnegative("CoordinatedTurn.sigma_q", self.sigma_q)
+        check_nonnegative("CoordinatedTurn.sigma_omega", self.sigma_omega)
+        check_positive("CoordinatedTurn.omega_max", self.omega_max)
+        check_positive("CoordinatedTurn.omega_var0", self.omega_var0)
+        if self.noise_variant not in ("derived", "printed"):
+            raise FilterError(f"CoordinatedTurn.noise_variant: 'derived' or 'printed', got {self.noise_variant!r}")
+
+    @cached_property
+    def _basis(self) -> np.ndarray:
+        c = 1.0 if self.noise_variant == "derived" else 0.5
+        basis = _wna_basis(5, self.sigma_q, c)
+        basis[0, 4, 4] = c * self.sigma_omega**2
+        return basis
+
+    def transition(self, x: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """f(X) of eq. 5.17 and its Jacobian (eq. 5.18) for states (..., 5), dt in s.
+
+        With w the limited turn rate, f(X) = F(w) X (eq. 5.13) and the Jacobian
+        is F(w) with its last column replaced by df/dw.
+        """
+        T = dt
+        vx, vy = x[..., 1], x[..., 3]
+        w = np.minimum(np.maximum(x[..., 4], -self.omega_max), self.omega_max)
+        half_T2 = 0.5 * T * T
+        wT = w * T
+        w_half_T2 = w * half_T2
+        c = 1.0 - 0.5 * wT * wT
+        F = np.empty((*x.shape[:-1], 5, 5))
+        F[:] = _EYE5
+        F[..., 0, 1] = T
+        F[..., 0, 3] = -w_half_T2
+        F[..., 1, 1] = c
+        F[..., 1, 3] = -wT
+        F[..., 2, 1] = w_half_T2
+        F[..., 2, 3] = T
+        F[..., 3, 1] = wT
+        F[..., 3, 3] = c
+        fx = (F @ x[..., None])[..., 0]
+        fx[..., 4] = w
+        wT2 = wT * T
+        F[..., 0, 4] = -vy * half_T2
+        F[..., 1, 4] = -vy * T - vx * wT2
+        F[..., 2, 4] = vx * half_T2
+        F[..., 3, 4] = vx * T - vy * wT2
+        return fx, F
+
+    def noise(self, dt: np.ndarray) -> np.ndarray:
+        """Q(T) of eq. 5.14-5.15 (variant per ``noise_variant``), shape (..., 5, 5)."""
+        return _noise(dt, self._basis)
+
+    def from_cv(self, x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Append omega = 0 with variance ``omega_var0`` (eqs. 5.31 and 5.56)."""
+        x5 = np.zeros((*x.shape[:-1], 5))
+        x5[..., :4] = x
+        P5 = np.zeros((*P.shape[:-2], 5, 5))
+        P5[..., :4, :4] = P
+        P5[..., 4, 4] = self.omega_var0
+        return x5, P5
+
+
+_EYE4 = np.eye(4)
+_EYE5 = np.eye(5)

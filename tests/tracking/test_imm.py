@@ -1,0 +1,268 @@
+"""IMM batching, selection, missed scans, gating outputs and input checks."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.special import logsumexp
+
+from nnda.data.sensor import cart_to_polar
+from nnda.errors import FilterError
+from nnda.tracking.imm import IMM, IMMPrediction, IMMState
+from nnda.tracking.measurement import PositionMeasurement
+from nnda.tracking.models import ConstantVelocity, CoordinatedTurn
+
+K = 7
+
+
+def tracks(seed: int = 0, k: int = K):
+    """k random tracks: first two polar fixes (2 s apart) and 12 more scans of fixes."""
+    rng = np.random.default_rng(seed)
+    pos = rng.uniform(-2e4, 2e4, (k, 2))
+    pos[np.hypot(*pos.T) < 6e3] += 8e3
+    vel = rng.normal(0, 120, (k, 2))
+    t = 2.0 * np.arange(14)
+    xy = pos[:, None] + vel[:, None] * t[:, None] + rng.normal(0, 40, (k, 14, 2))
+    r, az = cart_to_polar(xy[..., 0], xy[..., 1])
+    return np.stack([r, az], axis=-1)
+
+
+def test_batch_equals_loop():
+    imm = IMM()
+    Z = tracks(1)
+    rng = np.random.default_rng(2)
+    batch = imm.initialise(Z[:, 0], Z[:, 1], 0.0, 2.0)
+    singles = [imm.initialise(Z[i:i + 1, 0], Z[i:i + 1, 1], 0.0, 2.0) for i in range(K)]
+    for k in range(2, 14):
+        dt = rng.choice([2.0, 4.0, 6.0, 8.0], K)
+        mask = rng.random(K) < 0.7
+        pred = imm.predict(batch, dt)
+        batch = imm.update(pred, Z[:, k], mask)
+        for i in range(K):
+            p = imm.predict(singles[i], dt[i])
+            for a, b in zip((p.measurement.z, p.measurement.S), (pred.measurement.z[i], pred.measurement.S[i])):
+                np.testing.assert_allclose(a[0], b, rtol=1e-12)
+            singles[i] = imm.update(p, Z[i:i + 1, k], mask[i:i + 1])
+            for name in ("x", "P", "mu"):
+                np.testing.assert_allclose(getattr(singles[i], name)[0], getattr(batch, name)[i], rtol=1e-12, atol=1e-12)
+
+
+def test_missed_scan_keeps_the_prediction_and_propagates_mode_probabilities():
+    imm = IMM()
+    Z = tracks(3)
+    state = imm.initialise(Z[:, 0], Z[:, 1], 0.0, 2.0)
+    state = imm.update(imm.predict(state, 2.0), Z[:, 2])
+    pred = imm.predict(state, 2.0)
+    np.testing.assert_allclose(pred.state.mu, state.mu @ np.array(imm.tpm), rtol=1e-15)
+    mask = np.arange(K) % 2 == 0
+    z = np.where(mask[:, None], Z[:, 3], np.nan)
+    out = imm.update(pred, z, mask)
+    missed = ~mask
+    np.testing.assert_array_equal(out.x[missed], pred.state.x[missed])
+    np.testing.assert_array_equal(out.P[missed], pred.state.P[missed])
+    np.testing.assert_array_equal(out.mu[missed], pred.state.mu[missed])
+    full = imm.update(pred, Z[:, 3])
+    np.testing.assert_array_equal(out.x[mask], full.x[mask])
+    assert not np.array_equal(full.x[missed], pred.state.x[missed])
+
+
+def test_take_and_concat():
+    imm = IMM()
+    Z = tracks(4)
+    state = imm.initialise(Z[:, 0], Z[:, 1], 0.0, 2.0)
+    pred = imm.predict(state, 2.0)
+    idx = np.array([5, 0, 0, 3])
+    sub = pred.take(idx)
+    assert isinstance(sub, IMMPrediction) and len(sub) == 4
+    np.testing.assert_array_equal(sub.measurement.S, pred.measurement.S[idx])
+    np.testing.assert_array_equal(sub.state.x, pred.state.x[idx])
+    # branching one track over several measurements: take repeats, update with one z per copy
+    upd = imm.update(sub, Z[idx, 2])
+    np.testing.assert_allclose(upd.x[0], imm.update(pred, Z[:, 2]).x[5], rtol=1e-13)
+    both = IMMState.concat([state.take(slice(0, 3)), state.take(np.arange(K) >= 3)])
+    for name in ("x", "P", "mu"):
+        np.testing.assert_array_equal(getattr(both, name), getattr(state, name))
+    with pytest.raises(FilterError, match="boolean mask"):
+        state.take(np.array([True, False]))
+    other = IMM(models=(ConstantVelocity(), ConstantVelocity(1.0))).initialise(Z[:2, 0], Z[:2, 1], 0.0, 2.0)
+    with pytest.raises(FilterError, match="field 'x'"):
+        IMMState.concat([state, other])
+    with pytest.raises(FilterError, match="nothing"):
+        IMMState.concat([])
+
+
+def test_gating_distances_and_log_likelihoods_against_every_contact():
+    imm = IMM()
+    Z = tracks(5)
+    state = imm.initialise(Z[:, 0], Z[:, 1], 0.0, 2.0)
+    pred = imm.predict(state, 2.0)
+    contacts = Z[:, 2]
+    gate = imm.combined_measurement(pred)
+    d2 = imm.mahalanobis(gate, contacts)
+    assert d2.shape == (K, K)
+    for i in range(K):
+        for j in range(K):
+            nu = contacts[j] - gate.z[i]
+            nu[1] = (nu[1] + math.pi) % (2 * math.pi) - math.pi
+            assert math.isclose(d2[i, j], nu @ np.linalg.solve(gate.S[i], nu), rel_tol=1e-9)
+    # each track's own contact is the nearest
+    np.testing.assert_array_equal(d2.argmin(axis=1), np.arange(K))
+    per_model = imm.mahalanobis(pred.measurement, contacts)
+    assert per_model.shape == (K, 2, K)
+    ll = imm.log_likelihood(pred, contacts)
+    log_norm = -np.log(2 * math.pi * np.sqrt(np.linalg.det(pred.measurement.S)))[..., None]
+    manual = logsumexp(-0.5 * per_model + log_norm, b=pred.state.mu[..., None], axis=1)
+    np.testing.assert_allclose(ll, manual, rtol=1e-10)
+    # far-away contacts do not underflow to -inf
+    assert np.isfinite(imm.log_likelihood(pred, np.array([[29_000.0, 3.0]]))).all()
+
+
+def test_combined_estimate_covers_the_shared_dimensions():
+    imm = IMM()
+    Z = tracks(6)
+    state = imm.update(imm.predict(imm.initialise(Z[:, 0], Z[:, 1], 0.0, 2.0), 2.0), Z[:, 2])
+    x, P = imm.estimate(state)
+    assert x.shape == (K, 4) and P.shape == (K, 4, 4)
+    mu = state.mu
+    np.testing.assert_allclose(x, mu[:, :1] * state.x[:, 0, :4] + mu[:, 1:] * state.x[:, 1, :4], rtol=1e-12)
+    assert np.linalg.eigvalsh(P).min() > 0
+    np.testing.assert_allclose(P, np.swapaxes(P, 1, 2), rtol=0, atol=0)
+    # padding of the CV model stays exactly zero
+    assert (state.x[:, 0, 4] == 0).all() and (state.P[:, 0, 4] == 0).all() and (state.P[:, 0, :, 4] == 0).all()
+
+
+def test_cv_only_and_linear_measurement_configurations_run():
+    imm = IMM(models=(ConstantVelocity(), ConstantVelocity(0.5)), measurement=PositionMeasurement(((900.0, 0), (0, 900.0))))
+    xy = np.array([[1e4, 2e4], [-5e3, 7e3]])
+    state = imm.initialise(xy, xy + 200.0, 0.0, 2.0)
+    state = imm.update(imm.predict(state, 2.0), xy + 400.0)
+    assert imm.dim == imm.output_dim == 4
+    np.testing.assert_allclose(imm.estimate(state)[0][:, 1], 100.0, atol=1.0)
+
+
+def test_make_state_and_from_cv():
+    imm = IMM()
+    Z = tracks(7, 2)
+    state = imm.initialise(Z[:, 0], Z[:, 1], 0.0, 2.0)
+    again = imm.make_state(state.x, state.P, state.mu)
+    np.testing.assert_array_equal(again.x, state.x)
+    x, P = imm.estimate(state)
+    from_cv = imm.from_cv(x, P, mu=[[0.9, 0.1], [0.2, 0.8]])
+    np.testing.assert_array_equal(from_cv.x[:, 1, :4], x)
+    assert from_cv.P[0, 1, 4, 4] == 0.0076
+    np.testing.assert_array_equal(from_cv.mu, [[0.9, 0.1], [0.2, 0.8]])
+
+
+# ------------------------------------------------------------------ bad input
+@pytest.fixture
+def setup():
+    imm = IMM()
+    Z = tracks(8, 3)
+    state = imm.initialise(Z[:, 0], Z[:, 1], 0.0, 2.0)
+    return imm, state, imm.predict(state, 2.0), Z
+
+
+def test_nan_measurement_is_refused(setup):
+    imm, _, pred, Z = setup
+    z = Z[:, 2].copy()
+    z[1, 1] = np.nan
+    with pytest.raises(FilterError, match=r"z: non-finite value nan at index \(1, 1\)"):
+        imm.update(pred, z)
+    with pytest.raises(FilterError, match="non-finite"):
+        imm.update(pred, z, np.array([True, True, False]))
+    imm.update(pred, z, np.array([True, False, True]))  # a missed track's row is ignored
+    with pytest.raises(FilterError, match="Z: non-finite"):
+        imm.mahalanobis(imm.combined_measurement(pred), np.array([[1e4, np.inf]]))
+    with pytest.raises(FilterError, match="z2: non-finite"):
+        imm.initialise(Z[:, 0], np.full((3, 2), np.nan), 0.0, 2.0)
+
+
+@pytest.mark.parametrize("bad", ["asymmetric", "indefinite", "nan"])
+def test_bad_covariance_is_refused(setup, bad):
+    imm, state, _, _ = setup
+    P = state.P.copy()
+    if bad == "asymmetric":
+        P[1, 0, 0, 1] += 50.0
+        match = r"P\[:, 0\] \(model ConstantVelocity\): matrix \(1,\) is not symmetric"
+    elif bad == "indefinite":
+        P[2, 1, 4, 4] = -1e-3
+        match = r"P\[:, 1\] \(model CoordinatedTurn\): matrix \(2,\) is not positive definite"
+    else:
+        P[0, 1, 2, 2] = np.nan
+        match = "non-finite"
+    with pytest.raises(FilterError, match=match):
+        imm.make_state(state.x, P, state.mu)
+
+
+@pytest.mark.parametrize("bad, match", [
+    ("asymmetric", r"P: matrix \(2,\) is not symmetric"),
+    ("indefinite", r"P: matrix \(2,\) is not positive definite"),
+    ("nan", r"P: non-finite value nan at index \(2, 3, 3\)"),
+])
+def test_bad_cv_covariance_is_refused(bad, match):
+    P = np.tile(np.diag([1e4, 1e2, 1e4, 1e2]), (3, 1, 1))
+    if bad == "asymmetric":
+        P[2, 0, 1] = 10.0
+    elif bad == "indefinite":
+        P[2, 0, 1] = P[2, 1, 0] = 2e3
+    else:
+        P[2, 3, 3] = np.nan
+    with pytest.raises(FilterError, match=match):
+        IMM().from_cv(np.full((3, 4), 1e4), P)
+
+
+def test_wrong_shapes_are_refused(setup):
+    imm, state, pred, Z = setup
+    with pytest.raises(FilterError, match=r"z: expected shape \(3, 2\), got \(2, 2\)"):
+        imm.update(pred, Z[:2, 2])
+    with pytest.raises(FilterError, match="mask"):
+        imm.update(pred, Z[:, 2], np.array([1, 0, 1]))
+    with pytest.raises(FilterError, match=r"dt: expected a scalar or shape \(3,\)"):
+        imm.predict(state, np.array([2.0, 2.0]))
+    with pytest.raises(FilterError, match="dt: intervals"):
+        imm.predict(state, -2.0)
+    with pytest.raises(FilterError, match="dt: intervals"):
+        imm.predict(state, np.array([2.0, np.nan, 2.0]))
+    with pytest.raises(FilterError, match="for this IMM"):
+        IMM(models=(ConstantVelocity(), ConstantVelocity())).predict(state, 2.0)
+    with pytest.raises(FilterError, match=r"x: expected shape \(\*, 2, 5\)"):
+        imm.make_state(state.x[:, :, :4], state.P)
+    with pytest.raises(FilterError, match="beyond a model's own state"):
+        imm.make_state(state.x + 1.0, state.P)
+    with pytest.raises(FilterError, match="mu: mode probabilities"):
+        imm.make_state(state.x, state.P, np.full((3, 2), 0.6))
+    with pytest.raises(FilterError, match="t1, t2"):
+        imm.initialise(Z[:, 0], Z[:, 1], 2.0, 2.0)
+    with pytest.raises(FilterError, match=r"z2: expected shape \(3, 2\)"):
+        imm.initialise(Z[:, 0], Z[:2, 1], 0.0, 2.0)
+
+
+@pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")
+def test_state_at_the_radar_is_refused():
+    imm = IMM()
+    state = imm.from_cv(np.zeros((1, 4)), np.eye(4)[None] * 100.0)
+    with pytest.raises(FilterError, match="innovation covariance"):
+        imm.predict(state, 2.0)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(tpm=((0.9, 0.2), (0.1, 0.9))), "row must sum to 1"),
+    (dict(tpm=((1.0, 0.0), (1.0, 0.0))), "reachable"),
+    (dict(tpm=((0.9, 0.1),)), r"IMM.tpm: expected shape \(2, 2\)"),
+    (dict(mu0=(0.7, 0.7)), "IMM.mu0"),
+    (dict(augment_variance=-1.0), "augment_variance"),
+    (dict(models=()), "at least one"),
+])
+def test_bad_configuration(kwargs, match):
+    with pytest.raises(FilterError, match=match):
+        IMM(**kwargs)
+
+
+def test_configuration_defaults_are_the_spec():
+    imm = IMM()
+    assert imm.tpm == ((0.99, 0.01), (0.10, 0.90)) and imm.mu0 == (0.5, 0.5)
+    assert imm.models == (ConstantVelocity(3.5), CoordinatedTurn(5.0, 0.044, math.radians(5.0), 0.0076))
+    assert imm.augment_variance == 0.0
+    assert (imm.measurement.sigma_range, imm.measurement.sigma_azimuth) == (30.0, 3e-3)

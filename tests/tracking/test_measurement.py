@@ -1,0 +1,107 @@
+"""Polar and position measurement models (spec §7.1.3) and the two-point start (§7.1.5-§7.1.6)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import spec_reference as ref
+
+from nnda.data.scenario import Sensor
+from nnda.data.sensor import cart_to_polar, measure
+from nnda.errors import FilterError
+from nnda.tracking.measurement import PolarMeasurement, PositionMeasurement, converted_covariance
+from nnda.tracking.two_point import two_point
+
+RNG = np.random.default_rng(5)
+X = np.column_stack([RNG.uniform(-2.5e4, 2.5e4, 8), RNG.normal(0, 100, 8), RNG.uniform(-2.5e4, 2.5e4, 8),
+                     RNG.normal(0, 100, 8), RNG.normal(0, 0.03, 8)])
+
+
+def test_polar_prediction_and_jacobian_match_the_spec():
+    pm = PolarMeasurement()
+    z, H = pm.predict(X)
+    r, az = cart_to_polar(X[:, 0], X[:, 2])
+    np.testing.assert_allclose(z, np.column_stack([r, az]), rtol=1e-15)
+    assert ((z[:, 1] >= 0) & (z[:, 1] < 2 * np.pi)).all()
+    for k in range(len(X)):
+        np.testing.assert_allclose(H[k], ref.polar_H(X[k]), rtol=1e-14)
+        np.testing.assert_allclose(pm.predict(X[k, :4])[1], ref.polar_H(X[k, :4]), rtol=1e-14)  # 2 x 4 (5.23)
+    np.testing.assert_array_equal(pm.R, np.diag([900.0, 9e-6]))
+
+
+def test_polar_jacobian_is_the_derivative():
+    pm = PolarMeasurement()
+    _, H = pm.predict(X)
+    for i, h in ((0, 1e-2), (2, 1e-2)):
+        e = np.zeros(5)
+        e[i] = h
+        num = pm.residual(pm.predict(X + e)[0], pm.predict(X - e)[0]) / (2 * h)
+        np.testing.assert_allclose(H[:, :, i], num, rtol=1e-7, atol=1e-12)
+
+
+def test_azimuth_residual_is_wrapped():
+    pm = PolarMeasurement()
+    nu = pm.residual(np.array([[1e4, 0.001], [1e4, 2 * np.pi - 0.001]]), np.array([[1e4 - 5, 2 * np.pi - 0.002], [1e4, 0.002]]))
+    np.testing.assert_allclose(nu, [[5.0, 0.003], [0.0, -0.003]], atol=1e-12)
+
+
+def test_converted_covariance_matches_linearised_monte_carlo():
+    sensor = Sensor()
+    rng = np.random.default_rng(1)
+    x, y = 12_000.0, -15_000.0
+    r, az = measure(sensor, np.full(200_000, x), np.full(200_000, y), rng)
+    xy = np.column_stack([r * np.sin(az), r * np.cos(az)])
+    rt, azt = cart_to_polar(np.array(x), np.array(y))
+    cov = converted_covariance(rt, azt, 30.0, 3e-3)
+    sample = np.cov(xy.T)
+    np.testing.assert_allclose(cov, sample, rtol=0.02, atol=0.02 * np.abs(sample).max())
+
+
+def test_two_point_matches_the_spec_formulas_and_noise_free_truth():
+    pm = PolarMeasurement()
+    z1 = np.array([[15_000.0, 0.3], [22_000.0, 4.0]])
+    z2 = np.array([[15_300.0, 0.31], [21_800.0, 3.99]])
+    T = np.array([2.0, 6.0])
+    p1, _ = pm.position(z1)
+    p2, cov2 = pm.position(z2)
+    x, P = two_point(p1, p2, cov2, T)
+    for k in range(2):
+        xr, Pr = ref.two_point(z1[k], z2[k], T[k])
+        np.testing.assert_allclose(x[k], xr, rtol=1e-12)
+        np.testing.assert_allclose(P[k], Pr, rtol=1e-12)
+    assert np.linalg.eigvalsh(P).min() > 0
+    # a noise-free straight track gives back its position and velocity exactly
+    truth = np.array([[9_000.0, 120.0, -12_000.0, -80.0]])
+    a = truth[:, ::2] - 2.0 * truth[:, 1::2]
+    z_a = np.column_stack(cart_to_polar(a[:, 0], a[:, 1]))
+    z_b = np.column_stack(cart_to_polar(truth[:, 0], truth[:, 2]))
+    x, _ = two_point(pm.position(z_a)[0], pm.position(z_b)[0], pm.position(z_b)[1], 2.0)
+    np.testing.assert_allclose(x, truth, rtol=1e-10)
+
+
+def test_position_measurement():
+    R = ((100.0, 20.0), (20.0, 400.0))
+    pos = PositionMeasurement(R)
+    z, H = pos.predict(X)
+    np.testing.assert_array_equal(z, X[:, [0, 2]])
+    np.testing.assert_array_equal(H[0], [[1, 0, 0, 0, 0], [0, 0, 1, 0, 0]])
+    np.testing.assert_array_equal(pos.position(z)[1][3], np.array(R))
+    with pytest.raises(FilterError, match="not symmetric"):
+        PositionMeasurement(((100.0, 20.0), (21.0, 400.0)))
+    with pytest.raises(FilterError, match="not positive definite"):
+        PositionMeasurement(((100.0, 300.0), (300.0, 400.0)))
+    with pytest.raises(FilterError, match="shape"):
+        PositionMeasurement(((100.0,),))
+
+
+def test_polar_measurement_checks():
+    with pytest.raises(FilterError, match="sigma_range"):
+        PolarMeasurement(sigma_range=0.0)
+    pm = PolarMeasurement.from_sensor(Sensor(sigma_range_m=10.0, sigma_azimuth_mrad=1.0))
+    assert (pm.sigma_range, pm.sigma_azimuth) == (10.0, 1e-3)
+    with pytest.raises(FilterError, match=r"non-finite value nan at index \(1, 1\)"):
+        pm.validate("z", np.array([[1e4, 0.1], [1e4, math.nan]]))
+    with pytest.raises(FilterError, match="range must be > 0"):
+        pm.validate("z", np.array([[-1e4, 0.1]]))
