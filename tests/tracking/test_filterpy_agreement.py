@@ -93,7 +93,8 @@ def test_cv_kalman_filter_with_position_fixes_matches_filterpy():
 def test_polar_ekf_matches_filterpy(model):
     t, z = polar_track(2)
     pm = PolarMeasurement()
-    x, P = two_point(*[a for a in (pm.position(z[:1])[0],)], *pm.position(z[1:2]), t[1] - t[0])
+    p1, _ = pm.position(z[:1])
+    x, P = two_point(p1, *pm.position(z[1:2]), t[1] - t[0])
     mm = ConstantVelocity() if model == "cv" else CoordinatedTurn()
     x, P = mm.from_cv(x, P)
     ekf = ref.PolarEKF(model, x[0], P[0], sigma_q=mm.sigma_q)

@@ -46,7 +46,9 @@ def test_batch_equals_loop():
                 np.testing.assert_allclose(a[0], b, rtol=1e-12)
             singles[i] = imm.update(p, Z[i:i + 1, k], mask[i:i + 1])
             for name in ("x", "P", "mu"):
-                np.testing.assert_allclose(getattr(singles[i], name)[0], getattr(batch, name)[i], rtol=1e-12, atol=1e-12)
+                np.testing.assert_allclose(
+                    getattr(singles[i], name)[0], getattr(batch, name)[i], rtol=1e-12, atol=1e-12
+                )
 
 
 def test_missed_scan_keeps_the_prediction_and_propagates_mode_probabilities():
@@ -119,6 +121,19 @@ def test_gating_distances_and_log_likelihoods_against_every_contact():
     assert np.isfinite(imm.log_likelihood(pred, np.array([[29_000.0, 3.0]]))).all()
 
 
+def test_no_tracks_and_no_contacts():
+    imm = IMM()
+    empty = imm.initialise(np.empty((0, 2)), np.empty((0, 2)), 0.0, 2.0)
+    pred = imm.predict(empty, np.empty(0))
+    assert len(imm.update(pred, np.empty((0, 2)), np.zeros(0, bool))) == 0
+    assert imm.mahalanobis(imm.combined_measurement(pred), tracks(1, 2)[:, 0]).shape == (0, 2)
+    assert imm.estimate(empty)[1].shape == (0, 4, 4)
+    Z = tracks(10, 2)
+    pred = imm.predict(imm.initialise(Z[:, 0], Z[:, 1], 0.0, 2.0), 2.0)
+    assert imm.log_likelihood(pred, np.empty((0, 2))).shape == (2, 0)
+    assert len(IMMState.concat([empty, pred.state])) == 2
+
+
 def test_combined_estimate_covers_the_shared_dimensions():
     imm = IMM()
     Z = tracks(6)
@@ -134,12 +149,31 @@ def test_combined_estimate_covers_the_shared_dimensions():
 
 
 def test_cv_only_and_linear_measurement_configurations_run():
-    imm = IMM(models=(ConstantVelocity(), ConstantVelocity(0.5)), measurement=PositionMeasurement(((900.0, 0), (0, 900.0))))
+    fixes = PositionMeasurement(((900.0, 0.0), (0.0, 900.0)))
+    imm = IMM(models=(ConstantVelocity(), ConstantVelocity(0.5)), measurement=fixes)
     xy = np.array([[1e4, 2e4], [-5e3, 7e3]])
     state = imm.initialise(xy, xy + 200.0, 0.0, 2.0)
     state = imm.update(imm.predict(state, 2.0), xy + 400.0)
     assert imm.dim == imm.output_dim == 4
     np.testing.assert_allclose(imm.estimate(state)[0][:, 1], 100.0, atol=1.0)
+
+
+def test_a_mode_with_probability_zero_stays_finite():
+    """Identity TPM and mu0 = (1, 0): the CT model is never entered and keeps its own estimate."""
+    imm = IMM(tpm=((1.0, 0.0), (0.0, 1.0)), mu0=(1.0, 0.0))
+    Z = tracks(9, 3)
+    state = imm.initialise(Z[:, 0], Z[:, 1], 0.0, 2.0)
+    for k in range(2, 8):
+        pred = imm.predict(state, 2.0)
+        state = imm.update(pred, Z[:, k])
+    assert np.isfinite(state.x).all() and np.isfinite(state.P).all()
+    assert (state.mu[:, 0] == 1.0).all() and (state.mu[:, 1] < 1e-250).all()
+    # the CT model ran as a filter of its own: same result as a CT-only IMM
+    ct = IMM(models=(CoordinatedTurn(),), tpm=((1.0,),), mu0=(1.0,))
+    alone = ct.initialise(Z[:, 0], Z[:, 1], 0.0, 2.0)
+    for k in range(2, 8):
+        alone = ct.update(ct.predict(alone, 2.0), Z[:, k])
+    np.testing.assert_allclose(state.x[:, 1], alone.x[:, 0], rtol=1e-12)
 
 
 def test_make_state_and_from_cv():

@@ -43,7 +43,8 @@ def test_polar_jacobian_is_the_derivative():
 
 def test_azimuth_residual_is_wrapped():
     pm = PolarMeasurement()
-    nu = pm.residual(np.array([[1e4, 0.001], [1e4, 2 * np.pi - 0.001]]), np.array([[1e4 - 5, 2 * np.pi - 0.002], [1e4, 0.002]]))
+    z = np.array([[1e4, 0.001], [1e4, 2 * np.pi - 0.001]])
+    nu = pm.residual(z, np.array([[1e4 - 5, 2 * np.pi - 0.002], [1e4, 0.002]]))
     np.testing.assert_allclose(nu, [[5.0, 0.003], [0.0, -0.003]], atol=1e-12)
 
 

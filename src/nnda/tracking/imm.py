@@ -52,6 +52,9 @@ SPEC_TPM = ((0.99, 0.01), (0.10, 0.90))
 SPEC_MU0 = (0.5, 0.5)
 #: tolerance on probabilities summing to one
 PROBABILITY_ATOL = 1e-9
+#: added to probabilities before a division or a log: leaves every value above 1e-284 unchanged,
+#: and a model with probability 0 stays finite (it mixes only with itself, its probability stays ~1e-300)
+_TINY = 1e-300
 
 
 @dataclass(frozen=True)
@@ -139,6 +142,10 @@ class IMM:
     @cached_property
     def _tpm(self) -> np.ndarray:
         return np.array(self.tpm)
+
+    @cached_property
+    def _tiny_eye(self) -> np.ndarray:
+        return _TINY * np.eye(self.n_models)
 
     @cached_property
     def _padded(self) -> bool:
@@ -240,12 +247,13 @@ class IMM:
                 raise FilterError(f"dt: expected a scalar or shape ({K},), got {dt.shape}")
         else:
             dt = np.full(K, float(dt))
-        if not (dt.min() >= 0 and np.isfinite(dt.max())):
+        if K and not (dt.min() >= 0 and np.isfinite(dt.max())):
             raise FilterError(f"dt: intervals must be finite and >= 0 s, got {dt}")
 
         mu, tpm, x, r, n = state.mu, self._tpm, state.x, self.n_models, self.dim
         mu_pred = mu @ tpm  # (K, j), eq. 4.47
-        weights = np.swapaxes(tpm * (mu[:, :, None] / mu_pred[:, None, :]), 1, 2)  # mu_{i|j} as (K, j, i), eq. 4.46
+        # mu_{i|j} as (K, j, i), eq. 4.46
+        weights = np.swapaxes((tpm * mu[:, :, None] + self._tiny_eye) / (mu_pred + _TINY)[:, None, :], 1, 2)
         x0 = weights @ x  # eq. 4.48
         P_aug = state.P + self._augment if self._padded else state.P
         spread = x[:, None, :, :] - x0[:, :, None, :]  # (K, j, i, n)
@@ -283,8 +291,10 @@ class IMM:
         self.measurement.validate("z", z)
         nu = kalman.innovation(z[:, None, :], mp, self.measurement)  # (K, r, 2)
         x, P = kalman.correct(st.x, st.P, nu, mp)
-        log_lik = kalman.gaussian_log_likelihood(kalman.mahalanobis_2x2(nu, mp.S_inv), mp.log_det_S)
-        mu = st.mu * np.exp(log_lik - log_lik.max(axis=1, keepdims=True))
+        log_post = np.log(st.mu + _TINY) + kalman.gaussian_log_likelihood(
+            kalman.mahalanobis_2x2(nu, mp.S_inv), mp.log_det_S
+        )
+        mu = np.exp(log_post - log_post.max(axis=1, keepdims=True))
         mu /= mu.sum(axis=1, keepdims=True)
         if mask is not None:
             x = np.where(mask[:, None, None], x, st.x)
@@ -337,8 +347,7 @@ class IMM:
         log_lik = kalman.gaussian_log_likelihood(
             kalman.mahalanobis_2x2(nu, mp.S_inv[:, None]), mp.log_det_S[:, None]
         )
-        with np.errstate(divide="ignore"):
-            log_terms = log_lik + np.log(pred.state.mu)[:, None, :]
+        log_terms = log_lik + np.log(pred.state.mu + _TINY)[:, None, :]
         top = log_terms.max(axis=-1)
         return top + np.log(np.exp(log_terms - top[..., None]).sum(axis=-1))
 

@@ -9,7 +9,8 @@ the polar / coordinated-turn EKFs.
 Measurements are 2-D, so innovation covariances are inverted with the
 explicit 2 x 2 formula (cheaper than `numpy.linalg.inv` on small stacks).
 The covariance update is P - K S K^T = P - K (P H^T)^T, which equals
-(I - K H) P (eq. 4.24 / 4.42) for the optimal gain and is symmetrised.
+(I - K H) P (eq. 4.24 / 4.42) for the optimal gain. Predicted and updated
+covariances are symmetrised, innovation covariances made exactly symmetric.
 """
 
 from __future__ import annotations
@@ -53,14 +54,14 @@ def symmetrise(P: np.ndarray) -> np.ndarray:
 
 
 def predict(x: np.ndarray, P: np.ndarray, model: MotionModel, dt: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
-    """EKF prediction (eqs. 4.37, 4.39): x' = f(x), P' = F P F^T + Q.
+    """EKF prediction (eqs. 4.37, 4.39): x' = f(x), P' = F P F^T + Q (symmetrised).
 
     ``dt`` (s) is a scalar or has the batch shape of ``x`` without its last axis.
     """
     dt = np.asarray(dt, dtype=float)
     fx, F = model.transition(x, dt)
     # a contiguous F^T keeps numpy's stacked matmul on its fast path
-    return fx, F @ P @ np.ascontiguousarray(np.swapaxes(F, -1, -2)) + model.noise(dt)
+    return fx, symmetrise(F @ P @ np.ascontiguousarray(np.swapaxes(F, -1, -2)) + model.noise(dt))
 
 
 def inverse_2x2(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
