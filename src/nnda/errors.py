@@ -19,3 +19,7 @@ class ModelError(NndaError, ValueError):
 
 class FilterError(NndaError, ValueError):
     """A filter got bad input (shape, non-finite value, invalid covariance) or lost positive definiteness."""
+
+
+class TrackingError(NndaError, ValueError):
+    """A tracker got a bad scan (time not increasing, non-finite contact, wrong shape) or config."""

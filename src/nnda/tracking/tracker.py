@@ -1,0 +1,242 @@
+"""The tracker framework every association method plugs into (conventions.md, "Interfaces").
+
+A tracker consumes one scan at a time, ``step(scan) -> TrackerOutput``. The
+shared parts live here so that trackers differ in association only:
+
+1. check the scan (time increasing, (N, 2) finite polar contacts);
+2. predict every live track's IMM to the scan time, over the time since its
+   last update (spec §7.1.8: a missed scan is not an update);
+3. **associate** (the method's own part, `Tracker._maintain`): decide which
+   contact, if any, updates each track and return the updated IMM states;
+4. the M/N and deletion logic of `nnda.tracking.lifecycle`;
+5. initiation: last scan's initiators pair with this scan's unused contacts
+   inside their [D_min, D_max] window, each pair opening a preliminary
+   track (two-point IMM start); unused contacts outside every window become
+   the next initiators (spec §4, A11);
+6. report every track (and those deleted in this scan, once more).
+
+Track records are batched arrays (`Tracks`), so steps 2-6 have no Python
+loop over tracks.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import Annotated, ClassVar
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from nnda.data.dataset import Scan
+from nnda.data.scenario import Sensor
+from nnda.data.sensor import polar_to_cart
+from nnda.errors import TrackingError
+from nnda.tracking.batch import Batch
+from nnda.tracking.imm import IMM, IMMPrediction, IMMState
+from nnda.tracking.lifecycle import LifecycleConfig, advance, window_pairs
+from nnda.tracking.measurement import PolarMeasurement
+from nnda.tracking.output import NO_MEASUREMENT, TrackerOutput, TrackStatus
+
+#: chi-square gate with 2 degrees of freedom and P_G = 0.99 (spec §4.3 and §7.3 defaults)
+GATE_99 = 9.21
+
+
+class TrackerConfig(BaseModel):
+    """Settings every tracker shares; subclasses add their association's own."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    lifecycle: LifecycleConfig = LifecycleConfig()
+
+
+@dataclass(frozen=True)
+class Tracks(Batch):
+    """K live tracks (preliminary or confirmed); every field has the track axis first.
+
+    ``filt`` is the IMM posterior at the track's last update, at time ``t2``
+    (s), from the contact at ``p2`` (m, Cartesian) with azimuth ``az2`` (rad);
+    ``p1``/``t1`` is the contact before it. ``hits``, ``misses`` and
+    ``consecutive`` are the M/N counters of `nnda.tracking.lifecycle`.
+    """
+
+    track_id: np.ndarray
+    status: np.ndarray
+    filt: IMMState
+    p1: np.ndarray
+    t1: np.ndarray
+    p2: np.ndarray
+    t2: np.ndarray
+    az2: np.ndarray
+    hits: np.ndarray
+    misses: np.ndarray
+    consecutive: np.ndarray
+
+
+@dataclass(frozen=True)
+class Association:
+    """What a method decided for K tracks in one scan.
+
+    ``contact`` (K,) is the index of the contact that updated each track (or
+    -1: a miss); ``filt`` the IMM states after the update (only the rows of
+    updated tracks are used).
+    """
+
+    contact: np.ndarray
+    filt: IMMState
+
+
+class Tracker(ABC):
+    """Base of every tracker: one IMM, one life cycle, one output type.
+
+    Subclasses set ``name`` and implement `_maintain`. Construct with the
+    radar (`nnda.data.Sensor`: noise, coverage, scan period) and a config.
+    """
+
+    name: ClassVar[str]
+    config_type: ClassVar[type[TrackerConfig]] = TrackerConfig
+
+    def __init__(self, sensor: Sensor, config: TrackerConfig | None = None) -> None:
+        self.sensor = sensor
+        self.config = config if config is not None else self.config_type()
+        if not isinstance(self.config, self.config_type):
+            raise TrackingError(f"{self.name}: config must be a {self.config_type.__name__}")
+        self.imm = IMM(measurement=PolarMeasurement.from_sensor(sensor))
+        self.d_min, self.d_max = self.config.lifecycle.window(sensor.scan_period_s, sensor.sigma_range_m)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every track and initiator (start of a new run)."""
+        self.tracks: Tracks | None = None
+        self.initiators = np.empty((0, 2))  # polar contacts of the previous scan
+        self.initiator_time = -np.inf
+        self.last_time = -np.inf
+        self._next_id = 0
+
+    # ------------------------------------------------------------------ the method's part
+    @abstractmethod
+    def _maintain(self, tracks: Tracks, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray,
+                  time: float) -> Association:
+        """Associate this scan's contacts z (N, 2) polar / xy (N, 2) Cartesian with the tracks.
+
+        ``pred`` is every track's IMM prediction to ``time``. Return the
+        contact chosen for each track and the updated IMM states.
+        """
+
+    def hard_update(self, pred: IMMPrediction, z: np.ndarray, contact: np.ndarray) -> Association:
+        """IMM update of each track with its chosen contact (``contact`` (K,), -1 = none)."""
+        detected = contact >= 0
+        zk = np.where(detected[:, None], z[np.maximum(contact, 0)] if len(z) else 0.0, np.nan)
+        return Association(contact, self.imm.update(pred, zk, detected))
+
+    # ------------------------------------------------------------------ one scan
+    def step(self, scan: Scan) -> TrackerOutput:
+        """Process one sweep and report every track."""
+        z, time = self._checked(scan)
+        xy = np.column_stack(polar_to_cart(z[:, 0], z[:, 1])) if len(z) else np.empty((0, 2))
+        used = np.zeros(len(z), bool)
+        reports = []
+        tracks = self.tracks
+        if tracks is not None and len(tracks):
+            pred = self.imm.predict(tracks.filt, time - tracks.t2)
+            assoc = self._maintain(tracks, pred, z, xy, time)
+            tracks, report = self._after_association(tracks, pred, assoc, z, xy, time)
+            used[assoc.contact[assoc.contact >= 0]] = True
+            reports.append(report)
+        born, born_contact = self._initiate(z, xy, used, time)
+        if born is not None:
+            reports.append(_report(born, *self.imm.estimate(born.filt), born_contact))
+            tracks = born if tracks is None or not len(tracks) else Tracks.concat([tracks, born])
+        self.tracks = tracks
+        self.last_time = time
+        return self._output(scan.index, time, reports)
+
+    def _checked(self, scan: Scan) -> tuple[np.ndarray, float]:
+        time = float(scan.time)
+        if not np.isfinite(time):
+            raise TrackingError(f"{self.name}: scan {scan.index} has a non-finite time {scan.time}")
+        if time <= self.last_time:
+            raise TrackingError(f"{self.name}: scan {scan.index} at t = {time} s does not come after the "
+                                f"previous scan (t = {self.last_time} s); scans must arrive in time order")
+        z = np.asarray(scan.measurements, dtype=float)
+        if z.size == 0:
+            return np.empty((0, 2)), time
+        if z.ndim != 2 or z.shape[1] != 2:
+            raise TrackingError(f"{self.name}: scan {scan.index}: measurements must have shape (N, 2) "
+                                f"[range m, azimuth rad], got {z.shape}")
+        bad = ~np.isfinite(z).all(axis=1) | (z[:, 0] <= 0)
+        if bad.any():
+            row = int(np.flatnonzero(bad)[0])
+            raise TrackingError(f"{self.name}: scan {scan.index}: contact {row} is invalid {z[row].tolist()} "
+                                f"(non-finite or non-positive range)")
+        return z, time
+
+    def _after_association(self, tracks: Tracks, pred: IMMPrediction, assoc: Association,
+                           z: np.ndarray, xy: np.ndarray, time: float):
+        """Apply the updates, the M/N logic and deletion; returns the surviving tracks and their report."""
+        c = assoc.contact
+        det = c >= 0
+        filt = IMMState(*(np.where(det.reshape(-1, *[1] * (a.ndim - 1)), a, b)
+                          for a, b in zip((assoc.filt.x, assoc.filt.P, assoc.filt.mu),
+                                          (tracks.filt.x, tracks.filt.P, tracks.filt.mu))))
+        cc = np.maximum(c, 0)
+        status, hits, misses, consec = advance(tracks.status, tracks.hits, tracks.misses, tracks.consecutive,
+                                               det, self.config.lifecycle)
+        d2 = det[:, None]
+        tracks = Tracks(
+            track_id=tracks.track_id, status=status, filt=filt,
+            p1=np.where(d2, tracks.p2, tracks.p1), t1=np.where(det, tracks.t2, tracks.t1),
+            p2=np.where(d2, xy[cc] if len(xy) else 0.0, tracks.p2), t2=np.where(det, time, tracks.t2),
+            az2=np.where(det, z[cc, 1] if len(z) else 0.0, tracks.az2),
+            hits=hits, misses=misses, consecutive=consec,
+        )
+        # report the posterior of updated tracks and the prediction of missed ones
+        x_post, P_post = self.imm.estimate(assoc.filt)
+        x_pred, P_pred = self.imm.estimate(pred.state)
+        x = np.where(d2, x_post, x_pred)
+        P = np.where(d2[:, :, None], P_post, P_pred)
+        report = _report(tracks, x, P, c)
+        return tracks.take(status != TrackStatus.DELETED), report
+
+    def _initiate(self, z: np.ndarray, xy: np.ndarray, used: np.ndarray, time: float
+                  ) -> tuple[Tracks | None, np.ndarray | None]:
+        """Open preliminary tracks from last scan's initiators; keep unused contacts as initiators.
+
+        Returns the new tracks (or None) and the contact each one used.
+        """
+        free = np.flatnonzero(~used)
+        born, contact = None, None
+        in_window = np.zeros(len(free), bool)
+        if len(self.initiators) and len(free):
+            init_xy = np.column_stack(polar_to_cart(self.initiators[:, 0], self.initiators[:, 1]))
+            i, j = window_pairs(init_xy, xy[free], self.d_min, self.d_max)
+            if len(i):
+                in_window[j] = True
+                contact = free[j]
+                filt = self.imm.initialise(self.initiators[i], z[contact], self.initiator_time, time)
+                k = len(i)
+                zeros = np.zeros(k, np.int64)
+                born = Tracks(
+                    track_id=np.arange(self._next_id, self._next_id + k, dtype=np.int64),
+                    status=np.full(k, TrackStatus.PRELIMINARY, np.int8), filt=filt,
+                    p1=init_xy[i], t1=np.full(k, self.initiator_time), p2=xy[contact], t2=np.full(k, time),
+                    az2=z[contact, 1], hits=zeros, misses=zeros.copy(), consecutive=zeros.copy(),
+                )
+                self._next_id += k
+        self.initiators = z[free[~in_window]]
+        self.initiator_time = time
+        return born, contact
+
+    @staticmethod
+    def _output(scan: int, time: float, reports: list[tuple]) -> TrackerOutput:
+        if not reports:
+            return TrackerOutput(scan, time, np.empty(0, np.int64), np.empty(0, np.int8), np.empty((0, 4)),
+                                 np.empty((0, 4, 4)), np.empty(0, np.int64))
+        ids, status, x, P, contact = (np.concatenate(parts) for parts in zip(*reports))
+        return TrackerOutput(scan, time, ids.astype(np.int64), status.astype(np.int8), x, P,
+                             contact.astype(np.int64))
+
+
+def _report(tracks: Tracks, x: np.ndarray, P: np.ndarray, contact: np.ndarray) -> tuple:
+    """One block of a scan's output: ids, status, combined state (K, 4), covariance, contact."""
+    return tracks.track_id, tracks.status, x, P, contact
