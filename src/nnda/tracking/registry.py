@@ -1,0 +1,30 @@
+"""Trackers by name: ``make_tracker("gnn", sensor, {...})`` validates the config and builds one."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from pydantic import ValidationError
+
+from nnda.data.scenario import Sensor
+from nnda.errors import ConfigError
+from nnda.tracking.gnn import GNNTracker
+from nnda.tracking.tracker import Tracker
+
+TRACKERS: dict[str, type[Tracker]] = {cls.name: cls for cls in (GNNTracker,)}
+
+
+def make_tracker(name: str, sensor: Sensor, params: Mapping[str, Any] | None = None,
+                 where: str = "tracker config") -> Tracker:
+    """A tracker of kind ``name`` with its config validated from ``params`` (defaults: the spec's)."""
+    try:
+        cls = TRACKERS[name]
+    except KeyError:
+        raise ConfigError(f"{where}: unknown tracker {name!r}; choose one of {', '.join(TRACKERS)}") from None
+    try:
+        config = cls.config_type.model_validate(dict(params or {}))
+    except ValidationError as exc:
+        problems = "; ".join(f"{'.'.join(map(str, e['loc'])) or '<top>'}: {e['msg']}" for e in exc.errors())
+        raise ConfigError(f"{where}: invalid {name} config: {problems}") from None
+    return cls(sensor, config)
