@@ -10,13 +10,13 @@ from pydantic import ValidationError
 from nnda.data.scenario import Sensor
 from nnda.errors import ConfigError
 from nnda.tracking.gnn import GNNTracker
-from nnda.tracking.tracker import Tracker
+from nnda.tracking.tracker import TrackerBase
 
-TRACKERS: dict[str, type[Tracker]] = {cls.name: cls for cls in (GNNTracker,)}
+TRACKERS: dict[str, type[TrackerBase]] = {cls.name: cls for cls in (GNNTracker,)}
 
 
 def make_tracker(name: str, sensor: Sensor, params: Mapping[str, Any] | None = None,
-                 where: str = "tracker config") -> Tracker:
+                 where: str = "tracker config") -> TrackerBase:
     """A tracker of kind ``name`` with its config validated from ``params`` (defaults: the spec's)."""
     try:
         cls = TRACKERS[name]

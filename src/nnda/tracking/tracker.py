@@ -86,11 +86,11 @@ class Association:
     filt: IMMState
 
 
-class Tracker(ABC):
-    """Base of every tracker: one IMM, one life cycle, one output type.
+class TrackerBase(ABC):
+    """What every tracker shares: the radar, one IMM, one life cycle, scan checks, initiation, output.
 
-    Subclasses set ``name`` and implement `_maintain`. Construct with the
-    radar (`nnda.data.Sensor`: noise, coverage, scan period) and a config.
+    Construct with the radar (`nnda.data.Sensor`: noise, coverage, scan
+    period) and a config; ``step(scan)`` processes one sweep.
     """
 
     name: ClassVar[str]
@@ -107,11 +107,84 @@ class Tracker(ABC):
 
     def reset(self) -> None:
         """Forget every track and initiator (start of a new run)."""
-        self.tracks: Tracks | None = None
         self.initiators = np.empty((0, 2))  # polar contacts of the previous scan
         self.initiator_time = -np.inf
         self.last_time = -np.inf
         self._next_id = 0
+
+    @abstractmethod
+    def step(self, scan: Scan) -> TrackerOutput:
+        """Process one sweep and report every track."""
+
+    def _checked(self, scan: Scan) -> tuple[np.ndarray, float]:
+        time = float(scan.time)
+        if not np.isfinite(time):
+            raise TrackingError(f"{self.name}: scan {scan.index} has a non-finite time {scan.time}")
+        if time <= self.last_time:
+            raise TrackingError(f"{self.name}: scan {scan.index} at t = {time} s does not come after the "
+                                f"previous scan (t = {self.last_time} s); scans must arrive in time order")
+        z = np.asarray(scan.measurements, dtype=float)
+        if z.size == 0:
+            return np.empty((0, 2)), time
+        if z.ndim != 2 or z.shape[1] != 2:
+            raise TrackingError(f"{self.name}: scan {scan.index}: measurements must have shape (N, 2) "
+                                f"[range m, azimuth rad], got {z.shape}")
+        bad = ~np.isfinite(z).all(axis=1) | (z[:, 0] <= 0)
+        if bad.any():
+            row = int(np.flatnonzero(bad)[0])
+            raise TrackingError(f"{self.name}: scan {scan.index}: contact {row} is invalid {z[row].tolist()} "
+                                f"(non-finite or non-positive range)")
+        return z, time
+
+    def _initiate(self, z: np.ndarray, xy: np.ndarray, used: np.ndarray, time: float
+                  ) -> tuple[Tracks | None, np.ndarray | None]:
+        """Open preliminary tracks from last scan's initiators; keep unused contacts as initiators.
+
+        Returns the new tracks (or None) and the contact each one used.
+        """
+        free = np.flatnonzero(~used)
+        born, contact = None, None
+        in_window = np.zeros(len(free), bool)
+        if len(self.initiators) and len(free):
+            init_xy = np.column_stack(polar_to_cart(self.initiators[:, 0], self.initiators[:, 1]))
+            i, j = window_pairs(init_xy, xy[free], self.d_min, self.d_max)
+            if len(i):
+                in_window[j] = True
+                contact = free[j]
+                filt = self.imm.initialise(self.initiators[i], z[contact], self.initiator_time, time)
+                k = len(i)
+                zeros = np.zeros(k, np.int64)
+                born = Tracks(
+                    track_id=np.arange(self._next_id, self._next_id + k, dtype=np.int64),
+                    status=np.full(k, TrackStatus.PRELIMINARY, np.int8), filt=filt,
+                    p1=init_xy[i], t1=np.full(k, self.initiator_time), p2=xy[contact], t2=np.full(k, time),
+                    az2=z[contact, 1], hits=zeros, misses=zeros.copy(), consecutive=zeros.copy(),
+                )
+                self._next_id += k
+        self.initiators = z[free[~in_window]]
+        self.initiator_time = time
+        return born, contact
+
+    @staticmethod
+    def _output(scan: int, time: float, reports: list[tuple]) -> TrackerOutput:
+        if not reports:
+            return TrackerOutput(scan, time, np.empty(0, np.int64), np.empty(0, np.int8), np.empty((0, 4)),
+                                 np.empty((0, 4, 4)), np.empty(0, np.int64))
+        ids, status, x, P, contact = (np.concatenate(parts) for parts in zip(*reports))
+        return TrackerOutput(scan, time, ids.astype(np.int64), status.astype(np.int8), x, P,
+                             contact.astype(np.int64))
+
+
+
+class Tracker(TrackerBase):
+    """Base of the single-hypothesis trackers: each track follows one contact sequence.
+
+    Subclasses set ``name`` and implement `_maintain`.
+    """
+
+    def reset(self) -> None:
+        super().reset()
+        self.tracks: Tracks | None = None
 
     # ------------------------------------------------------------------ the method's part
     @abstractmethod
@@ -151,26 +224,6 @@ class Tracker(ABC):
         self.last_time = time
         return self._output(scan.index, time, reports)
 
-    def _checked(self, scan: Scan) -> tuple[np.ndarray, float]:
-        time = float(scan.time)
-        if not np.isfinite(time):
-            raise TrackingError(f"{self.name}: scan {scan.index} has a non-finite time {scan.time}")
-        if time <= self.last_time:
-            raise TrackingError(f"{self.name}: scan {scan.index} at t = {time} s does not come after the "
-                                f"previous scan (t = {self.last_time} s); scans must arrive in time order")
-        z = np.asarray(scan.measurements, dtype=float)
-        if z.size == 0:
-            return np.empty((0, 2)), time
-        if z.ndim != 2 or z.shape[1] != 2:
-            raise TrackingError(f"{self.name}: scan {scan.index}: measurements must have shape (N, 2) "
-                                f"[range m, azimuth rad], got {z.shape}")
-        bad = ~np.isfinite(z).all(axis=1) | (z[:, 0] <= 0)
-        if bad.any():
-            row = int(np.flatnonzero(bad)[0])
-            raise TrackingError(f"{self.name}: scan {scan.index}: contact {row} is invalid {z[row].tolist()} "
-                                f"(non-finite or non-positive range)")
-        return z, time
-
     def _after_association(self, tracks: Tracks, pred: IMMPrediction, assoc: Association,
                            z: np.ndarray, xy: np.ndarray, time: float):
         """Apply the updates, the M/N logic and deletion; returns the surviving tracks and their report."""
@@ -197,44 +250,6 @@ class Tracker(ABC):
         P = np.where(d2[:, :, None], P_post, P_pred)
         report = _report(tracks, x, P, c)
         return tracks.take(status != TrackStatus.DELETED), report
-
-    def _initiate(self, z: np.ndarray, xy: np.ndarray, used: np.ndarray, time: float
-                  ) -> tuple[Tracks | None, np.ndarray | None]:
-        """Open preliminary tracks from last scan's initiators; keep unused contacts as initiators.
-
-        Returns the new tracks (or None) and the contact each one used.
-        """
-        free = np.flatnonzero(~used)
-        born, contact = None, None
-        in_window = np.zeros(len(free), bool)
-        if len(self.initiators) and len(free):
-            init_xy = np.column_stack(polar_to_cart(self.initiators[:, 0], self.initiators[:, 1]))
-            i, j = window_pairs(init_xy, xy[free], self.d_min, self.d_max)
-            if len(i):
-                in_window[j] = True
-                contact = free[j]
-                filt = self.imm.initialise(self.initiators[i], z[contact], self.initiator_time, time)
-                k = len(i)
-                zeros = np.zeros(k, np.int64)
-                born = Tracks(
-                    track_id=np.arange(self._next_id, self._next_id + k, dtype=np.int64),
-                    status=np.full(k, TrackStatus.PRELIMINARY, np.int8), filt=filt,
-                    p1=init_xy[i], t1=np.full(k, self.initiator_time), p2=xy[contact], t2=np.full(k, time),
-                    az2=z[contact, 1], hits=zeros, misses=zeros.copy(), consecutive=zeros.copy(),
-                )
-                self._next_id += k
-        self.initiators = z[free[~in_window]]
-        self.initiator_time = time
-        return born, contact
-
-    @staticmethod
-    def _output(scan: int, time: float, reports: list[tuple]) -> TrackerOutput:
-        if not reports:
-            return TrackerOutput(scan, time, np.empty(0, np.int64), np.empty(0, np.int8), np.empty((0, 4)),
-                                 np.empty((0, 4, 4)), np.empty(0, np.int64))
-        ids, status, x, P, contact = (np.concatenate(parts) for parts in zip(*reports))
-        return TrackerOutput(scan, time, ids.astype(np.int64), status.astype(np.int8), x, P,
-                             contact.astype(np.int64))
 
 
 def _report(tracks: Tracks, x: np.ndarray, P: np.ndarray, contact: np.ndarray) -> tuple:
