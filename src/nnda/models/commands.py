@@ -128,7 +128,8 @@ def _train_one(pairs: PairSet, method: str, hidden: int, seed: int, init: str, p
     with bar:
         def on_epoch(epoch: int, losses: dict[str, float]) -> None:
             bar.update(task, completed=epoch, info=f"val MSE {losses['validation']:.4f}")
-        result = fit(pairs, method, hidden, seed, settings, on_epoch, provenance, init)
+        result = fit(pairs, method, hidden, seed, settings=settings, on_epoch=on_epoch, provenance=provenance,
+                     init=init)
         bar.update(task, total=result.training.epochs, completed=result.training.epochs)
     save_model(result.scorer, tmp / MODEL_FILE)
     t = result.training
@@ -156,7 +157,7 @@ def _train_sweep(pairs: PairSet, method: str, sizes: list[int], restarts: int, s
         def on_run(run: RunSummary) -> None:
             bar.advance(task)
             bar.update(task, info=f"H={run.n_hidden} test MSE {run.metrics['test'].mse:.4f}")
-        result = sweep(pairs, sizes, restarts, method, seed, on_run, init)
+        result = sweep(pairs, sizes, restarts, method, seed, on_run=on_run, init=init)
     table = sweep_table(result)
     _write_json(tmp / "sweep.json", {"method": method, "hidden_sizes": list(sizes), "restarts": restarts,
                                      "seed": seed, "init": init, "best_size": result.best_size,
@@ -175,7 +176,7 @@ def _train_repeats(pairs: PairSet, methods: tuple[str, ...], hidden: int, seeds:
         def on_run(run: RunSummary) -> None:
             bar.advance(task)
             bar.update(task, info=f"{run.method.upper()} seed {run.seed} test acc {run.metrics['test'].accuracy:.4f}")
-        runs = repeat(pairs, methods, hidden, seeds, on_run, init)
+        runs = repeat(pairs, methods, hidden, seeds, on_run=on_run, init=init)
     table = repeats_table(runs)
     _write_json(tmp / "repeats.json", {"methods": list(methods), "n_hidden": hidden, "seeds": list(seeds), "init": init,
                                        "runs": [r.as_dict() for r in runs]})

@@ -157,9 +157,7 @@ class RunSummary:
                    t.epochs, t.best_epoch, t.stop_reason, t.seconds)
 
     def as_dict(self) -> dict:
-        d = asdict(self)
-        d["metrics"] = {k: v.as_dict() for k, v in self.metrics.items()}
-        return d
+        return asdict(self)
 
 
 RunCallback = Callable[[RunSummary], None]

@@ -1,0 +1,101 @@
+"""Speed of the models stage: pair extraction, LM and GD training, the numpy scorer.
+
+Prints figures, and ratios against reference runs in the same process:
+* training pairs of the 17 training presets: extraction time and pairs/s;
+* Levenberg-Marquardt on the full pair set (3-5-1, spec settings): the first
+  fit of the process (it pays torch.func's one-off start-up) and the median
+  of warm fits over 10 seeds; target < 2 s on 2 cores;
+* gradient descent (1000 epochs) on the same problems, as the reference;
+* the residual Jacobian per LM epoch: vmap(jacrev) (used) against jacfwd;
+* the numpy scorer in pairs/s for batch sizes from one scan to a million
+  pairs, against the torch forward pass on the same batch.
+
+Run: .venv/bin/python benchmarks/bench_models.py
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+
+import numpy as np
+import torch
+from torch.func import jacfwd, jacrev, vmap
+
+from nnda.data import generate, resolve
+from nnda.models.experiment import fit
+from nnda.models.network import as_tensor, forward
+from nnda.models.pairs import pairs_from_datasets
+
+SEEDS = range(10)
+
+
+def best_of(fn, repeats: int) -> float:
+    """Shortest wall time (s) of ``repeats`` calls of ``fn``."""
+    times = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return min(times)
+
+
+def main() -> None:
+    print(f"torch {torch.__version__}, {torch.get_num_threads()} threads")
+    datasets = [generate(s, 0) for s in resolve("train")]
+    pairs = pairs_from_datasets(datasets)
+    t_pairs = best_of(lambda: pairs_from_datasets(datasets), 5)
+    print(f"\ntraining pairs: {len(pairs)} ({pairs.n_positive} own contact, {pairs.n_clutter} clutter) "
+          f"from 17 datasets in {t_pairs * 1e3:.1f} ms = {len(pairs) / t_pairs:,.0f} pairs/s")
+
+    t = time.perf_counter()
+    first = fit(pairs, "lm", 5, seed=0)
+    cold = time.perf_counter() - t
+    print(f"\nLM, first fit of the process: {cold:.3f} s wall "
+          f"(trainer clock {first.training.seconds:.3f} s, {first.training.epochs} epochs)")
+    lm = [fit(pairs, "lm", 5, seed=s).training for s in SEEDS]
+    gd = [fit(pairs, "gd", 5, seed=s).training for s in SEEDS]
+    for name, runs in (("LM", lm), ("GD", gd)):
+        secs = [r.seconds for r in runs]
+        per_epoch = [r.seconds / max(r.epochs, 1) for r in runs]
+        print(f"{name}, warm, {len(runs)} seeds: median {statistics.median(secs):.3f} s "
+              f"(min {min(secs):.3f}, max {max(secs):.3f}), epochs median "
+              f"{statistics.median(r.epochs for r in runs):.0f}, {statistics.median(per_epoch) * 1e3:.2f} ms/epoch")
+    ratio = statistics.median(r.seconds for r in gd) / statistics.median(r.seconds for r in lm)
+    print(f"GD / LM training time: {ratio:.1f}x  (LM target < 2 s: "
+          f"{'met' if max(r.seconds for r in lm) < 2.0 else 'NOT met'} by every seed)")
+
+    split = first.split.train
+    x = as_tensor(first.scorer.normaliser.transform(pairs.features[split]))
+    y = as_tensor(pairs.labels[split].astype(float))
+    theta = as_tensor(first.scorer.weights.to_vector())
+
+    def residuals(th):
+        return forward(th, x, 5) - y
+
+    def one(th, xi, yi):
+        return forward(th, xi[None, :], 5)[0] - yi
+
+    fwd = jacfwd(residuals)
+    rev = vmap(jacrev(one), in_dims=(None, 0, 0))
+    assert torch.allclose(fwd(theta), rev(theta, x, y), atol=1e-12)
+    t_fwd, t_rev = best_of(lambda: fwd(theta), 20), best_of(lambda: rev(theta, x, y), 20)
+    print(f"\nJacobian of {len(y)} residuals x {len(theta)} weights: vmap(jacrev) {t_rev * 1e3:.2f} ms (used), "
+          f"jacfwd {t_fwd * 1e3:.2f} ms (jacfwd / vmap(jacrev) = {t_fwd / t_rev:.1f}x)")
+
+    scorer = first.scorer
+    rng = np.random.default_rng(0)
+    print("\nscorer throughput (pairs/s): numpy scorer vs torch forward on normalised inputs")
+    for n in (50, 1_000, 100_000, 1_000_000):
+        feats = pairs.features[rng.integers(0, len(pairs), n)]
+        repeats = max(3, min(200, 2_000_000 // n))
+        t_np = best_of(lambda: scorer(feats), repeats)
+        xt = as_tensor(scorer.normaliser.transform(feats))
+        with torch.no_grad():
+            t_torch = best_of(lambda: forward(theta, xt, 5), repeats)
+        print(f"  N = {n:>9,}: numpy {n / t_np:>13,.0f}  ({t_np * 1e6:9.1f} us/call)   "
+              f"torch {n / t_torch:>13,.0f}   numpy/torch speed {t_torch / t_np:.2f}x")
+
+
+if __name__ == "__main__":
+    main()
