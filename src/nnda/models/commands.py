@@ -26,17 +26,16 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from nnda.data.dataset import atomic_directory
 from nnda.errors import ConfigError
-from nnda.models.metrics import classifier_metrics
 from nnda.models.pairs import PairSet, load_pairs
-from nnda.models.plots import plot_losses, plot_roc, plot_sweep
 from nnda.models.scorer import MODEL_FILE, load_model, save_model
-from nnda.models.tables import fit_table, metrics_table, repeats_table, sweep_table
 
 if TYPE_CHECKING:
     from nnda.models.experiment import RunSummary
 
-# nnda.models.experiment (torch) is imported inside the training functions, so that
-# the other commands, `nnda evaluate` included, start without loading torch.
+# Training (torch), metrics and tables (scikit-learn) and plots (matplotlib) are
+# imported inside the functions that use them: every `nnda` command loads this
+# module, and none but these should pay for those imports. `nnda evaluate` runs
+# without torch.
 
 
 class MethodChoice(str, Enum):
@@ -121,6 +120,8 @@ def train(
 def _train_one(pairs: PairSet, method: str, hidden: int, seed: int, init: str, provenance: dict, tmp: Path,
                console: Console) -> None:
     from nnda.models.experiment import fit
+    from nnda.models.plots import plot_losses, plot_roc
+    from nnda.models.tables import fit_table
     from nnda.models.trainers import GDSettings, LMSettings
 
     settings = GDSettings() if method == "gd" else LMSettings()
@@ -151,6 +152,8 @@ def _train_one(pairs: PairSet, method: str, hidden: int, seed: int, init: str, p
 def _train_sweep(pairs: PairSet, method: str, sizes: list[int], restarts: int, seed: int, init: str,
                  tmp: Path, console: Console) -> None:
     from nnda.models.experiment import sweep
+    from nnda.models.plots import plot_sweep
+    from nnda.models.tables import sweep_table
 
     bar, task = _run_bar(len(sizes) * restarts, f"sweeping {method.upper()} over hidden sizes")
     with bar:
@@ -170,6 +173,7 @@ def _train_sweep(pairs: PairSet, method: str, sizes: list[int], restarts: int, s
 def _train_repeats(pairs: PairSet, methods: tuple[str, ...], hidden: int, seeds: range, init: str,
                    tmp: Path, console: Console) -> None:
     from nnda.models.experiment import repeat
+    from nnda.models.tables import repeats_table
 
     bar, task = _run_bar(len(seeds) * len(methods), f"training {'+'.join(m.upper() for m in methods)}")
     with bar:
@@ -194,6 +198,10 @@ def evaluate(
 
     Pairs are built with the options the model was trained with.
     """
+    from nnda.models.metrics import classifier_metrics
+    from nnda.models.plots import plot_roc
+    from nnda.models.tables import metrics_table
+
     scorer = load_model(model)
     recorded = scorer.metadata.get("pair_options", {})
     options = {k: recorded[k] for k in ("history", "other_targets", "max_missed") if k in recorded}
