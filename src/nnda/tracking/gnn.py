@@ -6,7 +6,9 @@ forbidden, and scipy's `linear_sum_assignment` finds the one-to-one
 assignment of least total cost. The cost of a pair is its squared
 Mahalanobis distance plus log |S|, the negative log-likelihood up to a
 constant, so a confident track is not out-bid by a vague one; a track may
-also stay unassigned at the cost of a contact on its gate's edge.
+also stay unassigned at the cost of a contact on its gate's edge. Confirmed
+tracks are assigned first and preliminary tracks share what is left, so a
+new track cannot take a confirmed target's contact.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from pydantic import Field
 from scipy.optimize import linear_sum_assignment
 
 from nnda.tracking.imm import IMMPrediction
+from nnda.tracking.output import TrackStatus
 from nnda.tracking.tracker import GATE_99, Association, Tracker, TrackerConfig, Tracks
 
 
@@ -45,13 +48,19 @@ class GNNTracker(Tracker):
     def _maintain(self, tracks: Tracks, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray,
                   time: float) -> Association:
         contact = np.full(len(tracks), -1, np.int64)
-        if len(z):
-            d2, log_det, inside = gated_costs(self, pred, z, self.config.gate)
-            rows = np.flatnonzero(inside.any(axis=1))
-            cols = np.flatnonzero(inside.any(axis=0))
+        if not len(z):
+            return self.hard_update(pred, z, contact)
+        d2, log_det, inside = gated_costs(self, pred, z, self.config.gate)
+        confirmed = tracks.status == TrackStatus.CONFIRMED
+        for stage in (confirmed, ~confirmed):  # confirmed tracks choose first
+            taken = np.zeros(len(z), bool)
+            taken[contact[contact >= 0]] = True
+            ok = inside & stage[:, None] & ~taken[None, :]
+            rows = np.flatnonzero(ok.any(axis=1))
+            cols = np.flatnonzero(ok.any(axis=0))
             if rows.size:
                 # a track may stay unassigned at the cost of a contact on its gate's edge
-                pair = np.where(inside[np.ix_(rows, cols)], d2[np.ix_(rows, cols)], np.inf)
+                pair = np.where(ok[np.ix_(rows, cols)], d2[np.ix_(rows, cols)], np.inf)
                 miss = np.full((rows.size, rows.size), np.inf)
                 np.fill_diagonal(miss, self.config.gate)
                 cost = np.hstack([pair, miss]) + log_det[rows, None]

@@ -10,9 +10,10 @@ from pydantic import ValidationError
 from nnda.data.scenario import Sensor
 from nnda.errors import ConfigError
 from nnda.tracking.gnn import GNNTracker
+from nnda.tracking.mht import MHTTracker
 from nnda.tracking.tracker import TrackerBase
 
-TRACKERS: dict[str, type[TrackerBase]] = {cls.name: cls for cls in (GNNTracker,)}
+TRACKERS: dict[str, type[TrackerBase]] = {cls.name: cls for cls in (GNNTracker, MHTTracker)}
 
 
 def make_tracker(name: str, sensor: Sensor, params: Mapping[str, Any] | None = None,

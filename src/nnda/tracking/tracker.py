@@ -199,7 +199,8 @@ class Tracker(TrackerBase):
     def hard_update(self, pred: IMMPrediction, z: np.ndarray, contact: np.ndarray) -> Association:
         """IMM update of each track with its chosen contact (``contact`` (K,), -1 = none)."""
         detected = contact >= 0
-        zk = np.where(detected[:, None], z[np.maximum(contact, 0)] if len(z) else 0.0, np.nan)
+        zk = np.full((len(contact), 2), np.nan)
+        zk[detected] = z[contact[detected]]
         return Association(contact, self.imm.update(pred, zk, detected))
 
     # ------------------------------------------------------------------ one scan

@@ -1,0 +1,335 @@
+"""Track-oriented multiple hypothesis tracking (TOMHT) with the IMM (spec §7.3, default A13).
+
+Every track (a *family*, one id) keeps a tree of hypotheses whose leaves are
+alternative contact sequences, each with its own IMM state and
+log-likelihood-ratio score (Blackman & Popoli 1999, spec §7.3 defaults):
+
+* new family from the shared initiation: L = ln(beta_NT / beta_FT);
+* detection: dL = ln P_D + ln N(nu; 0, S) - ln beta_FT, N the IMM mixture
+  likelihood of the contact in (range m, azimuth rad) space;
+* miss: dL = ln(1 - P_D P_G).
+
+beta_FT is the clutter density in measurement space: a spatial density rho
+(m^-2; fixed, or estimated per scan from the contacts within
+``clutter_radius_m`` of the predicted position) times the predicted range
+(an area element is r dr dtheta). A scan of the MHT:
+
+1. **branch** every leaf into a miss child and one child per gated contact
+   (chi-square gate on the IMM combined prediction), keeping the miss child
+   and the best ``max_track_branches - 1`` detection children (MATLAB's
+   MaxNumTrackBranches); M/N counters and deletion rules run per child;
+2. **global hypothesis**: the set of leaves, at most one per family, that
+   shares no contact within the N-scan window and maximises the summed
+   score (a leaf with a score <= 0 is less likely than "no target" and is
+   never chosen). Families sharing a contact form a cluster; a one-family
+   cluster takes its best leaf, larger clusters are solved exactly as a
+   binary program (scipy's HiGHS `milp`). Families left out stay as
+   hypotheses but are not reported;
+3. **initiation** from the contacts the global hypothesis leaves free;
+4. **pruning**: N-scan pruning (the decision ``n_scan`` scans back becomes
+   final: a chosen family keeps only the leaves that agree with it there,
+   and every leaf using a contact given there to another family goes), branch probability within a family
+   below ``min_branch_probability``, score fallen more than
+   ``deletion_score_drop`` below its maximum, at most
+   ``max_hypotheses_per_track`` leaves per family, and merging of leaves that
+   share their last three contacts with a better leaf of any family.
+
+The chosen leaf of each family is what the tracker reports; new families are
+reported from their first scan, like the other trackers' preliminary tracks.
+A family that loses its last leaf is reported once as deleted if it was ever
+reported. Confirmation is
+M/N (3/4, A12) or, with ``confirmation = "score"``, the score passing
+ln((1 - beta) / alpha) with alpha = 1e-3, beta = 0.1 (Wald's test, §7.3).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Annotated, ClassVar, Literal
+
+import numpy as np
+from pydantic import Field
+from scipy.optimize import Bounds, LinearConstraint, milp
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from nnda.data.dataset import Scan
+from nnda.data.sensor import polar_to_cart
+from nnda.tracking.batch import Batch
+from nnda.tracking.lifecycle import advance
+from nnda.tracking.output import TrackerOutput, TrackStatus
+from nnda.tracking.tracker import GATE_99, TrackerBase, TrackerConfig, Tracks
+
+#: history entry of a scan before the family existed, or whose contact is not known
+UNKNOWN = -2
+MISS = -1
+
+
+class MHTConfig(TrackerConfig):
+    """TOMHT settings; defaults are the spec's §7.3 list and MATLAB trackerTOMHT's bounds."""
+
+    gate: Annotated[float, Field(gt=0, description="chi-square gate, 2 dof (9.21: P_G = 0.99)")] = GATE_99
+    pd: Annotated[float, Field(gt=0, lt=1, description="detection probability used in the scores (A4)")] = 0.9
+    new_target_ratio: Annotated[float, Field(gt=0, description="beta_NT / beta_FT")] = 0.1
+    clutter_density: Annotated[float | None, Field(gt=0, description="clutter per m^2; None: local estimate")] = None
+    clutter_radius_m: Annotated[float, Field(gt=0)] = 3_000.0
+    n_scan: Annotated[int, Field(ge=1, description="N-scan pruning depth (scans of ambiguity kept)")] = 3
+    max_track_branches: Annotated[int, Field(ge=1, description="children kept per leaf and scan, miss included")] = 3
+    max_hypotheses_per_track: Annotated[int, Field(ge=1, description="leaves kept per family")] = 20
+    min_branch_probability: Annotated[float, Field(ge=0, lt=1)] = 1e-3
+    deletion_score_drop: Annotated[float, Field(gt=0, description="delete a leaf this far below its best score")] = 10.0
+    confirmation: Literal["mn", "score"] = "mn"
+    confirmation_score: float = math.log((1 - 0.1) / 1e-3)
+
+
+@dataclass(frozen=True)
+class Leaves(Batch):
+    """L hypotheses: a track record each (family id = ``tracks.track_id``), score, best score
+    so far, and ``hist`` (L, n_scan): the contact index used in each of the last n_scan
+    scans (oldest first; -1 miss, -2 unknown)."""
+
+    tracks: Tracks
+    score: np.ndarray
+    max_score: np.ndarray
+    hist: np.ndarray
+
+
+@dataclass(frozen=True)
+class _Shown:
+    """What a leaf looks like in this scan's report: combined state (L, 4), covariance (L, 4, 4)."""
+
+    x: np.ndarray
+    P: np.ndarray
+
+
+class MHTTracker(TrackerBase):
+    """IMM + track-oriented MHT (the spec's classical method)."""
+
+    name: ClassVar[str] = "mht"
+    config_type: ClassVar[type[TrackerConfig]] = MHTConfig
+
+    def reset(self) -> None:
+        super().reset()
+        self.leaves: Leaves | None = None
+        # last reported id, state and covariance of every family reported at least once and alive
+        self.known = (np.empty(0, np.int64), np.empty((0, 4)), np.empty((0, 4, 4)))
+        self.n_clusters_solved = 0
+
+    @property
+    def n_hypotheses(self) -> int:
+        """Leaves currently held (all families)."""
+        return 0 if self.leaves is None else len(self.leaves)
+
+    # ---------------------------------------------------------------------- one scan
+    def step(self, scan: Scan) -> TrackerOutput:
+        z, time = self._checked(scan)
+        xy = np.column_stack(polar_to_cart(z[:, 0], z[:, 1])) if len(z) else np.empty((0, 2))
+        leaves, shown, chosen = None, None, np.empty(0, np.int64)
+        used = np.zeros(len(z), bool)
+        if self.leaves is not None and len(self.leaves):
+            leaves, shown = self._branch(self.leaves, z, xy, time)
+            chosen = self._global_hypothesis(leaves)
+            now = leaves.hist[chosen, -1]
+            used[now[now >= 0]] = True
+        born, contact = self._initiate(z, xy, used, time)
+        if born is not None:
+            new = self._new_leaves(born, contact)
+            x, P = self.imm.estimate(born.filt)
+            first = 0 if leaves is None else len(leaves)
+            leaves = new if leaves is None else Leaves.concat([leaves, new])
+            shown = _Shown(x, P) if shown is None else _Shown(np.concatenate([shown.x, x]),
+                                                              np.concatenate([shown.P, P]))
+            chosen = np.concatenate([chosen, first + np.arange(len(new))])
+        self.leaves = None if leaves is None else self._prune(leaves, chosen)
+        self.last_time = time
+        return self._report(scan.index, time, leaves, shown, chosen)
+
+    # ---------------------------------------------------------------------- branching
+    def _branch(self, leaves: Leaves, z: np.ndarray, xy: np.ndarray, time: float) -> tuple[Leaves, _Shown]:
+        cfg, imm, tr = self.config, self.imm, leaves.tracks
+        L = len(leaves)
+        pred = imm.predict(tr.filt, time - tr.t2)
+        x_pred, P_pred = imm.estimate(pred.state)
+        p_gate = 1.0 - math.exp(-cfg.gate / 2.0)  # chi-square cdf, 2 dof
+        miss_score = leaves.score + math.log(1.0 - cfg.pd * p_gate)
+
+        parent = np.arange(L)
+        contact = np.full(L, MISS, np.int64)
+        score = miss_score
+        if len(z):
+            mp = imm.combined_measurement(pred)
+            pl, pj = np.nonzero(imm.mahalanobis(mp, z) <= cfg.gate)
+            if pl.size:
+                ll = imm.log_likelihood(pred, z)[pl, pj]
+                beta_ft = self._clutter_density(x_pred, xy) * mp.z[:, 0]
+                det = leaves.score[pl] + math.log(cfg.pd) + ll - np.log(beta_ft[pl])
+                order = np.lexsort((-det, pl))
+                pl, pj, det = pl[order], pj[order], det[order]
+                rank = np.arange(pl.size) - np.searchsorted(pl, pl)
+                keep = rank < cfg.max_track_branches - 1
+                parent = np.concatenate([parent, pl[keep]])
+                contact = np.concatenate([contact, pj[keep]])
+                score = np.concatenate([score, det[keep]])
+
+        detected = contact >= 0
+        dp, dc = parent[detected], contact[detected]
+        children = tr.take(parent)
+        filt = children.filt
+        if dp.size:
+            updated = imm.update(pred.take(dp), z[dc])
+            filt = type(filt).concat([filt.take(~detected), updated])  # misses come first
+        status, hits, misses, consec = advance(children.status, children.hits, children.misses,
+                                               children.consecutive, detected, cfg.lifecycle)
+        max_score = np.maximum(leaves.max_score[parent], score)
+        if cfg.confirmation == "score":
+            status = np.where((status == TrackStatus.PRELIMINARY) & (score > cfg.confirmation_score),
+                              TrackStatus.CONFIRMED, status).astype(np.int8)
+        cc = np.maximum(contact, 0)
+        d1 = detected[:, None]
+        tracks = Tracks(
+            track_id=children.track_id, status=status, filt=filt,
+            p1=np.where(d1, children.p2, children.p1), t1=np.where(detected, children.t2, children.t1),
+            p2=np.where(d1, xy[cc] if len(xy) else 0.0, children.p2), t2=np.where(detected, time, children.t2),
+            az2=np.where(detected, z[cc, 1] if len(z) else 0.0, children.az2),
+            hits=hits, misses=misses, consecutive=consec,
+        )
+        hist = np.column_stack([leaves.hist[parent, 1:], contact])
+        out = Leaves(tracks, score, max_score, hist)
+        x_post, P_post = imm.estimate(filt)
+        shown = _Shown(np.where(d1, x_post, x_pred[parent]), np.where(d1[:, :, None], P_post, P_pred[parent]))
+        alive = (status != TrackStatus.DELETED) & (score >= max_score - cfg.deletion_score_drop)
+        return out.take(alive), _Shown(shown.x[alive], shown.P[alive])
+
+    def _clutter_density(self, x_pred: np.ndarray, xy: np.ndarray) -> np.ndarray:
+        """Clutter spatial density (m^-2) at each leaf's predicted position, (L,)."""
+        cfg = self.config
+        if cfg.clutter_density is not None:
+            return np.full(len(x_pred), cfg.clutter_density)
+        counts = cKDTree(xy).query_ball_point(x_pred[:, [0, 2]], cfg.clutter_radius_m, return_length=True)
+        return np.maximum(counts, 1) / (math.pi * cfg.clutter_radius_m**2)
+
+    def _new_leaves(self, born: Tracks, contact: np.ndarray) -> Leaves:
+        k = len(born)
+        hist = np.full((k, self.config.n_scan), UNKNOWN, np.int64)
+        hist[:, -1] = contact
+        score = np.full(k, math.log(self.config.new_target_ratio))
+        return Leaves(born, score, score.copy(), hist)
+
+    # ---------------------------------------------------------------------- global hypothesis
+    def _global_hypothesis(self, leaves: Leaves) -> np.ndarray:
+        """Indices of the chosen leaves (at most one per family), ordered by family."""
+        if not len(leaves):
+            return np.empty(0, np.int64)
+        family = leaves.tracks.track_id
+        fam_ids, fam = np.unique(family, return_inverse=True)
+        F = fam_ids.size
+        rows, cols = np.nonzero(leaves.hist >= 0)
+        resource = (cols.astype(np.int64) << 32) | leaves.hist[rows, cols]
+        res_ids, res = np.unique(resource, return_inverse=True)
+        # families linked by a contact that leaves of two or more families use
+        pairs = np.unique(np.stack([fam[rows], res]), axis=1)
+        per_res = np.bincount(pairs[1], minlength=res_ids.size)
+        shared = per_res[pairs[1]] >= 2
+        graph = coo_matrix((np.ones(shared.sum()), (pairs[0][shared], F + pairs[1][shared])),
+                           shape=(F + res_ids.size,) * 2)
+        _, label = connected_components(graph, directed=False)
+        fam_label = label[:F]
+        cluster_size = np.bincount(fam_label)
+
+        order = np.lexsort((-leaves.score, fam))
+        best = order[np.r_[True, np.diff(fam[order]) != 0]]  # best leaf of each family, by family
+        chosen = best[(cluster_size[fam_label] == 1) & (leaves.score[best] > 0)]
+        for c in np.flatnonzero(cluster_size > 1):
+            members = np.flatnonzero(np.isin(fam, np.flatnonzero(fam_label == c)))
+            chosen = np.concatenate([chosen, self._solve_cluster(members, fam, rows, res, leaves.score)])
+            self.n_clusters_solved += 1
+        return np.sort(chosen)
+
+    @staticmethod
+    def _solve_cluster(members: np.ndarray, fam: np.ndarray, rows: np.ndarray, res: np.ndarray,
+                       score: np.ndarray) -> np.ndarray:
+        """Exact best compatible set of leaves ``members`` (binary program, HiGHS)."""
+        n = members.size
+        local = np.full(fam.size, -1)
+        local[members] = np.arange(n)
+        in_c = local[rows] >= 0
+        r_leaf, r_res = local[rows[in_c]], res[in_c]
+        res_u, r_idx = np.unique(r_res, return_inverse=True)
+        fam_u, f_idx = np.unique(fam[members], return_inverse=True)
+        A_res = coo_matrix((np.ones(r_leaf.size), (r_idx, r_leaf)), shape=(res_u.size, n))
+        A_fam = coo_matrix((np.ones(n), (f_idx, np.arange(n))), shape=(fam_u.size, n))
+        constraints = [LinearConstraint(A_fam, 0, 1), LinearConstraint(A_res, 0, 1)]
+        result = milp(-score[members], constraints=constraints,
+                      integrality=np.ones(n), bounds=Bounds(0, 1))
+        if not result.success:  # pragma: no cover - the all-zero point is always feasible
+            raise RuntimeError(f"MHT global hypothesis: {result.message}")
+        return members[(result.x > 0.5) & (score[members] > 0)]
+
+    # ---------------------------------------------------------------------- pruning
+    def _prune(self, leaves: Leaves, chosen: np.ndarray) -> Leaves | None:
+        cfg = self.config
+        family = leaves.tracks.track_id
+        fam_ids, fam = np.unique(family, return_inverse=True)
+        is_chosen = np.zeros(len(leaves), bool)
+        is_chosen[chosen] = True
+        fam_chosen = np.full(fam_ids.size, -1)
+        fam_chosen[fam[chosen]] = chosen
+        has = fam_chosen[fam] >= 0
+        # N-scan pruning: the oldest scan of the window is decided now. A family in the
+        # global hypothesis keeps the leaves that agree with its chosen one there, and no
+        # leaf of any family may keep a contact that the decision gave to another family.
+        oldest = leaves.hist[:, 0]
+        keep = ~has | (oldest == oldest[np.maximum(fam_chosen[fam], 0)])
+        given = chosen[oldest[chosen] >= 0]
+        if given.size:
+            order = np.argsort(oldest[given])
+            taken, owner = oldest[given][order], family[given][order]
+            at = np.minimum(np.searchsorted(taken, oldest), taken.size - 1)
+            keep &= ~((taken[at] == oldest) & (owner[at] != family))
+        # branch probability within the family
+        top = np.full(fam_ids.size, -np.inf)
+        np.maximum.at(top, fam, leaves.score)
+        total = np.zeros(fam_ids.size)
+        np.add.at(total, fam, np.exp(leaves.score - top[fam]))
+        prob = np.exp(leaves.score - top[fam]) / total[fam]
+        keep &= prob >= cfg.min_branch_probability
+        # merge: a leaf whose last three contacts equal those of a better leaf goes
+        tail = leaves.hist[:, -min(3, cfg.n_scan):]
+        full = (tail >= 0).all(axis=1)
+        idx = np.flatnonzero(full)
+        if idx.size:
+            _, group = np.unique(tail[idx], axis=0, return_inverse=True)
+            group = group.ravel()
+            order = np.lexsort((-leaves.score[idx], group))
+            first = np.r_[True, np.diff(group[order]) != 0]
+            keep[idx[order[~first]]] = False
+        keep |= is_chosen
+        # at most max_hypotheses_per_track per family, the chosen leaf first
+        cand = np.flatnonzero(keep)
+        order = cand[np.lexsort((-leaves.score[cand], ~is_chosen[cand], fam[cand]))]
+        rank = np.arange(order.size) - np.searchsorted(fam[order], fam[order])
+        kept = np.sort(order[rank < cfg.max_hypotheses_per_track])
+        return leaves.take(kept) if kept.size else None
+
+    # ---------------------------------------------------------------------- output
+    def _report(self, scan: int, time: float, leaves: Leaves | None, shown: _Shown | None,
+                chosen: np.ndarray) -> TrackerOutput:
+        """Chosen leaves, then families that lost their last leaf (status DELETED, last reported state)."""
+        blocks = []
+        ids, x, P = self.known
+        if leaves is not None and chosen.size:
+            tr = leaves.tracks.take(chosen)
+            blocks.append((tr.track_id, tr.status, shown.x[chosen], shown.P[chosen], leaves.hist[chosen, -1]))
+            stale = ~np.isin(ids, tr.track_id)
+            ids = np.concatenate([ids[stale], tr.track_id])
+            x = np.concatenate([x[stale], shown.x[chosen]])
+            P = np.concatenate([P[stale], shown.P[chosen]])
+        alive = np.isin(ids, self.leaves.tracks.track_id) if self.leaves is not None else np.zeros(ids.size, bool)
+        gone = ~alive
+        if gone.any():
+            blocks.append((ids[gone], np.full(gone.sum(), TrackStatus.DELETED, np.int8), x[gone], P[gone],
+                           np.full(gone.sum(), MISS)))
+        self.known = (ids[alive], x[alive], P[alive])
+        return self._output(scan, time, blocks)

@@ -1,0 +1,83 @@
+"""Track-oriented MHT: exact global hypothesis, bounded trees, score-based confirmation."""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from nnda.data import PRESETS, generate
+from nnda.study.metrics import run_metrics
+from nnda.tracking.mht import MHTConfig, MHTTracker
+
+
+@dataclass
+class _Ids:
+    track_id: np.ndarray
+
+
+@dataclass
+class FakeLeaves:
+    """Just what the global hypothesis reads: family ids, contact history, scores."""
+
+    tracks: _Ids
+    hist: np.ndarray
+    score: np.ndarray
+
+    def __len__(self):
+        return self.score.size
+
+
+def brute_force(leaves: FakeLeaves) -> float:
+    """Best total score over every compatible choice of at most one leaf per family."""
+    fam = leaves.tracks.track_id
+    options = [[None] + list(np.flatnonzero(fam == f)) for f in np.unique(fam)]
+    best = 0.0
+    for pick in itertools.product(*options):
+        chosen = [p for p in pick if p is not None]
+        used = [(c, leaves.hist[i, c]) for i in chosen for c in range(leaves.hist.shape[1]) if leaves.hist[i, c] >= 0]
+        if len(used) == len(set(used)):
+            best = max(best, sum(leaves.score[i] for i in chosen))
+    return best
+
+
+@pytest.mark.parametrize("seed", range(25))
+def test_global_hypothesis_is_the_best_compatible_set(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(3, 11))
+    leaves = FakeLeaves(_Ids(rng.integers(0, 4, n)), rng.integers(-2, 3, (n, 3)), rng.normal(1.0, 3.0, n))
+    tracker = MHTTracker(PRESETS["S1"].sensor)
+    chosen = tracker._global_hypothesis(leaves)
+    fam = leaves.tracks.track_id[chosen]
+    assert np.unique(fam).size == fam.size  # one leaf per family at most
+    used = [(c, leaves.hist[i, c]) for i in chosen for c in range(3) if leaves.hist[i, c] >= 0]
+    assert len(used) == len(set(used))  # no shared contact
+    assert leaves.score[chosen].sum() == pytest.approx(brute_force(leaves), abs=1e-9)
+
+
+def test_hypothesis_tree_stays_within_its_bounds():
+    cfg = MHTConfig(max_track_branches=2, max_hypotheses_per_track=4, n_scan=2)
+    ds = generate(PRESETS["train03"], seed=2)  # dense clutter: many branches to prune
+    tracker = MHTTracker(ds.scenario.sensor, cfg)
+    most = 0
+    for scan in ds.scans():
+        before = 0 if tracker.leaves is None else len(tracker.leaves)
+        tracker.step(scan)
+        leaves = tracker.leaves
+        if leaves is None:
+            continue
+        _, per_family = np.unique(leaves.tracks.track_id, return_counts=True)
+        assert per_family.max() <= 4
+        assert leaves.hist.shape[1] == 2
+        most = max(most, per_family.max())
+        assert len(leaves) <= cfg.max_track_branches * before + len(tracker.initiators) + 10_000
+    assert most == 4  # the bound is reached, so it is what limits the tree
+
+
+def test_score_confirmation_confirms_the_targets():
+    ds = generate(PRESETS["S4"], seed=1)
+    tracker = MHTTracker(ds.scenario.sensor, MHTConfig(confirmation="score"))
+    m = run_metrics(ds, [tracker.step(s) for s in ds.scans()])
+    assert m.confirmed_tracks - m.false_tracks == 4 and m.lost_targets == 0
