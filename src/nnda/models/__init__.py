@@ -1,0 +1,10 @@
+"""The neural association model: pair features, training pairs, the MLP, its trainers and metrics.
+
+Modules, in data-flow order: ``features`` (pair features and gating, shared
+with the tracker), ``pairs`` (labelled pairs from datasets),
+``preprocessing`` (normaliser, split), ``mlp`` (numpy network and weight
+layout), ``network`` and ``trainers`` (torch: GD and Levenberg-Marquardt),
+``experiment`` (fit, sweep, repeats), ``metrics``, ``tables``, ``plots``,
+``scorer`` (model file and numpy scorer; no torch) and ``commands`` (CLI).
+Nothing is imported here, so ``import nnda.models.scorer`` never loads torch.
+"""
