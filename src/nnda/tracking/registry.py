@@ -10,10 +10,12 @@ from pydantic import ValidationError
 from nnda.data.scenario import Sensor
 from nnda.errors import ConfigError
 from nnda.tracking.gnn import GNNTracker
+from nnda.tracking.jpda import JPDATracker
 from nnda.tracking.mht import MHTTracker
+from nnda.tracking.neural import NeuralTracker
 from nnda.tracking.tracker import TrackerBase
 
-TRACKERS: dict[str, type[TrackerBase]] = {cls.name: cls for cls in (GNNTracker, MHTTracker)}
+TRACKERS: dict[str, type[TrackerBase]] = {cls.name: cls for cls in (GNNTracker, JPDATracker, MHTTracker, NeuralTracker)}
 
 
 def make_tracker(name: str, sensor: Sensor, params: Mapping[str, Any] | None = None,
