@@ -1,0 +1,115 @@
+"""Tracker speed: ms per scan on S1-S6 and a scaling table (issue 6).
+
+Part 1: every registered tracker on S1-S6 (100 clutter points per scan),
+mean and 95th-percentile wall time per scan, with the GNN as the reference
+run in the same process (ratio column). Part 2: the same trackers as clutter
+grows 100 -> 1,000 -> 10,000 per scan (S6's six targets) and as targets grow
+6 -> 50 -> 200 (100 clutter), over SCALING_SCANS scans each; a tracker is
+dropped from the bigger settings once it passes 10 s per scan.
+
+The neural tracker needs a model: pass ``--model PATH`` (a file written by
+``nnda train``); without it the neural tracker is skipped with a note.
+Usage: python benchmarks/bench_trackers.py [--model PATH] [--runs N]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import numpy as np
+
+from nnda.data import Clutter, PRESETS, Scenario, Segment, Target, generate
+from nnda.tracking.registry import TRACKERS, make_tracker
+
+SCALING_SCANS = 15
+GIVE_UP_S = 10.0
+
+
+def params_for(name: str, model: str | None) -> dict | None:
+    if name == "nn":
+        return None if model is None else {"model": model}
+    return {}
+
+
+def time_run(name: str, params: dict, dataset, give_up: float = math.inf) -> np.ndarray:
+    """Seconds per scan of one tracker over one dataset (stops early past ``give_up`` s/scan)."""
+    tracker = make_tracker(name, dataset.scenario.sensor, params)
+    times = []
+    for scan in dataset.scans():
+        t0 = time.perf_counter()
+        tracker.step(scan)
+        times.append(time.perf_counter() - t0)
+        if times[-1] > give_up:
+            break
+    return np.array(times)
+
+
+def many_targets(n: int, seed: int, scans: int) -> Scenario:
+    """n targets spread over the coverage, 70-200 m/s, half of them turning, 100 clutter points."""
+    rng = np.random.default_rng(seed)
+    targets = []
+    for i in range(n):
+        r, b = rng.uniform(9_000, 24_000), rng.uniform(0, 2 * np.pi)
+        speed = rng.uniform(70, 200)
+        turn = {"normal_accel": float(rng.uniform(-5, 5))} if i % 2 else {}
+        targets.append(Target(name=f"t{i}", x_m=r * np.sin(b), y_m=r * np.cos(b),
+                              heading_deg=float(rng.uniform(0, 360)), speed_m_s=speed,
+                              segments=[Segment(duration_s=2.0 * scans, **turn)]))
+    return Scenario(name=f"targets{n}", duration_s=2.0 * scans, targets=targets,
+                    clutter=Clutter(law="annulus", count=100))
+
+
+def part1(names: list[str], model: str | None, runs: int) -> None:
+    print(f"\nms per scan on S1-S6 ({runs} run(s) each; ratio = tracker / gnn, same process)")
+    print(f"{'tracker':<8s}" + "".join(f"{s:>16s}" for s in ("S1", "S2", "S3", "S4", "S5", "S6")) + f"{'all':>16s}")
+    ref = None
+    for name in names:
+        per, every = [], []
+        for sc in ("S1", "S2", "S3", "S4", "S5", "S6"):
+            t = np.concatenate([time_run(name, params_for(name, model), generate(PRESETS[sc], seed=run))
+                                for run in range(runs)]) * 1e3
+            per.append(f"{t.mean():7.2f} p95 {np.percentile(t, 95):5.2f}")
+            every.append(t)
+        allt = np.concatenate(every)
+        ref = allt.mean() if name == "gnn" else ref
+        ratio = f"  ({allt.mean() / ref:.2f}x gnn)" if ref else ""
+        print(f"{name:<8s}" + "".join(f"{p:>16s}" for p in per) + f"{allt.mean():9.2f}{ratio}")
+
+
+def part2(names: list[str], model: str | None) -> None:
+    settings = [("clutter", c, PRESETS["S6"].model_copy(update={
+                    "duration_s": 2.0 * SCALING_SCANS, "clutter": PRESETS["S6"].clutter.model_copy(update={"count": c})}))
+                for c in (100, 1_000, 10_000)]
+    settings += [("targets", n, many_targets(n, seed=n, scans=SCALING_SCANS)) for n in (6, 50, 200)]
+    print(f"\nscaling: mean ms per scan over {SCALING_SCANS} scans (x = stopped: over {GIVE_UP_S:.0f} s/scan before)")
+    print(f"{'tracker':<8s}" + "".join(f"{k}={v:<9d}" for k, v, _ in settings))
+    for name in names:
+        row, stopped = [], {"clutter": False, "targets": False}
+        for kind, _, scenario in settings:
+            if stopped[kind]:
+                row.append(f"{'x':>17s}")
+                continue
+            t = time_run(name, params_for(name, model), generate(scenario, seed=1), GIVE_UP_S)
+            stopped[kind] = t.max() > GIVE_UP_S
+            row.append(f"{t.mean() * 1e3:>17.2f}")
+        print(f"{name:<8s}" + "".join(row))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--model", help="model file for the neural tracker")
+    parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--no-scaling", action="store_true")
+    args = parser.parse_args()
+    names = ["gnn"] + [n for n in TRACKERS if n != "gnn" and (n != "nn" or args.model)]
+    if "nn" in TRACKERS and not args.model:
+        print("note: the neural tracker is skipped (give --model PATH, a file written by `nnda train`)")
+    part1(names, args.model, args.runs)
+    if not args.no_scaling:
+        part2(names, args.model)
+
+
+if __name__ == "__main__":
+    main()
