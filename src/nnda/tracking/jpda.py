@@ -105,14 +105,20 @@ def log_miss_weight(pd: float, gate: float) -> float:
 def clusters(gate: np.ndarray) -> tuple[int, np.ndarray]:
     """Clusters of K tracks linked by shared gated contacts; ``gate`` (K, N) bool.
 
-    Returns the number of clusters and each track's cluster label (K,).
+    Returns the number of clusters and each track's cluster label (K,),
+    labels numbered in order of each cluster's first track.
     """
     K, N = gate.shape
+    if K == 0 or gate.sum(axis=0).max(initial=0) <= 1:  # no shared contact: one cluster per track
+        return K, np.arange(K)
     t, c = np.nonzero(gate)
-    graph = csr_matrix((np.ones(t.size, bool), (t, K + c)), shape=(K + N, K + N))
+    graph = csr_matrix((np.ones(t.size, bool), K + c, np.searchsorted(t, np.arange(K + 1)).tolist()
+                        + [t.size] * N), shape=(K + N, K + N))
     labels = connected_components(graph, directed=False)[1][:K]
-    used, labels = np.unique(labels, return_inverse=True)
-    return used.size, labels
+    used, first = np.unique(labels, return_index=True)
+    rank = np.empty(used.size, np.int64)
+    rank[np.argsort(first)] = np.arange(used.size)
+    return used.size, rank[np.searchsorted(used, labels)]
 
 
 @dataclass(frozen=True)
@@ -136,22 +142,24 @@ def jpda_marginals(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float, max
 
     ``gate`` (K, N) says which pairs may associate; ``log_ratio`` (K, N) is
     log(P_D l_tj / lambda) for those pairs (ignored elsewhere); ``log_miss``
-    is log(1 - P_D P_G). Every track must have at least one gated contact.
+    is log(1 - P_D P_G).
     Joint events are enumerated exactly per cluster of tracks sharing
     contacts, up to ``max_events`` per cluster; beyond that the cluster's
     marginals come from `loopy_marginals`.
-
     """
     K, N = gate.shape
+    if N == 0:
+        return Marginals(np.zeros((K, 0)), np.ones(K), np.arange(K), np.zeros(K, bool))
     n_clusters, label = clusters(gate)
     size = np.bincount(label, minlength=n_clusters)
-    depth = int(size.max())
+    depth = int(size.max(initial=0))
     order = np.argsort(label, kind="stable")
     position = np.empty(K, np.int64)
     position[order] = np.arange(K) - np.repeat(np.cumsum(size) - size, size)
     members = np.full((n_clusters, depth), -1, np.int64)
     members[label, position] = np.arange(K)
     gated_track, gated_contact = np.nonzero(gate)  # sorted by track
+    gated_contact = np.append(gated_contact, -1)  # a sentinel keeps the look-ups below in range
     n_gated = np.bincount(gated_track, minlength=K)
     first_gated = np.cumsum(n_gated) - n_gated
     ratio = np.where(gate, log_ratio, 0.0)
@@ -169,7 +177,7 @@ def jpda_marginals(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float, max
         option = np.arange(parent.size) - np.repeat(np.cumsum(n_options) - n_options, n_options)
         track = track[parent]
         slot = first_gated[track] + np.maximum(option - 1, 0)
-        contact = np.where(option > 0, gated_contact[np.minimum(slot, gated_contact.size - 1)], -1)
+        contact = np.where(option > 0, gated_contact[slot], -1)
         taken = (contact >= 0) & (ev_contact[parent, :d] == contact[:, None]).any(axis=1)
         add = np.where(~present[parent], 0.0,
                        np.where(option > 0, ratio[track, np.maximum(contact, 0)], log_miss))

@@ -36,6 +36,7 @@ from nnda.errors import ConfigError, ModelError
 from nnda.models.features import candidate_pairs, pair_features
 from nnda.models.scorer import Scorer, load_model
 from nnda.tracking.imm import IMMPrediction
+from nnda.tracking.output import TrackStatus
 from nnda.tracking.tracker import Association, Tracker, TrackerConfig, Tracks
 
 
@@ -45,6 +46,8 @@ class NeuralConfig(TrackerConfig):
     model: Path = Field(description="trained model file (model.json) or a directory holding one")
     threshold: Annotated[float, Field(ge=-1.0, lt=1.0, description="a pair is a match if its score "
                                       "exceeds this (the scorer's outputs lie in (-1, 1))")] = 0.0
+    confirmed_first: bool = Field(False, description="confirmed tracks choose before preliminary ones "
+                                  "(as in GNN and JPDA); False: one greedy pass by score (spec A10)")
 
 
 def greedy_matching(rows: np.ndarray, cols: np.ndarray, score: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -118,6 +121,9 @@ class NeuralTracker(Tracker):
                                          tracks.t2[track], xy[cand], time)
                 score = self.scorer(features)
                 match = score > self.config.threshold
-                chosen_track, chosen_contact = greedy_matching(track[match], cand[match], score[match])
+                rank = score[match]
+                if self.config.confirmed_first:  # scores lie in (-1, 1): +2 puts confirmed tracks first
+                    rank = rank + 2.0 * (tracks.status[track[match]] == TrackStatus.CONFIRMED)
+                chosen_track, chosen_contact = greedy_matching(track[match], cand[match], rank)
                 contact[chosen_track] = chosen_contact
         return self.hard_update(pred, z, contact)
