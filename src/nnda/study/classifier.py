@@ -1,0 +1,90 @@
+"""The classifier side of a study: what each model file says about itself, and its ROC.
+
+A model file (`nnda.models.scorer`) carries its training provenance in its
+metadata: method, epochs, best epoch, split sizes, test-split metrics, the
+pair options and the names of the datasets its pairs came from
+(``<scenario>/run-<run>/seed-<seed>``, `nnda.models.pairs.dataset_name`).
+The ROC and the metrics over *all* pairs (the spec's "Total" rows, §10.1)
+need the scores of every pair, which the file does not hold, so they are
+computed here: the named datasets are regenerated from their presets with
+their seed and run (bit-identical to the training data), their pairs built
+with the recorded options, and scored. When the names are not presets
+(a model trained on other data), the 17 training presets with their own
+seeds stand in, and the record says so.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from nnda.data.generator import generate
+from nnda.data.presets import GROUPS, PRESETS
+from nnda.models.metrics import classifier_metrics, roc
+from nnda.models.pairs import PairSet, pairs_from_datasets
+from nnda.models.scorer import load_model
+from nnda.study.files import finite_or_none
+from nnda.study.plan import ModelPlan
+
+CLASSIFIER_FORMAT = "nnda.study-classifier"
+FORMAT_VERSION = 1
+CLASSIFIER_FILE = "classifier.json"
+_NAME = re.compile(r"^(?P<scenario>[^/]+)/run-(?P<run>\d+)/seed-(?P<seed>\d+)$")
+PAIR_OPTIONS = ("history", "other_targets", "max_missed")
+
+
+def training_sources(metadata: dict) -> tuple[list[tuple[str, int, int]], str]:
+    """(preset, run, seed) of each dataset a model was trained on, and a description of the choice."""
+    names = metadata.get("dataset_names")
+    found = []
+    if isinstance(names, list):
+        for name in names:
+            m = _NAME.match(name) if isinstance(name, str) else None
+            if m is None or m["scenario"] not in PRESETS:
+                found = []
+                break
+            found.append((m["scenario"], int(m["run"]), int(m["seed"])))
+    if found:
+        return found, f"the model's own training data, regenerated ({len(found)} datasets)"
+    fallback = [(name, 0, PRESETS[name].seed) for name in GROUPS["train"]]
+    return fallback, "the 17 training presets with their own seeds (the model's training data are not presets)"
+
+
+def _pairs(sources: list[tuple[str, int, int]], options: dict) -> PairSet:
+    return pairs_from_datasets((generate(PRESETS[name], seed, run) for name, run, seed in sources), **options)
+
+
+def _floats(a: np.ndarray) -> list[float]:
+    return [float(v) for v in a]
+
+
+def evaluate_models(models: tuple[ModelPlan, ...] | list[ModelPlan]) -> dict:
+    """The ``classifier.json`` content for the study's models (deterministic)."""
+    cache: dict[tuple, PairSet] = {}
+    entries = []
+    for m in models:
+        scorer = load_model(m.path)
+        meta = scorer.metadata
+        recorded = meta.get("pair_options", {}) if isinstance(meta.get("pair_options"), dict) else {}
+        options = {k: recorded[k] for k in PAIR_OPTIONS if k in recorded}
+        sources, described = training_sources(meta)
+        key = (tuple(sources), tuple(sorted(options.items())))
+        if key not in cache:
+            cache[key] = _pairs(sources, options)
+        pairs = cache[key]
+        scores = scorer(pairs.features)
+        metrics = classifier_metrics(pairs.labels, scores).as_dict()
+        fpr, tpr = roc(pairs.labels, scores)
+        entries.append({
+            "label": m.label, "file": m.path.name, "sha256": m.sha256,
+            "method": meta.get("method"), "n_hidden": scorer.weights.n_hidden,
+            "epochs": meta.get("epochs"), "best_epoch": meta.get("best_epoch"),
+            "stop_reason": meta.get("stop_reason"), "seed": meta.get("seed"),
+            "split": meta.get("split"), "test_metrics": meta.get("test_metrics"),
+            "evaluation": {"pairs_from": described, "pair_options": options, "n_pairs": len(pairs),
+                           "n_positive": pairs.n_positive,
+                           "metrics": {k: (finite_or_none(v) if isinstance(v, float) else v) for k, v in metrics.items()}},
+            "roc": {"fpr": _floats(fpr), "tpr": _floats(tpr)},
+        })
+    return {"format": CLASSIFIER_FORMAT, "format_version": FORMAT_VERSION, "models": entries}

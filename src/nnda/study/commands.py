@@ -1,0 +1,41 @@
+"""CLI command of the study stage: ``nnda compare``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+from nnda.study.compare import compare as run_comparison
+from nnda.study.config import load_study
+from nnda.study.plan import JobSpec
+
+
+def compare(
+    study: Annotated[Path, typer.Option(help="study file (.toml or .json)")],
+    out: Annotated[Path, typer.Option(help="study directory for job results, aggregates and the report")],
+    resume: Annotated[bool, typer.Option(help="continue an interrupted study in --out, skipping finished jobs")] = False,
+    dask: Annotated[str | None, typer.Option(
+        help="run the jobs on Dask: a scheduler address, or 'local' for a LocalCluster (needs nnda[dask])")] = None,
+    jobs: Annotated[int, typer.Option(min=1, help="local worker processes (1: in this process); Dask workers with --dask local")] = 2,
+    overwrite: Annotated[bool, typer.Option(help="replace an earlier study directory at --out")] = False,
+) -> None:
+    """Run every tracker of a study on every run of every scenario, then write the report."""
+    definition = load_study(study)
+    console = Console()
+    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[last]}"),
+                  TimeElapsedColumn(), TimeRemainingColumn(), console=console) as bar:
+        task = bar.add_task(f"compare {definition.name}", total=None, last="")
+
+        def on_job(done: int, total: int, job: JobSpec | None) -> None:
+            last = f"{job.scenario} run {job.run} {job.tracker}" if job is not None else ""
+            bar.update(task, completed=done, total=total, last=last)
+
+        result = run_comparison(definition, out, resume=resume, workers=jobs, dask=dask, on_job=on_job,
+                                where=str(study), overwrite=overwrite)
+    ex = result.execution
+    console.print(f"{ex.jobs_run} job(s) run, {ex.jobs_skipped} resumed, on {ex.executor} in {ex.seconds:.1f} s")
+    console.print(f"report: {result.report}")

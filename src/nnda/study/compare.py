@@ -1,0 +1,43 @@
+"""A whole comparison: check the study, run its jobs, aggregate, evaluate the models, write the report."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from nnda.study.classifier import CLASSIFIER_FILE, evaluate_models
+from nnda.study.config import Study
+from nnda.study.files import write_json
+from nnda.study.plan import StudyPlan, plan_study
+from nnda.study.results import write_results
+from nnda.study.runner import Execution, JobCallback, run_jobs
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """What `compare` did: the plan, how its jobs ran, the summary, and the report's path."""
+
+    plan: StudyPlan
+    execution: Execution
+    summary: dict
+    report: Path | None
+
+
+def compare(study: Study, out: str | Path, resume: bool = False, workers: int = 2, dask: str | None = None,
+            on_job: JobCallback | None = None, where: str = "study", overwrite: bool = False,
+            report: bool = True) -> Comparison:
+    """Run ``study`` into directory ``out`` (see `nnda.study.runner` for its layout) and write the report.
+
+    Every input is checked before the first job; with ``resume`` the jobs
+    already in ``out`` are kept, with ``overwrite`` an earlier study there is
+    replaced. ``where`` names the study in error messages; ``report`` False
+    leaves the report out (``nnda report`` writes it later).
+    """
+    from nnda.reports.study_report import write_report  # the report stage reads what this stage wrote
+
+    out = Path(out)
+    plan = plan_study(study, where)
+    execution = run_jobs(plan, out, resume=resume, workers=workers, dask=dask, on_job=on_job, overwrite=overwrite)
+    summary = write_results(plan, out, execution)
+    write_json(out / CLASSIFIER_FILE, evaluate_models(plan.models))
+    return Comparison(plan, execution, summary, write_report(out) if report else None)

@@ -1,0 +1,250 @@
+"""Aggregates of a finished study: raw tables, means with confidence intervals, per-scan averages.
+
+Written next to the job files, always rebuilt from them in plan order
+(scenario, tracker, run), so they do not depend on the order jobs finished:
+
+* ``results.parquet``: one row per job: scenario, tracker, kind, run, seed,
+  dataset digest, every scalar metric, and the per-scan series as list
+  columns (``<name>_per_scan``);
+* ``summary.json``: per scenario and tracker, mean and t-interval over runs
+  of every scalar (cut to the measure's possible range), and every
+  per-scan series averaged over runs;
+* ``trajectories.parquet``: run 0's truth and every confirmed track's
+  reports (the report's trajectory plot);
+* ``timing.parquet`` and ``timing.json``: the wall-clock time per scan of
+  every job and its aggregates, plus how the study was executed.
+
+Timing is the only thing that changes between two runs of the same study,
+so it lives in its own two files: ``results.parquet``, ``summary.json`` and
+``trajectories.parquet`` are byte-identical for the same study and seed,
+whether run at once, resumed, locally or on Dask.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import platform
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+from scipy import stats
+
+import nnda
+from nnda.errors import DatasetError
+from nnda.study.files import atomic_file, finite_or_none, read_json, write_json
+from nnda.study.job import SERIES
+from nnda.study.plan import StudyPlan
+from nnda.study.runner import Execution, read_job
+from nnda.tracking.output import TrackStatus
+
+SUMMARY_FORMAT = "nnda.study-summary"
+TIMING_FORMAT = "nnda.study-timing"
+FORMAT_VERSION = 1
+RESULTS_FILE = "results.parquet"
+SUMMARY_FILE = "summary.json"
+TRAJECTORIES_FILE = "trajectories.parquet"
+TIMING_FILE = "timing.parquet"
+TIMING_SUMMARY_FILE = "timing.json"
+#: possible range of a measure where it is not [0, inf) (every run metric is non-negative)
+BOUNDS = {"hit_rate": (0.0, 100.0)}
+#: GOSPA's fixed parameters (the cut-off is the study's)
+GOSPA_P, GOSPA_ALPHA = 2, 2
+
+
+def mean_ci(values, confidence: float = 0.95, low: float = -math.inf, high: float = math.inf) -> dict:
+    """Mean and two-sided Student-t interval of the mean over runs, clipped to [low, high].
+
+    ``values`` may hold None/NaN (undefined in a run, e.g. a hit rate with
+    no contacts); they are left out and ``n`` counts the rest. With one
+    value the interval is undefined (None); with none, everything is None.
+    ``low``/``high`` are the measure's possible range (a count is never
+    negative): with few runs the t-interval can reach past it, and is cut.
+    """
+    x = np.array([np.nan if v is None else v for v in values], dtype=float)
+    x = x[np.isfinite(x)]
+    n = int(x.size)
+    if n == 0:
+        return {"mean": None, "ci_low": None, "ci_high": None, "n": 0}
+    mean = float(x.mean())
+    if n == 1:
+        return {"mean": mean, "ci_low": None, "ci_high": None, "n": 1}
+    half = float(stats.t.ppf(0.5 + confidence / 2, n - 1) * x.std(ddof=1) / math.sqrt(n))
+    return {"mean": mean, "ci_low": max(mean - half, low), "ci_high": min(mean + half, high), "n": n}
+
+
+def _nanmean_rows(rows: list[list[float]]) -> list[float | None]:
+    """Element-wise mean of series of possibly different lengths (shorter ones padded with NaN)."""
+    width = max(len(r) for r in rows)
+    a = np.full((len(rows), width), np.nan)
+    for i, r in enumerate(rows):
+        a[i, :len(r)] = r
+    counts = np.isfinite(a).sum(axis=0)
+    sums = np.nansum(a, axis=0)
+    return [finite_or_none(float(s / c)) if c else None for s, c in zip(sums, counts)]
+
+
+def collect(plan: StudyPlan, out: str | Path) -> list[dict]:
+    """Every job record in (scenario, tracker, run) order; checks that all trackers saw the same data."""
+    out = Path(out)
+    order = {(s.name, t.label): (i, j) for i, s in enumerate(plan.scenarios) for j, t in enumerate(plan.trackers)}
+    jobs = sorted(plan.jobs, key=lambda j: (*order[j.scenario, j.tracker], j.run))
+    records = [read_job(job, out) for job in jobs]
+    seen: dict[tuple[str, int], str] = {}
+    for r in records:
+        first = seen.setdefault((r["scenario"], r["run"]), r["dataset_digest"])
+        if first != r["dataset_digest"]:
+            raise DatasetError(f"{out}: the trackers of {r['scenario']} run {r['run']} did not see the same data "
+                               f"(dataset digests differ); rerun the study in a fresh directory")
+    return records
+
+
+def _column(values: list, kind: str) -> pa.Array:
+    types = {"int": pa.int64(), "float": pa.float64(), "str": pa.string(), "int32": pa.int32()}
+    return pa.array(values, type=types[kind])
+
+
+def results_table(records: list[dict]) -> pa.Table:
+    """One row per job (see the module docstring); integer metrics stay integers."""
+    cols: dict[str, pa.Array] = {
+        "scenario": _column([r["scenario"] for r in records], "str"),
+        "tracker": _column([r["tracker"] for r in records], "str"),
+        "kind": _column([r["kind"] for r in records], "str"),
+        "run": _column([r["run"] for r in records], "int32"),
+        "seed": _column([r["seed"] for r in records], "int"),
+        "dataset_digest": _column([r["dataset_digest"] for r in records], "str"),
+        "n_scans": _column([r["n_scans"] for r in records], "int32"),
+        "n_targets": _column([r["n_targets"] for r in records], "int32"),
+    }
+    for name, value in records[0]["metrics"].items():
+        cols[name] = _column([r["metrics"][name] for r in records], "int" if isinstance(value, int) else "float")
+    for name in SERIES:
+        kind = pa.int64() if name == "false_tracks" else pa.float64()
+        cols[f"{name}_per_scan"] = pa.array([r["series"][name] for r in records], type=pa.list_(kind))
+    return pa.table(cols)
+
+
+def timing_table(records: list[dict]) -> pa.Table:
+    """Per job: mean and every per-scan wall-clock time (s) of the tracker's step."""
+    times = [r["timing"]["time_per_scan_s"] for r in records]
+    return pa.table({
+        "scenario": _column([r["scenario"] for r in records], "str"),
+        "tracker": _column([r["tracker"] for r in records], "str"),
+        "run": _column([r["run"] for r in records], "int32"),
+        "mean_time_per_scan_s": _column([float(np.mean(t)) for t in times], "float"),
+        "time_per_scan_s": pa.array(times, type=pa.list_(pa.float64())),
+    })
+
+
+_STATUS = {int(s): s.name.lower() for s in TrackStatus}
+
+
+def trajectories_table(records: list[dict]) -> pa.Table:
+    """Run 0 of each scenario: truth rows (source "truth") and each tracker's confirmed tracks."""
+    rows: dict[str, list] = {k: [] for k in ("scenario", "source", "scan", "time", "id", "name", "status", "x", "y")}
+
+    def add(scenario, source, block, ids, names, status):
+        n = len(block["scan"])
+        rows["scenario"] += [scenario] * n
+        rows["source"] += [source] * n
+        rows["scan"] += block["scan"]
+        rows["time"] += block["time"]
+        rows["id"] += ids
+        rows["name"] += names
+        rows["status"] += status
+        rows["x"] += block["x"]
+        rows["y"] += block["y"]
+
+    truth_done = set()
+    for r in records:
+        if "tracks" not in r:
+            continue
+        if r["scenario"] not in truth_done:
+            t = r["truth"]
+            add(r["scenario"], "truth", t, t["target_id"], [t["target_names"][i] for i in t["target_id"]],
+                ["detected" if d else "missed" for d in t["detected"]])
+            truth_done.add(r["scenario"])
+        tr = r["tracks"]
+        add(r["scenario"], r["tracker"], tr, tr["track_id"], [""] * len(tr["scan"]), [_STATUS[s] for s in tr["status"]])
+    types = {"scenario": pa.string(), "source": pa.string(), "scan": pa.int32(), "time": pa.float64(),
+             "id": pa.int64(), "name": pa.string(), "status": pa.string(), "x": pa.float64(), "y": pa.float64()}
+    return pa.table({k: pa.array(v, type=types[k]) for k, v in rows.items()})
+
+
+def summarise(plan: StudyPlan, records: list[dict]) -> dict:
+    """The ``summary.json`` content (deterministic: no timing, no paths)."""
+    conf = plan.study.confidence
+    scenarios = []
+    for sc in plan.scenarios:
+        trackers = {}
+        for t in plan.trackers:
+            mine = [r for r in records if r["scenario"] == sc.name and r["tracker"] == t.label]
+            trackers[t.label] = {
+                "kind": t.kind, "model": t.model, "runs": len(mine),
+                "metrics": {name: mean_ci([r["metrics"][name] for r in mine], conf, *BOUNDS.get(name, (0.0, math.inf)))
+                            for name in mine[0]["metrics"]},
+                "series_mean": {name: _nanmean_rows([r["series"][name] for r in mine]) for name in SERIES},
+            }
+        scenarios.append({"name": sc.name, "source": sc.source, "runs": sc.runs, "n_scans": sc.scenario.n_scans,
+                          "targets": [tg.name for tg in sc.scenario.targets], "trackers": trackers})
+    return {
+        "format": SUMMARY_FORMAT, "format_version": FORMAT_VERSION, "study": plan.study.name,
+        "fingerprint": plan.fingerprint, "seed": plan.study.seed, "confidence": conf,
+        "gospa": {"cutoff_m": plan.study.gospa_cutoff_m, "p": GOSPA_P, "alpha": GOSPA_ALPHA},
+        "trackers": [{"label": t.label, "kind": t.kind, "model": t.model} for t in plan.trackers],
+        "scenarios": scenarios,
+    }
+
+
+def summarise_timing(plan: StudyPlan, records: list[dict], execution: Execution) -> dict:
+    """The ``timing.json`` content: time per scan per scenario and tracker, and the execution."""
+    scenarios = []
+    for sc in plan.scenarios:
+        trackers = {}
+        for t in plan.trackers:
+            runs = [np.asarray(r["timing"]["time_per_scan_s"]) for r in records
+                    if r["scenario"] == sc.name and r["tracker"] == t.label]
+            every = np.concatenate(runs)
+            trackers[t.label] = {
+                "mean_time_per_scan_s": mean_ci([float(x.mean()) for x in runs], plan.study.confidence, 0.0),
+                "median_s": float(np.median(every)), "p95_s": float(np.percentile(every, 95)),
+                "max_s": float(every.max()),
+            }
+        scenarios.append({"name": sc.name, "trackers": trackers})
+    return {
+        "format": TIMING_FORMAT, "format_version": FORMAT_VERSION, "fingerprint": plan.fingerprint,
+        "execution": {"executor": execution.executor, "workers": execution.workers, "jobs_run": execution.jobs_run,
+                      "jobs_skipped": execution.jobs_skipped, "seconds": execution.seconds},
+        "machine": {"python": platform.python_version(), "platform": platform.platform(),
+                    "processor": platform.processor() or platform.machine(), "cpus": os.cpu_count(),
+                    "nnda_version": nnda.__version__},
+        "method": "time.perf_counter around each Tracker.step, one BLAS thread per job (spec A29)",
+        "scenarios": scenarios,
+    }
+
+
+def _write_parquet(table: pa.Table, path: Path) -> None:
+    with atomic_file(path) as tmp:
+        pq.write_table(table, tmp)
+
+
+def write_results(plan: StudyPlan, out: str | Path, execution: Execution) -> dict:
+    """Aggregate every job of ``out`` into the files of the module docstring; returns the summary."""
+    out = Path(out)
+    records = collect(plan, out)
+    summary = summarise(plan, records)
+    _write_parquet(results_table(records), out / RESULTS_FILE)
+    _write_parquet(trajectories_table(records), out / TRAJECTORIES_FILE)
+    _write_parquet(timing_table(records), out / TIMING_FILE)
+    write_json(out / SUMMARY_FILE, summary)
+    write_json(out / TIMING_SUMMARY_FILE, summarise_timing(plan, records, execution))
+    return summary
+
+
+def read_summary(out: str | Path) -> tuple[dict, dict]:
+    """The saved ``summary.json`` and ``timing.json`` of a study directory."""
+    out = Path(out)
+    return (read_json(out / SUMMARY_FILE, SUMMARY_FORMAT, FORMAT_VERSION),
+            read_json(out / TIMING_SUMMARY_FILE, TIMING_FORMAT, FORMAT_VERSION))

@@ -1,0 +1,185 @@
+"""Run a study's jobs: in this process, on local worker processes, or on a Dask cluster.
+
+Layout of a study directory::
+
+    study.json                         what was run (nnda.study manifest, with the fingerprint)
+    jobs/<scenario>/<tracker>/run-NNNN.json   one file per finished job, written atomically
+    results.parquet, summary.json, ...        the aggregates (`nnda.study.results`)
+
+Every job is independent and its record is written as soon as it arrives,
+by this process (so Dask workers need no shared disk for results). With
+``resume`` the jobs whose file exists with the same key are skipped; the
+aggregates are always rebuilt from the job files in plan order, so a
+resumed study, a local one and a Dask one give the same bytes.
+
+Dask is optional (``pip install 'nnda[dask]'``) and imported only when asked
+for. ``dask="local"`` starts a `LocalCluster` of ``workers`` single-threaded
+processes; any other value is a scheduler address. Presets are generated on
+the workers; model files and dataset directories must be readable there at
+the same paths.
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+import shutil
+import time
+from collections.abc import Callable, Iterator
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+from nnda.errors import ConfigError, DatasetError
+from nnda.study.files import read_json, write_json
+from nnda.study.job import JOB_FORMAT, JOB_FORMAT_VERSION, run_job
+from nnda.study.plan import STUDY_FORMAT, STUDY_FORMAT_VERSION, JobSpec, StudyPlan
+
+MANIFEST = "study.json"
+
+#: progress: called with (number of jobs done, total, the job just finished or None at the start)
+JobCallback = Callable[[int, int, JobSpec | None], None]
+
+
+@dataclass(frozen=True)
+class Execution:
+    """How the jobs ran: ``executor`` is "in-process", "local processes" or "dask <address>"."""
+
+    executor: str
+    workers: int
+    jobs_run: int
+    jobs_skipped: int
+    seconds: float
+
+
+def _check_out(plan: StudyPlan, out: Path, resume: bool, overwrite: bool) -> None:
+    """Refuse an ``out`` that holds anything but this study's unfinished jobs (or, with
+    ``overwrite``, remove an earlier study directory there)."""
+    manifest = out / MANIFEST
+    if out.exists() and not out.is_dir():
+        raise FileExistsError(f"{out}: exists and is not a directory")
+    if not out.exists() or not any(out.iterdir()):
+        return
+    if resume and overwrite:
+        raise ConfigError("give --resume or --overwrite, not both")
+    if not manifest.is_file():
+        raise DatasetError(f"{out}: not a study directory ({MANIFEST} is missing); choose another --out")
+    if overwrite:
+        shutil.rmtree(out)  # only ever a study directory: it holds study.json
+        return
+    if not resume:
+        raise FileExistsError(f"{out}: already exists; pass --resume to continue that study, --overwrite to "
+                              f"replace it, or choose another --out")
+    saved = read_json(manifest, STUDY_FORMAT, STUDY_FORMAT_VERSION)
+    if saved.get("fingerprint") != plan.fingerprint:
+        raise ConfigError(f"{out}: holds the results of a different study (its trackers, scenarios, seed, runs, "
+                          f"model files or datasets differ from this one); resume needs the same study, "
+                          f"or choose another --out")
+
+
+def is_done(job: JobSpec, out: Path) -> bool:
+    """True when the job's file exists and holds a record with the job's key."""
+    path = out / job.relpath
+    if not path.is_file():
+        return False
+    try:
+        record = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError):
+        return False  # cannot happen with atomic writes, but a damaged file is simply recomputed
+    return (isinstance(record, dict) and record.get("format") == JOB_FORMAT
+            and record.get("format_version") == JOB_FORMAT_VERSION and record.get("key") == job.key)
+
+
+def read_job(job: JobSpec, out: Path) -> dict:
+    """The saved record of a finished job; DatasetError if it is missing or of another job."""
+    path = out / job.relpath
+    record = read_json(path, JOB_FORMAT, JOB_FORMAT_VERSION)
+    if record.get("key") != job.key:
+        raise DatasetError(f"{path}: holds the result of another job definition (key differs)")
+    return record
+
+
+def _in_process(jobs: list[JobSpec]) -> Iterator[tuple[JobSpec, dict]]:
+    for job in jobs:
+        yield job, run_job(job)
+
+
+def _local_pool(jobs: list[JobSpec], workers: int) -> Iterator[tuple[JobSpec, dict]]:
+    # spawn: workers start clean (no copy of this process's threads, e.g. the progress bar's)
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
+    try:
+        pending: dict[Future, JobSpec] = {pool.submit(run_job, job): job for job in jobs}
+        while pending:
+            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for future in done:
+                yield pending.pop(future), future.result()
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+@contextmanager
+def dask_client(address: str, workers: int):
+    """A dask.distributed Client: a LocalCluster of ``workers`` processes for "local", else ``address``."""
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError:
+        raise ConfigError("--dask needs the optional extra nnda[dask]: pip install 'nnda[dask]'") from None
+    if address == "local":
+        with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+                Client(cluster) as client:
+            yield client
+    else:
+        try:
+            client = Client(address, timeout="20s")
+        except (OSError, TimeoutError) as exc:
+            raise ConfigError(f"--dask {address}: cannot reach the Dask scheduler ({exc})") from None
+        with client:
+            yield client
+
+
+def _dask(jobs: list[JobSpec], address: str, workers: int) -> Iterator[tuple[JobSpec, dict]]:
+    from dask.distributed import as_completed
+
+    with dask_client(address, workers) as client:
+        futures = {client.submit(run_job, job, key=f"nnda-{job.key}", pure=False): job for job in jobs}
+        try:
+            for future, record in as_completed(futures, with_results=True):
+                yield futures[future], record
+        finally:
+            client.cancel(list(futures))
+
+
+def run_jobs(plan: StudyPlan, out: str | Path, resume: bool = False, workers: int = 2, dask: str | None = None,
+             on_job: JobCallback | None = None, overwrite: bool = False) -> Execution:
+    """Run every job of ``plan`` not yet done in ``out``, writing each record as it arrives.
+
+    ``workers`` = 1 without Dask runs the jobs in this process. The study
+    manifest is written before the first job, so an interrupted study can be
+    resumed with the same plan. ``overwrite`` replaces an earlier study
+    directory at ``out`` (never a directory without a study manifest).
+    """
+    out = Path(out)
+    if workers < 1:
+        raise ConfigError(f"--jobs must be at least 1, got {workers}")
+    _check_out(plan, out, resume, overwrite)
+    write_json(out / MANIFEST, plan.manifest())
+    todo = [job for job in plan.jobs if not is_done(job, out)]
+    skipped = len(plan.jobs) - len(todo)
+    if dask is not None:
+        stream, executor = _dask(todo, dask, workers), f"dask {dask}"
+    elif workers == 1:
+        stream, executor = _in_process(todo), "in-process"
+    else:
+        stream, executor = _local_pool(todo, workers), "local processes"
+    start = time.perf_counter()
+    done = skipped
+    if on_job is not None:
+        on_job(done, len(plan.jobs), None)
+    if todo:
+        for job, record in stream:
+            write_json(out / job.relpath, record, indent=None)
+            done += 1
+            if on_job is not None:
+                on_job(done, len(plan.jobs), job)
+    return Execution(executor, workers, len(todo), skipped, time.perf_counter() - start)

@@ -1,0 +1,55 @@
+"""Study files: validation, path resolution, the default study, writing and reading back."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from nnda.errors import ConfigError
+from nnda.study.config import default_study, load_study, study_from_dict, study_to_toml
+
+
+def test_relative_paths_resolve_against_the_study_file(small_study, tmp_path):
+    study = load_study(small_study)
+    assert [s.config for s in study.scenarios] == [tmp_path / "scenarios/one.toml", tmp_path / "scenarios/two.toml"]
+    assert study.trackers["gnn-tight"].params == {"gate": 6.0}
+    assert (study.seed, study.runs, study.gospa_cutoff_m, study.confidence) == (5, 3, 1000.0, 0.95)
+
+
+def test_written_study_reads_back_equal(tmp_path):
+    study = default_study(tmp_path / "models/gd", tmp_path / "models/lm", runs=7, seed=3).resolved(tmp_path)
+    text = study_to_toml(study, relative_to=tmp_path)
+    assert 'gd = "models/gd"' in text  # paths under the file's directory are written relative to it
+    (tmp_path / "s.toml").write_text(text)
+    assert load_study(tmp_path / "s.toml") == study
+    assert list(study.trackers) == ["mht", "nn-gd", "nn-lm", "gnn", "jpda"]
+    assert study.scenarios[0].preset == "validation"
+
+
+@pytest.mark.parametrize("data, message", [
+    ({"trackers": {}, "scenarios": [{"preset": "S1"}]}, "trackers: Dictionary should have at least 1 item"),
+    ({"trackers": {"a": {"kind": "gnn"}}, "scenarios": [{"preset": "S1", "path": "x"}]},
+     "give exactly one of preset, config or path"),
+    ({"trackers": {"a": {"kind": "nn", "model": "lm"}}, "scenarios": [{"preset": "S1"}]},
+     "uses model 'lm', which [models] does not declare"),
+    ({"trackers": {"bad name": {"kind": "gnn"}}, "scenarios": [{"preset": "S1"}]}, "String should match pattern"),
+    ({"trackers": {"a": {"kind": "gnn"}}, "scenarios": [{"preset": "S1"}], "runs": 0}, "runs: Input should be greater"),
+    ({"trackers": {"a": {"kind": "gnn", "colour": "red"}}, "scenarios": [{"preset": "S1"}]},
+     "trackers.a.colour: Extra inputs are not permitted"),
+])
+def test_malformed_studies_name_the_field(data, message):
+    with pytest.raises(ConfigError, match="invalid study") as err:
+        study_from_dict(data, "s.toml")
+    assert message in str(err.value) and str(err.value).startswith("s.toml")
+
+
+def test_unreadable_study_files(tmp_path):
+    with pytest.raises(ConfigError, match="no such study file"):
+        load_study(tmp_path / "none.toml")
+    (tmp_path / "bad.toml").write_text("name = [")
+    with pytest.raises(ConfigError, match="not valid TOML"):
+        load_study(tmp_path / "bad.toml")
+    (tmp_path / "s.yaml").write_text("")
+    with pytest.raises(ConfigError, match="unknown study file type"):
+        load_study(Path(tmp_path / "s.yaml"))
