@@ -2,8 +2,8 @@
 
 Each scan, every track's IMM gating prediction (combined state, spec §7.2)
 is compared with every contact; pairs outside the chi-square gate are
-forbidden, and scipy's `linear_sum_assignment` finds the one-to-one
-assignment of least total cost. The cost of a pair is its squared
+forbidden, and an exact sparse matching finds the one-to-one assignment of
+least total cost. The cost of a pair is its squared
 Mahalanobis distance plus log |S|, the negative log-likelihood up to a
 constant, so a confident track is not out-bid by a vague one; a track may
 also stay unassigned at the cost of a contact on its gate's edge. Confirmed
@@ -17,8 +17,10 @@ from typing import Annotated, ClassVar
 
 import numpy as np
 from pydantic import Field
-from scipy.optimize import linear_sum_assignment
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import min_weight_full_bipartite_matching
 
+from nnda.tracking.gating import gate
 from nnda.tracking.imm import IMMPrediction
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.tracker import GATE_99, Association, Tracker, TrackerConfig, Tracks
@@ -48,23 +50,35 @@ class GNNTracker(Tracker):
     def _maintain(self, tracks: Tracks, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray,
                   time: float) -> Association:
         contact = np.full(len(tracks), -1, np.int64)
-        if not len(z):
-            return self.hard_update(pred, z, contact)
-        d2, log_det, inside = gated_costs(self, pred, z, self.config.gate)
+        mp = self.imm.combined_measurement(pred)
+        g = gate(self.imm, mp, z, xy, self.config.gate)
         confirmed = tracks.status == TrackStatus.CONFIRMED
         for stage in (confirmed, ~confirmed):  # confirmed tracks choose first
             taken = np.zeros(len(z), bool)
             taken[contact[contact >= 0]] = True
-            ok = inside & stage[:, None] & ~taken[None, :]
-            rows = np.flatnonzero(ok.any(axis=1))
-            cols = np.flatnonzero(ok.any(axis=0))
-            if rows.size:
-                # a track may stay unassigned at the cost of a contact on its gate's edge
-                pair = np.where(ok[np.ix_(rows, cols)], d2[np.ix_(rows, cols)], np.inf)
-                miss = np.full((rows.size, rows.size), np.inf)
-                np.fill_diagonal(miss, self.config.gate)
-                cost = np.hstack([pair, miss]) + log_det[rows, None]
-                r, c = linear_sum_assignment(cost)
-                real = c < cols.size
-                contact[rows[r[real]]] = cols[c[real]]
+            sel = stage[g.rows] & ~taken[g.cols]
+            if sel.any():
+                rows, cols = assign(g.rows[sel], g.cols[sel], g.d2[sel], mp.log_det_S, self.config.gate)
+                contact[rows] = cols
         return self.hard_update(pred, z, contact)
+
+
+def assign(rows: np.ndarray, cols: np.ndarray, d2: np.ndarray, log_det: np.ndarray, miss_d2: float
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """Least-cost one-to-one assignment over sparse gated pairs (P,); returns assigned (rows, cols).
+
+    The cost of a pair is d2 + log |S| of its track; each track may instead
+    stay unassigned at cost ``miss_d2`` + log |S|. Solved exactly on the
+    sparse graph (scipy's `min_weight_full_bipartite_matching`), so memory
+    grows with the pairs, not with tracks x contacts.
+    """
+    track, ti = np.unique(rows, return_inverse=True)
+    cont, ci = np.unique(cols, return_inverse=True)
+    R, C = track.size, cont.size
+    weight = np.concatenate([d2 + log_det[rows], miss_d2 + log_det[track]])
+    weight = weight - weight.min() + 1.0  # positive weights; a constant per row changes no optimum
+    graph = csr_matrix((weight, (np.concatenate([ti, np.arange(R)]), np.concatenate([ci, C + np.arange(R)]))),
+                       shape=(R, C + R))
+    r, c = min_weight_full_bipartite_matching(graph)
+    real = c < C
+    return track[r[real]], cont[c[real]]

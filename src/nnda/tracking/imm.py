@@ -351,6 +351,19 @@ class IMM:
         top = log_terms.max(axis=-1)
         return top + np.log(np.exp(log_terms - top[..., None]).sum(axis=-1))
 
+    def pair_log_likelihood(self, pred: IMMPrediction, rows: np.ndarray, Z: np.ndarray) -> np.ndarray:
+        """`log_likelihood` for P (track, measurement) pairs only: track ``rows`` (P,), Z (P, 2).
+
+        Returns (P,); the sparse form gating uses when K x N is large.
+        """
+        Z = self._checked_contacts(Z)
+        mp = pred.measurement
+        nu = self.measurement.residual(Z[:, None, :], mp.z[rows])  # (P, r, 2)
+        log_lik = kalman.gaussian_log_likelihood(kalman.mahalanobis_2x2(nu, mp.S_inv[rows]), mp.log_det_S[rows])
+        log_terms = log_lik + np.log(pred.state.mu[rows] + _TINY)
+        top = log_terms.max(axis=-1)
+        return top + np.log(np.exp(log_terms - top[:, None]).sum(axis=-1))
+
     def _checked_contacts(self, Z: np.ndarray) -> np.ndarray:
         Z = as_array("Z", Z, (None, 2))
         self.measurement.validate("Z", Z)

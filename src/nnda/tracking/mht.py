@@ -22,8 +22,8 @@ beta_FT is the clutter density in measurement space: a spatial density rho
    shares no contact within the N-scan window and maximises the summed
    score (a leaf with a score <= 0 is less likely than "no target" and is
    never chosen). Families sharing a contact form a cluster; a one-family
-   cluster takes its best leaf, larger clusters are solved exactly as a
-   binary program (scipy's HiGHS `milp`). Families left out stay as
+   cluster takes its best leaf, the larger clusters are solved exactly,
+   together, as one binary program (scipy's HiGHS `milp`). Families left out stay as
    hypotheses but are not reported;
 3. **initiation** from the contacts the global hypothesis leaves free;
 4. **pruning**: N-scan pruning (the decision ``n_scan`` scans back becomes
@@ -58,6 +58,7 @@ from scipy.spatial import cKDTree
 from nnda.data.dataset import Scan
 from nnda.data.sensor import polar_to_cart
 from nnda.tracking.batch import Batch
+from nnda.tracking.gating import gate
 from nnda.tracking.lifecycle import advance
 from nnda.tracking.output import TrackerOutput, TrackStatus
 from nnda.tracking.tracker import GATE_99, TrackerBase, TrackerConfig, Tracks
@@ -160,9 +161,10 @@ class MHTTracker(TrackerBase):
         score = miss_score
         if len(z):
             mp = imm.combined_measurement(pred)
-            pl, pj = np.nonzero(imm.mahalanobis(mp, z) <= cfg.gate)
+            gated = gate(imm, mp, z, xy, cfg.gate)
+            pl, pj = gated.rows, gated.cols
             if pl.size:
-                ll = imm.log_likelihood(pred, z)[pl, pj]
+                ll = imm.pair_log_likelihood(pred, pl, z[pj])
                 beta_ft = self._clutter_density(x_pred, xy) * mp.z[:, 0]
                 det = leaves.score[pl] + math.log(cfg.pd) + ll - np.log(beta_ft[pl])
                 order = np.lexsort((-det, pl))
@@ -241,16 +243,17 @@ class MHTTracker(TrackerBase):
         order = np.lexsort((-leaves.score, fam))
         best = order[np.r_[True, np.diff(fam[order]) != 0]]  # best leaf of each family, by family
         chosen = best[(cluster_size[fam_label] == 1) & (leaves.score[best] > 0)]
-        for c in np.flatnonzero(cluster_size > 1):
-            members = np.flatnonzero(np.isin(fam, np.flatnonzero(fam_label == c)))
-            chosen = np.concatenate([chosen, self._solve_cluster(members, fam, rows, res, leaves.score)])
-            self.n_clusters_solved += 1
+        joint = cluster_size[fam_label] > 1
+        if joint.any():  # every multi-family cluster in one binary program (they are independent blocks)
+            members = np.flatnonzero(joint[fam])
+            chosen = np.concatenate([chosen, self._solve_clusters(members, fam, rows, res, leaves.score)])
+            self.n_clusters_solved += int(np.unique(fam_label[joint]).size)
         return np.sort(chosen)
 
     @staticmethod
-    def _solve_cluster(members: np.ndarray, fam: np.ndarray, rows: np.ndarray, res: np.ndarray,
-                       score: np.ndarray) -> np.ndarray:
-        """Exact best compatible set of leaves ``members`` (binary program, HiGHS)."""
+    def _solve_clusters(members: np.ndarray, fam: np.ndarray, rows: np.ndarray, res: np.ndarray,
+                        score: np.ndarray) -> np.ndarray:
+        """Exact best compatible set among the leaves ``members`` (binary program, HiGHS)."""
         n = members.size
         local = np.full(fam.size, -1)
         local[members] = np.arange(n)

@@ -1,0 +1,67 @@
+"""Which contacts may update which tracks: the chi-square gate on the IMM's combined prediction.
+
+Gating returns the pairs inside the gate in sparse form (track row, contact
+column, squared Mahalanobis distance), so association scales with the pairs
+that matter rather than with tracks x contacts. For small problems every pair
+is tested at once; for large ones a k-d tree over the contacts first keeps,
+per track, those within a circle that encloses its gate ellipse.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from nnda.data.sensor import polar_to_cart
+from nnda.tracking import kalman
+from nnda.tracking.imm import IMM
+from nnda.tracking.kalman import MeasurementPrediction
+
+#: below this many track-contact pairs the dense test is faster than building a k-d tree
+DENSE_PAIRS = 60_000
+
+
+@dataclass(frozen=True)
+class Gated:
+    """Pairs inside the gate, ordered by track then contact; arrays of shape (P,)."""
+
+    rows: np.ndarray
+    cols: np.ndarray
+    d2: np.ndarray
+
+    def mask(self, n_tracks: int, n_contacts: int) -> np.ndarray:
+        """The same pairs as a dense boolean (K, N) matrix."""
+        m = np.zeros((n_tracks, n_contacts), bool)
+        m[self.rows, self.cols] = True
+        return m
+
+
+def gate(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, xy: np.ndarray, threshold: float) -> Gated:
+    """Pairs (track, contact) with squared Mahalanobis distance <= ``threshold``.
+
+    ``mp`` is the combined measurement prediction of K tracks
+    (`IMM.combined_measurement`), ``z`` (N, 2) the polar contacts and ``xy``
+    (N, 2) their Cartesian positions (m).
+    """
+    K, N = len(mp.z), len(z)
+    if K == 0 or N == 0:
+        empty = np.empty(0, np.int64)
+        return Gated(empty, empty, np.empty(0))
+    if K * N <= DENSE_PAIRS:
+        d2 = imm.mahalanobis(mp, z)
+        rows, cols = np.nonzero(d2 <= threshold)
+        return Gated(rows, cols, d2[rows, cols])
+    # radius of a circle holding the gate ellipse: sqrt(threshold * trace of S in metres^2)
+    r_pred = mp.z[:, 0]
+    radius = np.sqrt(threshold * (mp.S[:, 0, 0] + r_pred**2 * mp.S[:, 1, 1])) + 1.0
+    centre = np.column_stack(polar_to_cart(r_pred, mp.z[:, 1]))
+    near = cKDTree(xy).query_ball_point(centre, radius, return_sorted=True)
+    counts = np.fromiter((len(c) for c in near), np.int64, K)
+    rows = np.repeat(np.arange(K), counts)
+    cols = np.fromiter((j for c in near for j in c), np.int64, int(counts.sum()))
+    nu = imm.measurement.residual(z[cols], mp.z[rows])
+    d2 = kalman.mahalanobis_2x2(nu, mp.S_inv[rows])
+    inside = d2 <= threshold
+    return Gated(rows[inside], cols[inside], d2[inside])
