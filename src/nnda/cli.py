@@ -18,9 +18,11 @@ from rich.console import Console
 from nnda.data import commands as data_commands
 from nnda.models import commands as model_commands
 from nnda.reports import commands as report_commands
+from nnda.study import commands as study_commands
 from nnda.data.dataset import collection_members
 from nnda.data.presets import GROUPS
 from nnda.errors import NndaError
+from nnda.study.config import Study, default_study, study_to_toml
 
 app = typer.Typer(
     name="nnda",
@@ -35,13 +37,29 @@ app.command("generate")(data_commands.generate)
 app.command("train")(model_commands.train)
 app.command("evaluate")(model_commands.evaluate)
 app.command("plot-scenario")(report_commands.plot_scenario)
+app.command("compare")(study_commands.compare)
+app.command("report")(report_commands.report)
+
+
+def demo_study(models: Path, runs: int, seed: int) -> tuple[Study, list[str]]:
+    """The spec's default study (`nnda.study.config.default_study`) on the demo's GD and LM models,
+    less the trackers whose kind is not registered; returns it and the labels left out."""
+    from nnda.tracking.registry import TRACKERS  # loads every tracker: only when needed
+
+    study = default_study(models / "gd", models / "lm", runs=runs, seed=seed)
+    missing = [label for label, spec in study.trackers.items() if spec.kind not in TRACKERS]
+    kept = {label: spec for label, spec in study.trackers.items() if label not in missing}
+    return study.model_copy(update={"trackers": kept}), missing
 
 
 def demo(
     out: Annotated[Path, typer.Option(help="directory for everything the demo writes")] = Path("demo"),
     seed: Annotated[int, typer.Option(help="seed of every random draw")] = 0,
+    runs: Annotated[int, typer.Option(min=1, help="Monte Carlo runs of each of S1-S6 in the comparison")] = 10,
+    jobs: Annotated[int, typer.Option(min=1, help="worker processes of the comparison")] = 2,
 ) -> None:
-    """Run the whole job: generate every preset and plot each scenario."""
+    """Run the whole job: generate the presets, train GD and LM, compare the trackers on S1-S6, report."""
+    console = Console()
     data = out / "data"
     for group in GROUPS:
         data_commands.generate(preset=group, out=data / group, seed=seed, overwrite=True)
@@ -50,7 +68,17 @@ def demo(
     for group in ("train", "validation"):
         for member in collection_members(data / group):
             report_commands.plot_scenario(member, plots / f"{member.name}.png")
-    Console().print(f"demo written to {out}/")
+    models = (out / "models").resolve()
+    for method in (model_commands.MethodChoice.gd, model_commands.MethodChoice.lm):
+        model_commands.train(data=data / "train", out=models / method.value, method=method, seed=seed, overwrite=True)
+    study, missing = demo_study(models, runs, seed)
+    if missing:
+        console.print(f"demo: tracker(s) {', '.join(missing)} of the default study are not registered yet; "
+                      f"comparing {', '.join(study.trackers)}")
+    study_file = out / "study.toml"
+    study_file.write_text(study_to_toml(study, relative_to=out))
+    study_commands.compare(study=study_file, out=out / "comparison", jobs=jobs, overwrite=True)
+    console.print(f"demo written to {out}/; open {out / 'comparison' / 'report.html'}")
 
 
 app.command("demo")(demo)

@@ -20,3 +20,12 @@ def plot_scenario(
 
     draw(read_dataset(dataset), out)
     Console().print(f"wrote {out}")
+
+
+def report(
+    study_dir: Annotated[Path, typer.Argument(help="study directory written by `nnda compare`")],
+) -> None:
+    """Rebuild report.md and report.html of a study directory from its saved results."""
+    from nnda.reports.study_report import write_report  # matplotlib and plotly only when reporting
+
+    Console().print(f"report: {write_report(study_dir)}")

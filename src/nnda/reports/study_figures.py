@@ -1,0 +1,139 @@
+"""Static figures of a study report (PNG bytes): time per scan, metrics over time, ROC, tracks.
+
+Each function returns the PNG as bytes; the report writes them to files
+for ``report.md`` and embeds them as base64 in ``report.html``.
+"""
+
+from __future__ import annotations
+
+import io
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.ticker import FuncFormatter  # noqa: E402
+
+KM = 1e-3
+#: margin (m) around the true trajectories in track plots; coasting tracks may run further out
+VIEW_MARGIN_M = 3_000.0
+
+
+def view_box(x: np.ndarray, y: np.ndarray) -> tuple[tuple[float, float], tuple[float, float]]:
+    """(x range, y range) in km: the true trajectories' bounding box plus VIEW_MARGIN_M."""
+    if x.size == 0:
+        return (-30.0, 30.0), (-30.0, 30.0)
+    m = VIEW_MARGIN_M
+    return (((x.min() - m) * KM, (x.max() + m) * KM), ((y.min() - m) * KM, (y.max() + m) * KM))
+
+
+def _png(fig, dpi: int = 100) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi, metadata={"Software": None})
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def _colours(trackers: list[str]) -> dict[str, tuple]:
+    cmap = plt.get_cmap("tab10")
+    return {t: cmap(i % 10) for i, t in enumerate(trackers)}
+
+
+def time_per_scan(times: dict[tuple[str, str], np.ndarray], scenarios: list[str], trackers: list[str]) -> bytes:
+    """Box plot of the time per scan (ms, log scale): a group per scenario, a box per tracker.
+
+    ``times[(scenario, tracker)]`` holds every scan's time (s) over all runs.
+    Boxes span the quartiles, whiskers the 5th-95th percentiles.
+    """
+    colours = _colours(trackers)
+    width = 0.8 / len(trackers)
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.3 * len(scenarios) * max(1, len(trackers)) / 2 + 3), 4.5),
+                           constrained_layout=True)
+    for j, tracker in enumerate(trackers):
+        data = [np.asarray(times[s, tracker]) * 1e3 for s in scenarios]
+        pos = np.arange(len(scenarios)) + (j - (len(trackers) - 1) / 2) * width
+        box = ax.boxplot(data, positions=pos, widths=width * 0.85, whis=(5, 95), showfliers=False,
+                         patch_artist=True, medianprops={"color": "k"})
+        for patch in box["boxes"]:
+            patch.set_facecolor(colours[tracker])
+            patch.set_alpha(0.75)
+        ax.plot([], [], "s", color=colours[tracker], label=tracker)
+    ax.set_yscale("log")
+    plain = FuncFormatter(lambda v, _: f"{v:g}")
+    ax.yaxis.set_major_formatter(plain)
+    ax.yaxis.set_minor_formatter(plain)
+    ax.set_xticks(np.arange(len(scenarios)), scenarios)
+    ax.set(ylabel="time per scan (ms, log scale)", title="Time per scan (box: quartiles, whiskers: 5-95%)")
+    ax.grid(alpha=0.3, which="both", axis="y")
+    ax.legend(loc="best", fontsize=8)
+    return _png(fig)
+
+
+def over_time(scenario: dict, period_s: float, cutoff_m: float) -> bytes:
+    """Per-scan means over runs of one ``summary.json`` scenario: GOSPA, OSPA, false tracks, and the
+    GOSPA missed and false parts as counts (part / (c²/2))."""
+    trackers = list(scenario["trackers"])
+    colours = _colours(trackers)
+    fig, axes = plt.subplots(2, 2, figsize=(11, 6.5), sharex=True, constrained_layout=True)
+    half_c2 = cutoff_m**2 / 2
+    for name, t in scenario["trackers"].items():
+        s = {k: np.array([np.nan if v is None else v for v in series]) for k, series in t["series_mean"].items()}
+        time = period_s * np.arange(1, s["gospa"].size + 1)
+        c = colours[name]
+        axes[0, 0].plot(time, s["gospa"], color=c, lw=1.3, label=name)
+        axes[0, 1].plot(time, s["ospa"], color=c, lw=1.3, label=name)
+        axes[1, 0].plot(time, s["false_tracks"], color=c, lw=1.3, label=name)
+        axes[1, 1].plot(time, s["gospa_missed"] / half_c2, color=c, lw=1.3, label=f"{name} missed")
+        axes[1, 1].plot(time, s["gospa_false"] / half_c2, color=c, lw=1.1, ls="--", label=f"{name} false")
+    axes[0, 0].set(ylabel="GOSPA (m)", title=f"GOSPA (c = {cutoff_m:g} m, p = 2, alpha = 2)")
+    axes[0, 1].set(ylabel="OSPA (m)", title="OSPA")
+    axes[1, 0].set(ylabel="false tracks", xlabel="time (s)", title="Confirmed false tracks")
+    axes[1, 1].set(ylabel="per scan", xlabel="time (s)", title="GOSPA: missed targets (solid), false tracks (dashed)")
+    for ax in axes.ravel():
+        ax.grid(alpha=0.3)
+    axes[0, 0].legend(fontsize=8)
+    fig.suptitle(f"{scenario['name']}: mean over {max(t['runs'] for t in scenario['trackers'].values())} run(s)")
+    return _png(fig)
+
+
+def roc_curves(models: list[dict]) -> bytes:
+    """ROC of each model over all its training pairs, from ``classifier.json``."""
+    fig, ax = plt.subplots(figsize=(5.5, 5), constrained_layout=True)
+    for m in models:
+        auc = m["evaluation"]["metrics"].get("auc")
+        label = f"{m['label']} (AUC {auc:.4f})" if auc is not None else m["label"]
+        ax.plot(m["roc"]["fpr"], m["roc"]["tpr"], lw=1.4, label=label)
+    ax.plot([0, 1], [0, 1], ":", color="0.6", lw=1)
+    ax.set(xlabel="false-positive rate", ylabel="sensitivity", title="ROC over all training pairs",
+           xlim=(0, 1), ylim=(0, 1.01))
+    ax.legend(loc="lower right")
+    ax.grid(alpha=0.3)
+    return _png(fig)
+
+
+def tracks(scenario: str, rows: dict[str, np.ndarray], trackers: list[str]) -> bytes:
+    """Run 0 of a scenario: true trajectories (grey) and each tracker's confirmed tracks, one panel each.
+
+    ``rows`` are the scenario's ``trajectories.parquet`` columns as arrays.
+    """
+    colours = _colours(trackers)
+    n = max(1, len(trackers))
+    fig, axes = plt.subplots(1, n, figsize=(4.2 * n, 4.4), squeeze=False, constrained_layout=True)
+    truth = rows["source"] == "truth"
+    xlim, ylim = view_box(rows["x"][truth], rows["y"][truth])
+    for ax, tracker in zip(axes[0], trackers):
+        for tid in np.unique(rows["id"][truth]):
+            sel = truth & (rows["id"] == tid)
+            ax.plot(rows["x"][sel] * KM, rows["y"][sel] * KM, color="0.6", lw=3, alpha=0.6)
+        mine = rows["source"] == tracker
+        for tid in np.unique(rows["id"][mine]):
+            sel = mine & (rows["id"] == tid)
+            ax.plot(rows["x"][sel] * KM, rows["y"][sel] * KM, color=colours[tracker], lw=1)
+        ax.set(title=f"{tracker}: {np.unique(rows['id'][mine]).size} confirmed tracks", xlabel="x east (km)",
+               ylabel="y north (km)")
+        ax.set(xlim=xlim, ylim=ylim)
+        ax.set_aspect("equal", adjustable="box")
+        ax.grid(alpha=0.3)
+    fig.suptitle(f"{scenario}, run 0: truth (grey) and confirmed tracks (view: the targets' area)")
+    return _png(fig)

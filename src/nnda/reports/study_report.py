@@ -1,0 +1,272 @@
+"""The report of a study: ``report.md`` with ``figures/*.png`` and a self-contained ``report.html``.
+
+Built only from the files a study directory keeps (``study.json``,
+``summary.json``, ``timing.json``, ``classifier.json``, ``timing.parquet``,
+``trajectories.parquet``), so ``nnda report DIR`` rebuilds it at any time.
+Sections, in order (their HTML ids in brackets): summary [summary], setup
+[setup], association network [classifier], results per scenario
+[scenarios], time per scan [timing], false tracks and GOSPA over time
+[over-time], trajectories [trajectories]. The HTML embeds its images as
+base64 and plotly.js inline: it opens without network or sibling files.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pyarrow.parquet as pq
+
+from nnda.errors import DatasetError
+from nnda.models.tables import TextTable
+from nnda.reports import study_figures
+from nnda.reports.study_summary import summary_markdown
+from nnda.reports.study_tables import (
+    classifier_table, is_thesis_scenario, model_test_table, scenario_table, table_html,
+)
+from nnda.reports.trajectory_plot import figure_div, plotly_js, trajectory_figure
+from nnda.study.classifier import CLASSIFIER_FILE, CLASSIFIER_FORMAT
+from nnda.study.classifier import FORMAT_VERSION as CLASSIFIER_VERSION
+from nnda.study.files import atomic_file, read_json
+from nnda.study.plan import STUDY_FORMAT, STUDY_FORMAT_VERSION
+from nnda.study.results import TIMING_FILE, TRAJECTORIES_FILE, read_summary
+from nnda.study.runner import MANIFEST
+
+REPORT_MD = "report.md"
+REPORT_HTML = "report.html"
+FIGURES = "figures"
+
+
+@dataclass(frozen=True)
+class Figure:
+    """A PNG figure: file name under figures/, caption, bytes."""
+
+    name: str
+    caption: str
+    png: bytes
+
+
+@dataclass
+class Section:
+    """One report section in both renderings."""
+
+    ident: str
+    title: str
+    md: list[str]
+    html: list[str]
+
+    def text(self, paragraph: str) -> None:
+        self.md += [paragraph, ""]
+        self.html.append(_md_html(paragraph))
+
+    def table(self, table: TextTable, ident: str = "") -> None:
+        self.md.append(table.markdown())
+        self.html.append(table_html(table, ident))
+
+    def figure(self, fig: Figure) -> None:
+        self.md += [f"![{fig.caption}]({FIGURES}/{fig.name})", ""]
+        data = base64.b64encode(fig.png).decode()
+        self.html.append(f'<figure><img alt="{html.escape(fig.caption)}" src="data:image/png;base64,{data}">'
+                         f"<figcaption>{html.escape(fig.caption)}</figcaption></figure>")
+
+
+def _inline(text: str) -> str:
+    """Escape, then render **bold** and `code` of our own generated Markdown."""
+    text = html.escape(text)
+    text = re.sub(r"\*\*(.+?)\*\*", r"<strong>\1</strong>", text)
+    return re.sub(r"`(.+?)`", r"<code>\1</code>", text)
+
+
+def _md_html(text: str) -> str:
+    """HTML of the small Markdown subset the report writes: paragraphs, '* ' bullet lists, bold, code."""
+    out = []
+    for block in text.strip().split("\n\n"):
+        lines = block.splitlines()
+        if all(line.startswith("* ") for line in lines):
+            items = "".join(f"<li>{_inline(line[2:])}</li>" for line in lines)
+            out.append(f"<ul>{items}</ul>")
+        else:
+            out.append(f"<p>{_inline(' '.join(lines))}</p>")
+    return "".join(out)
+
+
+def _columns(path: Path) -> dict[str, np.ndarray]:
+    if not path.is_file():
+        raise DatasetError(f"{path}: missing (run `nnda compare` to completion first)")
+    table = pq.read_table(path)
+    return {name: table.column(name).to_numpy(zero_copy_only=False) for name in table.column_names}
+
+
+def _times(out: Path) -> dict[tuple[str, str], np.ndarray]:
+    """Every per-scan time (s) of each (scenario, tracker), all runs together."""
+    path = out / TIMING_FILE
+    if not path.is_file():
+        raise DatasetError(f"{path}: missing (run `nnda compare` to completion first)")
+    table = pq.read_table(path).to_pydict()
+    grouped: dict[tuple[str, str], list] = {}
+    for s, t, times in zip(table["scenario"], table["tracker"], table["time_per_scan_s"]):
+        grouped.setdefault((s, t), []).extend(times)
+    return {k: np.asarray(v) for k, v in grouped.items()}
+
+
+def _json_compact(value) -> str:
+    return json.dumps(value, sort_keys=True, separators=(", ", ": "))
+
+
+def _setup(manifest: dict, summary: dict, timing: dict) -> Section:
+    study = manifest["study"]
+    sec = Section("setup", "Setup", [], [])
+    gospa = summary["gospa"]
+    sec.text(f"Study **{study['name']}**{': ' + study['description'] if study['description'] else ''}. "
+             f"Seed {study['seed']}; generated scenarios run {study['runs']} time(s), run r of scenario s drawn "
+             f"from `nnda.data.generate(s, seed, r)`, the same data for every tracker. GOSPA with c = "
+             f"{gospa['cutoff_m']:g} m, p = {gospa['p']}, alpha = {gospa['alpha']}; OSPA with the same c and p. "
+             f"Intervals: {summary['confidence']:.0%} Student-t over runs.")
+    sec.table(TextTable("Trackers", ("Label", "Kind", "Model", "Parameters"), tuple(
+        (t["label"], t["kind"], t["model"] or "—", _json_compact(t["params"]) if t["params"] else "defaults")
+        for t in manifest["trackers"])))
+    sec.table(TextTable("Scenarios", ("Name", "Source", "Targets", "Scans", "Clutter per scan", "Runs"), tuple(
+        (s["name"], s["source"], ", ".join(s["targets"]), str(s["n_scans"]), str(s["clutter_per_scan"]), str(s["runs"]))
+        for s in manifest["scenarios"])))
+    if manifest["models"]:
+        sec.table(TextTable("Model files", ("Label", "File", "SHA-256"), tuple(
+            (m["label"], m["path"], m["sha256"][:16]) for m in manifest["models"])))
+    ex, machine = timing["execution"], timing["machine"]
+    sec.text(f"Executed on {ex['executor']} with {ex['workers']} worker(s): {ex['jobs_run']} job(s) run and "
+             f"{ex['jobs_skipped']} resumed from earlier in {ex['seconds']:.1f} s (last invocation). Machine: "
+             f"{machine['processor']}, {machine['cpus']} CPU(s), {machine['platform']}, Python {machine['python']}, "
+             f"nnda {machine['nnda_version']}. Timing: {timing['method']}.")
+    sec.text("Bookkeeping (`nnda.study.metrics`): a track belongs to the target that produced most of its "
+             "contacts; only tracks confirmed at some scan count. Hits are target contacts used by a track of "
+             "their own target; association losses are target contacts after the target's first track exists "
+             "that no track of that target used; hit rate = hits / (hits + losses + clutter associated). A false "
+             "track is a confirmed track whose contacts are mostly clutter; a track break is a further confirmed "
+             "track of an already tracked target; a lost target had its track deleted while it still produced "
+             "contacts. GOSPA and OSPA compare the confirmed tracks' positions with the true positions per scan.")
+    return sec
+
+
+def _classifier(classifier: dict, figures: list[Figure]) -> Section:
+    sec = Section("classifier", "Association network", [], [])
+    models = classifier["models"]
+    if not models:
+        sec.text("This study has no model file (no neural tracker), so there is no classifier to report.")
+        return sec
+    sec.table(classifier_table(models), "classifier-table")
+    sec.table(model_test_table(models))
+    fig = Figure("roc.png", "ROC of each model over all its training pairs", study_figures.roc_curves(models))
+    figures.append(fig)
+    sec.figure(fig)
+    return sec
+
+
+def _scenarios(manifest: dict, summary: dict, timing: dict) -> Section:
+    sec = Section("scenarios", "Results per scenario", [], [])
+    sec.text("Layout of the thesis's Tables 6.4-6.9, extended by nnda's measures. Where the scenario is the "
+             "thesis's own, its classical (IMM/TOMHT) and proposed (neural) columns stand beside ours.")
+    configs = {s["name"]: s["scenario"] for s in manifest["scenarios"]}
+    timing_by = {s["name"]: s for s in timing["scenarios"]}
+    for sc in summary["scenarios"]:
+        thesis = is_thesis_scenario(sc["name"], configs[sc["name"]])
+        sec.table(scenario_table(sc, timing_by[sc["name"]], thesis, summary["confidence"]), f"table-{sc['name']}")
+    return sec
+
+
+def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
+    """Markdown text, HTML text and the figures of the report of study directory ``out``."""
+    out = Path(out)
+    manifest = read_json(out / MANIFEST, STUDY_FORMAT, STUDY_FORMAT_VERSION)
+    summary, timing = read_summary(out)
+    classifier = read_json(out / CLASSIFIER_FILE, CLASSIFIER_FORMAT, CLASSIFIER_VERSION)
+    if not summary["fingerprint"] == timing["fingerprint"] == manifest["fingerprint"]:
+        raise DatasetError(f"{out}: study.json, summary.json and timing.json come from different studies; "
+                           f"rerun `nnda compare --resume` to rebuild them")
+    scenarios = [s["name"] for s in summary["scenarios"]]
+    trackers = [t["label"] for t in summary["trackers"]]
+    periods = {s["name"]: s["scenario"]["sensor"]["scan_period_s"] for s in manifest["scenarios"]}
+    figures: list[Figure] = []
+
+    top = Section("summary", "Summary", [], [])
+    top.text(summary_markdown(summary, timing))
+    sections = [top, _setup(manifest, summary, timing), _classifier(classifier, figures),
+                _scenarios(manifest, summary, timing)]
+
+    timing_sec = Section("timing", "Time per scan", [], [])
+    fig = Figure("time_per_scan.png", "Time per scan of every scan and run (log scale)",
+                 study_figures.time_per_scan(_times(out), scenarios, trackers))
+    figures.append(fig)
+    timing_sec.figure(fig)
+    timing_sec.text("Wall-clock time of `Tracker.step` only (data generation and metrics excluded), one BLAS "
+                    "thread per job. Absolute times depend on the machine; compare ratios.")
+    sections.append(timing_sec)
+
+    over = Section("over-time", "False tracks and GOSPA over time", [], [])
+    for sc in summary["scenarios"]:
+        fig = Figure(f"over_time_{sc['name']}.png", f"{sc['name']}: per-scan means over runs",
+                     study_figures.over_time(sc, periods[sc["name"]], summary["gospa"]["cutoff_m"]))
+        figures.append(fig)
+        over.figure(fig)
+    sections.append(over)
+
+    traj = Section("trajectories", "Trajectories and tracks", [], [])
+    traj.md += ["Static views of run 0 below; report.html has interactive ones (zoom, hover a track for its id "
+                "and status).", ""]
+    traj.html.append("<p>Run 0 of each scenario. Zoom with the mouse, hover a track point for the tracker, track "
+                     "id and status, click a legend entry to hide or show it.</p>")
+    rows = _columns(out / TRAJECTORIES_FILE)
+    for name in scenarios:
+        mine = {k: v[rows["scenario"] == name] for k, v in rows.items()}
+        fig = Figure(f"tracks_{name}.png", f"{name}, run 0: truth and confirmed tracks",
+                     study_figures.tracks(name, mine, trackers))
+        figures.append(fig)
+        traj.md += [f"![{fig.caption}]({FIGURES}/{fig.name})", ""]
+        traj.html.append(f'<div class="plot">{figure_div(trajectory_figure(name, mine, trackers), f"trajectories-{name}")}</div>')
+    sections.append(traj)
+
+    title = f"nnda study report: {manifest['study']['name']}"
+    md = "\n".join([f"# {title}", ""] + [line for s in sections for line in [f"## {s.title}", "", *s.md]])
+    return md.rstrip() + "\n", _page(title, sections), figures
+
+
+_CSS = """
+body { font-family: system-ui, sans-serif; margin: 0 auto; max-width: 1200px; padding: 0 1.5em 3em; color: #222; }
+nav { position: sticky; top: 0; background: #fff; padding: .5em 0; border-bottom: 1px solid #ddd; z-index: 10; }
+nav a { margin-right: 1em; }
+table { border-collapse: collapse; margin: 1em 0 .3em; font-size: .9em; }
+caption { text-align: left; font-weight: 600; padding: .3em 0; }
+th, td { border: 1px solid #ccc; padding: .25em .6em; text-align: right; white-space: nowrap; }
+th:first-child, td:first-child { text-align: left; white-space: pre; }
+thead th { background: #f3f3f3; }
+p.note { font-size: .85em; color: #555; margin-top: 0; }
+figure { margin: 1em 0; } figure img { max-width: 100%; } figcaption { font-size: .85em; color: #555; }
+code { background: #f3f3f3; padding: 0 .2em; }
+"""
+
+
+def _page(title: str, sections: list[Section]) -> str:
+    nav = " ".join(f'<a href="#{s.ident}">{html.escape(s.title)}</a>' for s in sections)
+    body = "".join(f'<section id="{s.ident}"><h2>{html.escape(s.title)}</h2>{"".join(s.html)}</section>'
+                   for s in sections)
+    return (f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>'
+            f'<meta name="viewport" content="width=device-width, initial-scale=1">'
+            f"<style>{_CSS}</style><script>{plotly_js()}</script></head>"
+            f"<body><h1>{html.escape(title)}</h1><nav>{nav}</nav>{body}</body></html>\n")
+
+
+def write_report(out: str | Path) -> Path:
+    """Write ``report.md``, ``figures/`` and ``report.html`` into study directory ``out``; returns the HTML path."""
+    out = Path(out)
+    md, page, figures = build_report(out)
+    for fig in figures:
+        with atomic_file(out / FIGURES / fig.name) as tmp:
+            tmp.write_bytes(fig.png)
+    with atomic_file(out / REPORT_MD) as tmp:
+        tmp.write_text(md)
+    with atomic_file(out / REPORT_HTML) as tmp:
+        tmp.write_text(page)
+    return out / REPORT_HTML

@@ -1,0 +1,62 @@
+"""report.html in a real browser: headless Chromium (Debian's package; `make test` installs it when it can).
+
+Chromium prints every console message of the page to stderr as a
+``CONSOLE`` log line (with --enable-logging=stderr); --dump-dom prints the
+DOM after the page's scripts ran, so plotly's rendered SVG shows there.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+         "--disable-component-update", "--disable-sync", "--no-first-run"]
+SECTIONS = ("summary", "setup", "classifier", "scenarios", "timing", "over-time", "trajectories")
+
+pytestmark = pytest.mark.skipif(not Path(CHROMIUM).is_file(), reason=(
+    "chromium is not installed: `make test` installs Debian's chromium when run as root with apt-get"))
+
+
+def chromium(url: str, profile: Path, *args: str) -> subprocess.CompletedProcess:
+    """Run headless Chromium on ``url`` with a fresh profile; returns the finished process."""
+    return subprocess.run([CHROMIUM, *FLAGS, f"--user-data-dir={profile}", "--enable-logging=stderr", "--v=0",
+                           "--virtual-time-budget=10000", *args, url],
+                          capture_output=True, text=True, timeout=60)
+
+
+def console_messages(stderr: str) -> list[str]:
+    return [line for line in stderr.splitlines() if re.search(r"CONSOLE[:(]", line)]
+
+
+def test_console_messages_are_seen(tmp_path):
+    """The detector below must see a page's console errors, or its silence proves nothing."""
+    page = tmp_path / "probe.html"
+    page.write_text("<html><body><script>console.error('probe-error'); undefinedCall();</script></body></html>")
+    messages = console_messages(chromium(page.as_uri(), tmp_path / "profile", "--dump-dom").stderr)
+    assert any("probe-error" in m for m in messages) and any("undefinedCall" in m for m in messages)
+
+
+def test_report_renders_every_section_and_plot_without_console_errors(study_dir, tmp_path):
+    url = (study_dir / "report.html").as_uri()
+    run = chromium(url, tmp_path / "profile", "--dump-dom")
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert console_messages(run.stderr) == []
+    dom = run.stdout
+    for ident in SECTIONS:
+        assert f'<section id="{ident}">' in dom
+    assert dom.count("<img ") == 4 and dom.count("<table") >= 6
+    for scenario in ("pair", "S4"):  # plotly drew each trajectory plot: its div is marked and holds the SVG
+        start = dom.index(f'id="trajectories-{scenario}"')
+        assert "js-plotly-plot" in dom[dom.rindex("<div", 0, start):dom.index(">", start)]
+        rest = dom[start:]
+        end = min(i for i in (rest.find('id="trajectories-', 1), rest.find("</section>")) if i > 0)
+        assert 'class="main-svg"' in rest[:end] and "scatterlayer" in rest[:end]
+    shot = tmp_path / "report.png"
+    run = chromium(url, tmp_path / "profile2", "--window-size=1280,4000", "--hide-scrollbars", f"--screenshot={shot}")
+    assert run.returncode == 0 and shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

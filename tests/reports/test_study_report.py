@@ -1,0 +1,104 @@
+"""The study report: every section, the thesis's columns where they belong, the classifier figures
+recomputed from the model's own training data, a rebuild from saved results, the summary's verdicts."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+
+import pytest
+from conftest import PAIR_OPTIONS, TRAINED_ON
+
+from nnda.data import generate, preset
+from nnda.errors import DatasetError
+from nnda.models.metrics import classifier_metrics
+from nnda.models.pairs import pairs_from_datasets
+from nnda.models.scorer import load_model
+from nnda.reports.study_report import build_report
+from nnda.reports.study_summary import verdicts
+from nnda.reports.trajectory_plot import plotly_js
+
+SECTIONS = {"summary": "Summary", "setup": "Setup", "classifier": "Association network",
+            "scenarios": "Results per scenario", "timing": "Time per scan",
+            "over-time": "False tracks and GOSPA over time", "trajectories": "Trajectories and tracks"}
+
+
+def test_markdown_and_html_hold_every_section_and_figure(study_dir):
+    md = (study_dir / "report.md").read_text()
+    page = (study_dir / "report.html").read_text()
+    for ident, title in SECTIONS.items():
+        assert f"\n## {title}\n" in md
+        assert f'<section id="{ident}"><h2>{title}</h2>' in page
+    figures = re.findall(r"\]\((figures/[^)]+\.png)\)", md)
+    assert len(figures) == 1 + 1 + 2 + 2  # ROC, time per scan, over time and tracks per scenario
+    for f in figures:
+        assert (study_dir / f).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # self-contained: images inline, plotly.js inline, nothing fetched
+    body = page[page.index("<body>"):]  # (plotly.js itself mentions data URIs)
+    assert body.count('<img alt="') == body.count('src="data:image/png;base64,') == 1 + 1 + 2
+    assert page.count(plotly_js()) == 1
+    ours = page.replace(plotly_js(), "")
+    assert not re.search(r"<(script|link|img)[^>]*\b(src|href)=\"(http|//)", ours) and "cdn." not in ours.lower()
+    for scenario in ("pair", "S4"):
+        assert f'id="trajectories-{scenario}"' in page and f'id="table-{scenario}"' in page
+
+
+def test_thesis_columns_only_beside_the_thesis_scenario(study_dir):
+    md = (study_dir / "report.md").read_text()
+    s4 = md[md.index("### S4:"):].split("\n\n")[1]
+    pair = md[md.index("### pair:"):].split("\n\n")[1]
+    assert "thesis: IMM/TOMHT | thesis: neural |" in s4.splitlines()[0]
+    assert "| Target contacts |" in s4 and " 201.0 | 201.0 |" in s4  # Table 6.7's contact counts
+    assert "thesis" not in pair.splitlines()[0]
+
+
+def test_classifier_figures_come_from_the_models_own_training_data(study_dir):
+    saved = json.loads((study_dir / "classifier.json").read_text())["models"][0]
+    datasets = [generate(preset(n.split("/")[0]), int(n.rsplit("-", 1)[1]), 0) for n in TRAINED_ON]
+    pairs = pairs_from_datasets(datasets, **PAIR_OPTIONS)
+    scores = load_model(study_dir.parent / "model")(pairs.features)
+    expected = classifier_metrics(pairs.labels, scores)
+    got = saved["evaluation"]["metrics"]
+    assert (got["tp"], got["fn"], got["tn"], got["fp"]) == (expected.tp, expected.fn, expected.tn, expected.fp)
+    assert got["auc"] == pytest.approx(expected.auc)
+    assert saved["evaluation"]["n_pairs"] == len(pairs) and "regenerated (2 datasets)" in saved["evaluation"]["pairs_from"]
+    md = (study_dir / "report.md").read_text()
+    assert f"| TP | {expected.tp} | 784 | 824 |" in md  # beside the thesis's GD and LM totals
+    assert "| Epochs (best) | 12 (6) | 1000 | 35 |" in md
+
+
+def test_nnda_report_rebuilds_the_same_report(study_dir, tmp_path):
+    before = (study_dir / "report.md").read_text()
+    (study_dir / "report.md").unlink()
+    run = subprocess.run([sys.executable, "-m", "nnda", "report", str(study_dir)], capture_output=True, text=True,
+                         timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert "report.html" in run.stdout
+    assert (study_dir / "report.md").read_text() == before
+
+
+def test_an_unfinished_study_has_no_report(study_dir, tmp_path):
+    (tmp_path / "study.json").write_bytes((study_dir / "study.json").read_bytes())
+    with pytest.raises(DatasetError, match=r"summary.json: missing"):
+        build_report(tmp_path)
+
+
+def _summary(stats: dict[str, tuple], confidence=0.95) -> tuple[dict, dict]:
+    """A one-scenario summary whose trackers have the given (mean, low, high) GOSPA."""
+    trackers = {t: {"metrics": {"gospa": {"mean": m, "ci_low": lo, "ci_high": hi, "n": 5}}} for t, (m, lo, hi) in stats.items()}
+    timing = {t: {"mean_time_per_scan_s": {"mean": None}} for t in stats}
+    return ({"confidence": confidence, "trackers": [{"label": t, "kind": "gnn"} for t in stats],
+             "scenarios": [{"name": "X", "trackers": trackers}]},
+            {"scenarios": [{"name": "X", "trackers": timing}]})
+
+
+def test_summary_calls_a_win_clear_only_when_the_intervals_are_apart():
+    clear = verdicts(*_summary({"a": (100.0, 90.0, 110.0), "b": (150.0, 120.0, 180.0)}))[0]
+    assert (clear.best, clear.second, clear.clear) == ("a", "b", True)
+    assert "**a** 100.0 m [90.0 m, 110.0 m], clearly ahead of b" in clear.text
+    close = verdicts(*_summary({"a": (130.0, 100.0, 160.0), "b": (120.0, 90.0, 150.0)}))[0]
+    assert (close.best, close.clear) == ("b", False) and "not separable at 95% from a" in close.text
+    tie = verdicts(*_summary({"a": (5.0, 5.0, 5.0), "b": (5.0, 5.0, 5.0), "c": (9.0, 9.0, 9.0)}))[0]
+    assert tie.best is None and "**a**, **b** tie for best" in tie.text
