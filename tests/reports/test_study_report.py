@@ -9,7 +9,6 @@ import subprocess
 import sys
 
 import pytest
-from conftest import PAIR_OPTIONS, TRAINED_ON
 
 from nnda.data import generate, preset
 from nnda.errors import DatasetError
@@ -56,9 +55,12 @@ def test_thesis_columns_only_beside_the_thesis_scenario(study_dir):
 
 def test_classifier_figures_come_from_the_models_own_training_data(study_dir):
     saved = json.loads((study_dir / "classifier.json").read_text())["models"][0]
-    datasets = [generate(preset(n.split("/")[0]), int(n.rsplit("-", 1)[1]), 0) for n in TRAINED_ON]
-    pairs = pairs_from_datasets(datasets, **PAIR_OPTIONS)
-    scores = load_model(study_dir.parent / "model")(pairs.features)
+    model = load_model(study_dir.parent / "model")
+    trained_on = model.metadata["dataset_names"]
+    assert trained_on == ["train08/run-0/seed-8", "train09/run-0/seed-9"]
+    datasets = [generate(preset("train08"), 8, 0), generate(preset("train09"), 9, 0)]
+    pairs = pairs_from_datasets(datasets, **model.metadata["pair_options"])
+    scores = model(pairs.features)
     expected = classifier_metrics(pairs.labels, scores)
     got = saved["evaluation"]["metrics"]
     assert (got["tp"], got["fn"], got["tn"], got["fp"]) == (expected.tp, expected.fn, expected.tn, expected.fp)

@@ -57,6 +57,12 @@ def write_small_study(root, runs: int = 3, duration: int = 40, clutter: int = 15
     return path
 
 
+@pytest.fixture(scope="session")
+def write_study():
+    """`write_small_study`, for tests that need other sizes or several copies."""
+    return write_small_study
+
+
 @pytest.fixture
 def small_study(tmp_path):
     return write_small_study(tmp_path)

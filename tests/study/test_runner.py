@@ -11,7 +11,6 @@ import time
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-from conftest import write_small_study
 
 from nnda.data import generate, load_scenario, write_collection
 from nnda.errors import ConfigError
@@ -27,10 +26,10 @@ def saved(out):
 
 
 @pytest.fixture(scope="module")
-def reference(tmp_path_factory):
+def reference(tmp_path_factory, write_study):
     """The small study run in this process."""
     root = tmp_path_factory.mktemp("reference")
-    study_file = write_small_study(root, runs=3)
+    study_file = write_study(root, runs=3)
     result = compare(load_study(study_file), root / "out", workers=1, report=False)
     return study_file, root / "out", result
 
@@ -90,8 +89,8 @@ def test_dask_local_cluster_gives_identical_bytes(reference, tmp_path):
     assert saved(tmp_path / "out") == saved(out)
 
 
-def test_resume_after_a_killed_study_gives_the_uninterrupted_results(tmp_path):
-    study_file = write_small_study(tmp_path, runs=12, duration=60, clutter=40)
+def test_resume_after_a_killed_study_gives_the_uninterrupted_results(tmp_path, write_study):
+    study_file = write_study(tmp_path, runs=12, duration=60, clutter=40)
     out = tmp_path / "out"
     proc = subprocess.Popen([sys.executable, "-m", "nnda", "compare", "--study", str(study_file), "--out", str(out),
                              "--jobs", "1"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
