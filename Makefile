@@ -8,7 +8,7 @@ STAMP  := $(VENV)/.nnda-installed
 DEMO   ?= demo
 SEED   ?= 0
 
-.PHONY: demo test test-slow bench install clean
+.PHONY: demo test test-slow bench install clean chromium
 
 install: $(STAMP)
 
@@ -18,11 +18,20 @@ $(STAMP): pyproject.toml constraints.txt
 	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[dev]'
 	touch $(STAMP)
 
+# generate the presets, train GD and LM, compare the trackers on S1-S6, write the report (prints its path)
 demo: $(STAMP)
 	$(BIN)/nnda demo --out $(DEMO) --seed $(SEED)
 
-test: $(STAMP)
+test: $(STAMP) chromium
 	$(BIN)/python -m pytest -q
+
+# The report's browser test needs Debian's chromium: installed here when missing and possible
+# (root with apt-get); otherwise that test is skipped and says why.
+chromium:
+	@command -v chromium >/dev/null 2>&1 || { [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1 && \
+	  echo "installing Debian's chromium for the report's browser test" && apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null; } || \
+	  echo "chromium not available: the report's browser test will be skipped"
 
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -m slow
