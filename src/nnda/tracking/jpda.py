@@ -13,7 +13,7 @@ Each scan:
    graph); clusters are independent.
 3. **Joint events**: every way of giving each track of a cluster at most one
    of its gated contacts, each contact to at most one track, is enumerated
-   exactly. An event's weight is the product over its tracks of
+   exactly (a track alone in its cluster takes the PDA closed form). An event's weight is the product over its tracks of
    P_D l_tj / lambda for a track given contact j and 1 - P_D P_G for a track
    given none, where l_tj is the IMM mixture likelihood of the contact
    (`IMM.log_likelihood`, in (m, rad) measurement space) and lambda the
@@ -74,12 +74,14 @@ from nnda.tracking.measurement import MeasurementModel
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.tracker import GATE_99, Association, Tracker, TrackerConfig, Tracks
 
-#: loopy belief propagation stops when no message moves by more than this (relative) ...
+#: loopy belief propagation stops when no message (a probability ratio in (0, 1]) moves by more than this ...
 BP_TOLERANCE = 1e-10
 #: ... or after this many sweeps
 BP_MAX_SWEEPS = 500
-#: bound on log(P_D l / lambda) - log(1 - P_D P_G), keeps exp() finite in belief propagation
+#: bound on log(P_D l / lambda) - log(1 - P_D P_G) where it is exponentiated, keeps exp() finite
 _MAX_LOG_RATIO = 700.0
+#: added to probabilities before a log or a division, so a model of probability 0 stays finite
+_TINY = 1e-300
 
 
 class JPDAConfig(TrackerConfig):
@@ -151,6 +153,10 @@ def jpda_marginals(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float, max
     if N == 0:
         return Marginals(np.zeros((K, 0)), np.ones(K), np.arange(K), np.zeros(K, bool))
     n_clusters, label = clusters(gate)
+    if n_clusters == K:  # every track alone: the PDA closed form
+        odds = _odds(gate, log_ratio, log_miss)
+        total = 1.0 + odds.sum(axis=1)
+        return Marginals(odds / total[:, None], 1.0 / total, label, np.zeros(K, bool))
     size = np.bincount(label, minlength=n_clusters)
     depth = int(size.max(initial=0))
     order = np.argsort(label, kind="stable")
@@ -221,7 +227,7 @@ def loopy_marginals(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float
     propagation", IEEE T-AES 2014) on the weights psi_tj = exp(log_ratio -
     log_miss): exact when the gate graph has no cycle, and convergent.
     """
-    psi = np.where(gate, np.exp(np.minimum(np.where(gate, log_ratio, 0.0) - log_miss, _MAX_LOG_RATIO)), 0.0)
+    psi = _odds(gate, log_ratio, log_miss)
     to_track = np.ones_like(psi)  # messages contact j -> track t
     for _ in range(BP_MAX_SWEEPS):
         weighted = psi * to_track
@@ -236,6 +242,11 @@ def loopy_marginals(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float
     return weighted / total[:, None], 1.0 / total
 
 
+def _odds(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float) -> np.ndarray:
+    """(K, N) weight of each gated pair relative to its track's miss, exp(log_ratio - log_miss); 0 off the gate."""
+    return np.where(gate, np.exp(np.minimum(np.where(gate, log_ratio, 0.0) - log_miss, _MAX_LOG_RATIO)), 0.0)
+
+
 def pda_update(pred: IMMPrediction, z: np.ndarray, beta: np.ndarray, beta0: np.ndarray,
                measurement: MeasurementModel) -> IMMState:
     """IMM-JPDA update of K tracks from their association probabilities (module docstring, step 4).
@@ -246,15 +257,15 @@ def pda_update(pred: IMMPrediction, z: np.ndarray, beta: np.ndarray, beta0: np.n
     """
     mp, st = pred.measurement, pred.state
     nu = measurement.residual(z[None, :, None, :], mp.z[:, None, :, :])  # (K, N, r, 2)
-    log_joint = np.log(st.mu + 1e-300)[:, None, :] + kalman.gaussian_log_likelihood(
+    log_joint = np.log(st.mu + _TINY)[:, None, :] + kalman.gaussian_log_likelihood(
         kalman.mahalanobis_2x2(nu, mp.S_inv[:, None]), mp.log_det_S[:, None])
     responsibility = np.exp(log_joint - log_joint.max(axis=2, keepdims=True))
     responsibility /= responsibility.sum(axis=2, keepdims=True)  # P(model m | contact j is the track's)
     joint = beta[:, :, None] * responsibility  # P(contact j, model m), (K, N, r)
     joint0 = beta0[:, None] * st.mu  # P(no contact, model m), (K, r)
     mu = joint0 + joint.sum(axis=1)
-    b = joint / (mu[:, None, :] + 1e-300)  # each model's own association probabilities
-    b0 = joint0 / (mu + 1e-300)
+    b = joint / (mu[:, None, :] + _TINY)  # each model's own association probabilities
+    b0 = joint0 / (mu + _TINY)
     combined = np.einsum("knr,knra->kra", b, nu)
     second = np.einsum("knr,knra,knrb->krab", b, nu, nu)
     spread = second - combined[..., :, None] * combined[..., None, :]

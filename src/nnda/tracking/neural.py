@@ -67,6 +67,9 @@ def greedy_matching(rows: np.ndarray, cols: np.ndarray, score: np.ndarray) -> tu
     rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
     if rows.size == 0:
         return rows, cols
+    if np.bincount(rows).max() == 1 and np.bincount(cols).max() == 1:  # no conflict: keep every pair
+        by_row = np.argsort(rows)
+        return rows[by_row], cols[by_row]
     order = np.lexsort((cols, rows, -np.asarray(score)))
     r, c = rows[order], cols[order]
     row_taken = np.zeros(r.max() + 1, bool)
