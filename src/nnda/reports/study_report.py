@@ -137,7 +137,9 @@ def _setup(manifest: dict, summary: dict, timing: dict) -> Section:
         sec.table(TextTable("Model files", ("Label", "File", "SHA-256"), tuple(
             (m["label"], m["path"], m["sha256"][:16]) for m in manifest["models"])))
     ex, machine = timing["execution"], timing["machine"]
-    sec.text(f"Executed on {ex['executor']} with {ex['workers']} worker(s): {ex['jobs_run']} job(s) run and "
+    where = (f"the Dask cluster at {ex['executor'][5:]}" if ex["executor"].startswith("dask ") and ex["executor"] != "dask local"
+             else f"{ex['executor']} with {ex['workers']} worker(s)")
+    sec.text(f"Executed on {where}: {ex['jobs_run']} job(s) run and "
              f"{ex['jobs_skipped']} resumed from earlier in {ex['seconds']:.1f} s (last invocation). Machine: "
              f"{machine['processor']}, {machine['cpus']} CPU(s), {machine['platform']}, Python {machine['python']}, "
              f"nnda {machine['nnda_version']}. Timing: {timing['method']}.")

@@ -26,16 +26,21 @@ def compare(
     """Run every tracker of a study on every run of every scenario, then write the report."""
     definition = load_study(study)
     console = Console()
-    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[last]}"),
-                  TimeElapsedColumn(), TimeRemainingColumn(), console=console) as bar:
-        task = bar.add_task(f"compare {definition.name}", total=None, last="")
+    bar = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[last]}"),
+                   TimeElapsedColumn(), TimeRemainingColumn(), console=console)
+    task = bar.add_task(f"compare {definition.name}", total=None, last="")
 
-        def on_job(done: int, total: int, job: JobSpec | None) -> None:
-            last = f"{job.scenario} run {job.run} {job.tracker}" if job is not None else ""
-            bar.update(task, completed=done, total=total, last=last)
+    def on_job(done: int, total: int, job: JobSpec | None) -> None:
+        if job is None:  # the study passed its checks: show the bar from here on
+            bar.start()
+        last = f"{job.scenario} run {job.run} {job.tracker}" if job is not None else ""
+        bar.update(task, completed=done, total=total, last=last)
 
+    try:
         result = run_comparison(definition, out, resume=resume, workers=jobs, dask=dask, on_job=on_job,
                                 where=str(study), overwrite=overwrite)
+    finally:
+        bar.stop()
     ex = result.execution
     console.print(f"{ex.jobs_run} job(s) run, {ex.jobs_skipped} resumed, on {ex.executor} in {ex.seconds:.1f} s")
     console.print(f"report: {result.report}")

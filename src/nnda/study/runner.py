@@ -44,7 +44,8 @@ JobCallback = Callable[[int, int, JobSpec | None], None]
 
 @dataclass(frozen=True)
 class Execution:
-    """How the jobs ran: ``executor`` is "in-process", "local processes" or "dask <address>"."""
+    """How the jobs ran: ``executor`` is "in-process", "local processes" or "dask <address>";
+    ``workers`` the local worker count (a remote Dask cluster has its own)."""
 
     executor: str
     workers: int
