@@ -16,6 +16,8 @@ from nnda.data import generate, load_scenario, write_collection
 from nnda.errors import ConfigError
 from nnda.study.compare import compare
 from nnda.study.config import load_study
+from nnda.study.plan import plan_study
+from nnda.study.runner import JobFailed, run_jobs
 
 #: the files that must not depend on how or when the jobs ran (timing lives in timing.*)
 DETERMINISTIC = ("results.parquet", "summary.json", "trajectories.parquet", "classifier.json")
@@ -126,3 +128,17 @@ def test_resume_refuses_another_study_and_overwrite_replaces_it(reference, tmp_p
     with pytest.raises(Exception, match="not a study directory"):
         compare(load_study(study_file), tmp_path / "mine", overwrite=True, workers=1, report=False)
     assert (tmp_path / "mine/notes.txt").exists()
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_failing_job_is_named_and_the_finished_ones_are_kept(tmp_path, write_study, workers):
+    write_study(tmp_path)
+    scenario = load_scenario(tmp_path / "scenarios/one.toml")
+    write_collection(((f"run-{r}", generate(scenario, 1, r)) for r in range(2)), tmp_path / "data", "two runs")
+    (tmp_path / "s.toml").write_text('[trackers.gnn]\nkind = "gnn"\n[[scenarios]]\npath = "data"\n')
+    plan = plan_study(load_study(tmp_path / "s.toml"))
+    (tmp_path / "data/run-1/detections.parquet").write_bytes(b"not parquet")  # damaged after the checks
+    with pytest.raises(JobFailed, match=r"jobs/one/gnn/run-0001.json \(gnn on one run 1\) failed: DatasetError"):
+        run_jobs(plan, tmp_path / "out", workers=workers)
+    assert [p.name for p in (tmp_path / "out/jobs/one/gnn").iterdir()] == ["run-0000.json"]
+

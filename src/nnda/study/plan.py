@@ -15,7 +15,7 @@ the same key; the study's *fingerprint* hashes all keys.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -63,7 +63,7 @@ class ModelPlan:
     label: str
     path: Path
     sha256: str
-    metadata: dict = field(hash=False)
+    metadata: dict
 
 
 @dataclass(frozen=True)
@@ -72,7 +72,7 @@ class TrackerPlan:
 
     label: str
     kind: str
-    params: dict = field(hash=False)
+    params: dict
     model: str | None = None
 
 

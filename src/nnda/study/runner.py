@@ -101,20 +101,54 @@ def read_job(job: JobSpec, out: Path) -> dict:
     return record
 
 
+class JobFailed(RuntimeError):
+    """A job raised: names the job; the jobs finished before it are kept for --resume."""
+
+    def __init__(self, job: JobSpec, exc: BaseException) -> None:
+        super().__init__(f"job {job.relpath} ({job.tracker} on {job.scenario} run {job.run}) failed: "
+                         f"{type(exc).__name__}: {exc}; finished jobs are kept: fix the cause, then --resume")
+
+
+def _result(job: JobSpec, future) -> dict:
+    try:
+        return future.result()
+    except Exception as exc:
+        raise JobFailed(job, exc) from exc
+
+
 def _in_process(jobs: list[JobSpec]) -> Iterator[tuple[JobSpec, dict]]:
     for job in jobs:
-        yield job, run_job(job)
+        try:
+            record = run_job(job)
+        except Exception as exc:
+            raise JobFailed(job, exc) from exc
+        yield job, record
 
 
 def _local_pool(jobs: list[JobSpec], workers: int) -> Iterator[tuple[JobSpec, dict]]:
+    """Jobs on worker processes, yielded as they finish. After a failure no new job starts, the
+    running ones finish (and are yielded, so they are kept), then the failure is raised."""
     # spawn: workers start clean (no copy of this process's threads, e.g. the progress bar's)
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
+    failure: JobFailed | None = None
     try:
         pending: dict[Future, JobSpec] = {pool.submit(run_job, job): job for job in jobs}
         while pending:
             done, _ = wait(pending, return_when=FIRST_COMPLETED)
             for future in done:
-                yield pending.pop(future), future.result()
+                job = pending.pop(future)
+                if future.cancelled():
+                    continue
+                try:
+                    record = _result(job, future)
+                except JobFailed as exc:
+                    failure = failure or exc
+                    for other in pending:
+                        other.cancel()  # those not started yet; running ones cannot be cancelled
+                    continue
+                yield job, record
+        if failure is not None:
+            raise failure
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
 
@@ -145,8 +179,8 @@ def _dask(jobs: list[JobSpec], address: str, workers: int) -> Iterator[tuple[Job
     with dask_client(address, workers) as client:
         futures = {client.submit(run_job, job, key=f"nnda-{job.key}", pure=False): job for job in jobs}
         try:
-            for future, record in as_completed(futures, with_results=True):
-                yield futures[future], record
+            for future in as_completed(futures):
+                yield futures[future], _result(futures[future], future)
         finally:
             client.cancel(list(futures))
 
