@@ -142,3 +142,11 @@ def test_a_failing_job_is_named_and_the_finished_ones_are_kept(tmp_path, write_s
         run_jobs(plan, tmp_path / "out", workers=workers)
     assert [p.name for p in (tmp_path / "out/jobs/one/gnn").iterdir()] == ["run-0000.json"]
 
+
+
+def test_dask_without_the_extra_names_it(reference, tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "dask.distributed", None)  # as if nnda[dask] were not installed
+    study_file, _, _ = reference
+    with pytest.raises(ConfigError, match=r"--dask needs the optional extra nnda\[dask\]: pip install 'nnda\[dask\]'"):
+        compare(load_study(study_file), tmp_path / "out", dask="local", report=False)
+    assert not (tmp_path / "out").exists()

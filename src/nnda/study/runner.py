@@ -153,13 +153,20 @@ def _local_pool(jobs: list[JobSpec], workers: int) -> Iterator[tuple[JobSpec, di
         pool.shutdown(wait=True, cancel_futures=True)
 
 
+def require_dask():
+    """The dask.distributed module; ConfigError naming the optional extra when it is not installed."""
+    try:
+        import dask.distributed
+    except ImportError:
+        raise ConfigError("--dask needs the optional extra nnda[dask]: pip install 'nnda[dask]'") from None
+    return dask.distributed
+
+
 @contextmanager
 def dask_client(address: str, workers: int):
     """A dask.distributed Client: a LocalCluster of ``workers`` processes for "local", else ``address``."""
-    try:
-        from dask.distributed import Client, LocalCluster
-    except ImportError:
-        raise ConfigError("--dask needs the optional extra nnda[dask]: pip install 'nnda[dask]'") from None
+    distributed = require_dask()
+    Client, LocalCluster = distributed.Client, distributed.LocalCluster
     if address == "local":
         with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
                 Client(cluster) as client:
@@ -174,8 +181,7 @@ def dask_client(address: str, workers: int):
 
 
 def _dask(jobs: list[JobSpec], address: str, workers: int) -> Iterator[tuple[JobSpec, dict]]:
-    from dask.distributed import as_completed
-
+    as_completed = require_dask().as_completed
     with dask_client(address, workers) as client:
         futures = {client.submit(run_job, job, key=f"nnda-{job.key}", pure=False): job for job in jobs}
         try:
@@ -197,6 +203,8 @@ def run_jobs(plan: StudyPlan, out: str | Path, resume: bool = False, workers: in
     out = Path(out)
     if workers < 1:
         raise ConfigError(f"--jobs must be at least 1, got {workers}")
+    if dask is not None:
+        require_dask()  # before anything is written
     _check_out(plan, out, resume, overwrite)
     write_json(out / MANIFEST, plan.manifest())
     todo = [job for job in plan.jobs if not is_done(job, out)]
