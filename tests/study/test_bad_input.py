@@ -45,6 +45,7 @@ def foreign(tmp_path):
     (GNN + '[[scenarios]]\npath = "other"\n', "scenarios[0]: "),
     (GNN + '[[scenarios]]\npath = "wrong"\n', "field 'format' is 'acme.radar', expected 'nnda.dataset'"),
     (GNN + '[[scenarios]]\npath = "nowhere"\n', "no such dataset or collection directory"),
+    (GNN + '[[scenarios]]\nconfig = "nowhere.toml"\n', "scenarios[0]: "),
     (GNN + '[[scenarios]]\npreset = "S1"\n[[scenarios]]\npreset = "S1"\n', "scenario name(s) S1 appear more than once"),
 ])
 def test_rejected_before_any_job(foreign, body, message):

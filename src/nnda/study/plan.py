@@ -191,7 +191,10 @@ def _scenarios(study: Study, where: str) -> tuple[ScenarioPlan, ...]:
                 raise ConfigError(f"{here}: {exc}") from None
             plans += [ScenarioPlan(s.name, f"preset {s.name}", s, study.runs) for s in found]
         elif spec.config is not None:
-            s = load_scenario(spec.config)
+            try:
+                s = load_scenario(spec.config)
+            except ConfigError as exc:
+                raise ConfigError(f"{here}: {exc}") from None
             plans.append(ScenarioPlan(s.name, f"config {spec.config}", s, study.runs))
         else:
             plans += _from_disk(spec.path, spec.name, here)
