@@ -236,12 +236,13 @@ def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
 
 
 _CSS = """
-body { font-family: system-ui, sans-serif; margin: 0 auto; max-width: 1200px; padding: 0 1.5em 3em; color: #222; }
+body { font-family: system-ui, sans-serif; margin: 0 auto; max-width: 1400px; padding: 0 1.5em 3em; color: #222; }
 nav { position: sticky; top: 0; background: #fff; padding: .5em 0; border-bottom: 1px solid #ddd; z-index: 10; }
 nav a { margin-right: 1em; }
-table { border-collapse: collapse; margin: 1em 0 .3em; font-size: .9em; }
+div.table { overflow-x: auto; }
+table { border-collapse: collapse; margin: 1em 0 .3em; font-size: .85em; }
 caption { text-align: left; font-weight: 600; padding: .3em 0; }
-th, td { border: 1px solid #ccc; padding: .25em .6em; text-align: right; white-space: nowrap; }
+th, td { border: 1px solid #ccc; padding: .2em .5em; text-align: right; white-space: nowrap; }
 th:first-child, td:first-child { text-align: left; white-space: pre; }
 thead th { background: #f3f3f3; }
 p.note { font-size: .85em; color: #555; margin-top: 0; }

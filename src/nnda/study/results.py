@@ -244,7 +244,12 @@ def write_results(plan: StudyPlan, out: str | Path, execution: Execution) -> dic
 
 
 def read_summary(out: str | Path) -> tuple[dict, dict]:
-    """The saved ``summary.json`` and ``timing.json`` of a study directory."""
+    """The saved ``summary.json`` and ``timing.json`` of a study directory, with every per-tracker
+    mapping back in the study's tracker order (the files sort their keys)."""
     out = Path(out)
-    return (read_json(out / SUMMARY_FILE, SUMMARY_FORMAT, FORMAT_VERSION),
-            read_json(out / TIMING_SUMMARY_FILE, TIMING_FORMAT, FORMAT_VERSION))
+    summary = read_json(out / SUMMARY_FILE, SUMMARY_FORMAT, FORMAT_VERSION)
+    timing = read_json(out / TIMING_SUMMARY_FILE, TIMING_FORMAT, FORMAT_VERSION)
+    order = [t["label"] for t in summary["trackers"]]
+    for sc in summary["scenarios"] + timing["scenarios"]:
+        sc["trackers"] = {label: sc["trackers"][label] for label in order}
+    return summary, timing
