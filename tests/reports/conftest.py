@@ -45,12 +45,12 @@ runs = 2
 [models]
 lm = "model"
 
-[trackers.gnn]
-kind = "gnn"
-
 [trackers.gnn-tight]
 kind = "gnn"
 params = { gate = 6.0 }
+
+[trackers.gnn]
+kind = "gnn"
 
 [[scenarios]]
 config = "pair.toml"
