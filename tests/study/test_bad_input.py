@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import pytest
 
@@ -62,11 +60,3 @@ def test_missing_model_and_foreign_dataset_messages_name_the_file(foreign):
     with pytest.raises(NndaError, match=r"other/scenario.json: missing \(not an nnda dataset directory\?\)"):
         compare(_study(foreign, GNN + '[[scenarios]]\npath = "other"\n'), foreign / "o")
 
-
-def test_cli_prints_one_clear_line_and_writes_nothing(tmp_path):
-    (tmp_path / "s.toml").write_text('[trackers.x]\nkind = "telepathy"\n[[scenarios]]\npreset = "S1"\n')
-    run = subprocess.run([sys.executable, "-m", "nnda", "compare", "--study", "s.toml", "--out", "out"],
-                         cwd=tmp_path, capture_output=True, text=True, timeout=120)
-    assert run.returncode == 2
-    assert "s.toml: tracker 'x': unknown tracker 'telepathy'" in run.stderr and "Traceback" not in run.stderr
-    assert not (tmp_path / "out").exists()
