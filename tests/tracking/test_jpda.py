@@ -18,7 +18,7 @@ from nnda.study.metrics import run_metrics
 from nnda.tracking import kalman
 from nnda.tracking.imm import IMM
 from nnda.tracking.jpda import (
-    JPDATracker, clusters, jpda_marginals, log_miss_weight, loopy_marginals, pda_update,
+    JPDATracker, clusters, jpda_marginals, log_miss_weight, loopy_marginals, pair_likelihoods, pda_update,
 )
 from nnda.tracking.models import ConstantVelocity
 from nnda.tracking.output import TrackStatus
@@ -114,6 +114,22 @@ def test_only_oversized_clusters_are_approximated():
     assert m.beta[0, 0] == pytest.approx(exact[0][0, 0], rel=1e-12)
 
 
+@pytest.mark.parametrize("seed", range(20))
+def test_capped_random_gates_stay_exact_below_the_cap(seed):
+    rng = np.random.default_rng(100 + seed)
+    K, N = rng.integers(2, 7), rng.integers(2, 7)
+    gate = rng.random((K, N)) < 0.4
+    gate[0] = False  # a track with nothing in its gate: its cluster assigns no contact at all
+    log_ratio = rng.normal(1.0, 2.0, (K, N))
+    m = jpda_marginals(gate, log_ratio, -2.2, max_events=int(rng.integers(2, 30)))
+    beta, beta0 = brute_force(gate, log_ratio, -2.2)
+    exact = ~m.approximated[m.cluster]
+    np.testing.assert_allclose(m.beta[exact], beta[exact], atol=1e-12)
+    np.testing.assert_allclose(m.beta0[exact], beta0[exact], atol=1e-12)
+    np.testing.assert_allclose(m.beta.sum(axis=1) + m.beta0, 1.0)
+    assert m.beta0[0] == 1.0
+
+
 def test_miss_weight():
     assert np.exp(log_miss_weight(0.9, 9.21)) == pytest.approx(1 - 0.9 * (1 - np.exp(-9.21 / 2)))
     assert np.isfinite(log_miss_weight(1.0, 2000.0))  # 1 - P_D P_G underflows in the naive form
@@ -127,19 +143,35 @@ def _prediction(imm: IMM, dt: float = 2.0):
     return imm.predict(imm.initialise(z1, z2, 0.0, 2.0), dt)
 
 
+def _update(imm: IMM, pred, z, beta, beta0):
+    """`pda_update` from dense (K, N) association probabilities (pairs: where beta > 0)."""
+    t, c = np.nonzero(beta > 0)
+    nu, log_lik, _ = pair_likelihoods(pred, z, t, c, imm.measurement)
+    return pda_update(pred, t, nu, log_lik, beta[t, c], beta0)
+
+
+def test_pair_mixture_likelihood_is_the_imms():
+    imm = IMM()
+    pred = _prediction(imm)
+    z = np.array([[12_310.0, 0.522], [9_000.0, 1.0], [15_190.0, 2.021]])
+    t, c = np.array([0, 0, 1, 1]), np.array([0, 2, 1, 2])
+    _, _, log_mix = pair_likelihoods(pred, z, t, c, imm.measurement)
+    np.testing.assert_allclose(log_mix, imm.log_likelihood(pred, z)[t, c], rtol=1e-12)
+
+
 def test_certain_association_is_the_plain_imm_update():
     imm = IMM()
     pred = _prediction(imm)
     z = np.array([[12_310.0, 0.522], [9_000.0, 1.0], [15_190.0, 2.021]])
     beta = np.zeros((2, 3))
     beta[0, 0] = beta[1, 2] = 1.0
-    got = pda_update(pred, z, beta, np.zeros(2), imm.measurement)
+    got = _update(imm, pred, z, beta, np.zeros(2))
     want = imm.update(pred, z[[0, 2]])
     np.testing.assert_allclose(got.x, want.x, rtol=1e-10, atol=1e-8)
     np.testing.assert_allclose(got.P, want.P, rtol=1e-9, atol=1e-8)
     np.testing.assert_allclose(got.mu, want.mu, rtol=1e-10)
     # no association at all leaves the prediction
-    none = pda_update(pred, z, np.zeros((2, 3)), np.ones(2), imm.measurement)
+    none = _update(imm, pred, z, np.zeros((2, 3)), np.ones(2))
     np.testing.assert_allclose(none.x, pred.state.x)
     np.testing.assert_allclose(none.P, pred.state.P)
 
@@ -150,7 +182,7 @@ def test_single_model_update_is_the_textbook_pda():
     z = np.array([[12_310.0, 0.522], [12_250.0, 0.524], [12_380.0, 0.519]])
     beta = np.array([[0.5, 0.2, 0.2], [0.0, 0.0, 0.0]])
     beta0 = np.array([0.1, 1.0])
-    got = pda_update(pred, z, beta, beta0, imm.measurement)
+    got = _update(imm, pred, z, beta, beta0)
     mp, x, P = pred.measurement, pred.state.x[0, 0], pred.state.P[0, 0]
     W = mp.PHt[0, 0] @ np.linalg.inv(mp.S[0, 0])
     nus = [imm.measurement.residual(zj, mp.z[0, 0]) for zj in z]
@@ -170,7 +202,7 @@ def test_mode_probabilities_of_an_isolated_track_are_the_imm_pdaf_ones():
     pd, gate, density = 0.9, 9.21, 1e-3
     log_ratio = np.log(pd) + imm.log_likelihood(pred, z) - np.log(density)
     m = jpda_marginals(np.ones((1, 2), bool), log_ratio, log_miss_weight(pd, gate), 100)
-    got = pda_update(pred, z, m.beta, m.beta0, imm.measurement)
+    got = _update(imm, pred, z, m.beta, m.beta0)
     mp = pred.measurement
     nu = imm.measurement.residual(z[:, None, :], mp.z[0][None])  # (N, r, 2)
     lik = np.exp(kalman.gaussian_log_likelihood(kalman.mahalanobis_2x2(nu, mp.S_inv[0][None]),

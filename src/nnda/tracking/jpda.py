@@ -16,7 +16,8 @@ Each scan:
    exactly (a track alone in its cluster takes the PDA closed form). An event's weight is the product over its tracks of
    P_D l_tj / lambda for a track given contact j and 1 - P_D P_G for a track
    given none, where l_tj is the IMM mixture likelihood of the contact
-   (`IMM.log_likelihood`, in (m, rad) measurement space) and lambda the
+   (as `IMM.log_likelihood`, for gated pairs only; in (m, rad)
+   measurement space) and lambda the
    clutter density in the same space. The marginal association
    probabilities beta_tj (and beta_t0, no detection) sum the normalised
    weights of the events holding each assignment.
@@ -146,8 +147,10 @@ def jpda_marginals(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float, max
     log(P_D l_tj / lambda) for those pairs (ignored elsewhere); ``log_miss``
     is log(1 - P_D P_G).
     Joint events are enumerated exactly per cluster of tracks sharing
-    contacts, up to ``max_events`` per cluster; beyond that the cluster's
-    marginals come from `loopy_marginals`.
+    contacts, one track after the other; a cluster whose list would grow
+    beyond ``max_events`` partial events at the next track (counted before
+    dropping those that reuse a contact) gets its marginals from
+    `loopy_marginals` instead.
     """
     K, N = gate.shape
     if N == 0:
@@ -175,10 +178,23 @@ def jpda_marginals(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float, max
     ev_contact = np.full((n_clusters, depth), -1, np.int64)
     ev_logw = np.zeros(n_clusters)
     exact = np.ones(n_clusters, bool)
+    width = depth  # the largest cluster still enumerated
     for d in range(depth):
+        if d >= width:
+            break
         track = members[ev_cluster, d]
         present = track >= 0
         n_options = np.where(present, 1 + n_gated[track], 1)  # option 0: no contact for this track
+        over = np.bincount(ev_cluster, n_options, minlength=n_clusters) > max_events
+        if over.any():  # give up on these clusters before listing their events
+            exact &= ~over
+            alive = ~over[ev_cluster]
+            width = int(size[exact].max(initial=0))
+            ev_cluster, ev_logw, track, present, n_options = (
+                a[alive] for a in (ev_cluster, ev_logw, track, present, n_options))
+            ev_contact = ev_contact[alive, :width]
+            if d >= width:
+                break
         parent = np.repeat(np.arange(ev_cluster.size), n_options)
         option = np.arange(parent.size) - np.repeat(np.cumsum(n_options) - n_options, n_options)
         track = track[parent]
@@ -191,11 +207,6 @@ def jpda_marginals(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float, max
         ev_cluster, ev_contact = ev_cluster[parent[keep]], ev_contact[parent[keep]]
         ev_contact[:, d] = contact[keep]
         ev_logw = ev_logw[parent[keep]] + add[keep]
-        over = np.bincount(ev_cluster, minlength=n_clusters) > max_events
-        if over.any():
-            exact &= ~over
-            alive = ~over[ev_cluster]
-            ev_cluster, ev_contact, ev_logw = ev_cluster[alive], ev_contact[alive], ev_logw[alive]
 
     beta = np.zeros((K, N))
     beta0 = np.zeros(K)
@@ -204,13 +215,14 @@ def jpda_marginals(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float, max
         np.maximum.at(top, ev_cluster, ev_logw)
         w = np.exp(ev_logw - top[ev_cluster])
         w /= np.bincount(ev_cluster, w, minlength=n_clusters)[ev_cluster]
-        track = members[ev_cluster]  # (E, depth)
+        track = members[ev_cluster, :ev_contact.shape[1]]  # (E, depth)
         weight = np.broadcast_to(w[:, None], track.shape)
         assigned = (track >= 0) & (ev_contact >= 0)
         missed = (track >= 0) & (ev_contact < 0)
+        # (bincount gives integers when no event assigns anything)
         beta = np.bincount(track[assigned] * N + ev_contact[assigned], weight[assigned],
-                           minlength=K * N).reshape(K, N)
-        beta0 = np.bincount(track[missed], weight[missed], minlength=K)
+                           minlength=K * N).reshape(K, N).astype(float)
+        beta0 = np.bincount(track[missed], weight[missed], minlength=K).astype(float)
     if not exact.all():
         rows = np.flatnonzero(~exact[label])
         beta[rows], beta0[rows] = loopy_marginals(gate[rows], log_ratio[rows], log_miss)
@@ -227,53 +239,84 @@ def loopy_marginals(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float
     propagation", IEEE T-AES 2014) on the weights psi_tj = exp(log_ratio -
     log_miss): exact when the gate graph has no cycle, and convergent.
     """
-    psi = _odds(gate, log_ratio, log_miss)
-    to_track = np.ones_like(psi)  # messages contact j -> track t
+    K, N = gate.shape
+    t, j = np.nonzero(gate)
+    psi = _odds(gate[t, j], log_ratio[t, j], log_miss)  # one entry per gated pair
+    to_track = np.ones(t.size)  # messages contact j -> track t
     for _ in range(BP_MAX_SWEEPS):
         weighted = psi * to_track
-        to_contact = psi / (1.0 + weighted.sum(axis=1, keepdims=True) - weighted)  # track t -> contact j
-        new = 1.0 / (1.0 + to_contact.sum(axis=0, keepdims=True) - to_contact)
-        moved = np.abs(new - to_track).max() if new.size else 0.0
+        to_contact = psi / (1.0 + np.bincount(t, weighted, K)[t] - weighted)  # track t -> contact j
+        new = 1.0 / (1.0 + np.bincount(j, to_contact, N)[j] - to_contact)
+        moved = np.abs(new - to_track).max(initial=0.0)
         to_track = new
         if moved <= BP_TOLERANCE:
             break
     weighted = psi * to_track
-    total = 1.0 + weighted.sum(axis=1)
-    return weighted / total[:, None], 1.0 / total
+    total = 1.0 + np.bincount(t, weighted, K)
+    beta = np.zeros((K, N))
+    beta[t, j] = weighted / total[t]
+    return beta, 1.0 / total
 
 
 def _odds(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float) -> np.ndarray:
-    """(K, N) weight of each gated pair relative to its track's miss, exp(log_ratio - log_miss); 0 off the gate."""
+    """Weight of each pair relative to its track's miss, exp(log_ratio - log_miss); 0 where ``gate`` is False."""
     return np.where(gate, np.exp(np.minimum(np.where(gate, log_ratio, 0.0) - log_miss, _MAX_LOG_RATIO)), 0.0)
 
 
-def pda_update(pred: IMMPrediction, z: np.ndarray, beta: np.ndarray, beta0: np.ndarray,
-               measurement: MeasurementModel) -> IMMState:
+def pair_likelihoods(pred: IMMPrediction, z: np.ndarray, track: np.ndarray, contact: np.ndarray,
+                     measurement: MeasurementModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Innovations and likelihoods of P (track, contact) pairs under each IMM model.
+
+    ``pred`` holds K tracks, ``z`` (N, 2) the contacts, ``track`` and
+    ``contact`` (P,) index the pairs. Returns the innovations nu (P, r, 2),
+    each model's log N(nu; 0, S) (P, r) and the IMM mixture log-likelihood
+    log sum_m mu_m N(nu_m; 0, S_m) (P,), the quantity of `IMM.log_likelihood`
+    computed for the pairs only.
+    """
+    mp = pred.measurement
+    nu = measurement.residual(z[contact][:, None, :], mp.z[track])
+    log_lik = kalman.gaussian_log_likelihood(kalman.mahalanobis_2x2(nu, mp.S_inv[track]), mp.log_det_S[track])
+    log_terms = log_lik + np.log(pred.state.mu[track] + _TINY)
+    top = log_terms.max(axis=1)
+    return nu, log_lik, top + np.log(np.exp(log_terms - top[:, None]).sum(axis=1))
+
+
+def pda_update(pred: IMMPrediction, track: np.ndarray, nu: np.ndarray, log_lik: np.ndarray,
+               beta: np.ndarray, beta0: np.ndarray) -> IMMState:
     """IMM-JPDA update of K tracks from their association probabilities (module docstring, step 4).
 
-    ``pred`` is the tracks' IMM prediction, ``z`` (N, 2) the contacts,
-    ``beta`` (K, N) and ``beta0`` (K,) the marginals, ``measurement`` the
-    IMM's measurement model (for its residuals).
+    ``pred`` is the tracks' IMM prediction; the P gated pairs are given by
+    their ``track`` (P,), innovations ``nu`` (P, r, 2) and per-model
+    log-likelihoods ``log_lik`` (P, r) (`pair_likelihoods`) and their
+    association probabilities ``beta`` (P,); ``beta0`` (K,) is each track's
+    probability of no detection.
     """
     mp, st = pred.measurement, pred.state
-    nu = measurement.residual(z[None, :, None, :], mp.z[:, None, :, :])  # (K, N, r, 2)
-    log_joint = np.log(st.mu + _TINY)[:, None, :] + kalman.gaussian_log_likelihood(
-        kalman.mahalanobis_2x2(nu, mp.S_inv[:, None]), mp.log_det_S[:, None])
-    responsibility = np.exp(log_joint - log_joint.max(axis=2, keepdims=True))
-    responsibility /= responsibility.sum(axis=2, keepdims=True)  # P(model m | contact j is the track's)
-    joint = beta[:, :, None] * responsibility  # P(contact j, model m), (K, N, r)
+    K = len(st.mu)
+    log_joint = np.log(st.mu[track] + _TINY) + log_lik
+    responsibility = np.exp(log_joint - log_joint.max(axis=1, keepdims=True))
+    responsibility /= responsibility.sum(axis=1, keepdims=True)  # P(model m | the pair's contact is the track's)
+    joint = beta[:, None] * responsibility  # P(contact, model m), (P, r)
     joint0 = beta0[:, None] * st.mu  # P(no contact, model m), (K, r)
-    mu = joint0 + joint.sum(axis=1)
-    b = joint / (mu[:, None, :] + _TINY)  # each model's own association probabilities
+    mu = joint0 + _sum_by_track(track, joint, K)
+    b = joint / (mu[track] + _TINY)  # each model's own association probabilities
     b0 = joint0 / (mu + _TINY)
-    combined = np.einsum("knr,knra->kra", b, nu)
-    second = np.einsum("knr,knra,knrb->krab", b, nu, nu)
-    spread = second - combined[..., :, None] * combined[..., None, :]
+    weighted = b[..., None] * nu  # (P, r, 2)
+    combined = _sum_by_track(track, weighted, K)  # (K, r, 2)
+    spread = _sum_by_track(track, weighted[..., :, None] * nu[..., None, :], K) - (
+        combined[..., :, None] * combined[..., None, :])
     gain = mp.PHt @ mp.S_inv  # (K, r, n, 2)
-    gain_t = np.swapaxes(gain, -1, -2)
     x = st.x + (gain @ combined[..., None])[..., 0]
-    P = st.P - (1.0 - b0)[..., None, None] * (gain @ np.swapaxes(mp.PHt, -1, -2)) + gain @ spread @ gain_t
+    P = (st.P - (1.0 - b0)[..., None, None] * (gain @ np.swapaxes(mp.PHt, -1, -2))
+         + gain @ spread @ np.swapaxes(gain, -1, -2))
     return IMMState(x, kalman.symmetrise(P), mu / mu.sum(axis=1, keepdims=True))
+
+
+def _sum_by_track(track: np.ndarray, values: np.ndarray, K: int) -> np.ndarray:
+    """Sums (K, ...) of per-pair ``values`` (P, ...) over the pairs of each track."""
+    out = np.zeros((K, *values.shape[1:]))
+    np.add.at(out, track, values)
+    return out
 
 
 class JPDATracker(Tracker):
@@ -320,12 +363,15 @@ class JPDATracker(Tracker):
                 continue
             cols = np.flatnonzero(ok.any(axis=0))
             gate = ok[np.ix_(rows, cols)]
+            i, j = np.nonzero(gate)  # gated pairs, by row then column of the block
             active = pred.take(rows)
-            log_ratio = np.log(cfg.pd) + self.imm.log_likelihood(active, z[cols]) - log_density[cols]
+            nu, log_lik, log_mix = pair_likelihoods(active, z, i, cols[j], self.imm.measurement)
+            log_ratio = np.zeros(gate.shape)
+            log_ratio[i, j] = np.log(cfg.pd) + log_mix - log_density[cols[j]]
             m = jpda_marginals(gate, log_ratio, log_miss, cfg.max_joint_events)
             self.n_clusters += m.approximated.size
             self.n_approximated += int(m.approximated.sum())
-            updated = pda_update(active, z[cols], m.beta, m.beta0, self.imm.measurement)
+            updated = pda_update(active, i, nu, log_lik, m.beta[i, j], m.beta0)
             state.x[rows], state.P[rows], state.mu[rows] = updated.x, updated.P, updated.mu
             best = m.beta.argmax(axis=1)
             wins = m.beta[np.arange(rows.size), best] > m.beta0
