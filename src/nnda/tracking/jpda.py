@@ -22,7 +22,7 @@ Each scan:
    probabilities beta_tj (and beta_t0, no detection) sum the normalised
    weights of the events holding each assignment.
 
-   Beyond ``max_joint_events`` events in one cluster the enumeration stops
+   Beyond ``max_joint_events`` (partial) events listed for one cluster the enumeration stops
    and that cluster's marginals come from loopy belief propagation over the
    same weights (`loopy_marginals`, Williams & Lau 2014), which is exact on
    clusters without cycles and close otherwise; ``JPDATracker.n_approximated``
@@ -147,10 +147,12 @@ def jpda_marginals(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float, max
     log(P_D l_tj / lambda) for those pairs (ignored elsewhere); ``log_miss``
     is log(1 - P_D P_G).
     Joint events are enumerated exactly per cluster of tracks sharing
-    contacts, one track after the other; a cluster whose list would grow
-    beyond ``max_events`` partial events at the next track (counted before
-    dropping those that reuse a contact) gets its marginals from
-    `loopy_marginals` instead.
+    contacts, one track after the other. The work is bounded: once the
+    partial events listed for a cluster, summed over its tracks (and counted
+    before dropping those that reuse a contact), would exceed ``max_events``,
+    the cluster gets its marginals from `loopy_marginals` instead. Since a
+    cluster of s tracks lists at least s (s + 1) / 2 partial events, this
+    also bounds the cluster size (141 tracks for 10,000).
     """
     K, N = gate.shape
     if N == 0:
@@ -175,37 +177,37 @@ def jpda_marginals(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float, max
 
     # events of all clusters, grouped by cluster: their contact per depth (-1: none) and log weight
     ev_cluster = np.arange(n_clusters)
-    ev_contact = np.full((n_clusters, depth), -1, np.int64)
+    ev_contact = np.empty((n_clusters, 0), np.int64)  # grows by one column per depth
     ev_logw = np.zeros(n_clusters)
     exact = np.ones(n_clusters, bool)
+    listed = np.zeros(n_clusters)  # partial events listed so far per cluster, all depths together
     width = depth  # the largest cluster still enumerated
     for d in range(depth):
-        if d >= width:
-            break
         track = members[ev_cluster, d]
         present = track >= 0
         n_options = np.where(present, 1 + n_gated[track], 1)  # option 0: no contact for this track
-        over = np.bincount(ev_cluster, n_options, minlength=n_clusters) > max_events
+        listed += np.bincount(ev_cluster, n_options, minlength=n_clusters)
+        over = exact & (listed > max_events)
         if over.any():  # give up on these clusters before listing their events
             exact &= ~over
             alive = ~over[ev_cluster]
             width = int(size[exact].max(initial=0))
             ev_cluster, ev_logw, track, present, n_options = (
                 a[alive] for a in (ev_cluster, ev_logw, track, present, n_options))
-            ev_contact = ev_contact[alive, :width]
-            if d >= width:
-                break
+            ev_contact = ev_contact[alive]
+        if d >= width:
+            break
         parent = np.repeat(np.arange(ev_cluster.size), n_options)
         option = np.arange(parent.size) - np.repeat(np.cumsum(n_options) - n_options, n_options)
         track = track[parent]
         slot = first_gated[track] + np.maximum(option - 1, 0)
         contact = np.where(option > 0, gated_contact[slot], -1)
-        taken = (contact >= 0) & (ev_contact[parent, :d] == contact[:, None]).any(axis=1)
+        taken = (contact >= 0) & (ev_contact[parent] == contact[:, None]).any(axis=1)
         add = np.where(~present[parent], 0.0,
                        np.where(option > 0, ratio[track, np.maximum(contact, 0)], log_miss))
         keep = ~taken
-        ev_cluster, ev_contact = ev_cluster[parent[keep]], ev_contact[parent[keep]]
-        ev_contact[:, d] = contact[keep]
+        ev_cluster = ev_cluster[parent[keep]]
+        ev_contact = np.column_stack([ev_contact[parent[keep]], contact[keep]])
         ev_logw = ev_logw[parent[keep]] + add[keep]
 
     beta = np.zeros((K, N))
