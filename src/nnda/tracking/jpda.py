@@ -96,8 +96,9 @@ class JPDAConfig(TrackerConfig):
         "from each scan: 'local' (around each contact) or 'scan' (whole coverage)")
     clutter_radius_m: Annotated[float, Field(gt=0, description="radius (m) of the 'local' clutter "
                                 "density estimate")] = 3_000.0
-    max_joint_events: Annotated[int, Field(ge=1, description="joint events enumerated per cluster before "
-                                "falling back to loopy belief propagation")] = 10_000
+    max_joint_events: Annotated[int, Field(ge=1, description="partial joint events listed per cluster "
+                                "(summed over its tracks) before falling back to loopy belief "
+                                "propagation")] = 10_000
 
 
 def log_miss_weight(pd: float, gate: float) -> float:
