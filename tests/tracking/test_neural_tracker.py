@@ -66,9 +66,11 @@ class Recording(NeuralTracker):
         return assoc
 
 
-def test_one_scorer_call_per_scan_and_choices_follow_the_rule(model_file):
+@pytest.mark.parametrize("confirmed_first", [False, True])
+def test_one_scorer_call_per_scan_and_choices_follow_the_rule(model_file, confirmed_first):
     ds = generate(PRESETS["S1"], seed=0)
-    tracker = Recording(ds.scenario.sensor, NeuralTracker.config_type(model=model_file))
+    config = NeuralTracker.config_type(model=model_file, confirmed_first=confirmed_first)
+    tracker = Recording(ds.scenario.sensor, config)
     for scan in ds.scans():
         tracker.step(scan)
     assert 0 < tracker.calls <= len(tracker.seen) <= ds.n_scans
@@ -79,7 +81,8 @@ def test_one_scorer_call_per_scan_and_choices_follow_the_rule(model_file):
         if t.size:
             s = tracker.loaded(pair_features(tracks.p1[t], tracks.t1[t], tracks.p2[t], tracks.t2[t], xy[c], time))
             ok = s > 0
-            for i, j in sequential_greedy(t[ok], c[ok], s[ok]):
+            rank = s + 2.0 * (tracks.status[t] == TrackStatus.CONFIRMED) if confirmed_first else s
+            for i, j in sequential_greedy(t[ok], c[ok], rank[ok]):
                 expected[i] = j
             conflicts += np.unique(c[ok]).size < ok.sum()
         np.testing.assert_array_equal(contact, expected)

@@ -16,7 +16,9 @@ Each scan, for all live tracks at once:
    game, and so on. So each track gets the highest-scoring candidate still
    free, each contact goes to at most one track, and when two tracks want
    the same contact the one that scores it higher wins and the other falls
-   back to its next candidate above the threshold, if any (A10);
+   back to its next candidate above the threshold, if any (A10). With
+   ``confirmed_first`` the confirmed tracks take their pick before the
+   preliminary ones, as GNN and JPDA do (off by default: the spec's rule);
 4. *filter*: the chosen contact updates the track's IMM, which smooths the
    output only: association never looks at it (spec §7.2).
 
