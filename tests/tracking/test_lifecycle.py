@@ -64,10 +64,11 @@ def test_window_matches_spec_values():
     assert LifecycleConfig(v_min=50, v_max=500).window(2.0, 30.0) == (10.0, 1090.0)
 
 
-def test_window_pairs_against_brute_force():
+@pytest.mark.parametrize("n_a, n_b", [(60, 80), (300, 250)])  # dense test, then the k-d tree path
+def test_window_pairs_against_brute_force(n_a, n_b):
     rng = np.random.default_rng(1)
-    a = rng.uniform(0, 5000, (60, 2))
-    b = rng.uniform(0, 5000, (80, 2))
+    a = rng.uniform(0, 5000, (n_a, 2))
+    b = rng.uniform(0, 5000, (n_b, 2))
     i, j = window_pairs(a, b, 50.0, 490.0)
     d = np.linalg.norm(a[:, None] - b[None], axis=2)
     ei, ej = np.nonzero((d >= 50) & (d <= 490))

@@ -22,6 +22,9 @@ from scipy.spatial import cKDTree
 
 from nnda.tracking.output import TrackStatus
 
+#: up to this many initiator-contact pairs a dense distance test beats building k-d trees
+_DENSE_PAIRS = 40_000
+
 
 class LifecycleConfig(BaseModel):
     """Initiation window and confirmation/deletion counts; defaults are the neural method's (§4.2, §8.6)."""
@@ -54,10 +57,14 @@ def window_pairs(initiators: np.ndarray, contacts: np.ndarray, d_min: float, d_m
 
     ``initiators`` (I, 2) and ``contacts`` (J, 2) are Cartesian positions in m.
     Returns two int64 arrays of equal length, sorted by initiator then contact.
-    A k-d tree keeps this near-linear for thousands of contacts per scan.
+    Small problems test every pair at once; beyond that a k-d tree keeps this
+    near-linear for thousands of contacts per scan.
     """
     if len(initiators) == 0 or len(contacts) == 0:
         return np.empty(0, np.int64), np.empty(0, np.int64)
+    if len(initiators) * len(contacts) <= _DENSE_PAIRS:
+        d2 = ((initiators[:, None, :] - contacts[None, :, :]) ** 2).sum(axis=2)
+        return np.nonzero((d2 >= d_min**2) & (d2 <= d_max**2))
     pairs = cKDTree(initiators).sparse_distance_matrix(cKDTree(contacts), d_max, output_type="ndarray")
     keep = pairs["v"] >= d_min
     i, j = pairs["i"][keep].astype(np.int64), pairs["j"][keep].astype(np.int64)
