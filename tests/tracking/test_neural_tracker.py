@@ -14,7 +14,8 @@ from nnda.models.mlp import MLPWeights
 from nnda.models.preprocessing import Normaliser
 from nnda.models.scorer import Scorer, save_model
 from nnda.study.metrics import run_metrics
-from nnda.tracking.neural import NeuralTracker, greedy_matching
+from nnda.tracking.assignment import greedy_matching
+from nnda.tracking.neural import NeuralTracker
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
 

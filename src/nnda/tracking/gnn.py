@@ -17,9 +17,8 @@ from typing import Annotated, ClassVar
 
 import numpy as np
 from pydantic import Field
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import min_weight_full_bipartite_matching
 
+from nnda.tracking.assignment import least_cost_assignment
 from nnda.tracking.gating import gate
 from nnda.tracking.imm import IMMPrediction
 from nnda.tracking.output import TrackStatus
@@ -58,27 +57,6 @@ class GNNTracker(Tracker):
             taken[contact[contact >= 0]] = True
             sel = stage[g.rows] & ~taken[g.cols]
             if sel.any():
-                rows, cols = assign(g.rows[sel], g.cols[sel], g.d2[sel], mp.log_det_S, self.config.gate)
+                rows, cols = least_cost_assignment(g.rows[sel], g.cols[sel], g.d2[sel], mp.log_det_S, self.config.gate)
                 contact[rows] = cols
         return self.hard_update(pred, z, contact)
-
-
-def assign(rows: np.ndarray, cols: np.ndarray, d2: np.ndarray, log_det: np.ndarray, miss_d2: float
-           ) -> tuple[np.ndarray, np.ndarray]:
-    """Least-cost one-to-one assignment over sparse gated pairs (P,); returns assigned (rows, cols).
-
-    The cost of a pair is d2 + log |S| of its track; each track may instead
-    stay unassigned at cost ``miss_d2`` + log |S|. Solved exactly on the
-    sparse graph (scipy's `min_weight_full_bipartite_matching`), so memory
-    grows with the pairs, not with tracks x contacts.
-    """
-    track, ti = np.unique(rows, return_inverse=True)
-    cont, ci = np.unique(cols, return_inverse=True)
-    R, C = track.size, cont.size
-    weight = np.concatenate([d2 + log_det[rows], miss_d2 + log_det[track]])
-    weight = weight - weight.min() + 1.0  # positive weights; a constant per row changes no optimum
-    graph = csr_matrix((weight, (np.concatenate([ti, np.arange(R)]), np.concatenate([ci, C + np.arange(R)]))),
-                       shape=(R, C + R))
-    r, c = min_weight_full_bipartite_matching(graph)
-    real = c < C
-    return track[r[real]], cont[c[real]]

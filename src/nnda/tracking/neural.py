@@ -37,6 +37,7 @@ from nnda.data.scenario import Sensor
 from nnda.errors import ConfigError, ModelError
 from nnda.models.features import candidate_pairs, pair_features
 from nnda.models.scorer import Scorer, load_model
+from nnda.tracking.assignment import greedy_matching
 from nnda.tracking.imm import IMMPrediction
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.tracker import Association, Tracker, TrackerConfig, Tracks
@@ -50,52 +51,6 @@ class NeuralConfig(TrackerConfig):
                                       "exceeds this (the scorer's outputs lie in (-1, 1))")] = 0.0
     confirmed_first: bool = Field(False, description="confirmed tracks choose before preliminary ones "
                                   "(as in GNN and JPDA); False: one greedy pass by score (spec A10)")
-
-
-def greedy_matching(rows: np.ndarray, cols: np.ndarray, score: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Greedy one-to-one matching of candidate pairs by descending score.
-
-    ``rows``, ``cols`` (P,) non-negative ints index the two sides of each
-    pair (e.g. track and contact), ``score`` (P,) its value. The result
-    equals taking the pairs in order of descending score (ties: lower row,
-    then lower column first) and keeping each whose row and column are both
-    still free. Returns the kept (rows, cols), sorted by row.
-
-    Vectorised by rounds: every pair that comes first among the remaining
-    pairs of both its row and its column is one the sequential rule keeps;
-    take them all, drop the pairs they block, repeat (a round keeps at least
-    the best remaining pair; one round suffices when nothing conflicts).
-    """
-    rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
-    if rows.size == 0:
-        return rows, cols
-    if np.bincount(rows).max() == 1 and np.bincount(cols).max() == 1:  # no conflict: keep every pair
-        by_row = np.argsort(rows)
-        return rows[by_row], cols[by_row]
-    order = np.lexsort((cols, rows, -np.asarray(score)))
-    r, c = rows[order], cols[order]
-    row_taken = np.zeros(r.max() + 1, bool)
-    col_taken = np.zeros(c.max() + 1, bool)
-    kept = np.zeros(r.size, bool)
-    live = np.arange(r.size)
-    while live.size:
-        win = live[_first_occurrence(r[live]) & _first_occurrence(c[live])]
-        kept[win] = True
-        row_taken[r[win]] = True
-        col_taken[c[win]] = True
-        live = live[~(row_taken[r[live]] | col_taken[c[live]])]
-    r, c = r[kept], c[kept]
-    by_row = np.argsort(r, kind="stable")
-    return r[by_row], c[by_row]
-
-
-def _first_occurrence(a: np.ndarray) -> np.ndarray:
-    """Mask of the entries of ``a`` (P,) whose value does not occur earlier in ``a``."""
-    s = np.argsort(a, kind="stable")
-    sorted_a = a[s]
-    first = np.empty(a.size, bool)
-    first[s] = np.concatenate(([True], sorted_a[1:] != sorted_a[:-1]))
-    return first
 
 
 class NeuralTracker(Tracker):
