@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
-from nnda.tracking.lifecycle import LifecycleConfig, advance, window_pairs
+from nnda.tracking.lifecycle import LifecycleConfig, advance, cap_per_initiator, window_pairs
 from nnda.tracking.output import TrackStatus as S
 
 # Spec Table 2.1 (M = 2, N = 3): detection history from scan 3 on -> class
@@ -83,3 +83,14 @@ def test_bad_lifecycle_config():
         LifecycleConfig(m=5, n=4)
     with pytest.raises(ValidationError, match="v_min must be below v_max"):
         LifecycleConfig(v_min=300)
+
+
+def test_cap_per_initiator_keeps_the_pairs_nearest_the_window_middle():
+    init = np.array([[0.0, 0.0], [10_000.0, 0.0]])
+    contacts = np.array([[100.0, 0.0], [260.0, 0.0], [300.0, 0.0], [480.0, 0.0], [10_200.0, 0.0]])
+    i, j = window_pairs(init, contacts, 50.0, 490.0)
+    assert i.tolist() == [0, 0, 0, 0, 1]
+    ci, cj = cap_per_initiator(i, j, init, contacts, 50.0, 490.0, 2)
+    assert ci.tolist() == [0, 0, 1] and cj.tolist() == [1, 2, 4]  # 260 and 300 m are nearest 270 m
+    same = cap_per_initiator(i, j, init, contacts, 50.0, 490.0, None)
+    assert same[0].tolist() == i.tolist() and same[1].tolist() == j.tolist()

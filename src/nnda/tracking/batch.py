@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import fields
+from functools import cache
 from typing import Self
 
 import numpy as np
@@ -16,12 +17,17 @@ import numpy as np
 from nnda.errors import FilterError
 
 
+@cache
+def _names(cls: type) -> tuple[str, ...]:
+    """Field names of a dataclass, computed once per class (take/concat run every scan)."""
+    return tuple(f.name for f in fields(cls))
+
+
 class Batch:
     """Mixin for dataclasses whose fields are arrays (K, ...) or other batches of K tracks."""
 
     def __len__(self) -> int:
-        first = getattr(self, fields(self)[0].name)
-        return len(first)
+        return len(getattr(self, _names(type(self))[0]))
 
     def take(self, index: np.ndarray | Sequence[int] | slice) -> Self:
         """The tracks selected by ``index`` (integer array, boolean mask of length K, or slice)."""
@@ -29,7 +35,7 @@ class Batch:
             index = np.asarray(index)
             if index.dtype == bool and index.shape != (len(self),):
                 raise FilterError(f"take: boolean mask of shape {index.shape} for {len(self)} tracks")
-        return type(self)(**{f.name: _take(getattr(self, f.name), index) for f in fields(self)})
+        return type(self)(**{name: _take(getattr(self, name), index) for name in _names(type(self))})
 
     @classmethod
     def concat(cls, batches: Sequence[Self]) -> Self:
@@ -37,11 +43,11 @@ class Batch:
         if not batches:
             raise FilterError(f"{cls.__name__}.concat: nothing to concatenate")
         parts = {}
-        for f in fields(cls):
+        for name in _names(cls):
             try:
-                parts[f.name] = _concat([getattr(b, f.name) for b in batches])
+                parts[name] = _concat([getattr(b, name) for b in batches])
             except ValueError as exc:
-                raise FilterError(f"{cls.__name__}.concat: field {f.name!r} does not match: {exc}") from None
+                raise FilterError(f"{cls.__name__}.concat: field {name!r} does not match: {exc}") from None
         return cls(**parts)
 
 

@@ -36,6 +36,9 @@ class LifecycleConfig(BaseModel):
     m: Annotated[int, Field(ge=1, description="detections that confirm a preliminary track")] = 3
     n: Annotated[int, Field(ge=1, description="scans of the M/N window")] = 4
     max_misses: Annotated[int, Field(ge=0, description="consecutive misses a confirmed track survives")] = 3
+    max_tracks_per_initiator: Annotated[int | None, Field(
+        ge=1, description="at most this many preliminary tracks per initiator, those whose implied "
+        "speed is nearest the window's middle (spec §4.1's optional rule; None = off, the spec's default)")] = None
 
     @model_validator(mode="after")
     def _order(self) -> LifecycleConfig:
@@ -63,13 +66,29 @@ def window_pairs(initiators: np.ndarray, contacts: np.ndarray, d_min: float, d_m
     if len(initiators) == 0 or len(contacts) == 0:
         return np.empty(0, np.int64), np.empty(0, np.int64)
     if len(initiators) * len(contacts) <= _DENSE_PAIRS:
-        d2 = ((initiators[:, None, :] - contacts[None, :, :]) ** 2).sum(axis=2)
+        dx = initiators[:, 0, None] - contacts[None, :, 0]
+        dy = initiators[:, 1, None] - contacts[None, :, 1]
+        d2 = dx * dx + dy * dy
         return np.nonzero((d2 >= d_min**2) & (d2 <= d_max**2))
     pairs = cKDTree(initiators).sparse_distance_matrix(cKDTree(contacts), d_max, output_type="ndarray")
     keep = pairs["v"] >= d_min
     i, j = pairs["i"][keep].astype(np.int64), pairs["j"][keep].astype(np.int64)
     order = np.lexsort((j, i))
     return i[order], j[order]
+
+
+def cap_per_initiator(i: np.ndarray, j: np.ndarray, initiators: np.ndarray, contacts: np.ndarray,
+                      d_min: float, d_max: float, cap: int | None) -> tuple[np.ndarray, np.ndarray]:
+    """Keep at most ``cap`` of each initiator's window pairs (i, j sorted by i): those whose
+    distance is nearest the middle of [d_min, d_max]. ``cap`` None keeps every pair."""
+    if cap is None or i.size == 0:
+        return i, j
+    d = np.hypot(*(initiators[i] - contacts[j]).T)
+    order = np.lexsort((np.abs(d - 0.5 * (d_min + d_max)), i))
+    i, j = i[order], j[order]
+    rank = np.arange(i.size) - np.searchsorted(i, i)
+    keep = np.sort(np.flatnonzero(rank < cap))
+    return i[keep], j[keep]
 
 
 def advance(status: np.ndarray, hits: np.ndarray, misses: np.ndarray, consecutive: np.ndarray,

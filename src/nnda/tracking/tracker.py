@@ -34,7 +34,7 @@ from nnda.data.sensor import polar_to_cart
 from nnda.errors import TrackingError
 from nnda.tracking.batch import Batch
 from nnda.tracking.imm import IMM, IMMPrediction, IMMState
-from nnda.tracking.lifecycle import LifecycleConfig, advance, window_pairs
+from nnda.tracking.lifecycle import LifecycleConfig, advance, cap_per_initiator, window_pairs
 from nnda.tracking.measurement import PolarMeasurement
 from nnda.tracking.output import NO_MEASUREMENT, TrackerOutput, TrackStatus
 
@@ -148,6 +148,8 @@ class TrackerBase(ABC):
         if len(self.initiators) and len(free):
             init_xy = np.column_stack(polar_to_cart(self.initiators[:, 0], self.initiators[:, 1]))
             i, j = window_pairs(init_xy, xy[free], self.d_min, self.d_max)
+            i, j = cap_per_initiator(i, j, init_xy, xy[free], self.d_min, self.d_max,
+                                     self.config.lifecycle.max_tracks_per_initiator)
             if len(i):
                 in_window[j] = True
                 contact = free[j]
