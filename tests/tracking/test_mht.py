@@ -81,3 +81,18 @@ def test_score_confirmation_confirms_the_targets():
     tracker = MHTTracker(ds.scenario.sensor, MHTConfig(confirmation="score"))
     m = run_metrics(ds, [tracker.step(s) for s in ds.scans()])
     assert m.confirmed_tracks - m.false_tracks == 4 and m.lost_targets == 0
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_greedy_global_hypothesis_is_compatible_and_never_beats_the_exact_one(seed):
+    rng = np.random.default_rng(100 + seed)
+    n = int(rng.integers(3, 11))
+    leaves = FakeLeaves(_Ids(rng.integers(0, 4, n)), rng.integers(-2, 3, (n, 3)), rng.normal(1.0, 3.0, n))
+    greedy = MHTTracker(PRESETS["S1"].sensor, MHTConfig(max_exact_leaves=1))
+    chosen = greedy._global_hypothesis(leaves)
+    fam = leaves.tracks.track_id[chosen]
+    assert np.unique(fam).size == fam.size
+    used = [(c, leaves.hist[i, c]) for i in chosen for c in range(3) if leaves.hist[i, c] >= 0]
+    assert len(used) == len(set(used))
+    assert leaves.score[chosen].sum() <= brute_force(leaves) + 1e-9
+    assert (leaves.score[chosen] > 0).all()

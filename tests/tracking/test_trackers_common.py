@@ -111,3 +111,13 @@ def test_unknown_tracker_and_bad_config():
         make_tracker("gnn", Sensor(), {"gate": -1})
     with pytest.raises(ConfigError, match="lifecycle: .*m <= n"):
         make_tracker("mht", Sensor(), {"lifecycle": {"m": 9}})
+
+
+def test_gnn_greedy_fallback_agrees_on_easy_scans():
+    """Beyond max_exact_pairs GNN matches greedily; on well separated targets both agree."""
+    ds = generate(PRESETS["S4"], seed=2)
+    _, exact = run("gnn", ds)
+    tracker, greedy = run("gnn", ds, {"max_exact_pairs": 0})
+    assert tracker.n_greedy > 0
+    a, b = run_metrics(ds, exact), run_metrics(ds, greedy)
+    assert abs(a.hits - b.hits) <= 3 and b.lost_targets == 0

@@ -8,7 +8,9 @@ Mahalanobis distance plus log |S|, the negative log-likelihood up to a
 constant, so a confident track is not out-bid by a vague one; a track may
 also stay unassigned at the cost of a contact on its gate's edge. Confirmed
 tracks are assigned first and preliminary tracks share what is left, so a
-new track cannot take a confirmed target's contact.
+new track cannot take a confirmed target's contact. Problems with more than
+``max_exact_pairs`` candidate pairs (thousands of clutter points per scan)
+are matched greedily, cheapest pair first, and counted in ``n_greedy``.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from typing import Annotated, ClassVar
 import numpy as np
 from pydantic import Field
 
-from nnda.tracking.assignment import least_cost_assignment
+from nnda.tracking.assignment import greedy_matching, least_cost_assignment
 from nnda.tracking.gating import gate
 from nnda.tracking.imm import IMMPrediction
 from nnda.tracking.output import TrackStatus
@@ -26,9 +28,11 @@ from nnda.tracking.tracker import GATE_99, Association, Tracker, TrackerConfig, 
 
 
 class GNNConfig(TrackerConfig):
-    """GNN settings: the chi-square gate on the squared Mahalanobis distance (2 dof)."""
+    """GNN settings: the chi-square gate (2 dof) and the size up to which assignment is exact."""
 
     gate: Annotated[float, Field(gt=0, description="chi-square gate, 2 dof (9.21: P_G = 0.99)")] = GATE_99
+    max_exact_pairs: Annotated[int, Field(ge=0, description="candidate pairs up to which the assignment "
+                                          "is solved exactly; beyond, greedily by cost")] = 20_000
 
 
 def gated_costs(tracker: Tracker, pred: IMMPrediction, z: np.ndarray, gate: float
@@ -46,6 +50,10 @@ class GNNTracker(Tracker):
     name: ClassVar[str] = "gnn"
     config_type: ClassVar[type[TrackerConfig]] = GNNConfig
 
+    def reset(self) -> None:
+        super().reset()
+        self.n_greedy = 0  # assignments too large to solve exactly (see GNNConfig.max_exact_pairs)
+
     def _maintain(self, tracks: Tracks, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray,
                   time: float) -> Association:
         contact = np.full(len(tracks), -1, np.int64)
@@ -56,7 +64,13 @@ class GNNTracker(Tracker):
             taken = np.zeros(len(z), bool)
             taken[contact[contact >= 0]] = True
             sel = stage[g.rows] & ~taken[g.cols]
-            if sel.any():
-                rows, cols = least_cost_assignment(g.rows[sel], g.cols[sel], g.d2[sel], mp.log_det_S, self.config.gate)
-                contact[rows] = cols
+            if not sel.any():
+                continue
+            r, c, d2 = g.rows[sel], g.cols[sel], g.d2[sel]
+            if r.size <= self.config.max_exact_pairs:
+                rows, cols = least_cost_assignment(r, c, d2, mp.log_det_S, self.config.gate)
+            else:  # every gated pair costs less than a miss, so greedy takes cheapest first
+                rows, cols = greedy_matching(r, c, -(d2 + mp.log_det_S[r]))
+                self.n_greedy += 1
+            contact[rows] = cols
         return self.hard_update(pred, z, contact)

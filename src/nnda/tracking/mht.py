@@ -10,8 +10,8 @@ log-likelihood-ratio score (Blackman & Popoli 1999, spec §7.3 defaults):
 * miss: dL = ln(1 - P_D P_G).
 
 beta_FT is the clutter density in measurement space: a spatial density rho
-(m^-2; fixed, or estimated per scan from the contacts within
-``clutter_radius_m`` of the predicted position) times the predicted range
+(m^-2; fixed, or estimated per scan from the contacts in a square of
+half-side ``clutter_radius_m`` around the predicted position) times the predicted range
 (an area element is r dr dtheta). A scan of the MHT:
 
 1. **branch** every leaf into a miss child and one child per gated contact
@@ -31,7 +31,8 @@ beta_FT is the clutter density in measurement space: a spatial density rho
    and every leaf using a contact given there to another family goes), branch probability within a family
    below ``min_branch_probability``, score fallen more than
    ``deletion_score_drop`` below its maximum, at most
-   ``max_hypotheses_per_track`` leaves per family, and merging of leaves that
+   ``max_hypotheses_per_track`` leaves per family and ``max_hypotheses`` in
+   all (chosen leaves first, then by score), and merging of leaves that
    share their last three contacts with a better leaf of any family.
 
 The chosen leaf of each family is what the tracker reports; new families are
@@ -53,11 +54,11 @@ from pydantic import Field
 from scipy.optimize import Bounds, LinearConstraint, milp
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
 from nnda.data.dataset import Scan
 from nnda.data.sensor import polar_to_cart
 from nnda.tracking.batch import Batch
+from nnda.tracking.clutter_density import local_density
 from nnda.tracking.gating import gate
 from nnda.tracking.lifecycle import advance
 from nnda.tracking.output import TrackerOutput, TrackStatus
@@ -79,6 +80,10 @@ class MHTConfig(TrackerConfig):
     n_scan: Annotated[int, Field(ge=1, description="N-scan pruning depth (scans of ambiguity kept)")] = 3
     max_track_branches: Annotated[int, Field(ge=1, description="children kept per leaf and scan, miss included")] = 3
     max_hypotheses_per_track: Annotated[int, Field(ge=1, description="leaves kept per family")] = 20
+    max_hypotheses: Annotated[int, Field(ge=1, description="leaves kept in all; the chosen ones and "
+                                         "then the best scores")] = 50_000
+    max_exact_leaves: Annotated[int, Field(ge=1, description="largest cluster (in leaves) whose global "
+                                           "hypothesis is solved exactly; larger ones greedily")] = 5_000
     min_branch_probability: Annotated[float, Field(ge=0, lt=1)] = 1e-3
     deletion_score_drop: Annotated[float, Field(gt=0, description="delete a leaf this far below its best score")] = 10.0
     confirmation: Literal["mn", "score"] = "mn"
@@ -116,7 +121,8 @@ class MHTTracker(TrackerBase):
         self.leaves: Leaves | None = None
         # last reported id, state and covariance of every family reported at least once and alive
         self.known = (np.empty(0, np.int64), np.empty((0, 4)), np.empty((0, 4, 4)))
-        self.n_clusters_solved = 0
+        self.n_clusters_solved = 0  # multi-family clusters solved exactly
+        self.n_clusters_greedy = 0  # clusters above max_exact_leaves, chosen greedily
 
     @property
     def n_hypotheses(self) -> int:
@@ -209,8 +215,7 @@ class MHTTracker(TrackerBase):
         cfg = self.config
         if cfg.clutter_density is not None:
             return np.full(len(x_pred), cfg.clutter_density)
-        counts = cKDTree(xy).query_ball_point(x_pred[:, [0, 2]], cfg.clutter_radius_m, return_length=True)
-        return np.maximum(counts, 1) / (math.pi * cfg.clutter_radius_m**2)
+        return local_density(xy, x_pred[:, [0, 2]], cfg.clutter_radius_m)
 
     def _new_leaves(self, born: Tracks, contact: np.ndarray) -> Leaves:
         k = len(born)
@@ -243,11 +248,18 @@ class MHTTracker(TrackerBase):
         order = np.lexsort((-leaves.score, fam))
         best = order[np.r_[True, np.diff(fam[order]) != 0]]  # best leaf of each family, by family
         chosen = best[(cluster_size[fam_label] == 1) & (leaves.score[best] > 0)]
-        joint = cluster_size[fam_label] > 1
-        if joint.any():  # every multi-family cluster in one binary program (they are independent blocks)
-            members = np.flatnonzero(joint[fam])
+        leaf_cluster = fam_label[fam]
+        leaves_in = np.bincount(leaf_cluster)[leaf_cluster]
+        joint = cluster_size[leaf_cluster] > 1
+        exact = joint & (leaves_in <= self.config.max_exact_leaves)
+        if exact.any():  # every such cluster in one binary program (they are independent blocks)
+            members = np.flatnonzero(exact)
             chosen = np.concatenate([chosen, self._solve_clusters(members, fam, rows, res, leaves.score)])
-            self.n_clusters_solved += int(np.unique(fam_label[joint]).size)
+            self.n_clusters_solved += int(np.unique(leaf_cluster[exact]).size)
+        if (joint & ~exact).any():  # clusters too large to solve exactly: greedy (spec §7.3 step 5)
+            members = np.flatnonzero(joint & ~exact)
+            chosen = np.concatenate([chosen, _greedy_compatible(members, fam, rows, res, leaves.score)])
+            self.n_clusters_greedy += int(np.unique(leaf_cluster[joint & ~exact]).size)
         return np.sort(chosen)
 
     @staticmethod
@@ -313,7 +325,10 @@ class MHTTracker(TrackerBase):
         cand = np.flatnonzero(keep)
         order = cand[np.lexsort((-leaves.score[cand], ~is_chosen[cand], fam[cand]))]
         rank = np.arange(order.size) - np.searchsorted(fam[order], fam[order])
-        kept = np.sort(order[rank < cfg.max_hypotheses_per_track])
+        kept = order[rank < cfg.max_hypotheses_per_track]
+        if kept.size > cfg.max_hypotheses:
+            kept = kept[np.lexsort((-leaves.score[kept], ~is_chosen[kept]))][: cfg.max_hypotheses]
+        kept = np.sort(kept)
         return leaves.take(kept) if kept.size else None
 
     # ---------------------------------------------------------------------- output
@@ -336,3 +351,22 @@ class MHTTracker(TrackerBase):
                            np.full(gone.sum(), MISS)))
         self.known = (ids[alive], x[alive], P[alive])
         return self._output(scan, time, blocks)
+
+
+def _greedy_compatible(members: np.ndarray, fam: np.ndarray, rows: np.ndarray, res: np.ndarray,
+                       score: np.ndarray) -> np.ndarray:
+    """Leaves ``members`` taken by descending score when compatible with those taken before
+    (one per family, no shared contact); leaves with a score <= 0 are never taken."""
+    bounds = np.searchsorted(rows, np.arange(fam.size + 1))  # rows is sorted: leaf of each resource
+    res_list = res.tolist()
+    used_fam, used_res, chosen = set(), set(), []
+    for leaf in members[np.argsort(-score[members], kind="stable")].tolist():
+        if score[leaf] <= 0:
+            break
+        mine = res_list[bounds[leaf]:bounds[leaf + 1]]
+        if fam[leaf] in used_fam or any(r in used_res for r in mine):
+            continue
+        chosen.append(leaf)
+        used_fam.add(fam[leaf])
+        used_res.update(mine)
+    return np.array(chosen, dtype=np.int64)

@@ -1,0 +1,35 @@
+"""Local clutter density from a scan's own contacts, for the MHT and JPDA likelihood ratios.
+
+The density at a point is the number of the scan's contacts in the square of
+half-side ``radius`` around it, over the square's area (at least one
+contact, so a density is never zero). Counting uses a summed-area table on a
+grid of radius/4 cells, so any number of query points costs O(1) each; the
+square's edges are exact to an eighth of ``radius``, without bias.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: grid cells per ``radius``
+_CELLS = 4
+
+
+def local_density(contacts: np.ndarray, at: np.ndarray, radius: float) -> np.ndarray:
+    """Contacts per m^2 around each point of ``at`` (Q, 2); ``contacts`` (N, 2) in m. Returns (Q,)."""
+    floor = 1.0 / (2.0 * radius) ** 2
+    if len(contacts) == 0 or len(at) == 0:
+        return np.full(len(at), floor)
+    cell = radius / _CELLS
+    lo = np.minimum(contacts.min(axis=0), at.min(axis=0)) - radius - cell
+    hi = np.maximum(contacts.max(axis=0), at.max(axis=0)) + radius + cell
+    shape = np.ceil((hi - lo) / cell).astype(np.int64) + 1
+    idx = ((contacts - lo) // cell).astype(np.int64)
+    counts = np.zeros(shape)
+    np.add.at(counts, (idx[:, 0], idx[:, 1]), 1.0)
+    table = np.zeros(shape + 1)
+    table[1:, 1:] = counts.cumsum(axis=0).cumsum(axis=1)
+    a = np.rint((at - radius - lo) / cell).astype(np.int64)  # cells [a, b) cover the square
+    b = np.rint((at + radius - lo) / cell).astype(np.int64)  # to half a cell at each edge
+    n = table[b[:, 0], b[:, 1]] - table[a[:, 0], b[:, 1]] - table[b[:, 0], a[:, 1]] + table[a[:, 0], a[:, 1]]
+    return np.maximum(n, 1.0) / (2.0 * radius) ** 2

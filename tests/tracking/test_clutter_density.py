@@ -1,0 +1,27 @@
+"""Local clutter density against direct counting."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nnda.tracking.clutter_density import local_density
+
+
+def test_matches_direct_count_up_to_the_grid_edge():
+    rng = np.random.default_rng(0)
+    contacts = rng.uniform(-20_000, 20_000, (3_000, 2))
+    at = rng.uniform(-15_000, 15_000, (200, 2))
+    r = 3_000.0
+    got = local_density(contacts, at, r) * (2 * r) ** 2
+    inner = (np.abs(contacts[None] - at[:, None]) <= r - r / 4).all(axis=2).sum(axis=1)
+    outer = (np.abs(contacts[None] - at[:, None]) <= r + r / 4).all(axis=2).sum(axis=1)
+    assert np.all(got >= np.maximum(inner, 1)) and np.all(got <= np.maximum(outer, 1))
+    # uniform density: the estimate is close to the truth on average
+    truth = 3_000 / 40_000.0**2
+    assert abs(np.mean(got / (2 * r) ** 2) / truth - 1) < 0.05
+
+
+def test_never_zero():
+    d = local_density(np.array([[0.0, 0.0]]), np.array([[50_000.0, 0.0], [0.0, 0.0]]), 1_000.0)
+    assert d[0] == d[1] == 1 / 2_000.0**2
+    assert local_density(np.empty((0, 2)), np.zeros((3, 2)), 1_000.0).tolist() == [1 / 2_000.0**2] * 3
