@@ -46,7 +46,7 @@ ln((1 - beta) / alpha) with alpha = 1e-3, beta = 0.1 (Wald's test, §7.3).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Annotated, ClassVar, Literal
 
 import numpy as np
@@ -60,7 +60,6 @@ from nnda.data.sensor import polar_to_cart
 from nnda.tracking.batch import Batch
 from nnda.tracking.clutter_density import local_density
 from nnda.tracking.gating import gate
-from nnda.tracking.lifecycle import advance
 from nnda.tracking.output import TrackerOutput, TrackStatus
 from nnda.tracking.tracker import GATE_99, TrackerBase, TrackerConfig, Tracks
 
@@ -188,21 +187,13 @@ class MHTTracker(TrackerBase):
         if dp.size:
             updated = imm.update(pred.take(dp), z[dc])
             filt = type(filt).concat([filt.take(~detected), updated])  # misses come first
-        status, hits, misses, consec = advance(children.status, children.hits, children.misses,
-                                               children.consecutive, detected, cfg.lifecycle)
+        tracks = children.after_scan(contact, filt, z, xy, time, cfg.lifecycle)
         max_score = np.maximum(leaves.max_score[parent], score)
         if cfg.confirmation == "score":
-            status = np.where((status == TrackStatus.PRELIMINARY) & (score > cfg.confirmation_score),
-                              TrackStatus.CONFIRMED, status).astype(np.int8)
-        cc = np.maximum(contact, 0)
+            confirm = (tracks.status == TrackStatus.PRELIMINARY) & (score > cfg.confirmation_score)
+            tracks = replace(tracks, status=np.where(confirm, TrackStatus.CONFIRMED, tracks.status).astype(np.int8))
+        status = tracks.status
         d1 = detected[:, None]
-        tracks = Tracks(
-            track_id=children.track_id, status=status, filt=filt,
-            p1=np.where(d1, children.p2, children.p1), t1=np.where(detected, children.t2, children.t1),
-            p2=np.where(d1, xy[cc] if len(xy) else 0.0, children.p2), t2=np.where(detected, time, children.t2),
-            az2=np.where(detected, z[cc, 1] if len(z) else 0.0, children.az2),
-            hits=hits, misses=misses, consecutive=consec,
-        )
         hist = np.column_stack([leaves.hist[parent, 1:], contact])
         out = Leaves(tracks, score, max_score, hist)
         x_post, P_post = imm.estimate(filt)

@@ -72,6 +72,24 @@ class Tracks(Batch):
     misses: np.ndarray
     consecutive: np.ndarray
 
+    def after_scan(self, contact: np.ndarray, filt: IMMState, z: np.ndarray, xy: np.ndarray, time: float,
+                   lifecycle: LifecycleConfig) -> Tracks:
+        """These tracks after a scan at ``time``: ``contact`` (K,) is the contact each used (-1:
+        missed), ``filt`` their IMM states from then on. The contact history moves on where a
+        contact was used, and the M/N counters and status advance (`lifecycle.advance`)."""
+        det = contact >= 0
+        c = np.maximum(contact, 0)
+        d1 = det[:, None]
+        status, hits, misses, consecutive = advance(self.status, self.hits, self.misses, self.consecutive,
+                                                    det, lifecycle)
+        return Tracks(
+            track_id=self.track_id, status=status, filt=filt,
+            p1=np.where(d1, self.p2, self.p1), t1=np.where(det, self.t2, self.t1),
+            p2=np.where(d1, xy[c] if len(xy) else 0.0, self.p2), t2=np.where(det, time, self.t2),
+            az2=np.where(det, z[c, 1] if len(z) else 0.0, self.az2),
+            hits=hits, misses=misses, consecutive=consecutive,
+        )
+
 
 @dataclass(frozen=True)
 class Association:
@@ -235,17 +253,9 @@ class Tracker(TrackerBase):
         filt = IMMState(*(np.where(det.reshape(-1, *[1] * (a.ndim - 1)), a, b)
                           for a, b in zip((assoc.filt.x, assoc.filt.P, assoc.filt.mu),
                                           (tracks.filt.x, tracks.filt.P, tracks.filt.mu))))
-        cc = np.maximum(c, 0)
-        status, hits, misses, consec = advance(tracks.status, tracks.hits, tracks.misses, tracks.consecutive,
-                                               det, self.config.lifecycle)
+        tracks = tracks.after_scan(c, filt, z, xy, time, self.config.lifecycle)
+        status = tracks.status
         d2 = det[:, None]
-        tracks = Tracks(
-            track_id=tracks.track_id, status=status, filt=filt,
-            p1=np.where(d2, tracks.p2, tracks.p1), t1=np.where(det, tracks.t2, tracks.t1),
-            p2=np.where(d2, xy[cc] if len(xy) else 0.0, tracks.p2), t2=np.where(det, time, tracks.t2),
-            az2=np.where(det, z[cc, 1] if len(z) else 0.0, tracks.az2),
-            hits=hits, misses=misses, consecutive=consec,
-        )
         # report the posterior of updated tracks and the prediction of missed ones
         x_post, P_post = self.imm.estimate(assoc.filt)
         x_pred, P_pred = self.imm.estimate(pred.state)
