@@ -5,7 +5,8 @@ import pytest
 
 from nnda.errors import ModelError
 from nnda.models.features import (
-    candidate_pairs, neighbour_sectors, pair_features, passes_gate, sector,
+    MAX_SPEED_M_S, MIN_SPEED_M_S, candidate_pairs, needed_speed, neighbour_sectors, pair_features, passes_gate,
+    sector,
 )
 
 
@@ -99,3 +100,73 @@ def test_candidate_pairs_match_elementwise_gate():
                 if passes_gate(last[i], t_last[i], sector(az_last[i]), contacts[j], 8.0, sector(az_c[j]))]
     assert list(zip(track.tolist(), contact.tolist())) == expected
     assert len(expected) > 0
+
+
+def _gating_problem(rng, M, N):
+    """M tracks and N contacts over a 20 km square at t = 10 s; contact j < min(M, N // 4) lies due
+    north of track j's last contact at 400 or 30 m/s from it: on the speed gate's bounds (included)."""
+    last = rng.uniform(-10_000, 10_000, (M, 2)) + [0.0, 15_000.0]
+    t_last = rng.choice([2.0, 4.0, 6.0, 8.0], M, p=[0.7, 0.1, 0.1, 0.1])
+    n_edge = min(M, N // 4)
+    speed = rng.choice([MIN_SPEED_M_S, MAX_SPEED_M_S], n_edge)
+    edge = last[:n_edge] + np.column_stack([np.zeros(n_edge), speed * (10.0 - t_last[:n_edge])])
+    contacts = np.concatenate([edge, rng.uniform(-10_000, 10_000, (N - n_edge, 2)) + [0.0, 15_000.0]])
+    return (last, t_last, np.arctan2(last[:, 0], last[:, 1]),
+            contacts, np.arctan2(contacts[:, 0], contacts[:, 1]), 10.0)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_candidate_pairs_k_d_tree_path_equals_dense_path(seed, monkeypatch):
+    from nnda.models import features
+    rng = np.random.default_rng(seed)
+    problem = _gating_problem(rng, int(rng.integers(50, 200)), int(rng.integers(100, 400)))
+    monkeypatch.setattr(features, "DENSE_PAIRS", 10**9)
+    dense = candidate_pairs(*problem)
+    monkeypatch.setattr(features, "DENSE_PAIRS", 0)
+    tree = candidate_pairs(*problem)
+    assert len(dense[0]) > 100
+    for a, b in zip(dense, tree):
+        assert a.dtype == b.dtype == np.int64
+        np.testing.assert_array_equal(a, b)
+    # the problem does test the bounds: pairs found at exactly 400 m/s (and at 30 m/s)
+    last, t_last, _, contacts, _, time = problem
+    v = needed_speed(last[dense[0]], t_last[dense[0]], contacts[dense[1]], time)
+    assert (v == MAX_SPEED_M_S).any() and (v == MIN_SPEED_M_S).any()
+
+
+def test_candidate_pairs_above_the_switch_use_the_tree_and_agree(monkeypatch):
+    from nnda.models import features
+    problem = _gating_problem(np.random.default_rng(9), 60, features.DENSE_PAIRS // 60 + 10)
+    tree = candidate_pairs(*problem)
+    monkeypatch.setattr(features, "DENSE_PAIRS", 10**9)
+    for a, b in zip(candidate_pairs(*problem), tree):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_candidate_pairs_bad_input_is_refused():
+    last, t_last, az_last, contacts, az_c, time = _gating_problem(np.random.default_rng(3), 4, 8)
+    with pytest.raises(ModelError, match="contacts has a non-finite value at row 5"):
+        candidate_pairs(last, t_last, az_last, np.where(np.arange(8)[:, None] == 5, np.nan, contacts), az_c, time)
+    with pytest.raises(ModelError, match="last_time has a non-finite value at row 2"):
+        candidate_pairs(last, np.where(np.arange(4) == 2, np.inf, t_last), az_last, contacts, az_c, time)
+    with pytest.raises(ModelError, match="time has a non-finite value"):
+        candidate_pairs(last, t_last, az_last, contacts, az_c, np.nan)
+    with pytest.raises(ModelError, match=r"contact_azimuth must have shape \(8,\)"):
+        candidate_pairs(last, t_last, az_last, contacts, az_c[:7], time)
+    with pytest.raises(ModelError, match=r"last must have shape \(N, 2\)"):
+        candidate_pairs(last[:, 0], t_last, az_last, contacts, az_c, time)
+    empty = candidate_pairs(last[:0], t_last[:0], az_last[:0], contacts, az_c, time)
+    assert [a.size for a in empty] == [0, 0]
+
+
+def test_scalar_times_broadcast_and_misshapen_times_are_refused():
+    rng = np.random.default_rng(2)
+    p1, p2, c = (rng.uniform(-2e4, 2e4, (6, 2)) for _ in range(3))
+    np.testing.assert_array_equal(pair_features(p1, 0.0, p2, 2.0, c, 4.0),
+                                  pair_features(p1, np.zeros(6), p2, np.full(6, 2.0), c, np.full(6, 4.0)))
+    with pytest.raises(ModelError, match=r"t2 must be a scalar or have shape \(6,\)"):
+        pair_features(p1, 0.0, p2, np.full(5, 2.0), c, 4.0)
+    with pytest.raises(ModelError, match="p1 has a non-finite value at row 3"):  # caught even where
+        pair_features(np.where(np.arange(6)[:, None] == 3, -np.inf, p1), 0.0, p2, 2.0, c, 4.0)  # -inf cancels
+    with pytest.raises(ModelError, match="t1 has a non-finite value at row 1"):
+        pair_features(p1, np.array([0.0, -np.inf, 0, 0, 0, 0]), p2, 2.0, c, 4.0)

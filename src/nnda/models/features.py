@@ -28,7 +28,11 @@ indices for many tracks and contacts at once).
 
 from __future__ import annotations
 
+import itertools
+import math
+
 import numpy as np
+from scipy.spatial import cKDTree
 
 from nnda.data.sensor import TWO_PI, wrap_angle
 from nnda.errors import ModelError
@@ -43,23 +47,51 @@ N_SECTORS = 16
 MIN_SPEED_M_S = 30.0
 MAX_SPEED_M_S = 400.0
 
+#: up to this many track-contact pairs `candidate_pairs` tests every pair at once; beyond, a k-d tree
+#: is faster (measured crossover near 2,000-3,000 pairs, e.g. 20 tracks x 110 contacts)
+DENSE_PAIRS = 2_500
+#: the k-d tree's search radius exceeds the speed gate's reach by this fraction, so rounding in the
+#: tree's distances cannot drop a pair the exact gate keeps
+_REACH_MARGIN = 1e-9
+
 
 def course(dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
     """Bearing (rad, clockwise from north, in (-pi, pi]) of displacements (dx east, dy north) in m."""
     return np.arctan2(dx, dy)
 
 
-def _positions(name: str, p: np.ndarray) -> np.ndarray:
+def _positions(name: str, p: np.ndarray, what: str = "pair features") -> np.ndarray:
     p = np.asarray(p, dtype=float)
     if p.ndim != 2 or p.shape[1] != 2:
-        raise ModelError(f"pair features: {name} must have shape (N, 2) [x, y] in m, got {p.shape}")
+        raise ModelError(f"{what}: {name} must have shape (N, 2) [x, y] in m, got {p.shape}")
     return p
 
 
-def _check_finite(name: str, a: np.ndarray) -> None:
+def _values(name: str, a: np.ndarray, n: int, what: str = "pair features", scalar: bool = True) -> np.ndarray:
+    """``a`` as floats of shape (n,), or a scalar if ``scalar`` (broadcast by the arithmetic that uses it)."""
+    a = np.asarray(a, dtype=float)
+    if a.shape != (n,) and (a.shape != () or not scalar):
+        raise ModelError(f"{what}: {name} must {'be a scalar or ' if scalar else ''}have shape ({n},), "
+                         f"got {a.shape}")
+    return a
+
+
+def _all_finite(*arrays: np.ndarray) -> bool:
+    """True if every value of ``arrays`` is finite, at one reduction per array and no temporary mask.
+
+    A sum is finite only if all its terms are; a sum of finite values that
+    overflows reads as False too, so False means "look closer", never "bad".
+    """
+    total = 0.0
+    for a in arrays:
+        total += a.sum()
+    return math.isfinite(total)
+
+
+def _check_finite(name: str, a: np.ndarray, what: str = "pair features") -> None:
     if not np.isfinite(a).all():
         bad = np.flatnonzero(~np.isfinite(a).reshape(len(a), -1).all(axis=1))[0]
-        raise ModelError(f"pair features: {name} has a non-finite value at row {bad}")
+        raise ModelError(f"{what}: {name} has a non-finite value at row {bad}")
 
 
 def pair_features(
@@ -69,14 +101,37 @@ def pair_features(
 
     ``p1``, ``p2``, ``c``: (N, 2) positions [x east, y north] in m of each
     pair's last-but-one track contact, last track contact and candidate;
-    ``t1``, ``t2``, ``tc``: (N,) their times in s, with t1 < t2 < tc.
-    Raises ModelError on wrong shapes, non-finite values or times out of order.
+    ``t1``, ``t2``, ``tc``: (N,) or scalar, their times in s, with
+    t1 < t2 < tc. Raises ModelError on wrong shapes, non-finite values or
+    times out of order.
+
+    The checks cost a few reductions when the input is good (the tracker
+    calls this every scan): features that come out finite from times in
+    order can only come from finite input; anything else is examined
+    field by field for the error message.
     """
     p1, p2, c = _positions("p1", p1), _positions("p2", p2), _positions("c", c)
     n = len(p1)
-    t1, t2, tc = (np.broadcast_to(np.asarray(t, dtype=float), (n,)) for t in (t1, t2, tc))
     if len(p2) != n or len(c) != n:
         raise ModelError(f"pair features: p1, p2 and c differ in length ({n}, {len(p2)}, {len(c)})")
+    t1, t2, tc = _values("t1", t1, n), _values("t2", t2, n), _values("tc", tc, n)
+    before, gap = t2 - t1, tc - t2
+    last = p2 - p1
+    step = c - p2
+    features = np.empty((n, 3))
+    with np.errstate(all="ignore"):  # bad input is reported below, by name and row
+        features[:, 0] = np.hypot(step[:, 0], step[:, 1]) / gap - np.hypot(last[:, 0], last[:, 1]) / before
+        turn = -wrap_angle(course(last[:, 0], last[:, 1]) - course(step[:, 0], step[:, 1]))  # (-pi, pi]
+        features[:, 1] = np.degrees(turn) / gap
+    features[:, 2] = gap
+    if n and not (before.min() > 0 and gap.min() > 0 and _all_finite(features, before)):
+        _check_pairs(*(np.broadcast_to(a, (n, *a.shape[1:])) for a in (p1, t1, p2, t2, c, tc)))
+    return features
+
+
+def _check_pairs(p1: np.ndarray, t1: np.ndarray, p2: np.ndarray, t2: np.ndarray, c: np.ndarray,
+                 tc: np.ndarray) -> None:
+    """Raise ModelError naming the first non-finite input, or else the first row with times out of order."""
     for name, a in (("p1", p1), ("t1", t1), ("p2", p2), ("t2", t2), ("c", c), ("tc", tc)):
         _check_finite(name, a)
     before, gap = t2 - t1, tc - t2
@@ -84,12 +139,6 @@ def pair_features(
         bad = np.flatnonzero((before <= 0) | (gap <= 0))[0]
         raise ModelError(f"pair features: times must satisfy t1 < t2 < tc; row {bad} has "
                          f"t1={t1[bad]}, t2={t2[bad]}, tc={tc[bad]}")
-    last = p2 - p1
-    step = c - p2
-    speed_now = np.hypot(step[:, 0], step[:, 1]) / gap
-    speed_before = np.hypot(last[:, 0], last[:, 1]) / before
-    turn = -wrap_angle(course(last[:, 0], last[:, 1]) - course(step[:, 0], step[:, 1]))  # (-pi, pi]
-    return np.column_stack([speed_now - speed_before, np.degrees(turn) / gap, gap])
 
 
 def sector(azimuth: np.ndarray) -> np.ndarray:
@@ -104,8 +153,8 @@ def neighbour_sectors(track_sector: np.ndarray, contact_sector: np.ndarray) -> n
 
 def needed_speed(p2: np.ndarray, t2: np.ndarray, c: np.ndarray, tc: np.ndarray) -> np.ndarray:
     """Speed (m/s) needed to go from P2 at t2 to C at tc; positions (..., 2) in m, times (...) in s."""
-    d = np.asarray(c, dtype=float) - np.asarray(p2, dtype=float)
-    return np.hypot(d[..., 0], d[..., 1]) / (np.asarray(tc) - np.asarray(t2))
+    c, p2 = np.asarray(c, dtype=float), np.asarray(p2, dtype=float)
+    return np.hypot(c[..., 0] - p2[..., 0], c[..., 1] - p2[..., 1]) / (np.asarray(tc) - np.asarray(t2))
 
 
 def passes_gate(
@@ -129,13 +178,38 @@ def candidate_pairs(
     ``last`` (M, 2) m, ``last_time`` (M,) s and ``last_azimuth`` (M,) rad
     describe each track's last contact; ``contacts`` (N, 2) m and
     ``contact_azimuth`` (N,) rad the scan's contacts at ``time`` s. Returns
-    (track index, contact index) arrays of the pairs that pass both gates,
-    ordered by track then contact.
+    (track index, contact index) int64 arrays of the pairs that pass both
+    gates, ordered by track then contact. Raises ModelError on wrong shapes
+    or non-finite values.
+
+    Up to `DENSE_PAIRS` track-contact pairs every pair is tested at once.
+    Beyond that a k-d tree over the contacts lists, per track, those within
+    the speed gate's reach (``MAX_SPEED_M_S`` x the time since its last
+    contact), and only those pairs get the exact test, so memory grows with
+    the candidates rather than with M x N; both ways give the same pairs.
     """
-    last = np.asarray(last, dtype=float).reshape(-1, 2)
-    contacts = np.asarray(contacts, dtype=float).reshape(-1, 2)
-    ok = passes_gate(last[:, None, :], np.asarray(last_time, dtype=float)[:, None],
-                     sector(last_azimuth)[:, None],
-                     contacts[None, :, :], time, sector(contact_azimuth)[None, :])
-    track, contact = np.nonzero(ok)
-    return track, contact
+    what = "candidate pairs"
+    last, contacts = _positions("last", last, what), _positions("contacts", contacts, what)
+    M, N = len(last), len(contacts)
+    last_time, last_azimuth = (_values(name, a, M, what, scalar=False)
+                               for name, a in (("last_time", last_time), ("last_azimuth", last_azimuth)))
+    contact_azimuth = _values("contact_azimuth", contact_azimuth, N, what, scalar=False)
+    time = float(time)
+    if not (math.isfinite(time) and _all_finite(last, last_time, last_azimuth, contacts, contact_azimuth)):
+        for name, a in (("last", last), ("last_time", last_time), ("last_azimuth", last_azimuth),
+                        ("contacts", contacts), ("contact_azimuth", contact_azimuth), ("time", np.array([time]))):
+            _check_finite(name, a, what)
+    if M == 0 or N == 0:
+        return np.empty(0, np.int64), np.empty(0, np.int64)
+    last_sector, contact_sector = sector(last_azimuth), sector(contact_azimuth)
+    if M * N <= DENSE_PAIRS:
+        return np.nonzero(passes_gate(last[:, None, :], last_time[:, None], last_sector[:, None],
+                                      contacts[None, :, :], time, contact_sector[None, :]))
+    reach = np.maximum(MAX_SPEED_M_S * (time - last_time), 0.0) * (1.0 + _REACH_MARGIN)
+    near = cKDTree(contacts).query_ball_point(last, reach, return_sorted=True)
+    counts = np.fromiter(map(len, near), np.int64, M)
+    track = np.repeat(np.arange(M), counts)
+    contact = np.fromiter(itertools.chain.from_iterable(near), np.int64, int(counts.sum()))
+    ok = passes_gate(last[track], last_time[track], last_sector[track],
+                     contacts[contact], time, contact_sector[contact])
+    return track[ok], contact[ok]
