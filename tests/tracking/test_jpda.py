@@ -10,6 +10,7 @@ import itertools
 
 import numpy as np
 import pytest
+from scipy.special import logsumexp
 
 from nnda.data import PRESETS, Scan, Sensor, generate
 from nnda.data.sensor import cart_to_polar
@@ -17,8 +18,10 @@ from nnda.errors import ConfigError
 from nnda.study.metrics import run_metrics
 from nnda.tracking import kalman
 from nnda.tracking.imm import IMM
+from nnda.tracking import gating
 from nnda.tracking.jpda import (
-    JPDATracker, clusters, jpda_marginals, log_miss_weight, loopy_marginals, pair_likelihoods, pda_update,
+    JPDATracker, Marginals, best_pairs, clusters, jpda_marginals, log_miss_weight, loopy_marginals,
+    pair_likelihoods, pda_update,
 )
 from nnda.tracking.models import ConstantVelocity
 from nnda.tracking.output import TrackStatus
@@ -43,20 +46,39 @@ def brute_force(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float) -> tup
     return beta / total, beta0 / total
 
 
+def marginals(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float, max_events: int
+              ) -> tuple[Marginals, np.ndarray]:
+    """`jpda_marginals` of the pairs where ``gate`` (K, N) is True; also returns its beta as (K, N)."""
+    t, c = np.nonzero(gate)
+    m = jpda_marginals(t, c, log_ratio[t, c], gate.shape[0], log_miss, max_events)
+    dense = np.zeros(gate.shape)
+    dense[t, c] = m.beta
+    return m, dense
+
+
+def loopy(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float) -> tuple[np.ndarray, np.ndarray]:
+    """`loopy_marginals` of the pairs where ``gate`` is True, beta as (K, N)."""
+    t, c = np.nonzero(gate)
+    beta, beta0 = loopy_marginals(t, c, log_ratio[t, c], gate.shape[0], log_miss)
+    dense = np.zeros(gate.shape)
+    dense[t, c] = beta
+    return dense, beta0
+
+
 def test_two_tracks_sharing_a_contact_match_brute_force():
     # track 0 gates contacts 0 and 1, track 1 gates 1 and 2: one cluster of two tracks
     gate = np.array([[1, 1, 0], [0, 1, 1]], bool)
     log_ratio = np.log(np.array([[4.0, 2.0, 1.0], [1.0, 6.0, 0.5]]))  # 1.0: outside the gate
     log_miss = np.log(0.1)
-    m = jpda_marginals(gate, log_ratio, log_miss, max_events=10_000)
+    m, got = marginals(gate, log_ratio, log_miss, max_events=10_000)
     beta, beta0 = brute_force(gate, log_ratio, log_miss)
-    np.testing.assert_allclose(m.beta, beta, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(got, beta, rtol=1e-12, atol=1e-15)
     np.testing.assert_allclose(m.beta0, beta0, rtol=1e-12)
     # by hand: the 8 feasible events have weights
     # {miss,miss} .01, {0,miss} .4, {1,miss} .2, {miss,1} .6, {miss,2} .05, {0,1} 24, {0,2} 2, {1,2} 1
     total = 0.01 + 0.4 + 0.2 + 0.6 + 0.05 + 24 + 2 + 1
-    assert m.beta[0, 0] == pytest.approx((0.4 + 24 + 2) / total)
-    assert m.beta[1, 1] == pytest.approx((0.6 + 24) / total)
+    assert got[0, 0] == pytest.approx((0.4 + 24 + 2) / total)
+    assert got[1, 1] == pytest.approx((0.6 + 24) / total)
     assert m.beta0[1] == pytest.approx((0.01 + 0.4 + 0.2) / total)
     assert not m.approximated.any() and m.cluster.tolist() == [0, 0]
 
@@ -68,20 +90,22 @@ def test_random_gates_match_brute_force(seed):
     gate = rng.random((K, N)) < 0.5
     log_ratio = rng.normal(0.0, 2.0, (K, N))
     log_miss = float(rng.normal(-2.0, 1.0))
-    m = jpda_marginals(gate, log_ratio, log_miss, max_events=10_000)
+    m, got = marginals(gate, log_ratio, log_miss, max_events=10_000)
     beta, beta0 = brute_force(gate, log_ratio, log_miss)
-    np.testing.assert_allclose(m.beta, beta, atol=1e-12)
+    np.testing.assert_allclose(got, beta, atol=1e-12)
     np.testing.assert_allclose(m.beta0, beta0, atol=1e-12)
-    np.testing.assert_allclose(m.beta.sum(axis=1) + m.beta0, 1.0)
-    assert (m.beta[~gate] == 0).all()
+    np.testing.assert_allclose(got.sum(axis=1) + m.beta0, 1.0)
 
 
 def test_clusters_join_tracks_through_shared_contacts():
     gate = np.array([[1, 0, 0, 0], [0, 0, 1, 0], [1, 1, 0, 0], [0, 0, 1, 1], [0, 0, 0, 0]], bool)
-    n, label = clusters(gate)
+    n, label = clusters(*np.nonzero(gate), 5)
     assert n == 3 and label.tolist() == [0, 1, 0, 1, 2]
-    n, label = clusters(np.eye(3, dtype=bool))  # nothing shared
+    n, label = clusters(*np.nonzero(np.eye(3, dtype=bool)), 3)  # nothing shared
     assert n == 3 and label.tolist() == [0, 1, 2]
+    # contact indices need not be compact: the same graph with contacts 1000 apart
+    t, c = np.nonzero(gate)
+    assert clusters(t, 1000 * c + 7, 5)[1].tolist() == [0, 1, 0, 1, 2]
 
 
 def test_cap_falls_back_to_belief_propagation():
@@ -90,14 +114,14 @@ def test_cap_falls_back_to_belief_propagation():
     rng = np.random.default_rng(7)
     log_ratio = rng.normal(1.0, 1.5, gate.shape)
     exact = brute_force(gate, log_ratio, -2.0)
-    m = jpda_marginals(gate, log_ratio, -2.0, max_events=5)
+    m, got = marginals(gate, log_ratio, -2.0, max_events=5)
     assert m.approximated.tolist() == [True]
-    np.testing.assert_allclose(m.beta, exact[0], atol=1e-9)
+    np.testing.assert_allclose(got, exact[0], atol=1e-9)
     np.testing.assert_allclose(m.beta0, exact[1], atol=1e-9)
     # with a cycle (two tracks, two shared contacts) it is an approximation, close to the truth
     gate = np.ones((2, 2), bool)
     log_ratio = np.log(np.array([[3.0, 1.0], [1.0, 2.0]]))
-    beta, beta0 = loopy_marginals(gate, log_ratio, np.log(0.2))
+    beta, beta0 = loopy(gate, log_ratio, np.log(0.2))
     exact = brute_force(gate, log_ratio, np.log(0.2))
     np.testing.assert_allclose(beta.sum(axis=1) + beta0, 1.0)
     np.testing.assert_allclose(beta, exact[0], atol=0.1)
@@ -108,10 +132,10 @@ def test_only_oversized_clusters_are_approximated():
     gate[0, 0] = True  # small cluster: 2 events
     gate[1:, 1:] = True  # two tracks over four contacts: 1 + 8 + 12 = 21 events
     log_ratio = np.zeros(gate.shape)
-    m = jpda_marginals(gate, log_ratio, np.log(0.1), max_events=20)
+    m, got = marginals(gate, log_ratio, np.log(0.1), max_events=20)
     assert m.approximated.tolist() == [False, True]
     exact = brute_force(gate, log_ratio, np.log(0.1))
-    assert m.beta[0, 0] == pytest.approx(exact[0][0, 0], rel=1e-12)
+    assert got[0, 0] == pytest.approx(exact[0][0, 0], rel=1e-12)
 
 
 @pytest.mark.parametrize("seed", range(20))
@@ -121,12 +145,12 @@ def test_capped_random_gates_stay_exact_below_the_cap(seed):
     gate = rng.random((K, N)) < 0.4
     gate[0] = False  # a track with nothing in its gate: its cluster assigns no contact at all
     log_ratio = rng.normal(1.0, 2.0, (K, N))
-    m = jpda_marginals(gate, log_ratio, -2.2, max_events=int(rng.integers(2, 30)))
+    m, got = marginals(gate, log_ratio, -2.2, max_events=int(rng.integers(2, 30)))
     beta, beta0 = brute_force(gate, log_ratio, -2.2)
     exact = ~m.approximated[m.cluster]
-    np.testing.assert_allclose(m.beta[exact], beta[exact], atol=1e-12)
+    np.testing.assert_allclose(got[exact], beta[exact], atol=1e-12)
     np.testing.assert_allclose(m.beta0[exact], beta0[exact], atol=1e-12)
-    np.testing.assert_allclose(m.beta.sum(axis=1) + m.beta0, 1.0)
+    np.testing.assert_allclose(got.sum(axis=1) + m.beta0, 1.0)
     assert m.beta0[0] == 1.0
 
 
@@ -146,17 +170,24 @@ def _prediction(imm: IMM, dt: float = 2.0):
 def _update(imm: IMM, pred, z, beta, beta0):
     """`pda_update` from dense (K, N) association probabilities (pairs: where beta > 0)."""
     t, c = np.nonzero(beta > 0)
-    nu, log_lik, _ = pair_likelihoods(pred, z, t, c, imm.measurement)
+    nu, log_lik = pair_likelihoods(pred, z, t, c, imm.measurement)
     return pda_update(pred, t, nu, log_lik, beta[t, c], beta0)
 
 
-def test_pair_mixture_likelihood_is_the_imms():
+def test_pair_model_likelihoods_mix_to_the_imms():
     imm = IMM()
     pred = _prediction(imm)
     z = np.array([[12_310.0, 0.522], [9_000.0, 1.0], [15_190.0, 2.021]])
     t, c = np.array([0, 0, 1, 1]), np.array([0, 2, 1, 2])
-    _, _, log_mix = pair_likelihoods(pred, z, t, c, imm.measurement)
-    np.testing.assert_allclose(log_mix, imm.log_likelihood(pred, z)[t, c], rtol=1e-12)
+    nu, log_lik = pair_likelihoods(pred, z, t, c, imm.measurement)
+    assert nu.shape == (4, 2, 2) and log_lik.shape == (4, 2)
+    mixed = logsumexp(log_lik, b=pred.state.mu[t], axis=1)
+    np.testing.assert_allclose(mixed, imm.log_likelihood(pred, z)[t, c], rtol=1e-12)
+
+
+def test_best_pair_per_track_takes_the_first_of_equals():
+    track = np.array([0, 0, 0, 1, 2, 2])
+    assert best_pairs(track, np.array([0.2, 0.5, 0.5, 0.1, 0.3, 0.6])).tolist() == [1, 3, 5]
 
 
 def test_certain_association_is_the_plain_imm_update():
@@ -201,8 +232,8 @@ def test_mode_probabilities_of_an_isolated_track_are_the_imm_pdaf_ones():
     z = np.array([[12_310.0, 0.522], [12_240.0, 0.5235]])
     pd, gate, density = 0.9, 9.21, 1e-3
     log_ratio = np.log(pd) + imm.log_likelihood(pred, z) - np.log(density)
-    m = jpda_marginals(np.ones((1, 2), bool), log_ratio, log_miss_weight(pd, gate), 100)
-    got = _update(imm, pred, z, m.beta, m.beta0)
+    m, beta = marginals(np.ones((1, 2), bool), log_ratio, log_miss_weight(pd, gate), 100)
+    got = _update(imm, pred, z, beta, m.beta0)
     mp = pred.measurement
     nu = imm.measurement.residual(z[:, None, :], mp.z[0][None])  # (N, r, 2)
     lik = np.exp(kalman.gaussian_log_likelihood(kalman.mahalanobis_2x2(nu, mp.S_inv[0][None]),
@@ -290,3 +321,28 @@ def test_tracks_s1_with_the_enumeration_capped():
 def test_bad_config_is_refused(params, field):
     with pytest.raises(ConfigError, match=f"invalid jpda config: {field}"):
         make_tracker("jpda", Sensor(), params)
+
+
+def test_k_d_tree_gating_gives_the_dense_gatings_results(monkeypatch):
+    # S6 with 400 clutter points: tracks x contacts passes the 60k-pair switch from the fourth scan on
+    sc = PRESETS["S6"].model_copy(update={"duration_s": 12.0, "clutter": PRESETS["S6"].clutter.model_copy(
+        update={"count": 400})})
+    ds = generate(sc, seed=4)
+    sizes = []
+
+    class Sizes(JPDATracker):
+        def _maintain(self, tracks, pred, z, xy, time):
+            sizes.append(len(tracks) * len(z))
+            return super()._maintain(tracks, pred, z, xy, time)
+
+    runs, switch = [], gating.DENSE_PAIRS
+    for dense_pairs in (switch, 10**12):
+        monkeypatch.setattr(gating, "DENSE_PAIRS", dense_pairs)
+        tracker = Sizes(ds.scenario.sensor)
+        runs.append([tracker.step(scan) for scan in ds.scans()])
+    assert max(sizes) > switch > min(sizes)  # both paths ran in the default run
+    for a, b in zip(*runs):
+        for field in ("track_id", "status", "measurement"):
+            np.testing.assert_array_equal(getattr(a, field), getattr(b, field))
+        np.testing.assert_allclose(a.state, b.state, rtol=1e-12, atol=1e-9)
+        np.testing.assert_allclose(a.covariance, b.covariance, rtol=1e-12, atol=1e-9)

@@ -3,8 +3,11 @@
 Each scan:
 
 1. **Gate** every contact against each track's IMM gating prediction (the
-   combined state, spec §7.2) with the chi-square gate of the GNN baseline
-   (`nnda.tracking.gnn.gated_costs`, 9.21 on 2 dof: P_G = 0.99).
+   combined state, spec §7.2) with the chi-square gate (9.21 on 2 dof:
+   P_G = 0.99) of the shared sparse gating (`nnda.tracking.gating.gate`,
+   as GNN). From here on everything works on the list of gated
+   (track, contact) pairs, never on a tracks x contacts array, so a scan
+   costs in proportion to its gated pairs.
    Confirmed tracks associate first; preliminary tracks then share the
    contacts that no confirmed track reported (step 5), as in GNN, so a new
    track cannot take a confirmed target's contact.
@@ -13,20 +16,21 @@ Each scan:
    graph); clusters are independent.
 3. **Joint events**: every way of giving each track of a cluster at most one
    of its gated contacts, each contact to at most one track, is enumerated
-   exactly (a track alone in its cluster takes the PDA closed form). An event's weight is the product over its tracks of
-   P_D l_tj / lambda for a track given contact j and 1 - P_D P_G for a track
-   given none, where l_tj is the IMM mixture likelihood of the contact
-   (as `IMM.log_likelihood`, for gated pairs only; in (m, rad)
-   measurement space) and lambda the
-   clutter density in the same space. The marginal association
-   probabilities beta_tj (and beta_t0, no detection) sum the normalised
-   weights of the events holding each assignment.
+   exactly (a track alone in its cluster takes the PDA closed form). An
+   event's weight is the product over its tracks of P_D l_tj / lambda for a
+   track given contact j and 1 - P_D P_G for a track given none, where l_tj
+   is the IMM mixture likelihood of the contact (`IMM.pair_log_likelihood`,
+   in (m, rad) measurement space) and lambda the clutter density in the
+   same space. The marginal association probabilities beta_tj (and beta_t0,
+   no detection) sum the normalised weights of the events holding each
+   assignment.
 
-   Beyond ``max_joint_events`` (partial) events listed for one cluster the enumeration stops
-   and that cluster's marginals come from loopy belief propagation over the
-   same weights (`loopy_marginals`, Williams & Lau 2014), which is exact on
-   clusters without cycles and close otherwise; ``JPDATracker.n_approximated``
-   counts these clusters (``n_clusters`` all clusters) since the last reset.
+   Beyond ``max_joint_events`` (partial) events listed for one cluster the
+   enumeration stops and that cluster's marginals come from loopy belief
+   propagation over the same weights (`loopy_marginals`, Williams & Lau
+   2014), which is exact on clusters without cycles and close otherwise;
+   ``JPDATracker.n_approximated`` counts these clusters (``n_clusters`` all
+   clusters) since the last reset.
 4. **Update** (the IMM-JPDA variant implemented here): given the track's
    beta and each model's own likelihoods, Bayes' rule splits every
    association over the models: P(contact j, model m) = beta_tj
@@ -69,7 +73,7 @@ from scipy.spatial import cKDTree
 
 from nnda.data.sensor import TWO_PI
 from nnda.tracking import kalman
-from nnda.tracking.gnn import gated_costs
+from nnda.tracking.gating import gate
 from nnda.tracking.imm import IMMPrediction, IMMState
 from nnda.tracking.measurement import MeasurementModel
 from nnda.tracking.output import TrackStatus
@@ -106,33 +110,36 @@ def log_miss_weight(pd: float, gate: float) -> float:
     return float(np.logaddexp(np.log1p(-pd) if pd < 1 else -np.inf, np.log(pd) - gate / 2))
 
 
-def clusters(gate: np.ndarray) -> tuple[int, np.ndarray]:
-    """Clusters of K tracks linked by shared gated contacts; ``gate`` (K, N) bool.
+def clusters(track: np.ndarray, contact: np.ndarray, n_tracks: int) -> tuple[int, np.ndarray]:
+    """Clusters of tracks linked by shared gated contacts.
 
+    The gated pairs are given by their ``track`` (P,) in [0, K), K =
+    ``n_tracks``, and ``contact`` (P,) (any non-negative contact indices).
     Returns the number of clusters and each track's cluster label (K,),
-    labels numbered in order of each cluster's first track.
+    labels numbered in order of each cluster's first track; a track without
+    pairs is a cluster of its own.
     """
-    K, N = gate.shape
-    if K == 0 or gate.sum(axis=0).max(initial=0) <= 1:  # no shared contact: one cluster per track
+    K = n_tracks
+    if contact.size == 0 or np.bincount(contact).max() <= 1:  # no shared contact: one cluster per track
         return K, np.arange(K)
-    t, c = np.nonzero(gate)
-    graph = csr_matrix((np.ones(t.size, bool), K + c, np.searchsorted(t, np.arange(K + 1)).tolist()
-                        + [t.size] * N), shape=(K + N, K + N))
+    used, c = np.unique(contact, return_inverse=True)
+    graph = csr_matrix((np.ones(track.size, bool), (track, K + c)), shape=(K + used.size, K + used.size))
     labels = connected_components(graph, directed=False)[1][:K]
-    used, first = np.unique(labels, return_index=True)
-    rank = np.empty(used.size, np.int64)
-    rank[np.argsort(first)] = np.arange(used.size)
-    return used.size, rank[np.searchsorted(used, labels)]
+    found, first = np.unique(labels, return_index=True)
+    rank = np.empty(found.size, np.int64)
+    rank[np.argsort(first)] = np.arange(found.size)
+    return found.size, rank[np.searchsorted(found, labels)]
 
 
 @dataclass(frozen=True)
 class Marginals:
-    """Association probabilities of K tracks and N contacts in one scan.
+    """Association probabilities of K tracks over P gated (track, contact) pairs in one scan.
 
-    ``beta`` (K, N) and ``beta0`` (K,) (no contact): each row of
-    [beta0, beta] sums to 1. ``cluster`` (K,) labels each track's cluster
-    and ``approximated`` (C,) marks the clusters solved by belief
-    propagation instead of enumeration.
+    ``beta`` (P,) holds each pair's probability and ``beta0`` (K,) each
+    track's probability of no contact: per track, beta0 plus the betas of
+    its pairs sum to 1. ``cluster`` (K,) labels each track's cluster and
+    ``approximated`` (C,) marks the clusters solved by belief propagation
+    instead of enumeration.
     """
 
     beta: np.ndarray
@@ -141,12 +148,16 @@ class Marginals:
     approximated: np.ndarray
 
 
-def jpda_marginals(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float, max_events: int) -> Marginals:
-    """Marginal association probabilities of K tracks and N contacts.
+def jpda_marginals(track: np.ndarray, contact: np.ndarray, log_ratio: np.ndarray, n_tracks: int,
+                   log_miss: float, max_events: int) -> Marginals:
+    """Marginal association probabilities of K = ``n_tracks`` tracks over P gated pairs.
 
-    ``gate`` (K, N) says which pairs may associate; ``log_ratio`` (K, N) is
-    log(P_D l_tj / lambda) for those pairs (ignored elsewhere); ``log_miss``
-    is log(1 - P_D P_G).
+    The pairs are given by ``track`` (P,) in [0, K), sorted (each track's
+    pairs together), ``contact`` (P,) non-negative contact indices and
+    ``log_ratio`` (P,) = log(P_D l_tj / lambda); ``log_miss`` is
+    log(1 - P_D P_G). Memory and time grow with the pairs and the events
+    listed, never with tracks x contacts.
+
     Joint events are enumerated exactly per cluster of tracks sharing
     contacts, one track after the other. The work is bounded: once the
     partial events listed for a cluster, summed over its tracks (and counted
@@ -155,14 +166,12 @@ def jpda_marginals(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float, max
     cluster of s tracks lists at least s (s + 1) / 2 partial events, this
     also bounds the cluster size (141 tracks for 10,000).
     """
-    K, N = gate.shape
-    if N == 0:
-        return Marginals(np.zeros((K, 0)), np.ones(K), np.arange(K), np.zeros(K, bool))
-    n_clusters, label = clusters(gate)
+    K, P = n_tracks, track.size
+    n_clusters, label = clusters(track, contact, K)
     if n_clusters == K:  # every track alone: the PDA closed form
-        odds = _odds(gate, log_ratio, log_miss)
-        total = 1.0 + odds.sum(axis=1)
-        return Marginals(odds / total[:, None], 1.0 / total, label, np.zeros(K, bool))
+        odds = _odds(log_ratio, log_miss)
+        total = 1.0 + np.bincount(track, odds, minlength=K)
+        return Marginals(odds / total[track], 1.0 / total, label, np.zeros(K, bool))
     size = np.bincount(label, minlength=n_clusters)
     depth = int(size.max(initial=0))
     order = np.argsort(label, kind="stable")
@@ -170,118 +179,114 @@ def jpda_marginals(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float, max
     position[order] = np.arange(K) - np.repeat(np.cumsum(size) - size, size)
     members = np.full((n_clusters, depth), -1, np.int64)
     members[label, position] = np.arange(K)
-    gated_track, gated_contact = np.nonzero(gate)  # sorted by track
-    gated_contact = np.append(gated_contact, -1)  # a sentinel keeps the look-ups below in range
-    n_gated = np.bincount(gated_track, minlength=K)
+    n_gated = np.bincount(track, minlength=K)
     first_gated = np.cumsum(n_gated) - n_gated
-    ratio = np.where(gate, log_ratio, 0.0)
+    pair_contact = np.append(contact, -1)  # a sentinel keeps the look-ups below in range
+    pair_ratio = np.append(log_ratio, 0.0)
 
-    # events of all clusters, grouped by cluster: their contact per depth (-1: none) and log weight
+    # events of all clusters, grouped by cluster: their pair and contact per depth (-1: none) and log weight
     ev_cluster = np.arange(n_clusters)
-    ev_contact = np.empty((n_clusters, 0), np.int64)  # grows by one column per depth
+    ev_pair = np.empty((n_clusters, 0), np.int64)  # both grow by one column per depth
+    ev_contact = np.empty((n_clusters, 0), np.int64)
     ev_logw = np.zeros(n_clusters)
     exact = np.ones(n_clusters, bool)
     listed = np.zeros(n_clusters)  # partial events listed so far per cluster, all depths together
     width = depth  # the largest cluster still enumerated
     for d in range(depth):
-        track = members[ev_cluster, d]
-        present = track >= 0
-        n_options = np.where(present, 1 + n_gated[track], 1)  # option 0: no contact for this track
+        at = members[ev_cluster, d]
+        present = at >= 0
+        n_options = np.where(present, 1 + n_gated[at], 1)  # option 0: no contact for this track
         listed += np.bincount(ev_cluster, n_options, minlength=n_clusters)
         over = exact & (listed > max_events)
         if over.any():  # give up on these clusters before listing their events
             exact &= ~over
             alive = ~over[ev_cluster]
             width = int(size[exact].max(initial=0))
-            ev_cluster, ev_logw, track, present, n_options = (
-                a[alive] for a in (ev_cluster, ev_logw, track, present, n_options))
-            ev_contact = ev_contact[alive]
+            ev_cluster, ev_logw, at, present, n_options = (
+                a[alive] for a in (ev_cluster, ev_logw, at, present, n_options))
+            ev_pair, ev_contact = ev_pair[alive], ev_contact[alive]
         if d >= width:
             break
         parent = np.repeat(np.arange(ev_cluster.size), n_options)
         option = np.arange(parent.size) - np.repeat(np.cumsum(n_options) - n_options, n_options)
-        track = track[parent]
-        slot = first_gated[track] + np.maximum(option - 1, 0)
-        contact = np.where(option > 0, gated_contact[slot], -1)
-        taken = (contact >= 0) & (ev_contact[parent] == contact[:, None]).any(axis=1)
-        add = np.where(~present[parent], 0.0,
-                       np.where(option > 0, ratio[track, np.maximum(contact, 0)], log_miss))
+        pair = np.where(option > 0, first_gated[at[parent]] + option - 1, P)  # P: no pair
+        c = pair_contact[pair]
+        taken = (c >= 0) & (ev_contact[parent] == c[:, None]).any(axis=1)
+        add = np.where(~present[parent], 0.0, np.where(option > 0, pair_ratio[pair], log_miss))
         keep = ~taken
         ev_cluster = ev_cluster[parent[keep]]
-        ev_contact = np.column_stack([ev_contact[parent[keep]], contact[keep]])
+        ev_pair = np.column_stack([ev_pair[parent[keep]], np.where(pair < P, pair, -1)[keep]])
+        ev_contact = np.column_stack([ev_contact[parent[keep]], c[keep]])
         ev_logw = ev_logw[parent[keep]] + add[keep]
 
-    beta = np.zeros((K, N))
+    beta = np.zeros(P)
     beta0 = np.zeros(K)
     if ev_cluster.size:
         top = np.full(n_clusters, -np.inf)
         np.maximum.at(top, ev_cluster, ev_logw)
         w = np.exp(ev_logw - top[ev_cluster])
         w /= np.bincount(ev_cluster, w, minlength=n_clusters)[ev_cluster]
-        track = members[ev_cluster, :ev_contact.shape[1]]  # (E, depth)
-        weight = np.broadcast_to(w[:, None], track.shape)
-        assigned = (track >= 0) & (ev_contact >= 0)
-        missed = (track >= 0) & (ev_contact < 0)
+        at = members[ev_cluster, :ev_pair.shape[1]]  # (E, depth)
+        weight = np.broadcast_to(w[:, None], at.shape)
+        assigned = (at >= 0) & (ev_pair >= 0)
+        missed = (at >= 0) & (ev_pair < 0)
         # (bincount gives integers when no event assigns anything)
-        beta = np.bincount(track[assigned] * N + ev_contact[assigned], weight[assigned],
-                           minlength=K * N).reshape(K, N).astype(float)
-        beta0 = np.bincount(track[missed], weight[missed], minlength=K).astype(float)
+        beta = np.bincount(ev_pair[assigned], weight[assigned], minlength=P).astype(float, copy=False)
+        beta0 = np.bincount(at[missed], weight[missed], minlength=K).astype(float, copy=False)
     if not exact.all():
+        sel = ~exact[label[track]]
         rows = np.flatnonzero(~exact[label])
-        beta[rows], beta0[rows] = loopy_marginals(gate[rows], log_ratio[rows], log_miss)
+        beta[sel], loopy0 = loopy_marginals(track[sel], contact[sel], log_ratio[sel], K, log_miss)
+        beta0[rows] = loopy0[rows]
     return Marginals(beta, beta0, label, ~exact)
 
 
-def loopy_marginals(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float
-                    ) -> tuple[np.ndarray, np.ndarray]:
+def loopy_marginals(track: np.ndarray, contact: np.ndarray, log_ratio: np.ndarray, n_tracks: int,
+                    log_miss: float) -> tuple[np.ndarray, np.ndarray]:
     """Approximate marginal association probabilities by loopy belief propagation.
 
-    Same inputs as `jpda_marginals` (without the cap); returns beta (K, N)
-    and beta0 (K,). The message passing of Williams & Lau ("Approximate
-    evaluation of marginal association probabilities with belief
-    propagation", IEEE T-AES 2014) on the weights psi_tj = exp(log_ratio -
-    log_miss): exact when the gate graph has no cycle, and convergent.
+    Same inputs as `jpda_marginals` (without the cap; the pairs need not be
+    sorted); returns beta (P,) per pair and beta0 (K,) per track (1 for a
+    track without pairs). The message passing of Williams & Lau
+    ("Approximate evaluation of marginal association probabilities with
+    belief propagation", IEEE T-AES 2014) on the weights psi_tj =
+    exp(log_ratio - log_miss): exact when the gate graph has no cycle, and
+    convergent.
     """
-    K, N = gate.shape
-    t, j = np.nonzero(gate)
-    psi = _odds(gate[t, j], log_ratio[t, j], log_miss)  # one entry per gated pair
-    to_track = np.ones(t.size)  # messages contact j -> track t
+    K = n_tracks
+    _, j = np.unique(contact, return_inverse=True)
+    psi = _odds(log_ratio, log_miss)
+    to_track = np.ones(track.size)  # messages contact j -> track t
     for _ in range(BP_MAX_SWEEPS):
         weighted = psi * to_track
-        to_contact = psi / (1.0 + np.bincount(t, weighted, K)[t] - weighted)  # track t -> contact j
-        new = 1.0 / (1.0 + np.bincount(j, to_contact, N)[j] - to_contact)
+        to_contact = psi / (1.0 + np.bincount(track, weighted, K)[track] - weighted)  # track t -> contact j
+        new = 1.0 / (1.0 + np.bincount(j, to_contact)[j] - to_contact)
         moved = np.abs(new - to_track).max(initial=0.0)
         to_track = new
         if moved <= BP_TOLERANCE:
             break
     weighted = psi * to_track
-    total = 1.0 + np.bincount(t, weighted, K)
-    beta = np.zeros((K, N))
-    beta[t, j] = weighted / total[t]
-    return beta, 1.0 / total
+    total = 1.0 + np.bincount(track, weighted, K)
+    return weighted / total[track], 1.0 / total
 
 
-def _odds(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float) -> np.ndarray:
-    """Weight of each pair relative to its track's miss, exp(log_ratio - log_miss); 0 where ``gate`` is False."""
-    return np.where(gate, np.exp(np.minimum(np.where(gate, log_ratio, 0.0) - log_miss, _MAX_LOG_RATIO)), 0.0)
+def _odds(log_ratio: np.ndarray, log_miss: float) -> np.ndarray:
+    """Weight of each pair relative to its track's miss, exp(log_ratio - log_miss), kept finite."""
+    return np.exp(np.minimum(log_ratio - log_miss, _MAX_LOG_RATIO))
 
 
 def pair_likelihoods(pred: IMMPrediction, z: np.ndarray, track: np.ndarray, contact: np.ndarray,
-                     measurement: MeasurementModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                     measurement: MeasurementModel) -> tuple[np.ndarray, np.ndarray]:
     """Innovations and likelihoods of P (track, contact) pairs under each IMM model.
 
     ``pred`` holds K tracks, ``z`` (N, 2) the contacts, ``track`` and
-    ``contact`` (P,) index the pairs. Returns the innovations nu (P, r, 2),
-    each model's log N(nu; 0, S) (P, r) and the IMM mixture log-likelihood
-    log sum_m mu_m N(nu_m; 0, S_m) (P,), the quantity of `IMM.log_likelihood`
-    computed for the pairs only.
+    ``contact`` (P,) index the pairs. Returns the innovations nu (P, r, 2)
+    and each model's log N(nu; 0, S) (P, r), what `pda_update` needs (the
+    IMM mixture of these is `IMM.pair_log_likelihood`).
     """
     mp = pred.measurement
     nu = measurement.residual(z[contact][:, None, :], mp.z[track])
-    log_lik = kalman.gaussian_log_likelihood(kalman.mahalanobis_2x2(nu, mp.S_inv[track]), mp.log_det_S[track])
-    log_terms = log_lik + np.log(pred.state.mu[track] + _TINY)
-    top = log_terms.max(axis=1)
-    return nu, log_lik, top + np.log(np.exp(log_terms - top[:, None]).sum(axis=1))
+    return nu, kalman.gaussian_log_likelihood(kalman.mahalanobis_2x2(nu, mp.S_inv[track]), mp.log_det_S[track])
 
 
 def pda_update(pred: IMMPrediction, track: np.ndarray, nu: np.ndarray, log_lik: np.ndarray,
@@ -317,9 +322,19 @@ def pda_update(pred: IMMPrediction, track: np.ndarray, nu: np.ndarray, log_lik: 
 
 def _sum_by_track(track: np.ndarray, values: np.ndarray, K: int) -> np.ndarray:
     """Sums (K, ...) of per-pair ``values`` (P, ...) over the pairs of each track."""
-    out = np.zeros((K, *values.shape[1:]))
-    np.add.at(out, track, values)
-    return out
+    F = int(np.prod(values.shape[1:]))
+    flat = values.reshape(len(track), F)
+    index = (track[:, None] * F + np.arange(F)).ravel()
+    return np.bincount(index, flat.ravel(), minlength=K * F).reshape(K, *values.shape[1:])
+
+
+def best_pairs(track: np.ndarray, beta: np.ndarray) -> np.ndarray:
+    """Index of each track's most probable pair (ties: its first); ``track`` (P,) sorted, every track
+    0..K-1 present. Returns (K,)."""
+    start = np.flatnonzero(np.r_[True, track[1:] != track[:-1]])
+    top = np.maximum.reduceat(beta, start)
+    hit = np.flatnonzero(beta == top[track])
+    return hit[np.r_[True, track[hit][1:] != track[hit][:-1]]]
 
 
 class JPDATracker(Tracker):
@@ -352,32 +367,30 @@ class JPDATracker(Tracker):
         state = IMMState(pred.state.x.copy(), pred.state.P.copy(), pred.state.mu.copy())
         if not len(z):
             return Association(contact, state)
-        _, _, inside = gated_costs(self, pred, z, cfg.gate)
-        near = np.flatnonzero(inside.any(axis=0))
+        g = gate(self.imm, self.imm.combined_measurement(pred), z, xy, cfg.gate)
+        near = np.unique(g.cols)
         log_density = np.zeros(len(z))
         log_density[near] = np.log(self.clutter_density(z, xy, near))
         log_miss = log_miss_weight(cfg.pd, cfg.gate)
         taken = np.zeros(len(z), bool)
         confirmed = tracks.status == TrackStatus.CONFIRMED
         for stage in (confirmed, ~confirmed):  # confirmed tracks first, as in GNN
-            ok = inside & stage[:, None] & ~taken
-            rows = np.flatnonzero(ok.any(axis=1))
-            if not rows.size:
+            sel = stage[g.rows] & ~taken[g.cols]
+            if not sel.any():
                 continue
-            cols = np.flatnonzero(ok.any(axis=0))
-            gate = ok[np.ix_(rows, cols)]
-            i, j = np.nonzero(gate)  # gated pairs, by row then column of the block
+            rows, track = np.unique(g.rows[sel], return_inverse=True)  # the stage's tracks with pairs
+            cols = g.cols[sel]
             active = pred.take(rows)
-            nu, log_lik, log_mix = pair_likelihoods(active, z, i, cols[j], self.imm.measurement)
-            log_ratio = np.zeros(gate.shape)
-            log_ratio[i, j] = np.log(cfg.pd) + log_mix - log_density[cols[j]]
-            m = jpda_marginals(gate, log_ratio, log_miss, cfg.max_joint_events)
+            log_ratio = (np.log(cfg.pd) + self.imm.pair_log_likelihood(active, track, z[cols])
+                         - log_density[cols])
+            m = jpda_marginals(track, cols, log_ratio, rows.size, log_miss, cfg.max_joint_events)
             self.n_clusters += m.approximated.size
             self.n_approximated += int(m.approximated.sum())
-            updated = pda_update(active, i, nu, log_lik, m.beta[i, j], m.beta0)
+            nu, log_lik = pair_likelihoods(active, z, track, cols, self.imm.measurement)
+            updated = pda_update(active, track, nu, log_lik, m.beta, m.beta0)
             state.x[rows], state.P[rows], state.mu[rows] = updated.x, updated.P, updated.mu
-            best = m.beta.argmax(axis=1)
-            wins = m.beta[np.arange(rows.size), best] > m.beta0
+            best = best_pairs(track, m.beta)
+            wins = m.beta[best] > m.beta0
             contact[rows[wins]] = cols[best[wins]]
             taken[contact[rows[wins]]] = True
         return Association(contact, state)
