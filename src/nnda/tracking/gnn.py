@@ -35,15 +35,6 @@ class GNNConfig(TrackerConfig):
                                           "is solved exactly; beyond, greedily by cost")] = 20_000
 
 
-def gated_costs(tracker: Tracker, pred: IMMPrediction, z: np.ndarray, gate: float
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Squared Mahalanobis distances d2 (K, N) of every contact from each track's gating
-    prediction, log |S| (K,) and the gate mask d2 <= gate (K, N)."""
-    mp = tracker.imm.combined_measurement(pred)
-    d2 = tracker.imm.mahalanobis(mp, z)
-    return d2, mp.log_det_S, d2 <= gate
-
-
 class GNNTracker(Tracker):
     """IMM tracker with global nearest neighbour association."""
 
