@@ -22,7 +22,7 @@ from nnda.study import commands as study_commands
 from nnda.data.dataset import collection_members
 from nnda.data.presets import GROUPS
 from nnda.errors import NndaError
-from nnda.study.config import Study, default_study, study_to_toml
+from nnda.study.config import default_study, study_to_toml
 
 app = typer.Typer(
     name="nnda",
@@ -39,17 +39,6 @@ app.command("evaluate")(model_commands.evaluate)
 app.command("plot-scenario")(report_commands.plot_scenario)
 app.command("compare")(study_commands.compare)
 app.command("report")(report_commands.report)
-
-
-def demo_study(models: Path, runs: int, seed: int) -> tuple[Study, list[str]]:
-    """The spec's default study (`nnda.study.config.default_study`) on the demo's GD and LM models,
-    less the trackers whose kind is not registered; returns it and the labels left out."""
-    from nnda.tracking.registry import TRACKERS  # loads every tracker: only when needed
-
-    study = default_study(models / "gd", models / "lm", runs=runs, seed=seed)
-    missing = [label for label, spec in study.trackers.items() if spec.kind not in TRACKERS]
-    kept = {label: spec for label, spec in study.trackers.items() if label not in missing}
-    return study.model_copy(update={"trackers": kept}), missing
 
 
 def demo(
@@ -71,10 +60,7 @@ def demo(
     models = (out / "models").resolve()
     for method in (model_commands.MethodChoice.gd, model_commands.MethodChoice.lm):
         model_commands.train(data=data / "train", out=models / method.value, method=method, seed=seed, overwrite=True)
-    study, missing = demo_study(models, runs, seed)
-    if missing:
-        console.print(f"demo: tracker(s) {', '.join(missing)} of the default study are not registered yet; "
-                      f"comparing {', '.join(study.trackers)}")
+    study = default_study(models / "gd", models / "lm", runs=runs, seed=seed)
     study_file = out / "study.toml"
     study_file.write_text(study_to_toml(study, relative_to=out))
     study_commands.compare(study=study_file, out=out / "comparison", jobs=jobs, overwrite=True)

@@ -9,7 +9,6 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-from nnda.study.compare import compare as run_comparison
 from nnda.study.config import load_study
 from nnda.study.plan import JobSpec
 
@@ -24,6 +23,8 @@ def compare(
     overwrite: Annotated[bool, typer.Option(help="replace an earlier study directory at --out")] = False,
 ) -> None:
     """Run every tracker of a study on every run of every scenario, then write the report."""
+    from nnda.study.compare import compare as run_comparison  # scikit-learn and the trackers: only when run
+
     definition = load_study(study)
     console = Console()
     bar = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[last]}"),
