@@ -154,6 +154,57 @@ def test_capped_random_gates_stay_exact_below_the_cap(seed):
     assert m.beta0[0] == 1.0
 
 
+def listed_events(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float, tracks: list[int], cap: int
+                  ) -> tuple[bool, np.ndarray | None]:
+    """Enumerate a cluster's joint events track by track, as `jpda_marginals` does.
+
+    Returns whether the partial events listed (every option of every event,
+    counted before dropping those that reuse a contact) stay within ``cap``
+    and, if so, the exact beta (K, N) of the cluster's tracks.
+    """
+    events, listed = [((), 0.0)], 0
+    for t in tracks:
+        options = [-1, *np.flatnonzero(gate[t])]
+        listed += len(events) * len(options)
+        if listed > cap:
+            return False, None
+        events = [(e + (j,), w + (log_miss if j < 0 else log_ratio[t, j]))
+                  for e, w in events for j in options if j < 0 or j not in e]
+    beta = np.zeros(gate.shape)
+    for e, w in events:
+        for t, j in zip(tracks, e):
+            if j >= 0:
+                beta[t, j] += np.exp(w)
+    return True, beta / sum(np.exp(w) for _, w in events)
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_exactly_the_clusters_over_the_cap_are_approximated(seed):
+    # random chains and blobs of 1-9 tracks, caps around the listing sizes (some clusters are
+    # dropped before any listing, others part-way)
+    rng = np.random.default_rng(300 + seed)
+    K, N = 24, 30
+    gate = np.zeros((K, N), bool)
+    t = 0
+    while t < K:
+        s = min(int(rng.integers(1, 10)), K - t)
+        c = int(rng.integers(0, N - s))
+        for i in range(s):
+            gate[t + i, c + i: c + i + int(rng.integers(1, 4))] = True
+        t += s
+    gate &= rng.random(gate.shape) < 0.9
+    log_ratio = rng.normal(0.0, 1.0, gate.shape)
+    max_events = int(rng.integers(10, 300))
+    m, got = marginals(gate, log_ratio, -2.0, max_events)
+    for c in range(m.approximated.size):
+        tracks = np.flatnonzero(m.cluster == c)
+        within, beta = listed_events(gate, log_ratio, -2.0, tracks.tolist(), max_events)
+        assert m.approximated[c] != within
+        if within:
+            np.testing.assert_allclose(got[tracks], beta[tracks], atol=1e-12)
+    assert m.approximated.any() and not m.approximated.all()
+
+
 def test_miss_weight():
     assert np.exp(log_miss_weight(0.9, 9.21)) == pytest.approx(1 - 0.9 * (1 - np.exp(-9.21 / 2)))
     assert np.isfinite(log_miss_weight(1.0, 2000.0))  # 1 - P_D P_G underflows in the naive form

@@ -163,8 +163,9 @@ def jpda_marginals(track: np.ndarray, contact: np.ndarray, log_ratio: np.ndarray
     partial events listed for a cluster, summed over its tracks (and counted
     before dropping those that reuse a contact), would exceed ``max_events``,
     the cluster gets its marginals from `loopy_marginals` instead. Since a
-    cluster of s tracks lists at least s (s + 1) / 2 partial events, this
-    also bounds the cluster size (141 tracks for 10,000).
+    cluster of s >= 2 tracks lists at least s (s + 1) partial events, this
+    also bounds the cluster size (99 tracks for 10,000), and larger
+    clusters go to belief propagation without listing anything.
     """
     K, P = n_tracks, track.size
     n_clusters, label = clusters(track, contact, K)
@@ -173,30 +174,29 @@ def jpda_marginals(track: np.ndarray, contact: np.ndarray, log_ratio: np.ndarray
         total = 1.0 + np.bincount(track, odds, minlength=K)
         return Marginals(odds / total[track], 1.0 / total, label, np.zeros(K, bool))
     size = np.bincount(label, minlength=n_clusters)
-    depth = int(size.max(initial=0))
-    order = np.argsort(label, kind="stable")
-    position = np.empty(K, np.int64)
-    position[order] = np.arange(K) - np.repeat(np.cumsum(size) - size, size)
-    members = np.full((n_clusters, depth), -1, np.int64)
-    members[label, position] = np.arange(K)
+    # a cluster of s >= 2 tracks lists at least s (s + 1) partial events (each track has a pair, so
+    # depth d holds at least d + 1 events of at least 2 options each): too big ones skip the listing
+    exact = (size < 2) | (size * (size + 1) <= max_events)
+    order = np.argsort(label, kind="stable")  # tracks grouped by cluster: the d-th of cluster c is
+    start = np.cumsum(size) - size  # order[start[c] + d], for d < size[c]
     n_gated = np.bincount(track, minlength=K)
     first_gated = np.cumsum(n_gated) - n_gated
     pair_contact = np.append(contact, -1)  # a sentinel keeps the look-ups below in range
     pair_ratio = np.append(log_ratio, 0.0)
 
-    # events of all clusters, grouped by cluster: their pair and contact per depth (-1: none) and log weight
-    ev_cluster = np.arange(n_clusters)
-    ev_pair = np.empty((n_clusters, 0), np.int64)  # both grow by one column per depth
-    ev_contact = np.empty((n_clusters, 0), np.int64)
-    ev_logw = np.zeros(n_clusters)
-    exact = np.ones(n_clusters, bool)
+    # events of the enumerated clusters, grouped by cluster: their pair and contact per depth (-1: none)
+    # and log weight
+    ev_cluster = np.flatnonzero(exact)
+    ev_pair = np.empty((ev_cluster.size, 0), np.int64)  # both grow by one column per depth
+    ev_contact = np.empty((ev_cluster.size, 0), np.int64)
+    ev_logw = np.zeros(ev_cluster.size)
     listed = np.zeros(n_clusters)  # partial events listed so far per cluster, all depths together
-    width = depth  # the largest cluster still enumerated
-    for d in range(depth):
-        at = members[ev_cluster, d]
+    width = int(size[exact].max(initial=0))  # the largest cluster still enumerated
+    for d in range(width):
+        at = _member(order, start, size, ev_cluster, d)
         present = at >= 0
         n_options = np.where(present, 1 + n_gated[at], 1)  # option 0: no contact for this track
-        listed += np.bincount(ev_cluster, n_options, minlength=n_clusters)
+        listed += np.bincount(ev_cluster, np.where(present, n_options, 0), minlength=n_clusters)
         over = exact & (listed > max_events)
         if over.any():  # give up on these clusters before listing their events
             exact &= ~over
@@ -226,7 +226,7 @@ def jpda_marginals(track: np.ndarray, contact: np.ndarray, log_ratio: np.ndarray
         np.maximum.at(top, ev_cluster, ev_logw)
         w = np.exp(ev_logw - top[ev_cluster])
         w /= np.bincount(ev_cluster, w, minlength=n_clusters)[ev_cluster]
-        at = members[ev_cluster, :ev_pair.shape[1]]  # (E, depth)
+        at = _member(order, start, size, ev_cluster[:, None], np.arange(ev_pair.shape[1]))  # (E, depth)
         weight = np.broadcast_to(w[:, None], at.shape)
         assigned = (at >= 0) & (ev_pair >= 0)
         missed = (at >= 0) & (ev_pair < 0)
@@ -239,6 +239,13 @@ def jpda_marginals(track: np.ndarray, contact: np.ndarray, log_ratio: np.ndarray
         beta[sel], loopy0 = loopy_marginals(track[sel], contact[sel], log_ratio[sel], K, log_miss)
         beta0[rows] = loopy0[rows]
     return Marginals(beta, beta0, label, ~exact)
+
+
+def _member(order: np.ndarray, start: np.ndarray, size: np.ndarray, cluster: np.ndarray,
+            depth: np.ndarray | int) -> np.ndarray:
+    """The ``depth``-th track of each ``cluster`` (broadcast), -1 beyond the cluster's ``size``;
+    ``order`` lists the tracks grouped by cluster, cluster c's from ``start[c]`` on."""
+    return np.where(depth < size[cluster], order[np.minimum(start[cluster] + depth, len(order) - 1)], -1)
 
 
 def loopy_marginals(track: np.ndarray, contact: np.ndarray, log_ratio: np.ndarray, n_tracks: int,
