@@ -184,55 +184,51 @@ def jpda_marginals(track: np.ndarray, contact: np.ndarray, log_ratio: np.ndarray
     pair_contact = np.append(contact, -1)  # a sentinel keeps the look-ups below in range
     pair_ratio = np.append(log_ratio, 0.0)
 
-    # events of the enumerated clusters, grouped by cluster: their pair and contact per depth (-1: none)
-    # and log weight
+    # events of the clusters being enumerated, grouped by cluster (in label order): their pair and
+    # contact per depth (-1: none) and log weight; a cluster's events leave once its last track is done
     ev_cluster = np.flatnonzero(exact)
     ev_pair = np.empty((ev_cluster.size, 0), np.int64)  # both grow by one column per depth
     ev_contact = np.empty((ev_cluster.size, 0), np.int64)
     ev_logw = np.zeros(ev_cluster.size)
     listed = np.zeros(n_clusters)  # partial events listed so far per cluster, all depths together
-    width = int(size[exact].max(initial=0))  # the largest cluster still enumerated
-    for d in range(width):
-        at = _member(order, start, size, ev_cluster, d)
-        present = at >= 0
-        n_options = np.where(present, 1 + n_gated[at], 1)  # option 0: no contact for this track
-        listed += np.bincount(ev_cluster, np.where(present, n_options, 0), minlength=n_clusters)
+    complete = []  # (tracks (E, d), pairs (E, d), weights (E,)) of the events of finished clusters
+    d = 0
+    while ev_cluster.size:
+        done = size[ev_cluster] == d
+        if done.any():
+            tracks = order[start[ev_cluster[done], None] + np.arange(d)]
+            complete.append((tracks, ev_pair[done], _normalised(ev_cluster[done], ev_logw[done])))
+            live = ~done
+            ev_cluster, ev_pair, ev_contact, ev_logw = (a[live] for a in (ev_cluster, ev_pair, ev_contact, ev_logw))
+        at = order[start[ev_cluster] + d]  # each event's cluster's track at this depth
+        n_options = 1 + n_gated[at]  # option 0: no contact for this track
+        listed += np.bincount(ev_cluster, n_options, minlength=n_clusters)
         over = exact & (listed > max_events)
         if over.any():  # give up on these clusters before listing their events
             exact &= ~over
             alive = ~over[ev_cluster]
-            width = int(size[exact].max(initial=0))
-            ev_cluster, ev_logw, at, present, n_options = (
-                a[alive] for a in (ev_cluster, ev_logw, at, present, n_options))
-            ev_pair, ev_contact = ev_pair[alive], ev_contact[alive]
-        if d >= width:
-            break
+            ev_cluster, ev_pair, ev_contact, ev_logw, at, n_options = (
+                a[alive] for a in (ev_cluster, ev_pair, ev_contact, ev_logw, at, n_options))
         parent = np.repeat(np.arange(ev_cluster.size), n_options)
         option = np.arange(parent.size) - np.repeat(np.cumsum(n_options) - n_options, n_options)
         pair = np.where(option > 0, first_gated[at[parent]] + option - 1, P)  # P: no pair
         c = pair_contact[pair]
-        taken = (c >= 0) & (ev_contact[parent] == c[:, None]).any(axis=1)
-        add = np.where(~present[parent], 0.0, np.where(option > 0, pair_ratio[pair], log_miss))
-        keep = ~taken
-        ev_cluster = ev_cluster[parent[keep]]
-        ev_pair = np.column_stack([ev_pair[parent[keep]], np.where(pair < P, pair, -1)[keep]])
-        ev_contact = np.column_stack([ev_contact[parent[keep]], c[keep]])
-        ev_logw = ev_logw[parent[keep]] + add[keep]
+        keep = (c < 0) | ~(ev_contact[parent] == c[:, None]).any(axis=1)  # drop a contact used twice
+        parent = parent[keep]
+        ev_cluster = ev_cluster[parent]
+        ev_pair = np.column_stack([ev_pair[parent], np.where(pair < P, pair, -1)[keep]])
+        ev_contact = np.column_stack([ev_contact[parent], c[keep]])
+        ev_logw = ev_logw[parent] + np.where(option > 0, pair_ratio[pair], log_miss)[keep]
+        d += 1
 
-    beta = np.zeros(P)
-    beta0 = np.zeros(K)
-    if ev_cluster.size:
-        top = np.full(n_clusters, -np.inf)
-        np.maximum.at(top, ev_cluster, ev_logw)
-        w = np.exp(ev_logw - top[ev_cluster])
-        w /= np.bincount(ev_cluster, w, minlength=n_clusters)[ev_cluster]
-        at = _member(order, start, size, ev_cluster[:, None], np.arange(ev_pair.shape[1]))  # (E, depth)
-        weight = np.broadcast_to(w[:, None], at.shape)
-        assigned = (at >= 0) & (ev_pair >= 0)
-        missed = (at >= 0) & (ev_pair < 0)
-        # (bincount gives integers when no event assigns anything)
-        beta = np.bincount(ev_pair[assigned], weight[assigned], minlength=P).astype(float, copy=False)
-        beta0 = np.bincount(at[missed], weight[missed], minlength=K).astype(float, copy=False)
+    beta, beta0 = np.zeros(P), np.zeros(K)
+    if complete:
+        tracks = np.concatenate([t.ravel() for t, _, _ in complete])  # event by event, depth by depth
+        pairs = np.concatenate([p.ravel() for _, p, _ in complete])
+        w = np.concatenate([np.repeat(w, t.shape[1]) for t, _, w in complete])
+        hit = pairs >= 0
+        beta = np.bincount(pairs[hit], w[hit], minlength=P).astype(float, copy=False)
+        beta0 = np.bincount(tracks[~hit], w[~hit], minlength=K).astype(float, copy=False)
     if not exact.all():
         sel = ~exact[label[track]]
         rows = np.flatnonzero(~exact[label])
@@ -241,11 +237,12 @@ def jpda_marginals(track: np.ndarray, contact: np.ndarray, log_ratio: np.ndarray
     return Marginals(beta, beta0, label, ~exact)
 
 
-def _member(order: np.ndarray, start: np.ndarray, size: np.ndarray, cluster: np.ndarray,
-            depth: np.ndarray | int) -> np.ndarray:
-    """The ``depth``-th track of each ``cluster`` (broadcast), -1 beyond the cluster's ``size``;
-    ``order`` lists the tracks grouped by cluster, cluster c's from ``start[c]`` on."""
-    return np.where(depth < size[cluster], order[np.minimum(start[cluster] + depth, len(order) - 1)], -1)
+def _normalised(cluster: np.ndarray, log_weight: np.ndarray) -> np.ndarray:
+    """Event weights normalised per cluster; ``cluster`` (E,) groups the events (sorted)."""
+    first = np.flatnonzero(np.r_[True, cluster[1:] != cluster[:-1]])
+    group = np.repeat(np.arange(first.size), np.diff(np.r_[first, cluster.size]))
+    w = np.exp(log_weight - np.maximum.reduceat(log_weight, first)[group])
+    return w / np.add.reduceat(w, first)[group]
 
 
 def loopy_marginals(track: np.ndarray, contact: np.ndarray, log_ratio: np.ndarray, n_tracks: int,
