@@ -390,11 +390,14 @@ class JPDATracker(Tracker):
             m = jpda_marginals(track, cols, log_ratio, rows.size, log_miss, cfg.max_joint_events)
             self.n_clusters += m.approximated.size
             self.n_approximated += int(m.approximated.sum())
-            nu, log_lik = pair_likelihoods(active, z, track, cols, self.imm.measurement)
-            updated = pda_update(active, track, nu, log_lik, m.beta, m.beta0)
-            state.x[rows], state.P[rows], state.mu[rows] = updated.x, updated.P, updated.mu
             best = best_pairs(track, m.beta)
             wins = m.beta[best] > m.beta0
             contact[rows[wins]] = cols[best[wins]]
             taken[contact[rows[wins]]] = True
+            # the soft update, for the tracks that report a contact (the framework keeps the others')
+            won = wins[track]
+            renumber = np.cumsum(wins) - 1
+            nu, log_lik = pair_likelihoods(active, z, track[won], cols[won], self.imm.measurement)
+            updated = pda_update(active.take(wins), renumber[track[won]], nu, log_lik, m.beta[won], m.beta0[wins])
+            state.x[rows[wins]], state.P[rows[wins]], state.mu[rows[wins]] = updated.x, updated.P, updated.mu
         return Association(contact, state)
