@@ -149,6 +149,8 @@ def test_candidate_pairs_bad_input_is_refused():
         candidate_pairs(last, t_last, az_last, np.where(np.arange(8)[:, None] == 5, np.nan, contacts), az_c, time)
     with pytest.raises(ModelError, match="last_time has a non-finite value at row 2"):
         candidate_pairs(last, np.where(np.arange(4) == 2, np.inf, t_last), az_last, contacts, az_c, time)
+    with pytest.raises(ModelError, match="last_time must come before time = 10.0 s; row 1 has 10.0 s"):
+        candidate_pairs(last, np.where(np.arange(4) == 1, 10.0, t_last), az_last, contacts, az_c, time)
     with pytest.raises(ModelError, match="time has a non-finite value"):
         candidate_pairs(last, t_last, az_last, contacts, az_c, np.nan)
     with pytest.raises(ModelError, match=r"contact_azimuth must have shape \(8,\)"):

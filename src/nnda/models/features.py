@@ -28,7 +28,6 @@ indices for many tracks and contacts at once).
 
 from __future__ import annotations
 
-import itertools
 import math
 
 import numpy as np
@@ -47,9 +46,9 @@ N_SECTORS = 16
 MIN_SPEED_M_S = 30.0
 MAX_SPEED_M_S = 400.0
 
-#: up to this many track-contact pairs `candidate_pairs` tests every pair at once; beyond, a k-d tree
-#: is faster (measured crossover near 2,000-3,000 pairs, e.g. 20 tracks x 110 contacts)
-DENSE_PAIRS = 2_500
+#: up to this many track-contact pairs `candidate_pairs` tests every pair at once; beyond, k-d trees
+#: are faster (measured crossover near 4,000-4,500 pairs, e.g. 40 tracks x 110 contacts)
+DENSE_PAIRS = 4_000
 #: the k-d tree's search radius exceeds the speed gate's reach by this fraction, so rounding in the
 #: tree's distances cannot drop a pair the exact gate keeps
 _REACH_MARGIN = 1e-9
@@ -169,6 +168,28 @@ def passes_gate(
     return neighbour_sectors(p2_sector, c_sector) & (v >= MIN_SPEED_M_S) & (v <= MAX_SPEED_M_S)
 
 
+def _within_reach(points: np.ndarray, reach: np.ndarray, contacts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(point, contact) index pairs, sorted, with the contact within ``reach`` (M,) m (> 0) of the point
+    (or a little further: callers apply the exact test). Points (M, 2) and contacts (N, 2) in m.
+
+    Points are grouped by reach within a factor 2^(1/4) (one group per time
+    since the last contact, in a tracker) and each group is searched at its
+    largest reach with a pair of k-d trees, all in compiled code.
+    """
+    level = np.ceil(4.0 * np.log2(reach))
+    tree = cKDTree(contacts)
+    track, contact = [np.empty(0, np.int64)], [np.empty(0, np.int64)]
+    for lv in np.unique(level):
+        group = np.flatnonzero(level == lv)
+        found = cKDTree(points[group]).sparse_distance_matrix(
+            tree, reach[group].max() * (1.0 + _REACH_MARGIN), output_type="ndarray")
+        track.append(group[found["i"]])
+        contact.append(found["j"].astype(np.int64))
+    track, contact = np.concatenate(track), np.concatenate(contact)
+    order = np.argsort(track * len(contacts) + contact)
+    return track[order], contact[order]
+
+
 def candidate_pairs(
     last: np.ndarray, last_time: np.ndarray, last_azimuth: np.ndarray,
     contacts: np.ndarray, contact_azimuth: np.ndarray, time: float,
@@ -179,14 +200,14 @@ def candidate_pairs(
     describe each track's last contact; ``contacts`` (N, 2) m and
     ``contact_azimuth`` (N,) rad the scan's contacts at ``time`` s. Returns
     (track index, contact index) int64 arrays of the pairs that pass both
-    gates, ordered by track then contact. Raises ModelError on wrong shapes
-    or non-finite values.
+    gates, ordered by track then contact. Raises ModelError on wrong shapes,
+    non-finite values or a last contact not before ``time``.
 
     Up to `DENSE_PAIRS` track-contact pairs every pair is tested at once.
-    Beyond that a k-d tree over the contacts lists, per track, those within
-    the speed gate's reach (``MAX_SPEED_M_S`` x the time since its last
-    contact), and only those pairs get the exact test, so memory grows with
-    the candidates rather than with M x N; both ways give the same pairs.
+    Beyond that k-d trees list, per track, the contacts within the speed
+    gate's reach (``MAX_SPEED_M_S`` x the time since its last contact), and
+    only those pairs get the exact test, so memory grows with the
+    candidates rather than with M x N; both ways give the same pairs.
     """
     what = "candidate pairs"
     last, contacts = _positions("last", last, what), _positions("contacts", contacts, what)
@@ -199,17 +220,16 @@ def candidate_pairs(
         for name, a in (("last", last), ("last_time", last_time), ("last_azimuth", last_azimuth),
                         ("contacts", contacts), ("contact_azimuth", contact_azimuth), ("time", np.array([time]))):
             _check_finite(name, a, what)
+    if M and last_time.max() >= time:
+        bad = int(np.argmax(last_time >= time))
+        raise ModelError(f"{what}: last_time must come before time = {time} s; row {bad} has {last_time[bad]} s")
     if M == 0 or N == 0:
         return np.empty(0, np.int64), np.empty(0, np.int64)
     last_sector, contact_sector = sector(last_azimuth), sector(contact_azimuth)
     if M * N <= DENSE_PAIRS:
         return np.nonzero(passes_gate(last[:, None, :], last_time[:, None], last_sector[:, None],
                                       contacts[None, :, :], time, contact_sector[None, :]))
-    reach = np.maximum(MAX_SPEED_M_S * (time - last_time), 0.0) * (1.0 + _REACH_MARGIN)
-    near = cKDTree(contacts).query_ball_point(last, reach, return_sorted=True)
-    counts = np.fromiter(map(len, near), np.int64, M)
-    track = np.repeat(np.arange(M), counts)
-    contact = np.fromiter(itertools.chain.from_iterable(near), np.int64, int(counts.sum()))
+    track, contact = _within_reach(last, MAX_SPEED_M_S * (time - last_time), contacts)
     ok = passes_gate(last[track], last_time[track], last_sector[track],
                      contacts[contact], time, contact_sector[contact])
     return track[ok], contact[ok]
