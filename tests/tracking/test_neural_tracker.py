@@ -228,3 +228,26 @@ def test_directory_holding_a_model_is_accepted_and_same_data_gives_same_output(m
     for a, b in zip(*runs):
         np.testing.assert_array_equal(a.track_id, b.track_id)
         np.testing.assert_array_equal(a.state, b.state)
+
+
+def test_k_d_tree_candidate_search_gives_the_dense_searchs_tracks(model_file, monkeypatch):
+    # S6 with 150 clutter points: tracks x contacts passes the candidate search's switch from the 4th scan
+    from nnda.models import features
+    sc = PRESETS["S6"].model_copy(update={"duration_s": 16.0, "clutter": PRESETS["S6"].clutter.model_copy(
+        update={"count": 150})})
+    ds = generate(sc, seed=3)
+    sizes, runs, switch = [], [], features.DENSE_PAIRS
+
+    class Sizes(NeuralTracker):
+        def _maintain(self, tracks, pred, z, xy, time):
+            sizes.append(len(tracks) * len(z))
+            return super()._maintain(tracks, pred, z, xy, time)
+
+    for dense_pairs in (switch, 10**12):
+        monkeypatch.setattr(features, "DENSE_PAIRS", dense_pairs)
+        tracker = Sizes(ds.scenario.sensor, NeuralTracker.config_type(model=model_file))
+        runs.append([tracker.step(scan) for scan in ds.scans()])
+    assert max(sizes) > switch > min(sizes)  # both searches ran in the default run
+    for a, b in zip(*runs):
+        for field in ("track_id", "status", "measurement", "state", "covariance"):
+            np.testing.assert_array_equal(getattr(a, field), getattr(b, field))

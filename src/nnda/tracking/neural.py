@@ -5,7 +5,9 @@ Each scan, for all live tracks at once:
 1. *gate*: a contact is a candidate for a track if it lies in the azimuth
    sector of the track's last contact or one of its two neighbours, and if
    reaching it from that contact needs a speed of 30..400 m/s
-   (`nnda.models.features.candidate_pairs`, the gating used for training);
+   (`nnda.models.features.candidate_pairs`, the gating used for training;
+   on large scans it searches k-d trees within the speed gate's reach, so
+   the work grows with the candidate pairs, not with tracks x contacts);
 2. *score*: the pair features [ΔV, Δα, ΔT] of every candidate pair, from the
    track's last two contacts and the candidate
    (`nnda.models.features.pair_features`, the training code), go through the
