@@ -11,12 +11,7 @@ schema and name the file and field they refuse.
 
 from __future__ import annotations
 
-import json
-import os
-import shutil
-import tempfile
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,6 +22,7 @@ import pyarrow.parquet as pq
 import nnda
 from nnda.data.scenario import Scenario, scenario_from_dict
 from nnda.errors import ConfigError, DatasetError
+from nnda.files import atomic_directory, dumps, read_json
 
 FORMAT = "nnda.dataset"
 COLLECTION_FORMAT = "nnda.collection"
@@ -147,44 +143,11 @@ def manifest(dataset: Dataset) -> dict:
     }
 
 
-def _write_json(path: Path, data: dict) -> None:
-    path.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n")
-
-
 def write_dataset_files(dataset: Dataset, directory: Path) -> None:
     """Write the three files of a dataset into an existing, empty ``directory``."""
-    _write_json(directory / MANIFEST, manifest(dataset))
+    (directory / MANIFEST).write_text(dumps(manifest(dataset)))
     pq.write_table(_table(dataset.detections, DETECTIONS_SCHEMA), directory / DETECTIONS_FILE)
     pq.write_table(_table(dataset.truth, TRUTH_SCHEMA), directory / TRUTH_FILE)
-
-
-@contextmanager
-def atomic_directory(out: str | Path, overwrite: bool = False) -> Iterator[Path]:
-    """Yield a temporary sibling of ``out`` to fill; rename it to ``out`` on success.
-
-    On any error the temporary directory is removed and ``out`` is untouched.
-    An existing ``out`` is refused unless ``overwrite`` is true.
-    """
-    out = Path(out)
-    if out.exists() and not overwrite:
-        raise FileExistsError(f"{out}: already exists (pass overwrite to replace it)")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".partial", dir=out.parent))
-    umask = os.umask(0)
-    os.umask(umask)
-    tmp.chmod(0o777 & ~umask)  # mkdtemp makes it private; the result is an ordinary directory
-    try:
-        yield tmp
-        if out.exists():
-            old = out.with_name(f".{out.name}.{os.getpid()}.old")
-            out.rename(old)
-            tmp.rename(out)
-            shutil.rmtree(old)
-        else:
-            tmp.rename(out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
 
 
 def write_dataset(dataset: Dataset, out: str | Path, overwrite: bool = False) -> Path:
@@ -211,35 +174,17 @@ def write_collection(
             names.append(name)
             if on_member is not None:
                 on_member(name)
-        _write_json(tmp / COLLECTION_MANIFEST, {
+        (tmp / COLLECTION_MANIFEST).write_text(dumps({
             "format": COLLECTION_FORMAT,
             "format_version": FORMAT_VERSION,
             "nnda_version": nnda.__version__,
             "description": description,
             "members": names,
-        })
+        }))
     return Path(out)
 
 
 # ----------------------------------------------------------------------------- reading
-
-def _read_manifest(path: Path, expected_format: str) -> dict:
-    if not path.is_file():
-        raise DatasetError(f"{path}: missing (not an nnda {expected_format.split('.')[1]} directory?)")
-    try:
-        data = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise DatasetError(f"{path}: not valid JSON ({exc})") from None
-    if not isinstance(data, dict) or data.get("format") != expected_format:
-        found = data.get("format") if isinstance(data, dict) else type(data).__name__
-        raise DatasetError(f"{path}: field 'format' is {found!r}, expected {expected_format!r}")
-    if data.get("format_version") != FORMAT_VERSION:
-        raise DatasetError(
-            f"{path}: field 'format_version' is {data.get('format_version')!r}; this nnda "
-            f"({nnda.__version__}) reads version {FORMAT_VERSION} only"
-        )
-    return data
-
 
 def _read_table(path: Path, schema: pa.Schema, record_type):
     if not path.is_file():
@@ -286,7 +231,9 @@ def read_dataset(path: str | Path) -> Dataset:
     path = Path(path)
     if not path.is_dir():
         raise DatasetError(f"{path}: no such dataset directory")
-    meta = _read_manifest(path / MANIFEST, FORMAT)
+    if not (path / MANIFEST).is_file():
+        raise DatasetError(f"{path / MANIFEST}: missing (not an nnda dataset directory?)")
+    meta = read_json(path / MANIFEST, FORMAT, FORMAT_VERSION)
     for key in ("seed", "run", "scenario"):
         if key not in meta:
             raise DatasetError(f"{path / MANIFEST}: field {key!r} is missing")
@@ -311,7 +258,7 @@ def is_collection(path: str | Path) -> bool:
 def collection_members(path: str | Path) -> list[Path]:
     """Member dataset directories of a collection, in manifest order."""
     path = Path(path)
-    meta = _read_manifest(path / COLLECTION_MANIFEST, COLLECTION_FORMAT)
+    meta = read_json(path / COLLECTION_MANIFEST, COLLECTION_FORMAT, FORMAT_VERSION)
     members = meta.get("members")
     if not isinstance(members, list) or not all(isinstance(m, str) for m in members):
         raise DatasetError(f"{path / COLLECTION_MANIFEST}: field 'members' must be a list of names")

@@ -10,15 +10,12 @@ A model file is one small JSON document::
 
 ``weights`` is the flat layout of `nnda.models.mlp`. Floats are written
 with full precision, so a model survives a round trip bit for bit. The file
-is written to a temporary sibling and renamed into place.
+is written atomically (`nnda.files.write_json`).
 """
 
 from __future__ import annotations
 
-import json
 import math
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -26,6 +23,7 @@ import numpy as np
 
 import nnda
 from nnda.errors import ModelError
+from nnda.files import read_json, write_json
 from nnda.models.features import FEATURE_NAMES, FEATURE_SET, FEATURE_VERSION
 from nnda.models.mlp import MLPWeights, n_weights
 from nnda.models.preprocessing import Normaliser
@@ -76,25 +74,7 @@ def model_document(scorer: Scorer) -> dict:
 
 def save_model(scorer: Scorer, path: str | Path) -> Path:
     """Write ``scorer`` to the model file ``path`` atomically; returns the path."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    text = json.dumps(model_document(scorer), indent=1, sort_keys=True) + "\n"
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
+    return write_json(path, model_document(scorer))
 
 
 def _field(doc: dict, key: str, where: Path):
@@ -123,16 +103,7 @@ def load_model(path: str | Path) -> Scorer:
         path = path / MODEL_FILE
     if not path.is_file():
         raise ModelError(f"{path}: no such model file")
-    try:
-        doc = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise ModelError(f"{path}: not valid JSON ({exc})") from None
-    if not isinstance(doc, dict) or doc.get("format") != MODEL_FORMAT:
-        found = doc.get("format") if isinstance(doc, dict) else type(doc).__name__
-        raise ModelError(f"{path}: field 'format' is {found!r}, expected {MODEL_FORMAT!r}")
-    if doc.get("format_version") != MODEL_FORMAT_VERSION:
-        raise ModelError(f"{path}: field 'format_version' is {doc.get('format_version')!r}; this nnda "
-                         f"({nnda.__version__}) reads version {MODEL_FORMAT_VERSION} only")
+    doc = read_json(path, MODEL_FORMAT, MODEL_FORMAT_VERSION, ModelError)
     feature_set, feature_version = _field(doc, "feature_set", path), _field(doc, "feature_version", path)
     if (feature_set, feature_version) != (FEATURE_SET, FEATURE_VERSION):
         raise ModelError(

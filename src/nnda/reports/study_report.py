@@ -32,7 +32,7 @@ from nnda.reports.study_tables import (
 from nnda.reports.trajectory_plot import figure_div, plotly_js, trajectory_figure
 from nnda.study.classifier import CLASSIFIER_FILE, CLASSIFIER_FORMAT
 from nnda.study.classifier import FORMAT_VERSION as CLASSIFIER_VERSION
-from nnda.study.files import atomic_file, read_json
+from nnda.files import atomic_file, read_json
 from nnda.study.plan import STUDY_FORMAT, STUDY_FORMAT_VERSION
 from nnda.study.results import TIMING_FILE, TRAJECTORIES_FILE, read_summary
 from nnda.study.runner import MANIFEST

@@ -24,7 +24,7 @@ from nnda.data.presets import GROUPS, PRESETS
 from nnda.models.metrics import classifier_metrics, roc
 from nnda.models.pairs import PairSet, pairs_from_datasets
 from nnda.models.scorer import load_model
-from nnda.study.files import finite_or_none
+from nnda.files import finite_or_none
 from nnda.study.plan import ModelPlan
 
 CLASSIFIER_FORMAT = "nnda.study-classifier"

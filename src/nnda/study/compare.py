@@ -7,7 +7,7 @@ from pathlib import Path
 
 from nnda.study.classifier import CLASSIFIER_FILE, evaluate_models
 from nnda.study.config import Study
-from nnda.study.files import write_json
+from nnda.files import write_json
 from nnda.study.plan import StudyPlan, plan_study
 from nnda.study.results import write_results
 from nnda.study.runner import Execution, JobCallback, run_jobs

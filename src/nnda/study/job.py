@@ -19,7 +19,7 @@ from threadpoolctl import threadpool_limits
 
 from nnda.data.dataset import Dataset, read_dataset
 from nnda.data.generator import generate
-from nnda.study.files import digest, finite_or_none
+from nnda.files import digest, finite_or_none
 from nnda.study.metrics import RunMetrics, run_metrics
 from nnda.study.plan import JobSpec
 from nnda.tracking.output import TrackStatus

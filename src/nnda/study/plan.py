@@ -28,7 +28,7 @@ from nnda.data.scenario import Scenario, Sensor, load_scenario
 from nnda.errors import ConfigError, DatasetError, ModelError
 from nnda.models.scorer import MODEL_FILE, load_model
 from nnda.study.config import MODEL_PARAM, Study
-from nnda.study.files import digest, file_digest
+from nnda.files import digest, file_digest
 from nnda.tracking.registry import TRACKERS, make_tracker
 
 STUDY_FORMAT = "nnda.study"

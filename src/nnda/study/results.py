@@ -34,7 +34,7 @@ from scipy import stats
 
 import nnda
 from nnda.errors import DatasetError
-from nnda.study.files import atomic_file, finite_or_none, read_json, write_json
+from nnda.files import atomic_file, finite_or_none, read_json, write_json
 from nnda.study.job import SERIES
 from nnda.study.plan import StudyPlan
 from nnda.study.runner import Execution, read_job

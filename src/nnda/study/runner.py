@@ -32,7 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from nnda.errors import ConfigError, DatasetError
-from nnda.study.files import read_json, write_json
+from nnda.files import read_json, write_json
 from nnda.study.job import JOB_FORMAT, JOB_FORMAT_VERSION, run_job
 from nnda.study.plan import STUDY_FORMAT, STUDY_FORMAT_VERSION, JobSpec, StudyPlan
 

@@ -1,4 +1,10 @@
-"""Small file helpers of the study and report stages: atomic writes and canonical JSON."""
+"""File helpers every stage shares: atomic files and directories, canonical JSON, manifests, digests.
+
+Whatever nnda writes appears whole or not at all: it is written to a
+temporary sibling and renamed into place. Manifests are JSON documents with
+a ``format`` and a ``format_version``; `read_json` refuses any other with an
+error that names the file and the field.
+"""
 
 from __future__ import annotations
 
@@ -6,13 +12,21 @@ import hashlib
 import json
 import math
 import os
+import shutil
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from nnda.errors import DatasetError
+import nnda
+from nnda.errors import DatasetError, NndaError
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 @contextmanager
@@ -25,12 +39,37 @@ def atomic_file(path: str | Path) -> Iterator[Path]:
     tmp = Path(tmp)
     try:
         yield tmp
-        mask = os.umask(0)
-        os.umask(mask)
-        tmp.chmod(0o666 & ~mask)  # mkstemp makes it private; the result is an ordinary file
+        tmp.chmod(0o666 & ~_umask())  # mkstemp makes it private; the result is an ordinary file
         os.replace(tmp, path)
     except BaseException:
         tmp.unlink(missing_ok=True)
+        raise
+
+
+@contextmanager
+def atomic_directory(out: str | Path, overwrite: bool = False) -> Iterator[Path]:
+    """Yield a temporary sibling of ``out`` to fill; rename it to ``out`` on success.
+
+    On any error the temporary directory is removed and ``out`` is untouched.
+    An existing ``out`` is refused unless ``overwrite`` is true.
+    """
+    out = Path(out)
+    if out.exists() and not overwrite:
+        raise FileExistsError(f"{out}: already exists (pass overwrite to replace it)")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".partial", dir=out.parent))
+    tmp.chmod(0o777 & ~_umask())  # mkdtemp makes it private; the result is an ordinary directory
+    try:
+        yield tmp
+        if out.exists():
+            old = out.with_name(f".{out.name}.{os.getpid()}.old")
+            out.rename(old)
+            tmp.rename(out)
+            shutil.rmtree(old)
+        else:
+            tmp.rename(out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
         raise
 
 
@@ -62,21 +101,22 @@ def write_json(path: str | Path, data: Any, indent: int | None = 1) -> Path:
     return Path(path)
 
 
-def read_json(path: str | Path, expected_format: str, version: int) -> dict:
-    """Read a JSON document of ``expected_format`` and ``version``; DatasetError naming the file otherwise."""
+def read_json(path: str | Path, expected_format: str, version: int,
+              error: type[NndaError] = DatasetError) -> dict:
+    """Read a JSON document of ``expected_format`` and ``version``; ``error`` naming the file otherwise."""
     path = Path(path)
     if not path.is_file():
-        raise DatasetError(f"{path}: missing")
+        raise error(f"{path}: missing")
     try:
         data = json.loads(path.read_text())
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise DatasetError(f"{path}: not valid JSON ({exc})") from None
+        raise error(f"{path}: not valid JSON ({exc})") from None
     if not isinstance(data, dict) or data.get("format") != expected_format:
         found = data.get("format") if isinstance(data, dict) else type(data).__name__
-        raise DatasetError(f"{path}: field 'format' is {found!r}, expected {expected_format!r}")
+        raise error(f"{path}: field 'format' is {found!r}, expected {expected_format!r}")
     if data.get("format_version") != version:
-        raise DatasetError(f"{path}: field 'format_version' is {data.get('format_version')!r}, "
-                           f"this nnda reads version {version}")
+        raise error(f"{path}: field 'format_version' is {data.get('format_version')!r}; this nnda "
+                    f"({nnda.__version__}) reads version {version} only")
     return data
 
 
