@@ -1,5 +1,13 @@
 """Exceptions raised at nnda's boundaries. Each message says what was wrong and where."""
 
+from __future__ import annotations
+
+from typing import Any, TypeVar
+
+from pydantic import BaseModel, ValidationError
+
+Model = TypeVar("Model", bound=BaseModel)
+
 
 class NndaError(Exception):
     """Base class of every error nnda raises on bad input."""
@@ -23,3 +31,19 @@ class FilterError(NndaError, ValueError):
 
 class TrackingError(NndaError, ValueError):
     """A tracker got a bad scan (time not increasing, non-finite contact, wrong shape) or config."""
+
+
+def validated(model: type[Model], data: Any, source: str, what: str) -> Model:
+    """``model.model_validate(data)``, or a ConfigError listing every problem with its field path.
+
+    ``source`` names where the data came from (a file, a config section),
+    ``what`` the kind of thing (scenario, study, gnn config).
+    """
+    try:
+        return model.model_validate(data)
+    except ValidationError as exc:
+        lines = [f"{source}: invalid {what} ({exc.error_count()} problem(s))"]
+        for err in exc.errors():
+            where = ".".join(str(p) for p in err["loc"]) or "<top level>"
+            lines.append(f"  - {where}: {err['msg']}")
+        raise ConfigError("\n".join(lines)) from None

@@ -14,13 +14,14 @@ import math
 import os
 import shutil
 import tempfile
+import tomllib
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import nnda
-from nnda.errors import DatasetError, NndaError
+from nnda.errors import ConfigError, DatasetError, NndaError
 
 
 def _umask() -> int:
@@ -131,3 +132,21 @@ def digest(*parts: bytes) -> str:
 def file_digest(*paths: Path) -> str:
     """SHA-256 of the files' contents, in the order given."""
     return digest(*(Path(p).read_bytes() for p in paths))
+
+
+def read_config(path: str | Path, what: str) -> dict:
+    """The mapping in a ``.toml`` or ``.json`` config file; ConfigError naming the file otherwise."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"{path}: no such {what} file")
+    try:
+        if path.suffix == ".toml":
+            return tomllib.loads(path.read_text())
+        if path.suffix == ".json":
+            data = json.loads(path.read_text())
+            if not isinstance(data, dict):
+                raise ConfigError(f"{path}: a {what} must be a JSON object, got {type(data).__name__}")
+            return data
+    except (tomllib.TOMLDecodeError, json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{path}: not valid {path.suffix[1:].upper()}: {exc}") from None
+    raise ConfigError(f"{path}: unknown {what} file type {path.suffix!r} (use .toml or .json)")

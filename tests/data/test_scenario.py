@@ -86,5 +86,5 @@ def test_bad_files(tmp_path):
         load_scenario(broken)
     other = tmp_path / "scenario.yaml"
     other.write_text("name: x")
-    with pytest.raises(ConfigError, match="unknown config type"):
+    with pytest.raises(ConfigError, match="scenario.yaml: unknown scenario file type"):
         load_scenario(other)

@@ -37,7 +37,7 @@ def foreign(tmp_path):
     ('[trackers.x]\nkind = "telepathy"\n[[scenarios]]\npreset = "S1"\n',
      "tracker 'x': unknown tracker 'telepathy'; registered trackers: "),
     ('[trackers.gnn]\nkind = "gnn"\nparams = { gate = -1.0 }\n[[scenarios]]\npreset = "S1"\n',
-     "tracker 'gnn': invalid gnn config: gate: Input should be greater than 0"),
+     "tracker 'gnn': invalid gnn config (1 problem(s))\n  - gate: Input should be greater than 0"),
     ('[models]\nlm = "models/lm"\n' + GNN + '[[scenarios]]\npreset = "S1"\n', "model 'lm': "),
     (GNN + '[[scenarios]]\npreset = "S9"\n', "scenarios[0]: unknown preset 'S9'"),
     (GNN + '[[scenarios]]\npath = "other"\n', "scenarios[0]: "),

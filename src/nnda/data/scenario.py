@@ -12,15 +12,14 @@ ambiguity labels (A2, A3, ...) mark the defaults the spec chose.
 
 from __future__ import annotations
 
-import json
 import math
-import tomllib
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from nnda.errors import ConfigError
+from nnda.errors import validated
+from nnda.files import read_config
 
 _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
@@ -195,32 +194,9 @@ class Scenario(BaseModel):
 
 def scenario_from_dict(data: dict, source: str = "<config>") -> Scenario:
     """Validate a plain mapping into a Scenario; errors name the source and the field."""
-    try:
-        return Scenario.model_validate(data)
-    except ValidationError as exc:
-        raise ConfigError(_describe(exc, source)) from None
+    return validated(Scenario, data, source, "scenario")
 
 
 def load_scenario(path: str | Path) -> Scenario:
     """Read a scenario from a ``.toml`` or ``.json`` file."""
-    path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"{path}: no such scenario file")
-    try:
-        if path.suffix == ".toml":
-            data = tomllib.loads(path.read_text())
-        elif path.suffix == ".json":
-            data = json.loads(path.read_text())
-        else:
-            raise ConfigError(f"{path}: unknown config type {path.suffix!r} (use .toml or .json)")
-    except (tomllib.TOMLDecodeError, json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{path}: not valid {path.suffix[1:].upper()}: {exc}") from None
-    return scenario_from_dict(data, str(path))
-
-
-def _describe(exc: ValidationError, source: str) -> str:
-    lines = [f"{source}: invalid scenario ({exc.error_count()} problem(s))"]
-    for err in exc.errors():
-        where = ".".join(str(p) for p in err["loc"]) or "<top level>"
-        lines.append(f"  - {where}: {err['msg']}")
-    return "\n".join(lines)
+    return scenario_from_dict(read_config(path, "scenario"), str(path))

@@ -35,13 +35,13 @@ from __future__ import annotations
 
 import json
 import math
-import tomllib
 from pathlib import Path
 from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from nnda.errors import ConfigError
+from nnda.errors import ConfigError, validated
+from nnda.files import read_config
 from nnda.study.metrics import DEFAULT_CUTOFF_M
 
 _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
@@ -125,32 +125,14 @@ class Study(BaseModel):
 
 def study_from_dict(data: dict, source: str = "<study>", base: Path | None = None) -> Study:
     """Validate a mapping into a Study (relative paths against ``base``, default the cwd)."""
-    try:
-        study = Study.model_validate(data)
-    except ValidationError as exc:
-        lines = [f"{source}: invalid study ({exc.error_count()} problem(s))"]
-        for err in exc.errors():
-            where = ".".join(str(p) for p in err["loc"]) or "<top level>"
-            lines.append(f"  - {where}: {err['msg']}")
-        raise ConfigError("\n".join(lines)) from None
+    study = validated(Study, data, source, "study")
     return study.resolved(base if base is not None else Path.cwd())
 
 
 def load_study(path: str | Path) -> Study:
     """Read a study from a ``.toml`` or ``.json`` file; paths inside are relative to its directory."""
     path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"{path}: no such study file")
-    try:
-        if path.suffix == ".toml":
-            data = tomllib.loads(path.read_text())
-        elif path.suffix == ".json":
-            data = json.loads(path.read_text())
-        else:
-            raise ConfigError(f"{path}: unknown study file type {path.suffix!r} (use .toml or .json)")
-    except (tomllib.TOMLDecodeError, json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{path}: not valid {path.suffix[1:].upper()}: {exc}") from None
-    return study_from_dict(data, str(path), path.parent.resolve())
+    return study_from_dict(read_config(path, "study"), str(path), path.parent.resolve())
 
 
 def default_study(gd_model: str | Path, lm_model: str | Path, runs: int = 100, seed: int = 0) -> Study:

@@ -5,10 +5,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from pydantic import ValidationError
-
 from nnda.data.scenario import Sensor
-from nnda.errors import ConfigError
+from nnda.errors import ConfigError, validated
 from nnda.tracking.gnn import GNNTracker
 from nnda.tracking.jpda import JPDATracker
 from nnda.tracking.mht import MHTTracker
@@ -25,9 +23,4 @@ def make_tracker(name: str, sensor: Sensor, params: Mapping[str, Any] | None = N
         cls = TRACKERS[name]
     except KeyError:
         raise ConfigError(f"{where}: unknown tracker {name!r}; choose one of {', '.join(TRACKERS)}") from None
-    try:
-        config = cls.config_type.model_validate(dict(params or {}))
-    except ValidationError as exc:
-        problems = "; ".join(f"{'.'.join(map(str, e['loc'])) or '<top>'}: {e['msg']}" for e in exc.errors())
-        raise ConfigError(f"{where}: invalid {name} config: {problems}") from None
-    return cls(sensor, config)
+    return cls(sensor, validated(cls.config_type, dict(params or {}), where, f"{name} config"))
