@@ -63,6 +63,7 @@ clutter after their targets leave.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from collections.abc import Callable
 from typing import Annotated, ClassVar, Literal
 
 import numpy as np
@@ -239,10 +240,18 @@ def jpda_marginals(track: np.ndarray, contact: np.ndarray, log_ratio: np.ndarray
 
 def _normalised(cluster: np.ndarray, log_weight: np.ndarray) -> np.ndarray:
     """Event weights normalised per cluster; ``cluster`` (E,) groups the events (sorted)."""
-    first = np.flatnonzero(np.r_[True, cluster[1:] != cluster[:-1]])
-    group = np.repeat(np.arange(first.size), np.diff(np.r_[first, cluster.size]))
+    first, group = _runs(cluster)
     w = np.exp(log_weight - np.maximum.reduceat(log_weight, first)[group])
     return w / np.add.reduceat(w, first)[group]
+
+
+def _runs(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Runs of equal values in ``a`` (P,), e.g. sorted labels: where each run starts, and the run
+    number of each entry (P,)."""
+    new = np.empty(a.size, bool)
+    new[:1] = True
+    np.not_equal(a[1:], a[:-1], out=new[1:])
+    return np.flatnonzero(new), np.cumsum(new) - 1
 
 
 def loopy_marginals(track: np.ndarray, contact: np.ndarray, log_ratio: np.ndarray, n_tracks: int,
@@ -298,7 +307,7 @@ def pda_update(pred: IMMPrediction, track: np.ndarray, nu: np.ndarray, log_lik: 
     """IMM-JPDA update of K tracks from their association probabilities (module docstring, step 4).
 
     ``pred`` is the tracks' IMM prediction; the P gated pairs are given by
-    their ``track`` (P,), innovations ``nu`` (P, r, 2) and per-model
+    their ``track`` (P,), sorted, innovations ``nu`` (P, r, 2) and per-model
     log-likelihoods ``log_lik`` (P, r) (`pair_likelihoods`) and their
     association probabilities ``beta`` (P,); ``beta0`` (K,) is each track's
     probability of no detection.
@@ -310,12 +319,13 @@ def pda_update(pred: IMMPrediction, track: np.ndarray, nu: np.ndarray, log_lik: 
     responsibility /= responsibility.sum(axis=1, keepdims=True)  # P(model m | the pair's contact is the track's)
     joint = beta[:, None] * responsibility  # P(contact, model m), (P, r)
     joint0 = beta0[:, None] * st.mu  # P(no contact, model m), (K, r)
-    mu = joint0 + _sum_by_track(track, joint, K)
+    by_track = _sum_by_track(track, K)
+    mu = joint0 + by_track(joint)
     b = joint / (mu[track] + _TINY)  # each model's own association probabilities
     b0 = joint0 / (mu + _TINY)
     weighted = b[..., None] * nu  # (P, r, 2)
-    combined = _sum_by_track(track, weighted, K)  # (K, r, 2)
-    spread = _sum_by_track(track, weighted[..., :, None] * nu[..., None, :], K) - (
+    combined = by_track(weighted)  # (K, r, 2)
+    spread = by_track(weighted[..., :, None] * nu[..., None, :]) - (
         combined[..., :, None] * combined[..., None, :])
     gain = mp.PHt @ mp.S_inv  # (K, r, n, 2)
     x = st.x + (gain @ combined[..., None])[..., 0]
@@ -324,21 +334,27 @@ def pda_update(pred: IMMPrediction, track: np.ndarray, nu: np.ndarray, log_lik: 
     return IMMState(x, kalman.symmetrise(P), mu / mu.sum(axis=1, keepdims=True))
 
 
-def _sum_by_track(track: np.ndarray, values: np.ndarray, K: int) -> np.ndarray:
-    """Sums (K, ...) of per-pair ``values`` (P, ...) over the pairs of each track."""
-    F = int(np.prod(values.shape[1:]))
-    flat = values.reshape(len(track), F)
-    index = (track[:, None] * F + np.arange(F)).ravel()
-    return np.bincount(index, flat.ravel(), minlength=K * F).reshape(K, *values.shape[1:])
+def _sum_by_track(track: np.ndarray, K: int) -> Callable[[np.ndarray], np.ndarray]:
+    """A function summing per-pair values (P, ...) over the pairs of each of K tracks, giving (K, ...);
+    ``track`` (P,) sorted. (One set of segment bounds serves every sum of an update.)"""
+    count = np.bincount(track, minlength=K)
+    some = count > 0
+    first = (np.cumsum(count) - count)[some]
+
+    def total(values: np.ndarray) -> np.ndarray:
+        out = np.zeros((K, *values.shape[1:]))
+        if first.size:
+            out[some] = np.add.reduceat(values, first, axis=0)
+        return out
+    return total
 
 
 def best_pairs(track: np.ndarray, beta: np.ndarray) -> np.ndarray:
     """Index of each track's most probable pair (ties: its first); ``track`` (P,) sorted, every track
     0..K-1 present. Returns (K,)."""
-    start = np.flatnonzero(np.r_[True, track[1:] != track[:-1]])
-    top = np.maximum.reduceat(beta, start)
+    top = np.maximum.reduceat(beta, _runs(track)[0])
     hit = np.flatnonzero(beta == top[track])
-    return hit[np.r_[True, track[hit][1:] != track[hit][:-1]]]
+    return hit[_runs(track[hit])[0]]
 
 
 class JPDATracker(Tracker):
@@ -372,20 +388,21 @@ class JPDATracker(Tracker):
         if not len(z):
             return Association(contact, state)
         g = gate(self.imm, self.imm.combined_measurement(pred), z, xy, cfg.gate)
-        near = np.unique(g.cols)
+        near = np.zeros(len(z), bool)
+        near[g.cols] = True
+        near = np.flatnonzero(near)  # the contacts in some gate
         log_density = np.zeros(len(z))
         log_density[near] = np.log(self.clutter_density(z, xy, near))
         log_miss = log_miss_weight(cfg.pd, cfg.gate)
         taken = np.zeros(len(z), bool)
         confirmed = tracks.status == TrackStatus.CONFIRMED
         for stage in (confirmed, ~confirmed):  # confirmed tracks first, as in GNN
-            sel = stage[g.rows] & ~taken[g.cols]
-            if not sel.any():
+            sel = np.flatnonzero(stage[g.rows] & ~taken[g.cols])
+            if not sel.size:
                 continue
-            rows, track = np.unique(g.rows[sel], return_inverse=True)  # the stage's tracks with pairs
-            cols = g.cols[sel]
-            active = pred.take(rows)
-            log_ratio = (np.log(cfg.pd) + self.imm.pair_log_likelihood(active, track, z[cols])
+            start, track = _runs(g.rows[sel])  # the stage's tracks with pairs, numbered 0, 1, ...
+            rows, cols = g.rows[sel[start]], g.cols[sel]
+            log_ratio = (np.log(cfg.pd) + self.imm.pair_log_likelihood(pred, rows[track], z[cols])
                          - log_density[cols])
             m = jpda_marginals(track, cols, log_ratio, rows.size, log_miss, cfg.max_joint_events)
             self.n_clusters += m.approximated.size
@@ -396,8 +413,9 @@ class JPDATracker(Tracker):
             taken[contact[rows[wins]]] = True
             # the soft update, for the tracks that report a contact (the framework keeps the others')
             won = wins[track]
-            renumber = np.cumsum(wins) - 1
-            nu, log_lik = pair_likelihoods(active, z, track[won], cols[won], self.imm.measurement)
-            updated = pda_update(active.take(wins), renumber[track[won]], nu, log_lik, m.beta[won], m.beta0[wins])
+            winner = (np.cumsum(wins) - 1)[track[won]]
+            active = pred.take(rows[wins])
+            nu, log_lik = pair_likelihoods(active, z, winner, cols[won], self.imm.measurement)
+            updated = pda_update(active, winner, nu, log_lik, m.beta[won], m.beta0[wins])
             state.x[rows[wins]], state.P[rows[wins]], state.mu[rows[wins]] = updated.x, updated.P, updated.mu
         return Association(contact, state)
