@@ -178,16 +178,16 @@ def _within_reach(points: np.ndarray, reach: np.ndarray, contacts: np.ndarray) -
     """
     level = np.ceil(4.0 * np.log2(reach))
     tree = cKDTree(contacts)
-    track, contact = [np.empty(0, np.int64)], [np.empty(0, np.int64)]
+    point, contact = [np.empty(0, np.int64)], [np.empty(0, np.int64)]
     for lv in np.unique(level):
         group = np.flatnonzero(level == lv)
         found = cKDTree(points[group]).sparse_distance_matrix(
             tree, reach[group].max() * (1.0 + _REACH_MARGIN), output_type="ndarray")
-        track.append(group[found["i"]])
+        point.append(group[found["i"]])
         contact.append(found["j"].astype(np.int64))
-    track, contact = np.concatenate(track), np.concatenate(contact)
-    order = np.argsort(track * len(contacts) + contact)
-    return track[order], contact[order]
+    point, contact = np.concatenate(point), np.concatenate(contact)
+    order = np.argsort(point * len(contacts) + contact)
+    return point[order], contact[order]
 
 
 def candidate_pairs(
