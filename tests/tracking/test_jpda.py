@@ -346,7 +346,7 @@ def test_clutter_density_estimates():
     scan = make_tracker("jpda", sensor, {"clutter_density": "scan"}).clutter_density(z, xy, at)
     np.testing.assert_allclose(scan, 4 / (25_000.0 * 2 * np.pi))
     local = make_tracker("jpda", sensor, {"clutter_radius_m": 2_000.0}).clutter_density(z, xy, at)
-    area = np.pi * 2_000.0**2
+    area = (2 * 2_000.0) ** 2  # the square of half-side clutter_radius_m
     np.testing.assert_allclose(local, [2 / area * 10_000.0, 1 / area * 20_000.0])
     fixed = make_tracker("jpda", sensor, {"clutter_density": 5e-4}).clutter_density(z, xy, at)
     np.testing.assert_allclose(fixed, 5e-4)

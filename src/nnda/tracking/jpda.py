@@ -52,8 +52,9 @@ Clutter density lambda, in contacts per m per rad of measurement space
 (``clutter_density``): a fixed value, ``"scan"`` (each scan's contact count
 over the coverage, (r_max - r_min) x 2 pi: the spec's §7.3 MHT figure of
 6.4e-4 for 100 uniform contacts), or by default ``"local"``: at each gated
-contact, the scan's contacts within ``clutter_radius_m`` (3 km, itself
-included) per unit area, times the contact's range (an area density rho
+contact, the scan's contacts in the square of half-side ``clutter_radius_m``
+(3 km, itself included) per unit area (`nnda.tracking.clutter_density`, as
+the MHT uses), times the contact's range (an area density rho
 is rho r in (range, azimuth)). The presets put their clutter in a 16.6 km
 square around the targets, about 8 times denser there than the scan-wide
 figure says, and a JPDA fed the scan-wide figure keeps tracks alive on
@@ -70,10 +71,10 @@ import numpy as np
 from pydantic import Field
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
 from nnda.data.sensor import TWO_PI
 from nnda.tracking import kalman
+from nnda.tracking.clutter_density import local_density
 from nnda.tracking.gating import gate
 from nnda.tracking.imm import IMMPrediction, IMMState
 from nnda.tracking.measurement import MeasurementModel
@@ -99,8 +100,8 @@ class JPDAConfig(TrackerConfig):
     clutter_density: Annotated[float, Field(gt=0)] | Literal["local", "scan"] = Field(
         "local", description="clutter contacts per m per rad of measurement space, or how to estimate it "
         "from each scan: 'local' (around each contact) or 'scan' (whole coverage)")
-    clutter_radius_m: Annotated[float, Field(gt=0, description="radius (m) of the 'local' clutter "
-                                "density estimate")] = 3_000.0
+    clutter_radius_m: Annotated[float, Field(gt=0, description="half-side (m) of the square of the "
+                                "'local' clutter density estimate")] = 3_000.0
     max_joint_events: Annotated[int, Field(ge=1, description="partial joint events listed per cluster "
                                 "(summed over its tracks) before falling back to loopy belief "
                                 "propagation")] = 10_000
@@ -375,9 +376,7 @@ class JPDATracker(Tracker):
             coverage = (self.sensor.max_range_m - self.sensor.min_range_m) * TWO_PI
             return np.full(at.size, len(z) / coverage)
         if cfg.clutter_density == "local":
-            radius = cfg.clutter_radius_m
-            count = cKDTree(xy).query_ball_point(xy[at], radius, return_length=True)
-            return count / (np.pi * radius**2) * z[at, 0]
+            return local_density(xy, xy[at], cfg.clutter_radius_m) * z[at, 0]
         return np.full(at.size, cfg.clutter_density)
 
     def _maintain(self, tracks: Tracks, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray,
