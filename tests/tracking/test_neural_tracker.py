@@ -106,7 +106,10 @@ def _scan_delays_and_nees(ds, outputs):
             if target < 0:
                 continue
             first_confirmed.setdefault(target, o.scan)
-            row = np.flatnonzero((truth.scan == o.scan) & (truth.target_id == target))[0]
+            rows = np.flatnonzero((truth.scan == o.scan) & (truth.target_id == target))
+            if rows.size == 0:  # the target's trajectory has ended: the track updates on clutter
+                continue
+            row = rows[0]
             e = np.array([o.state[i, 0] - truth.x[row], o.state[i, 2] - truth.y[row]])
             nees.append(e @ np.linalg.solve(o.covariance[i][np.ix_([0, 2], [0, 2])], e))
     first_contact = {t: int(det.scan[det.target_id == t].min()) for t in range(len(ds.scenario.targets))}
@@ -114,13 +117,19 @@ def _scan_delays_and_nees(ds, outputs):
     return delays, np.array(nees)
 
 
-def test_s1_targets_confirmed_quickly_with_consistent_errors(model_file):
-    ds = generate(PRESETS["S1"], seed=0)
+@pytest.mark.parametrize("preset", ["S1", "S2"])
+def test_targets_confirmed_quickly_with_consistent_errors(model_file, preset):
+    ds = generate(PRESETS[preset], seed=0)
     tracker = make_tracker("nn", ds.scenario.sensor, {"model": str(model_file)})
     outputs = [tracker.step(scan) for scan in ds.scans()]
     delays, nees = _scan_delays_and_nees(ds, outputs)
-    # initiator, preliminary track, then M = 3 detections: 4 scans at the earliest
-    assert all(4 <= d <= 6 for d in delays.values()), delays
+    # initiator, preliminary track, then M = 3 detections: 4 scans at the earliest; in S2 the
+    # pair T5/T7 starts 280 m apart and their preliminary tracks compete for a few scans
+    assert all(d >= 4 for d in delays.values()), delays
+    if preset == "S1":
+        assert all(d <= 6 for d in delays.values()), delays
+    else:  # every target confirmed, on average as fast as the other trackers must (8 scans)
+        assert max(delays.values()) < 10**6 and np.mean(list(delays.values())) <= 8, delays
     # 2-D normalised errors: median 1.39 and 99 % below 9.21 if the covariance is right
     assert 0.7 < np.median(nees) < 2.5 and np.mean(nees < 9.21) > 0.9
     m = run_metrics(ds, outputs)
