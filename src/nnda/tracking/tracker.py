@@ -250,19 +250,18 @@ class Tracker(TrackerBase):
         """Apply the updates, the M/N logic and deletion; returns the surviving tracks and their report."""
         c = assoc.contact
         det = c >= 0
-        filt = IMMState(*(np.where(det.reshape(-1, *[1] * (a.ndim - 1)), a, b)
-                          for a, b in zip((assoc.filt.x, assoc.filt.P, assoc.filt.mu),
-                                          (tracks.filt.x, tracks.filt.P, tracks.filt.mu))))
-        tracks = tracks.after_scan(c, filt, z, xy, time, self.config.lifecycle)
+        tracks = tracks.after_scan(c, _pick(det, assoc.filt, tracks.filt), z, xy, time, self.config.lifecycle)
         status = tracks.status
-        d2 = det[:, None]
         # report the posterior of updated tracks and the prediction of missed ones
-        x_post, P_post = self.imm.estimate(assoc.filt)
-        x_pred, P_pred = self.imm.estimate(pred.state)
-        x = np.where(d2, x_post, x_pred)
-        P = np.where(d2[:, :, None], P_post, P_pred)
+        x, P = self.imm.estimate(_pick(det, assoc.filt, pred.state))
         report = _report(tracks, x, P, c)
         return tracks.take(status != TrackStatus.DELETED), report
+
+
+def _pick(rows: np.ndarray, a: IMMState, b: IMMState) -> IMMState:
+    """Per track, the state of ``a`` where ``rows`` (K,) is true, else that of ``b``."""
+    return IMMState(*(np.where(rows.reshape(-1, *[1] * (u.ndim - 1)), u, v)
+                      for u, v in ((a.x, b.x), (a.P, b.P), (a.mu, b.mu))))
 
 
 def _report(tracks: Tracks, x: np.ndarray, P: np.ndarray, contact: np.ndarray) -> tuple:
