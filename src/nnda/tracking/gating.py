@@ -31,11 +31,6 @@ class Gated:
     cols: np.ndarray
     d2: np.ndarray
 
-    def mask(self, n_tracks: int, n_contacts: int) -> np.ndarray:
-        """The same pairs as a dense boolean (K, N) matrix."""
-        m = np.zeros((n_tracks, n_contacts), bool)
-        m[self.rows, self.cols] = True
-        return m
 
 
 def gate(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, xy: np.ndarray, threshold: float) -> Gated:
