@@ -32,7 +32,6 @@ class Gated:
     d2: np.ndarray
 
 
-
 def gate(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, xy: np.ndarray, threshold: float) -> Gated:
     """Pairs (track, contact) with squared Mahalanobis distance <= ``threshold``.
 
