@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from nnda.errors import ModelError
-from nnda.models.features import FEATURE_SET, FEATURE_VERSION
+from nnda.models.features import KINEMATIC
 from nnda.models.mlp import MLPWeights, n_weights, nguyen_widrow, unpack
 from nnda.models.network import as_tensor, forward
 from nnda.models.preprocessing import Normaliser
@@ -65,8 +65,8 @@ def test_loader_refuses_bad_files(scorer, tmp_path):
     with pytest.raises(ModelError, match="field 'format'"):
         load_model(path)
     save_model(scorer, path)
-    _rewrite(path, feature_version=FEATURE_VERSION + 1)
-    with pytest.raises(ModelError, match=f"{FEATURE_SET!r} version {FEATURE_VERSION + 1}.*retrain"):
+    _rewrite(path, feature_version=KINEMATIC.version + 1)
+    with pytest.raises(ModelError, match=f"{KINEMATIC.name!r} version {KINEMATIC.version + 1}.*retrain"):
         load_model(path)
     save_model(scorer, path)
     doc = json.loads(path.read_text())

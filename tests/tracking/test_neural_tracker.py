@@ -9,7 +9,7 @@ import pytest
 
 from nnda.data import PRESETS, Clutter, Scan, Scenario, Segment, Sensor, Target, generate
 from nnda.errors import ConfigError, TrackingError
-from nnda.models.features import FEATURE_VERSION, candidate_pairs, pair_features
+from nnda.models.features import KINEMATIC, candidate_pairs, pair_features
 from nnda.models.mlp import MLPWeights
 from nnda.models.preprocessing import Normaliser
 from nnda.models.scorer import Scorer, save_model
@@ -212,7 +212,7 @@ def test_bad_scans_are_refused(model_file):
 
 def test_model_of_another_feature_version_is_refused(model_file, tmp_path):
     doc = json.loads(model_file.read_text())
-    doc["feature_version"] = FEATURE_VERSION + 1
+    doc["feature_version"] = KINEMATIC.version + 1
     other = tmp_path / "model.json"
     other.write_text(json.dumps(doc))
     with pytest.raises(ConfigError, match=r"field 'model': .*feature.*version"):

@@ -131,7 +131,7 @@ def fit(
         "test_metrics": metrics["test"].as_dict(),
         **(provenance or {}),
     }
-    scorer = Scorer(weights, normaliser, metadata=metadata)
+    scorer = Scorer(weights, normaliser, pairs.feature_set, metadata=metadata)
     return FitResult(method, seed, scorer, result, split, scores, metrics)
 
 

@@ -29,6 +29,7 @@ indices for many tracks and contacts at once).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -36,11 +37,33 @@ from scipy.spatial import cKDTree
 from nnda.data.sensor import TWO_PI, wrap_angle
 from nnda.errors import ModelError
 
-#: Name and version of this feature definition; a model file records both and
-#: the loader refuses a model trained on another definition.
-FEATURE_SET = "kinematic-3"
-FEATURE_VERSION = 1
-FEATURE_NAMES = ("delta_speed_m_s", "course_rate_deg_s", "delta_t_s")
+
+
+@dataclass(frozen=True)
+class FeatureSet:
+    """A named, versioned definition of the pair features a model reads, column by column.
+
+    A model file records the name and version of the set it was trained on;
+    the loader refuses a version this nnda does not compute, and the neural
+    tracker computes the set its model names (`nnda.models.feature_sets`).
+    """
+
+    name: str
+    version: int
+    names: tuple[str, ...]
+    description: str
+
+    @property
+    def size(self) -> int:
+        """Number of features (the network's inputs)."""
+        return len(self.names)
+
+
+#: The seed's three features [ΔV, Δα, ΔT] from the track's last two contacts and the candidate.
+KINEMATIC = FeatureSet(
+    "kinematic-3", 1, ("delta_speed_m_s", "course_rate_deg_s", "delta_t_s"),
+    "the seed's speed change, course-change rate and time gap, from the track's last two contacts",
+)
 
 N_SECTORS = 16
 MIN_SPEED_M_S = 30.0

@@ -24,12 +24,24 @@ last two contacts becomes a pair:
 target's true positions at those scans (the candidates stay measured): the
 easier data model of spec §14.1, kept to explain the accuracy gap with the
 thesis, not for training the tracker's model.
+
+``features`` picks the feature set (`nnda.models.feature_sets`). The
+extended set ``imm-innovation-9`` runs the trackers' IMM
+(`nnda.models.innovation.tracker_imm`) along each target's history as a
+tracker would: started from the target's first two contacts (two-point
+start), predicted to every scan over the time since its last update, its
+prediction giving the features of that scan's candidates, then updated with
+the target's own contact if it has one (a missed scan is not an update).
+After a gap longer than ``max_missed`` scans, when a tracker would have
+deleted the track, the filter restarts from the contacts on either side of
+the gap, as the seed features do. With ``history="true"`` the filter is fed
+the true positions.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Literal
 
@@ -38,7 +50,10 @@ import numpy as np
 from nnda.data.dataset import Dataset, iter_datasets
 from nnda.data.sensor import cart_to_polar
 from nnda.errors import ConfigError, DatasetError
-from nnda.models.features import pair_features, passes_gate, sector
+from nnda.models.feature_sets import feature_set
+from nnda.models.features import KINEMATIC, FeatureSet, pair_features, passes_gate, sector
+from nnda.models.innovation import IMM_INNOVATION, innovation_features, tracker_imm
+from nnda.tracking.imm import IMM
 
 History = Literal["measured", "true"]
 OtherTargets = Literal["negative", "drop"]
@@ -48,7 +63,7 @@ OtherTargets = Literal["negative", "drop"]
 class PairSet:
     """Labelled pairs; row arrays of shape (N,) unless stated.
 
-    ``features`` (N, 3) as in `nnda.models.features`; ``labels`` +1 (the
+    ``features`` (N, F), the columns of ``feature_set``; ``labels`` +1 (the
     track's own contact) or -1; ``dataset`` indexes ``names``; ``scan`` is
     the candidate's scan, ``target_id`` the track's target and
     ``contact_target`` the candidate's origin (-1 clutter).
@@ -61,6 +76,7 @@ class PairSet:
     target_id: np.ndarray
     contact_target: np.ndarray
     names: tuple[str, ...]
+    feature_set: FeatureSet = KINEMATIC
 
     def __len__(self) -> int:
         return len(self.labels)
@@ -80,17 +96,25 @@ class PairSet:
 
     def subset(self, rows: np.ndarray) -> PairSet:
         """The pairs at ``rows`` (index or mask)."""
-        return PairSet(*(getattr(self, f.name)[rows] for f in fields(self) if f.name != "names"),
-                       names=self.names)
+        return PairSet(*(getattr(self, f.name)[rows] for f in fields(self) if f.name not in _PER_SET),
+                       names=self.names, feature_set=self.feature_set)
+
+    def columns(self, names: Iterable[str], features: FeatureSet) -> PairSet:
+        """The same pairs with only the feature columns ``names`` (in ``features``' order: its set)."""
+        index = [self.feature_set.names.index(n) for n in features.names if n in set(names)]
+        return replace(self, features=self.features[:, index], feature_set=features)
 
 
-def _empty(names: tuple[str, ...]) -> PairSet:
+_PER_SET = ("names", "feature_set")
+
+
+def _empty(names: tuple[str, ...], features: FeatureSet = KINEMATIC) -> PairSet:
     i32 = np.zeros(0, dtype=np.int32)
-    return PairSet(np.zeros((0, 3)), np.zeros(0, dtype=np.int8), i32, i32, i32, i32, names)
+    return PairSet(np.zeros((0, features.size)), np.zeros(0, dtype=np.int8), i32, i32, i32, i32, names, features)
 
 
 def concatenate(parts: Iterable[PairSet]) -> PairSet:
-    """One pair set from several, renumbering the dataset indices."""
+    """One pair set from several of the same feature set, renumbering the dataset indices."""
     parts = list(parts)
     names: tuple[str, ...] = ()
     shifted = []
@@ -99,9 +123,12 @@ def concatenate(parts: Iterable[PairSet]) -> PairSet:
         names += p.names
     if not parts:
         return _empty(())
+    if len({p.feature_set for p in parts}) > 1:
+        raise ConfigError(f"cannot concatenate pairs of feature sets {sorted({p.feature_set.name for p in parts})}")
     cat = {f.name: np.concatenate([getattr(p, f.name) for p in parts])
-           for f in fields(PairSet) if f.name not in ("names", "dataset")}
-    return PairSet(dataset=np.concatenate(shifted).astype(np.int32), names=names, **cat)
+           for f in fields(PairSet) if f.name not in ("dataset", *_PER_SET)}
+    return PairSet(dataset=np.concatenate(shifted).astype(np.int32), names=names, feature_set=parts[0].feature_set,
+                   **cat)
 
 
 def dataset_name(dataset: Dataset) -> str:
@@ -111,9 +138,10 @@ def dataset_name(dataset: Dataset) -> str:
 
 def extract_pairs(
     dataset: Dataset, history: History = "measured", other_targets: OtherTargets = "negative",
-    max_missed: int = 3,
+    max_missed: int = 3, features: str = KINEMATIC.name,
 ) -> PairSet:
-    """Gated, labelled pairs of every target of ``dataset`` along its oracle history."""
+    """Gated, labelled pairs of every target of ``dataset`` along its oracle history (module docstring)."""
+    fs = feature_set(features, "training pairs")
     if history not in ("measured", "true"):
         raise ConfigError(f"history must be 'measured' or 'true', got {history!r}")
     if other_targets not in ("negative", "drop"):
@@ -124,6 +152,8 @@ def extract_pairs(
     bounds = dataset.scan_bounds()
     xy = np.column_stack([det.x, det.y])
     det_sector = sector(det.azimuth)
+    det_z = np.column_stack([det.range, det.azimuth])
+    imm = tracker_imm(dataset.scenario.sensor) if fs is IMM_INNOVATION else None
     parts = []
     for tid in range(len(dataset.scenario.targets)):
         own = np.flatnonzero(det.target_id == tid)  # one per scan, in scan order
@@ -135,9 +165,10 @@ def extract_pairs(
             rows = np.flatnonzero(truth.target_id == tid)
             at = rows[np.searchsorted(truth.scan[rows], own_scan)]
             own_xy = np.column_stack([truth.x[at], truth.y[at]])
-            own_sector = sector(cart_to_polar(truth.x[at], truth.y[at])[1])
+            own_z = np.column_stack(cart_to_polar(truth.x[at], truth.y[at]))
+            own_sector = sector(own_z[:, 1])
         else:
-            own_xy, own_sector = xy[own], det_sector[own]
+            own_xy, own_z, own_sector = xy[own], det_z[own], det_sector[own]
         scans = np.arange(own_scan[1] + 1, last_scan + 1)
         j2 = np.searchsorted(own_scan, scans) - 1  # the track's last contact before each scan
         alive_track = scans - own_scan[j2] <= max_missed + 1
@@ -153,23 +184,55 @@ def extract_pairs(
         if other_targets == "drop":
             gate &= (origin < 0) | (origin == tid)
         last, cand, origin = last[gate], cand[gate], origin[gate]
-        features = pair_features(own_xy[last - 1], own_time[last - 1], own_xy[last], own_time[last],
-                                 xy[cand], det.time[cand])
+        values = pair_features(own_xy[last - 1], own_time[last - 1], own_xy[last], own_time[last],
+                               xy[cand], det.time[cand])
+        if imm is not None:
+            values = _along_history(imm, own_z, own_time, own_scan, det.scan[cand], det.time[cand], det_z[cand],
+                                    values, max_missed)
         parts.append(PairSet(
-            features=features,
+            features=values,
             labels=np.where(origin == tid, 1, -1).astype(np.int8),
             dataset=np.zeros(cand.size, dtype=np.int32),
             scan=det.scan[cand].astype(np.int32),
             target_id=np.full(cand.size, tid, dtype=np.int32),
             contact_target=origin.astype(np.int32),
-            names=(),
+            names=(), feature_set=fs,
         ))
     name = (dataset_name(dataset),)
     if not parts:
-        return _empty(name)
+        return _empty(name, fs)
     merged = concatenate(parts)
-    return PairSet(merged.features, merged.labels, np.zeros(len(merged), dtype=np.int32), merged.scan,
-                   merged.target_id, merged.contact_target, name)
+    return replace(merged, dataset=np.zeros(len(merged), dtype=np.int32), names=name)
+
+
+def _along_history(
+    imm: IMM, own_z: np.ndarray, own_time: np.ndarray, own_scan: np.ndarray,
+    pair_scan: np.ndarray, pair_time: np.ndarray, pair_z: np.ndarray, kinematic: np.ndarray, max_missed: int,
+) -> np.ndarray:
+    """Extended features (P, 9) of one target's pairs, running ``imm`` along its history (module docstring).
+
+    ``own_z`` (J, 2) polar [m, rad], ``own_time`` (J,) s and ``own_scan``
+    (J,) are the target's history; the P pairs, sorted by scan, have their
+    candidate's scan, time and polar measurement and their seed features.
+    """
+    out = np.empty((len(pair_scan), IMM_INNOVATION.size))
+    post, t_post, born = imm.initialise(own_z[:1], own_z[1:2], own_time[0], own_time[1]), own_time[1], own_time[0]
+    j = 2  # the next own contact
+    for scan in np.union1d(pair_scan, own_scan[2:]):
+        own_here = j < len(own_scan) and own_scan[j] == scan
+        if own_here and own_scan[j] - own_scan[j - 1] > max_missed + 1:  # a tracker would have lost it: restart
+            post = imm.initialise(own_z[j - 1:j], own_z[j:j + 1], own_time[j - 1], own_time[j])
+            t_post, born, j = own_time[j], own_time[j - 1], j + 1
+            continue
+        lo, hi = np.searchsorted(pair_scan, scan), np.searchsorted(pair_scan, scan, side="right")
+        time = pair_time[lo] if hi > lo else own_time[j]
+        pred = imm.predict(post, time - t_post)
+        if hi > lo:
+            out[lo:hi] = innovation_features(imm, pred, np.zeros(hi - lo, np.int64), pair_z[lo:hi],
+                                             kinematic[lo:hi], np.full(hi - lo, time - born))
+        if own_here:
+            post, t_post, j = imm.update(pred, own_z[j:j + 1]), time, j + 1
+    return out
 
 
 def pairs_from_datasets(datasets: Iterable[Dataset], **options) -> PairSet:

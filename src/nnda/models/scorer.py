@@ -3,12 +3,13 @@
 A model file is one small JSON document::
 
     {"format": "nnda.model", "format_version": 1,
-     "feature_set": "kinematic-3", "feature_version": 1, "feature_names": [...],
-     "network": {"n_inputs": 3, "n_hidden": 5, "activation": "tanh", "weights": [K floats]},
-     "normaliser": {"kind": "zscore", "mean": [3 floats], "scale": [3 floats]},
+     "feature_set": "kinematic-3", "feature_version": 1, "feature_names": [F names],
+     "network": {"n_inputs": F, "n_hidden": 5, "activation": "tanh", "weights": [K floats]},
+     "normaliser": {"kind": "zscore", "mean": [F floats], "scale": [F floats]},
      "metadata": {...training provenance...}}
 
-``weights`` is the flat layout of `nnda.models.mlp`. Floats are written
+``feature_set`` names one of `nnda.models.feature_sets.FEATURE_SETS` (F
+features). ``weights`` is the flat layout of `nnda.models.mlp`. Floats are written
 with full precision, so a model survives a round trip bit for bit. The file
 is written atomically (`nnda.files.write_json`).
 """
@@ -24,7 +25,8 @@ import numpy as np
 import nnda
 from nnda.errors import ModelError
 from nnda.files import read_json, write_json
-from nnda.models.features import FEATURE_NAMES, FEATURE_SET, FEATURE_VERSION
+from nnda.models.feature_sets import FEATURE_SETS
+from nnda.models.features import KINEMATIC, FeatureSet
 from nnda.models.mlp import MLPWeights, n_weights
 from nnda.models.preprocessing import Normaliser
 
@@ -35,16 +37,20 @@ MODEL_FILE = "model.json"
 
 @dataclass(frozen=True)
 class Scorer:
-    """Maps raw pair features (N, 3) to scores in (-1, 1); > 0 means "this track's contact"."""
+    """Maps raw pair features (N, F) of ``features`` to scores in (-1, 1); > 0 means "this track's contact"."""
 
     weights: MLPWeights
     normaliser: Normaliser
-    feature_set: str = FEATURE_SET
-    feature_version: int = FEATURE_VERSION
+    features: FeatureSet = KINEMATIC
     metadata: dict = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        if self.weights.n_inputs != self.features.size:
+            raise ModelError(f"scorer: a {self.weights.n_inputs}-input network cannot read the "
+                             f"{self.features.size} features of {self.features.name!r}")
+
     def __call__(self, features: np.ndarray) -> np.ndarray:
-        """Scores (N,) of raw features (N, F) as made by `nnda.models.features.pair_features`."""
+        """Scores (N,) of raw features (N, F) as made by the feature set's functions."""
         x = np.asarray(features, dtype=float)
         if x.ndim != 2 or x.shape[1] != self.weights.n_inputs:
             raise ModelError(f"scorer: features must have shape (N, {self.weights.n_inputs}), got {x.shape}")
@@ -61,9 +67,9 @@ def model_document(scorer: Scorer) -> dict:
         "format": MODEL_FORMAT,
         "format_version": MODEL_FORMAT_VERSION,
         "nnda_version": nnda.__version__,
-        "feature_set": scorer.feature_set,
-        "feature_version": scorer.feature_version,
-        "feature_names": list(FEATURE_NAMES),
+        "feature_set": scorer.features.name,
+        "feature_version": scorer.features.version,
+        "feature_names": list(scorer.features.names),
         "network": {"n_inputs": w.n_inputs, "n_hidden": w.n_hidden, "activation": "tanh",
                     "weights": w.to_vector().tolist()},
         "normaliser": {"kind": "zscore", "mean": scorer.normaliser.mean.tolist(),
@@ -105,18 +111,20 @@ def load_model(path: str | Path) -> Scorer:
         raise ModelError(f"{path}: no such model file")
     doc = read_json(path, MODEL_FORMAT, MODEL_FORMAT_VERSION, ModelError)
     feature_set, feature_version = _field(doc, "feature_set", path), _field(doc, "feature_version", path)
-    if (feature_set, feature_version) != (FEATURE_SET, FEATURE_VERSION):
+    features = FEATURE_SETS.get(feature_set) if isinstance(feature_set, str) else None
+    if features is None or feature_version != features.version:
+        known = ", ".join(f"{fs.name!r} version {fs.version}" for fs in FEATURE_SETS.values())
         raise ModelError(
             f"{path}: the model was trained on features {feature_set!r} version {feature_version!r}, "
-            f"but this nnda computes {FEATURE_SET!r} version {FEATURE_VERSION}; retrain it with `nnda train`"
+            f"but this nnda computes {known}; retrain it with `nnda train`"
         )
     net, norm = _field(doc, "network", path), _field(doc, "normaliser", path)
     if not isinstance(net, dict) or not isinstance(norm, dict):
         raise ModelError(f"{path}: fields 'network' and 'normaliser' must be objects")
     n_inputs, n_hidden = _field(net, "n_inputs", path), _field(net, "n_hidden", path)
-    if n_inputs != len(FEATURE_NAMES) or not isinstance(n_hidden, int) or n_hidden < 1:
+    if n_inputs != features.size or not isinstance(n_hidden, int) or n_hidden < 1:
         raise ModelError(f"{path}: field 'network' describes a {n_inputs}-{n_hidden}-1 network; "
-                         f"expected {len(FEATURE_NAMES)} inputs and at least 1 hidden unit")
+                         f"expected {features.size} inputs ({feature_set}) and at least 1 hidden unit")
     if net.get("activation") != "tanh" or norm.get("kind") != "zscore":
         raise ModelError(f"{path}: only tanh networks with a zscore normaliser are supported, got "
                          f"activation {net.get('activation')!r}, normaliser {norm.get('kind')!r}")
@@ -128,5 +136,4 @@ def load_model(path: str | Path) -> Scorer:
     metadata = doc.get("metadata", {})
     if not isinstance(metadata, dict):
         raise ModelError(f"{path}: field 'metadata' must be an object")
-    return Scorer(MLPWeights.from_vector(theta, n_inputs, n_hidden), Normaliser(mean, scale),
-                  feature_set, feature_version, metadata)
+    return Scorer(MLPWeights.from_vector(theta, n_inputs, n_hidden), Normaliser(mean, scale), features, metadata)

@@ -8,10 +8,14 @@ Each scan, for all live tracks at once:
    (`nnda.models.features.candidate_pairs`, the gating used for training;
    on large scans it searches k-d trees within the speed gate's reach, so
    the work grows with the candidate pairs, not with tracks x contacts);
-2. *score*: the pair features [ΔV, Δα, ΔT] of every candidate pair, from the
-   track's last two contacts and the candidate
-   (`nnda.models.features.pair_features`, the training code), go through the
-   numpy scorer in one call per scan;
+2. *score*: the pair features of every candidate pair go through the numpy
+   scorer in one call per scan. The features are those of the set the model
+   was trained on (`nnda.models.feature_sets`), computed by the training
+   code: the seed's [ΔV, Δα, ΔT] from the track's last two contacts and the
+   candidate (`nnda.models.features.pair_features`), and for
+   ``imm-innovation-9`` also the track's IMM prediction read against the
+   candidate (`nnda.models.innovation.innovation_features`: normalised
+   innovation, Mahalanobis distance, log |S|, CT probability, track age);
 3. *select*: pairs scoring above ``threshold`` (default 0: the network says
    "target") are matched greedily by descending score (`greedy_matching`):
    the best pair of the scan is taken, its track and contact leave the
@@ -21,8 +25,9 @@ Each scan, for all live tracks at once:
    back to its next candidate above the threshold, if any (A10). With
    ``confirmed_first`` the confirmed tracks take their pick before the
    preliminary ones, as GNN and JPDA do (off by default: the spec's rule);
-4. *filter*: the chosen contact updates the track's IMM, which smooths the
-   output only: association never looks at it (spec §7.2).
+4. *filter*: the chosen contact updates the track's IMM. With the seed's
+   features the filter smooths the output only (spec §7.2); with the
+   extended set its prediction is also what the network reads.
 
 Contacts left over go to initiation, as for every tracker.
 """
@@ -30,14 +35,16 @@ Contacts left over go to initiation, as for every tracker.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, ClassVar
+from typing import Annotated, ClassVar, Literal
 
 import numpy as np
 from pydantic import Field
 
 from nnda.data.scenario import Sensor
 from nnda.errors import ConfigError, ModelError
+from nnda.models.feature_sets import FEATURE_SETS
 from nnda.models.features import candidate_pairs, pair_features
+from nnda.models.innovation import IMM_INNOVATION, innovation_features
 from nnda.models.scorer import Scorer, load_model
 from nnda.tracking.assignment import greedy_matching
 from nnda.tracking.imm import IMMPrediction
@@ -46,9 +53,11 @@ from nnda.tracking.tracker import Association, Tracker, TrackerConfig, Tracks
 
 
 class NeuralConfig(TrackerConfig):
-    """Neural tracker settings: the model file and the decision threshold on its output."""
+    """Neural tracker settings: the model file, the feature set expected of it, the decision threshold."""
 
     model: Path = Field(description="trained model file (model.json) or a directory holding one")
+    feature_set: Literal[tuple(FEATURE_SETS)] | None = Field(  # type: ignore[valid-type]
+        None, description="the feature set the model must have been trained on; None: the model's own")
     threshold: Annotated[float, Field(ge=-1.0, lt=1.0, description="a pair is a match if its score "
                                       "exceeds this (the scorer's outputs lie in (-1, 1))")] = 0.0
     confirmed_first: bool = Field(False, description="confirmed tracks choose before preliminary ones "
@@ -59,8 +68,9 @@ class NeuralTracker(Tracker):
     """IMM tracker whose associations are decided by the trained MLP scorer (the proposed method).
 
     The scorer is loaded once, at construction, from ``config.model``;
-    a missing file, a foreign format or a model trained on another feature
-    definition is refused with a ConfigError naming the field.
+    a missing file, a foreign format, a model trained on a feature
+    definition this nnda does not compute, or on another set than
+    ``config.feature_set``, is refused with a ConfigError naming the field.
     """
 
     name: ClassVar[str] = "nn"
@@ -72,6 +82,16 @@ class NeuralTracker(Tracker):
             self.scorer: Scorer = load_model(self.config.model)
         except ModelError as exc:
             raise ConfigError(f"{self.name} tracker config, field 'model': {exc}") from None
+        wanted, trained = self.config.feature_set, self.scorer.features.name
+        if wanted is not None and wanted != trained:
+            raise ConfigError(f"{self.name} tracker config, field 'model': {self.config.model} was trained on "
+                              f"feature set {trained!r}, but this tracker is configured for {wanted!r} "
+                              f"(field 'feature_set'); train a model on {wanted!r} or change the field")
+        self._extended = self.scorer.features is IMM_INNOVATION
+
+    def reset(self) -> None:
+        super().reset()
+        self._first_time = np.empty(0)  # time (s) of each track's first contact, by track id
 
     def _maintain(self, tracks: Tracks, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray,
                   time: float) -> Association:
@@ -81,6 +101,9 @@ class NeuralTracker(Tracker):
             if track.size:
                 features = pair_features(tracks.p1[track], tracks.t1[track], tracks.p2[track],
                                          tracks.t2[track], xy[cand], time)
+                if self._extended:
+                    age = time - self._born(tracks)[track]
+                    features = innovation_features(self.imm, pred, track, z[cand], features, age)
                 score = self.scorer(features)
                 match = score > self.config.threshold
                 rank = score[match]
@@ -89,3 +112,14 @@ class NeuralTracker(Tracker):
                 chosen_track, chosen_contact = greedy_matching(track[match], cand[match], rank)
                 contact[chosen_track] = chosen_contact
         return self.hard_update(pred, z, contact)
+
+    def _born(self, tracks: Tracks) -> np.ndarray:
+        """Time (s) of each track's first contact, (K,). Track ids count up from 0 and a track is first
+        seen here one scan after its birth, with its first contact still in ``t1``."""
+        new = tracks.track_id >= len(self._first_time)
+        if new.any():
+            grown = np.full(int(tracks.track_id.max()) + 1, np.nan)
+            grown[:len(self._first_time)] = self._first_time
+            grown[tracks.track_id[new]] = tracks.t1[new]
+            self._first_time = grown
+        return self._first_time[tracks.track_id]

@@ -1,0 +1,93 @@
+"""The extended pair features: the seed's three plus what the track's IMM knows (issue 9).
+
+The seed's features (`nnda.models.features.KINEMATIC`) judge a candidate
+from the track's last two *contacts*: the speed and course implied by two
+noisy fixes 2 s apart carry tens of m/s of noise, which caps any classifier
+near 93-94 % accuracy (spec §14.1). The track's IMM filter has already
+averaged that noise away; these features read its prediction for the scan
+of the candidate C (polar z_c = [range m, azimuth rad]):
+
+* ``innovation_range_sigma``, ``innovation_azimuth_sigma``: the innovation
+  nu = z_c - z_pred (azimuth wrapped) divided component-wise by the
+  predicted standard deviations sqrt(S_rr), sqrt(S_aa) (dimensionless; 0 on
+  the prediction, 1 one sigma away);
+* ``mahalanobis_d2``: nu^T S^-1 nu (chi-square with 2 degrees of freedom
+  for the track's own contact);
+* ``log_det_s``: log |S| (S in m^2 rad^2): how uncertain the prediction is;
+* ``ct_probability``: the predicted probability mu_CT(k|k-1) of the
+  coordinated-turn model (how much the track is manoeuvring);
+* ``track_age_s``: time from the track's first contact to the scan (s).
+
+z_pred and S are those of the IMM's combined prediction (the gating
+prediction of every IMM tracker, `IMM.combined_measurement`), made over the
+time since the track's last update. That time is the seed's ΔT (column 3):
+tracks are updated only by contacts, so it is not repeated.
+
+The neural tracker and the training-pair extraction (`nnda.models.pairs`)
+both call `innovation_features` with an IMM built by `tracker_imm`, so the
+network is trained on exactly what the tracker computes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nnda.data.scenario import Sensor
+from nnda.errors import ModelError
+from nnda.models.features import KINEMATIC, FeatureSet
+from nnda.tracking.imm import IMM, IMMPrediction
+from nnda.tracking.kalman import mahalanobis_2x2
+from nnda.tracking.measurement import PolarMeasurement
+from nnda.tracking.models import CoordinatedTurn
+
+ADDED_NAMES = ("innovation_range_sigma", "innovation_azimuth_sigma", "mahalanobis_d2", "log_det_s",
+               "ct_probability", "track_age_s")
+
+IMM_INNOVATION = FeatureSet(
+    "imm-innovation-9", 1, KINEMATIC.names + ADDED_NAMES,
+    "the seed's three plus the IMM's normalised innovation, squared Mahalanobis distance, log |S|, "
+    "CT mode probability and track age",
+)
+
+
+def tracker_imm(sensor: Sensor) -> IMM:
+    """The IMM every tracker runs for ``sensor``: the spec's CV + CT models, the radar's noise."""
+    return IMM(measurement=PolarMeasurement.from_sensor(sensor))
+
+
+def _ct_index(imm: IMM) -> int:
+    found = [j for j, m in enumerate(imm.models) if isinstance(m, CoordinatedTurn)]
+    if len(found) != 1:
+        raise ModelError(f"{IMM_INNOVATION.name} features need an IMM with one coordinated-turn model, "
+                         f"got models {[type(m).__name__ for m in imm.models]}")
+    return found[0]
+
+
+def innovation_features(
+    imm: IMM, pred: IMMPrediction, track: np.ndarray, contacts: np.ndarray, kinematic: np.ndarray,
+    age: np.ndarray,
+) -> np.ndarray:
+    """Extended features (P, 9) of P pairs, columns as `IMM_INNOVATION.names`.
+
+    ``pred`` is the IMM prediction of K tracks at the scan time; ``track``
+    (P,) the pair's row in it; ``contacts`` (P, 2) the candidates' polar
+    measurements [range m, azimuth rad]; ``kinematic`` (P, 3) the seed's
+    features of the same pairs (`pair_features`); ``age`` (P,) the time (s)
+    from each pair's track's first contact to the scan.
+    """
+    n = len(track)
+    if contacts.shape != (n, 2) or kinematic.shape != (n, KINEMATIC.size) or np.shape(age) != (n,):
+        raise ModelError(f"innovation features: expected contacts ({n}, 2), kinematic ({n}, 3) and age ({n},), "
+                         f"got {contacts.shape}, {kinematic.shape}, {np.shape(age)}")
+    gate = imm.combined_measurement(pred)
+    nu = imm.measurement.residual(contacts, gate.z[track])
+    S = gate.S[track]
+    out = np.empty((n, IMM_INNOVATION.size))
+    out[:, :3] = kinematic
+    out[:, 3] = nu[:, 0] / np.sqrt(S[:, 0, 0])
+    out[:, 4] = nu[:, 1] / np.sqrt(S[:, 1, 1])
+    out[:, 5] = mahalanobis_2x2(nu, gate.S_inv[track])
+    out[:, 6] = gate.log_det_S[track]
+    out[:, 7] = pred.state.mu[track, _ct_index(imm)]
+    out[:, 8] = age
+    return out
