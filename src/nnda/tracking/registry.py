@@ -1,7 +1,15 @@
-"""Trackers by name: ``make_tracker("gnn", sensor, {...})`` validates the config and builds one."""
+"""Trackers by name: ``make_tracker("gnn", sensor, {...})`` validates the config and builds one.
+
+`TRACKERS` maps a name to its class. Iterating it gives the built-in
+trackers; the Stone Soup peers (`PEERS`, the ``nnda[peers]`` extra) are
+members too (``name in TRACKERS``, ``TRACKERS[name]``) but are imported only
+when looked up, so nnda never imports Stone Soup unless a peer is asked for,
+and a missing install is a ConfigError that names the extra.
+"""
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Mapping
 from typing import Any
 
@@ -13,14 +21,40 @@ from nnda.tracking.mht import MHTTracker
 from nnda.tracking.neural import NeuralTracker
 from nnda.tracking.tracker import TrackerBase
 
-TRACKERS: dict[str, type[TrackerBase]] = {cls.name: cls for cls in (GNNTracker, JPDATracker, MHTTracker, NeuralTracker)}
+#: Stone Soup peer trackers: name -> "module:class", imported on first lookup
+PEERS: dict[str, str] = {
+    "stonesoup-gnn": "nnda.peers.trackers:StoneSoupGNN",
+    "stonesoup-jpda": "nnda.peers.trackers:StoneSoupJPDA",
+}
+
+
+class _Registry(dict):
+    """The built-in trackers, plus the peers found (and imported) on lookup."""
+
+    def __contains__(self, name: object) -> bool:
+        return super().__contains__(name) or name in PEERS
+
+    def __missing__(self, name: str) -> type[TrackerBase]:
+        if name not in PEERS:
+            raise KeyError(name)
+        from nnda.peers import require_stonesoup
+
+        require_stonesoup(f"tracker {name!r}")
+        module, cls = PEERS[name].split(":")
+        return getattr(importlib.import_module(module), cls)
+
+
+TRACKERS: dict[str, type[TrackerBase]] = _Registry(
+    {cls.name: cls for cls in (GNNTracker, JPDATracker, MHTTracker, NeuralTracker)})
 
 
 def make_tracker(name: str, sensor: Sensor, params: Mapping[str, Any] | None = None,
                  where: str = "tracker config") -> TrackerBase:
     """A tracker of kind ``name`` with its config validated from ``params`` (defaults: the spec's)."""
+    if name not in TRACKERS:
+        raise ConfigError(f"{where}: unknown tracker {name!r}; choose one of {', '.join([*TRACKERS, *PEERS])}")
     try:
         cls = TRACKERS[name]
-    except KeyError:
-        raise ConfigError(f"{where}: unknown tracker {name!r}; choose one of {', '.join(TRACKERS)}") from None
+    except ConfigError as exc:
+        raise ConfigError(f"{where}: {exc}") from None
     return cls(sensor, validated(cls.config_type, dict(params or {}), where, f"{name} config"))
