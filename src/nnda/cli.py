@@ -17,6 +17,7 @@ from rich.console import Console
 
 from nnda.data import commands as data_commands
 from nnda.models import commands as model_commands
+from nnda.peers import commands as peer_commands
 from nnda.reports import commands as report_commands
 from nnda.study import commands as study_commands
 from nnda.data.dataset import collection_members
@@ -39,6 +40,7 @@ app.command("evaluate")(model_commands.evaluate)
 app.command("plot-scenario")(report_commands.plot_scenario)
 app.command("compare")(study_commands.compare)
 app.command("report")(report_commands.report)
+app.command("import-stonesoup")(peer_commands.import_stonesoup)
 
 
 def demo(
