@@ -3,34 +3,13 @@
 Each is assembled from Stone Soup's own components and driven one scan at a
 time through its `MultiTargetTracker` / `MultiTargetMixtureTracker`
 (``update_tracker``); `nnda.peers.adapter` converts scans in and tracks out.
-Parameters are matched to ours (the report's "Against Stone Soup" section
-repeats this table):
-
-=====================  ==========================================  ===================================
-part                   Stone Soup                                  matched to
-=====================  ==========================================  ===================================
-measurement            CartesianToBearingRange, mapping (2, 0)     the dataset's Sensor: sigma_r (m),
-                       (bearing = azimuth cw from north)           sigma_az (rad)
-motion                 two ConstantVelocity (x and y), q =         our IMM (CV 3.5 m/s^2 + CT 5 m/s^2):
-                       sigma_q^2 T (m^2/s^3), sigma_q = 10 m/s^2   Stone Soup has no IMM, and one CV
-                                                                   model at our CV's 3.5 m/s^2 lost
-                                                                   targets in S1, S3 and S5's turns
-                                                                   (no clutter); 10 m/s^2 kept all
-filter                 ExtendedKalmanPredictor / Updater           our EKF-in-IMM
-gate                   Mahalanobis, missed_distance sqrt(9.21)     chi-square 9.21, 2 dof, P_G 0.99
-                       (GNN); PDAHypothesiser prob_gate 0.99
-association            GNNWith2DAssignment / JPDA                  gnn / jpda
-P_D, clutter (JPDA)    prob_detect 0.9; clutter_spatial_density    jpda: pd 0.9, 'local' density
-                       per scan = mean over its contacts of the    (3 km half-side square)
-                       local density x range, (m rad)^-1
-initiation             MultiMeasurementInitiator: one contact      two-point start + M/N 3/4:
-                       opens a held track (velocity 0 +- v_max/2   confirmed at the 5th contact (M+2),
-                       per axis), GNN inside the initiator,        dropped after N-M+1 = 2 misses
-                       confirmed at M+2 updates, dropped after
-                       N-M+1 consecutive misses
-deletion               UpdateTimeStepsDeleter(max_misses + 1)      confirmed: survives 3 misses,
-                                                                   deleted at the 4th (A14)
-=====================  ==========================================  ===================================
+Parameters are matched to ours as `nnda.peers.parameters.MATCHING` lists
+(the report's "Against Stone Soup" section prints it): the radar's noise
+in Stone Soup's polar model (its bearing made our azimuth by ``mapping``),
+one CV model with sigma_q = 10 m/s^2 (Stone Soup has no IMM), the 9.21
+gate, P_D 0.9 and a per-scan local clutter density for JPDA, a
+multi-measurement initiator confirming at M+2 updates, and deletion at
+max_misses + 1 scans without an update.
 
 Requires Stone Soup (``pip install 'nnda[peers]'``); build through
 `nnda.tracking.registry.make_tracker`, which checks that first.

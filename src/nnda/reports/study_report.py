@@ -5,7 +5,8 @@ Built only from the files a study directory keeps (``study.json``,
 ``trajectories.parquet``), so ``nnda report DIR`` rebuilds it at any time.
 Sections, in order (their HTML ids in brackets): summary [summary], setup
 [setup], association network [classifier], results per scenario
-[scenarios], time per scan [timing], false tracks and GOSPA over time
+[scenarios], against Stone Soup [peers] (when the study ran a Stone Soup
+peer), time per scan [timing], false tracks and GOSPA over time
 [over-time], trajectories [trajectories]. The HTML embeds its images as
 base64 and plotly.js inline: it opens without network or sibling files.
 """
@@ -25,6 +26,7 @@ import pyarrow.parquet as pq
 from nnda.errors import DatasetError
 from nnda.models.tables import TextTable
 from nnda.reports import study_figures
+from nnda.reports.peers_section import against_stonesoup, peer_labels
 from nnda.reports.study_summary import summary_markdown
 from nnda.reports.study_tables import (
     classifier_table, is_thesis_scenario, model_test_table, scenario_table, table_html,
@@ -197,6 +199,8 @@ def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
     top.text(summary_markdown(summary, timing))
     sections = [top, _setup(manifest, summary, timing), _classifier(classifier, figures),
                 _scenarios(manifest, summary, timing)]
+    if peer_labels(summary):
+        sections.append(against_stonesoup(Section("peers", "Against Stone Soup", [], []), summary, timing))
 
     timing_sec = Section("timing", "Time per scan", [], [])
     fig = Figure("time_per_scan.png", "Time per scan of every scan and run (log scale)",

@@ -1,0 +1,81 @@
+"""Stone Soup peers through our Tracker interface and registry."""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+
+from nnda.data import Scan, Sensor, generate
+from nnda.errors import ConfigError, TrackingError
+from nnda.study.config import study_from_dict
+from nnda.study.metrics import run_metrics
+from nnda.study.plan import plan_study
+from nnda.tracking.output import TrackStatus
+from nnda.tracking.registry import PEERS, TRACKERS, make_tracker
+
+
+@pytest.mark.parametrize("name", sorted(PEERS))
+def test_tracks_every_target_without_clutter(name, three_targets):
+    ds = generate(three_targets, seed=1)
+    tracker = make_tracker(name, ds.scenario.sensor)
+    outs = [tracker.step(scan) for scan in ds.scans()]
+    m = run_metrics(ds, outs)
+    assert (m.confirmed_tracks, m.false_tracks, m.lost_targets, m.track_breaks) == (3, 0, 0, 0)
+    assert m.hit_rate > 95.0 and m.position_rmse_m < 80.0
+    for scan, o in zip(ds.scans(), outs):
+        assert np.unique(o.track_id).size == len(o)
+        used = o.measurement[o.measurement >= 0]
+        assert used.max(initial=-1) < len(scan.measurements)
+        assert o.state.shape == (len(o), 4) and o.covariance.shape == (len(o), 4, 4)
+
+
+def test_statuses_ids_and_deletions(small_scenario):
+    ds = generate(small_scenario, seed=2)
+    a, b = ([tracker.step(s) for s in ds.scans()]
+            for tracker in (make_tracker("stonesoup-gnn", ds.scenario.sensor) for _ in range(2)))
+    for x, y in zip(a, b):  # the same data gives the same output, ids included
+        np.testing.assert_array_equal(x.track_id, y.track_id)
+        np.testing.assert_array_equal(x.state, y.state)
+    deleted = np.concatenate([o.track_id[o.status == TrackStatus.DELETED] for o in a])
+    assert deleted.size and np.unique(deleted).size == deleted.size  # reported once
+    for k in range(1, len(a)):
+        gone = a[k - 1].track_id[a[k - 1].status == TrackStatus.DELETED]
+        assert not np.isin(a[k].track_id, gone).any()
+    seen = np.concatenate([o.status for o in a])
+    assert {TrackStatus.PRELIMINARY, TrackStatus.CONFIRMED} <= set(seen.tolist())
+
+
+def test_bad_scans_are_refused():
+    tracker = make_tracker("stonesoup-jpda", Sensor())
+    tracker.step(Scan(1, 2.0, np.empty((0, 2))))
+    with pytest.raises(TrackingError, match="does not come after"):
+        tracker.step(Scan(2, 2.0, np.array([[10_000.0, 1.0]])))
+    with pytest.raises(TrackingError, match="contact 1 is invalid"):
+        tracker.step(Scan(2, 4.0, np.array([[10_000.0, 1.0], [np.nan, 0.5]])))
+
+
+def test_peers_are_registered_but_not_listed_with_the_built_in_trackers():
+    assert all(name in TRACKERS for name in PEERS)
+    assert not set(PEERS) & set(TRACKERS)  # loops over TRACKERS see the built-in trackers only
+    with pytest.raises(ConfigError, match="sigma_q"):
+        make_tracker("stonesoup-gnn", Sensor(), {"sigma_q": -1})
+
+
+def test_missing_extra_is_a_clear_error(monkeypatch):
+    monkeypatch.setitem(sys.modules, "stonesoup", None)  # as if Stone Soup were not installed
+    with pytest.raises(ConfigError, match=r"pip install 'nnda\[peers\]'"):
+        make_tracker("stonesoup-gnn", Sensor())
+    study = study_from_dict({"runs": 1, "trackers": {"gnn": {"kind": "gnn"}, "ss": {"kind": "stonesoup-gnn"}},
+                             "scenarios": [{"preset": "S1"}]})
+    with pytest.raises(ConfigError, match=r"tracker 'ss'.*needs Stone Soup.*pip install 'nnda\[peers\]'"):
+        plan_study(study)
+
+
+def test_nnda_does_not_import_stonesoup():
+    import subprocess
+
+    code = ("import sys, nnda, nnda.cli, nnda.tracking, nnda.study.compare, nnda.reports.study_report; "
+            "assert 'stonesoup' not in sys.modules, 'imported'")
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True).returncode == 0
