@@ -78,11 +78,17 @@ def part1(names: list[str], model: str | None, runs: int) -> None:
         print(f"{name:<8s}" + "".join(f"{p:>16s}" for p in per) + f"{allt.mean():9.2f}{ratio}")
 
 
-def part2(names: list[str], model: str | None) -> None:
+def scaling_settings(scans: int = SCALING_SCANS) -> list[tuple[str, int, Scenario]]:
+    """(axis, value, scenario) of the scaling runs: S6 with 100, 1,000 and 10,000 clutter points per
+    scan, then 6, 50 and 200 targets with 100 clutter points; ``scans`` scans each."""
     settings = [("clutter", c, PRESETS["S6"].model_copy(update={
-                    "duration_s": 2.0 * SCALING_SCANS, "clutter": PRESETS["S6"].clutter.model_copy(update={"count": c})}))
+                    "duration_s": 2.0 * scans, "clutter": PRESETS["S6"].clutter.model_copy(update={"count": c})}))
                 for c in (100, 1_000, 10_000)]
-    settings += [("targets", n, many_targets(n, seed=n, scans=SCALING_SCANS)) for n in (6, 50, 200)]
+    return settings + [("targets", n, many_targets(n, seed=n, scans=scans)) for n in (6, 50, 200)]
+
+
+def part2(names: list[str], model: str | None) -> None:
+    settings = scaling_settings()
     print(f"\nscaling: mean ms per scan over {SCALING_SCANS} scans (x = stopped: over {GIVE_UP_S:.0f} s/scan before)")
     print(f"{'tracker':<8s}" + "".join(f"{k}={v:<9d}" for k, v, _ in settings))
     for name in names:
