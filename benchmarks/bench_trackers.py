@@ -33,14 +33,17 @@ def params_for(name: str, model: str | None) -> dict | None:
     return {}
 
 
-def time_run(name: str, params: dict, dataset, give_up: float = math.inf) -> np.ndarray:
-    """Seconds per scan of one tracker over one dataset (stops early past ``give_up`` s/scan)."""
+def time_run(name: str, params: dict, dataset, give_up: float = math.inf, outputs: list | None = None) -> np.ndarray:
+    """Seconds per scan of one tracker over one dataset (stops early past ``give_up`` s/scan);
+    the tracker's outputs are appended to ``outputs`` when given."""
     tracker = make_tracker(name, dataset.scenario.sensor, params)
     times = []
     for scan in dataset.scans():
         t0 = time.perf_counter()
-        tracker.step(scan)
+        out = tracker.step(scan)
         times.append(time.perf_counter() - t0)
+        if outputs is not None:
+            outputs.append(out)
         if times[-1] > give_up:
             break
     return np.array(times)
