@@ -1,0 +1,185 @@
+"""Scaling against Stone Soup: time per scan of our trackers and the Stone Soup peers (issue 8).
+
+The scenarios are bench_trackers' scaling set (`scaling_settings`): S6 with
+100 -> 1,000 -> 10,000 clutter points per scan, then 6 -> 50 -> 200 targets
+with 100 clutter points, SCALING_SCANS scans each, one seeded run. Every
+tracker runs every setting in this process, one after the other, so the
+ratios ours / peer compare like with like. Along each axis a tracker is
+stopped once a scan passes ``--give-up`` s (default 10 s): the scan that
+crossed it is reported, larger settings are not run; a single scan that runs
+past ``--hard-stop`` s (default 120 s, e.g. an exact JPDA on a huge cluster)
+is interrupted and counted as stopped.
+
+Output: a table of ms per scan and GOSPA (mean over scans, m; only for
+finished runs), the ratio of the nearest Stone Soup equivalent's time to
+ours (gnn <-> stonesoup-gnn, jpda <-> stonesoup-jpda; mht and nn against the
+fastest peer that finished), and a log-log plot (PNG) of time per scan
+against clutter and against targets, with the 2 s scan period marked.
+
+The neural tracker needs a model: ``--model PATH`` (written by ``nnda
+train``); without it the neural tracker is skipped with a note. The peers
+need Stone Soup (``pip install 'nnda[peers]'``); without it they are skipped
+with a note.
+Usage: python benchmarks/bench_scaling.py [--model PATH] [--out scaling.png]
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+from contextlib import contextmanager
+
+import numpy as np
+
+from bench_trackers import GIVE_UP_S, SCALING_SCANS, params_for, scaling_settings, time_run
+from nnda.data import generate
+from nnda.errors import ConfigError
+from nnda.peers import require_stonesoup
+from nnda.peers.parameters import EQUIVALENT
+from nnda.study.metrics import run_metrics
+from nnda.tracking.registry import PEERS
+
+OURS = ["gnn", "jpda", "mht", "nn"]
+
+
+class Interrupted(Exception):
+    """A single scan ran past the hard stop."""
+
+
+@contextmanager
+def hard_stop(seconds: float):
+    """Raise Interrupted in this (main) thread once ``seconds`` of wall time have passed."""
+    def fire(_sig, _frame):
+        raise Interrupted
+
+    old = signal.signal(signal.SIGALRM, fire)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+
+
+def measure(names, model, scans, give_up, hard):
+    """{(tracker, axis, value): (mean s/scan or None, GOSPA m or None, stopped)}, trackers stopped per axis."""
+    results = {}
+    stopped = {(n, axis): False for n in names for axis in ("clutter", "targets")}
+    for axis, value, scenario in scaling_settings(scans):
+        dataset = generate(scenario, seed=1)
+        for name in names:
+            if stopped[name, axis]:
+                results[name, axis, value] = (None, None, True)
+                continue
+            outputs = []
+            try:
+                with hard_stop(hard):
+                    t = time_run(name, params_for(name, model), dataset, give_up, outputs)
+                done = len(t) == dataset.n_scans
+                gospa = float(run_metrics(dataset, outputs).gospa.mean()) if done else None
+                mean = float(t.mean())
+                stopped[name, axis] = bool(t.max() > give_up)
+            except Interrupted:
+                mean, gospa, stopped[name, axis] = hard, None, True
+            results[name, axis, value] = (mean, gospa, stopped[name, axis])
+            print(f"  {name:<15s} {axis}={value:<6d} {'>' if mean == hard else ' '}{mean * 1e3:10.1f} ms/scan"
+                  f"  GOSPA {'-' if gospa is None else f'{gospa:.1f}'}", flush=True)
+    return results
+
+
+def reference(name: str, axis: str, value: int, peers: list[str], results) -> str | None:
+    """The peer ``name`` is compared with at one setting: its equivalent, else the fastest finished peer."""
+    if EQUIVALENT.get(name) in peers:
+        return EQUIVALENT[name]
+    timed = [p for p in peers if results[p, axis, value][0] is not None]
+    return min(timed, key=lambda p: results[p, axis, value][0]) if timed else None
+
+
+def table(names, peers, results, settings, scans) -> None:
+    print(f"\nms per scan (GOSPA m) over {scans} scans; x = not run (stopped on a smaller setting), "
+          f"* = stopped during this setting (mean of the scans run)")
+    print(f"{'tracker':<15s}" + "".join(f"{f'{a}={v}':>22s}" for a, v in settings))
+    for name in names:
+        cells = []
+        for a, v in settings:
+            mean, gospa, stop = results[name, a, v]
+            if mean is None:
+                cells.append(f"{'x':>22s}")
+                continue
+            g = "" if gospa is None else f" ({gospa:.0f})"
+            cells.append(f"{f'{mean * 1e3:.1f}{g}' + ('*' if stop else ''):>22s}")
+        print(f"{name:<15s}" + "".join(cells))
+    if not peers:
+        return
+    print("\nspeed ratio = peer time / our time, same process (> 1: ours faster); * = the peer stopped during "
+          "this setting, ratio of its mean over the scans it ran")
+    print(f"{'ours':<8s}{'peer':<16s}" + "".join(f"{f'{a}={v}':>16s}" for a, v in settings))
+    for name in names:
+        if name in peers:
+            continue
+        for peer in sorted({reference(name, a, v, peers, results) for a, v in settings} - {None}):
+            cells = []
+            for a, v in settings:
+                ours, theirs = results[name, a, v][0], results[peer, a, v]
+                if ours is None or reference(name, a, v, peers, results) != peer:
+                    cells.append(f"{'-':>16s}")
+                elif theirs[0] is None:
+                    cells.append(f"{'stopped':>16s}")
+                else:
+                    cells.append(f"{f'{theirs[0] / ours:.0f}x' + ('*' if theirs[2] else ''):>16s}")
+            print(f"{name:<8s}{peer:<16s}" + "".join(cells))
+
+
+def plot(names, peers, results, settings, path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
+    for ax, axis in zip(axes, ("clutter", "targets")):
+        xs = [v for a, v in settings if a == axis]
+        for name in names:
+            pts = [(v, results[name, axis, v][0]) for v in xs if results[name, axis, v][0] is not None]
+            if pts:
+                ax.loglog(*zip(*pts), marker="o", linestyle="--" if name in peers else "-", label=name)
+        ax.axhline(2.0, color="grey", linewidth=0.8, linestyle=":")
+        ax.text(xs[0], 2.2, "scan period 2 s", fontsize=8, color="grey")
+        ax.set_xlabel("clutter points per scan (S6, 6 targets)" if axis == "clutter" else
+                      "targets (100 clutter points per scan)")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].set_ylabel("time per scan (s)")
+    axes[1].legend(fontsize=8)
+    fig.suptitle("nnda trackers (solid) and Stone Soup peers (dashed): time per scan")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    print(f"\nplot written to {path}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--model", help="model file for the neural tracker")
+    parser.add_argument("--scans", type=int, default=SCALING_SCANS)
+    parser.add_argument("--give-up", type=float, default=GIVE_UP_S, help="s per scan that stops a tracker")
+    parser.add_argument("--hard-stop", type=float, default=120.0, help="s after which one scan is interrupted")
+    parser.add_argument("--out", default="bench_scaling.png", help="PNG of the log-log plot")
+    args = parser.parse_args()
+    names = [n for n in OURS if n != "nn" or args.model]
+    if not args.model:
+        print("note: the neural tracker is skipped (give --model PATH, a file written by `nnda train`)")
+    try:
+        require_stonesoup("bench_scaling's peers")
+        peers = list(PEERS)
+    except ConfigError as exc:
+        print(f"note: the Stone Soup peers are skipped: {exc}")
+        peers = []
+    names += peers
+    settings = [(a, v) for a, v, _ in scaling_settings(args.scans)]
+    print(f"trackers: {', '.join(names)}; {args.scans} scans per setting, stop past {args.give_up:g} s/scan")
+    results = measure(names, args.model, args.scans, args.give_up, args.hard_stop)
+    table(names, peers, results, settings, args.scans)
+    plot(names, peers, results, settings, args.out)
+
+
+if __name__ == "__main__":
+    main()
