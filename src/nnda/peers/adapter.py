@@ -25,6 +25,7 @@ from datetime import datetime, timedelta
 import numpy as np
 from stonesoup.models.measurement.nonlinear import CartesianToBearingRange
 from stonesoup.types.detection import Detection
+from stonesoup.types.state import State
 from stonesoup.types.track import Track
 from stonesoup.types.update import Update
 
@@ -100,29 +101,24 @@ class TrackBook:
         return TrackerOutput(scan.index, float(scan.time),
                              np.array([self.ids[t] for t, _ in rows], np.int64),
                              np.array([s for _, s in rows], np.int8), state, cov,
-                             np.array([used_row(t, when) for t, _ in rows], np.int64))
-
-    def forget(self) -> None:
-        self.ids.clear()
-        self.alive.clear()
+                             np.array([used_row(t.state, when) for t, _ in rows], np.int64))
 
 
 def _birth(track: Track) -> tuple[datetime, int]:
     """When a track began and the row of its first detection: a key no two tracks share."""
     first = track.states[0]
-    return first.timestamp, used_row(Track([first]), first.timestamp)
+    return first.timestamp, used_row(first, first.timestamp)
 
 
-def used_row(track: Track, when: datetime) -> int:
-    """Row of the detection that updated ``track`` at ``when``, or -1.
+def used_row(state: State, when: datetime) -> int:
+    """Row of the detection that made a track's ``state`` at ``when``, or -1 (a prediction, or older).
 
     For a mixture (JPDA) update: the detection of the most probable
     hypothesis (Stone Soup makes an update only when one beats the miss).
     """
-    last = track.state
-    if not isinstance(last, Update) or last.timestamp != when:
+    if not isinstance(state, Update) or state.timestamp != when:
         return NO_MEASUREMENT
-    hyp = last.hypothesis
+    hyp = state.hypothesis
     if hasattr(hyp, "single_hypotheses"):  # a MultipleHypothesis
         hits = [h for h in hyp if h]
         if not hits:
