@@ -33,22 +33,24 @@ class Batch:
         """The tracks selected by ``index`` (integer array, boolean mask of length K, or slice)."""
         if not isinstance(index, slice):
             index = np.asarray(index)
-            if index.dtype == bool and index.shape != (len(self),):
-                raise FilterError(f"take: boolean mask of shape {index.shape} for {len(self)} tracks")
-        return type(self)(**{name: _take(getattr(self, name), index) for name in _names(type(self))})
+            if index.dtype == bool:
+                if index.shape != (len(self),):
+                    raise FilterError(f"take: boolean mask of shape {index.shape} for {len(self)} tracks")
+                index = np.flatnonzero(index)  # one scan of the mask, not one per field
+        return type(self)(*[_take(getattr(self, name), index) for name in _names(type(self))])
 
     @classmethod
     def concat(cls, batches: Sequence[Self]) -> Self:
         """One batch holding the tracks of ``batches`` in order."""
         if not batches:
             raise FilterError(f"{cls.__name__}.concat: nothing to concatenate")
-        parts = {}
+        parts = []
         for name in _names(cls):
             try:
-                parts[name] = _concat([getattr(b, name) for b in batches])
+                parts.append(_concat([getattr(b, name) for b in batches]))
             except ValueError as exc:
                 raise FilterError(f"{cls.__name__}.concat: field {name!r} does not match: {exc}") from None
-        return cls(**parts)
+        return cls(*parts)
 
 
 def _take(value: np.ndarray | Batch, index: np.ndarray | slice) -> np.ndarray | Batch:

@@ -43,7 +43,7 @@ from nnda.tracking.batch import Batch
 from nnda.tracking.checks import as_array, check_covariance, check_finite, check_nonnegative
 from nnda.tracking.kalman import MeasurementPrediction
 from nnda.tracking.measurement import MeasurementModel, PolarMeasurement
-from nnda.tracking.models import ConstantVelocity, CoordinatedTurn, MotionModel
+from nnda.tracking.models import ConstantVelocity, CoordinatedTurn, MotionModel, process_noise
 from nnda.tracking.two_point import two_point
 
 #: transition probability matrix, rows = from, columns = to (eq. 5.61)
@@ -144,6 +144,19 @@ class IMM:
         return np.array(self.tpm)
 
     @cached_property
+    def _tpm_t(self) -> np.ndarray:
+        """The TPM transposed, (to j, from i)."""
+        return np.ascontiguousarray(self._tpm.T)
+
+    @cached_property
+    def _noise_basis(self) -> np.ndarray:
+        """(3, r, n, n) every model's process-noise basis in the padded layout."""
+        basis = np.zeros((3, self.n_models, self.dim, self.dim))
+        for j, m in enumerate(self.models):
+            basis[:, j, : m.dim, : m.dim] = m.noise_basis
+        return basis
+
+    @cached_property
     def _tiny_eye(self) -> np.ndarray:
         return _TINY * np.eye(self.n_models)
 
@@ -187,6 +200,14 @@ class IMM:
             raise FilterError(f"t1, t2: the second measurement must come after the first, got t2 - t1 = {dt}")
         p1, _ = self.measurement.position(z1)
         p2, cov2 = self.measurement.position(z2)
+        return self.start(p1, p2, cov2, dt)
+
+    def start(self, p1: np.ndarray, p2: np.ndarray, cov2: np.ndarray, dt: np.ndarray | float) -> IMMState:
+        """`initialise` from Cartesian fixes, unchecked: p1, p2 (K, 2) m, cov2 (K, 2, 2) the second
+        fix's covariance (m^2), dt = t2 - t1 > 0 (s, scalar or (K,)).
+
+        For callers that hold the fixes' positions already and have checked them (the trackers).
+        """
         return self._from_cv(*two_point(p1, p2, cov2, dt))
 
     def from_cv(self, x: np.ndarray, P: np.ndarray, mu: np.ndarray | None = None) -> IMMState:
@@ -228,67 +249,77 @@ class IMM:
         Ps = np.zeros((K, r, n, n))
         for j, m in enumerate(self.models):
             xs[:, j, : m.dim], Ps[:, j, : m.dim, : m.dim] = m.from_cv(x, P)
-        return IMMState(xs, Ps, np.tile(self._mu0_array, (K, 1)))
+        return IMMState(xs, Ps, np.repeat(self._mu0_array[None, :], K, axis=0))
 
     # ----------------------------------------------------------------- steps
-    def predict(self, state: IMMState, dt: np.ndarray | float) -> IMMPrediction:
+    def predict(self, state: IMMState, dt: np.ndarray | float, *, check: bool = True) -> IMMPrediction:
         """Mix (eqs. 4.46-4.49) and predict every model over ``dt`` (s, scalar or (K,)).
 
         Also predicts each model's measurement and innovation covariance.
+        ``check=False`` skips the input checks (for callers whose states and
+        intervals are known to be valid, such as the trackers' scan loop).
         """
+        K, r, n = len(state), self.n_models, self.dim
+        dt = np.asarray(dt, dtype=float)
+        if check:
+            self._check_predict(state, dt)
+        if not dt.ndim:
+            dt = np.full(K, float(dt))
+
+        mu, x = state.mu, state.x
+        mu_pred = mu @ self._tpm  # (K, j), eq. 4.47
+        # mu_{i|j} as (K, j, i), eq. 4.46
+        weights = (self._tpm_t * mu[:, None, :] + self._tiny_eye) / (mu_pred + _TINY)[:, :, None]
+        x0 = weights @ x  # eq. 4.48
+        P_aug = state.P + self._augment if self._padded and self.augment_variance else state.P
+        spread = x[:, None, :, :] - x0[:, :, None, :]  # (K, j, i, n)
+        P0 = (weights @ P_aug.reshape(K, r, n * n)).reshape(K, r, n, n)
+        P0 += np.swapaxes(spread * weights[..., None], -1, -2) @ spread  # eq. 4.49
+        # every model's Jacobian in one padded stack, so one product propagates all covariances; its
+        # zero padding drops what mixing put beyond a smaller model's own entries (§7.1.7)
+        F = np.zeros((K, r, n, n))
+        xp = np.zeros((K, r, n))
+        for j, m in enumerate(self.models):
+            d = m.dim
+            xp[:, j, :d] = m.transition(x0[:, j, :d], dt, out=F[:, j, :d, :d])[0]
+        Pp = kalman.propagate_covariance(F, P0, process_noise(dt, self._noise_basis))
+        mp = kalman.predict_measurement(xp, Pp, self.measurement)
+        return IMMPrediction(IMMState(xp, Pp, mu_pred), mp)
+
+    def _check_predict(self, state: IMMState, dt: np.ndarray) -> None:
         K = len(state)
         if state.x.shape[1:] != (self.n_models, self.dim):
             raise FilterError(
                 f"state: expected x of shape (K, {self.n_models}, {self.dim}) for this IMM, got {state.x.shape}"
             )
-        dt = np.asarray(dt, dtype=float)
-        if dt.ndim:
-            if dt.shape != (K,):
-                raise FilterError(f"dt: expected a scalar or shape ({K},), got {dt.shape}")
-        else:
-            dt = np.full(K, float(dt))
+        if dt.ndim and dt.shape != (K,):
+            raise FilterError(f"dt: expected a scalar or shape ({K},), got {dt.shape}")
         if K and not (dt.min() >= 0 and np.isfinite(dt.max())):
             raise FilterError(f"dt: intervals must be finite and >= 0 s, got {dt}")
 
-        mu, tpm, x, r, n = state.mu, self._tpm, state.x, self.n_models, self.dim
-        mu_pred = mu @ tpm  # (K, j), eq. 4.47
-        # mu_{i|j} as (K, j, i), eq. 4.46
-        weights = np.swapaxes((tpm * mu[:, :, None] + self._tiny_eye) / (mu_pred + _TINY)[:, None, :], 1, 2)
-        x0 = weights @ x  # eq. 4.48
-        P_aug = state.P + self._augment if self._padded else state.P
-        spread = x[:, None, :, :] - x0[:, :, None, :]  # (K, j, i, n)
-        P0 = (weights @ P_aug.reshape(K, r, n * n)).reshape(K, r, n, n) + np.swapaxes(
-            spread * weights[..., None], -1, -2
-        ) @ spread  # eq. 4.49
-        if self._padded:
-            x0 = x0 * self._own
-            P0 = P0 * self._own2
-            xp, Pp = np.zeros_like(x0), np.zeros_like(P0)
-        else:
-            xp, Pp = np.empty_like(x0), np.empty_like(P0)
-        for j, m in enumerate(self.models):
-            d = m.dim
-            xp[:, j, :d], Pp[:, j, :d, :d] = kalman.predict(x0[:, j, :d], P0[:, j, :d, :d], m, dt)
-        mp = kalman.predict_measurement(xp, Pp, self.measurement)
-        return IMMPrediction(IMMState(xp, Pp, mu_pred), mp)
-
-    def update(self, pred: IMMPrediction, z: np.ndarray, mask: np.ndarray | None = None) -> IMMState:
+    def update(self, pred: IMMPrediction, z: np.ndarray, mask: np.ndarray | None = None, *,
+               check: bool = True) -> IMMState:
         """Update every model with its track's measurement and the mode probabilities (eqs. 4.50-4.53).
 
         ``z`` (K, 2) holds one measurement per track; ``mask`` (K,) bool says
         which tracks have one (default: all). A track without one keeps its
         prediction, including the TPM-propagated mode probabilities; its row
-        of ``z`` is ignored (it may be NaN).
+        of ``z`` is ignored (it may be NaN). ``check=False`` skips the input
+        checks (for callers whose measurements are known to be valid).
         """
         K = len(pred)
-        z = as_array("z", z, (K, 2))
         mp, st = pred.measurement, pred.state
+        if check:
+            z = as_array("z", z, (K, 2))
+            if mask is not None:
+                mask = np.asarray(mask)
+                if mask.dtype != bool or mask.shape != (K,):
+                    raise FilterError(f"mask: expected a boolean array of shape ({K},), got {mask.dtype} "
+                                      f"{mask.shape}")
         if mask is not None:
-            mask = np.asarray(mask)
-            if mask.dtype != bool or mask.shape != (K,):
-                raise FilterError(f"mask: expected a boolean array of shape ({K},), got {mask.dtype} {mask.shape}")
             z = np.where(mask[:, None], z, mp.z[:, 0])
-        self.measurement.validate("z", z)
+        if check:
+            self.measurement.validate("z", z)
         nu = kalman.innovation(z[:, None, :], mp, self.measurement)  # (K, r, 2)
         x, P = kalman.correct(st.x, st.P, nu, mp)
         log_post = np.log(st.mu + _TINY) + kalman.gaussian_log_likelihood(
@@ -309,12 +340,13 @@ class IMM:
         For CV + CT, d = 4 ([x, vx, y, vy], spec §7.1.7). Works on a posterior
         or on ``pred.state`` (the combined prediction).
         """
-        d = self.output_dim
-        x, P, mu = state.x[..., :d], state.P[..., :d, :d], state.mu
-        xc = (mu[:, None, :] @ x)[:, 0]
+        d, K = self.output_dim, len(state)
+        x, P, w = state.x[..., :d], state.P[..., :d, :d], state.mu[:, None, :]
+        xc = (w @ x)[:, 0]
         dx = x - xc[:, None, :]
-        Pc = (mu[..., None, None] * (P + dx[..., :, None] * dx[..., None, :])).sum(axis=1)
-        return xc, Pc
+        spread = dx[..., :, None] * dx[..., None, :]
+        spread += P
+        return xc, (w @ spread.reshape(K, self.n_models, d * d)).reshape(K, d, d)
 
     def combined_measurement(self, pred: IMMPrediction) -> MeasurementPrediction:
         """Predicted measurement and innovation covariance of the combined predicted state (K leading).

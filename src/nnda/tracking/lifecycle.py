@@ -20,10 +20,10 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 from scipy.spatial import cKDTree
 
-from nnda.tracking.output import TrackStatus
+from nnda.tracking.output import CONFIRMED, DELETED, PRELIMINARY
 
-#: up to this many initiator-contact pairs a dense distance test beats building k-d trees
-_DENSE_PAIRS = 40_000
+#: beyond this many initiator-contact pairs in the x bands, k-d trees find the pairs faster
+_BAND_PAIRS = 40_000
 
 
 class LifecycleConfig(BaseModel):
@@ -60,16 +60,35 @@ def window_pairs(initiators: np.ndarray, contacts: np.ndarray, d_min: float, d_m
 
     ``initiators`` (I, 2) and ``contacts`` (J, 2) are Cartesian positions in m.
     Returns two int64 arrays of equal length, sorted by initiator then contact.
-    Small problems test every pair at once; beyond that a k-d tree keeps this
-    near-linear for thousands of contacts per scan.
+    With the contacts sorted by x, each initiator tests only those in the band
+    |dx| <= d_max (a binary search); when the bands hold many pairs (thousands
+    of contacts per scan), k-d trees keep this near-linear.
     """
-    if len(initiators) == 0 or len(contacts) == 0:
+    n_init, n_contacts = len(initiators), len(contacts)
+    if n_init == 0 or n_contacts == 0:
         return np.empty(0, np.int64), np.empty(0, np.int64)
-    if len(initiators) * len(contacts) <= _DENSE_PAIRS:
-        dx = initiators[:, 0, None] - contacts[None, :, 0]
-        dy = initiators[:, 1, None] - contacts[None, :, 1]
-        d2 = dx * dx + dy * dy
-        return np.nonzero((d2 >= d_min**2) & (d2 <= d_max**2))
+    order = np.argsort(contacts[:, 0])
+    xs = contacts[order, 0]
+    reach = d_max + 1e-6 * (1.0 + d_max)  # so that rounding at the band's edges drops no pair
+    lo = np.searchsorted(xs, initiators[:, 0] - reach)
+    count = np.searchsorted(xs, initiators[:, 0] + reach, "right") - lo
+    total = int(count.sum())
+    if total > _BAND_PAIRS:
+        return _tree_pairs(initiators, contacts, d_min, d_max)
+    i = np.repeat(np.arange(n_init), count)
+    j = order[np.arange(total) + np.repeat(lo - (np.cumsum(count) - count), count)]
+    d = initiators[i] - contacts[j]
+    d *= d
+    d2 = d[:, 0] + d[:, 1]
+    keep = np.flatnonzero((d2 >= d_min**2) & (d2 <= d_max**2))
+    i, j = i[keep], j[keep]
+    by_pair = np.argsort(i * n_contacts + j)
+    return i[by_pair], j[by_pair]
+
+
+def _tree_pairs(initiators: np.ndarray, contacts: np.ndarray, d_min: float, d_max: float
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """`window_pairs` by a k-d tree query (same result, sorted by initiator then contact)."""
     pairs = cKDTree(initiators).sparse_distance_matrix(cKDTree(contacts), d_max, output_type="ndarray")
     keep = pairs["v"] >= d_min
     i, j = pairs["i"][keep].astype(np.int64), pairs["j"][keep].astype(np.int64)
@@ -106,8 +125,8 @@ def advance(status: np.ndarray, hits: np.ndarray, misses: np.ndarray, consecutiv
     misses = misses + ~detected
     consecutive = np.where(detected, 0, consecutive + 1)
     status = status.copy()
-    prelim = status == TrackStatus.PRELIMINARY
-    status[prelim & (hits >= cfg.m)] = TrackStatus.CONFIRMED
-    status[prelim & (misses >= cfg.n - cfg.m + 1)] = TrackStatus.DELETED
-    status[(status == TrackStatus.CONFIRMED) & (consecutive > cfg.max_misses)] = TrackStatus.DELETED
+    prelim = status == PRELIMINARY
+    status[prelim & (hits >= cfg.m)] = CONFIRMED
+    status[prelim & (misses >= cfg.n - cfg.m + 1)] = DELETED
+    status[(status == CONFIRMED) & (consecutive > cfg.max_misses)] = DELETED
     return status, hits, misses, consecutive

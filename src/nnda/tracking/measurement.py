@@ -98,19 +98,23 @@ class PolarMeasurement:
         return np.diag([self.sigma_range**2, self.sigma_azimuth**2])
 
     def predict(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """h(x) (..., 2) with azimuth in [0, 2 pi), and H (..., 2, n) at x."""
+        """h(x) (..., 2) with azimuth in [0, 2 pi), and H (..., 2, n) at x.
+
+        H is a transposed view of a contiguous H^T (..., n, 2), the operand
+        of P H^T, so that product runs on contiguous arrays.
+        """
         px, py = x[..., 0], x[..., 2]
         r, azimuth = cart_to_polar(px, py)
         z = np.empty((*x.shape[:-1], 2))
         z[..., 0] = r
         z[..., 1] = azimuth
-        H = np.zeros((*x.shape[:-1], 2, x.shape[-1]))
-        H[..., 0, 0] = px / r
-        H[..., 0, 2] = py / r
+        Ht = np.zeros((*x.shape[:-1], x.shape[-1], 2))
+        Ht[..., 0, 0] = px / r
+        Ht[..., 2, 0] = py / r
         r2 = r * r
-        H[..., 1, 0] = py / r2
-        H[..., 1, 2] = -px / r2
-        return z, H
+        Ht[..., 0, 1] = py / r2
+        Ht[..., 2, 1] = -px / r2
+        return z, np.swapaxes(Ht, -1, -2)
 
     def residual(self, z: np.ndarray, z_pred: np.ndarray) -> np.ndarray:
         """(range difference m, azimuth difference rad wrapped to [-pi, pi))."""

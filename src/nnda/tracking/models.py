@@ -13,7 +13,8 @@ two-point CV estimate extends to any model (`from_cv`).
 
 Process noise is ``Q = Gamma diag(sigma^2) Gamma^T`` with the spec's noise
 gains; both models write it as ``Q(T) = T^2 Q2 + T^3 Q3 + T^4 Q4`` with
-constant matrices, which is how it is evaluated for a batch of intervals.
+constant matrices (``noise_basis``), which is how it is evaluated for a batch
+of intervals (and how the IMM evaluates all its models' noise in one product).
 """
 
 from __future__ import annotations
@@ -41,10 +42,18 @@ class MotionModel(Protocol):
 
     dim: int
 
-    def transition(self, x: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    @property
+    def noise_basis(self) -> np.ndarray:
+        """(3, n, n) constant matrices Q2, Q3, Q4 of Q(T) = T^2 Q2 + T^3 Q3 + T^4 Q4."""
+        ...
+
+    def transition(self, x: np.ndarray, dt: np.ndarray, out: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
         """Predicted states f(x) (..., n) and the transition Jacobian (..., n, n).
 
-        ``dt`` (s) is a float array broadcastable to ``x.shape[:-1]``.
+        ``dt`` (s) is a float array broadcastable to ``x.shape[:-1]``. The
+        Jacobian is written into ``out`` (..., n, n) when given (for example
+        a model's slot of the IMM's padded stack), else into a new array.
         """
         ...
 
@@ -57,11 +66,14 @@ class MotionModel(Protocol):
         ...
 
 
-def _noise(dt: np.ndarray, basis: np.ndarray) -> np.ndarray:
-    """Q(T) = sum_p T^p basis[p] for T of shape (...): returns (..., n, n)."""
+def process_noise(dt: np.ndarray, basis: np.ndarray) -> np.ndarray:
+    """Q(T) = T^2 basis[0] + T^3 basis[1] + T^4 basis[2] for T (s) of shape (...).
+
+    ``basis`` (3, *M) holds the constant matrices (``MotionModel.noise_basis``,
+    or several models' stacked, M = (r, n, n)); returns (..., *M).
+    """
     T = np.asarray(dt, dtype=float)
-    n = basis.shape[-1]
-    return (T[..., None] ** _NOISE_POWERS @ basis.reshape(3, n * n)).reshape(*T.shape, n, n)
+    return (T[..., None] ** _NOISE_POWERS @ basis.reshape(3, -1)).reshape(*T.shape, *basis.shape[1:])
 
 
 def _wna_basis(dim: int, sigma_q: float, velocity_power: float) -> np.ndarray:
@@ -95,20 +107,22 @@ class ConstantVelocity:
         check_nonnegative("ConstantVelocity.sigma_q", self.sigma_q)
 
     @cached_property
-    def _basis(self) -> np.ndarray:
+    def noise_basis(self) -> np.ndarray:
+        """Q2, Q3, Q4 (3, 4, 4) of eq. 5.10."""
         return _wna_basis(4, self.sigma_q, 1.0)
 
-    def transition(self, x: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """f(x) = F x and F (eq. 5.8) for states (..., 4) and intervals dt (s)."""
-        F = np.empty((*x.shape[:-1], 4, 4))
-        F[:] = _EYE4
+    def transition(self, x: np.ndarray, dt: np.ndarray, out: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
+        """f(x) = F x and F (eq. 5.8) for states (..., 4) and intervals dt (s); F goes into ``out`` if given."""
+        F = np.empty((*x.shape[:-1], 4, 4)) if out is None else out
+        F[...] = _EYE4
         F[..., 0, 1] = dt
         F[..., 2, 3] = dt
         return (F @ x[..., None])[..., 0], F
 
     def noise(self, dt: np.ndarray) -> np.ndarray:
         """Q(T) of eq. 5.10, shape (..., 4, 4)."""
-        return _noise(dt, self._basis)
+        return process_noise(dt, self.noise_basis)
 
     def from_cv(self, x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The CV estimate itself (eq. 5.30)."""
@@ -152,17 +166,19 @@ class CoordinatedTurn:
             raise FilterError(f"CoordinatedTurn.noise_variant: 'derived' or 'printed', got {self.noise_variant!r}")
 
     @cached_property
-    def _basis(self) -> np.ndarray:
+    def noise_basis(self) -> np.ndarray:
+        """Q2, Q3, Q4 (3, 5, 5) of eqs. 5.14-5.15 (variant per ``noise_variant``)."""
         c = 1.0 if self.noise_variant == "derived" else 0.5
         basis = _wna_basis(5, self.sigma_q, c)
         basis[0, 4, 4] = c * self.sigma_omega**2
         return basis
 
-    def transition(self, x: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def transition(self, x: np.ndarray, dt: np.ndarray, out: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
         """f(X) of eq. 5.17 and its Jacobian (eq. 5.18) for states (..., 5), dt in s.
 
         With w the limited turn rate, f(X) = F(w) X (eq. 5.13) and the Jacobian
-        is F(w) with its last column replaced by df/dw.
+        is F(w) with its last column replaced by df/dw; it goes into ``out`` if given.
         """
         T = dt
         vx, vy = x[..., 1], x[..., 3]
@@ -171,8 +187,8 @@ class CoordinatedTurn:
         wT = w * T
         w_half_T2 = w * half_T2
         c = 1.0 - 0.5 * wT * wT
-        F = np.empty((*x.shape[:-1], 5, 5))
-        F[:] = _EYE5
+        F = np.empty((*x.shape[:-1], 5, 5)) if out is None else out
+        F[...] = _EYE5
         F[..., 0, 1] = T
         F[..., 0, 3] = -w_half_T2
         F[..., 1, 1] = c
@@ -192,7 +208,7 @@ class CoordinatedTurn:
 
     def noise(self, dt: np.ndarray) -> np.ndarray:
         """Q(T) of eq. 5.14-5.15 (variant per ``noise_variant``), shape (..., 5, 5)."""
-        return _noise(dt, self._basis)
+        return process_noise(dt, self.noise_basis)
 
     def from_cv(self, x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Append omega = 0 with variance ``omega_var0`` (eqs. 5.31 and 5.56)."""

@@ -17,6 +17,10 @@ class TrackStatus(IntEnum):
     DELETED = 3
 
 
+#: TrackStatus values as plain ints, for comparisons with status arrays in hot paths: numpy probes an
+#: IntEnum member for array interfaces through the enum's slow attribute lookup (~5x slower per compare)
+PRELIMINARY, CONFIRMED, DELETED = int(TrackStatus.PRELIMINARY), int(TrackStatus.CONFIRMED), int(TrackStatus.DELETED)
+
 NO_MEASUREMENT = -1
 
 

@@ -23,10 +23,10 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import Annotated, ClassVar
+from typing import ClassVar
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict
 
 from nnda.data.dataset import Scan
 from nnda.data.scenario import Sensor
@@ -36,7 +36,7 @@ from nnda.tracking.batch import Batch
 from nnda.tracking.imm import IMM, IMMPrediction, IMMState
 from nnda.tracking.lifecycle import LifecycleConfig, advance, cap_per_initiator, window_pairs
 from nnda.tracking.measurement import PolarMeasurement
-from nnda.tracking.output import NO_MEASUREMENT, TrackerOutput, TrackStatus
+from nnda.tracking.output import DELETED, PRELIMINARY, TrackerOutput
 
 #: chi-square gate with 2 degrees of freedom and P_G = 0.99 (spec §4.3 and §7.3 defaults)
 GATE_99 = 9.21
@@ -96,8 +96,8 @@ class Association:
     """What a method decided for K tracks in one scan.
 
     ``contact`` (K,) is the index of the contact that updated each track (or
-    -1: a miss); ``filt`` the IMM states after the update (only the rows of
-    updated tracks are used).
+    -1: a miss); ``filt`` the IMM states after the scan: the updated state of
+    a track with a contact, the prediction (``pred.state``) of one without.
     """
 
     contact: np.ndarray
@@ -126,6 +126,7 @@ class TrackerBase(ABC):
     def reset(self) -> None:
         """Forget every track and initiator (start of a new run)."""
         self.initiators = np.empty((0, 2))  # polar contacts of the previous scan
+        self.initiator_xy = np.empty((0, 2))  # and their Cartesian positions (m)
         self.initiator_time = -np.inf
         self.last_time = -np.inf
         self._next_id = 0
@@ -164,25 +165,27 @@ class TrackerBase(ABC):
         born, contact = None, None
         in_window = np.zeros(len(free), bool)
         if len(self.initiators) and len(free):
-            init_xy = np.column_stack(polar_to_cart(self.initiators[:, 0], self.initiators[:, 1]))
-            i, j = window_pairs(init_xy, xy[free], self.d_min, self.d_max)
-            i, j = cap_per_initiator(i, j, init_xy, xy[free], self.d_min, self.d_max,
+            init_xy, free_xy = self.initiator_xy, xy[free]
+            i, j = window_pairs(init_xy, free_xy, self.d_min, self.d_max)
+            i, j = cap_per_initiator(i, j, init_xy, free_xy, self.d_min, self.d_max,
                                      self.config.lifecycle.max_tracks_per_initiator)
             if len(i):
                 in_window[j] = True
                 contact = free[j]
-                filt = self.imm.initialise(self.initiators[i], z[contact], self.initiator_time, time)
+                p1 = init_xy[i]
+                p2, cov2 = self.imm.measurement.position(z[contact])
                 k = len(i)
                 zeros = np.zeros(k, np.int64)
                 born = Tracks(
                     track_id=np.arange(self._next_id, self._next_id + k, dtype=np.int64),
-                    status=np.full(k, TrackStatus.PRELIMINARY, np.int8), filt=filt,
-                    p1=init_xy[i], t1=np.full(k, self.initiator_time), p2=xy[contact], t2=np.full(k, time),
+                    status=np.full(k, PRELIMINARY, np.int8),
+                    filt=self.imm.start(p1, p2, cov2, time - self.initiator_time),
+                    p1=p1, t1=np.full(k, self.initiator_time), p2=p2, t2=np.full(k, time),
                     az2=z[contact, 1], hits=zeros, misses=zeros.copy(), consecutive=zeros.copy(),
                 )
                 self._next_id += k
-        self.initiators = z[free[~in_window]]
-        self.initiator_time = time
+        rest = free[~in_window]
+        self.initiators, self.initiator_xy, self.initiator_time = z[rest], xy[rest], time
         return born, contact
 
     @staticmethod
@@ -213,15 +216,18 @@ class Tracker(TrackerBase):
         """Associate this scan's contacts z (N, 2) polar / xy (N, 2) Cartesian with the tracks.
 
         ``pred`` is every track's IMM prediction to ``time``. Return the
-        contact chosen for each track and the updated IMM states.
+        contact chosen for each track and the IMM states after the scan
+        (updated, or the prediction for a track without a contact).
         """
 
     def hard_update(self, pred: IMMPrediction, z: np.ndarray, contact: np.ndarray) -> Association:
-        """IMM update of each track with its chosen contact (``contact`` (K,), -1 = none)."""
+        """IMM update of each track with its chosen contact (``contact`` (K,), -1 = none: the track
+        keeps its prediction)."""
         detected = contact >= 0
-        zk = np.full((len(contact), 2), np.nan)
-        zk[detected] = z[contact[detected]]
-        return Association(contact, self.imm.update(pred, zk, detected))
+        if not detected.any():
+            return Association(contact, pred.state)
+        # z comes from a checked scan; rows without a contact are masked, whichever contact they hold
+        return Association(contact, self.imm.update(pred, z[np.maximum(contact, 0)], detected, check=False))
 
     # ------------------------------------------------------------------ one scan
     def step(self, scan: Scan) -> TrackerOutput:
@@ -229,33 +235,37 @@ class Tracker(TrackerBase):
         z, time = self._checked(scan)
         xy = np.column_stack(polar_to_cart(z[:, 0], z[:, 1])) if len(z) else np.empty((0, 2))
         used = np.zeros(len(z), bool)
-        reports = []
+        shown = []  # (tracks, IMM state to report, contact used) per block of the output
         tracks = self.tracks
-        if tracks is not None and len(tracks):
-            pred = self.imm.predict(tracks.filt, time - tracks.t2)
+        if tracks is not None:
+            pred = self.imm.predict(tracks.filt, time - tracks.t2, check=False)
             assoc = self._maintain(tracks, pred, z, xy, time)
-            tracks, report = self._after_association(tracks, pred, assoc, z, xy, time)
-            used[assoc.contact[assoc.contact >= 0]] = True
-            reports.append(report)
+            c = assoc.contact
+            det = c >= 0
+            used[c[det]] = True
+            # a missed track keeps its last posterior (§7.1.8) and reports its prediction
+            tracks = tracks.after_scan(c, _pick(det, assoc.filt, tracks.filt), z, xy, time, self.config.lifecycle)
+            shown.append((tracks, assoc.filt, c))
+            alive = np.flatnonzero(tracks.status != DELETED)
+            tracks = None if not alive.size else tracks if alive.size == len(tracks) else tracks.take(alive)
         born, born_contact = self._initiate(z, xy, used, time)
         if born is not None:
-            reports.append(_report(born, *self.imm.estimate(born.filt), born_contact))
-            tracks = born if tracks is None or not len(tracks) else Tracks.concat([tracks, born])
+            shown.append((born, born.filt, born_contact))
+            tracks = born if tracks is None else Tracks.concat([tracks, born])
         self.tracks = tracks
         self.last_time = time
-        return self._output(scan.index, time, reports)
+        return self._shown(scan.index, time, shown)
 
-    def _after_association(self, tracks: Tracks, pred: IMMPrediction, assoc: Association,
-                           z: np.ndarray, xy: np.ndarray, time: float):
-        """Apply the updates, the M/N logic and deletion; returns the surviving tracks and their report."""
-        c = assoc.contact
-        det = c >= 0
-        tracks = tracks.after_scan(c, _pick(det, assoc.filt, tracks.filt), z, xy, time, self.config.lifecycle)
-        status = tracks.status
-        # report the posterior of updated tracks and the prediction of missed ones
-        x, P = self.imm.estimate(_pick(det, assoc.filt, pred.state))
-        report = _report(tracks, x, P, c)
-        return tracks.take(status != TrackStatus.DELETED), report
+    def _shown(self, scan: int, time: float, blocks: list[tuple[Tracks, IMMState, np.ndarray]]) -> TrackerOutput:
+        """The scan's output from blocks of (tracks, the IMM state to report, contact used): one
+        combined estimate for all of them."""
+        if not blocks:
+            return self._output(scan, time, [])
+        tracks, states, contact = zip(*blocks)
+        x, P = self.imm.estimate(states[0] if len(states) == 1 else IMMState.concat(states))
+        return TrackerOutput(scan, time, np.concatenate([t.track_id for t in tracks]),
+                             np.concatenate([t.status for t in tracks]), x, P,
+                             np.concatenate(contact).astype(np.int64, copy=False))
 
 
 def _pick(rows: np.ndarray, a: IMMState, b: IMMState) -> IMMState:
@@ -264,6 +274,3 @@ def _pick(rows: np.ndarray, a: IMMState, b: IMMState) -> IMMState:
                       for u, v in ((a.x, b.x), (a.P, b.P), (a.mu, b.mu))))
 
 
-def _report(tracks: Tracks, x: np.ndarray, P: np.ndarray, contact: np.ndarray) -> tuple:
-    """One block of a scan's output: ids, status, combined state (K, 4), covariance, contact."""
-    return tracks.track_id, tracks.status, x, P, contact
