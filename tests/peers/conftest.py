@@ -1,12 +1,11 @@
-"""Peers tests need Stone Soup (the ``nnda[peers]`` extra, also in ``dev``); without it they are skipped."""
+"""Shared scenes of the peers tests. Tests that need Stone Soup (the ``nnda[peers]`` extra, also in
+``dev``) skip themselves without it; those about its absence run either way."""
 
 from __future__ import annotations
 
 import pytest
 
 from nnda.data import Clutter, Scenario, Segment, Target
-
-pytest.importorskip("stonesoup", reason="Stone Soup is not installed: pip install 'nnda[peers]'")
 
 
 @pytest.fixture

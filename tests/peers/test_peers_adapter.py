@@ -3,11 +3,17 @@
 from __future__ import annotations
 
 import numpy as np
-from stonesoup.types.state import State
+import pytest
 
-from nnda.data import PRESETS, Sensor, generate
-from nnda.data.sensor import cart_to_polar, wrap_angle
-from nnda.peers.adapter import from_detections, measurement_model, to_datetime, to_detections, to_seconds
+pytest.importorskip("stonesoup", reason="Stone Soup is not installed: pip install 'nnda[peers]'")
+
+from stonesoup.types.state import State  # noqa: E402
+
+from nnda.data import PRESETS, Sensor, generate  # noqa: E402
+from nnda.data.sensor import cart_to_polar, wrap_angle  # noqa: E402
+from nnda.peers.adapter import (  # noqa: E402
+    from_detections, measurement_model, to_datetime, to_detections, to_seconds,
+)
 
 
 def test_detections_round_trip_same_values_same_times():

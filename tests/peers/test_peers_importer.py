@@ -10,9 +10,12 @@ import pytest
 
 from nnda.data import read_dataset
 from nnda.errors import ConfigError
-from nnda.peers.importer import StoneSoupScene, import_stonesoup, simulate
-from nnda.study.metrics import run_metrics
-from nnda.tracking.registry import make_tracker
+
+pytest.importorskip("stonesoup", reason="Stone Soup is not installed: pip install 'nnda[peers]'")
+
+from nnda.peers.importer import StoneSoupScene, import_stonesoup, simulate  # noqa: E402
+from nnda.study.metrics import run_metrics  # noqa: E402
+from nnda.tracking.registry import make_tracker  # noqa: E402
 
 SMALL = StoneSoupScene(n_scans=30, targets=3, birth_rate=0.0, clutter=20.0)
 

@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import pytest
+
 from nnda.study.compare import compare
 from nnda.study.config import study_from_dict
+
+pytest.importorskip("stonesoup", reason="Stone Soup is not installed: pip install 'nnda[peers]'")
 
 SCENARIO = """
 name = "pair"

@@ -15,7 +15,17 @@ from nnda.study.plan import plan_study
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import PEERS, TRACKERS, make_tracker
 
+try:
+    import stonesoup  # noqa: F401
+except ImportError:
+    HAVE_STONESOUP = False
+else:
+    HAVE_STONESOUP = True
+#: the tests about a missing Stone Soup run either way; the others need it
+needs_stonesoup = pytest.mark.skipif(not HAVE_STONESOUP, reason="Stone Soup is not installed: pip install 'nnda[peers]'")
 
+
+@needs_stonesoup
 @pytest.mark.parametrize("name", sorted(PEERS))
 def test_tracks_every_target_without_clutter(name, three_targets):
     ds = generate(three_targets, seed=1)
@@ -31,6 +41,7 @@ def test_tracks_every_target_without_clutter(name, three_targets):
         assert o.state.shape == (len(o), 4) and o.covariance.shape == (len(o), 4, 4)
 
 
+@needs_stonesoup
 def test_statuses_ids_and_deletions(small_scenario):
     ds = generate(small_scenario, seed=2)
     a, b = ([tracker.step(s) for s in ds.scans()]
@@ -47,6 +58,7 @@ def test_statuses_ids_and_deletions(small_scenario):
     assert {TrackStatus.PRELIMINARY, TrackStatus.CONFIRMED} <= set(seen.tolist())
 
 
+@needs_stonesoup
 def test_bad_scans_are_refused():
     tracker = make_tracker("stonesoup-jpda", Sensor())
     tracker.step(Scan(1, 2.0, np.empty((0, 2))))
@@ -56,6 +68,7 @@ def test_bad_scans_are_refused():
         tracker.step(Scan(2, 4.0, np.array([[10_000.0, 1.0], [np.nan, 0.5]])))
 
 
+@needs_stonesoup
 def test_peers_are_registered_but_not_listed_with_the_built_in_trackers():
     assert all(name in TRACKERS for name in PEERS)
     assert not set(PEERS) & set(TRACKERS)  # loops over TRACKERS see the built-in trackers only
