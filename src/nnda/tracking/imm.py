@@ -274,7 +274,7 @@ class IMM:
         P_aug = state.P + self._augment if self._padded and self.augment_variance else state.P
         spread = x[:, None, :, :] - x0[:, :, None, :]  # (K, j, i, n)
         P0 = (weights @ P_aug.reshape(K, r, n * n)).reshape(K, r, n, n)
-        P0 += np.swapaxes(spread * weights[..., None], -1, -2) @ spread  # eq. 4.49
+        P0 += (spread * weights[..., None]).swapaxes(-1, -2) @ spread  # eq. 4.49
         # every model's Jacobian in one padded stack, so one product propagates all covariances; its
         # zero padding drops what mixing put beyond a smaller model's own entries (§7.1.7)
         F = np.zeros((K, r, n, n))

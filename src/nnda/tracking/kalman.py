@@ -50,7 +50,7 @@ class MeasurementPrediction(Batch):
 
 def symmetrise(P: np.ndarray) -> np.ndarray:
     """(P + P^T) / 2 over the last two axes (a new array)."""
-    S = P + np.swapaxes(P, -1, -2)
+    S = P + P.swapaxes(-1, -2)
     S *= 0.5
     return S
 
@@ -58,7 +58,7 @@ def symmetrise(P: np.ndarray) -> np.ndarray:
 def propagate_covariance(F: np.ndarray, P: np.ndarray, Q: np.ndarray) -> np.ndarray:
     """F P F^T + Q (eq. 4.39), symmetrised, for stacks F, P, Q (..., n, n)."""
     # a contiguous F^T keeps numpy's stacked matmul on its fast path
-    P_new = F @ P @ np.ascontiguousarray(np.swapaxes(F, -1, -2))
+    P_new = F @ P @ np.ascontiguousarray(F.swapaxes(-1, -2))
     P_new += Q
     return symmetrise(P_new)
 
@@ -76,7 +76,7 @@ def predict(x: np.ndarray, P: np.ndarray, model: MotionModel, dt: np.ndarray | f
 def inverse_2x2(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Inverses (..., 2, 2) and determinants (...) of a stack of 2 x 2 matrices."""
     det = S[..., 0, 0] * S[..., 1, 1] - S[..., 0, 1] * S[..., 1, 0]
-    inv = np.swapaxes(S[..., ::-1, ::-1], -1, -2) * _ADJ_SIGN  # the adjugate
+    inv = S[..., ::-1, ::-1].swapaxes(-1, -2) * _ADJ_SIGN  # the adjugate
     inv /= det[..., None, None]
     return inv, det
 
@@ -88,7 +88,7 @@ def predict_measurement(x: np.ndarray, P: np.ndarray, measurement: MeasurementMo
     (for example a state at the radar's position, or a covariance gone bad).
     """
     z, H = measurement.predict(x)
-    PHt = P @ np.swapaxes(H, -1, -2)
+    PHt = P @ H.swapaxes(-1, -2)
     S = H @ PHt
     S += measurement.R
     S[..., 1, 0] = S[..., 0, 1]  # equal up to rounding; make S exactly symmetric
@@ -109,7 +109,7 @@ def correct(x: np.ndarray, P: np.ndarray, nu: np.ndarray, mp: MeasurementPredict
     """Kalman correction with innovations nu (..., 2) (eqs. 4.13, 4.22, 4.24 / 4.40-4.42)."""
     gain = mp.PHt @ mp.S_inv
     x_new = x + (gain @ nu[..., None])[..., 0]
-    P_new = P - gain @ np.ascontiguousarray(np.swapaxes(mp.PHt, -1, -2))
+    P_new = P - gain @ np.ascontiguousarray(mp.PHt.swapaxes(-1, -2))
     return x_new, symmetrise(P_new)
 
 

@@ -67,22 +67,23 @@ def window_pairs(initiators: np.ndarray, contacts: np.ndarray, d_min: float, d_m
     n_init, n_contacts = len(initiators), len(contacts)
     if n_init == 0 or n_contacts == 0:
         return np.empty(0, np.int64), np.empty(0, np.int64)
-    order = np.argsort(contacts[:, 0])
-    xs = contacts[order, 0]
-    reach = d_max + 1e-6 * (1.0 + d_max)  # so that rounding at the band's edges drops no pair
-    lo = np.searchsorted(xs, initiators[:, 0] - reach)
-    count = np.searchsorted(xs, initiators[:, 0] + reach, "right") - lo
+    order = contacts[:, 0].argsort()
+    # each initiator's band [x - reach, x + reach) in the sorted contacts; the margin over d_max keeps
+    # rounding at the band's edges from dropping a pair
+    reach = d_max + 1e-6 * (1.0 + d_max)
+    band = contacts[order, 0].searchsorted(initiators[:, :1] + np.array([-reach, reach]))
+    lo, count = band[:, 0], band[:, 1] - band[:, 0]
     total = int(count.sum())
     if total > _BAND_PAIRS:
         return _tree_pairs(initiators, contacts, d_min, d_max)
-    i = np.repeat(np.arange(n_init), count)
-    j = order[np.arange(total) + np.repeat(lo - (np.cumsum(count) - count), count)]
+    i = np.arange(n_init).repeat(count)
+    j = order[np.arange(total) + (lo - (count.cumsum() - count)).repeat(count)]
     d = initiators[i] - contacts[j]
     d *= d
     d2 = d[:, 0] + d[:, 1]
     keep = np.flatnonzero((d2 >= d_min**2) & (d2 <= d_max**2))
     i, j = i[keep], j[keep]
-    by_pair = np.argsort(i * n_contacts + j)
+    by_pair = (i * n_contacts + j).argsort()
     return i[by_pair], j[by_pair]
 
 

@@ -63,7 +63,7 @@ def converted_covariance(
     c, s = np.cos(phi), np.sin(phi)
     var_d = sigma_range**2
     var_cross = sigma_azimuth**2 * r * r
-    cov = np.empty((*np.broadcast_shapes(r.shape, phi.shape), 2, 2))
+    cov = np.empty((*np.broadcast(r, phi).shape, 2, 2))
     cov[..., 0, 0] = var_d * c * c + var_cross * s * s
     cov[..., 1, 1] = var_d * s * s + var_cross * c * c
     cov[..., 0, 1] = cov[..., 1, 0] = (var_d - var_cross) * c * s
@@ -114,7 +114,7 @@ class PolarMeasurement:
         r2 = r * r
         Ht[..., 0, 1] = py / r2
         Ht[..., 2, 1] = -px / r2
-        return z, np.swapaxes(Ht, -1, -2)
+        return z, Ht.swapaxes(-1, -2)
 
     def residual(self, z: np.ndarray, z_pred: np.ndarray) -> np.ndarray:
         """(range difference m, azimuth difference rad wrapped to [-pi, pi))."""
@@ -125,8 +125,9 @@ class PolarMeasurement:
     def position(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Cartesian positions (eqs. 5.26-5.27) and their covariances (eqs. 5.44-5.46)."""
         r, azimuth = z[..., 0], z[..., 1]
-        x, y = polar_to_cart(r, azimuth)
-        return np.stack([x, y], axis=-1), converted_covariance(r, azimuth, self.sigma_range, self.sigma_azimuth)
+        xy = np.empty(z.shape)
+        xy[..., 0], xy[..., 1] = polar_to_cart(r, azimuth)
+        return xy, converted_covariance(r, azimuth, self.sigma_range, self.sigma_azimuth)
 
     def validate(self, name: str, z: np.ndarray) -> None:
         """Finite values and positive ranges."""

@@ -21,6 +21,7 @@ loop over tracks.
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import ClassVar
@@ -137,7 +138,7 @@ class TrackerBase(ABC):
 
     def _checked(self, scan: Scan) -> tuple[np.ndarray, float]:
         time = float(scan.time)
-        if not np.isfinite(time):
+        if not math.isfinite(time):
             raise TrackingError(f"{self.name}: scan {scan.index} has a non-finite time {scan.time}")
         if time <= self.last_time:
             raise TrackingError(f"{self.name}: scan {scan.index} at t = {time} s does not come after the "
@@ -148,9 +149,8 @@ class TrackerBase(ABC):
         if z.ndim != 2 or z.shape[1] != 2:
             raise TrackingError(f"{self.name}: scan {scan.index}: measurements must have shape (N, 2) "
                                 f"[range m, azimuth rad], got {z.shape}")
-        bad = ~np.isfinite(z).all(axis=1) | (z[:, 0] <= 0)
-        if bad.any():
-            row = int(np.flatnonzero(bad)[0])
+        if not (np.isfinite(z).all() and (z[:, 0] > 0).all()):
+            row = int(np.flatnonzero(~np.isfinite(z).all(axis=1) | ~(z[:, 0] > 0))[0])
             raise TrackingError(f"{self.name}: scan {scan.index}: contact {row} is invalid {z[row].tolist()} "
                                 f"(non-finite or non-positive range)")
         return z, time

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from nnda.tracking.models import POS, VEL
-
 
 def two_point(
     p1: np.ndarray, p2: np.ndarray, cov2: np.ndarray, dt: np.ndarray | float
@@ -23,12 +21,13 @@ def two_point(
     T = np.asarray(dt, dtype=float)
     if T.ndim:
         T = T[..., None]
+    # positions are the even entries of [x, vx, y, vy] (models.POS), velocities the odd ones (VEL)
     x = np.empty((*p2.shape[:-1], 4))
-    x[..., POS] = p2
-    x[..., VEL] = (p2 - p1) / T
+    x[..., 0::2] = p2
+    x[..., 1::2] = (p2 - p1) / T
     T = T[..., None]
     P = np.empty((*p2.shape[:-1], 4, 4))
-    P[..., POS[:, None], POS] = cov2
-    P[..., POS[:, None], VEL] = P[..., VEL[:, None], POS] = cov2 / T
-    P[..., VEL[:, None], VEL] = 2.0 * cov2 / (T * T)
+    P[..., 0::2, 0::2] = cov2
+    P[..., 0::2, 1::2] = P[..., 1::2, 0::2] = cov2 / T
+    P[..., 1::2, 1::2] = 2.0 * cov2 / (T * T)
     return x, P
