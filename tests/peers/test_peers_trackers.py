@@ -91,4 +91,5 @@ def test_nnda_does_not_import_stonesoup():
 
     code = ("import sys, nnda, nnda.cli, nnda.tracking, nnda.study.compare, nnda.reports.study_report; "
             "assert 'stonesoup' not in sys.modules, 'imported'")
-    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True).returncode == 0
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
