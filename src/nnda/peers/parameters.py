@@ -29,7 +29,9 @@ MATCHING = (
      "two-point start + M/N = 3/4: confirmed at the 5th contact at the earliest"),
     ("deletion", "UpdateTimeStepsDeleter(max_misses + 1 = 4)", "confirmed tracks survive 3 misses, deleted "
      "at the 4th (A14)"),
-    ("stonesoup-mfa", "not offered yet: Stone Soup's MFA associator needs ortools, which the peers extra "
-     "does not install, and with the GNN and JPDA peers already near 1 s per scan on S1-S6 a multi-frame "
-     "peer did not fit this round's time budget (not measured)", "mht"),
+    ("stonesoup-mfa", "not offered yet: Stone Soup's MFA (MFAHypothesiser, MFADataAssociator) needs ortools, "
+     "which the peers extra does not install, and keeps Gaussian-mixture tracks that its tracker classes do "
+     "not drive: the per-scan mixture update and the hand-over from the initiator would be our own glue "
+     "rather than Stone Soup's components; with the GNN and JPDA peers already near 1 s per scan on S1-S6 "
+     "it did not fit this round", "mht"),
 )
