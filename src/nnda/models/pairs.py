@@ -56,6 +56,8 @@ from nnda.models.innovation import IMM_INNOVATION, innovation_features, tracker_
 from nnda.tracking.imm import IMM
 
 History = Literal["measured", "true"]
+#: the options of `extract_pairs` a model file records (metadata "pair_options"), to rebuild its pairs
+PAIR_OPTIONS = ("history", "other_targets", "max_missed", "features")
 OtherTargets = Literal["negative", "drop"]
 
 
@@ -98,11 +100,6 @@ class PairSet:
         """The pairs at ``rows`` (index or mask)."""
         return PairSet(*(getattr(self, f.name)[rows] for f in fields(self) if f.name not in _PER_SET),
                        names=self.names, feature_set=self.feature_set)
-
-    def columns(self, names: Iterable[str], features: FeatureSet) -> PairSet:
-        """The same pairs with only the feature columns ``names`` (in ``features``' order: its set)."""
-        index = [self.feature_set.names.index(n) for n in features.names if n in set(names)]
-        return replace(self, features=self.features[:, index], feature_set=features)
 
 
 _PER_SET = ("names", "feature_set")

@@ -22,7 +22,7 @@ import numpy as np
 from nnda.data.generator import generate
 from nnda.data.presets import GROUPS, PRESETS
 from nnda.models.metrics import classifier_metrics, roc
-from nnda.models.pairs import PairSet, pairs_from_datasets
+from nnda.models.pairs import PAIR_OPTIONS, PairSet, pairs_from_datasets
 from nnda.models.scorer import load_model
 from nnda.files import finite_or_none
 from nnda.study.plan import ModelPlan
@@ -31,7 +31,6 @@ CLASSIFIER_FORMAT = "nnda.study-classifier"
 FORMAT_VERSION = 1
 CLASSIFIER_FILE = "classifier.json"
 _NAME = re.compile(r"^(?P<scenario>[^/]+)/run-(?P<run>\d+)/seed-(?P<seed>\d+)$")
-PAIR_OPTIONS = ("history", "other_targets", "max_missed")
 
 
 def training_sources(metadata: dict) -> tuple[list[tuple[str, int, int]], str]:

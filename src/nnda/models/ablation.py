@@ -1,0 +1,106 @@
+"""Feature ablation: which pair features buy how much classification (issue 9).
+
+The pairs are extracted once per data model of spec §14.1 (track history =
+measured contacts, the spec's; or the targets' true positions) with the
+extended set (`nnda.models.innovation.IMM_INNOVATION`); every variant then
+trains on a subset of its columns, so all variants see the same pairs and,
+for a given seed, the same split and the same random stream
+(`nnda.models.experiment.fit`, by default best of 3 starts by validation
+MSE, so that a start stalled in a saturated minimum does not stand for the
+feature set). Variants:
+
+* ``seed``: the seed's three features;
+* ``extended``: all nine;
+* ``seed + <feature>``: the seed's three and one added feature, for each of
+  the six IMM features;
+* ``IMM only``: the six IMM features without the seed's three.
+
+Per variant and data model: test-split accuracy and AUC over the seeds
+(mean and 95% bootstrap interval, `nnda.models.tables.mean_interval`) and
+the ROC averaged vertically over the seeds (mean sensitivity at fixed
+false-positive rates of each seed's test split).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from nnda.data.dataset import Dataset
+from nnda.models.experiment import Init, Method, RunSummary, fit
+from nnda.models.features import KINEMATIC, FeatureSet
+from nnda.models.innovation import ADDED_NAMES, IMM_INNOVATION
+from nnda.models.metrics import roc
+from nnda.models.pairs import History, PairSet, pairs_from_datasets
+
+ABLATION_FORMAT = "nnda.ablation"
+ABLATION_FORMAT_VERSION = 1
+HISTORIES: tuple[History, ...] = ("measured", "true")
+#: false-positive rates at which the ROC curves of the seeds are averaged
+ROC_GRID = np.linspace(0.0, 1.0, 201)
+
+
+def variants() -> dict[str, tuple[str, ...]]:
+    """Variant label -> feature columns (module docstring)."""
+    out = {"seed": KINEMATIC.names, "extended": IMM_INNOVATION.names}
+    out.update({f"seed + {name}": KINEMATIC.names + (name,) for name in ADDED_NAMES})
+    out["IMM only"] = ADDED_NAMES
+    return out
+
+
+def columns(pairs: PairSet, label: str, names: Sequence[str]) -> PairSet:
+    """The pairs with only the feature columns ``names`` (of ``pairs.feature_set``), as an ad-hoc set."""
+    index = [pairs.feature_set.names.index(n) for n in names]
+    features = FeatureSet(f"ablation:{label}", 0, tuple(names), f"columns {', '.join(names)} of "
+                          f"{pairs.feature_set.name}")
+    return PairSet(pairs.features[:, index], pairs.labels, pairs.dataset, pairs.scan, pairs.target_id,
+                   pairs.contact_target, pairs.names, features)
+
+
+@dataclass(frozen=True)
+class VariantResult:
+    """One variant under one data model: a run per (method, seed) and the mean test ROC per method."""
+
+    history: History
+    variant: str
+    features: tuple[str, ...]
+    runs: tuple[RunSummary, ...]
+    roc_tpr: dict[str, np.ndarray]  # method -> (len(ROC_GRID),) mean sensitivity
+
+    def as_dict(self) -> dict:
+        return {"history": self.history, "variant": self.variant, "features": list(self.features),
+                "runs": [r.as_dict() for r in self.runs],
+                "roc": {"fpr": ROC_GRID.tolist(), "tpr": {m: v.tolist() for m, v in self.roc_tpr.items()}}}
+
+
+def _tpr_on_grid(labels: np.ndarray, scores: np.ndarray) -> np.ndarray:
+    fpr, tpr = roc(labels, scores)
+    return np.interp(ROC_GRID, fpr, tpr)
+
+
+def ablation(
+    datasets: Iterable[Dataset], methods: Sequence[Method] = ("lm",), n_hidden: int = 5,
+    seeds: Iterable[int] = range(10), init: Init = "nguyen-widrow", starts: int = 3,
+    on_run: Callable[[str, str, RunSummary], None] | None = None,
+) -> list[VariantResult]:
+    """Every variant x data model x method x seed (module docstring); ``on_run(history, variant, run)``."""
+    datasets, seeds = list(datasets), list(seeds)
+    results = []
+    for history in HISTORIES:
+        pairs = pairs_from_datasets(datasets, history=history, features=IMM_INNOVATION.name)
+        for label, names in variants().items():
+            subset = columns(pairs, label, names)
+            runs, curves = [], {m: [] for m in methods}
+            for seed in seeds:
+                for method in methods:
+                    result = fit(subset, method, n_hidden, seed, init=init, starts=starts)
+                    runs.append(RunSummary.of(result))
+                    test = result.split.test
+                    curves[method].append(_tpr_on_grid(subset.labels[test], result.scores[test]))
+                    if on_run is not None:
+                        on_run(history, label, runs[-1])
+            results.append(VariantResult(history, label, tuple(names), tuple(runs),
+                                         {m: np.mean(c, axis=0) for m, c in curves.items()}))
+    return results
