@@ -24,23 +24,26 @@ from nnda.tracking.registry import TRACKERS
 
 
 def train_models(directory: Path) -> None:
-    """GD and LM models on the training presets (imports torch: kept out of the module, which the
-    spawned worker processes import again)."""
+    """GD and LM models on the seed's features and an LM model on the extended ones, from the training
+    presets (imports torch: kept out of the module, which the spawned worker processes import again)."""
     from nnda.data import GROUPS, PRESETS, generate
     from nnda.models.experiment import fit
     from nnda.models.pairs import pairs_from_datasets
     from nnda.models.scorer import save_model
 
-    pairs = pairs_from_datasets(generate(PRESETS[name]) for name in GROUPS["train"])
+    datasets = [generate(PRESETS[name]) for name in GROUPS["train"]]
+    pairs = pairs_from_datasets(datasets)
     for method in ("gd", "lm"):
         save_model(fit(pairs, method, seed=0).scorer, directory / method / "model.json")
+    ext = pairs_from_datasets(datasets, features="imm-innovation-9")
+    save_model(fit(ext, "lm", seed=0, starts=3).scorer, directory / "ext" / "model.json")
 
 
 def main(runs: int) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         train_models(root / "models")
-        study = default_study(root / "models/gd", root / "models/lm", runs=runs, seed=0)
+        study = default_study(root / "models/gd", root / "models/lm", root / "models/ext", runs=runs, seed=0)
         kept = {k: v for k, v in study.trackers.items() if v.kind in TRACKERS}
         study = study.model_copy(update={"trackers": kept})
         n_jobs = 6 * runs * len(kept)

@@ -23,6 +23,7 @@ from nnda.study import commands as study_commands
 from nnda.data.dataset import collection_members
 from nnda.data.presets import GROUPS
 from nnda.errors import NndaError
+from nnda.models.innovation import IMM_INNOVATION
 from nnda.study.config import default_study, study_to_toml
 
 app = typer.Typer(
@@ -49,7 +50,8 @@ def demo(
     runs: Annotated[int, typer.Option(min=1, help="Monte Carlo runs of each of S1-S6 in the comparison")] = 10,
     jobs: Annotated[int, typer.Option(min=1, help="worker processes of the comparison")] = 2,
 ) -> None:
-    """Run the whole job: generate the presets, train GD and LM, compare the trackers on S1-S6, report."""
+    """Run the whole job: generate the presets, train the models (GD and LM on the seed's features, LM on the
+    IMM-extended ones, the feature ablation), compare the trackers on S1-S6, report."""
     console = Console()
     data = out / "data"
     for group in GROUPS:
@@ -60,9 +62,15 @@ def demo(
         for member in collection_members(data / group):
             report_commands.plot_scenario(member, plots / f"{member.name}.png")
     models = (out / "models").resolve()
-    for method in (model_commands.MethodChoice.gd, model_commands.MethodChoice.lm):
+    lm, ext = model_commands.MethodChoice.lm, model_commands.FeatureChoice[IMM_INNOVATION.name]
+    for method in (model_commands.MethodChoice.gd, lm):
         model_commands.train(data=data / "train", out=models / method.value, method=method, seed=seed, overwrite=True)
-    study = default_study(models / "gd", models / "lm", runs=runs, seed=seed)
+    model_commands.train(data=data / "train", out=models / "ext", method=lm, features=ext, starts=3, seed=seed,
+                         overwrite=True)
+    model_commands.train(data=data / "train", out=models / "ablation", method=lm, ablation=True, repeats=10,
+                         seed=seed, overwrite=True)
+    study = default_study(models / "gd", models / "lm", models / "ext", runs=runs, seed=seed,
+                          ablation=models / "ablation")
     study_file = out / "study.toml"
     study_file.write_text(study_to_toml(study, relative_to=out))
     study_commands.compare(study=study_file, out=out / "comparison", jobs=jobs, overwrite=True)

@@ -18,12 +18,15 @@ def test_relative_paths_resolve_against_the_study_file(small_study, tmp_path):
 
 
 def test_written_study_reads_back_equal(tmp_path):
-    study = default_study(tmp_path / "models/gd", tmp_path / "models/lm", runs=7, seed=3).resolved(tmp_path)
+    study = default_study(tmp_path / "models/gd", tmp_path / "models/lm", tmp_path / "models/ext", runs=7, seed=3,
+                          ablation=tmp_path / "models/ablation").resolved(tmp_path)
     text = study_to_toml(study, relative_to=tmp_path)
     assert 'gd = "models/gd"' in text  # paths under the file's directory are written relative to it
     (tmp_path / "s.toml").write_text(text)
     assert load_study(tmp_path / "s.toml") == study
-    assert list(study.trackers) == ["mht", "nn-gd", "nn-lm", "gnn", "jpda"]
+    assert 'ablation = "models/ablation"' in text
+    assert list(study.trackers) == ["mht", "nn-gd", "nn-seed", "nn-ext", "gnn", "jpda"]
+    assert study.trackers["nn-ext"].params == {"feature_set": "imm-innovation-9"}
     assert study.scenarios[0].preset == "validation"
 
 

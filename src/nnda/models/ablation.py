@@ -15,6 +15,9 @@ feature set). Variants:
   the six IMM features;
 * ``IMM only``: the six IMM features without the seed's three.
 
+Per data model, the pairs are also described (`describe_pairs`): how many
+there are and how many negatives fall inside the track's 99 % gate
+(d^2 < 9.21), where a pair seen alone looks like the track's own contact.
 Per variant and data model: test-split accuracy and AUC over the seeds
 (mean and 95% bootstrap interval, `nnda.models.tables.mean_interval`) and
 the ROC averaged vertically over the seeds (mean sensitivity at fixed
@@ -25,18 +28,23 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from nnda.data.dataset import Dataset
-from nnda.models.experiment import Init, Method, RunSummary, fit
 from nnda.models.features import KINEMATIC, FeatureSet
 from nnda.models.innovation import ADDED_NAMES, IMM_INNOVATION
 from nnda.models.metrics import roc
 from nnda.models.pairs import History, PairSet, pairs_from_datasets
+from nnda.tracking.tracker import GATE_99
+
+if TYPE_CHECKING:  # training imports torch; the file format and the variants do not need it
+    from nnda.models.experiment import Init, Method, RunSummary
 
 ABLATION_FORMAT = "nnda.ablation"
 ABLATION_FORMAT_VERSION = 1
+ABLATION_FILE = "ablation.json"
 HISTORIES: tuple[History, ...] = ("measured", "true")
 #: false-positive rates at which the ROC curves of the seeds are averaged
 ROC_GRID = np.linspace(0.0, 1.0, 201)
@@ -75,6 +83,16 @@ class VariantResult:
                 "roc": {"fpr": ROC_GRID.tolist(), "tpr": {m: v.tolist() for m, v in self.roc_tpr.items()}}}
 
 
+def describe_pairs(pairs: PairSet) -> dict:
+    """Counts of a pair set of the extended features: pairs, own contacts, negatives inside the 99 % gate."""
+    d2 = pairs.features[:, pairs.feature_set.names.index("mahalanobis_d2")]
+    negative = pairs.labels < 0
+    inside = int(np.count_nonzero(negative & (d2 < GATE_99)))
+    return {"pairs": len(pairs), "own_contact": pairs.n_positive, "negative": int(negative.sum()),
+            "negative_in_gate": inside, "negative_in_gate_fraction_of_pairs": inside / max(len(pairs), 1),
+            "own_outside_gate": int(np.count_nonzero(~negative & (d2 >= GATE_99)))}
+
+
 def _tpr_on_grid(labels: np.ndarray, scores: np.ndarray) -> np.ndarray:
     fpr, tpr = roc(labels, scores)
     return np.interp(ROC_GRID, fpr, tpr)
@@ -84,12 +102,18 @@ def ablation(
     datasets: Iterable[Dataset], methods: Sequence[Method] = ("lm",), n_hidden: int = 5,
     seeds: Iterable[int] = range(10), init: Init = "nguyen-widrow", starts: int = 3,
     on_run: Callable[[str, str, RunSummary], None] | None = None,
-) -> list[VariantResult]:
-    """Every variant x data model x method x seed (module docstring); ``on_run(history, variant, run)``."""
+) -> tuple[list[VariantResult], dict[str, dict]]:
+    """Every variant x data model x method x seed (module docstring); ``on_run(history, variant, run)``.
+
+    Returns the variants' results and `describe_pairs` of each data model's pairs.
+    """
+    from nnda.models.experiment import RunSummary, fit
+
     datasets, seeds = list(datasets), list(seeds)
-    results = []
+    results, described = [], {}
     for history in HISTORIES:
         pairs = pairs_from_datasets(datasets, history=history, features=IMM_INNOVATION.name)
+        described[history] = describe_pairs(pairs)
         for label, names in variants().items():
             subset = columns(pairs, label, names)
             runs, curves = [], {m: [] for m in methods}
@@ -103,4 +127,4 @@ def ablation(
                         on_run(history, label, runs[-1])
             results.append(VariantResult(history, label, tuple(names), tuple(runs),
                                          {m: np.mean(c, axis=0) for m, c in curves.items()}))
-    return results
+    return results, described

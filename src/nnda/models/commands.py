@@ -215,7 +215,7 @@ def _train_repeats(pairs: PairSet, methods: tuple[str, ...], hidden: int, seeds:
 
 def _train_ablation(data: Path, methods: tuple[str, ...], hidden: int, seeds: range, init: str, starts: int,
                     tmp: Path, console: Console) -> None:
-    from nnda.models.ablation import ABLATION_FORMAT, ABLATION_FORMAT_VERSION, HISTORIES, ablation, variants
+    from nnda.models.ablation import ABLATION_FILE, ABLATION_FORMAT, ABLATION_FORMAT_VERSION, HISTORIES, ablation, variants
     from nnda.models.plots import plot_ablation_roc
     from nnda.models.tables import ablation_table
 
@@ -226,14 +226,15 @@ def _train_ablation(data: Path, methods: tuple[str, ...], hidden: int, seeds: ra
         def on_run(history: str, variant: str, run: RunSummary) -> None:
             bar.advance(task)
             bar.update(task, info=f"{history} history, {variant}: test acc {run.metrics['test'].accuracy:.4f}")
-        results = ablation(datasets, methods, hidden, seeds, init, starts, on_run)
-    _write_json(tmp / "ablation.json", {
+        results, described = ablation(datasets, methods, hidden, seeds, init, starts, on_run)
+    rows = [r.as_dict() for r in results]
+    _write_json(tmp / ABLATION_FILE, {
         "format": ABLATION_FORMAT, "format_version": ABLATION_FORMAT_VERSION, "data": str(data),
         "methods": list(methods), "n_hidden": hidden, "seeds": list(seeds), "init": init,
-        "starts": starts, "results": [r.as_dict() for r in results]})
-    tables = [ablation_table(results, m) for m in methods]
+        "starts": starts, "pairs": described, "results": rows})
+    tables = [ablation_table(rows, m) for m in methods]
     (tmp / "ablation.md").write_text("\n".join(t.markdown() for t in tables))
-    plot_ablation_roc(results, tmp / "ablation_roc.png")
+    plot_ablation_roc(rows, tmp / "ablation_roc.png")
     for t in tables:
         console.print(t.rich())
 

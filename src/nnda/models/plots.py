@@ -16,7 +16,6 @@ from sklearn.metrics import roc_auc_score  # noqa: E402
 from nnda.models.metrics import roc  # noqa: E402
 
 if TYPE_CHECKING:  # both import torch; plotting their results does not need it
-    from nnda.models.ablation import VariantResult
     from nnda.models.experiment import SweepResult
     from nnda.models.trainers import TrainingResult
 
@@ -71,26 +70,31 @@ def plot_sweep(result: SweepResult, out: str | Path, dpi: int = 110) -> Path:
     return _save(fig, out, dpi)
 
 
+
 #: the ablation variants drawn in the ROC panels (every variant is in the table)
 ABLATION_CURVES = ("seed", "extended", "seed + mahalanobis_d2", "IMM only")
 
 
-def plot_ablation_roc(results: Sequence[VariantResult], out: str | Path, dpi: int = 110) -> Path:
-    """Mean test ROC over seeds of the main ablation variants, one panel per data model, per method."""
-    histories = list(dict.fromkeys(r.history for r in results))
+def plot_ablation_roc(results: Sequence[dict], out: str | Path | None = None, dpi: int = 110):
+    """Mean test ROC over seeds of the main ablation variants, one panel per data model, each method.
+
+    ``results`` are the ``results`` entries of ``ablation.json``. Saves to ``out`` and returns the path, or
+    returns the figure when ``out`` is None.
+    """
+    histories = list(dict.fromkeys(r["history"] for r in results))
     fig, axes = plt.subplots(1, len(histories), figsize=(5.2 * len(histories), 5), constrained_layout=True,
                              squeeze=False)
     for ax, history in zip(axes[0], histories):
         for r in results:
-            if r.history != history or r.variant not in ABLATION_CURVES:
+            if r["history"] != history or r["variant"] not in ABLATION_CURVES:
                 continue
-            for method, tpr in r.roc_tpr.items():
-                fpr = np.linspace(0.0, 1.0, tpr.size)
-                ax.plot(fpr, tpr, lw=1.4, label=f"{r.variant}, {method.upper()} (area {np.trapezoid(tpr, fpr):.4f})")
+            fpr = np.asarray(r["roc"]["fpr"])
+            for method, tpr in r["roc"]["tpr"].items():
+                ax.plot(fpr, tpr, lw=1.4, label=f"{r['variant']}, {method.upper()} (area {np.trapezoid(tpr, fpr):.4f})")
         ax.plot([0, 1], [0, 1], ":", color="0.6", lw=1)
         ax.set(xlabel="false-positive rate", ylabel="sensitivity", title=f"{history} track history",
                xlim=(0, 0.3), ylim=(0.7, 1.005))
         ax.legend(loc="lower right", fontsize=8)
         ax.grid(alpha=0.3)
     fig.suptitle("Feature ablation: mean test ROC over seeds (zoomed)")
-    return _save(fig, out, dpi)
+    return fig if out is None else _save(fig, out, dpi)

@@ -22,7 +22,6 @@ from rich.table import Table
 from nnda.models.metrics import SPEC_TABLE_6_3, ClassifierMetrics
 
 if TYPE_CHECKING:  # the experiment module imports torch; tables are also made without it
-    from nnda.models.ablation import VariantResult
     from nnda.models.experiment import FitResult, RunSummary, SweepResult
 
 #: (row label, metric field, format) of the Table 6.3 layout plus accuracy, AUC and MSE
@@ -169,25 +168,27 @@ def sweep_table(result: SweepResult) -> TextTable:
                                            "Test accuracy mean", "Epochs mean", ""), tuple(rows), note)
 
 
-def ablation_table(results: Sequence[VariantResult], method: str) -> TextTable:
-    """Feature ablation (`nnda.models.ablation`) of one training method: test accuracy and AUC per variant
-    (rows) under each data model (columns), mean [95% bootstrap interval] over seeds."""
-    histories = list(dict.fromkeys(r.history for r in results))
-    labels = list(dict.fromkeys(r.variant for r in results))
-    cell = {(r.history, r.variant): [run for run in r.runs if run.method == method] for r in results}
+
+def ablation_table(results: Sequence[dict], method: str) -> TextTable:
+    """Feature ablation of one training method: test accuracy and AUC per variant (rows) under each data
+    model (columns), mean [95% bootstrap interval] over seeds. ``results`` are the ``results`` entries of
+    ``ablation.json`` (`nnda.models.ablation.VariantResult.as_dict`)."""
+    histories = list(dict.fromkeys(r["history"] for r in results))
+    labels = list(dict.fromkeys(r["variant"] for r in results))
+    tests = {(r["history"], r["variant"]): [run["metrics"]["test"] for run in r["runs"] if run["method"] == method]
+             for r in results}
+    inputs = {r["variant"]: len(r["features"]) for r in results}
     header = ("Features", "Inputs", *(f"{what} ({h} history)" for h in histories for what in ("Accuracy", "AUC")))
     rows = []
     for label in labels:
-        n_inputs = next(len(r.features) for r in results if r.variant == label)
-        row = [label, str(n_inputs)]
+        row = [label, str(inputs[label])]
         for h in histories:
-            runs = cell[(h, label)]
-            row += [_cell([r.metrics["test"].accuracy for r in runs], "{:.4f}"),
-                    _cell([r.metrics["test"].auc for r in runs], "{:.4f}")]
+            row += [_cell([m["accuracy"] for m in tests[(h, label)]], "{:.4f}"),
+                    _cell([m["auc"] for m in tests[(h, label)]], "{:.4f}")]
         rows.append(tuple(row))
-    some = next(iter(cell.values()))
-    note = (f"{METHOD_NAMES[method]}, test split, mean [95% bootstrap interval of the mean] over {len(some)} seeds "
-            f"of split and initialisation; every variant trains on the same pairs and splits. 'measured' history: "
-            f"the spec's data model (track = measured contacts); 'true': the targets' true positions (spec §14.1). "
-            f"Thesis (one run, measured-contact data as it describes them): GD 0.941 / 0.979, LM 0.992 / 0.9981.")
+    n = len(next(iter(tests.values())))
+    note = (f"{METHOD_NAMES[method]}, test split, mean [95% bootstrap interval of the mean] over {n} seeds of split "
+            f"and initialisation; every variant trains on the same pairs and splits. 'measured' history: the spec's "
+            f"data model (track = measured contacts); 'true': the targets' true positions (spec §14.1). Thesis "
+            f"(one run, all pairs): GD 0.941 / 0.979, LM 0.992 / 0.9981.")
     return TextTable(f"Feature ablation, {METHOD_NAMES[method]}", header, tuple(rows), note)

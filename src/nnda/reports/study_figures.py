@@ -97,6 +97,13 @@ def over_time(scenario: dict, period_s: float, cutoff_m: float) -> bytes:
     return _png(fig)
 
 
+def ablation_roc(results: list[dict]) -> bytes:
+    """Mean test ROC of the main feature-ablation variants under both data models, from ``ablation.json``."""
+    from nnda.models.plots import plot_ablation_roc  # loads scikit-learn, which only this figure needs
+
+    return _png(plot_ablation_roc(results))
+
+
 def roc_curves(models: list[dict]) -> bytes:
     """ROC of each model over all its training pairs, from ``classifier.json``."""
     fig, ax = plt.subplots(figsize=(5.5, 5), constrained_layout=True)

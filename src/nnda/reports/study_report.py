@@ -5,8 +5,9 @@ Built only from the files a study directory keeps (``study.json``,
 ``trajectories.parquet``), so ``nnda report DIR`` rebuilds it at any time.
 Sections, in order (their HTML ids in brackets): summary [summary], setup
 [setup], association network [classifier], results per scenario
-[scenarios], against Stone Soup [peers] (when the study ran a Stone Soup
-peer), time per scan [timing], false tracks and GOSPA over time
+[scenarios], feature ablation [ablation] (when the study names one, from
+``ablation.json``), against Stone Soup [peers] (when the study ran a Stone
+Soup peer), time per scan [timing], false tracks and GOSPA over time
 [over-time], trajectories [trajectories]. The HTML embeds its images as
 base64 and plotly.js inline: it opens without network or sibling files.
 """
@@ -25,14 +26,15 @@ import pyarrow.parquet as pq
 
 from nnda.errors import DatasetError
 from nnda.models.tables import TextTable
-from nnda.reports import study_figures
+from nnda.models.ablation import ABLATION_FILE
+from nnda.reports import ablation_section, study_figures
 from nnda.reports.peers_section import against_stonesoup, peer_labels
 from nnda.reports.study_summary import summary_markdown
 from nnda.reports.study_tables import (
     classifier_table, is_thesis_scenario, model_test_table, scenario_table, table_html,
 )
 from nnda.reports.trajectory_plot import figure_div, plotly_js, trajectory_figure
-from nnda.study.classifier import CLASSIFIER_FILE, CLASSIFIER_FORMAT
+from nnda.study.classifier import CLASSIFIER_FILE, CLASSIFIER_FORMAT, read_ablation
 from nnda.study.classifier import FORMAT_VERSION as CLASSIFIER_VERSION
 from nnda.files import atomic_file, read_json
 from nnda.study.plan import STUDY_FORMAT, STUDY_FORMAT_VERSION
@@ -169,6 +171,22 @@ def _classifier(classifier: dict, figures: list[Figure]) -> Section:
     return sec
 
 
+def _ablation(doc: dict, figures: list[Figure]) -> Section:
+    sec = Section("ablation", "Feature ablation", [], [])
+    sec.text("Which pair features buy how much classification: the seed's three, the IMM-extended nine, the "
+             "seed's three plus each IMM feature, and the IMM features alone, every variant trained on the same "
+             "pairs and splits, under the spec's data model (measured track history) and the error-free one "
+             "(true positions, spec §14.1).")
+    for table in ablation_section.tables(doc):
+        sec.table(table)
+    sec.text(ablation_section.reading(doc))
+    fig = Figure("ablation_roc.png", "Feature ablation: mean test ROC over seeds",
+                 study_figures.ablation_roc(doc["results"]))
+    figures.append(fig)
+    sec.figure(fig)
+    return sec
+
+
 def _scenarios(manifest: dict, summary: dict, timing: dict) -> Section:
     sec = Section("scenarios", "Results per scenario", [], [])
     sec.text("Layout of the thesis's Tables 6.4-6.9, extended by nnda's measures. Where the scenario is the "
@@ -199,6 +217,8 @@ def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
     top.text(summary_markdown(summary, timing))
     sections = [top, _setup(manifest, summary, timing), _classifier(classifier, figures),
                 _scenarios(manifest, summary, timing)]
+    if (out / ABLATION_FILE).is_file():
+        sections.append(_ablation(read_ablation(out / ABLATION_FILE), figures))
     if peer_labels(summary):
         sections.append(against_stonesoup(Section("peers", "Against Stone Soup", [], []), summary, timing))
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import html
 
 from nnda.data.presets import PRESETS
+from nnda.models.features import KINEMATIC
 from nnda.models.metrics import SPEC_TABLE_6_3
 from nnda.models.tables import MEASURES, METHOD_NAMES, TextTable
 from nnda.reports.spec_values import SPEC_COLUMN_TITLES, SPEC_TRACKING
@@ -100,11 +101,13 @@ def classifier_table(models: list[dict]) -> TextTable:
             row.append(DASH if value is None else fmt.format(value))
         rows.append(tuple(row))
     extra = (("Method", lambda m: METHOD_NAMES.get(m["method"], str(m["method"] or DASH))),
+             ("Features", lambda m: str(m.get("features", KINEMATIC.name))),
              ("Hidden units", lambda m: str(m["n_hidden"])),
              ("Epochs (best)", lambda m: f"{m['epochs']} ({m['best_epoch']})" if m["epochs"] is not None else DASH),
              ("Stopped by", lambda m: str(m["stop_reason"] or DASH)),
              ("Pairs (own contact)", lambda m: f"{m['evaluation']['n_pairs']} ({m['evaluation']['n_positive']})"))
-    spec_extra = {"Method": ("Gradient descent", "Levenberg-Marquardt"), "Hidden units": ("5", "5"),
+    spec_extra = {"Method": ("Gradient descent", "Levenberg-Marquardt"),
+                  "Features": (KINEMATIC.name, KINEMATIC.name), "Hidden units": ("5", "5"),
                   "Epochs (best)": ("1000", "35"), "Stopped by": (DASH, DASH),
                   "Pairs (own contact)": ("2766 (831)", "2766 (831)")}
     for label, get in extra:

@@ -4,6 +4,10 @@ A model file (`nnda.models.scorer`) carries its training provenance in its
 metadata: method, epochs, best epoch, split sizes, test-split metrics, the
 pair options and the names of the datasets its pairs came from
 (``<scenario>/run-<run>/seed-<seed>``, `nnda.models.pairs.dataset_name`).
+A feature ablation (``nnda train --ablation``) named by the study is read
+and checked here (`read_ablation`) and kept in the study directory for the
+report.
+
 The ROC and the metrics over *all* pairs (the spec's "Total" rows, §10.1)
 need the scores of every pair, which the file does not hold, so they are
 computed here: the named datasets are regenerated from their presets with
@@ -16,15 +20,18 @@ seeds stand in, and the record says so.
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import numpy as np
 
 from nnda.data.generator import generate
 from nnda.data.presets import GROUPS, PRESETS
+from nnda.models.ablation import ABLATION_FILE, ABLATION_FORMAT, ABLATION_FORMAT_VERSION
 from nnda.models.metrics import classifier_metrics, roc
 from nnda.models.pairs import PAIR_OPTIONS, PairSet, pairs_from_datasets
 from nnda.models.scorer import load_model
-from nnda.files import finite_or_none
+from nnda.errors import DatasetError
+from nnda.files import finite_or_none, read_json
 from nnda.study.plan import ModelPlan
 
 CLASSIFIER_FORMAT = "nnda.study-classifier"
@@ -58,6 +65,19 @@ def _floats(a: np.ndarray) -> list[float]:
     return [float(v) for v in a]
 
 
+def read_ablation(path: Path) -> dict:
+    """The ``ablation.json`` of an ``nnda train --ablation`` directory (or the file itself), checked."""
+    file = path / ABLATION_FILE if path.is_dir() else path
+    if not file.is_file():
+        raise DatasetError(f"{path}: no {ABLATION_FILE} here; write one with `nnda train --ablation --repeats 10`")
+    doc = read_json(file, ABLATION_FORMAT, ABLATION_FORMAT_VERSION)
+    rows = doc.get("results")
+    if not isinstance(rows, list) or not rows or not all(
+            isinstance(r, dict) and {"history", "variant", "features", "runs", "roc"} <= r.keys() for r in rows):
+        raise DatasetError(f"{file}: field 'results' must be a non-empty list of ablation variants")
+    return doc
+
+
 def evaluate_models(models: tuple[ModelPlan, ...] | list[ModelPlan]) -> dict:
     """The ``classifier.json`` content for the study's models (deterministic)."""
     cache: dict[tuple, PairSet] = {}
@@ -77,7 +97,7 @@ def evaluate_models(models: tuple[ModelPlan, ...] | list[ModelPlan]) -> dict:
         fpr, tpr = roc(pairs.labels, scores)
         entries.append({
             "label": m.label, "file": m.path.name, "sha256": m.sha256,
-            "method": meta.get("method"), "n_hidden": scorer.weights.n_hidden,
+            "method": meta.get("method"), "features": scorer.features.name, "n_hidden": scorer.weights.n_hidden,
             "epochs": meta.get("epochs"), "best_epoch": meta.get("best_epoch"),
             "stop_reason": meta.get("stop_reason"), "seed": meta.get("seed"),
             "split": meta.get("split"), "test_metrics": meta.get("test_metrics"),

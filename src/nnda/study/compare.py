@@ -5,7 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from nnda.study.classifier import CLASSIFIER_FILE, evaluate_models
+from nnda.models.ablation import ABLATION_FILE
+from nnda.study.classifier import CLASSIFIER_FILE, evaluate_models, read_ablation
 from nnda.study.config import Study
 from nnda.files import write_json
 from nnda.study.plan import StudyPlan, plan_study
@@ -37,7 +38,12 @@ def compare(study: Study, out: str | Path, resume: bool = False, workers: int = 
 
     out = Path(out)
     plan = plan_study(study, where)
+    ablation = read_ablation(study.ablation) if study.ablation is not None else None
     execution = run_jobs(plan, out, resume=resume, workers=workers, dask=dask, on_job=on_job, overwrite=overwrite)
     summary = write_results(plan, out, execution)
     write_json(out / CLASSIFIER_FILE, evaluate_models(plan.models))
+    if ablation is not None:
+        write_json(out / ABLATION_FILE, ablation)
+    else:
+        (out / ABLATION_FILE).unlink(missing_ok=True)  # a resumed or overwritten study keeps no stale copy
     return Comparison(plan, execution, summary, write_report(out) if report else None)

@@ -7,12 +7,15 @@ A study is validated data (pydantic), read from TOML or JSON::
     runs = 100                # Monte Carlo runs per generated scenario
     gospa_cutoff_m = 1000.0   # GOSPA/OSPA cut-off c (p = 2, alpha = 2)
 
+    ablation = "models/ablation"  # optional: an `nnda train --ablation` directory, shown in the report
+
     [models]                  # trained association networks (`nnda train` output or model.json)
     lm = "models/lm"
 
     [trackers.nn-lm]          # a label of your choice -> a registered tracker kind
     kind = "nn"
     model = "lm"              # passed to the tracker as params["model"] = the model file's path
+                              # (the tracker computes the feature set the model was trained on)
     [trackers.gnn]
     kind = "gnn"
     params = { gate = 9.21 }  # the tracker's own validated config
@@ -42,6 +45,8 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from nnda.errors import ConfigError, validated
 from nnda.files import read_config
+from nnda.models.features import KINEMATIC
+from nnda.models.innovation import IMM_INNOVATION
 from nnda.study.metrics import DEFAULT_CUTOFF_M
 
 _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
@@ -100,6 +105,7 @@ class Study(BaseModel):
     gospa_cutoff_m: Annotated[float, Field(gt=0, description="GOSPA/OSPA cut-off c (m)")] = DEFAULT_CUTOFF_M
     confidence: Annotated[float, Field(gt=0, lt=1, description="level of the t-intervals")] = 0.95
     models: dict[Label, Path] = Field(default_factory=dict)
+    ablation: Path | None = Field(default=None, description="`nnda train --ablation` output for the report")
     trackers: Annotated[dict[Label, TrackerSpec], Field(min_length=1)]
     scenarios: Annotated[list[ScenarioSpec], Field(min_length=1)]
 
@@ -117,7 +123,7 @@ class Study(BaseModel):
             return None if p is None else (p if p.is_absolute() else base / p).resolve()
 
         return self.model_copy(update={
-            "models": {k: fix(v) for k, v in self.models.items()},
+            "models": {k: fix(v) for k, v in self.models.items()}, "ablation": fix(self.ablation),
             "scenarios": [s.model_copy(update={"config": fix(s.config), "path": fix(s.path)})
                           for s in self.scenarios],
         })
@@ -135,21 +141,27 @@ def load_study(path: str | Path) -> Study:
     return study_from_dict(read_config(path, "study"), str(path), path.parent.resolve())
 
 
-def default_study(gd_model: str | Path, lm_model: str | Path, runs: int = 100, seed: int = 0) -> Study:
-    """The specification's comparison (seed-001 §10.2): IMM/TOMHT against the neural tracker with
-    the gradient-descent and the Levenberg-Marquardt model, plus the GNN and JPDA baselines, on S1-S6.
+def default_study(gd_model: str | Path, lm_model: str | Path, ext_model: str | Path, runs: int = 100,
+                  seed: int = 0, ablation: str | Path | None = None) -> Study:
+    """The specification's comparison (seed-001 §10.2) and issue 9's: IMM/TOMHT against the neural
+    tracker with the seed's features (gradient-descent and Levenberg-Marquardt models: ``nn-gd``,
+    ``nn-seed``) and with the IMM-extended features (``nn-ext``), plus the GNN and JPDA baselines, on S1-S6.
 
     Model paths are kept as given (relative ones are resolved when the study is written and read).
     """
+    seed_set, ext_set = {"feature_set": KINEMATIC.name}, {"feature_set": IMM_INNOVATION.name}
     return Study(
         name="thesis-comparison",
-        description="IMM + track-oriented MHT against neural association (GD and LM models), "
-                    "with GNN and JPDA baselines, on the validation scenarios S1-S6",
+        description="IMM + track-oriented MHT against neural association (seed features with GD and LM "
+                    "models, IMM-extended features with LM), with GNN and JPDA baselines, on S1-S6",
         seed=seed, runs=runs,
-        models={"gd": Path(gd_model), "lm": Path(lm_model)},
-        trackers={"mht": TrackerSpec(kind="mht"), "nn-gd": TrackerSpec(kind="nn", model="gd"),
-                  "nn-lm": TrackerSpec(kind="nn", model="lm"), "gnn": TrackerSpec(kind="gnn"),
-                  "jpda": TrackerSpec(kind="jpda")},
+        models={"gd": Path(gd_model), "lm": Path(lm_model), "ext": Path(ext_model)},
+        ablation=None if ablation is None else Path(ablation),
+        trackers={"mht": TrackerSpec(kind="mht"),
+                  "nn-gd": TrackerSpec(kind="nn", model="gd", params=seed_set),
+                  "nn-seed": TrackerSpec(kind="nn", model="lm", params=seed_set),
+                  "nn-ext": TrackerSpec(kind="nn", model="ext", params=ext_set),
+                  "gnn": TrackerSpec(kind="gnn"), "jpda": TrackerSpec(kind="jpda")},
         scenarios=[ScenarioSpec(preset="validation")],
     )
 
@@ -193,6 +205,8 @@ def study_to_toml(study: Study, relative_to: Path | None = None) -> str:
 
     lines = [f"{k} = {_toml_value(getattr(study, k))}"
              for k in ("name", "description", "seed", "runs", "gospa_cutoff_m", "confidence")]
+    if study.ablation is not None:
+        lines.append(f"ablation = {_toml_value(path(study.ablation))}")
     if study.models:
         lines += ["", "[models]"] + [f"{_toml_key(k)} = {_toml_value(path(v))}" for k, v in study.models.items()]
     for label, spec in study.trackers.items():
