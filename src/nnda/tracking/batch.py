@@ -7,9 +7,10 @@ repeats allowed) and `Batch.concat` do that for every record built on it.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import fields
 from functools import cache
+from operator import attrgetter
 from typing import Self
 
 import numpy as np
@@ -21,6 +22,14 @@ from nnda.errors import FilterError
 def _names(cls: type) -> tuple[str, ...]:
     """Field names of a dataclass, computed once per class (take/concat run every scan)."""
     return tuple(f.name for f in fields(cls))
+
+
+@cache
+def _values(cls: type) -> Callable[[object], tuple]:
+    """A function returning the field values of a ``cls`` instance as a tuple, in field order."""
+    names = _names(cls)
+    getter = attrgetter(*names)
+    return getter if len(names) > 1 else lambda record: (getter(record),)
 
 
 class Batch:
@@ -37,27 +46,27 @@ class Batch:
                 if index.shape != (len(self),):
                     raise FilterError(f"take: boolean mask of shape {index.shape} for {len(self)} tracks")
                 index = np.flatnonzero(index)  # one scan of the mask, not one per field
-        return type(self)(*[_take(getattr(self, name), index) for name in _names(type(self))])
+        return self._rows(index)
+
+    def _rows(self, index: np.ndarray | slice) -> Self:
+        """`take` with a checked integer array or slice."""
+        cls = type(self)
+        return cls(*[v._rows(index) if isinstance(v, Batch) else v[index] for v in _values(cls)(self)])
 
     @classmethod
     def concat(cls, batches: Sequence[Self]) -> Self:
         """One batch holding the tracks of ``batches`` in order."""
         if not batches:
             raise FilterError(f"{cls.__name__}.concat: nothing to concatenate")
-        parts = []
-        for name in _names(cls):
-            try:
-                parts.append(_concat([getattr(b, name) for b in batches]))
-            except ValueError as exc:
-                raise FilterError(f"{cls.__name__}.concat: field {name!r} does not match: {exc}") from None
-        return cls(*parts)
-
-
-def _take(value: np.ndarray | Batch, index: np.ndarray | slice) -> np.ndarray | Batch:
-    return value.take(index) if isinstance(value, Batch) else value[index]
-
-
-def _concat(values: list) -> np.ndarray | Batch:
-    if isinstance(values[0], Batch):
-        return type(values[0]).concat(values)
-    return np.concatenate(values, axis=0)
+        try:
+            return cls(*[type(parts[0]).concat(parts) if isinstance(parts[0], Batch) else np.concatenate(parts)
+                         for parts in zip(*map(_values(cls), batches))])
+        except ValueError:
+            for name in _names(cls):  # which field: the arrays one by one, for the message
+                parts = [getattr(b, name) for b in batches]
+                if not isinstance(parts[0], Batch):
+                    try:
+                        np.concatenate(parts)
+                    except ValueError as exc:
+                        raise FilterError(f"{cls.__name__}.concat: field {name!r} does not match: {exc}") from None
+            raise
