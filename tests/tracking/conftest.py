@@ -23,3 +23,11 @@ def model_file(tmp_path_factory) -> Path:
 def pytest_configure(config):
     # torch.func's first call imports torch._dynamo, which warns about its own use of torch.jit
     config.addinivalue_line("filterwarnings", "ignore:`torch.jit.script` is deprecated:DeprecationWarning")
+
+
+@pytest.fixture(scope="session")
+def ext_model_file(tmp_path_factory) -> Path:
+    """A 9-5-1 scorer on the IMM-extended features, trained by LM (best of 3 starts) on the training presets."""
+    pairs = pairs_from_datasets((generate(s, 0) for s in resolve("train")), features="imm-innovation-9")
+    result = fit(pairs, "lm", n_hidden=5, seed=0, starts=3)
+    return save_model(result.scorer, tmp_path_factory.mktemp("ext-model") / "model.json")

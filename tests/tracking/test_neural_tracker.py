@@ -261,3 +261,29 @@ def test_k_d_tree_candidate_search_gives_the_dense_searchs_tracks(model_file, mo
     for a, b in zip(*runs):
         for field in ("track_id", "status", "measurement", "state", "covariance"):
             np.testing.assert_array_equal(getattr(a, field), getattr(b, field))
+
+
+def test_a_model_of_the_other_feature_set_is_refused(model_file, ext_model_file):
+    sensor = PRESETS["S1"].sensor
+    with pytest.raises(ConfigError, match="trained on feature set 'imm-innovation-9', but this tracker is "
+                                          "configured for 'kinematic-3'"):
+        make_tracker("nn", sensor, {"model": str(ext_model_file), "feature_set": "kinematic-3"})
+    with pytest.raises(ConfigError, match="trained on feature set 'kinematic-3', but this tracker is "
+                                          "configured for 'imm-innovation-9'"):
+        make_tracker("nn", sensor, {"model": str(model_file), "feature_set": "imm-innovation-9"})
+    with pytest.raises(ConfigError, match="feature_set"):
+        make_tracker("nn", sensor, {"model": str(model_file), "feature_set": "polar-2"})
+    assert make_tracker("nn", sensor, {"model": str(ext_model_file), "feature_set": "imm-innovation-9"})
+
+
+@pytest.mark.parametrize("preset", ["S1", "S2"])
+def test_extended_features_lose_fewer_contacts_than_the_seed_features(model_file, ext_model_file, preset):
+    ds = generate(PRESETS[preset], 0)
+    m = {}
+    for name, path in (("seed", model_file), ("ext", ext_model_file)):
+        tracker = make_tracker("nn", ds.scenario.sensor, {"model": str(path)})
+        m[name] = run_metrics(ds, [tracker.step(scan) for scan in ds.scans()])
+    assert m["ext"].false_tracks == 0
+    assert m["ext"].losses < m["seed"].losses
+    assert m["ext"].track_breaks <= m["seed"].track_breaks
+    assert m["ext"].hit_rate > 90.0
