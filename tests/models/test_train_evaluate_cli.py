@@ -82,3 +82,33 @@ def test_parse_sizes():
     with pytest.raises(ConfigError):
         parse_sizes("0-2")
     assert parse_sizes("2,2,1") == [1, 2]
+
+
+def test_extended_model_and_ablation_modes(train_dir, tmp_path):
+    ext = tmp_path / "ext"
+    result = runner.invoke(app, ["train", "--data", str(train_dir), "--features", "imm-innovation-9", "--starts", "2",
+                                 "--out", str(ext)])
+    assert result.exit_code == 0, result.output
+    scorer = load_model(ext)
+    assert scorer.features.name == "imm-innovation-9" and scorer.weights.n_inputs == 9
+    assert scorer.metadata["pair_options"]["features"] == "imm-innovation-9" and scorer.metadata["starts"] == 2
+    result = runner.invoke(app, ["evaluate", str(ext), "--data", str(train_dir), "--out", str(tmp_path / "ev")])
+    assert result.exit_code == 0, result.output  # evaluate rebuilds the pairs with the model's feature set
+    training = json.loads((ext / "training.json").read_text())
+    assert json.loads((tmp_path / "ev" / "evaluation.json").read_text())["metrics"] == training["metrics"]["all"]
+
+    abl = tmp_path / "abl"
+    result = runner.invoke(app, ["train", "--data", str(train_dir), "--ablation", "--repeats", "2", "--starts", "1",
+                                 "--out", str(abl)])
+    assert result.exit_code == 0, result.output
+    assert sorted(p.name for p in abl.iterdir()) == ["ablation.json", "ablation.md", "ablation_roc.png"]
+    doc = json.loads((abl / "ablation.json").read_text())
+    assert doc["format"] == "nnda.ablation" and doc["seeds"] == [0, 1]
+    variants = {(r["history"], r["variant"]) for r in doc["results"]}
+    assert len(variants) == 2 * 9 and ("true", "seed + mahalanobis_d2") in variants
+    assert all(len(r["runs"]) == 2 and len(r["roc"]["tpr"]["lm"]) == len(r["roc"]["fpr"]) for r in doc["results"])
+    assert doc["pairs"]["measured"]["own_contact"] == load_pairs(train_dir).n_positive
+    assert "| extended | 9 |" in (abl / "ablation.md").read_text()
+    result = runner.invoke(app, ["train", "--data", str(train_dir), "--ablation", "--out", str(tmp_path / "x")])
+    assert isinstance(result.exception, ConfigError) and "--repeats" in str(result.exception)
+    assert not (tmp_path / "x").exists()

@@ -105,3 +105,36 @@ def test_summary_calls_a_win_clear_only_when_the_intervals_are_apart():
     assert (close.best, close.clear) == ("b", False) and "not separable at 95% from a" in close.text
     tie = verdicts(*_summary({"a": (5.0, 5.0, 5.0), "b": (5.0, 5.0, 5.0), "c": (9.0, 9.0, 9.0)}))[0]
     assert tie.best is None and "**a**, **b** tie for best" in tie.text
+
+
+def _ablation_doc(seed_measured: float, seed_true: float, extended: float, auc: float) -> dict:
+    """An ablation.json with two variants under both data models; every seed scores the given accuracy."""
+    def variant(history, name, acc):
+        runs = [{"method": "lm", "seed": s, "metrics": {"test": {"accuracy": acc + 0.001 * s, "auc": auc}}}
+                for s in range(3)]
+        return {"history": history, "variant": name, "features": ["a"] * (3 if name == "seed" else 9), "runs": runs,
+                "roc": {"fpr": [0.0, 0.5, 1.0], "tpr": {"lm": [0.0, 0.9, 1.0]}}}
+    return {"format": "nnda.ablation", "format_version": 1, "methods": ["lm"],
+            "pairs": {"measured": {"pairs": 1000, "negative_in_gate": 40, "negative_in_gate_fraction_of_pairs": 0.04,
+                                   "own_outside_gate": 3}},
+            "results": [variant("measured", "seed", seed_measured), variant("measured", "extended", extended),
+                        variant("true", "seed", seed_true), variant("true", "extended", extended)]}
+
+
+def test_the_ablation_section_reads_its_numbers(study_dir, tmp_path):
+    import shutil
+
+    from nnda.files import write_json
+
+    copy = tmp_path / "out"
+    shutil.copytree(study_dir, copy)
+    assert "Feature ablation" not in build_report(copy)[0]
+    write_json(copy / "ablation.json", _ablation_doc(0.94, 0.985, 0.97, 0.993))
+    md, page, figures = build_report(copy)
+    assert "## Feature ablation" in md and 'id="ablation"' in page
+    assert "nearer the **true**-history figure: it fits an error-free track history" in md
+    assert "is **not met**: 40 of the 1000 pairs (4.0 %) are negatives inside" in md
+    assert any(f.name == "ablation_roc.png" for f in figures)
+    write_json(copy / "ablation.json", _ablation_doc(0.991, 0.999, 0.995, 0.999))
+    md = build_report(copy)[0]
+    assert "nearer the **measured**-history figure." in md and "is **met**." in md
