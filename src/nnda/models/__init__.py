@@ -1,10 +1,13 @@
 """The neural association model: pair features, training pairs, the MLP, its trainers and metrics.
 
-Modules, in data-flow order: ``features`` (pair features and gating, shared
-with the tracker), ``pairs`` (labelled pairs from datasets),
+Modules, in data-flow order: ``features`` (the seed's pair features and
+gating, shared with the tracker), ``innovation`` (the IMM-extended features,
+shared with the tracker), ``feature_sets`` (both sets by name),
+``pairs`` (labelled pairs from datasets),
 ``preprocessing`` (normaliser, split), ``mlp`` (numpy network and weight
 layout), ``network`` and ``trainers`` (torch: GD and Levenberg-Marquardt),
-``experiment`` (fit, sweep, repeats), ``metrics``, ``tables``, ``plots``,
+``experiment`` (fit, sweep, repeats), ``ablation`` (which features buy
+what), ``metrics``, ``tables``, ``plots``,
 ``scorer`` (model file and numpy scorer; no torch) and ``commands`` (CLI).
 Nothing is imported here, so ``import nnda.models.scorer`` never loads torch.
 """
