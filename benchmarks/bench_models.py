@@ -1,7 +1,11 @@
 """Speed of the models stage: pair extraction, LM and GD training, the numpy scorer.
 
 Prints figures, and ratios against reference runs in the same process:
-* training pairs of the 17 training presets: extraction time and pairs/s;
+* training pairs of the 17 training presets: extraction time and pairs/s,
+  for the seed's features and for the IMM-extended ones (which run the
+  trackers' IMM along every target's contacts);
+* the extended features of one scan as the neural tracker computes them
+  (one call for every pair of K tracks), against one call per pair;
 * Levenberg-Marquardt on the full pair set (3-5-1, spec settings): the first
   fit of the process (it pays torch.func's one-off start-up) and the median
   of warm fits over 10 seeds; target < 2 s on 2 cores;
@@ -24,6 +28,7 @@ from torch.func import jacfwd, jacrev, vmap
 
 from nnda.data import generate, resolve
 from nnda.models.experiment import fit
+from nnda.models.innovation import IMM_INNOVATION, innovation_features, tracker_imm
 from nnda.models.network import as_tensor, forward
 from nnda.models.pairs import pairs_from_datasets
 
@@ -40,13 +45,39 @@ def best_of(fn, repeats: int) -> float:
     return min(times)
 
 
+def extended_per_scan(sensor, n_tracks: int = 50, per_track: int = 4) -> None:
+    """One scan's extended features for K tracks x a few candidates: one call, against one call per pair."""
+    rng = np.random.default_rng(1)
+    imm = tracker_imm(sensor)
+    r0, a0 = rng.uniform(8_000, 25_000, n_tracks), rng.uniform(0, 2 * np.pi, n_tracks)
+    z1 = np.column_stack([r0, a0])
+    z2 = z1 + np.column_stack([rng.normal(0, 200, n_tracks), rng.normal(0, 0.01, n_tracks)])
+    pred = imm.predict(imm.initialise(z1, z2, 0.0, 2.0), 2.0)
+    track = np.repeat(np.arange(n_tracks), per_track)
+    contacts = z2[track] + np.column_stack([rng.normal(0, 300, track.size), rng.normal(0, 0.01, track.size)])
+    kinematic, age = rng.normal(size=(track.size, 3)), np.full(track.size, 10.0)
+    t_all = best_of(lambda: innovation_features(imm, pred, track, contacts, kinematic, age), 50)
+
+    def per_pair():
+        for i in range(track.size):
+            innovation_features(imm, pred, track[i:i + 1], contacts[i:i + 1], kinematic[i:i + 1], age[i:i + 1])
+    t_loop = best_of(per_pair, 3)
+    print(f"extended features of one scan, {n_tracks} tracks x {per_track} candidates: "
+          f"{t_all * 1e6:.0f} us in one call, {t_loop * 1e3:.1f} ms one call per pair ({t_loop / t_all:.0f}x)")
+
+
 def main() -> None:
-    print(f"torch {torch.__version__}, {torch.get_num_threads()} threads")
+    torch.set_num_threads(1)  # as the trainers do (nnda.models.trainers)
+    print(f"torch {torch.__version__}, 1 thread")
     datasets = [generate(s, 0) for s in resolve("train")]
     pairs = pairs_from_datasets(datasets)
     t_pairs = best_of(lambda: pairs_from_datasets(datasets), 5)
     print(f"\ntraining pairs: {len(pairs)} ({pairs.n_positive} own contact, {pairs.n_clutter} clutter) "
           f"from 17 datasets in {t_pairs * 1e3:.1f} ms = {len(pairs) / t_pairs:,.0f} pairs/s")
+    t_ext = best_of(lambda: pairs_from_datasets(datasets, features=IMM_INNOVATION.name), 3)
+    print(f"extended pairs ({IMM_INNOVATION.name}, IMM run along each history): {t_ext * 1e3:.1f} ms "
+          f"= {len(pairs) / t_ext:,.0f} pairs/s ({t_ext / t_pairs:.1f}x the seed set's time)")
+    extended_per_scan(datasets[0].scenario.sensor)
 
     t = time.perf_counter()
     first = fit(pairs, "lm", 5, seed=0)
