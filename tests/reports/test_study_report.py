@@ -138,3 +138,35 @@ def test_the_ablation_section_reads_its_numbers(study_dir, tmp_path):
     write_json(copy / "ablation.json", _ablation_doc(0.991, 0.999, 0.995, 0.999))
     md = build_report(copy)[0]
     assert "nearer the **measured**-history figure." in md and "is **met**." in md
+
+
+def test_extended_and_seed_feature_trackers_are_compared_cell_by_cell():
+    from nnda.reports.features_section import comparison, feature_pairs
+
+    manifest = {"trackers": [{"label": "nn-seed", "kind": "nn", "model": "lm"},
+                             {"label": "nn-gd", "kind": "nn", "model": "gd"},
+                             {"label": "nn-ext", "kind": "nn", "model": "ext"},
+                             {"label": "gnn", "kind": "gnn", "model": None}]}
+    classifier = {"models": [{"label": "lm", "method": "lm", "features": "kinematic-3"},
+                             {"label": "gd", "method": "gd"},
+                             {"label": "ext", "method": "lm", "features": "imm-innovation-9"}]}
+    assert feature_pairs(manifest, classifier) == [("nn-seed", "nn-ext")]  # the same training method
+    assert feature_pairs({"trackers": manifest["trackers"][1:]}, classifier) == [("nn-gd", "nn-ext")]
+    assert feature_pairs({"trackers": manifest["trackers"][:2]}, classifier) == []
+
+    def stat(mean, lo, hi):
+        return {"mean": mean, "ci_low": lo, "ci_high": hi, "n": 10}
+    metrics = {"nn-seed": {"losses": stat(30, 20, 40), "hit_rate": stat(90, 88, 92), "gospa": stat(300, 250, 350)},
+               "nn-ext": {"losses": stat(5, 2, 8), "hit_rate": stat(91, 89, 93), "gospa": stat(300, 250, 350)}}
+    summary = {"confidence": 0.95, "scenarios": [{"name": "S1", "trackers": {
+        t: {"metrics": m} for t, m in metrics.items()}}]}
+    time = "mean_time_per_scan_s"
+    timing = {"scenarios": [{"name": "S1", "trackers": {"nn-seed": {time: stat(1e-3, 0.9e-3, 1.1e-3)},
+                                                         "nn-ext": {time: stat(2e-3, 1.9e-3, 2.1e-3)}}}]}
+    table, counts = comparison("nn-seed", "nn-ext", summary, timing)
+    verdicts = {row[1]: row[4] for row in table.rows}
+    assert verdicts["Association losses"] == "**nn-ext better**, intervals apart"
+    assert verdicts["Hit rate (%)"] == "nn-ext ahead, intervals overlap"
+    assert verdicts["GOSPA (m)"] == "equal" and verdicts["False tracks"] == "—"
+    assert verdicts["Time per scan (ms)"] == "**nn-seed better**, intervals apart"
+    assert counts == {1: 1, 0: 5, -1: 1}

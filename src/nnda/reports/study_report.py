@@ -5,8 +5,9 @@ Built only from the files a study directory keeps (``study.json``,
 ``trajectories.parquet``), so ``nnda report DIR`` rebuilds it at any time.
 Sections, in order (their HTML ids in brackets): summary [summary], setup
 [setup], association network [classifier], results per scenario
-[scenarios], feature ablation [ablation] (when the study names one, from
-``ablation.json``), against Stone Soup [peers] (when the study ran a Stone
+[scenarios], seed vs extended features in the tracker [features-in-tracker]
+(when neural trackers run on both feature sets), feature ablation [ablation]
+(when the study names one, from ``ablation.json``), against Stone Soup [peers] (when the study ran a Stone
 Soup peer), time per scan [timing], false tracks and GOSPA over time
 [over-time], trajectories [trajectories]. The HTML embeds its images as
 base64 and plotly.js inline: it opens without network or sibling files.
@@ -27,7 +28,7 @@ import pyarrow.parquet as pq
 from nnda.errors import DatasetError
 from nnda.models.tables import TextTable
 from nnda.models.ablation import ABLATION_FILE
-from nnda.reports import ablation_section, study_figures
+from nnda.reports import ablation_section, features_section, study_figures
 from nnda.reports.peers_section import against_stonesoup, peer_labels
 from nnda.reports.study_summary import summary_markdown
 from nnda.reports.study_tables import (
@@ -171,6 +172,17 @@ def _classifier(classifier: dict, figures: list[Figure]) -> Section:
     return sec
 
 
+def _features_in_tracker(pairs: list[tuple[str, str]], summary: dict, timing: dict) -> Section:
+    sec = Section("features-in-tracker", "Seed vs extended features in the tracker", [], [])
+    sec.text("Does better pair classification make better tracks, and at what cost per scan? Each neural "
+             "tracker on the IMM-extended features beside the seed-feature tracker trained by the same method.")
+    for seed, ext in pairs:
+        table, counts = features_section.comparison(seed, ext, summary, timing)
+        sec.text(features_section.tally(seed, ext, counts))
+        sec.table(table)
+    return sec
+
+
 def _ablation(doc: dict, figures: list[Figure]) -> Section:
     sec = Section("ablation", "Feature ablation", [], [])
     sec.text("Which pair features buy how much classification: the seed's three, the IMM-extended nine, the "
@@ -217,6 +229,9 @@ def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
     top.text(summary_markdown(summary, timing))
     sections = [top, _setup(manifest, summary, timing), _classifier(classifier, figures),
                 _scenarios(manifest, summary, timing)]
+    pairs = features_section.feature_pairs(manifest, classifier)
+    if pairs:
+        sections.append(_features_in_tracker(pairs, summary, timing))
     if (out / ABLATION_FILE).is_file():
         sections.append(_ablation(read_ablation(out / ABLATION_FILE), figures))
     if peer_labels(summary):

@@ -1,0 +1,86 @@
+"""The report's "Seed vs extended features in the tracker" section (issue 9).
+
+Does better pair classification turn into better tracking, and at what cost
+per scan? Present when the study runs neural trackers on both feature sets.
+Each neural tracker whose model reads the IMM-extended features is set
+against the seed-feature tracker whose model was trained by the same method
+(every seed-feature tracker when none was), scenario by scenario, on the
+measures association changes: association losses, false tracks, track
+breaks, lost targets, hit rate, GOSPA and time per scan, each ``mean [low,
+high]`` over runs with a verdict that calls a difference clear only when the
+two intervals are apart. Reads ``study.json``, ``classifier.json``,
+``summary.json`` and ``timing.json``.
+"""
+
+from __future__ import annotations
+
+from nnda.models.features import KINEMATIC
+from nnda.models.tables import TextTable
+from nnda.reports.study_tables import TIME_KEY, cell
+
+#: (metric key, row label, number format, scale, +1 if higher is better)
+MEASURES = (
+    ("losses", "Association losses", "{:.1f}", 1.0, -1),
+    ("false_tracks", "False tracks", "{:.2f}", 1.0, -1),
+    ("track_breaks", "Track breaks", "{:.2f}", 1.0, -1),
+    ("lost_targets", "Lost targets", "{:.2f}", 1.0, -1),
+    ("hit_rate", "Hit rate (%)", "{:.2f}", 1.0, +1),
+    ("gospa", "GOSPA (m)", "{:.1f}", 1.0, -1),
+    (TIME_KEY, "Time per scan (ms)", "{:.3g}", 1e3, -1),
+)
+
+
+def feature_pairs(manifest: dict, classifier: dict) -> list[tuple[str, str]]:
+    """(seed-feature tracker, extended-feature tracker) labels to compare (module docstring)."""
+    models = {m["label"]: (m.get("features", KINEMATIC.name), m.get("method")) for m in classifier["models"]}
+    nn = [(t["label"], *models[t["model"]]) for t in manifest["trackers"]
+          if t["kind"] == "nn" and t.get("model") in models]
+    seed = [n for n in nn if n[1] == KINEMATIC.name]
+    pairs = []
+    for label, features, method in nn:
+        if features != KINEMATIC.name:
+            pairs += [(s[0], label) for s in ([s for s in seed if s[2] == method] or seed)]
+    return pairs
+
+
+def _stat(summary_scenario: dict, timing_scenario: dict, tracker: str, key: str) -> dict | None:
+    if key == TIME_KEY:
+        return timing_scenario["trackers"][tracker][TIME_KEY]
+    return summary_scenario["trackers"][tracker]["metrics"].get(key)
+
+
+def _verdict(seed: str, ext: str, a: dict | None, b: dict | None, sense: int) -> tuple[str, int]:
+    """Words and outcome (+1 extended clearly better, -1 clearly worse, 0 otherwise) of one comparison."""
+    if not a or not b or a.get("mean") is None or b.get("mean") is None:
+        return "—", 0
+    if a["mean"] == b["mean"]:
+        return "equal", 0
+    better = ext if sense * (b["mean"] - a["mean"]) > 0 else seed
+    apart = (a.get("ci_low") is not None and b.get("ci_low") is not None
+             and (a["ci_high"] < b["ci_low"] or b["ci_high"] < a["ci_low"]))
+    if not apart:
+        return f"{better} ahead, intervals overlap", 0
+    return f"**{better} better**, intervals apart", 1 if better == ext else -1
+
+
+def comparison(seed: str, ext: str, summary: dict, timing: dict) -> tuple[TextTable, dict[int, int]]:
+    """The table of one (seed, extended) pair over every scenario, and the count of each outcome."""
+    timing_by = {s["name"]: s for s in timing["scenarios"]}
+    rows, counts = [], {1: 0, 0: 0, -1: 0}
+    for sc in summary["scenarios"]:
+        for key, label, fmt, scale, sense in MEASURES:
+            a, b = (_stat(sc, timing_by[sc["name"]], t, key) for t in (seed, ext))
+            words, outcome = _verdict(seed, ext, a, b, sense)
+            counts[outcome] += 1
+            rows.append((sc["name"], label, cell(a, fmt, scale), cell(b, fmt, scale), words))
+    note = (f"Mean [{summary['confidence']:.0%} interval] over runs; a difference is called only when the two "
+            f"intervals are apart.")
+    return TextTable(f"{seed} (seed features) against {ext} (extended features)",
+                     ("Scenario", "Measure", seed, ext, "Verdict"), tuple(rows), note), counts
+
+
+def tally(seed: str, ext: str, counts: dict[int, int]) -> str:
+    """One sentence counting the clear outcomes of a comparison."""
+    total = sum(counts.values())
+    return (f"**{ext} against {seed}**: clearly better in {counts[1]} of {total} (scenario, measure) cells, clearly "
+            f"worse in {counts[-1]}, not separable in {counts[0]}.")
