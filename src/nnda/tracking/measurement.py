@@ -70,6 +70,10 @@ def converted_covariance(
     return cov
 
 
+#: signs of the azimuth's gradient (py, -px) / r^2 from (py, px)
+_AZIMUTH_SIGN = np.array([1.0, -1.0])
+
+
 @dataclass(frozen=True)
 class PolarMeasurement:
     """Range and azimuth from the radar at the origin (spec §7.1.3).
@@ -109,11 +113,9 @@ class PolarMeasurement:
         z[..., 0] = r
         z[..., 1] = azimuth
         Ht = np.zeros((*x.shape[:-1], x.shape[-1], 2))
-        Ht[..., 0, 0] = px / r
-        Ht[..., 2, 0] = py / r
-        r2 = r * r
-        Ht[..., 0, 1] = py / r2
-        Ht[..., 2, 1] = -px / r2
+        p = x[..., 0:3:2]  # (px, py)
+        Ht[..., 0:3:2, 0] = p / r[..., None]  # d range / d(px, py) = (px, py) / r
+        Ht[..., 0:3:2, 1] = p[..., ::-1] * _AZIMUTH_SIGN / (r * r)[..., None]  # d azimuth: (py, -px) / r^2
         return z, Ht.swapaxes(-1, -2)
 
     def residual(self, z: np.ndarray, z_pred: np.ndarray) -> np.ndarray:

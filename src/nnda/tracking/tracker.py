@@ -233,7 +233,8 @@ class Tracker(TrackerBase):
     def step(self, scan: Scan) -> TrackerOutput:
         """Process one sweep and report every track."""
         z, time = self._checked(scan)
-        xy = np.column_stack(polar_to_cart(z[:, 0], z[:, 1])) if len(z) else np.empty((0, 2))
+        xy = np.empty((len(z), 2))
+        xy[:, 0], xy[:, 1] = polar_to_cart(z[:, 0], z[:, 1])
         used = np.zeros(len(z), bool)
         shown = []  # (tracks, IMM state to report, contact used) per block of the output
         tracks = self.tracks
