@@ -72,8 +72,8 @@ MAX_SPEED_M_S = 400.0
 #: up to this many track-contact pairs `candidate_pairs` tests every pair at once; beyond, k-d trees
 #: are faster (measured crossover near 4,000-4,500 pairs, e.g. 40 tracks x 110 contacts)
 DENSE_PAIRS = 4_000
-#: the k-d tree's search radius exceeds the speed gate's reach by this fraction, so rounding in the
-#: tree's distances cannot drop a pair the exact gate keeps
+#: the coarse searches (squared distances, k-d trees) widen the speed gate by this fraction, so that
+#: rounding in their distances cannot drop a pair the exact gate keeps
 _REACH_MARGIN = 1e-9
 
 
@@ -118,6 +118,7 @@ def _check_finite(name: str, a: np.ndarray, what: str = "pair features") -> None
 
 def pair_features(
     p1: np.ndarray, t1: np.ndarray, p2: np.ndarray, t2: np.ndarray, c: np.ndarray, tc: np.ndarray,
+    check: bool = True,
 ) -> np.ndarray:
     """Features of N pairs, shape (N, 3): [ΔV m/s, Δα deg/s, ΔT s].
 
@@ -127,16 +128,18 @@ def pair_features(
     t1 < t2 < tc. Raises ModelError on wrong shapes, non-finite values or
     times out of order.
 
-    The checks cost a few reductions when the input is good (the tracker
-    calls this every scan): features that come out finite from times in
-    order can only come from finite input; anything else is examined
-    field by field for the error message.
+    The checks cost a few reductions when the input is good: features that
+    come out finite from times in order can only come from finite input;
+    anything else is examined field by field for the error message.
+    ``check=False`` skips them, for callers whose arrays are already checked
+    float arrays of the right shapes (the neural tracker, every scan).
     """
-    p1, p2, c = _positions("p1", p1), _positions("p2", p2), _positions("c", c)
     n = len(p1)
-    if len(p2) != n or len(c) != n:
-        raise ModelError(f"pair features: p1, p2 and c differ in length ({n}, {len(p2)}, {len(c)})")
-    t1, t2, tc = _values("t1", t1, n), _values("t2", t2, n), _values("tc", tc, n)
+    if check:
+        p1, p2, c = _positions("p1", p1), _positions("p2", p2), _positions("c", c)
+        if len(p2) != n or len(c) != n:
+            raise ModelError(f"pair features: p1, p2 and c differ in length ({n}, {len(p2)}, {len(c)})")
+        t1, t2, tc = _values("t1", t1, n), _values("t2", t2, n), _values("tc", tc, n)
     before, gap = t2 - t1, tc - t2
     last = p2 - p1
     step = c - p2
@@ -146,7 +149,7 @@ def pair_features(
         turn = -wrap_angle(course(last[:, 0], last[:, 1]) - course(step[:, 0], step[:, 1]))  # (-pi, pi]
         features[:, 1] = np.degrees(turn) / gap
     features[:, 2] = gap
-    if n and not (before.min() > 0 and gap.min() > 0 and _all_finite(features, before)):
+    if check and n and not (before.min() > 0 and gap.min() > 0 and _all_finite(features, before)):
         _check_pairs(*(np.broadcast_to(a, (n, *a.shape[1:])) for a in (p1, t1, p2, t2, c, tc)))
     return features
 
@@ -215,7 +218,7 @@ def _within_reach(points: np.ndarray, reach: np.ndarray, contacts: np.ndarray) -
 
 def candidate_pairs(
     last: np.ndarray, last_time: np.ndarray, last_azimuth: np.ndarray,
-    contacts: np.ndarray, contact_azimuth: np.ndarray, time: float,
+    contacts: np.ndarray, contact_azimuth: np.ndarray, time: float, check: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Gated (track, contact) pairs between M tracks and the N contacts of one scan.
 
@@ -226,33 +229,43 @@ def candidate_pairs(
     gates, ordered by track then contact. Raises ModelError on wrong shapes,
     non-finite values or a last contact not before ``time``.
 
-    Up to `DENSE_PAIRS` track-contact pairs every pair is tested at once.
-    Beyond that k-d trees list, per track, the contacts within the speed
-    gate's reach (``MAX_SPEED_M_S`` x the time since its last contact), and
-    only those pairs get the exact test, so memory grows with the
-    candidates rather than with M x N; both ways give the same pairs.
+    Up to `DENSE_PAIRS` track-contact pairs every pair's squared distance
+    is compared with the squares of the speed gate's bounds (x the time
+    since the track's last contact), with a relative margin of 1e-9 so that
+    no pair the exact gate keeps is lost to rounding. Beyond that k-d trees
+    list, per track, the contacts within the gate's reach, so memory grows
+    with the candidates rather than with M x N. Either way only the pairs
+    found get the exact `passes_gate` test, so both ways give the same
+    pairs. ``check=False`` skips the input checks (for the neural tracker,
+    whose arrays are already checked).
     """
     what = "candidate pairs"
-    last, contacts = _positions("last", last, what), _positions("contacts", contacts, what)
-    M, N = len(last), len(contacts)
-    last_time, last_azimuth = (_values(name, a, M, what, scalar=False)
-                               for name, a in (("last_time", last_time), ("last_azimuth", last_azimuth)))
-    contact_azimuth = _values("contact_azimuth", contact_azimuth, N, what, scalar=False)
     time = float(time)
-    if not (math.isfinite(time) and _all_finite(last, last_time, last_azimuth, contacts, contact_azimuth)):
-        for name, a in (("last", last), ("last_time", last_time), ("last_azimuth", last_azimuth),
-                        ("contacts", contacts), ("contact_azimuth", contact_azimuth), ("time", np.array([time]))):
-            _check_finite(name, a, what)
-    if M and last_time.max() >= time:
-        bad = int(np.argmax(last_time >= time))
-        raise ModelError(f"{what}: last_time must come before time = {time} s; row {bad} has {last_time[bad]} s")
+    if check:
+        last, contacts = _positions("last", last, what), _positions("contacts", contacts, what)
+        M, N = len(last), len(contacts)
+        last_time, last_azimuth = (_values(name, a, M, what, scalar=False)
+                                   for name, a in (("last_time", last_time), ("last_azimuth", last_azimuth)))
+        contact_azimuth = _values("contact_azimuth", contact_azimuth, N, what, scalar=False)
+        if not (math.isfinite(time) and _all_finite(last, last_time, last_azimuth, contacts, contact_azimuth)):
+            for name, a in (("last", last), ("last_time", last_time), ("last_azimuth", last_azimuth),
+                            ("contacts", contacts), ("contact_azimuth", contact_azimuth), ("time", np.array([time]))):
+                _check_finite(name, a, what)
+        if M and last_time.max() >= time:
+            bad = int(np.argmax(last_time >= time))
+            raise ModelError(f"{what}: last_time must come before time = {time} s; row {bad} has {last_time[bad]} s")
+    M, N = len(last), len(contacts)
     if M == 0 or N == 0:
         return np.empty(0, np.int64), np.empty(0, np.int64)
-    last_sector, contact_sector = sector(last_azimuth), sector(contact_azimuth)
+    gap = time - last_time
     if M * N <= DENSE_PAIRS:
-        return np.nonzero(passes_gate(last[:, None, :], last_time[:, None], last_sector[:, None],
-                                      contacts[None, :, :], time, contact_sector[None, :]))
-    track, contact = _within_reach(last, MAX_SPEED_M_S * (time - last_time), contacts)
-    ok = passes_gate(last[track], last_time[track], last_sector[track],
-                     contacts[contact], time, contact_sector[contact])
+        dx = contacts[:, 0] - last[:, 0, None]
+        dy = contacts[:, 1] - last[:, 1, None]
+        d2 = dx * dx + dy * dy
+        lo, hi = (MIN_SPEED_M_S * (1.0 - _REACH_MARGIN)) * gap, (MAX_SPEED_M_S * (1.0 + _REACH_MARGIN)) * gap
+        track, contact = np.nonzero((d2 >= (lo * lo)[:, None]) & (d2 <= (hi * hi)[:, None]))
+    else:
+        track, contact = _within_reach(last, MAX_SPEED_M_S * gap, contacts)
+    ok = passes_gate(last[track], last_time[track], sector(last_azimuth[track]),
+                     contacts[contact], time, sector(contact_azimuth[contact]))
     return track[ok], contact[ok]

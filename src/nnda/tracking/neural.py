@@ -48,7 +48,7 @@ from nnda.models.innovation import IMM_INNOVATION, innovation_features
 from nnda.models.scorer import Scorer, load_model
 from nnda.tracking.assignment import greedy_matching
 from nnda.tracking.imm import IMMPrediction
-from nnda.tracking.output import TrackStatus
+from nnda.tracking.output import CONFIRMED
 from nnda.tracking.tracker import Association, Tracker, TrackerConfig, Tracks
 
 
@@ -97,10 +97,12 @@ class NeuralTracker(Tracker):
                   time: float) -> Association:
         contact = np.full(len(tracks), -1, np.int64)
         if len(z):
-            track, cand = candidate_pairs(tracks.p2, tracks.t2, tracks.az2, xy, z[:, 1], time)
+            # the framework's arrays are checked already (scan checks, filter outputs): no second check here;
+            # the scorer still refuses a non-finite feature
+            track, cand = candidate_pairs(tracks.p2, tracks.t2, tracks.az2, xy, z[:, 1], time, check=False)
             if track.size:
                 features = pair_features(tracks.p1[track], tracks.t1[track], tracks.p2[track],
-                                         tracks.t2[track], xy[cand], time)
+                                         tracks.t2[track], xy[cand], time, check=False)
                 if self._extended:
                     age = time - self._born(tracks)[track]
                     features = innovation_features(self.imm, pred, track, z[cand], features, age)
@@ -108,7 +110,7 @@ class NeuralTracker(Tracker):
                 match = score > self.config.threshold
                 rank = score[match]
                 if self.config.confirmed_first:  # scores lie in (-1, 1): +2 puts confirmed tracks first
-                    rank = rank + 2.0 * (tracks.status[track[match]] == TrackStatus.CONFIRMED)
+                    rank = rank + 2.0 * (tracks.status[track[match]] == CONFIRMED)
                 chosen_track, chosen_contact = greedy_matching(track[match], cand[match], rank)
                 contact[chosen_track] = chosen_contact
         return self.hard_update(pred, z, contact)
