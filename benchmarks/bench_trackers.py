@@ -8,8 +8,10 @@ grows 100 -> 1,000 -> 10,000 per scan (S6's six targets) and as targets grow
 dropped from the bigger settings once it passes 10 s per scan.
 
 The neural tracker needs a model: pass ``--model PATH`` (a file written by
-``nnda train``); without it the neural tracker is skipped with a note.
-Usage: python benchmarks/bench_trackers.py [--model PATH] [--runs N] [--repeat R] [--no-scaling]
+``nnda train``), once per model to time (e.g. the seed-feature and the
+IMM-extended one: rows ``nn:kinematic-3``, ``nn:imm-innovation-9``); without
+it the neural tracker is skipped with a note.
+Usage: python benchmarks/bench_trackers.py [--model PATH]... [--runs N] [--repeat R] [--no-scaling]
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import time
 import numpy as np
 
 from nnda.data import Clutter, PRESETS, Scenario, Segment, Target, generate
+from nnda.models.scorer import load_model
 from nnda.tracking.registry import TRACKERS, make_tracker
 
 SCALING_SCANS = 15
@@ -70,22 +73,34 @@ def best_of(name: str, params: dict, dataset, repeat: int) -> np.ndarray:
     return np.min([time_run(name, params, dataset) for _ in range(repeat)], axis=0)
 
 
-def part1(names: list[str], model: str | None, runs: int, repeat: int = 1) -> None:
+def entries(models: list[str]) -> list[tuple[str, str, dict]]:
+    """(row label, tracker kind, params) of every tracker to time: gnn first (the reference), then the
+    other registered kinds, the neural one once per model (labelled with the model's feature set)."""
+    rows = [("gnn", "gnn", {})]
+    for kind in TRACKERS:
+        if kind == "nn":
+            rows += [(f"nn:{load_model(m).features.name}", "nn", params_for("nn", m)) for m in models]
+        elif kind != "gnn":
+            rows.append((kind, kind, params_for(kind, None)))
+    return rows
+
+
+def part1(rows: list[tuple[str, str, dict]], runs: int, repeat: int = 1) -> None:
     best = f", each scan's best of {repeat} repeats" if repeat > 1 else ""
     print(f"\nms per scan on S1-S6 ({runs} run(s) each{best}; ratio = tracker / gnn, same process)")
-    print(f"{'tracker':<8s}" + "".join(f"{s:>16s}" for s in ("S1", "S2", "S3", "S4", "S5", "S6")) + f"{'all':>16s}")
+    print(f"{'tracker':<20s}" + "".join(f"{s:>16s}" for s in ("S1", "S2", "S3", "S4", "S5", "S6")) + f"{'all':>16s}")
     ref = None
-    for name in names:
+    for label, kind, params in rows:
         per, every = [], []
         for sc in ("S1", "S2", "S3", "S4", "S5", "S6"):
-            t = np.concatenate([best_of(name, params_for(name, model), generate(PRESETS[sc], seed=run), repeat)
+            t = np.concatenate([best_of(kind, params, generate(PRESETS[sc], seed=run), repeat)
                                 for run in range(runs)]) * 1e3
             per.append(f"{t.mean():7.2f} p95 {np.percentile(t, 95):5.2f}")
             every.append(t)
         allt = np.concatenate(every)
-        ref = allt.mean() if name == "gnn" else ref
+        ref = allt.mean() if label == "gnn" else ref
         ratio = f"  ({allt.mean() / ref:.2f}x gnn)" if ref else ""
-        print(f"{name:<8s}" + "".join(f"{p:>16s}" for p in per) + f"{allt.mean():9.2f}{ratio}")
+        print(f"{label:<20s}" + "".join(f"{p:>16s}" for p in per) + f"{allt.mean():9.2f}{ratio}")
 
 
 def scaling_settings(scans: int = SCALING_SCANS) -> list[tuple[str, int, Scenario]]:
@@ -97,36 +112,37 @@ def scaling_settings(scans: int = SCALING_SCANS) -> list[tuple[str, int, Scenari
     return settings + [("targets", n, many_targets(n, seed=n, scans=scans)) for n in (6, 50, 200)]
 
 
-def part2(names: list[str], model: str | None) -> None:
+def part2(rows: list[tuple[str, str, dict]]) -> None:
     settings = scaling_settings()
     print(f"\nscaling: mean ms per scan over {SCALING_SCANS} scans (x = stopped: over {GIVE_UP_S:.0f} s/scan before)")
-    print(f"{'tracker':<8s}" + "".join(f"{k}={v:<9d}" for k, v, _ in settings))
-    for name in names:
+    print(f"{'tracker':<20s}" + "".join(f"{k}={v:<9d}" for k, v, _ in settings))
+    for label, kind, params in rows:
         row, stopped = [], {"clutter": False, "targets": False}
-        for kind, _, scenario in settings:
-            if stopped[kind]:
+        for axis, _, scenario in settings:
+            if stopped[axis]:
                 row.append(f"{'x':>17s}")
                 continue
-            t = time_run(name, params_for(name, model), generate(scenario, seed=1), GIVE_UP_S)
-            stopped[kind] = t.max() > GIVE_UP_S
+            t = time_run(kind, params, generate(scenario, seed=1), GIVE_UP_S)
+            stopped[axis] = t.max() > GIVE_UP_S
             row.append(f"{t.mean() * 1e3:>17.2f}")
-        print(f"{name:<8s}" + "".join(row))
+        print(f"{label:<20s}" + "".join(row))
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--model", help="model file for the neural tracker")
+    parser.add_argument("--model", action="append", default=[],
+                        help="model file for the neural tracker (repeat to time several)")
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--repeat", type=int, default=1, help="time each S1-S6 run this many times and keep "
                         "each scan's fastest (for a busy machine)")
     parser.add_argument("--no-scaling", action="store_true")
     args = parser.parse_args()
-    names = ["gnn"] + [n for n in TRACKERS if n != "gnn" and (n != "nn" or args.model)]
-    if "nn" in TRACKERS and not args.model:
+    rows = entries(args.model)
+    if not args.model:
         print("note: the neural tracker is skipped (give --model PATH, a file written by `nnda train`)")
-    part1(names, args.model, args.runs, args.repeat)
+    part1(rows, args.runs, args.repeat)
     if not args.no_scaling:
-        part2(names, args.model)
+        part2(rows)
 
 
 if __name__ == "__main__":
