@@ -28,7 +28,8 @@ from torch.func import jacfwd, jacrev, vmap
 
 from nnda.data import generate, resolve
 from nnda.models.experiment import fit
-from nnda.models.innovation import IMM_INNOVATION, innovation_features, tracker_imm
+from nnda.models.innovation import IMM_INNOVATION, innovation_features
+from nnda.tracking.imm import IMM
 from nnda.models.network import as_tensor, forward
 from nnda.models.pairs import pairs_from_datasets
 
@@ -48,7 +49,7 @@ def best_of(fn, repeats: int) -> float:
 def extended_per_scan(sensor, n_tracks: int = 50, per_track: int = 4) -> None:
     """One scan's extended features for K tracks x a few candidates: one call, against one call per pair."""
     rng = np.random.default_rng(1)
-    imm = tracker_imm(sensor)
+    imm = IMM.for_sensor(sensor)
     r0, a0 = rng.uniform(8_000, 25_000, n_tracks), rng.uniform(0, 2 * np.pi, n_tracks)
     z1 = np.column_stack([r0, a0])
     z2 = z1 + np.column_stack([rng.normal(0, 200, n_tracks), rng.normal(0, 0.01, n_tracks)])

@@ -11,7 +11,8 @@ from nnda.data import PRESETS, Clutter, generate, resolve
 from nnda.errors import ConfigError, ModelError
 from nnda.models.feature_sets import FEATURE_SETS, feature_set
 from nnda.models.features import KINEMATIC
-from nnda.models.innovation import IMM_INNOVATION, innovation_features, tracker_imm
+from nnda.models.innovation import IMM_INNOVATION, innovation_features
+from nnda.tracking.imm import IMM
 from nnda.models.mlp import MLPWeights
 from nnda.models.pairs import extract_pairs, pairs_from_datasets
 from nnda.models.preprocessing import Normaliser
@@ -22,7 +23,7 @@ from nnda.tracking.kalman import mahalanobis_2x2
 @pytest.fixture(scope="module")
 def predicted():
     """An IMM track started from two contacts 2 s apart, predicted 2 s ahead: (imm, prediction, gate)."""
-    imm = tracker_imm(PRESETS["S1"].sensor)
+    imm = IMM.for_sensor(PRESETS["S1"].sensor)
     z1, z2 = np.array([[20_000.0, 0.30]]), np.array([[20_150.0, 0.305]])
     pred = imm.predict(imm.initialise(z1, z2, 0.0, 2.0), 2.0)
     return imm, pred, imm.combined_measurement(pred)

@@ -24,20 +24,18 @@ time since the track's last update. That time is the seed's ΔT (column 3):
 tracks are updated only by contacts, so it is not repeated.
 
 The neural tracker and the training-pair extraction (`nnda.models.pairs`)
-both call `innovation_features` with an IMM built by `tracker_imm`, so the
-network is trained on exactly what the tracker computes.
+both call `innovation_features` with the trackers' IMM (`IMM.for_sensor`),
+so the network is trained on exactly what the tracker computes.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from nnda.data.scenario import Sensor
 from nnda.errors import ModelError
 from nnda.models.features import KINEMATIC, FeatureSet
 from nnda.tracking.imm import IMM, IMMPrediction
 from nnda.tracking.kalman import mahalanobis_2x2
-from nnda.tracking.measurement import PolarMeasurement
 from nnda.tracking.models import CoordinatedTurn
 
 ADDED_NAMES = ("innovation_range_sigma", "innovation_azimuth_sigma", "mahalanobis_d2", "log_det_s",
@@ -48,11 +46,6 @@ IMM_INNOVATION = FeatureSet(
     "the seed's three plus the IMM's normalised innovation, squared Mahalanobis distance, log |S|, "
     "CT mode probability and track age",
 )
-
-
-def tracker_imm(sensor: Sensor) -> IMM:
-    """The IMM every tracker runs for ``sensor``: the spec's CV + CT models, the radar's noise."""
-    return IMM(measurement=PolarMeasurement.from_sensor(sensor))
 
 
 def _ct_index(imm: IMM) -> int:

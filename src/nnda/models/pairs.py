@@ -27,7 +27,7 @@ thesis, not for training the tracker's model.
 
 ``features`` picks the feature set (`nnda.models.feature_sets`). The
 extended set ``imm-innovation-9`` runs the trackers' IMM
-(`nnda.models.innovation.tracker_imm`) along each target's history as a
+(`IMM.for_sensor`) along each target's history as a
 tracker would: started from the target's first two contacts (two-point
 start), predicted to every scan over the time since its last update, its
 prediction giving the features of that scan's candidates, then updated with
@@ -52,7 +52,7 @@ from nnda.data.sensor import cart_to_polar
 from nnda.errors import ConfigError, DatasetError
 from nnda.models.feature_sets import feature_set
 from nnda.models.features import KINEMATIC, FeatureSet, pair_features, passes_gate, sector
-from nnda.models.innovation import IMM_INNOVATION, innovation_features, tracker_imm
+from nnda.models.innovation import IMM_INNOVATION, innovation_features
 from nnda.tracking.imm import IMM
 
 History = Literal["measured", "true"]
@@ -150,7 +150,7 @@ def extract_pairs(
     xy = np.column_stack([det.x, det.y])
     det_sector = sector(det.azimuth)
     det_z = np.column_stack([det.range, det.azimuth])
-    imm = tracker_imm(dataset.scenario.sensor) if fs is IMM_INNOVATION else None
+    imm = IMM.for_sensor(dataset.scenario.sensor) if fs is IMM_INNOVATION else None
     parts = []
     for tid in range(len(dataset.scenario.targets)):
         own = np.flatnonzero(det.target_id == tid)  # one per scan, in scan order

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -45,6 +46,9 @@ from nnda.tracking.kalman import MeasurementPrediction
 from nnda.tracking.measurement import MeasurementModel, PolarMeasurement
 from nnda.tracking.models import ConstantVelocity, CoordinatedTurn, MotionModel, process_noise
 from nnda.tracking.two_point import two_point
+
+if TYPE_CHECKING:
+    from nnda.data.scenario import Sensor
 
 #: transition probability matrix, rows = from, columns = to (eq. 5.61)
 SPEC_TPM = ((0.99, 0.01), (0.10, 0.90))
@@ -180,6 +184,14 @@ class IMM:
         return self.augment_variance * pad[:, :, None] * np.eye(self.dim)
 
     # ------------------------------------------------------------- creation
+    @classmethod
+    def for_sensor(cls, sensor: Sensor) -> IMM:
+        """The IMM every tracker runs for a radar: the spec's CV + CT models and TPM, the radar's noise.
+
+        The training pairs of the IMM-extended features (`nnda.models.pairs`) run this same filter.
+        """
+        return cls(measurement=PolarMeasurement.from_sensor(sensor))
+
     def initialise(
         self, z1: np.ndarray, z2: np.ndarray, t1: np.ndarray | float, t2: np.ndarray | float
     ) -> IMMState:

@@ -36,7 +36,6 @@ from nnda.errors import TrackingError
 from nnda.tracking.batch import Batch
 from nnda.tracking.imm import IMM, IMMPrediction, IMMState
 from nnda.tracking.lifecycle import LifecycleConfig, advance, cap_per_initiator, window_pairs
-from nnda.tracking.measurement import PolarMeasurement
 from nnda.tracking.output import DELETED, PRELIMINARY, TrackerOutput
 
 #: chi-square gate with 2 degrees of freedom and P_G = 0.99 (spec §4.3 and §7.3 defaults)
@@ -120,7 +119,7 @@ class TrackerBase(ABC):
         self.config = config if config is not None else self.config_type()
         if not isinstance(self.config, self.config_type):
             raise TrackingError(f"{self.name}: config must be a {self.config_type.__name__}")
-        self.imm = IMM(measurement=PolarMeasurement.from_sensor(sensor))
+        self.imm = IMM.for_sensor(sensor)
         self.d_min, self.d_max = self.config.lifecycle.window(sensor.scan_period_s, sensor.sigma_range_m)
         self.reset()
 
