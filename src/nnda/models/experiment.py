@@ -155,6 +155,7 @@ class RunSummary:
     """The figures of one fit that tables aggregate over seeds."""
 
     method: Method
+    n_inputs: int
     n_hidden: int
     seed: int
     init: Init
@@ -167,7 +168,7 @@ class RunSummary:
     @classmethod
     def of(cls, result: FitResult) -> RunSummary:
         t = result.training
-        return cls(result.method, result.scorer.weights.n_hidden, result.seed,
+        return cls(result.method, result.scorer.weights.n_inputs, result.scorer.weights.n_hidden, result.seed,
                    result.scorer.metadata["initialisation"], result.metrics,
                    t.epochs, t.best_epoch, t.stop_reason, t.seconds)
 

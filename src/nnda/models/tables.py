@@ -141,11 +141,11 @@ def repeats_table(runs: Sequence[RunSummary]) -> TextTable:
         row += [_spec(m, key, "{:.0f}") if key else "" for m in methods]
         rows.append(tuple(row))
     n = {m: len(v) for m, v in by_method.items()}
-    hidden = sorted({r.n_hidden for r in runs})
+    shapes = sorted({f"{r.n_inputs}-{r.n_hidden}-1" for r in runs})
     stops = {m: sorted({r.stop_reason for r in by_method[m]}) for m in methods}
     inits = sorted({r.init for r in runs})
     note = (f"Mean [95% bootstrap confidence interval of the mean] over {', '.join(f'{n[m]} {m.upper()}' for m in methods)} "
-            f"seeds of split and initialisation ({'/'.join(inits)}); 3-{'/'.join(map(str, hidden))}-1 tanh. "
+            f"seeds of split and initialisation ({'/'.join(inits)}); {'/'.join(shapes)} tanh. "
             "Stop reasons: "
             + "; ".join(f"{m.upper()} {', '.join(stops[m])}" for m in methods)
             + ". Spec values are Table 6.3 (one run, all 2766 pairs).")
