@@ -53,3 +53,15 @@ def test_no_section_without_peers(tmp_path):
                              "scenarios": [{"config": "pair.toml"}]}, base=tmp_path)
     compare(study, tmp_path / "out", workers=1)
     assert "Against Stone Soup" not in (tmp_path / "out" / "report.md").read_text()
+
+
+def test_the_shipped_study_against_stone_soup_plans():
+    from pathlib import Path
+
+    from nnda.study.config import load_study
+    from nnda.study.plan import plan_study
+
+    study = load_study(Path(__file__).resolve().parents[2] / "studies" / "against-stonesoup.toml")
+    plan = plan_study(study)  # every input checked, nothing run
+    assert {t.kind for t in plan.trackers} >= {"stonesoup-gnn", "stonesoup-jpda", "mht"}
+    assert len(plan.jobs) == 6 * 3 * 5

@@ -29,7 +29,7 @@ from nnda.errors import ConfigError, DatasetError, ModelError
 from nnda.models.scorer import MODEL_FILE, load_model
 from nnda.study.config import MODEL_PARAM, Study
 from nnda.files import digest, file_digest
-from nnda.tracking.registry import TRACKERS, make_tracker
+from nnda.tracking.registry import PEERS, TRACKERS, make_tracker
 
 STUDY_FORMAT = "nnda.study"
 STUDY_FORMAT_VERSION = 1
@@ -225,7 +225,7 @@ def plan_study(study: Study, where: str = "study") -> StudyPlan:
     for label, spec in study.trackers.items():  # the cheapest check first
         if spec.kind not in TRACKERS:
             raise ConfigError(f"{where}: tracker {label!r}: unknown tracker {spec.kind!r}; "
-                              f"registered trackers: {', '.join(TRACKERS)}")
+                              f"registered trackers: {', '.join([*TRACKERS, *PEERS])}")
     models = _models(study, where)
     scenarios = _scenarios(study, where)
     sensors = list({s.scenario.sensor.model_dump_json(): s.scenario.sensor for s in scenarios}.values())
