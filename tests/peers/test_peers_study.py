@@ -9,35 +9,13 @@ from nnda.study.config import study_from_dict
 
 pytest.importorskip("stonesoup", reason="Stone Soup is not installed: pip install 'nnda[peers]'")
 
-SCENARIO = """
-name = "pair"
-duration_s = 30
-seed = 2
-[clutter]
-count = 10
-[[targets]]
-name = "a"
-x_m = -10000
-y_m = 10000
-heading_deg = 90
-speed_m_s = 120
-segments = [{duration_s = 30}]
-[[targets]]
-name = "b"
-x_m = 12000
-y_m = -8000
-heading_deg = 200
-speed_m_s = 150
-segments = [{duration_s = 30}]
-"""
 
-
-def test_study_with_peers_end_to_end(tmp_path):
-    (tmp_path / "pair.toml").write_text(SCENARIO)
+def test_study_with_peers_end_to_end(tmp_path, small_scenario):
+    (tmp_path / "pair.json").write_text(small_scenario.model_dump_json())
     trackers = {"gnn": {"kind": "gnn"}, "jpda": {"kind": "jpda"},
                 "ss-gnn": {"kind": "stonesoup-gnn"}, "ss-jpda": {"kind": "stonesoup-jpda"}}
     study = study_from_dict({"name": "peers", "runs": 2, "trackers": trackers,
-                             "scenarios": [{"config": "pair.toml"}]}, base=tmp_path)
+                             "scenarios": [{"config": "pair.json"}]}, base=tmp_path)
     result = compare(study, tmp_path / "out", workers=1)
     sc = result.summary["scenarios"][0]["trackers"]
     assert sc["ss-gnn"]["metrics"]["confirmed_tracks"]["mean"] >= 2
@@ -47,10 +25,10 @@ def test_study_with_peers_end_to_end(tmp_path):
     assert 'id="peers"' in (tmp_path / "out" / "report.html").read_text()
 
 
-def test_no_section_without_peers(tmp_path):
-    (tmp_path / "pair.toml").write_text(SCENARIO)
+def test_no_section_without_peers(tmp_path, small_scenario):
+    (tmp_path / "pair.json").write_text(small_scenario.model_dump_json())
     study = study_from_dict({"runs": 1, "trackers": {"gnn": {"kind": "gnn"}},
-                             "scenarios": [{"config": "pair.toml"}]}, base=tmp_path)
+                             "scenarios": [{"config": "pair.json"}]}, base=tmp_path)
     compare(study, tmp_path / "out", workers=1)
     assert "Against Stone Soup" not in (tmp_path / "out" / "report.md").read_text()
 
