@@ -165,8 +165,8 @@ def test_extended_and_seed_feature_trackers_are_compared_cell_by_cell():
                                                          "nn-ext": {time: stat(2e-3, 1.9e-3, 2.1e-3)}}}]}
     table, counts = comparison("nn-seed", "nn-ext", summary, timing)
     verdicts = {row[1]: row[4] for row in table.rows}
-    assert verdicts["Association losses"] == "**nn-ext better**, intervals apart"
+    assert verdicts["Association losses"] == "nn-ext better, intervals apart"
     assert verdicts["Hit rate (%)"] == "nn-ext ahead, intervals overlap"
     assert verdicts["GOSPA (m)"] == "equal" and verdicts["False tracks"] == "—"
-    assert verdicts["Time per scan (ms)"] == "**nn-seed better**, intervals apart"
+    assert verdicts["Time per scan (ms)"] == "nn-seed better, intervals apart"
     assert counts == {1: 1, 0: 5, -1: 1}

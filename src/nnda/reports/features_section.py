@@ -60,7 +60,7 @@ def _verdict(seed: str, ext: str, a: dict | None, b: dict | None, sense: int) ->
              and (a["ci_high"] < b["ci_low"] or b["ci_high"] < a["ci_low"]))
     if not apart:
         return f"{better} ahead, intervals overlap", 0
-    return f"**{better} better**, intervals apart", 1 if better == ext else -1
+    return f"{better} better, intervals apart", 1 if better == ext else -1
 
 
 def comparison(seed: str, ext: str, summary: dict, timing: dict) -> tuple[TextTable, dict[int, int]]:
