@@ -283,6 +283,7 @@ table { border-collapse: collapse; margin: 1em 0 .3em; font-size: .85em; }
 caption { text-align: left; font-weight: 600; padding: .3em 0; }
 th, td { border: 1px solid #ccc; padding: .2em .5em; text-align: right; white-space: nowrap; }
 th:first-child, td:first-child { text-align: left; white-space: pre; }
+td.text { text-align: left; white-space: normal; min-width: 24em; max-width: 48em; }
 thead th { background: #f3f3f3; }
 p.note { font-size: .85em; color: #555; margin-top: 0; }
 figure { margin: 1em 0; } figure img { max-width: 100%; } figcaption { font-size: .85em; color: #555; }

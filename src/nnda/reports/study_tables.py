@@ -130,11 +130,18 @@ def model_test_table(models: list[dict]) -> TextTable:
     return TextTable("As recorded in the model files (test split)", header, tuple(rows))
 
 
+#: a column with a cell longer than this many characters is prose (set-up tables): it wraps, left-aligned
+TEXT_CELL = 40
+_TEXT = ' class="text"'
+
+
 def table_html(table: TextTable, table_id: str = "") -> str:
     """The table as an HTML <table> with its title as caption and its note below."""
     ident = f' id="{html.escape(table_id)}"' if table_id else ""
     head = "".join(f"<th>{html.escape(h)}</th>" for h in table.header)
-    body = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>" for row in table.rows)
+    prose = {j for row in table.rows for j, c in enumerate(row) if len(c) > TEXT_CELL}
+    body = "".join("<tr>" + "".join(f"<td{_TEXT if j in prose else ''}>{html.escape(c)}</td>" for j, c in enumerate(row))
+                   + "</tr>" for row in table.rows)
     note = f'<p class="note">{html.escape(table.note)}</p>' if table.note else ""
     return (f'<div class="table"><table{ident}><caption>{html.escape(table.title)}</caption><thead><tr>{head}</tr>'
             f"</thead><tbody>{body}</tbody></table></div>{note}")
