@@ -16,7 +16,8 @@ from __future__ import annotations
 
 from nnda.models.features import KINEMATIC
 from nnda.models.tables import TextTable
-from nnda.reports.study_tables import TIME_KEY, cell
+from nnda.reports.study_summary import apart, stat
+from nnda.reports.study_tables import DASH, TIME_KEY, cell
 
 #: (metric key, row label, number format, scale, +1 if higher is better)
 MEASURES = (
@@ -43,22 +44,14 @@ def feature_pairs(manifest: dict, classifier: dict) -> list[tuple[str, str]]:
     return pairs
 
 
-def _stat(summary_scenario: dict, timing_scenario: dict, tracker: str, key: str) -> dict | None:
-    if key == TIME_KEY:
-        return timing_scenario["trackers"][tracker][TIME_KEY]
-    return summary_scenario["trackers"][tracker]["metrics"].get(key)
-
-
 def _verdict(seed: str, ext: str, a: dict | None, b: dict | None, sense: int) -> tuple[str, int]:
     """Words and outcome (+1 extended clearly better, -1 clearly worse, 0 otherwise) of one comparison."""
     if not a or not b or a.get("mean") is None or b.get("mean") is None:
-        return "—", 0
+        return DASH, 0
     if a["mean"] == b["mean"]:
         return "equal", 0
     better = ext if sense * (b["mean"] - a["mean"]) > 0 else seed
-    apart = (a.get("ci_low") is not None and b.get("ci_low") is not None
-             and (a["ci_high"] < b["ci_low"] or b["ci_high"] < a["ci_low"]))
-    if not apart:
+    if not apart(a, b):
         return f"{better} ahead, intervals overlap", 0
     return f"{better} better, intervals apart", 1 if better == ext else -1
 
@@ -69,7 +62,7 @@ def comparison(seed: str, ext: str, summary: dict, timing: dict) -> tuple[TextTa
     rows, counts = [], {1: 0, 0: 0, -1: 0}
     for sc in summary["scenarios"]:
         for key, label, fmt, scale, sense in MEASURES:
-            a, b = (_stat(sc, timing_by[sc["name"]], t, key) for t in (seed, ext))
+            a, b = (stat(sc, timing_by[sc["name"]], t, key) for t in (seed, ext))
             words, outcome = _verdict(seed, ext, a, b, sense)
             counts[outcome] += 1
             rows.append((sc["name"], label, cell(a, fmt, scale), cell(b, fmt, scale), words))

@@ -39,7 +39,8 @@ HEADLINES = (
 )
 
 
-def _stat(scenario: dict, timing: dict, tracker: str, key: str) -> dict | None:
+def stat(scenario: dict, timing: dict, tracker: str, key: str) -> dict | None:
+    """A tracker's mean/interval record of ``key`` in one scenario (time per scan from ``timing``)."""
     if key == TIME:
         return timing["trackers"][tracker][TIME]
     return scenario["trackers"][tracker]["metrics"].get(key)
@@ -52,7 +53,7 @@ def _fmt(h: Headline, stat: dict) -> str:
     return text
 
 
-def _apart(a: dict, b: dict) -> bool:
+def apart(a: dict, b: dict) -> bool:
     """True when the two intervals exist and do not overlap."""
     if a.get("ci_low") is None or b.get("ci_low") is None:
         return False
@@ -79,7 +80,7 @@ def verdicts(summary: dict, timing: dict) -> list[Verdict]:
     for sc in summary["scenarios"]:
         tsc = timing_by_name[sc["name"]]
         for h in HEADLINES:
-            stats = {t: s for t in sc["trackers"] if (s := _stat(sc, tsc, t, h.key)) and s["mean"] is not None}
+            stats = {t: s for t in sc["trackers"] if (s := stat(sc, tsc, t, h.key)) and s["mean"] is not None}
             if len(stats) < 2:
                 continue
             ranked = sorted(stats, key=lambda t: -h.sense * stats[t]["mean"])
@@ -93,7 +94,7 @@ def verdicts(summary: dict, timing: dict) -> list[Verdict]:
                 text = f"{h.words}: {', '.join(f'**{t}**' for t in tied)} tie for best at {_fmt(h, stats[best])}"
                 out.append(Verdict(sc["name"], h, None, None, False, text))
                 continue
-            clear = _apart(stats[best], stats[second])
+            clear = apart(stats[best], stats[second])
             relation = "clearly ahead of" if clear else f"not separable at {level} from"
             text = (f"{h.words}: **{best}** {_fmt(h, stats[best])}, {relation} {second} "
                     f"{_fmt(h, stats[second])}")
