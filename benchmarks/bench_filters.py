@@ -16,7 +16,7 @@ python benchmarks/bench_filters.py [SCANS]
 from __future__ import annotations
 
 import sys
-import time
+import timeit
 from pathlib import Path
 
 import numpy as np
@@ -50,12 +50,7 @@ def measurements(k: int, scans: int, seed: int = 0) -> np.ndarray:
 
 def best(fn) -> float:
     """Best wall time (s) of REPEATS calls."""
-    times = []
-    for _ in range(REPEATS):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
+    return min(timeit.repeat(fn, number=1, repeat=REPEATS))
 
 
 def nnda_cycle_us(k: int, scans: int) -> float:

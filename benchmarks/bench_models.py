@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import statistics
 import time
+import timeit
 
 import numpy as np
 import torch
@@ -29,21 +30,16 @@ from torch.func import jacfwd, jacrev, vmap
 from nnda.data import generate, resolve
 from nnda.models.experiment import fit
 from nnda.models.innovation import IMM_INNOVATION, innovation_features
-from nnda.tracking.imm import IMM
 from nnda.models.network import as_tensor, forward
 from nnda.models.pairs import pairs_from_datasets
+from nnda.tracking.imm import IMM
 
 SEEDS = range(10)
 
 
 def best_of(fn, repeats: int) -> float:
     """Shortest wall time (s) of ``repeats`` calls of ``fn``."""
-    times = []
-    for _ in range(repeats):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return min(times)
+    return min(timeit.repeat(fn, number=1, repeat=repeats))
 
 
 def extended_per_scan(sensor, n_tracks: int = 50, per_track: int = 4) -> None:
