@@ -27,7 +27,7 @@ false-positive rates of each seed's test split).
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -63,8 +63,7 @@ def columns(pairs: PairSet, label: str, names: Sequence[str]) -> PairSet:
     index = [pairs.feature_set.names.index(n) for n in names]
     features = FeatureSet(f"ablation:{label}", 0, tuple(names), f"columns {', '.join(names)} of "
                           f"{pairs.feature_set.name}")
-    return PairSet(pairs.features[:, index], pairs.labels, pairs.dataset, pairs.scan, pairs.target_id,
-                   pairs.contact_target, pairs.names, features)
+    return replace(pairs, features=pairs.features[:, index], feature_set=features)
 
 
 @dataclass(frozen=True)
