@@ -8,7 +8,7 @@ STAMP  := $(VENV)/.nnda-installed
 DEMO   ?= demo
 SEED   ?= 0
 
-.PHONY: demo test test-slow bench install clean chromium
+.PHONY: demo test test-slow bench install clean chromium lint
 
 install: $(STAMP)
 
@@ -22,8 +22,13 @@ $(STAMP): pyproject.toml constraints.txt
 demo: $(STAMP)
 	$(BIN)/nnda demo --out $(DEMO) --seed $(SEED)
 
-test: $(STAMP) chromium
+test: $(STAMP) chromium lint
 	$(BIN)/python -m pytest -q
+
+# ruff, and the layer contract of shared/design/architecture.md (pyproject.toml, [tool.importlinter])
+lint: $(STAMP)
+	$(BIN)/ruff check --quiet src tests benchmarks
+	$(BIN)/lint-imports --no-cache
 
 # The report's browser test needs Debian's chromium: installed here when missing and possible
 # (root with apt-get); otherwise that test is skipped and says why.

@@ -16,9 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from nnda.data import PRESETS, generate_runs
 from nnda.data.dataset import write_collection
-from nnda.data.generator import Plan
+from nnda.data.generator import Plan, generate_runs
+from nnda.data.presets import PRESETS
 
 SCENARIO = PRESETS["S6"]
 SEED = 1
@@ -74,7 +74,8 @@ def main(runs: int = 1000) -> None:
         n = sum(pool.map(_count, [range(half), range(half, runs)]))
         dt = time.perf_counter() - t0
     two = n / dt
-    print(f"{'vectorised, 2 processes, in memory':<56s} {n:>11,d} detections in {dt:7.2f} s = {two:>12,.0f} detections/s")
+    print(f"{'vectorised, 2 processes, in memory':<56s} {n:>11,d} detections in {dt:7.2f} s "
+          f"= {two:>12,.0f} detections/s")
     disk_runs = max(1, runs // 10)
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()

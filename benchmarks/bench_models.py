@@ -27,12 +27,13 @@ import numpy as np
 import torch
 from torch.func import jacfwd, jacrev, vmap
 
-from nnda.data import generate, resolve
+from nnda.data.generator import generate
+from nnda.data.presets import resolve
+from nnda.filters.imm import IMM
 from nnda.models.experiment import fit
 from nnda.models.innovation import IMM_INNOVATION, innovation_features
 from nnda.models.network import as_tensor, forward
 from nnda.models.pairs import pairs_from_datasets
-from nnda.tracking.imm import IMM
 
 SEEDS = range(10)
 

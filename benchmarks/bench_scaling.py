@@ -32,10 +32,8 @@ import signal
 from contextlib import contextmanager
 from typing import NamedTuple
 
-import numpy as np
-
 from bench_trackers import GIVE_UP_S, SCALING_SCANS, params_for, scaling_settings, time_run
-from nnda.data import generate
+from nnda.data.generator import generate
 from nnda.errors import ConfigError
 from nnda.peers import require_stonesoup
 from nnda.peers.parameters import EQUIVALENT
@@ -141,7 +139,8 @@ def table(names, peers, results, settings, scans) -> None:
                 elif theirs.mean_s is None:
                     cells.append(f"{'stopped':>16s}")
                 else:
-                    text = ('>' if theirs.lower_bound else '') + f"{theirs.mean_s / ours:.0f}x" + ('*' if theirs.stopped else '')
+                    text = (('>' if theirs.lower_bound else '') + f"{theirs.mean_s / ours:.0f}x"
+                            + ('*' if theirs.stopped else ''))
                     cells.append(f"{text:>16s}")
             print(f"{name:<8s}{peer:<16s}" + "".join(cells))
 

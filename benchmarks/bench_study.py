@@ -26,7 +26,8 @@ from nnda.tracking.registry import TRACKERS
 def train_models(directory: Path) -> None:
     """GD and LM models on the seed's features and an LM model on the extended ones, from the training
     presets (imports torch: kept out of the module, which the spawned worker processes import again)."""
-    from nnda.data import GROUPS, PRESETS, generate
+    from nnda.data.generator import generate
+    from nnda.data.presets import GROUPS, PRESETS
     from nnda.models.experiment import fit
     from nnda.models.pairs import pairs_from_datasets
     from nnda.models.scorer import save_model
@@ -52,7 +53,7 @@ def main(runs: int) -> None:
         for workers in (1, 2):
             out = root / f"out-{workers}"
             start = time.perf_counter()
-            compare(study, out, workers=workers, report=False)
+            compare(study, out, workers=workers)
             wall[workers] = time.perf_counter() - start
             print(f"{workers} process(es): {wall[workers]:7.1f} s wall, {n_jobs / wall[workers]:6.1f} jobs/s")
             timing = json.loads((out / "timing.json").read_text())

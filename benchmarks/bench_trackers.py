@@ -22,7 +22,9 @@ import time
 
 import numpy as np
 
-from nnda.data import Clutter, PRESETS, Scenario, Segment, Target, generate
+from nnda.data.generator import generate
+from nnda.data.presets import PRESETS
+from nnda.data.scenario import Clutter, Scenario, Segment, Target
 from nnda.models.scorer import load_model
 from nnda.tracking.registry import TRACKERS, make_tracker
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from nnda.data import Clutter, ProcessNoise, Scenario, Segment, Target
+from nnda.data.scenario import Clutter, ProcessNoise, Scenario, Segment, Target
 
 
 def straight_target(name: str = "A", **kw) -> Target:

@@ -8,8 +8,7 @@ import sys
 
 import pytest
 
-from nnda.data import read_dataset
-from nnda.data.dataset import collection_members
+from nnda.data.dataset import collection_members, read_dataset
 
 
 def nnda(*args, cwd):

@@ -5,7 +5,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from nnda.data import generate, load_scenario
+from nnda.data.generator import generate
+from nnda.data.scenario import load_scenario
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 

@@ -16,14 +16,13 @@ import typer
 from rich.console import Console
 
 from nnda.data import commands as data_commands
-from nnda.models import commands as model_commands
-from nnda.peers import commands as peer_commands
-from nnda.reports import commands as report_commands
-from nnda.study import commands as study_commands
 from nnda.data.dataset import collection_members
 from nnda.data.presets import GROUPS
 from nnda.errors import NndaError
+from nnda.models import commands as model_commands
 from nnda.models.innovation import IMM_INNOVATION
+from nnda.peers import commands as peer_commands
+from nnda.reports import commands as report_commands
 from nnda.study.config import default_study, study_to_toml
 
 app = typer.Typer(
@@ -39,7 +38,7 @@ app.command("generate")(data_commands.generate)
 app.command("train")(model_commands.train)
 app.command("evaluate")(model_commands.evaluate)
 app.command("plot-scenario")(report_commands.plot_scenario)
-app.command("compare")(study_commands.compare)
+app.command("compare")(report_commands.compare)
 app.command("report")(report_commands.report)
 app.command("import-stonesoup")(peer_commands.import_stonesoup)
 
@@ -73,7 +72,7 @@ def demo(
                           ablation=models / "ablation")
     study_file = out / "study.toml"
     study_file.write_text(study_to_toml(study, relative_to=out))
-    study_commands.compare(study=study_file, out=out / "comparison", jobs=jobs, overwrite=True)
+    report_commands.compare(study=study_file, out=out / "comparison", jobs=jobs, overwrite=True)
     console.print(f"demo written to {out}/; open {out / 'comparison' / 'report.html'}")
 
 

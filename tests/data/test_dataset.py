@@ -10,9 +10,9 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from nnda.data import Detections, Truth, generate, generate_runs, iter_datasets, read_dataset
 from nnda.data import dataset as dataset_module
-from nnda.data.dataset import write_collection, write_dataset
+from nnda.data.dataset import Detections, Truth, iter_datasets, read_dataset, write_collection, write_dataset
+from nnda.data.generator import generate, generate_runs
 from nnda.errors import DatasetError
 
 
@@ -137,7 +137,8 @@ def _rewrite(path, table):
     (lambda t: t.set_column(0, "scan", pa.array(t.column("scan").to_numpy().astype("float64"))),
      "column 'scan' has type double"),
     (lambda t: t.append_column("colour", pa.array(np.zeros(t.num_rows))), "unexpected column"),
-    (lambda t: t.set_column(2, "range", pa.array(np.where(np.arange(t.num_rows) == 3, np.nan, t.column("range").to_numpy()))),
+    (lambda t: t.set_column(
+        2, "range", pa.array(np.where(np.arange(t.num_rows) == 3, np.nan, t.column("range").to_numpy()))),
      "column 'range' has a non-finite value at row 3"),
     (lambda t: t.set_column(0, "scan", pa.array(t.column("scan").to_numpy() + 100, type=pa.int32())),
      "column 'scan' leaves the range"),

@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from nnda.data import Clutter, PRESETS, ProcessNoise, Scenario, Segment, Sensor, Target, generate, generate_runs
+from nnda.data.generator import generate, generate_runs
+from nnda.data.presets import PRESETS
+from nnda.data.scenario import Clutter, ProcessNoise, Scenario, Segment, Sensor, Target
 from nnda.data.sensor import cart_to_polar, wrap_angle
 
 

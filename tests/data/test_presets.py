@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from nnda.data import GROUPS, PRESETS, preset, resolve
+from nnda.data.presets import GROUPS, PRESETS, preset, resolve
 from nnda.errors import ConfigError
 
 G8 = [7, 8, 15, 16, 17, 24, 25, 30, 36, 37, 38, 42, 43, 47, 51, 52, 53]

@@ -7,7 +7,8 @@ import math
 
 import pytest
 
-from nnda.data import PRESETS, load_scenario, scenario_from_dict
+from nnda.data.presets import PRESETS
+from nnda.data.scenario import load_scenario, scenario_from_dict
 from nnda.errors import ConfigError
 
 GOOD_TOML = """

@@ -9,8 +9,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nnda.data import PRESETS, Segment, Target
-from nnda.data.presets import TRAINING_TRAJECTORIES, _target
+from nnda.data.presets import PRESETS, TRAINING_TRAJECTORIES, _target
+from nnda.data.scenario import Segment, Target
 from nnda.data.trajectory import evaluate
 
 DT = 0.01  # s, finite-difference step

@@ -5,7 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nnda.data import Dataset, Detections, Scenario, Segment, Target, Truth, generate, resolve
+from nnda.data.dataset import Dataset, Detections, Truth
+from nnda.data.generator import generate
+from nnda.data.presets import resolve
+from nnda.data.scenario import Scenario, Segment, Target
 from nnda.data.sensor import cart_to_polar
 from nnda.models.pairs import PairSet, pairs_from_datasets
 

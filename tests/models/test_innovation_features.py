@@ -7,17 +7,19 @@ import json
 import numpy as np
 import pytest
 
-from nnda.data import PRESETS, Clutter, generate, resolve
+from nnda.data.generator import generate
+from nnda.data.presets import PRESETS, resolve
+from nnda.data.scenario import Clutter
 from nnda.errors import ConfigError, ModelError
+from nnda.filters.imm import IMM
+from nnda.filters.kalman import mahalanobis_2x2
 from nnda.models.feature_sets import FEATURE_SETS, feature_set
 from nnda.models.features import KINEMATIC
 from nnda.models.innovation import IMM_INNOVATION, innovation_features
-from nnda.tracking.imm import IMM
 from nnda.models.mlp import MLPWeights
 from nnda.models.pairs import extract_pairs, pairs_from_datasets
 from nnda.models.preprocessing import Normaliser
 from nnda.models.scorer import Scorer, load_model, save_model
-from nnda.tracking.kalman import mahalanobis_2x2
 
 
 @pytest.fixture(scope="module")
@@ -108,7 +110,7 @@ def test_true_history_feeds_the_filter_true_positions():
 
 def test_extraction_computes_what_the_tracker_computes(tmp_path):
     """The neural tracker on a clean single-target scene scores exactly the features of the training pairs."""
-    from nnda.tracking import make_tracker
+    from nnda.tracking.registry import make_tracker
 
     scenario = PRESETS["train05"].model_copy(update={"clutter": Clutter(law="none")})
     ds = generate(scenario, 3)

@@ -55,7 +55,7 @@ def test_losses_are_logged_for_every_subset_and_epoch(problem):
     train, theta0 = problem
     seen = []
     result = train_lm(theta0, 3, train, Subset(train.x[:50], train.y[:50]), Subset(train.x[50:], train.y[50:]),
-                      settings=LMSettings(max_epochs=5, max_fail=100), on_epoch=lambda e, l: seen.append((e, l)))
+                      settings=LMSettings(max_epochs=5, max_fail=100), on_epoch=lambda e, loss: seen.append((e, loss)))
     assert sorted(result.loss) == ["test", "train", "validation"]
     assert all(v.shape == (6,) for v in result.loss.values())
     assert [e for e, _ in seen] == list(range(6))

@@ -5,7 +5,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from nnda.data import write_dataset
+from nnda.data.dataset import write_dataset
 from nnda.errors import ConfigError, DatasetError
 from nnda.models.pairs import concatenate, extract_pairs, load_pairs
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from nnda.data import Clutter, Scenario, Segment, Target
+from nnda.data.scenario import Clutter, Scenario, Segment, Target
 
 
 @pytest.fixture

@@ -9,10 +9,16 @@ pytest.importorskip("stonesoup", reason="Stone Soup is not installed: pip instal
 
 from stonesoup.types.state import State  # noqa: E402
 
-from nnda.data import PRESETS, Sensor, generate  # noqa: E402
+from nnda.data.generator import generate
+from nnda.data.presets import PRESETS
+from nnda.data.scenario import Sensor  # noqa: E402
 from nnda.data.sensor import cart_to_polar, wrap_angle  # noqa: E402
 from nnda.peers.adapter import (  # noqa: E402
-    from_detections, measurement_model, to_datetime, to_detections, to_seconds,
+    from_detections,
+    measurement_model,
+    to_datetime,
+    to_detections,
+    to_seconds,
 )
 
 

@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from nnda.data import read_dataset
+from nnda.data.dataset import read_dataset
 from nnda.errors import ConfigError
 
 pytest.importorskip("stonesoup", reason="Stone Soup is not installed: pip install 'nnda[peers]'")

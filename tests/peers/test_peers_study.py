@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from nnda.reports.study_report import write_report
 from nnda.study.compare import compare
 from nnda.study.config import study_from_dict
 
@@ -17,6 +18,7 @@ def test_study_with_peers_end_to_end(tmp_path, small_scenario):
     study = study_from_dict({"name": "peers", "runs": 2, "trackers": trackers,
                              "scenarios": [{"config": "pair.json"}]}, base=tmp_path)
     result = compare(study, tmp_path / "out", workers=1)
+    write_report(tmp_path / "out")
     sc = result.summary["scenarios"][0]["trackers"]
     assert sc["ss-gnn"]["metrics"]["confirmed_tracks"]["mean"] >= 2
     md = (tmp_path / "out" / "report.md").read_text()
@@ -30,6 +32,7 @@ def test_no_section_without_peers(tmp_path, small_scenario):
     study = study_from_dict({"runs": 1, "trackers": {"gnn": {"kind": "gnn"}},
                              "scenarios": [{"config": "pair.json"}]}, base=tmp_path)
     compare(study, tmp_path / "out", workers=1)
+    write_report(tmp_path / "out")
     assert "Against Stone Soup" not in (tmp_path / "out" / "report.md").read_text()
 
 

@@ -7,7 +7,9 @@ import sys
 import numpy as np
 import pytest
 
-from nnda.data import Scan, Sensor, generate
+from nnda.data.dataset import Scan
+from nnda.data.generator import generate
+from nnda.data.scenario import Sensor
 from nnda.errors import ConfigError, TrackingError
 from nnda.study.config import study_from_dict
 from nnda.study.metrics import run_metrics
@@ -22,7 +24,8 @@ except ImportError:
 else:
     HAVE_STONESOUP = True
 #: the tests about a missing Stone Soup run either way; the others need it
-needs_stonesoup = pytest.mark.skipif(not HAVE_STONESOUP, reason="Stone Soup is not installed: pip install 'nnda[peers]'")
+needs_stonesoup = pytest.mark.skipif(not HAVE_STONESOUP,
+                                     reason="Stone Soup is not installed: pip install 'nnda[peers]'")
 
 
 @needs_stonesoup

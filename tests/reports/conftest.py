@@ -8,6 +8,7 @@ import pytest
 from nnda.models.mlp import MLPWeights, n_weights
 from nnda.models.preprocessing import Normaliser
 from nnda.models.scorer import Scorer, save_model
+from nnda.reports.study_report import write_report
 from nnda.study.compare import compare
 from nnda.study.config import load_study
 
@@ -79,4 +80,5 @@ def study_dir(tmp_path_factory):
     (root / "study.toml").write_text(STUDY)
     write_model(root / "model")
     compare(load_study(root / "study.toml"), root / "out", workers=1)
+    write_report(root / "out")
     return root / "out"

@@ -10,7 +10,8 @@ import sys
 
 import pytest
 
-from nnda.data import generate, preset
+from nnda.data.generator import generate
+from nnda.data.presets import preset
 from nnda.errors import DatasetError
 from nnda.models.metrics import classifier_metrics
 from nnda.models.pairs import pairs_from_datasets
@@ -66,7 +67,8 @@ def test_classifier_figures_come_from_the_models_own_training_data(study_dir):
     got = saved["evaluation"]["metrics"]
     assert (got["tp"], got["fn"], got["tn"], got["fp"]) == (expected.tp, expected.fn, expected.tn, expected.fp)
     assert got["auc"] == pytest.approx(expected.auc)
-    assert saved["evaluation"]["n_pairs"] == len(pairs) and "regenerated (2 datasets)" in saved["evaluation"]["pairs_from"]
+    assert saved["evaluation"]["n_pairs"] == len(pairs)
+    assert "regenerated (2 datasets)" in saved["evaluation"]["pairs_from"]
     md = (study_dir / "report.md").read_text()
     assert f"| TP | {expected.tp} | 784 | 824 |" in md  # beside the thesis's GD and LM totals
     assert "| Epochs (best) | 12 (6) | 1000 | 35 |" in md
@@ -90,7 +92,8 @@ def test_an_unfinished_study_has_no_report(study_dir, tmp_path):
 
 def _summary(stats: dict[str, tuple], confidence=0.95) -> tuple[dict, dict]:
     """A one-scenario summary whose trackers have the given (mean, low, high) GOSPA."""
-    trackers = {t: {"metrics": {"gospa": {"mean": m, "ci_low": lo, "ci_high": hi, "n": 5}}} for t, (m, lo, hi) in stats.items()}
+    trackers = {t: {"metrics": {"gospa": {"mean": m, "ci_low": lo, "ci_high": hi, "n": 5}}}
+                for t, (m, lo, hi) in stats.items()}
     timing = {t: {"mean_time_per_scan_s": {"mean": None}} for t in stats}
     return ({"confidence": confidence, "trackers": [{"label": t, "kind": "gnn"} for t in stats],
              "scenarios": [{"name": "X", "trackers": trackers}]},

@@ -6,7 +6,9 @@ import json
 
 import pytest
 
-from nnda.data import generate, preset, write_dataset
+from nnda.data.dataset import write_dataset
+from nnda.data.generator import generate
+from nnda.data.presets import preset
 from nnda.errors import NndaError
 from nnda.study.compare import compare
 from nnda.study.config import load_study

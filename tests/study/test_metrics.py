@@ -7,9 +7,11 @@ from collections import defaultdict
 import numpy as np
 import pytest
 
-from nnda.data import Clutter, ProcessNoise, Scenario, Segment, Target, generate
+from nnda.data.generator import generate
+from nnda.data.scenario import Clutter, ProcessNoise, Scenario, Segment, Target
 from nnda.study.metrics import run_metrics
-from nnda.tracking.output import TrackerOutput, TrackStatus as S
+from nnda.tracking.output import TrackerOutput
+from nnda.tracking.output import TrackStatus as S
 
 
 @pytest.fixture(scope="module")

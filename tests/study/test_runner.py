@@ -12,7 +12,9 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
-from nnda.data import generate, load_scenario, write_collection
+from nnda.data.dataset import write_collection
+from nnda.data.generator import generate
+from nnda.data.scenario import load_scenario
 from nnda.errors import ConfigError
 from nnda.study.compare import compare
 from nnda.study.config import load_study
@@ -32,7 +34,7 @@ def reference(tmp_path_factory, write_study):
     """The small study run in this process."""
     root = tmp_path_factory.mktemp("reference")
     study_file = write_study(root, runs=3)
-    result = compare(load_study(study_file), root / "out", workers=1, report=False)
+    result = compare(load_study(study_file), root / "out", workers=1)
     return study_file, root / "out", result
 
 
@@ -68,7 +70,7 @@ def test_datasets_on_disk_give_the_results_of_the_generated_runs(reference, tmp_
     write_collection(((f"run-{r}", generate(scenario, 5, r)) for r in range(3)), tmp_path / "data", "three runs")
     (tmp_path / "disk.toml").write_text('seed = 5\n[trackers.gnn]\nkind = "gnn"\n'
                                         '[[scenarios]]\npath = "data"\nname = "one-disk"\n')
-    compare(load_study(tmp_path / "disk.toml"), tmp_path / "out", workers=1, report=False)
+    compare(load_study(tmp_path / "disk.toml"), tmp_path / "out", workers=1)
     disk = pq.read_table(tmp_path / "out/results.parquet").to_pydict()
     ref = pq.read_table(out / "results.parquet").to_pydict()
     assert disk["scenario"] == ["one-disk"] * 3
@@ -78,7 +80,7 @@ def test_datasets_on_disk_give_the_results_of_the_generated_runs(reference, tmp_
 
 def test_local_processes_give_identical_bytes(reference, tmp_path):
     study_file, out, _ = reference
-    result = compare(load_study(study_file), tmp_path / "out", workers=2, report=False)
+    result = compare(load_study(study_file), tmp_path / "out", workers=2)
     assert result.execution.executor == "local processes"
     assert saved(tmp_path / "out") == saved(out)
 
@@ -86,7 +88,7 @@ def test_local_processes_give_identical_bytes(reference, tmp_path):
 def test_dask_local_cluster_gives_identical_bytes(reference, tmp_path):
     pytest.importorskip("dask.distributed", reason="dask is not installed (pip install 'nnda[dask]')")
     study_file, out, _ = reference
-    result = compare(load_study(study_file), tmp_path / "out", workers=2, dask="local", report=False)
+    result = compare(load_study(study_file), tmp_path / "out", workers=2, dask="local")
     assert result.execution.executor == "dask local"
     assert saved(tmp_path / "out") == saved(out)
 
@@ -105,28 +107,28 @@ def test_resume_after_a_killed_study_gives_the_uninterrupted_results(tmp_path, w
     assert 0 < done < 48 and not (out / "summary.json").exists()
 
     with pytest.raises(FileExistsError, match="pass --resume"):
-        compare(load_study(study_file), out, report=False)
-    resumed = compare(load_study(study_file), out, resume=True, workers=2, report=False)
+        compare(load_study(study_file), out)
+    resumed = compare(load_study(study_file), out, resume=True, workers=2)
     assert (resumed.execution.jobs_skipped, resumed.execution.jobs_run) == (done, 48 - done)
     assert not list(out.rglob("*.partial"))
-    compare(load_study(study_file), tmp_path / "uninterrupted", workers=2, report=False)
+    compare(load_study(study_file), tmp_path / "uninterrupted", workers=2)
     assert saved(out) == saved(tmp_path / "uninterrupted")
 
 
 def test_resume_refuses_another_study_and_overwrite_replaces_it(reference, tmp_path):
     study_file, _, _ = reference
     out = tmp_path / "out"
-    compare(load_study(study_file), out, workers=1, report=False)
+    compare(load_study(study_file), out, workers=1)
     changed = study_file.parent / "changed.toml"
     changed.write_text(study_file.read_text().replace("gate = 6.0", "gate = 7.0"))
     with pytest.raises(ConfigError, match="holds the results of a different study"):
-        compare(load_study(changed), out, resume=True, workers=1, report=False)
-    again = compare(load_study(changed), out, overwrite=True, workers=1, report=False)
+        compare(load_study(changed), out, resume=True, workers=1)
+    again = compare(load_study(changed), out, overwrite=True, workers=1)
     assert again.execution.jobs_run == 12
     (tmp_path / "mine").mkdir()
     (tmp_path / "mine/notes.txt").write_text("keep me")
     with pytest.raises(Exception, match="not a study directory"):
-        compare(load_study(study_file), tmp_path / "mine", overwrite=True, workers=1, report=False)
+        compare(load_study(study_file), tmp_path / "mine", overwrite=True, workers=1)
     assert (tmp_path / "mine/notes.txt").exists()
 
 
@@ -148,5 +150,5 @@ def test_dask_without_the_extra_names_it(reference, tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "dask.distributed", None)  # as if nnda[dask] were not installed
     study_file, _, _ = reference
     with pytest.raises(ConfigError, match=r"--dask needs the optional extra nnda\[dask\]: pip install 'nnda\[dask\]'"):
-        compare(load_study(study_file), tmp_path / "out", dask="local", report=False)
+        compare(load_study(study_file), tmp_path / "out", dask="local")
     assert not (tmp_path / "out").exists()

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from nnda.data import generate, resolve
+from nnda.data.generator import generate
+from nnda.data.presets import resolve
 from nnda.models.experiment import fit
 from nnda.models.pairs import pairs_from_datasets
 from nnda.models.scorer import save_model

@@ -12,18 +12,28 @@ import numpy as np
 import pytest
 from scipy.special import logsumexp
 
-from nnda.data import PRESETS, Scan, Sensor, generate
+from nnda.data.dataset import Scan
+from nnda.data.generator import generate
+from nnda.data.presets import PRESETS
+from nnda.data.scenario import Sensor
 from nnda.data.sensor import cart_to_polar
 from nnda.errors import ConfigError
+from nnda.filters import kalman
+from nnda.filters.imm import IMM
+from nnda.filters.motion import ConstantVelocity
 from nnda.study.metrics import run_metrics
-from nnda.tracking import kalman
-from nnda.tracking.imm import IMM
 from nnda.tracking import gating
 from nnda.tracking.jpda import (
-    JPDATracker, Marginals, best_pairs, clusters, jpda_marginals, log_miss_weight, loopy_marginals,
-    pair_likelihoods, pda_update,
+    JPDATracker,
+    Marginals,
+    best_pairs,
+    clusters,
+    jpda_marginals,
+    log_miss_weight,
+    loopy_marginals,
+    pair_likelihoods,
+    pda_update,
 )
-from nnda.tracking.models import ConstantVelocity
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
 

@@ -8,7 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from nnda.data import PRESETS, generate
+from nnda.data.generator import generate
+from nnda.data.presets import PRESETS
 from nnda.study.metrics import run_metrics
 from nnda.tracking.mht import MHTConfig, MHTTracker
 

@@ -7,7 +7,10 @@ import json
 import numpy as np
 import pytest
 
-from nnda.data import PRESETS, Clutter, Scan, Scenario, Segment, Sensor, Target, generate
+from nnda.data.dataset import Scan
+from nnda.data.generator import generate
+from nnda.data.presets import PRESETS
+from nnda.data.scenario import Clutter, Scenario, Segment, Sensor, Target
 from nnda.errors import ConfigError, TrackingError
 from nnda.models.features import KINEMATIC, candidate_pairs, pair_features
 from nnda.models.mlp import MLPWeights

@@ -5,7 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nnda.data import Clutter, PRESETS, Scan, Scenario, Segment, Sensor, Target, generate
+from nnda.data.dataset import Scan
+from nnda.data.generator import generate
+from nnda.data.presets import PRESETS
+from nnda.data.scenario import Clutter, Scenario, Segment, Sensor, Target
 from nnda.errors import ConfigError, TrackingError
 from nnda.study.metrics import run_metrics
 from nnda.tracking.output import TrackStatus

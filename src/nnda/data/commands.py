@@ -63,7 +63,8 @@ def generate(
                     yield f"{scenario.name}-run-{ds.run:04d}", ds
 
     what = preset or str(config)
-    description = f"{what}: {len(scenarios)} scenario(s) x {runs} run(s), seed {seed if seed is not None else 'per scenario'}"
+    seeds = seed if seed is not None else "per scenario"
+    description = f"{what}: {len(scenarios)} scenario(s) x {runs} run(s), seed {seeds}"
     with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
                   TimeElapsedColumn(), transient=False) as bar:
         task = bar.add_task(f"generating {what}", total=len(scenarios) * runs)

@@ -33,11 +33,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from nnda.data.dataset import Dataset
+from nnda.filters.kalman import GATE_99
 from nnda.models.features import KINEMATIC, FeatureSet
 from nnda.models.innovation import ADDED_NAMES, IMM_INNOVATION
 from nnda.models.metrics import roc
 from nnda.models.pairs import History, PairSet, pairs_from_datasets
-from nnda.tracking.tracker import GATE_99
 
 if TYPE_CHECKING:  # training imports torch; the file format and the variants do not need it
     from nnda.models.experiment import Init, Method, RunSummary

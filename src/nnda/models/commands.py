@@ -92,7 +92,8 @@ def _run_bar(total: int, what: str):
 
 
 def train(
-    data: Annotated[Path, typer.Option(help="dataset or collection directory, e.g. from `nnda generate --preset train`")],
+    data: Annotated[Path, typer.Option(
+        help="dataset or collection directory, e.g. from `nnda generate --preset train`")],
     out: Annotated[Path, typer.Option(help="output directory")],
     method: Annotated[MethodChoice, typer.Option(help="gd, lm, or both (with --repeats)")] = MethodChoice.lm,
     hidden: Annotated[int, typer.Option(min=1, help="hidden tanh units")] = 5,
@@ -101,7 +102,8 @@ def train(
     restarts: Annotated[int, typer.Option(min=1, help="fits per hidden size in a sweep")] = 10,
     repeats: Annotated[int, typer.Option(min=1, help="fits with seeds seed..seed+N-1, tabulated")] = 1,
     history: Annotated[HistoryChoice, typer.Option(
-        help="track history of the pairs: measured contacts (spec) or true positions (spec §14.1)")] = HistoryChoice.measured,
+        help="track history of the pairs: measured contacts (spec) or true positions (spec §14.1)",
+    )] = HistoryChoice.measured,
     init: Annotated[InitChoice, typer.Option(
         help="initial weights: Nguyen-Widrow (spec A22) or uniform in [-0.5, 0.5]")] = InitChoice.nguyen_widrow,
     features: Annotated[FeatureChoice, typer.Option(
@@ -215,7 +217,14 @@ def _train_repeats(pairs: PairSet, methods: tuple[str, ...], hidden: int, seeds:
 
 def _train_ablation(data: Path, methods: tuple[str, ...], hidden: int, seeds: range, init: str, starts: int,
                     tmp: Path, console: Console) -> None:
-    from nnda.models.ablation import ABLATION_FILE, ABLATION_FORMAT, ABLATION_FORMAT_VERSION, HISTORIES, ablation, variants
+    from nnda.models.ablation import (
+        ABLATION_FILE,
+        ABLATION_FORMAT,
+        ABLATION_FORMAT_VERSION,
+        HISTORIES,
+        ablation,
+        variants,
+    )
     from nnda.models.plots import plot_ablation_roc
     from nnda.models.tables import ablation_table
 

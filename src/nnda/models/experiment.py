@@ -4,9 +4,10 @@ One *fit* with seed s: split the pairs 60/20/20 and draw the initial
 weights from two independent streams of ``SeedSequence(s)``, fit the
 z-score normaliser on the training split, train, and measure every subset.
 Initial weights (spec A22): Nguyen-Widrow by default, or every weight
-uniform in [-0.5, 0.5] (``init="uniform"``, the spec's alternative). The same seed gives the same split and start for GD and LM, so the
-two methods are compared on identical problems. With ``starts`` > 1 the
-network is trained from that many successive draws of the initial-weight
+uniform in [-0.5, 0.5] (``init="uniform"``, the spec's alternative). The
+same seed gives the same split and start for GD and LM, so the two methods
+are compared on identical problems. With ``starts`` > 1 the network is trained
+from that many successive draws of the initial-weight
 stream (the first is the one-start draw) and the run with the lowest
 validation MSE at its returned epoch is kept: LM stalls in a saturated
 minimum from about one start in 20, and the validation split, not the
@@ -33,7 +34,13 @@ from nnda.models.pairs import PairSet
 from nnda.models.preprocessing import Normaliser, Split, split_indices
 from nnda.models.scorer import Scorer
 from nnda.models.trainers import (
-    EpochCallback, GDSettings, LMSettings, Subset, TrainingResult, train_gd, train_lm,
+    EpochCallback,
+    GDSettings,
+    LMSettings,
+    Subset,
+    TrainingResult,
+    train_gd,
+    train_lm,
 )
 
 Method = Literal["gd", "lm"]

@@ -36,7 +36,7 @@ from scipy.spatial import cKDTree
 
 from nnda.data.sensor import TWO_PI, wrap_angle
 from nnda.errors import ModelError
-
+from nnda.validation import check_finite
 
 
 @dataclass(frozen=True)
@@ -110,12 +110,6 @@ def _all_finite(*arrays: np.ndarray) -> bool:
     return math.isfinite(total)
 
 
-def _check_finite(name: str, a: np.ndarray, what: str = "pair features") -> None:
-    if not np.isfinite(a).all():
-        bad = np.flatnonzero(~np.isfinite(a).reshape(len(a), -1).all(axis=1))[0]
-        raise ModelError(f"{what}: {name} has a non-finite value at row {bad}")
-
-
 def pair_features(
     p1: np.ndarray, t1: np.ndarray, p2: np.ndarray, t2: np.ndarray, c: np.ndarray, tc: np.ndarray,
     check: bool = True,
@@ -158,7 +152,7 @@ def _check_pairs(p1: np.ndarray, t1: np.ndarray, p2: np.ndarray, t2: np.ndarray,
                  tc: np.ndarray) -> None:
     """Raise ModelError naming the first non-finite input, or else the first row with times out of order."""
     for name, a in (("p1", p1), ("t1", t1), ("p2", p2), ("t2", t2), ("c", c), ("tc", tc)):
-        _check_finite(name, a)
+        check_finite(f"pair features: {name}", a, error=ModelError)
     before, gap = t2 - t1, tc - t2
     if np.any(before <= 0) or np.any(gap <= 0):
         bad = np.flatnonzero((before <= 0) | (gap <= 0))[0]
@@ -250,7 +244,7 @@ def candidate_pairs(
         if not (math.isfinite(time) and _all_finite(last, last_time, last_azimuth, contacts, contact_azimuth)):
             for name, a in (("last", last), ("last_time", last_time), ("last_azimuth", last_azimuth),
                             ("contacts", contacts), ("contact_azimuth", contact_azimuth), ("time", np.array([time]))):
-                _check_finite(name, a, what)
+                check_finite(f"{what}: {name}", a, error=ModelError)
         if M and last_time.max() >= time:
             bad = int(np.argmax(last_time >= time))
             raise ModelError(f"{what}: last_time must come before time = {time} s; row {bad} has {last_time[bad]} s")

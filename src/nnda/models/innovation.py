@@ -33,10 +33,10 @@ from __future__ import annotations
 import numpy as np
 
 from nnda.errors import ModelError
+from nnda.filters.imm import IMM, IMMPrediction
+from nnda.filters.kalman import mahalanobis_2x2
+from nnda.filters.motion import CoordinatedTurn
 from nnda.models.features import KINEMATIC, FeatureSet
-from nnda.tracking.imm import IMM, IMMPrediction
-from nnda.tracking.kalman import mahalanobis_2x2
-from nnda.tracking.models import CoordinatedTurn
 
 ADDED_NAMES = ("innovation_range_sigma", "innovation_azimuth_sigma", "mahalanobis_d2", "log_det_s",
                "ct_probability", "track_age_s")

@@ -50,10 +50,10 @@ import numpy as np
 from nnda.data.dataset import Dataset, iter_datasets
 from nnda.data.sensor import cart_to_polar
 from nnda.errors import ConfigError, DatasetError
+from nnda.filters.imm import IMM
 from nnda.models.feature_sets import feature_set
 from nnda.models.features import KINEMATIC, FeatureSet, pair_features, passes_gate, sector
 from nnda.models.innovation import IMM_INNOVATION, innovation_features
-from nnda.tracking.imm import IMM
 
 History = Literal["measured", "true"]
 #: the options of `extract_pairs` a model file records (metadata "pair_options"), to rebuild its pairs

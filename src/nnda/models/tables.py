@@ -144,7 +144,8 @@ def repeats_table(runs: Sequence[RunSummary]) -> TextTable:
     shapes = sorted({f"{r.n_inputs}-{r.n_hidden}-1" for r in runs})
     stops = {m: sorted({r.stop_reason for r in by_method[m]}) for m in methods}
     inits = sorted({r.init for r in runs})
-    note = (f"Mean [95% bootstrap confidence interval of the mean] over {', '.join(f'{n[m]} {m.upper()}' for m in methods)} "
+    counts = ", ".join(f"{n[m]} {m.upper()}" for m in methods)
+    note = (f"Mean [95% bootstrap confidence interval of the mean] over {counts} "
             f"seeds of split and initialisation ({'/'.join(inits)}); {'/'.join(shapes)} tanh. "
             "Stop reasons: "
             + "; ".join(f"{m.upper()} {', '.join(stops[m])}" for m in methods)

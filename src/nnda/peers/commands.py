@@ -24,7 +24,8 @@ def import_stonesoup(
     """Simulate a scene with Stone Soup's ground-truth and detection simulators; write an nnda dataset."""
     require_stonesoup("nnda import-stonesoup")
     from nnda.data.scenario import Sensor
-    from nnda.peers.importer import StoneSoupScene, import_stonesoup as run
+    from nnda.peers.importer import StoneSoupScene
+    from nnda.peers.importer import import_stonesoup as run
 
     scene = StoneSoupScene(n_scans=scans, targets=targets, birth_rate=birth_rate, clutter=clutter,
                            sensor=Sensor(pd=pd))

@@ -62,8 +62,10 @@ class StoneSoupScene:
         """ConfigError on values Stone Soup would not simulate meaningfully."""
         bad = [name for name, ok in (
             ("n_scans >= 1", self.n_scans >= 1), ("targets >= 0", self.targets >= 0),
-            ("birth_rate >= 0", self.birth_rate >= 0), ("0 <= death_probability <= 1", 0 <= self.death_probability <= 1),
-            ("position_sigma_m >= 0", self.position_sigma_m >= 0), ("velocity_sigma_m_s >= 0", self.velocity_sigma_m_s >= 0),
+            ("birth_rate >= 0", self.birth_rate >= 0),
+            ("0 <= death_probability <= 1", 0 <= self.death_probability <= 1),
+            ("position_sigma_m >= 0", self.position_sigma_m >= 0),
+            ("velocity_sigma_m_s >= 0", self.velocity_sigma_m_s >= 0),
             ("sigma_accel >= 0", self.sigma_accel >= 0), ("clutter >= 0", self.clutter >= 0),
         ) if not ok]
         if bad:
@@ -85,7 +87,8 @@ def simulate(scene: StoneSoupScene = StoneSoupScene(), seed: int = 0, name: str 
         timestep=to_datetime(2 * T) - to_datetime(T), number_steps=scene.n_scans, birth_rate=scene.birth_rate,
         death_probability=scene.death_probability, initial_number_targets=scene.targets, seed=seeds[1])
     detect_sim = SimpleDetectionSimulator(
-        groundtruth=truth_sim, measurement_model=measurement_model(sensor, seed=seeds[2]), detection_probability=sensor.pd,
+        groundtruth=truth_sim, measurement_model=measurement_model(sensor, seed=seeds[2]),
+        detection_probability=sensor.pd,
         meas_range=np.array([[-math.pi, math.pi], [sensor.min_range_m, sensor.max_range_m]]),
         clutter_rate=scene.clutter, seed=seeds[3])
     paths: dict = {}  # GroundTruthPath -> target id, in order of birth

@@ -38,10 +38,11 @@ from stonesoup.updater.kalman import ExtendedKalmanUpdater
 
 from nnda.data.dataset import Scan
 from nnda.data.sensor import polar_to_cart
+from nnda.filters.kalman import GATE_99
+from nnda.peers.adapter import TrackBook, measurement_model, to_datetime, to_detections
 from nnda.tracking.clutter_density import local_density
 from nnda.tracking.output import TrackerOutput
-from nnda.tracking.tracker import GATE_99, TrackerBase, TrackerConfig
-from nnda.peers.adapter import TrackBook, measurement_model, to_datetime, to_detections
+from nnda.tracking.tracker import TrackerBase, TrackerConfig
 
 
 class PeerConfig(TrackerConfig):

@@ -26,18 +26,22 @@ import numpy as np
 import pyarrow.parquet as pq
 
 from nnda.errors import DatasetError
-from nnda.models.tables import TextTable
+from nnda.files import atomic_file, read_json
 from nnda.models.ablation import ABLATION_FILE
+from nnda.models.tables import TextTable
 from nnda.reports import ablation_section, features_section, study_figures
 from nnda.reports.peers_section import against_stonesoup, peer_labels
 from nnda.reports.study_summary import summary_markdown
 from nnda.reports.study_tables import (
-    classifier_table, is_thesis_scenario, model_test_table, scenario_table, table_html,
+    classifier_table,
+    is_thesis_scenario,
+    model_test_table,
+    scenario_table,
+    table_html,
 )
 from nnda.reports.trajectory_plot import figure_div, plotly_js, trajectory_figure
 from nnda.study.classifier import CLASSIFIER_FILE, CLASSIFIER_FORMAT, read_ablation
 from nnda.study.classifier import FORMAT_VERSION as CLASSIFIER_VERSION
-from nnda.files import atomic_file, read_json
 from nnda.study.plan import STUDY_FORMAT, STUDY_FORMAT_VERSION
 from nnda.study.results import TIMING_FILE, TRAJECTORIES_FILE, read_summary
 from nnda.study.runner import MANIFEST
@@ -129,7 +133,7 @@ def _setup(manifest: dict, summary: dict, timing: dict) -> Section:
     gospa = summary["gospa"]
     sec.text(f"Study **{study['name']}**{': ' + study['description'] if study['description'] else ''}. "
              f"Seed {study['seed']}; generated scenarios run {study['runs']} time(s), run r of scenario s drawn "
-             f"from `nnda.data.generate(s, seed, r)`, the same data for every tracker. GOSPA with c = "
+             f"from `nnda.data.generator.generate(s, seed, r)`, the same data for every tracker. GOSPA with c = "
              f"{gospa['cutoff_m']:g} m, p = {gospa['p']}, alpha = {gospa['alpha']}; OSPA with the same c and p. "
              f"Intervals: {summary['confidence']:.0%} Student-t over runs.")
     sec.table(TextTable("Trackers", ("Label", "Kind", "Model", "Parameters"), tuple(
@@ -142,7 +146,8 @@ def _setup(manifest: dict, summary: dict, timing: dict) -> Section:
         sec.table(TextTable("Model files", ("Label", "File", "SHA-256"), tuple(
             (m["label"], m["path"], m["sha256"][:16]) for m in manifest["models"])))
     ex, machine = timing["execution"], timing["machine"]
-    where = (f"the Dask cluster at {ex['executor'][5:]}" if ex["executor"].startswith("dask ") and ex["executor"] != "dask local"
+    remote = ex["executor"].startswith("dask ") and ex["executor"] != "dask local"
+    where = (f"the Dask cluster at {ex['executor'][5:]}" if remote
              else f"{ex['executor']} with {ex['workers']} worker(s)")
     sec.text(f"Executed on {where}: {ex['jobs_run']} job(s) run and "
              f"{ex['jobs_skipped']} resumed from earlier in {ex['seconds']:.1f} s (last invocation). Machine: "
@@ -266,7 +271,8 @@ def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
                      study_figures.tracks(name, mine, trackers))
         figures.append(fig)
         traj.md += [f"![{fig.caption}]({FIGURES}/{fig.name})", ""]
-        traj.html.append(f'<div class="plot">{figure_div(trajectory_figure(name, mine, trackers), f"trajectories-{name}")}</div>')
+        div = figure_div(trajectory_figure(name, mine, trackers), f"trajectories-{name}")
+        traj.html.append(f'<div class="plot">{div}</div>')
     sections.append(traj)
 
     title = f"nnda study report: {manifest['study']['name']}"

@@ -133,7 +133,8 @@ def summary_markdown(summary: dict, timing: dict) -> str:
     lines = [f"Across {len(summary['scenarios'])} scenario(s) and {len(HEADLINES)} headline measures "
              f"({', '.join(h.words for h in HEADLINES)}), best means, ties left out (clear wins: "
              f"{level} intervals apart): "
-             + ", ".join(f"{t} {best[t]} ({clear[t]})" for t in sorted(trackers, key=lambda t: (-clear[t], -best[t], t)))
+             + ", ".join(f"{t} {best[t]} ({clear[t]})"
+                         for t in sorted(trackers, key=lambda t: (-clear[t], -best[t], t)))
              + ".", ""]
     ratios = _time_ratios(summary, timing)
     if ratios:

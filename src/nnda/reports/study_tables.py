@@ -140,8 +140,8 @@ def table_html(table: TextTable, table_id: str = "") -> str:
     ident = f' id="{html.escape(table_id)}"' if table_id else ""
     head = "".join(f"<th>{html.escape(h)}</th>" for h in table.header)
     prose = {j for row in table.rows for j, c in enumerate(row) if len(c) > TEXT_CELL}
-    body = "".join("<tr>" + "".join(f"<td{_TEXT if j in prose else ''}>{html.escape(c)}</td>" for j, c in enumerate(row))
-                   + "</tr>" for row in table.rows)
+    body = "".join("<tr>" + "".join(f"<td{_TEXT if j in prose else ''}>{html.escape(c)}</td>"
+                                    for j, c in enumerate(row)) + "</tr>" for row in table.rows)
     note = f'<p class="note">{html.escape(table.note)}</p>' if table.note else ""
     return (f'<div class="table"><table{ident}><caption>{html.escape(table.title)}</caption><thead><tr>{head}</tr>'
             f"</thead><tbody>{body}</tbody></table></div>{note}")

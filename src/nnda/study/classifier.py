@@ -26,12 +26,12 @@ import numpy as np
 
 from nnda.data.generator import generate
 from nnda.data.presets import GROUPS, PRESETS
+from nnda.errors import DatasetError
+from nnda.files import finite_or_none, read_json
 from nnda.models.ablation import ABLATION_FILE, ABLATION_FORMAT, ABLATION_FORMAT_VERSION
 from nnda.models.metrics import classifier_metrics, roc
 from nnda.models.pairs import PAIR_OPTIONS, PairSet, pairs_from_datasets
 from nnda.models.scorer import load_model
-from nnda.errors import DatasetError
-from nnda.files import finite_or_none, read_json
 from nnda.study.plan import ModelPlan
 
 CLASSIFIER_FORMAT = "nnda.study-classifier"
@@ -103,7 +103,8 @@ def evaluate_models(models: tuple[ModelPlan, ...] | list[ModelPlan]) -> dict:
             "split": meta.get("split"), "test_metrics": meta.get("test_metrics"),
             "evaluation": {"pairs_from": described, "pair_options": options, "n_pairs": len(pairs),
                            "n_positive": pairs.n_positive,
-                           "metrics": {k: (finite_or_none(v) if isinstance(v, float) else v) for k, v in metrics.items()}},
+                           "metrics": {k: (finite_or_none(v) if isinstance(v, float) else v)
+                                       for k, v in metrics.items()}},
             "roc": {"fpr": _floats(fpr), "tpr": _floats(tpr)},
         })
     return {"format": CLASSIFIER_FORMAT, "format_version": FORMAT_VERSION, "models": entries}

@@ -1,14 +1,18 @@
-"""A whole comparison: check the study, run its jobs, aggregate, evaluate the models, write the report."""
+"""A whole comparison: check the study, run its jobs, aggregate, evaluate the models.
+
+The report is the next stage's (`nnda.reports.study_report.write_report`, which reads what
+this stage wrote); the ``nnda compare`` command runs both.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
 
+from nnda.files import write_json
 from nnda.models.ablation import ABLATION_FILE
 from nnda.study.classifier import CLASSIFIER_FILE, evaluate_models, read_ablation
 from nnda.study.config import Study
-from nnda.files import write_json
 from nnda.study.plan import StudyPlan, plan_study
 from nnda.study.results import write_results
 from nnda.study.runner import Execution, JobCallback, run_jobs
@@ -16,26 +20,21 @@ from nnda.study.runner import Execution, JobCallback, run_jobs
 
 @dataclass(frozen=True)
 class Comparison:
-    """What `compare` did: the plan, how its jobs ran, the summary, and the report's path."""
+    """What `compare` did: the plan, how its jobs ran, and the summary."""
 
     plan: StudyPlan
     execution: Execution
     summary: dict
-    report: Path | None
 
 
 def compare(study: Study, out: str | Path, resume: bool = False, workers: int = 2, dask: str | None = None,
-            on_job: JobCallback | None = None, where: str = "study", overwrite: bool = False,
-            report: bool = True) -> Comparison:
-    """Run ``study`` into directory ``out`` (see `nnda.study.runner` for its layout) and write the report.
+            on_job: JobCallback | None = None, where: str = "study", overwrite: bool = False) -> Comparison:
+    """Run ``study`` into directory ``out`` (see `nnda.study.runner` for its layout).
 
     Every input is checked before the first job; with ``resume`` the jobs
     already in ``out`` are kept, with ``overwrite`` an earlier study there is
-    replaced. ``where`` names the study in error messages; ``report`` False
-    leaves the report out (``nnda report`` writes it later).
+    replaced. ``where`` names the study in error messages.
     """
-    from nnda.reports.study_report import write_report  # the report stage reads what this stage wrote
-
     out = Path(out)
     plan = plan_study(study, where)
     ablation = read_ablation(study.ablation) if study.ablation is not None else None
@@ -46,4 +45,4 @@ def compare(study: Study, out: str | Path, resume: bool = False, workers: int = 
         write_json(out / ABLATION_FILE, ablation)
     else:
         (out / ABLATION_FILE).unlink(missing_ok=True)  # a resumed or overwritten study keeps no stale copy
-    return Comparison(plan, execution, summary, write_report(out) if report else None)
+    return Comparison(plan, execution, summary)

@@ -85,7 +85,8 @@ def run_job(job: JobSpec) -> dict:
     record = {
         "format": JOB_FORMAT, "format_version": JOB_FORMAT_VERSION, "key": job.key,
         "scenario": job.scenario, "tracker": job.tracker, "kind": job.kind, "run": job.run, "seed": job.seed,
-        "dataset_digest": dataset_digest(dataset), "n_scans": dataset.n_scans, "n_targets": len(dataset.scenario.targets),
+        "dataset_digest": dataset_digest(dataset), "n_scans": dataset.n_scans,
+        "n_targets": len(dataset.scenario.targets),
         "metrics": scalars(m),
         "series": {name: getattr(m, field).tolist() for name, field in SERIES.items()},
         "timing": {"time_per_scan_s": seconds.tolist()},

@@ -21,14 +21,19 @@ from typing import Any
 
 import nnda
 from nnda.data.dataset import (
-    DETECTIONS_FILE, MANIFEST, TRUTH_FILE, collection_members, is_collection, read_dataset,
+    DETECTIONS_FILE,
+    MANIFEST,
+    TRUTH_FILE,
+    collection_members,
+    is_collection,
+    read_dataset,
 )
 from nnda.data.presets import resolve
 from nnda.data.scenario import Scenario, Sensor, load_scenario
 from nnda.errors import ConfigError, DatasetError, ModelError
+from nnda.files import digest, file_digest
 from nnda.models.scorer import MODEL_FILE, load_model
 from nnda.study.config import MODEL_PARAM, Study
-from nnda.files import digest, file_digest
 from nnda.tracking.registry import PEERS, TRACKERS, make_tracker
 
 STUDY_FORMAT = "nnda.study"
@@ -40,7 +45,7 @@ class ScenarioPlan:
     """One scenario of the study and where its runs come from.
 
     Generated scenarios (presets, config files) have no ``datasets``: run r is
-    `nnda.data.generate(scenario, seed, r)`. Scenarios read from disk list one
+    `nnda.data.generator.generate(scenario, seed, r)`. Scenarios read from disk list one
     dataset directory per run, with the content digest of each.
     """
 

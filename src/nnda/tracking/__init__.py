@@ -1,27 +1,9 @@
-"""Filters (CV/CT EKFs in an IMM), the shared track life cycle and the association methods.
+"""Multi-target trackers: the shared framework and the association methods.
 
-``make_tracker(name, sensor, params)`` builds any registered tracker
-(``gnn``, ``jpda``, ``mht``, ``nn``); each consumes scans with ``step(scan)``
-and returns a `TrackerOutput`.
+``nnda.tracking.registry.make_tracker(name, sensor, params)`` builds any
+registered tracker (``gnn``, ``jpda``, ``mht``, ``nn``); each consumes scans
+with ``step(scan)`` and returns a `nnda.tracking.output.TrackerOutput`.
+Modules: ``tracker`` (the protocol and the single-hypothesis framework),
+``lifecycle``, ``gating``, ``assignment``, ``clutter_density``, one module
+per method and ``registry``. Nothing is imported here.
 """
-
-from nnda.tracking.imm import IMM, IMMPrediction, IMMState
-from nnda.tracking.output import TrackerOutput, TrackStatus
-from nnda.tracking.tracker import Tracker, TrackerBase, TrackerConfig
-
-_REGISTRY = ("TRACKERS", "make_tracker")
-
-
-def __getattr__(name: str):
-    # The registry imports every tracker, the neural one with its model code, which itself runs
-    # the IMM of this package: loading it on first use keeps `import nnda.tracking.imm` free of cycles.
-    if name in _REGISTRY:
-        from nnda.tracking import registry
-        return getattr(registry, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-__all__ = [
-    "IMM", "IMMPrediction", "IMMState", "TRACKERS", "Tracker", "TrackerBase", "TrackerConfig",
-    "TrackerOutput", "TrackStatus", "make_tracker",
-]

@@ -15,9 +15,9 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from nnda.data.sensor import polar_to_cart
-from nnda.tracking import kalman
-from nnda.tracking.imm import IMM
-from nnda.tracking.kalman import MeasurementPrediction
+from nnda.filters import kalman
+from nnda.filters.imm import IMM
+from nnda.filters.kalman import MeasurementPrediction
 
 #: below this many track-contact pairs the dense test is faster than building a k-d tree
 DENSE_PAIRS = 60_000

@@ -20,11 +20,12 @@ from typing import Annotated, ClassVar
 import numpy as np
 from pydantic import Field
 
+from nnda.filters.imm import IMMPrediction
+from nnda.filters.kalman import GATE_99
 from nnda.tracking.assignment import greedy_matching, least_cost_assignment
 from nnda.tracking.gating import gate
-from nnda.tracking.imm import IMMPrediction
 from nnda.tracking.output import TrackStatus
-from nnda.tracking.tracker import GATE_99, Association, Tracker, TrackerConfig, Tracks
+from nnda.tracking.tracker import Association, Tracker, TrackerConfig, Tracks
 
 
 class GNNConfig(TrackerConfig):

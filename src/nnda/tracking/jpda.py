@@ -73,13 +73,14 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
 from nnda.data.sensor import TWO_PI
-from nnda.tracking import kalman
+from nnda.filters import kalman
+from nnda.filters.imm import IMMPrediction, IMMState
+from nnda.filters.kalman import GATE_99
+from nnda.filters.measurement import MeasurementModel
 from nnda.tracking.clutter_density import local_density
 from nnda.tracking.gating import gate
-from nnda.tracking.imm import IMMPrediction, IMMState
-from nnda.tracking.measurement import MeasurementModel
 from nnda.tracking.output import TrackStatus
-from nnda.tracking.tracker import GATE_99, Association, Tracker, TrackerConfig, Tracks
+from nnda.tracking.tracker import Association, Tracker, TrackerConfig, Tracks
 
 #: loopy belief propagation stops when no message (a probability ratio in (0, 1]) moves by more than this ...
 BP_TOLERANCE = 1e-10

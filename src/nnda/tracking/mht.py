@@ -57,11 +57,12 @@ from scipy.sparse.csgraph import connected_components
 
 from nnda.data.dataset import Scan
 from nnda.data.sensor import polar_to_cart
-from nnda.tracking.batch import Batch
+from nnda.filters.batch import Batch
+from nnda.filters.kalman import GATE_99
 from nnda.tracking.clutter_density import local_density
 from nnda.tracking.gating import gate
 from nnda.tracking.output import TrackerOutput, TrackStatus
-from nnda.tracking.tracker import GATE_99, TrackerBase, TrackerConfig, Tracks
+from nnda.tracking.tracker import TrackerBase, TrackerConfig, Tracks
 
 #: history entry of a scan before the family existed, or whose contact is not known
 UNKNOWN = -2

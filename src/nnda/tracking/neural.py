@@ -42,12 +42,12 @@ from pydantic import Field
 
 from nnda.data.scenario import Sensor
 from nnda.errors import ConfigError, ModelError
+from nnda.filters.imm import IMMPrediction
 from nnda.models.feature_sets import FEATURE_SETS
 from nnda.models.features import candidate_pairs, pair_features
 from nnda.models.innovation import IMM_INNOVATION, innovation_features
 from nnda.models.scorer import Scorer, load_model
 from nnda.tracking.assignment import greedy_matching
-from nnda.tracking.imm import IMMPrediction
 from nnda.tracking.output import CONFIRMED
 from nnda.tracking.tracker import Association, Tracker, TrackerConfig, Tracks
 

@@ -3,8 +3,10 @@
 `TRACKERS` maps a name to its class. Iterating it gives the built-in
 trackers; the Stone Soup peers (`PEERS`, the ``nnda[peers]`` extra) are
 members too (``name in TRACKERS``, ``TRACKERS[name]``) but are imported only
-when looked up, so nnda never imports Stone Soup unless a peer is asked for,
-and a missing install is a ConfigError that names the extra.
+when looked up, by module name as plug-ins are: nnda never imports Stone
+Soup unless a peer is asked for, this layer never imports `nnda.peers`
+(which sits above it), and a missing install is a ConfigError that names
+the extra.
 """
 
 from __future__ import annotations
@@ -26,6 +28,8 @@ PEERS: dict[str, str] = {
     "stonesoup-gnn": "nnda.peers.trackers:StoneSoupGNN",
     "stonesoup-jpda": "nnda.peers.trackers:StoneSoupJPDA",
 }
+#: the optional extra the peers need (`nnda.peers.EXTRA` says the same to the peers' own commands)
+PEERS_EXTRA = "pip install 'nnda[peers]'"
 
 
 class _Registry(dict):
@@ -37,11 +41,13 @@ class _Registry(dict):
     def __missing__(self, name: str) -> type[TrackerBase]:
         if name not in PEERS:
             raise KeyError(name)
-        from nnda.peers import require_stonesoup
-
-        require_stonesoup(f"tracker {name!r}")
         module, cls = PEERS[name].split(":")
-        return getattr(importlib.import_module(module), cls)
+        try:
+            importlib.import_module("stonesoup")  # checked on every lookup, even with the peer module loaded
+            return getattr(importlib.import_module(module), cls)
+        except ImportError as exc:
+            raise ConfigError(f"tracker {name!r} needs Stone Soup, which is not installed ({exc}); "
+                              f"install the peers extra: {PEERS_EXTRA}") from None
 
 
 TRACKERS: dict[str, type[TrackerBase]] = _Registry(

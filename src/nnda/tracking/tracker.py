@@ -33,13 +33,10 @@ from nnda.data.dataset import Scan
 from nnda.data.scenario import Sensor
 from nnda.data.sensor import polar_to_cart
 from nnda.errors import TrackingError
-from nnda.tracking.batch import Batch
-from nnda.tracking.imm import IMM, IMMPrediction, IMMState
+from nnda.filters.batch import Batch
+from nnda.filters.imm import IMM, IMMPrediction, IMMState
 from nnda.tracking.lifecycle import LifecycleConfig, advance, cap_per_initiator, window_pairs
 from nnda.tracking.output import DELETED, PRELIMINARY, TrackerOutput
-
-#: chi-square gate with 2 degrees of freedom and P_G = 0.99 (spec §4.3 and §7.3 defaults)
-GATE_99 = 9.21
 
 
 class TrackerConfig(BaseModel):

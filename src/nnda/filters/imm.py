@@ -39,13 +39,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from nnda.errors import FilterError
-from nnda.tracking import kalman
-from nnda.tracking.batch import Batch
-from nnda.tracking.checks import as_array, check_covariance, check_finite, check_nonnegative
-from nnda.tracking.kalman import MeasurementPrediction
-from nnda.tracking.measurement import MeasurementModel, PolarMeasurement
-from nnda.tracking.models import ConstantVelocity, CoordinatedTurn, MotionModel, process_noise
-from nnda.tracking.two_point import two_point
+from nnda.filters import kalman
+from nnda.filters.batch import Batch
+from nnda.filters.kalman import MeasurementPrediction
+from nnda.filters.measurement import MeasurementModel, PolarMeasurement
+from nnda.filters.motion import ConstantVelocity, CoordinatedTurn, MotionModel, process_noise
+from nnda.filters.two_point import two_point
+from nnda.validation import check_array, check_covariance, check_finite, check_nonnegative
 
 if TYPE_CHECKING:
     from nnda.data.scenario import Sensor
@@ -114,17 +114,17 @@ class IMM:
             raise FilterError("IMM.models: at least one motion model is needed")
         if any(m.dim < 4 for m in self.models):
             raise FilterError("IMM.models: every model state must start with [x, vx, y, vy]")
-        tpm = as_array("IMM.tpm", self.tpm, (r, r))
-        mu0 = as_array("IMM.mu0", self.mu0, (r,))
-        check_finite("IMM.tpm", tpm)
-        check_finite("IMM.mu0", mu0)
+        tpm = check_array("IMM.tpm", self.tpm, (r, r), error=FilterError)
+        mu0 = check_array("IMM.mu0", self.mu0, (r,), error=FilterError)
+        check_finite("IMM.tpm", tpm, error=FilterError)
+        check_finite("IMM.mu0", mu0, error=FilterError)
         if (tpm < 0).any() or not np.allclose(tpm.sum(axis=1), 1.0, rtol=0, atol=PROBABILITY_ATOL):
             raise FilterError(f"IMM.tpm: entries must be >= 0 and every row must sum to 1, got {tpm.tolist()}")
         if not (tpm.sum(axis=0) > 0).all():
             raise FilterError(f"IMM.tpm: every model must be reachable (a column is all zero): {tpm.tolist()}")
         if (mu0 < 0).any() or not np.isclose(mu0.sum(), 1.0, rtol=0, atol=PROBABILITY_ATOL):
             raise FilterError(f"IMM.mu0: entries must be >= 0 and sum to 1, got {mu0.tolist()}")
-        check_nonnegative("IMM.augment_variance", self.augment_variance)
+        check_nonnegative("IMM.augment_variance", self.augment_variance, error=FilterError)
         object.__setattr__(self, "tpm", tuple(map(tuple, tpm.tolist())))
         object.__setattr__(self, "mu0", tuple(mu0.tolist()))
 
@@ -201,8 +201,8 @@ class IMM:
         (eq. 5.54); each model extends it (CT: omega = 0, variance P_omega,
         eq. 5.56); mode probabilities ``mu0``.
         """
-        z1 = as_array("z1", z1, (None, 2))
-        z2 = as_array("z2", z2, (z1.shape[0], 2))
+        z1 = check_array("z1", z1, (None, 2), error=FilterError)
+        z2 = check_array("z2", z2, (z1.shape[0], 2), error=FilterError)
         self.measurement.validate("z1", z1)
         self.measurement.validate("z2", z2)
         dt = np.asarray(t2, dtype=float) - np.asarray(t1, dtype=float)
@@ -224,21 +224,21 @@ class IMM:
 
     def from_cv(self, x: np.ndarray, P: np.ndarray, mu: np.ndarray | None = None) -> IMMState:
         """IMM state of K tracks from CV estimates x (K, 4), P (K, 4, 4); every model starts there."""
-        x = as_array("x", x, (None, 4))
-        P = as_array("P", P, (x.shape[0], 4, 4))
-        check_finite("x", x)
-        check_covariance("P", P)
+        x = check_array("x", x, (None, 4), error=FilterError)
+        P = check_array("P", P, (x.shape[0], 4, 4), error=FilterError)
+        check_finite("x", x, error=FilterError)
+        check_covariance("P", P, error=FilterError)
         state = self._from_cv(x, P)
         return state if mu is None else IMMState(state.x, state.P, self._checked_mu(mu, len(x)))
 
     def make_state(self, x: np.ndarray, P: np.ndarray, mu: np.ndarray | None = None) -> IMMState:
         """A checked IMM state from padded arrays x (K, r, n), P (K, r, n, n), mu (K, r)."""
         r, n = self.n_models, self.dim
-        x = as_array("x", x, (None, r, n))
-        P = as_array("P", P, (x.shape[0], r, n, n))
-        check_finite("x", x)
+        x = check_array("x", x, (None, r, n), error=FilterError)
+        P = check_array("P", P, (x.shape[0], r, n, n), error=FilterError)
+        check_finite("x", x, error=FilterError)
         for j, m in enumerate(self.models):
-            check_covariance(f"P[:, {j}] (model {type(m).__name__})", P[:, j, : m.dim, : m.dim])
+            check_covariance(f"P[:, {j}] (model {type(m).__name__})", P[:, j, : m.dim, : m.dim], error=FilterError)
         if (x * (1.0 - self._own)).any() or (P * (1.0 - self._own2)).any():
             raise FilterError("x, P: entries beyond a model's own state size must be zero")
         mu = np.broadcast_to(self._mu0_array, (len(x), r)) if mu is None else self._checked_mu(mu, len(x))
@@ -249,8 +249,8 @@ class IMM:
         return np.array(self.mu0)
 
     def _checked_mu(self, mu: np.ndarray, K: int) -> np.ndarray:
-        mu = as_array("mu", mu, (K, self.n_models))
-        check_finite("mu", mu)
+        mu = check_array("mu", mu, (K, self.n_models), error=FilterError)
+        check_finite("mu", mu, error=FilterError)
         if (mu < 0).any() or not np.allclose(mu.sum(axis=1), 1.0, rtol=0, atol=PROBABILITY_ATOL):
             raise FilterError("mu: mode probabilities must be >= 0 and sum to 1 per track")
         return mu
@@ -322,7 +322,7 @@ class IMM:
         K = len(pred)
         mp, st = pred.measurement, pred.state
         if check:
-            z = as_array("z", z, (K, 2))
+            z = check_array("z", z, (K, 2), error=FilterError)
             if mask is not None:
                 mask = np.asarray(mask)
                 if mask.dtype != bool or mask.shape != (K,):
@@ -409,6 +409,6 @@ class IMM:
         return top + np.log(np.exp(log_terms - top[:, None]).sum(axis=-1))
 
     def _checked_contacts(self, Z: np.ndarray) -> np.ndarray:
-        Z = as_array("Z", Z, (None, 2))
+        Z = check_array("Z", Z, (None, 2), error=FilterError)
         self.measurement.validate("Z", Z)
         return Z

@@ -17,11 +17,11 @@ from filterpy.kalman import ExtendedKalmanFilter, IMMEstimator, KalmanFilter
 from nnda.data.scenario import Segment, Sensor, Target
 from nnda.data.sensor import measure, polar_to_cart
 from nnda.data.trajectory import evaluate
-from nnda.tracking import kalman
-from nnda.tracking.imm import IMM
-from nnda.tracking.measurement import PolarMeasurement, PositionMeasurement
-from nnda.tracking.models import ConstantVelocity, CoordinatedTurn
-from nnda.tracking.two_point import two_point
+from nnda.filters import kalman
+from nnda.filters.imm import IMM
+from nnda.filters.measurement import PolarMeasurement, PositionMeasurement
+from nnda.filters.motion import ConstantVelocity, CoordinatedTurn
+from nnda.filters.two_point import two_point
 
 RTOL = 1e-9
 MANOEUVRING = Target(

@@ -27,7 +27,7 @@ from typing import ClassVar, Literal, Protocol
 import numpy as np
 
 from nnda.errors import FilterError
-from nnda.tracking.checks import check_nonnegative, check_positive
+from nnda.validation import check_nonnegative, check_positive
 
 #: position and velocity indices of the CV part of every state, [x, vx, y, vy]
 POS = np.array([0, 2])
@@ -108,7 +108,7 @@ class ConstantVelocity:
     dim: ClassVar[int] = 4
 
     def __post_init__(self) -> None:
-        check_nonnegative("ConstantVelocity.sigma_q", self.sigma_q)
+        check_nonnegative("ConstantVelocity.sigma_q", self.sigma_q, error=FilterError)
 
     @cached_property
     def noise_basis(self) -> np.ndarray:
@@ -162,10 +162,10 @@ class CoordinatedTurn:
     dim: ClassVar[int] = 5
 
     def __post_init__(self) -> None:
-        check_nonnegative("CoordinatedTurn.sigma_q", self.sigma_q)
-        check_nonnegative("CoordinatedTurn.sigma_omega", self.sigma_omega)
-        check_positive("CoordinatedTurn.omega_max", self.omega_max)
-        check_positive("CoordinatedTurn.omega_var0", self.omega_var0)
+        check_nonnegative("CoordinatedTurn.sigma_q", self.sigma_q, error=FilterError)
+        check_nonnegative("CoordinatedTurn.sigma_omega", self.sigma_omega, error=FilterError)
+        check_positive("CoordinatedTurn.omega_max", self.omega_max, error=FilterError)
+        check_positive("CoordinatedTurn.omega_var0", self.omega_var0, error=FilterError)
         if self.noise_variant not in ("derived", "printed"):
             raise FilterError(f"CoordinatedTurn.noise_variant: 'derived' or 'printed', got {self.noise_variant!r}")
 

@@ -10,9 +10,9 @@ from scipy.special import logsumexp
 
 from nnda.data.sensor import cart_to_polar
 from nnda.errors import FilterError
-from nnda.tracking.imm import IMM, IMMPrediction, IMMState
-from nnda.tracking.measurement import PositionMeasurement
-from nnda.tracking.models import ConstantVelocity, CoordinatedTurn
+from nnda.filters.imm import IMM, IMMPrediction, IMMState
+from nnda.filters.measurement import PositionMeasurement
+from nnda.filters.motion import ConstantVelocity, CoordinatedTurn
 
 K = 7
 

@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 from filterpy.common import Q_discrete_white_noise
-from spec_reference import ct_f, ct_F, ct_Q, cv_F, cv_Q
+from spec_reference import ct_F, ct_f, ct_Q, cv_F, cv_Q
 
 from nnda.errors import FilterError
-from nnda.tracking.models import ConstantVelocity, CoordinatedTurn
+from nnda.filters.motion import ConstantVelocity, CoordinatedTurn
 
 RNG = np.random.default_rng(11)
 STATES = np.column_stack([

@@ -20,11 +20,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from nnda.errors import FilterError
-from nnda.tracking.batch import Batch
-from nnda.tracking.measurement import MeasurementModel
-from nnda.tracking.models import MotionModel
+from nnda.filters.batch import Batch
+from nnda.filters.measurement import MeasurementModel
+from nnda.filters.motion import MotionModel
 
 LOG_2PI = float(np.log(2.0 * np.pi))
+
+#: chi-square gate on a 2-D innovation with P_G = 0.99 (spec §4.3 and §7.3 defaults)
+GATE_99 = 9.21
 
 #: sign pattern of the 2 x 2 adjugate
 _ADJ_SIGN = np.array([[1.0, -1.0], [-1.0, 1.0]])

@@ -11,8 +11,8 @@ import spec_reference as ref
 from nnda.data.scenario import Sensor
 from nnda.data.sensor import cart_to_polar, measure
 from nnda.errors import FilterError
-from nnda.tracking.measurement import PolarMeasurement, PositionMeasurement, converted_covariance
-from nnda.tracking.two_point import two_point
+from nnda.filters.measurement import PolarMeasurement, PositionMeasurement, converted_covariance
+from nnda.filters.two_point import two_point
 
 RNG = np.random.default_rng(5)
 X = np.column_stack([RNG.uniform(-2.5e4, 2.5e4, 8), RNG.normal(0, 100, 8), RNG.uniform(-2.5e4, 2.5e4, 8),

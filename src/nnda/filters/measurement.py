@@ -18,7 +18,7 @@ import numpy as np
 from nnda.data.scenario import Sensor
 from nnda.data.sensor import cart_to_polar, polar_to_cart, wrap_angle
 from nnda.errors import FilterError
-from nnda.tracking.checks import check_covariance, check_finite, check_positive
+from nnda.validation import check_covariance, check_finite, check_positive
 
 
 class MeasurementModel(Protocol):
@@ -89,8 +89,8 @@ class PolarMeasurement:
     dim: ClassVar[int] = 2
 
     def __post_init__(self) -> None:
-        check_positive("PolarMeasurement.sigma_range", self.sigma_range)
-        check_positive("PolarMeasurement.sigma_azimuth", self.sigma_azimuth)
+        check_positive("PolarMeasurement.sigma_range", self.sigma_range, error=FilterError)
+        check_positive("PolarMeasurement.sigma_azimuth", self.sigma_azimuth, error=FilterError)
 
     @classmethod
     def from_sensor(cls, sensor: Sensor) -> PolarMeasurement:
@@ -135,7 +135,7 @@ class PolarMeasurement:
         """Finite values and positive ranges."""
         if np.isfinite(z).all() and (z[..., 0] > 0).all():
             return
-        check_finite(name, z)
+        check_finite(name, z, error=FilterError)
         if (z[..., 0] <= 0).any():
             where = tuple(int(i) for i in np.argwhere(z[..., 0] <= 0)[0])
             raise FilterError(f"{name}: range must be > 0, got {z[..., 0][where]} at index {where}")
@@ -156,7 +156,7 @@ class PositionMeasurement:
         R = np.asarray(self.covariance, dtype=float)
         if R.shape != (2, 2):
             raise FilterError(f"PositionMeasurement.covariance: expected shape (2, 2), got {R.shape}")
-        check_covariance("PositionMeasurement.covariance", R)
+        check_covariance("PositionMeasurement.covariance", R, error=FilterError)
         object.__setattr__(self, "covariance", tuple(map(tuple, R.tolist())))
 
     @cached_property
@@ -178,4 +178,4 @@ class PositionMeasurement:
         return z, np.broadcast_to(self.R, (*z.shape[:-1], 2, 2))
 
     def validate(self, name: str, z: np.ndarray) -> None:
-        check_finite(name, z)
+        check_finite(name, z, error=FilterError)

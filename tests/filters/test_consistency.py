@@ -34,14 +34,15 @@ import pytest
 import spec_reference as ref
 from scipy.stats import binom, chi2
 
-from nnda.data import Clutter, ProcessNoise, Scenario, Segment, Sensor, Target, generate_runs
+from nnda.data.generator import generate_runs
+from nnda.data.scenario import Clutter, ProcessNoise, Scenario, Segment, Sensor, Target
 from nnda.data.sensor import measure
 from nnda.data.trajectory import evaluate
-from nnda.tracking import kalman
-from nnda.tracking.imm import IMM
-from nnda.tracking.measurement import PolarMeasurement
-from nnda.tracking.models import ConstantVelocity, CoordinatedTurn
-from nnda.tracking.two_point import two_point
+from nnda.filters import kalman
+from nnda.filters.imm import IMM
+from nnda.filters.measurement import PolarMeasurement
+from nnda.filters.motion import ConstantVelocity, CoordinatedTurn
+from nnda.filters.two_point import two_point
 
 T = 2.0
 #: steps after the two-point start left out of the run-and-step averages (see the module docstring)
