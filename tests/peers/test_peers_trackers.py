@@ -39,7 +39,7 @@ def test_tracks_every_target_without_clutter(name, three_targets):
     assert m.hit_rate > 95.0 and m.position_rmse_m < 80.0
     for scan, o in zip(ds.scans(), outs):
         assert np.unique(o.track_id).size == len(o)
-        used = o.measurement[o.measurement >= 0]
+        used = o.contact[o.contact >= 0]
         assert used.max(initial=-1) < len(scan.measurements)
         assert o.state.shape == (len(o), 4) and o.covariance.shape == (len(o), 4, 4)
 

@@ -23,17 +23,8 @@ from nnda.filters.imm import IMM
 from nnda.filters.motion import ConstantVelocity
 from nnda.study.metrics import run_metrics
 from nnda.tracking import gating
-from nnda.tracking.jpda import (
-    JPDATracker,
-    Marginals,
-    best_pairs,
-    clusters,
-    jpda_marginals,
-    log_miss_weight,
-    loopy_marginals,
-    pair_likelihoods,
-    pda_update,
-)
+from nnda.tracking.jpda import JPDATracker, best_pairs, pair_likelihoods, pda_update
+from nnda.tracking.marginals import Marginals, clusters, jpda_marginals, log_miss_weight, loopy_marginals
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
 
@@ -326,7 +317,7 @@ def test_reported_contact_is_the_best_one_if_it_beats_no_detection():
     nxt = _confirmed_track(tracker)
     z = _polar([nxt + [5_000.0, 0.0], nxt + [10.0, 5.0], nxt + [40.0, -30.0]])
     out = tracker.step(Scan(7, 14.0, z))
-    assert out.measurement.tolist() == [1]
+    assert out.contact.tolist() == [1]
 
 
 @pytest.mark.parametrize("n, odds, reported", [(1, 10.0, True), (1, 0.1, False), (2, 1.5, True), (2, 0.6, False)])
@@ -336,16 +327,16 @@ def test_contacts_are_reported_when_likelier_than_no_detection(n, odds, reported
     # lambda to make that ratio `odds`. With two contacts and odds 1.5, beta_j = 0.375 > beta_0 = 0.25.
     tracker = make_tracker("jpda", Sensor())
     _confirmed_track(tracker)
-    pred = tracker.imm.predict(tracker.tracks.filt, 14.0 - tracker.tracks.t2)
-    mp = tracker.imm.combined_measurement(pred)
+    pred = tracker.filter.predict(tracker.tracks.filt, 14.0 - tracker.tracks.t2)
+    mp = tracker.filter.combined_measurement(pred)
     step = np.linalg.cholesky(mp.S[0]) @ [np.sqrt(7.0), 0.0]
     z = mp.z + np.array([step, -step])[:n]
-    log_lik = tracker.imm.log_likelihood(pred, z)[0]
+    log_lik = tracker.filter.log_likelihood(pred, z)[0]
     assert log_lik[0] == pytest.approx(log_lik[-1], abs=0.05)
     density = 0.9 * np.exp(log_lik[0] - log_miss_weight(0.9, 9.21)) / odds
     tracker.config = tracker.config.model_copy(update={"clutter_density": density})
     out = tracker.step(Scan(7, 14.0, z))
-    assert (out.measurement[0] >= 0) == reported
+    assert (out.contact[0] >= 0) == reported
 
 
 def test_clutter_density_estimates():
@@ -392,9 +383,9 @@ def test_k_d_tree_gating_gives_the_dense_gatings_results(monkeypatch):
     sizes = []
 
     class Sizes(JPDATracker):
-        def _maintain(self, tracks, pred, z, xy, time):
+        def associate(self, tracks, pred, z, xy, time):
             sizes.append(len(tracks) * len(z))
-            return super()._maintain(tracks, pred, z, xy, time)
+            return super().associate(tracks, pred, z, xy, time)
 
     runs, switch = [], gating.DENSE_PAIRS
     for dense_pairs in (switch, 10**12):
@@ -403,7 +394,7 @@ def test_k_d_tree_gating_gives_the_dense_gatings_results(monkeypatch):
         runs.append([tracker.step(scan) for scan in ds.scans()])
     assert max(sizes) > switch > min(sizes)  # both paths ran in the default run
     for a, b in zip(*runs):
-        for field in ("track_id", "status", "measurement"):
+        for field in ("track_id", "status", "contact"):
             np.testing.assert_array_equal(getattr(a, field), getattr(b, field))
         np.testing.assert_allclose(a.state, b.state, rtol=1e-12, atol=1e-9)
         np.testing.assert_allclose(a.covariance, b.covariance, rtol=1e-12, atol=1e-9)

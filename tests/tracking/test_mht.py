@@ -73,7 +73,7 @@ def test_hypothesis_tree_stays_within_its_bounds():
         assert per_family.max() <= 4
         assert leaves.hist.shape[1] == 2
         most = max(most, per_family.max())
-        assert len(leaves) <= cfg.max_track_branches * before + len(tracker.initiators) + 10_000
+        assert len(leaves) <= cfg.max_track_branches * before + len(tracker.initiation.contacts) + 10_000
     assert most == 4  # the bound is reached, so it is what limits the tree
 
 

@@ -64,8 +64,8 @@ class Recording(NeuralTracker):
             return self.loaded(features)
         self.scorer = counted
 
-    def _maintain(self, tracks, pred, z, xy, time):
-        assoc = super()._maintain(tracks, pred, z, xy, time)
+    def associate(self, tracks, pred, z, xy, time):
+        assoc = super().associate(tracks, pred, z, xy, time)
         self.seen.append((tracks, z.copy(), xy.copy(), time, assoc.contact.copy()))
         return assoc
 
@@ -99,12 +99,12 @@ def _scan_delays_and_nees(ds, outputs):
     det, truth, bounds = ds.detections, ds.truth, ds.scan_bounds()
     votes: dict[int, list[int]] = {}
     for o in outputs:
-        for i in np.flatnonzero(o.measurement >= 0):
-            votes.setdefault(int(o.track_id[i]), []).append(int(det.target_id[bounds[o.scan - 1] + o.measurement[i]]))
+        for i in np.flatnonzero(o.contact >= 0):
+            votes.setdefault(int(o.track_id[i]), []).append(int(det.target_id[bounds[o.scan - 1] + o.contact[i]]))
     owner = {t: max(set(v), key=v.count) for t, v in votes.items()}
     first_confirmed, nees = {}, []
     for o in outputs:
-        for i in np.flatnonzero((o.status == TrackStatus.CONFIRMED) & (o.measurement >= 0)):
+        for i in np.flatnonzero((o.status == TrackStatus.CONFIRMED) & (o.contact >= 0)):
             target = owner[int(o.track_id[i])]
             if target < 0:
                 continue
@@ -189,8 +189,8 @@ def test_crossing_targets_keep_their_tracks(model_file):
     # which confirmed track used each target's contact, scan by scan, from 10 scans before to 10 after
     users = {0: [], 1: []}
     for o in outputs[29:50]:
-        for i in np.flatnonzero((o.status == TrackStatus.CONFIRMED) & (o.measurement >= 0)):
-            target = tid[bounds[o.scan - 1] + o.measurement[i]]
+        for i in np.flatnonzero((o.status == TrackStatus.CONFIRMED) & (o.contact >= 0)):
+            target = tid[bounds[o.scan - 1] + o.contact[i]]
             if target >= 0:
                 users[int(target)].append(int(o.track_id[i]))
     follower = {}
@@ -252,9 +252,9 @@ def test_k_d_tree_candidate_search_gives_the_dense_searchs_tracks(model_file, mo
     sizes, runs, switch = [], [], features.DENSE_PAIRS
 
     class Sizes(NeuralTracker):
-        def _maintain(self, tracks, pred, z, xy, time):
+        def associate(self, tracks, pred, z, xy, time):
             sizes.append(len(tracks) * len(z))
-            return super()._maintain(tracks, pred, z, xy, time)
+            return super().associate(tracks, pred, z, xy, time)
 
     for dense_pairs in (switch, 10**12):
         monkeypatch.setattr(features, "DENSE_PAIRS", dense_pairs)
@@ -262,7 +262,7 @@ def test_k_d_tree_candidate_search_gives_the_dense_searchs_tracks(model_file, mo
         runs.append([tracker.step(scan) for scan in ds.scans()])
     assert max(sizes) > switch > min(sizes)  # both searches ran in the default run
     for a, b in zip(*runs):
-        for field in ("track_id", "status", "measurement", "state", "covariance"):
+        for field in ("track_id", "status", "contact", "state", "covariance"):
             np.testing.assert_array_equal(getattr(a, field), getattr(b, field))
 
 

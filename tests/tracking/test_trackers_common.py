@@ -1,4 +1,5 @@
-"""Behaviour every model-free tracker must show (the neural tracker has its own tests)."""
+"""Behaviour every model-free tracker must show (the neural tracker has its own tests), and the protocol
+every registered tracker meets."""
 
 from __future__ import annotations
 
@@ -10,9 +11,13 @@ from nnda.data.generator import generate
 from nnda.data.presets import PRESETS
 from nnda.data.scenario import Clutter, Scenario, Segment, Sensor, Target
 from nnda.errors import ConfigError, TrackingError
+from nnda.filters.imm import IMM
+from nnda.filters.measurement import PolarMeasurement
+from nnda.filters.motion import ConstantVelocity
 from nnda.study.metrics import run_metrics
 from nnda.tracking.output import TrackStatus
-from nnda.tracking.registry import TRACKERS, make_tracker
+from nnda.tracking.registry import PEERS, TRACKERS, make_tracker
+from nnda.tracking.tracker import Tracker, TrackerConfig
 
 MODEL_FREE = [name for name in TRACKERS if name != "nn"]
 
@@ -124,3 +129,40 @@ def test_gnn_greedy_fallback_agrees_on_easy_scans():
     assert tracker.n_greedy > 0
     a, b = run_metrics(ds, exact), run_metrics(ds, greedy)
     assert abs(a.hits - b.hits) <= 3 and b.lost_targets == 0
+
+
+@pytest.mark.parametrize("name", [*TRACKERS, *PEERS])
+def test_every_registered_tracker_meets_the_protocol(name, model_file):
+    if name in PEERS:
+        pytest.importorskip("stonesoup", reason="Stone Soup is not installed: pip install 'nnda[peers]'")
+    tracker = make_tracker(name, Sensor(), {"model": str(model_file)} if name == "nn" else None)
+    assert isinstance(tracker, Tracker) and tracker.name == name
+    assert issubclass(tracker.config_type, TrackerConfig) and isinstance(tracker.config, tracker.config_type)
+    short = crossing().model_copy(update={"duration_s": 40.0, "clutter": Clutter(count=20)})  # cheap for peers
+    ds = generate(short, seed=1)
+    outs = [tracker.step(scan) for scan in ds.scans()]
+    tracker.reset()
+    again = [tracker.step(scan) for scan in ds.scans()]  # reset forgets the run: the same output again
+    for o, p in zip(outs, again):
+        k = len(o)
+        assert (o.track_id.shape, o.status.shape, o.state.shape, o.covariance.shape, o.contact.shape) == (
+            (k,), (k,), (k, 4), (k, 4, 4), (k,))
+        np.testing.assert_array_equal(o.track_id, p.track_id)
+        np.testing.assert_array_equal(o.contact, p.contact)
+
+
+@pytest.mark.parametrize("name", MODEL_FREE)
+def test_the_per_track_filter_is_a_component(name):
+    """A tracker given the default filter explicitly runs as by default; another filter changes it."""
+    ds = generate(PRESETS["S3"], seed=2)
+    cls, sensor = TRACKERS[name], ds.scenario.sensor
+    default = [o.state for o in run(name, ds)[1]]
+    explicit = cls(sensor, track_filter=IMM.for_sensor(sensor))
+    np.testing.assert_array_equal(np.concatenate(default), np.concatenate([explicit.step(s).state for s in ds.scans()]))
+    cv_only = IMM(models=(ConstantVelocity(),), measurement=PolarMeasurement.from_sensor(sensor), tpm=((1.0,),),
+                  mu0=(1.0,))
+    tracker = cls(sensor, track_filter=cv_only)
+    outs = [tracker.step(s) for s in ds.scans()]
+    assert tracker.filter is cv_only
+    assert run_metrics(ds, outs).confirmed_tracks >= 1
+    assert not np.array_equal(np.concatenate(default), np.concatenate([o.state for o in outs]))

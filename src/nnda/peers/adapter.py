@@ -31,7 +31,7 @@ from stonesoup.types.update import Update
 
 from nnda.data.dataset import Scan
 from nnda.data.scenario import Sensor
-from nnda.tracking.output import NO_MEASUREMENT, TrackerOutput, TrackStatus
+from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
 
 #: Stone Soup time of second 0 of a run
 EPOCH = datetime(2000, 1, 1)
@@ -117,12 +117,12 @@ def used_row(state: State, when: datetime) -> int:
     hypothesis (Stone Soup makes an update only when one beats the miss).
     """
     if not isinstance(state, Update) or state.timestamp != when:
-        return NO_MEASUREMENT
+        return NO_CONTACT
     hyp = state.hypothesis
     if hasattr(hyp, "single_hypotheses"):  # a MultipleHypothesis
         hits = [h for h in hyp if h]
         if not hits:
-            return NO_MEASUREMENT
+            return NO_CONTACT
         hyp = max(hits, key=lambda h: float(h.probability))
     det = hyp.measurement
-    return int(det.metadata.get(ROW, NO_MEASUREMENT)) if det is not None else NO_MEASUREMENT
+    return int(det.metadata.get(ROW, NO_CONTACT)) if det is not None else NO_CONTACT

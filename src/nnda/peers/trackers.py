@@ -37,15 +37,16 @@ from stonesoup.types.state import GaussianState
 from stonesoup.updater.kalman import ExtendedKalmanUpdater
 
 from nnda.data.dataset import Scan
+from nnda.data.scenario import Sensor
 from nnda.data.sensor import polar_to_cart
 from nnda.filters.kalman import GATE_99
 from nnda.peers.adapter import TrackBook, measurement_model, to_datetime, to_detections
 from nnda.tracking.clutter_density import local_density
 from nnda.tracking.output import TrackerOutput
-from nnda.tracking.tracker import TrackerBase, TrackerConfig
+from nnda.tracking.tracker import ContactTrackerConfig, TrackerConfig, checked_config, checked_scan
 
 
-class PeerConfig(TrackerConfig):
+class PeerConfig(ContactTrackerConfig):
     """Settings of a Stone Soup peer; ``lifecycle`` gives M, N, max_misses and v_max (see the module table)."""
 
     sigma_q: Annotated[float, Field(ge=0, description="CV process noise (m/s^2); covers the presets' turns "
@@ -63,11 +64,23 @@ class PeerJPDAConfig(PeerConfig):
     clutter_radius_m: Annotated[float, Field(gt=0)] = 3_000.0
 
 
-class StoneSoupTracker(TrackerBase):
-    """A Stone Soup multi-target tracker stepped one scan at a time; subclasses pick the association."""
+class StoneSoupTracker:
+    """A Stone Soup multi-target tracker stepped one scan at a time; subclasses pick the association.
+
+    Meets our `nnda.tracking.tracker.Tracker` protocol: built as ``cls(sensor, config)``.
+    """
+
+    name: ClassVar[str]
+    config_type: ClassVar[type[TrackerConfig]]
+
+    def __init__(self, sensor: Sensor, config: PeerConfig | None = None) -> None:
+        self.sensor = sensor
+        self.config = checked_config(self, config)
+        self.reset()
 
     def reset(self) -> None:
-        super().reset()
+        """Build a fresh Stone Soup tracker (the start of a new run)."""
+        self.last_time = -np.inf
         cfg, sensor = self.config, self.sensor
         self.model = measurement_model(sensor)
         q = cfg.sigma_q ** 2 * sensor.scan_period_s
@@ -97,7 +110,7 @@ class StoneSoupTracker(TrackerBase):
 
     def step(self, scan: Scan) -> TrackerOutput:
         """Process one sweep and report every track (confirmed, held by the initiator, just deleted)."""
-        z, time = self._checked(scan)
+        z, time = checked_scan(self.name, scan, self.last_time)
         scan = Scan(scan.index, time, z)
         self._before(z)
         self.tracker.update_tracker(to_datetime(time), set(to_detections(scan, self.model)))

@@ -34,7 +34,7 @@ import numpy as np
 
 from nnda.data.dataset import Dataset
 from nnda.study.gospa import gospa, ospa
-from nnda.tracking.output import NO_MEASUREMENT, TrackerOutput, TrackStatus
+from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
 
 #: GOSPA/OSPA cut-off distance (m), of the order of the gating region for our geometry
 DEFAULT_CUTOFF_M = 1_000.0
@@ -77,8 +77,8 @@ def _flatten(outputs: Sequence[TrackerOutput], bounds: np.ndarray):
     tid = np.concatenate([o.track_id for o in outputs]).astype(np.int64)
     status = np.concatenate([o.status for o in outputs]).astype(np.int64)
     state = np.concatenate([o.state for o in outputs]).reshape(-1, 4)
-    meas = np.concatenate([o.measurement for o in outputs]).astype(np.int64)
-    row = np.where(meas == NO_MEASUREMENT, -1, bounds[scan - 1] + meas)
+    meas = np.concatenate([o.contact for o in outputs]).astype(np.int64)
+    row = np.where(meas == NO_CONTACT, -1, bounds[scan - 1] + meas)
     return scan, tid, status, state[:, 0], state[:, 2], row
 
 

@@ -24,11 +24,18 @@ from nnda.filters.imm import IMMPrediction
 from nnda.filters.kalman import GATE_99
 from nnda.tracking.assignment import greedy_matching, least_cost_assignment
 from nnda.tracking.gating import gate
-from nnda.tracking.output import TrackStatus
-from nnda.tracking.tracker import Association, Tracker, TrackerConfig, Tracks
+from nnda.tracking.output import NO_CONTACT, TrackStatus
+from nnda.tracking.tracker import (
+    Association,
+    ContactTrackerConfig,
+    SingleHypothesisTracker,
+    TrackerConfig,
+    Tracks,
+    hard_update,
+)
 
 
-class GNNConfig(TrackerConfig):
+class GNNConfig(ContactTrackerConfig):
     """GNN settings: the chi-square gate (2 dof) and the size up to which assignment is exact."""
 
     gate: Annotated[float, Field(gt=0, description="chi-square gate, 2 dof (9.21: P_G = 0.99)")] = GATE_99
@@ -36,7 +43,7 @@ class GNNConfig(TrackerConfig):
                                           "is solved exactly; beyond, greedily by cost")] = 20_000
 
 
-class GNNTracker(Tracker):
+class GNNTracker(SingleHypothesisTracker):
     """IMM tracker with global nearest neighbour association."""
 
     name: ClassVar[str] = "gnn"
@@ -46,15 +53,15 @@ class GNNTracker(Tracker):
         super().reset()
         self.n_greedy = 0  # assignments too large to solve exactly (see GNNConfig.max_exact_pairs)
 
-    def _maintain(self, tracks: Tracks, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray,
+    def associate(self, tracks: Tracks, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray,
                   time: float) -> Association:
-        contact = np.full(len(tracks), -1, np.int64)
-        mp = self.imm.combined_measurement(pred)
-        g = gate(self.imm, mp, z, xy, self.config.gate)
+        contact = np.full(len(tracks), NO_CONTACT, np.int64)
+        mp = self.filter.combined_measurement(pred)
+        g = gate(self.filter, mp, z, xy, self.config.gate)
         confirmed = tracks.status == TrackStatus.CONFIRMED
         for stage in (confirmed, ~confirmed):  # confirmed tracks choose first
             taken = np.zeros(len(z), bool)
-            taken[contact[contact >= 0]] = True
+            taken[contact[contact != NO_CONTACT]] = True
             sel = stage[g.rows] & ~taken[g.cols]
             if not sel.any():
                 continue
@@ -65,4 +72,4 @@ class GNNTracker(Tracker):
                 rows, cols = greedy_matching(r, c, -(d2 + mp.log_det_S[r]))
                 self.n_greedy += 1
             contact[rows] = cols
-        return self.hard_update(pred, z, contact)
+        return hard_update(self.filter, pred, z, contact)

@@ -61,15 +61,14 @@ from nnda.filters.batch import Batch
 from nnda.filters.kalman import GATE_99
 from nnda.tracking.clutter_density import local_density
 from nnda.tracking.gating import gate
-from nnda.tracking.output import TrackerOutput, TrackStatus
-from nnda.tracking.tracker import TrackerBase, TrackerConfig, Tracks
+from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
+from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, TrackerConfig, Tracks
 
-#: history entry of a scan before the family existed, or whose contact is not known
+#: history entry of a scan before the family existed, or whose contact is not known (a miss is NO_CONTACT)
 UNKNOWN = -2
-MISS = -1
 
 
-class MHTConfig(TrackerConfig):
+class MHTConfig(ContactTrackerConfig):
     """TOMHT settings; defaults are the spec's §7.3 list and MATLAB trackerTOMHT's bounds."""
 
     gate: Annotated[float, Field(gt=0, description="chi-square gate, 2 dof (9.21: P_G = 0.99)")] = GATE_99
@@ -110,7 +109,7 @@ class _Shown:
     P: np.ndarray
 
 
-class MHTTracker(TrackerBase):
+class MHTTracker(ContactTracker):
     """IMM + track-oriented MHT (the spec's classical method)."""
 
     name: ClassVar[str] = "mht"
@@ -124,11 +123,6 @@ class MHTTracker(TrackerBase):
         self.n_clusters_solved = 0  # multi-family clusters solved exactly
         self.n_clusters_greedy = 0  # clusters above max_exact_leaves, chosen greedily
 
-    @property
-    def n_hypotheses(self) -> int:
-        """Leaves currently held (all families)."""
-        return 0 if self.leaves is None else len(self.leaves)
-
     # ---------------------------------------------------------------------- one scan
     def step(self, scan: Scan) -> TrackerOutput:
         z, time = self._checked(scan)
@@ -140,10 +134,10 @@ class MHTTracker(TrackerBase):
             chosen = self._global_hypothesis(leaves)
             now = leaves.hist[chosen, -1]
             used[now[now >= 0]] = True
-        born, contact = self._initiate(z, xy, used, time)
+        born, contact = self.initiation(z, xy, used, time)
         if born is not None:
             new = self._new_leaves(born, contact)
-            x, P = self.imm.estimate(born.filt)
+            x, P = self.filter.estimate(born.filt)
             first = 0 if leaves is None else len(leaves)
             leaves = new if leaves is None else Leaves.concat([leaves, new])
             shown = _Shown(x, P) if shown is None else _Shown(np.concatenate([shown.x, x]),
@@ -155,7 +149,7 @@ class MHTTracker(TrackerBase):
 
     # ---------------------------------------------------------------------- branching
     def _branch(self, leaves: Leaves, z: np.ndarray, xy: np.ndarray, time: float) -> tuple[Leaves, _Shown]:
-        cfg, imm, tr = self.config, self.imm, leaves.tracks
+        cfg, imm, tr = self.config, self.filter, leaves.tracks
         L = len(leaves)
         pred = imm.predict(tr.filt, time - tr.t2)
         x_pred, P_pred = imm.estimate(pred.state)
@@ -163,7 +157,7 @@ class MHTTracker(TrackerBase):
         miss_score = leaves.score + math.log(1.0 - cfg.pd * p_gate)
 
         parent = np.arange(L)
-        contact = np.full(L, MISS, np.int64)
+        contact = np.full(L, NO_CONTACT, np.int64)
         score = miss_score
         if len(z):
             mp = imm.combined_measurement(pred)
@@ -340,9 +334,9 @@ class MHTTracker(TrackerBase):
         gone = ~alive
         if gone.any():
             blocks.append((ids[gone], np.full(gone.sum(), TrackStatus.DELETED, np.int8), x[gone], P[gone],
-                           np.full(gone.sum(), MISS)))
+                           np.full(gone.sum(), NO_CONTACT)))
         self.known = (ids[alive], x[alive], P[alive])
-        return self._output(scan, time, blocks)
+        return TrackerOutput.from_blocks(scan, time, blocks)
 
 
 def _greedy_compatible(members: np.ndarray, fam: np.ndarray, rows: np.ndarray, res: np.ndarray,

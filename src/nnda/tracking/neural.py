@@ -48,11 +48,18 @@ from nnda.models.features import candidate_pairs, pair_features
 from nnda.models.innovation import IMM_INNOVATION, innovation_features
 from nnda.models.scorer import Scorer, load_model
 from nnda.tracking.assignment import greedy_matching
-from nnda.tracking.output import CONFIRMED
-from nnda.tracking.tracker import Association, Tracker, TrackerConfig, Tracks
+from nnda.tracking.output import CONFIRMED, NO_CONTACT
+from nnda.tracking.tracker import (
+    Association,
+    ContactTrackerConfig,
+    SingleHypothesisTracker,
+    TrackerConfig,
+    Tracks,
+    hard_update,
+)
 
 
-class NeuralConfig(TrackerConfig):
+class NeuralConfig(ContactTrackerConfig):
     """Neural tracker settings: the model file, the feature set expected of it, the decision threshold."""
 
     model: Path = Field(description="trained model file (model.json) or a directory holding one")
@@ -64,7 +71,7 @@ class NeuralConfig(TrackerConfig):
                                   "(as in GNN and JPDA); False: one greedy pass by score (spec A10)")
 
 
-class NeuralTracker(Tracker):
+class NeuralTracker(SingleHypothesisTracker):
     """IMM tracker whose associations are decided by the trained MLP scorer (the proposed method).
 
     The scorer is loaded once, at construction, from ``config.model``;
@@ -93,9 +100,9 @@ class NeuralTracker(Tracker):
         super().reset()
         self._first_time = np.empty(0)  # time (s) of each track's first contact, by track id
 
-    def _maintain(self, tracks: Tracks, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray,
+    def associate(self, tracks: Tracks, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray,
                   time: float) -> Association:
-        contact = np.full(len(tracks), -1, np.int64)
+        contact = np.full(len(tracks), NO_CONTACT, np.int64)
         if len(z):
             # the framework's arrays are checked already (scan checks, filter outputs): no second check here;
             # the scorer still refuses a non-finite feature
@@ -105,7 +112,7 @@ class NeuralTracker(Tracker):
                                          tracks.t2[track], xy[cand], time, check=False)
                 if self._extended:
                     age = time - self._born(tracks)[track]
-                    features = innovation_features(self.imm, pred, track, z[cand], features, age)
+                    features = innovation_features(self.filter, pred, track, z[cand], features, age)
                 score = self.scorer(features)
                 match = score > self.config.threshold
                 rank = score[match]
@@ -113,7 +120,7 @@ class NeuralTracker(Tracker):
                     rank = rank + 2.0 * (tracks.status[track[match]] == CONFIRMED)
                 chosen_track, chosen_contact = greedy_matching(track[match], cand[match], rank)
                 contact[chosen_track] = chosen_contact
-        return self.hard_update(pred, z, contact)
+        return hard_update(self.filter, pred, z, contact)
 
     def _born(self, tracks: Tracks) -> np.ndarray:
         """Time (s) of each track's first contact, (K,). Track ids count up from 0 and a track is first

@@ -21,7 +21,8 @@ class TrackStatus(IntEnum):
 #: IntEnum member for array interfaces through the enum's slow attribute lookup (~5x slower per compare)
 PRELIMINARY, CONFIRMED, DELETED = int(TrackStatus.PRELIMINARY), int(TrackStatus.CONFIRMED), int(TrackStatus.DELETED)
 
-NO_MEASUREMENT = -1
+#: the contact index of a track that used no contact in a scan (missed, or reported without one)
+NO_CONTACT = -1
 
 
 @dataclass(frozen=True)
@@ -29,8 +30,9 @@ class TrackerOutput:
     """Tracks reported after one scan; every array has the track count K first.
 
     ``state`` is [x, vx, y, vy] (m, m/s) and ``covariance`` its (4, 4)
-    covariance, both the IMM's combined estimate; ``measurement`` is the row
-    of the scan's measurement array used by the track in this scan, or -1.
+    covariance (for the IMM trackers, its combined estimate); ``contact`` is
+    the row of the scan's measurement array used by the track in this scan,
+    or NO_CONTACT (also for trackers that do not associate contacts).
     Tracks deleted in this scan are reported once more with status DELETED.
     Tentative tracks (single contacts waiting for a second one) are not
     reported: they have no state yet.
@@ -42,7 +44,21 @@ class TrackerOutput:
     status: np.ndarray  # (K,) int8, TrackStatus values
     state: np.ndarray  # (K, 4)
     covariance: np.ndarray  # (K, 4, 4)
-    measurement: np.ndarray  # (K,) int64
+    contact: np.ndarray  # (K,) int64
+
+    @classmethod
+    def empty(cls, scan: int, time: float) -> TrackerOutput:
+        """No tracks after scan ``scan`` at ``time`` (s)."""
+        return cls(scan, time, np.empty(0, np.int64), np.empty(0, np.int8), np.empty((0, 4)),
+                   np.empty((0, 4, 4)), np.empty(0, np.int64))
+
+    @classmethod
+    def from_blocks(cls, scan: int, time: float, blocks: list[tuple[np.ndarray, ...]]) -> TrackerOutput:
+        """The tracks of several blocks, each (track_id, status, state, covariance, contact) with its own K."""
+        if not blocks:
+            return cls.empty(scan, time)
+        ids, status, x, P, contact = (np.concatenate(parts) for parts in zip(*blocks))
+        return cls(scan, time, ids.astype(np.int64), status.astype(np.int8), x, P, contact.astype(np.int64))
 
     @property
     def confirmed(self) -> np.ndarray:

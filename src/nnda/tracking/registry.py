@@ -21,7 +21,7 @@ from nnda.tracking.gnn import GNNTracker
 from nnda.tracking.jpda import JPDATracker
 from nnda.tracking.mht import MHTTracker
 from nnda.tracking.neural import NeuralTracker
-from nnda.tracking.tracker import TrackerBase
+from nnda.tracking.tracker import Tracker
 
 #: Stone Soup peer trackers: name -> "module:class", imported on first lookup
 PEERS: dict[str, str] = {
@@ -38,7 +38,7 @@ class _Registry(dict):
     def __contains__(self, name: object) -> bool:
         return super().__contains__(name) or name in PEERS
 
-    def __missing__(self, name: str) -> type[TrackerBase]:
+    def __missing__(self, name: str) -> type[Tracker]:
         if name not in PEERS:
             raise KeyError(name)
         module, cls = PEERS[name].split(":")
@@ -50,12 +50,12 @@ class _Registry(dict):
                               f"install the peers extra: {PEERS_EXTRA}") from None
 
 
-TRACKERS: dict[str, type[TrackerBase]] = _Registry(
+TRACKERS: dict[str, type[Tracker]] = _Registry(
     {cls.name: cls for cls in (GNNTracker, JPDATracker, MHTTracker, NeuralTracker)})
 
 
 def make_tracker(name: str, sensor: Sensor, params: Mapping[str, Any] | None = None,
-                 where: str = "tracker config") -> TrackerBase:
+                 where: str = "tracker config") -> Tracker:
     """A tracker of kind ``name`` with its config validated from ``params`` (defaults: the spec's)."""
     if name not in TRACKERS:
         raise ConfigError(f"{where}: unknown tracker {name!r}; choose one of {', '.join([*TRACKERS, *PEERS])}")

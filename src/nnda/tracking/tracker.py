@@ -1,22 +1,34 @@
-"""The tracker framework every association method plugs into (conventions.md, "Interfaces").
+"""The tracker protocol, and the framework the single-hypothesis association methods share.
 
-A tracker consumes one scan at a time, ``step(scan) -> TrackerOutput``. The
-shared parts live here so that trackers differ in association only:
+**Protocol.** A tracker is anything with a ``name``, a ``config_type`` (its
+strict pydantic config, a `TrackerConfig`), ``reset()`` and ``step(scan) ->
+TrackerOutput`` (conventions.md, "Interfaces"); it is built as
+``cls(sensor, config)``, by `nnda.tracking.registry.make_tracker`. Nothing
+more is assumed: a peer (Stone Soup), a PHD filter or a track-before-detect
+tracker meets it without an IMM or an initiator. `checked_scan` is the scan
+check every one of them can share.
+
+**Framework.** `ContactTracker` holds what trackers that build tracks from
+contacts share: a per-track filter component (the IMM, `IMM.for_sensor` by
+default) and the two-point initiation (`TwoPointInitiation`). The
+single-hypothesis trackers (`SingleHypothesisTracker`: GNN, JPDA, neural)
+then differ in one hook only, `associate`; each scan:
 
 1. check the scan (time increasing, (N, 2) finite polar contacts);
-2. predict every live track's IMM to the scan time, over the time since its
-   last update (spec §7.1.8: a missed scan is not an update);
-3. **associate** (the method's own part, `Tracker._maintain`): decide which
-   contact, if any, updates each track and return the updated IMM states;
+2. predict every live track's filter to the scan time, over the time since
+   its last update (spec §7.1.8: a missed scan is not an update);
+3. **associate** (the method's part): decide which contact, if any, updates
+   each track and return the states after the scan (`Association`);
 4. the M/N and deletion logic of `nnda.tracking.lifecycle`;
 5. initiation: last scan's initiators pair with this scan's unused contacts
    inside their [D_min, D_max] window, each pair opening a preliminary
-   track (two-point IMM start); unused contacts outside every window become
-   the next initiators (spec §4, A11);
+   track (two-point start); unused contacts outside every window become the
+   next initiators (spec §4, A11);
 6. report every track (and those deleted in this scan, once more).
 
 Track records are batched arrays (`Tracks`), so steps 2-6 have no Python
-loop over tracks.
+loop over tracks. MHT (`nnda.tracking.mht`) is a `ContactTracker` with its
+own scan step over hypothesis trees.
 """
 
 from __future__ import annotations
@@ -24,7 +36,7 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict
@@ -36,15 +48,66 @@ from nnda.errors import TrackingError
 from nnda.filters.batch import Batch
 from nnda.filters.imm import IMM, IMMPrediction, IMMState
 from nnda.tracking.lifecycle import LifecycleConfig, advance, cap_per_initiator, window_pairs
-from nnda.tracking.output import DELETED, PRELIMINARY, TrackerOutput
+from nnda.tracking.output import DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
 
 
 class TrackerConfig(BaseModel):
-    """Settings every tracker shares; subclasses add their association's own."""
+    """Base of every tracker's config: strict (unknown fields, NaN and infinity refused), frozen."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
+
+class ContactTrackerConfig(TrackerConfig):
+    """Settings of the trackers that build tracks from contacts: the initiation window and M/N life cycle."""
+
     lifecycle: LifecycleConfig = LifecycleConfig()
+
+
+@runtime_checkable
+class Tracker(Protocol):
+    """What a study runs: one scan in, every track out. Built as ``cls(sensor, config)``."""
+
+    name: ClassVar[str]
+    config_type: ClassVar[type[TrackerConfig]]
+
+    def reset(self) -> None:
+        """Forget everything (the start of a new run)."""
+
+    def step(self, scan: Scan) -> TrackerOutput:
+        """Process one sweep and report every track."""
+
+
+def checked_config(tracker: Tracker, config: TrackerConfig | None) -> TrackerConfig:
+    """``config``, or the tracker's default config when None; raises unless it is of the tracker's type."""
+    config = config if config is not None else tracker.config_type()
+    if not isinstance(config, tracker.config_type):
+        raise TrackingError(f"{tracker.name}: config must be a {tracker.config_type.__name__}")
+    return config
+
+
+def checked_scan(name: str, scan: Scan, last_time: float) -> tuple[np.ndarray, float]:
+    """The contacts z (N, 2) [range m, azimuth rad] and time (s) of ``scan``, checked for tracker ``name``.
+
+    Raises TrackingError unless the time is finite and after ``last_time``
+    and every contact is finite with a positive range.
+    """
+    time = float(scan.time)
+    if not math.isfinite(time):
+        raise TrackingError(f"{name}: scan {scan.index} has a non-finite time {scan.time}")
+    if time <= last_time:
+        raise TrackingError(f"{name}: scan {scan.index} at t = {time} s does not come after the "
+                            f"previous scan (t = {last_time} s); scans must arrive in time order")
+    z = np.asarray(scan.measurements, dtype=float)
+    if z.size == 0:
+        return np.empty((0, 2)), time
+    if z.ndim != 2 or z.shape[1] != 2:
+        raise TrackingError(f"{name}: scan {scan.index}: measurements must have shape (N, 2) "
+                            f"[range m, azimuth rad], got {z.shape}")
+    if not (np.isfinite(z).all() and (z[:, 0] > 0).all()):
+        row = int(np.flatnonzero(~np.isfinite(z).all(axis=1) | ~(z[:, 0] > 0))[0])
+        raise TrackingError(f"{name}: scan {scan.index}: contact {row} is invalid {z[row].tolist()} "
+                            f"(non-finite or non-positive range)")
+    return z, time
 
 
 @dataclass(frozen=True)
@@ -71,10 +134,10 @@ class Tracks(Batch):
 
     def after_scan(self, contact: np.ndarray, filt: IMMState, z: np.ndarray, xy: np.ndarray, time: float,
                    lifecycle: LifecycleConfig) -> Tracks:
-        """These tracks after a scan at ``time``: ``contact`` (K,) is the contact each used (-1:
-        missed), ``filt`` their IMM states from then on. The contact history moves on where a
+        """These tracks after a scan at ``time``: ``contact`` (K,) is the contact each used
+        (NO_CONTACT: missed), ``filt`` their filter states from then on. The contact history moves on where a
         contact was used, and the M/N counters and status advance (`lifecycle.advance`)."""
-        det = contact >= 0
+        det = contact != NO_CONTACT
         c = np.maximum(contact, 0)
         d1 = det[:, None]
         status, hits, misses, consecutive = advance(self.status, self.hits, self.misses, self.consecutive,
@@ -93,7 +156,7 @@ class Association:
     """What a method decided for K tracks in one scan.
 
     ``contact`` (K,) is the index of the contact that updated each track (or
-    -1: a miss); ``filt`` the IMM states after the scan: the updated state of
+    NO_CONTACT: a miss); ``filt`` the filter states after the scan: the updated state of
     a track with a contact, the prediction (``pred.state``) of one without.
     """
 
@@ -101,151 +164,147 @@ class Association:
     filt: IMMState
 
 
-class TrackerBase(ABC):
-    """What every tracker shares: the radar, one IMM, one life cycle, scan checks, initiation, output.
+class TwoPointInitiation:
+    """Initiators and the preliminary tracks they open (spec §4.2 and A11), for one radar.
 
-    Construct with the radar (`nnda.data.Sensor`: noise, coverage, scan
-    period) and a config; ``step(scan)`` processes one sweep.
+    Holds the previous scan's unused contacts; ``__call__`` pairs them with
+    this scan's unused contacts inside the [D_min, D_max] window of
+    ``lifecycle`` and starts a preliminary track per pair with the filter's
+    two-point start. Track ids count up from 0 after each `reset`.
     """
 
-    name: ClassVar[str]
-    config_type: ClassVar[type[TrackerConfig]] = TrackerConfig
-
-    def __init__(self, sensor: Sensor, config: TrackerConfig | None = None) -> None:
-        self.sensor = sensor
-        self.config = config if config is not None else self.config_type()
-        if not isinstance(self.config, self.config_type):
-            raise TrackingError(f"{self.name}: config must be a {self.config_type.__name__}")
-        self.imm = IMM.for_sensor(sensor)
-        self.d_min, self.d_max = self.config.lifecycle.window(sensor.scan_period_s, sensor.sigma_range_m)
+    def __init__(self, track_filter: IMM, lifecycle: LifecycleConfig, sensor: Sensor) -> None:
+        self.filter = track_filter
+        self.lifecycle = lifecycle
+        self.d_min, self.d_max = lifecycle.window(sensor.scan_period_s, sensor.sigma_range_m)
         self.reset()
 
     def reset(self) -> None:
-        """Forget every track and initiator (start of a new run)."""
-        self.initiators = np.empty((0, 2))  # polar contacts of the previous scan
-        self.initiator_xy = np.empty((0, 2))  # and their Cartesian positions (m)
-        self.initiator_time = -np.inf
-        self.last_time = -np.inf
-        self._next_id = 0
+        """Forget every initiator; ids start again at 0."""
+        self.contacts = np.empty((0, 2))  # polar contacts of the previous scan
+        self.xy = np.empty((0, 2))  # and their Cartesian positions (m)
+        self.time = -np.inf
+        self.next_id = 0
 
-    @abstractmethod
-    def step(self, scan: Scan) -> TrackerOutput:
-        """Process one sweep and report every track."""
-
-    def _checked(self, scan: Scan) -> tuple[np.ndarray, float]:
-        time = float(scan.time)
-        if not math.isfinite(time):
-            raise TrackingError(f"{self.name}: scan {scan.index} has a non-finite time {scan.time}")
-        if time <= self.last_time:
-            raise TrackingError(f"{self.name}: scan {scan.index} at t = {time} s does not come after the "
-                                f"previous scan (t = {self.last_time} s); scans must arrive in time order")
-        z = np.asarray(scan.measurements, dtype=float)
-        if z.size == 0:
-            return np.empty((0, 2)), time
-        if z.ndim != 2 or z.shape[1] != 2:
-            raise TrackingError(f"{self.name}: scan {scan.index}: measurements must have shape (N, 2) "
-                                f"[range m, azimuth rad], got {z.shape}")
-        if not (np.isfinite(z).all() and (z[:, 0] > 0).all()):
-            row = int(np.flatnonzero(~np.isfinite(z).all(axis=1) | ~(z[:, 0] > 0))[0])
-            raise TrackingError(f"{self.name}: scan {scan.index}: contact {row} is invalid {z[row].tolist()} "
-                                f"(non-finite or non-positive range)")
-        return z, time
-
-    def _initiate(self, z: np.ndarray, xy: np.ndarray, used: np.ndarray, time: float
-                  ) -> tuple[Tracks | None, np.ndarray | None]:
-        """Open preliminary tracks from last scan's initiators; keep unused contacts as initiators.
+    def __call__(self, z: np.ndarray, xy: np.ndarray, used: np.ndarray, time: float
+                 ) -> tuple[Tracks | None, np.ndarray | None]:
+        """Open preliminary tracks from the initiators with this scan's contacts z (N, 2) polar, xy (N, 2)
+        m that no track ``used`` (N,); keep the contacts outside every window as the next initiators.
 
         Returns the new tracks (or None) and the contact each one used.
         """
         free = np.flatnonzero(~used)
         born, contact = None, None
         in_window = np.zeros(len(free), bool)
-        if len(self.initiators) and len(free):
-            init_xy, free_xy = self.initiator_xy, xy[free]
+        if len(self.contacts) and len(free):
+            init_xy, free_xy = self.xy, xy[free]
             i, j = window_pairs(init_xy, free_xy, self.d_min, self.d_max)
             i, j = cap_per_initiator(i, j, init_xy, free_xy, self.d_min, self.d_max,
-                                     self.config.lifecycle.max_tracks_per_initiator)
+                                     self.lifecycle.max_tracks_per_initiator)
             if len(i):
                 in_window[j] = True
                 contact = free[j]
                 p1 = init_xy[i]
-                p2, cov2 = self.imm.measurement.position(z[contact])
+                p2, cov2 = self.filter.measurement.position(z[contact])
                 k = len(i)
                 zeros = np.zeros(k, np.int64)
                 born = Tracks(
-                    track_id=np.arange(self._next_id, self._next_id + k, dtype=np.int64),
+                    track_id=np.arange(self.next_id, self.next_id + k, dtype=np.int64),
                     status=np.full(k, PRELIMINARY, np.int8),
-                    filt=self.imm.start(p1, p2, cov2, time - self.initiator_time),
-                    p1=p1, t1=np.full(k, self.initiator_time), p2=p2, t2=np.full(k, time),
+                    filt=self.filter.start(p1, p2, cov2, time - self.time),
+                    p1=p1, t1=np.full(k, self.time), p2=p2, t2=np.full(k, time),
                     az2=z[contact, 1], hits=zeros, misses=zeros.copy(), consecutive=zeros.copy(),
                 )
-                self._next_id += k
+                self.next_id += k
         rest = free[~in_window]
-        self.initiators, self.initiator_xy, self.initiator_time = z[rest], xy[rest], time
+        self.contacts, self.xy, self.time = z[rest], xy[rest], time
         return born, contact
 
-    @staticmethod
-    def _output(scan: int, time: float, reports: list[tuple]) -> TrackerOutput:
-        if not reports:
-            return TrackerOutput(scan, time, np.empty(0, np.int64), np.empty(0, np.int8), np.empty((0, 4)),
-                                 np.empty((0, 4, 4)), np.empty(0, np.int64))
-        ids, status, x, P, contact = (np.concatenate(parts) for parts in zip(*reports))
-        return TrackerOutput(scan, time, ids.astype(np.int64), status.astype(np.int8), x, P,
-                             contact.astype(np.int64))
+
+class ContactTracker(ABC):
+    """Base of the trackers that build tracks from contacts: the radar, a per-track filter, initiation.
+
+    Construct with the radar (`nnda.data.scenario.Sensor`: noise, coverage,
+    scan period), a config and optionally the per-track filter (default: the
+    spec's IMM for this radar, `IMM.for_sensor`); ``step(scan)`` processes
+    one sweep.
+    """
+
+    name: ClassVar[str]
+    config_type: ClassVar[type[TrackerConfig]] = ContactTrackerConfig
+
+    def __init__(self, sensor: Sensor, config: ContactTrackerConfig | None = None,
+                 track_filter: IMM | None = None) -> None:
+        self.sensor = sensor
+        self.config = checked_config(self, config)
+        self.filter = track_filter if track_filter is not None else IMM.for_sensor(sensor)
+        self.initiation = TwoPointInitiation(self.filter, self.config.lifecycle, sensor)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every track and initiator (start of a new run)."""
+        self.initiation.reset()
+        self.last_time = -np.inf
+
+    @abstractmethod
+    def step(self, scan: Scan) -> TrackerOutput:
+        """Process one sweep and report every track."""
+
+    def _checked(self, scan: Scan) -> tuple[np.ndarray, float]:
+        return checked_scan(self.name, scan, self.last_time)
 
 
+def hard_update(track_filter: IMM, pred: IMMPrediction, z: np.ndarray, contact: np.ndarray) -> Association:
+    """Update each track with its chosen contact: ``contact`` (K,) indexes the checked contacts z (N, 2)
+    (NO_CONTACT: the track keeps its prediction)."""
+    detected = contact != NO_CONTACT
+    if not detected.any():
+        return Association(contact, pred.state)
+    # rows without a contact are masked, whichever contact they hold
+    return Association(contact, track_filter.update(pred, z[np.maximum(contact, 0)], detected, check=False))
 
-class Tracker(TrackerBase):
+
+class SingleHypothesisTracker(ContactTracker):
     """Base of the single-hypothesis trackers: each track follows one contact sequence.
 
-    Subclasses set ``name`` and implement `_maintain`.
+    Subclasses set ``name`` (and ``config_type``) and implement `associate`.
     """
 
     def reset(self) -> None:
         super().reset()
         self.tracks: Tracks | None = None
 
-    # ------------------------------------------------------------------ the method's part
     @abstractmethod
-    def _maintain(self, tracks: Tracks, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray,
+    def associate(self, tracks: Tracks, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray,
                   time: float) -> Association:
-        """Associate this scan's contacts z (N, 2) polar / xy (N, 2) Cartesian with the tracks.
+        """Associate this scan's contacts z (N, 2) polar / xy (N, 2) Cartesian (m) with the tracks.
 
-        ``pred`` is every track's IMM prediction to ``time``. Return the
-        contact chosen for each track and the IMM states after the scan
-        (updated, or the prediction for a track without a contact).
+        ``pred`` is every track's filter prediction to ``time`` (s). Return
+        the contact chosen for each track and the states after the scan
+        (updated, or the prediction for a track without a contact; see
+        `hard_update`).
         """
 
-    def hard_update(self, pred: IMMPrediction, z: np.ndarray, contact: np.ndarray) -> Association:
-        """IMM update of each track with its chosen contact (``contact`` (K,), -1 = none: the track
-        keeps its prediction)."""
-        detected = contact >= 0
-        if not detected.any():
-            return Association(contact, pred.state)
-        # z comes from a checked scan; rows without a contact are masked, whichever contact they hold
-        return Association(contact, self.imm.update(pred, z[np.maximum(contact, 0)], detected, check=False))
-
-    # ------------------------------------------------------------------ one scan
     def step(self, scan: Scan) -> TrackerOutput:
         """Process one sweep and report every track."""
         z, time = self._checked(scan)
         xy = np.empty((len(z), 2))
         xy[:, 0], xy[:, 1] = polar_to_cart(z[:, 0], z[:, 1])
         used = np.zeros(len(z), bool)
-        shown = []  # (tracks, IMM state to report, contact used) per block of the output
+        shown = []  # (tracks, filter state to report, contact used) per block of the output
         tracks = self.tracks
         if tracks is not None:
-            pred = self.imm.predict(tracks.filt, time - tracks.t2, check=False)
-            assoc = self._maintain(tracks, pred, z, xy, time)
+            pred = self.filter.predict(tracks.filt, time - tracks.t2, check=False)
+            assoc = self.associate(tracks, pred, z, xy, time)
             c = assoc.contact
-            det = c >= 0
+            det = c != NO_CONTACT
             used[c[det]] = True
             # a missed track keeps its last posterior (§7.1.8) and reports its prediction
             tracks = tracks.after_scan(c, _pick(det, assoc.filt, tracks.filt), z, xy, time, self.config.lifecycle)
             shown.append((tracks, assoc.filt, c))
             alive = np.flatnonzero(tracks.status != DELETED)
             tracks = None if not alive.size else tracks if alive.size == len(tracks) else tracks.take(alive)
-        born, born_contact = self._initiate(z, xy, used, time)
+        born, born_contact = self.initiation(z, xy, used, time)
         if born is not None:
             shown.append((born, born.filt, born_contact))
             tracks = born if tracks is None else Tracks.concat([tracks, born])
@@ -254,12 +313,12 @@ class Tracker(TrackerBase):
         return self._shown(scan.index, time, shown)
 
     def _shown(self, scan: int, time: float, blocks: list[tuple[Tracks, IMMState, np.ndarray]]) -> TrackerOutput:
-        """The scan's output from blocks of (tracks, the IMM state to report, contact used): one
+        """The scan's output from blocks of (tracks, the filter state to report, contact used): one
         combined estimate for all of them."""
         if not blocks:
-            return self._output(scan, time, [])
+            return TrackerOutput.empty(scan, time)
         tracks, states, contact = zip(*blocks)
-        x, P = self.imm.estimate(states[0] if len(states) == 1 else IMMState.concat(states))
+        x, P = self.filter.estimate(states[0] if len(states) == 1 else IMMState.concat(states))
         return TrackerOutput(scan, time, np.concatenate([t.track_id for t in tracks]),
                              np.concatenate([t.status for t in tracks]), x, P,
                              np.concatenate(contact).astype(np.int64, copy=False))
@@ -269,5 +328,3 @@ def _pick(rows: np.ndarray, a: IMMState, b: IMMState) -> IMMState:
     """Per track, the state of ``a`` where ``rows`` (K,) is true, else that of ``b``."""
     return IMMState(*(np.where(rows.reshape(-1, *[1] * (u.ndim - 1)), u, v)
                       for u, v in ((a.x, b.x), (a.P, b.P), (a.mu, b.mu))))
-
-
