@@ -33,6 +33,14 @@ class TrackingError(NndaError, ValueError):
     """A tracker got a bad scan (time not increasing, non-finite contact, wrong shape) or config."""
 
 
+class BoundWarning(UserWarning):
+    """A configured bound on work or memory cut something (new tracks, hypotheses, joint events).
+
+    The results are still valid for the bounded method; the warning names the
+    bound and the config field that raises it.
+    """
+
+
 def validated(model: type[Model], data: Any, source: str, what: str) -> Model:
     """``model.model_validate(data)``, or a ConfigError listing every problem with its field path.
 

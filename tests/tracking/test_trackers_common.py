@@ -3,6 +3,8 @@ every registered tracker meets."""
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -10,7 +12,7 @@ from nnda.data.dataset import Scan
 from nnda.data.generator import generate
 from nnda.data.presets import PRESETS
 from nnda.data.scenario import Clutter, Scenario, Segment, Sensor, Target
-from nnda.errors import ConfigError, TrackingError
+from nnda.errors import BoundWarning, ConfigError, TrackingError
 from nnda.filters.imm import IMM
 from nnda.filters.measurement import PolarMeasurement
 from nnda.filters.motion import ConstantVelocity
@@ -166,3 +168,23 @@ def test_the_per_track_filter_is_a_component(name):
     assert tracker.filter is cv_only
     assert run_metrics(ds, outs).confirmed_tracks >= 1
     assert not np.array_equal(np.concatenate(default), np.concatenate([o.state for o in outs]))
+
+
+@pytest.mark.parametrize("name", MODEL_FREE)
+def test_live_tracks_are_bounded_with_a_warning(name):
+    """Two scans of dense clutter would open a track per pair in the window; max_tracks bounds them."""
+    rng = np.random.default_rng(0)
+    tracker = make_tracker(name, Sensor(), {"lifecycle": {"max_tracks": 50}})
+    polar = lambda n: np.column_stack([rng.uniform(5_000, 8_000, n), rng.uniform(0, 0.3, n)])  # noqa: E731
+    tracker.step(Scan(1, 2.0, polar(2_000)))
+    with pytest.warns(BoundWarning, match=r"new track\(s\) refused, 0 live already and at most 50 allowed"):
+        out = tracker.step(Scan(2, 4.0, polar(2_000)))
+    assert len(out) == 50 and tracker.initiation.n_refused > 0
+    refused = tracker.initiation.n_refused
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the first refusal of a run warns, later ones are counted
+        for k in range(3, 6):
+            assert len(tracker.step(Scan(k, 2.0 * k, polar(2_000)))) <= 50 + 50
+    assert tracker.initiation.n_refused > refused
+    tracker.reset()
+    assert tracker.initiation.n_refused == 0

@@ -39,6 +39,11 @@ class LifecycleConfig(BaseModel):
     max_tracks_per_initiator: Annotated[int | None, Field(
         ge=1, description="at most this many preliminary tracks per initiator, those whose implied "
         "speed is nearest the window's middle (spec §4.1's optional rule; None = off, the spec's default)")] = None
+    max_tracks: Annotated[int, Field(
+        ge=1, description="live tracks (preliminary and confirmed; for MHT, track families) at most: past "
+        "it, a scan opens only as many new tracks as there is room for, those whose implied speed is "
+        "nearest the window's middle, with a BoundWarning. Bounds memory and time when clutter is far "
+        "denser than the window was made for")] = 10_000
 
     @model_validator(mode="after")
     def _order(self) -> LifecycleConfig:
@@ -97,17 +102,32 @@ def _tree_pairs(initiators: np.ndarray, contacts: np.ndarray, d_min: float, d_ma
     return i[order], j[order]
 
 
+def _off_middle(i: np.ndarray, j: np.ndarray, initiators: np.ndarray, contacts: np.ndarray,
+                d_min: float, d_max: float) -> np.ndarray:
+    """|distance - window middle| (m) of each window pair, (P,)."""
+    return np.abs(np.hypot(*(initiators[i] - contacts[j]).T) - 0.5 * (d_min + d_max))
+
+
 def cap_per_initiator(i: np.ndarray, j: np.ndarray, initiators: np.ndarray, contacts: np.ndarray,
                       d_min: float, d_max: float, cap: int | None) -> tuple[np.ndarray, np.ndarray]:
     """Keep at most ``cap`` of each initiator's window pairs (i, j sorted by i): those whose
     distance is nearest the middle of [d_min, d_max]. ``cap`` None keeps every pair."""
     if cap is None or i.size == 0:
         return i, j
-    d = np.hypot(*(initiators[i] - contacts[j]).T)
-    order = np.lexsort((np.abs(d - 0.5 * (d_min + d_max)), i))
+    order = np.lexsort((_off_middle(i, j, initiators, contacts, d_min, d_max), i))
     i, j = i[order], j[order]
     rank = np.arange(i.size) - np.searchsorted(i, i)
     keep = np.sort(np.flatnonzero(rank < cap))
+    return i[keep], j[keep]
+
+
+def cap_pairs(i: np.ndarray, j: np.ndarray, initiators: np.ndarray, contacts: np.ndarray,
+              d_min: float, d_max: float, room: int) -> tuple[np.ndarray, np.ndarray]:
+    """Keep at most ``room`` >= 0 of all window pairs (i, j sorted by i, then j): those whose
+    distance is nearest the middle of [d_min, d_max] (ties: the earlier pair), in their order."""
+    if i.size <= room:
+        return i, j
+    keep = np.sort(np.argsort(_off_middle(i, j, initiators, contacts, d_min, d_max), kind="stable")[:room])
     return i[keep], j[keep]
 
 

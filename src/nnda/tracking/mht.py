@@ -134,7 +134,8 @@ class MHTTracker(ContactTracker):
             chosen = self._global_hypothesis(leaves)
             now = leaves.hist[chosen, -1]
             used[now[now >= 0]] = True
-        born, contact = self.initiation(z, xy, used, time)
+        families = 0 if leaves is None else np.unique(leaves.tracks.track_id).size
+        born, contact = self.initiation(z, xy, used, time, families)
         if born is not None:
             new = self._new_leaves(born, contact)
             x, P = self.filter.estimate(born.filt)

@@ -34,6 +34,7 @@ own scan step over hypothesis trees.
 from __future__ import annotations
 
 import math
+import warnings
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import ClassVar, Protocol, runtime_checkable
@@ -44,10 +45,10 @@ from pydantic import BaseModel, ConfigDict
 from nnda.data.dataset import Scan
 from nnda.data.scenario import Sensor
 from nnda.data.sensor import polar_to_cart
-from nnda.errors import TrackingError
+from nnda.errors import BoundWarning, TrackingError
 from nnda.filters.batch import Batch
 from nnda.filters.imm import IMM, IMMPrediction, IMMState
-from nnda.tracking.lifecycle import LifecycleConfig, advance, cap_per_initiator, window_pairs
+from nnda.tracking.lifecycle import LifecycleConfig, advance, cap_pairs, cap_per_initiator, window_pairs
 from nnda.tracking.output import DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
 
 
@@ -170,7 +171,10 @@ class TwoPointInitiation:
     Holds the previous scan's unused contacts; ``__call__`` pairs them with
     this scan's unused contacts inside the [D_min, D_max] window of
     ``lifecycle`` and starts a preliminary track per pair with the filter's
-    two-point start. Track ids count up from 0 after each `reset`.
+    two-point start. Track ids count up from 0 after each `reset`. At most
+    ``lifecycle.max_tracks`` tracks live at once: ``n_refused`` counts the
+    pairs refused for want of room since the last reset, and the first
+    refusal of a run is a `BoundWarning`.
     """
 
     def __init__(self, track_filter: IMM, lifecycle: LifecycleConfig, sensor: Sensor) -> None:
@@ -185,11 +189,13 @@ class TwoPointInitiation:
         self.xy = np.empty((0, 2))  # and their Cartesian positions (m)
         self.time = -np.inf
         self.next_id = 0
+        self.n_refused = 0
 
-    def __call__(self, z: np.ndarray, xy: np.ndarray, used: np.ndarray, time: float
+    def __call__(self, z: np.ndarray, xy: np.ndarray, used: np.ndarray, time: float, live: int
                  ) -> tuple[Tracks | None, np.ndarray | None]:
         """Open preliminary tracks from the initiators with this scan's contacts z (N, 2) polar, xy (N, 2)
-        m that no track ``used`` (N,); keep the contacts outside every window as the next initiators.
+        m that no track ``used`` (N,), given ``live`` tracks already; keep the contacts outside every
+        window as the next initiators.
 
         Returns the new tracks (or None) and the contact each one used.
         """
@@ -201,6 +207,11 @@ class TwoPointInitiation:
             i, j = window_pairs(init_xy, free_xy, self.d_min, self.d_max)
             i, j = cap_per_initiator(i, j, init_xy, free_xy, self.d_min, self.d_max,
                                      self.lifecycle.max_tracks_per_initiator)
+            room = max(self.lifecycle.max_tracks - live, 0)
+            if len(i) > room:
+                in_window[j] = True  # every windowed contact is spoken for, opened or not
+                self._refuse(len(i) - room, live, time)
+                i, j = cap_pairs(i, j, init_xy, free_xy, self.d_min, self.d_max, room)
             if len(i):
                 in_window[j] = True
                 contact = free[j]
@@ -219,6 +230,13 @@ class TwoPointInitiation:
         rest = free[~in_window]
         self.contacts, self.xy, self.time = z[rest], xy[rest], time
         return born, contact
+
+    def _refuse(self, n: int, live: int, time: float) -> None:
+        if not self.n_refused:
+            warnings.warn(f"t = {time} s: {n} new track(s) refused, {live} live already and at most "
+                          f"{self.lifecycle.max_tracks} allowed (lifecycle.max_tracks); later refusals of this "
+                          f"run are only counted (n_refused)", BoundWarning, stacklevel=4)
+        self.n_refused += n
 
 
 class ContactTracker(ABC):
@@ -304,7 +322,7 @@ class SingleHypothesisTracker(ContactTracker):
             shown.append((tracks, assoc.filt, c))
             alive = np.flatnonzero(tracks.status != DELETED)
             tracks = None if not alive.size else tracks if alive.size == len(tracks) else tracks.take(alive)
-        born, born_contact = self.initiation(z, xy, used, time)
+        born, born_contact = self.initiation(z, xy, used, time, 0 if tracks is None else len(tracks))
         if born is not None:
             shown.append((born, born.filt, born_contact))
             tracks = born if tracks is None else Tracks.concat([tracks, born])
