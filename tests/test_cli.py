@@ -51,6 +51,7 @@ def test_generate_monte_carlo_from_config(tmp_path):
     (("--preset", "S9"), "unknown preset 'S9'"),
     (("--config", "bad.toml"), "targets.0.speed_m_s"),
     (("--config", "nothing.toml"), "no such scenario file"),
+    (("--config", "my[v2].toml"), "my[v2].toml"),  # brackets are printed as they are, not read as markup
     ((), "exactly one of --preset or --config"),
 ])
 def test_generate_bad_input_is_one_clear_line_and_writes_nothing(tmp_path, args, message):

@@ -14,6 +14,7 @@ from typing import Annotated
 
 import typer
 from rich.console import Console
+from rich.text import Text
 
 from nnda.data import commands as data_commands
 from nnda.data.dataset import collection_members
@@ -84,5 +85,7 @@ def main() -> None:
     try:
         app()
     except (NndaError, FileExistsError) as exc:
-        Console(stderr=True).print(f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True)
+        # the message is plain text: a path or a config section in brackets must not read as markup
+        Console(stderr=True).print(Text.assemble(("error:", "bold red"), " ", str(exc)), highlight=False,
+                                   soft_wrap=True)
         sys.exit(2)
