@@ -33,6 +33,11 @@ class TrackingError(NndaError, ValueError):
     """A tracker got a bad scan (time not increasing, non-finite contact, wrong shape) or config."""
 
 
+class OutputError(NndaError, OSError):
+    """An output could not be written (read-only or full disk, no permission, another writer holds it),
+    or its path is unsafe (an input, inside an input, a file where a directory goes)."""
+
+
 class BoundWarning(UserWarning):
     """A configured bound on work or memory cut something (new tracks, hypotheses, joint events).
 

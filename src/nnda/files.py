@@ -1,9 +1,15 @@
 """File helpers every stage shares: atomic files and directories, canonical JSON, manifests, digests.
 
 Whatever nnda writes appears whole or not at all: it is written to a
-temporary sibling and renamed into place. Manifests are JSON documents with
-a ``format`` and a ``format_version``; `read_json` refuses any other with an
-error that names the file and the field.
+temporary sibling and renamed into place, and a failed write (full or
+read-only disk) is an `OutputError` that leaves nothing behind. Manifests
+are JSON documents with a ``format`` and a ``format_version``; `read_json`
+refuses any other with an error that names the file and the field. A
+manifest records the SHA-256 of each data file beside it (`file_digests`),
+checked on read (`verify_digests`), so a flipped byte is a "corrupt file"
+error rather than data. Names that become path components pass
+`path_component`; an output path passes `check_output_path` against the
+inputs; `directory_lock` keeps a second writer off one output.
 """
 
 from __future__ import annotations
@@ -13,15 +19,16 @@ import json
 import math
 import os
 import shutil
+import socket
 import tempfile
 import tomllib
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import nnda
-from nnda.errors import ConfigError, DatasetError, NndaError
+from nnda.errors import ConfigError, DatasetError, NndaError, OutputError
 
 
 def _umask() -> int:
@@ -30,18 +37,34 @@ def _umask() -> int:
     return mask
 
 
+def _unwritable(path: Path, exc: OSError) -> OutputError:
+    """The error for a write that failed at ``path`` (full or read-only disk, no permission, ...)."""
+    return OutputError(f"{path}: cannot write ({exc.strerror or exc}); nothing was written or changed there")
+
+
 @contextmanager
 def atomic_file(path: str | Path) -> Iterator[Path]:
-    """Yield a temporary sibling of ``path`` to write; it replaces ``path`` only on success."""
+    """Yield a temporary sibling of ``path`` to write; it replaces ``path`` only on success.
+
+    An OSError while writing (full or read-only disk) becomes an `OutputError`; ``path`` is untouched.
+    """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
+    except OSError as exc:
+        raise _unwritable(path, exc) from None
     os.close(fd)
     tmp = Path(tmp)
     try:
         yield tmp
         tmp.chmod(0o666 & ~_umask())  # mkstemp makes it private; the result is an ordinary file
         os.replace(tmp, path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        if isinstance(exc, NndaError):
+            raise
+        raise _unwritable(path, exc) from None
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
@@ -51,14 +74,21 @@ def atomic_file(path: str | Path) -> Iterator[Path]:
 def atomic_directory(out: str | Path, overwrite: bool = False) -> Iterator[Path]:
     """Yield a temporary sibling of ``out`` to fill; rename it to ``out`` on success.
 
-    On any error the temporary directory is removed and ``out`` is untouched.
-    An existing ``out`` is refused unless ``overwrite`` is true.
+    On any error the temporary directory is removed and ``out`` is untouched;
+    an OSError while writing (full or read-only disk) becomes an `OutputError`.
+    An existing ``out`` is refused unless ``overwrite`` is true, and a file
+    (not a directory) at ``out`` is never replaced.
     """
     out = Path(out)
     if out.exists() and not overwrite:
         raise FileExistsError(f"{out}: already exists (pass overwrite to replace it)")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".partial", dir=out.parent))
+    if out.exists() and not out.is_dir():
+        raise OutputError(f"{out}: is a file, not a directory; refusing to replace it with one")
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".partial", dir=out.parent))
+    except OSError as exc:
+        raise _unwritable(out, exc) from None
     tmp.chmod(0o777 & ~_umask())  # mkdtemp makes it private; the result is an ordinary directory
     try:
         yield tmp
@@ -69,6 +99,11 @@ def atomic_directory(out: str | Path, overwrite: bool = False) -> Iterator[Path]
             shutil.rmtree(old)
         else:
             tmp.rename(out)
+    except OSError as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        if isinstance(exc, NndaError):
+            raise
+        raise _unwritable(out, exc) from None
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
@@ -132,6 +167,95 @@ def digest(*parts: bytes) -> str:
 def file_digest(*paths: Path) -> str:
     """SHA-256 of the files' contents, in the order given."""
     return digest(*(Path(p).read_bytes() for p in paths))
+
+
+def file_digests(directory: Path, names: Iterable[str]) -> dict[str, str]:
+    """SHA-256 of each named file in ``directory``, by name: what a manifest records of its data files."""
+    digests = {}
+    for name in names:
+        with open(directory / name, "rb") as f:
+            digests[name] = hashlib.file_digest(f, "sha256").hexdigest()
+    return digests
+
+
+def verify_digests(directory: Path, recorded: dict[str, str], error: type[NndaError] = DatasetError) -> None:
+    """Raise ``error`` naming the first file of ``recorded`` (name -> SHA-256) whose content differs."""
+    for name, want in recorded.items():
+        path = directory / name
+        if not path.is_file():
+            raise error(f"{path}: missing (the manifest lists it)")
+        got = file_digests(directory, [name])[name]
+        if got != want:
+            raise error(f"{path}: corrupt file: its SHA-256 is {got[:16]}..., the manifest recorded "
+                        f"{want[:16]}...; regenerate it or restore a good copy")
+
+
+def path_component(name: str, what: str) -> str:
+    """``name`` if it is safe as one file or directory name (no separator, not empty, '.' or '..',
+    no leading dot or NUL); ConfigError naming ``what`` otherwise."""
+    if not name or name.startswith(".") or any(c in name for c in ("/", "\\", "\0")):
+        raise ConfigError(f"{what}: {name!r} cannot name a file (no path separators, no leading dot, "
+                          f"not '.' or '..')")
+    return name
+
+
+def check_output_path(out: str | Path, inputs: Iterable[str | Path], what: str = "--out") -> None:
+    """Raise OutputError if ``out`` is, contains or lies inside one of ``inputs`` (paths resolved)."""
+    target = Path(out).resolve()
+    for given in inputs:
+        source = Path(given).resolve()
+        if target == source or source.is_relative_to(target) or target.is_relative_to(source):
+            relation = ("is" if target == source else "contains" if source.is_relative_to(target)
+                        else "lies inside")
+            raise OutputError(f"{what} {out} {relation} the input {given}; write the output elsewhere")
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+@contextmanager
+def directory_lock(out: str | Path) -> Iterator[Path]:
+    """Hold a lock on output ``out`` (a sibling file ``.<name>.lock``) while the body writes it.
+
+    A second writer is refused with an OutputError naming the holder; a lock
+    left by a process that is gone (same host) is taken over.
+    """
+    out = Path(out)
+    lock = out.with_name(f".{out.name}.lock")
+    me = f"{socket.gethostname()} {os.getpid()}\n"
+    try:
+        lock.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise _unwritable(out, exc) from None
+    for _ in range(2):
+        try:
+            fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+        except FileExistsError:
+            host, _, pid = lock.read_text().strip().partition(" ")
+            if host == socket.gethostname() and pid.isdigit() and not _alive(int(pid)):
+                lock.unlink(missing_ok=True)  # its writer is gone: take it over
+                continue
+            raise OutputError(f"{out}: another nnda process ({host} pid {pid}) is writing it; wait for it to "
+                              f"finish, or remove {lock} if that process is gone") from None
+        except OSError as exc:
+            raise _unwritable(out, exc) from None
+        with os.fdopen(fd, "w") as f:
+            f.write(me)
+        break
+    else:
+        raise OutputError(f"{out}: could not take the lock {lock}")
+    try:
+        yield lock
+    finally:
+        if lock.exists() and lock.read_text() == me:
+            lock.unlink()
 
 
 def read_config(path: str | Path, what: str) -> dict:
