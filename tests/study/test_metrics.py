@@ -9,7 +9,7 @@ import pytest
 
 from nnda.data.generator import generate
 from nnda.data.scenario import Clutter, ProcessNoise, Scenario, Segment, Target
-from nnda.study.metrics import run_metrics
+from nnda.study.metrics import OutputError, run_metrics
 from nnda.tracking.output import TrackerOutput
 from nnda.tracking.output import TrackStatus as S
 
@@ -90,7 +90,7 @@ def test_false_track_and_clutter_in_a_target_track(dataset):
         b.add(k, 99, S.PRELIMINARY if k < 7 else S.CONFIRMED, b.contact(k, -1))
     m = run_metrics(dataset, b.outputs())
     assert (m.confirmed_tracks, m.false_tracks) == (3, 1)
-    assert m.n_false_per_scan[6:11].tolist() == [1] * 5 and m.n_false_per_scan[:6].sum() == 0
+    assert m.series["false_tracks_per_scan"][6:11].tolist() == [1] * 5 and m.false_tracks_per_scan[:6].sum() == 0
     assert m.gospa_false[6] == pytest.approx(1000.0**2 / 2)
     # a target track that takes one clutter contact instead of its own
     b2 = Builder(dataset)
@@ -119,5 +119,5 @@ def test_track_break_and_lost_target(dataset):
 
 
 def test_one_output_per_scan_is_required(dataset):
-    with pytest.raises(ValueError, match="one output per scan"):
+    with pytest.raises(OutputError, match="one output per scan"):
         run_metrics(dataset, Builder(dataset).outputs()[:-1])

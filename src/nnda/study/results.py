@@ -4,10 +4,14 @@ Written next to the job files, always rebuilt from them in plan order
 (scenario, tracker, run), so they do not depend on the order jobs finished:
 
 * ``results.parquet``: one row per job: scenario, tracker, kind, run, seed,
-  dataset digest, every scalar metric, and the per-scan series as list
-  columns (``<name>_per_scan``);
+  dataset digest, the value of every run measure of `nnda.study.measures`
+  (columns in key order; counts as int64), and the per-scan series as list
+  columns (``<series name>_per_scan``). The series of
+  ``false_tracks_per_scan`` is named ``false_tracks``, so its list column
+  takes the name of the run value (its mean, which is left out): format
+  version 1 keeps that layout;
 * ``summary.json``: per scenario and tracker, mean and t-interval over runs
-  of every scalar (cut to the measure's possible range), and every
+  of every run measure (cut to the measure's ``bounds``), and every
   per-scan series averaged over runs;
 * ``trajectories.parquet``: run 0's truth and every confirmed track's
   reports (the report's trajectory plot);
@@ -35,7 +39,7 @@ from scipy import stats
 import nnda
 from nnda.errors import DatasetError
 from nnda.files import atomic_file, finite_or_none, read_json, write_json
-from nnda.study.job import SERIES
+from nnda.study.measures import RUN_MEASURES, SERIES_MEASURES, TIME
 from nnda.study.plan import StudyPlan
 from nnda.study.runner import Execution, read_job
 from nnda.tracking.output import TrackStatus
@@ -48,8 +52,6 @@ SUMMARY_FILE = "summary.json"
 TRAJECTORIES_FILE = "trajectories.parquet"
 TIMING_FILE = "timing.parquet"
 TIMING_SUMMARY_FILE = "timing.json"
-#: possible range of a measure where it is not [0, inf) (every run metric is non-negative)
-BOUNDS = {"hit_rate": (0.0, 100.0)}
 #: GOSPA's fixed parameters (the cut-off is the study's)
 GOSPA_P, GOSPA_ALPHA = 2, 2
 
@@ -107,7 +109,7 @@ def _column(values: list, kind: str) -> pa.Array:
 
 
 def results_table(records: list[dict]) -> pa.Table:
-    """One row per job (see the module docstring); integer metrics stay integers."""
+    """One row per job (see the module docstring); counts stay integers."""
     cols: dict[str, pa.Array] = {
         "scenario": _column([r["scenario"] for r in records], "str"),
         "tracker": _column([r["tracker"] for r in records], "str"),
@@ -118,11 +120,13 @@ def results_table(records: list[dict]) -> pa.Table:
         "n_scans": _column([r["n_scans"] for r in records], "int32"),
         "n_targets": _column([r["n_targets"] for r in records], "int32"),
     }
-    for name, value in records[0]["metrics"].items():
-        cols[name] = _column([r["metrics"][name] for r in records], "int" if isinstance(value, int) else "float")
-    for name in SERIES:
-        kind = pa.int64() if name == "false_tracks" else pa.float64()
-        cols[f"{name}_per_scan"] = pa.array([r["series"][name] for r in records], type=pa.list_(kind))
+    for m in sorted(RUN_MEASURES, key=lambda m: m.key):
+        kind = "int" if m.integer and not m.per_scan else "float"
+        cols[m.key] = _column([r["metrics"][m.key] for r in records], kind)
+    for m in SERIES_MEASURES:  # false_tracks -> false_tracks_per_scan replaces that run value (module docstring)
+        kind = pa.int64() if m.integer else pa.float64()
+        cols[f"{m.series_name}_per_scan"] = pa.array([r["series"][m.series_name] for r in records],
+                                                     type=pa.list_(kind))
     return pa.table(cols)
 
 
@@ -133,7 +137,7 @@ def timing_table(records: list[dict]) -> pa.Table:
         "scenario": _column([r["scenario"] for r in records], "str"),
         "tracker": _column([r["tracker"] for r in records], "str"),
         "run": _column([r["run"] for r in records], "int32"),
-        "mean_time_per_scan_s": _column([float(np.mean(t)) for t in times], "float"),
+        TIME.key: _column([float(np.mean(t)) for t in times], "float"),
         "time_per_scan_s": pa.array(times, type=pa.list_(pa.float64())),
     })
 
@@ -183,9 +187,9 @@ def summarise(plan: StudyPlan, records: list[dict]) -> dict:
             mine = [r for r in records if r["scenario"] == sc.name and r["tracker"] == t.label]
             trackers[t.label] = {
                 "kind": t.kind, "model": t.model, "runs": len(mine),
-                "metrics": {name: mean_ci([r["metrics"][name] for r in mine], conf, *BOUNDS.get(name, (0.0, math.inf)))
-                            for name in mine[0]["metrics"]},
-                "series_mean": {name: _nanmean_rows([r["series"][name] for r in mine]) for name in SERIES},
+                "metrics": {m.key: mean_ci([r["metrics"][m.key] for r in mine], conf, *m.bounds) for m in RUN_MEASURES},
+                "series_mean": {m.series_name: _nanmean_rows([r["series"][m.series_name] for r in mine])
+                                for m in SERIES_MEASURES},
             }
         scenarios.append({"name": sc.name, "source": sc.source, "runs": sc.runs, "n_scans": sc.scenario.n_scans,
                           "targets": [tg.name for tg in sc.scenario.targets], "trackers": trackers})
@@ -208,7 +212,7 @@ def summarise_timing(plan: StudyPlan, records: list[dict], execution: Execution)
                     if r["scenario"] == sc.name and r["tracker"] == t.label]
             every = np.concatenate(runs)
             trackers[t.label] = {
-                "mean_time_per_scan_s": mean_ci([float(x.mean()) for x in runs], plan.study.confidence, 0.0),
+                TIME.key: mean_ci([float(x.mean()) for x in runs], plan.study.confidence, *TIME.bounds),
                 "median_s": float(np.median(every)), "p95_s": float(np.percentile(every, 95)),
                 "max_s": float(every.max()),
             }
