@@ -28,17 +28,12 @@ import pyarrow.parquet as pq
 from nnda.errors import DatasetError
 from nnda.files import atomic_file, read_json
 from nnda.models.ablation import ABLATION_FILE
-from nnda.models.tables import TextTable
 from nnda.reports import ablation_section, features_section, study_figures
+from nnda.reports.classifier_tables import classifier_table, model_test_table
 from nnda.reports.peers_section import against_stonesoup, peer_labels
 from nnda.reports.study_summary import summary_markdown
-from nnda.reports.study_tables import (
-    classifier_table,
-    is_thesis_scenario,
-    model_test_table,
-    scenario_table,
-    table_html,
-)
+from nnda.reports.study_tables import is_thesis_scenario, scenario_table
+from nnda.reports.text_table import DASH, TextTable
 from nnda.reports.trajectory_plot import figure_div, plotly_js, trajectory_figure
 from nnda.study.classifier import CLASSIFIER_FILE, CLASSIFIER_FORMAT, read_ablation
 from nnda.study.classifier import FORMAT_VERSION as CLASSIFIER_VERSION
@@ -75,7 +70,7 @@ class Section:
 
     def table(self, table: TextTable, ident: str = "") -> None:
         self.md.append(table.markdown())
-        self.html.append(table_html(table, ident))
+        self.html.append(table.html(ident))
 
     def figure(self, fig: Figure) -> None:
         self.md += [f"![{fig.caption}]({FIGURES}/{fig.name})", ""]
@@ -137,7 +132,7 @@ def _setup(manifest: dict, summary: dict, timing: dict) -> Section:
              f"{gospa['cutoff_m']:g} m, p = {gospa['p']}, alpha = {gospa['alpha']}; OSPA with the same c and p. "
              f"Intervals: {summary['confidence']:.0%} Student-t over runs.")
     sec.table(TextTable("Trackers", ("Label", "Kind", "Model", "Parameters"), tuple(
-        (t["label"], t["kind"], t["model"] or "—", _json_compact(t["params"]) if t["params"] else "defaults")
+        (t["label"], t["kind"], t["model"] or DASH, _json_compact(t["params"]) if t["params"] else "defaults")
         for t in manifest["trackers"])))
     sec.table(TextTable("Scenarios", ("Name", "Source", "Targets", "Scans", "Clutter per scan", "Runs"), tuple(
         (s["name"], s["source"], ", ".join(s["targets"]), str(s["n_scans"]), str(s["clutter_per_scan"]), str(s["runs"]))

@@ -191,7 +191,7 @@ MEASURES: tuple[Measure, ...] = (
     Measure("clutter_associated", "Clutter associated with tracks", "", "lower", _COUNT, False,
             _clutter_associated, integer=True, contacts=True),
     Measure("hit_rate", "Hit rate", "%", "higher", (0.0, 100.0), False, _hit_rate, contacts=True),
-    Measure("mean_time_per_scan_s", "Mean time per scan", "ms", "lower", _COUNT, True, None, "{:.4g}", 1e3),
+    Measure("mean_time_per_scan_s", "Time per scan", "ms", "lower", _COUNT, True, None, "{:.4g}", 1e3),
     Measure("confirmed_tracks", "Confirmed tracks", "", "none", _COUNT, False, _confirmed_tracks, integer=True),
     Measure("false_tracks", "False tracks", "", "lower", _COUNT, False, _false_tracks, integer=True),
     Measure("track_breaks", "Track breaks", "", "lower", _COUNT, False, _track_breaks, integer=True),
