@@ -27,7 +27,7 @@ from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
 
 JOB_FORMAT = "nnda.study-job"
-JOB_FORMAT_VERSION = 1
+JOB_FORMAT_VERSION = 2  # 2: CLEAR-MOT measures and the ownership kind used
 
 def dataset_digest(dataset: Dataset) -> str:
     """SHA-256 of a dataset's contacts: equal digests mean the trackers saw the same data."""
@@ -77,13 +77,13 @@ def run_job(job: JobSpec) -> dict:
             start = time.perf_counter()
             outputs.append(tracker.step(scan))
             seconds[i] = time.perf_counter() - start
-        m = run_metrics(dataset, outputs, job.cutoff_m)
+        m = run_metrics(dataset, outputs, job.cutoff_m, job.ownership)
     record = {
         "format": JOB_FORMAT, "format_version": JOB_FORMAT_VERSION, "key": job.key,
         "scenario": job.scenario, "tracker": job.tracker, "kind": job.kind, "run": job.run, "seed": job.seed,
         "dataset_digest": dataset_digest(dataset), "n_scans": dataset.n_scans,
         "n_targets": len(dataset.scenario.targets),
-        "metrics": scalars(m),
+        "ownership": m.ownership, "metrics": scalars(m),
         "series": series(m),
         "timing": {"time_per_scan_s": seconds.tolist()},
     }

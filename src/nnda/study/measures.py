@@ -179,6 +179,27 @@ def _false_per_scan(r: ScoredRun) -> np.ndarray:
     return np.bincount(r.scan[r.confirmed & (r.row_owner < 0)] - 1, minlength=r.dataset.n_scans).astype(np.int64)
 
 
+# ----------------------------------------------------------------------------- CLEAR-MOT
+
+def _mota(r: ScoredRun) -> float:
+    """1 - (misses + false positives + identity switches) / target-scans (Bernardin & Stiefelhagen eq. 2)."""
+    m, n_truth = r.matches, int(r.dataset.truth.scan.size)
+    if n_truth == 0:
+        return float("nan")
+    misses, false_positives = n_truth - m.scan.size, int(r.confirmed.sum()) - m.scan.size
+    return 1.0 - (misses + false_positives + int(m.switch.sum())) / n_truth
+
+
+def _motp(r: ScoredRun) -> float:
+    """Mean distance (m) of the matched (target, track) pairs over all scans (eq. 1)."""
+    d = r.matches.distance
+    return float(d.sum() / d.size) if d.size else float("nan")
+
+
+def _id_switches(r: ScoredRun) -> int:
+    return int(r.matches.switch.sum())
+
+
 # ----------------------------------------------------------------------------- the registry
 
 #: every measure, in the order of the report's per-scenario tables (the thesis's seven rows first)
@@ -207,6 +228,9 @@ MEASURES: tuple[Measure, ...] = (
     # its series is "false_tracks" in job records (results.parquet: false_tracks_per_scan, see nnda.study.results)
     Measure("false_tracks_per_scan", "False tracks present", "", "lower", _COUNT, True, _false_per_scan, "{:.3f}",
             integer=True, series="false_tracks"),
+    Measure("mota", "MOTA", "", "higher", (-math.inf, 1.0), False, _mota, "{:.3f}"),
+    Measure("motp_m", "MOTP", "m", "lower", _COUNT, False, _motp, "{:.1f}"),
+    Measure("id_switches", "Identity switches", "", "lower", _COUNT, False, _id_switches, integer=True),
 )
 #: the measures computed from a run's outputs (all but the wall-clock time), in registry order
 RUN_MEASURES: tuple[Measure, ...] = tuple(m for m in MEASURES if not m.timing)

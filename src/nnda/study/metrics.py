@@ -46,7 +46,7 @@ Only tracks that were confirmed at some scan count as displayed tracks.
   says.
 
 `run_metrics` checks the outputs first: one per scan, in scan order, with
-consistent array shapes, finite confirmed states, each track once a scan
+consistent array shapes, finite states, each track once a scan
 and contacts inside their scan; a problem raises `OutputError` naming the
 scan and the field.
 """
@@ -95,10 +95,9 @@ def _check_outputs(dataset: Dataset, outputs: Sequence[TrackerOutput]) -> None:
                                   f"(track_id has {n} tracks)")
         if np.unique(o.track_id).size != n:
             raise OutputError(f"{where}: a track id appears more than once")
-        confirmed = np.asarray(o.status) == TrackStatus.CONFIRMED
-        bad = confirmed & ~np.isfinite(np.asarray(o.state, float)).all(axis=1)
+        bad = ~np.isfinite(np.asarray(o.state, float)).all(axis=1)
         if bad.any():
-            raise OutputError(f"{where}: confirmed track {int(o.track_id[np.argmax(bad)])} has a non-finite state")
+            raise OutputError(f"{where}: track {int(o.track_id[np.argmax(bad)])} has a non-finite state")
         meas = np.asarray(o.measurement)
         off = (meas != NO_MEASUREMENT) & ((meas < 0) | (meas >= sizes[k - 1]))
         if off.any():

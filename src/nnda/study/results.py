@@ -4,15 +4,16 @@ Written next to the job files, always rebuilt from them in plan order
 (scenario, tracker, run), so they do not depend on the order jobs finished:
 
 * ``results.parquet``: one row per job: scenario, tracker, kind, run, seed,
-  dataset digest, the value of every run measure of `nnda.study.measures`
-  (columns in key order; counts as int64), and the per-scan series as list
-  columns (``<series name>_per_scan``). The series of
+  dataset digest, the track ownership used ("contacts" or "position"), the
+  value of every run measure of `nnda.study.measures` (columns in key
+  order; counts as int64), and the per-scan series as list columns
+  (``<series name>_per_scan``). The series of
   ``false_tracks_per_scan`` is named ``false_tracks``, so its list column
   takes the name of the run value (its mean, which is left out): format
   version 1 keeps that layout;
 * ``summary.json``: per scenario and tracker, mean and t-interval over runs
-  of every run measure (cut to the measure's ``bounds``), and every
-  per-scan series averaged over runs;
+  of every run measure (cut to the measure's ``bounds``), every per-scan
+  series averaged over runs, and the ownership kinds its runs used;
 * ``trajectories.parquet``: run 0's truth and every confirmed track's
   reports (the report's trajectory plot);
 * ``timing.parquet`` and ``timing.json``: the wall-clock time per scan of
@@ -119,6 +120,7 @@ def results_table(records: list[dict]) -> pa.Table:
         "dataset_digest": _column([r["dataset_digest"] for r in records], "str"),
         "n_scans": _column([r["n_scans"] for r in records], "int32"),
         "n_targets": _column([r["n_targets"] for r in records], "int32"),
+        "ownership": _column([r["ownership"] for r in records], "str"),
     }
     for m in sorted(RUN_MEASURES, key=lambda m: m.key):
         kind = "int" if m.integer and not m.per_scan else "float"
@@ -187,6 +189,7 @@ def summarise(plan: StudyPlan, records: list[dict]) -> dict:
             mine = [r for r in records if r["scenario"] == sc.name and r["tracker"] == t.label]
             trackers[t.label] = {
                 "kind": t.kind, "model": t.model, "runs": len(mine),
+                "ownership": sorted({r["ownership"] for r in mine}),
                 "metrics": {m.key: mean_ci([r["metrics"][m.key] for r in mine], conf, *m.bounds) for m in RUN_MEASURES},
                 "series_mean": {m.series_name: _nanmean_rows([r["series"][m.series_name] for r in mine])
                                 for m in SERIES_MEASURES},
@@ -197,6 +200,7 @@ def summarise(plan: StudyPlan, records: list[dict]) -> dict:
         "format": SUMMARY_FORMAT, "format_version": FORMAT_VERSION, "study": plan.study.name,
         "fingerprint": plan.fingerprint, "seed": plan.study.seed, "confidence": conf,
         "gospa": {"cutoff_m": plan.study.gospa_cutoff_m, "p": GOSPA_P, "alpha": GOSPA_ALPHA},
+        "ownership": plan.study.ownership,
         "trackers": [{"label": t.label, "kind": t.kind, "model": t.model} for t in plan.trackers],
         "scenarios": scenarios,
     }
