@@ -148,13 +148,20 @@ def _setup(manifest: dict, summary: dict, timing: dict) -> Section:
              f"{ex['jobs_skipped']} resumed from earlier in {ex['seconds']:.1f} s (last invocation). Machine: "
              f"{machine['processor']}, {machine['cpus']} CPU(s), {machine['platform']}, Python {machine['python']}, "
              f"nnda {machine['nnda_version']}. Timing: {timing['method']}.")
-    sec.text("Bookkeeping (`nnda.study.metrics`): a track belongs to the target that produced most of its "
-             "contacts; only tracks confirmed at some scan count. Hits are target contacts used by a track of "
+    kinds = {t: ", ".join(v["ownership"]) for sc in summary["scenarios"] for t, v in sc["trackers"].items()}
+    by = "; ".join(f"{t}: by {k}" for t, k in kinds.items())
+    sec.text(f"Bookkeeping (`nnda.study.metrics`): a track belongs to a target by contacts (the target that "
+             f"produced most of its contacts) or, for outputs without contacts, by position (the target it was "
+             f"matched to in most of its confirmed scans); study option ownership = {summary['ownership']!r} "
+             f"({by}). Only tracks confirmed at some scan count. Hits are target contacts used by a track of "
              "their own target; association losses are target contacts after the target's first track exists "
              "that no track of that target used; hit rate = hits / (hits + losses + clutter associated). A false "
-             "track is a confirmed track whose contacts are mostly clutter; a track break is a further confirmed "
-             "track of an already tracked target; a lost target had its track deleted while it still produced "
-             "contacts. GOSPA and OSPA compare the confirmed tracks' positions with the true positions per scan.")
+             "track is a confirmed track owned by no target (mostly clutter, or mostly unmatched); a track break "
+             "is a further confirmed track of an already tracked target; a lost target had its track deleted "
+             "while it still produced contacts. GOSPA and OSPA compare the confirmed tracks' positions with the "
+             f"true positions per scan. MOTA, MOTP and identity switches are CLEAR-MOT (Bernardin & Stiefelhagen "
+             f"2008) over the per-scan matching of confirmed tracks to targets closer than {gospa['cutoff_m']:g} m "
+             f"(the GOSPA cut-off), which also gives ownership by position.")
     return sec
 
 

@@ -19,7 +19,7 @@ from nnda.study.measures import TIME, Measure, measure
 
 #: the measures the summary ranks (keys of `nnda.study.measures`; each has a better direction)
 HEADLINES: tuple[Measure, ...] = tuple(measure(k) for k in (
-    "hit_rate", "false_tracks", "lost_targets", "gospa", "position_rmse_m", TIME.key))
+    "hit_rate", "false_tracks", "lost_targets", "gospa", "position_rmse_m", "mota", TIME.key))
 
 
 def stat(scenario: dict, timing: dict, tracker: str, key: str) -> dict | None:
