@@ -148,11 +148,14 @@ def _setup(manifest: dict, summary: dict, timing: dict) -> Section:
              f"{ex['jobs_skipped']} resumed from earlier in {ex['seconds']:.1f} s (last invocation). Machine: "
              f"{machine['processor']}, {machine['cpus']} CPU(s), {machine['platform']}, Python {machine['python']}, "
              f"nnda {machine['nnda_version']}. Timing: {timing['method']}.")
-    kinds = {t: ", ".join(v["ownership"]) for sc in summary["scenarios"] for t, v in sc["trackers"].items()}
+    # summaries written before track ownership had two kinds hold no "ownership": theirs was by contacts
+    kinds = {t: ", ".join(v.get("ownership", ["contacts"])) for sc in summary["scenarios"]
+             for t, v in sc["trackers"].items()}
     by = "; ".join(f"{t}: by {k}" for t, k in kinds.items())
+    option = summary.get("ownership", "auto")
     sec.text(f"Bookkeeping (`nnda.study.metrics`): a track belongs to a target by contacts (the target that "
              f"produced most of its contacts) or, for outputs without contacts, by position (the target it was "
-             f"matched to in most of its confirmed scans); study option ownership = {summary['ownership']!r} "
+             f"matched to in most of its confirmed scans); study option ownership = {option!r} "
              f"({by}). Only tracks confirmed at some scan count. Hits are target contacts used by a track of "
              "their own target; association losses are target contacts after the target's first track exists "
              "that no track of that target used; hit rate = hits / (hits + losses + clutter associated). A false "
