@@ -136,9 +136,8 @@ class ScoredRun:
             raise OutputError("ownership by contacts: the outputs report no contacts (every measurement is -1); "
                               "use ownership 'position' or 'auto'")
         self.ownership = ("contacts" if self.has_contacts else "position") if ownership == "auto" else ownership
-        used = self.row >= 0
-        self.used = used
-        self.contact_owner = np.where(used, det.target_id[np.maximum(self.row, 0)], -2)  # -2: no contact
+        self.used = self.row >= 0
+        self.contact_owner = np.where(self.used, det.target_id[np.maximum(self.row, 0)], -2)  # -2: no contact
         self.confirmed = self.status == TrackStatus.CONFIRMED
         self.target_rows = np.flatnonzero(det.target_id >= 0)
 
