@@ -1,7 +1,9 @@
 """The ``nnda`` command line: generate datasets, train models, compare trackers, write reports.
 
 Commands of each stage live beside the stage (``nnda.data.commands``,
-``nnda.models.commands``, ...) and are registered on one typer app here.
+``nnda.peers.commands``, ...; those that end in tables or a report, ``nnda
+train`` and ``nnda compare`` among them, in ``nnda.reports``) and are
+registered on one typer app here.
 Errors from bad input (nnda.errors.NndaError) are printed without a
 traceback and exit with status 2.
 """
@@ -20,10 +22,10 @@ from nnda.data import commands as data_commands
 from nnda.data.dataset import collection_members
 from nnda.data.presets import GROUPS
 from nnda.errors import NndaError
-from nnda.models import commands as model_commands
 from nnda.models.innovation import IMM_INNOVATION
 from nnda.peers import commands as peer_commands
 from nnda.reports import commands as report_commands
+from nnda.reports import model_commands
 from nnda.study.config import default_study, study_to_toml
 
 app = typer.Typer(

@@ -5,7 +5,7 @@ import pytest
 
 from nnda.errors import ModelError
 from nnda.models.metrics import classifier_metrics, roc
-from nnda.models.tables import mean_interval, metrics_table
+from nnda.reports.classifier_tables import mean_interval, metrics_table
 
 
 def test_confusion_counts_and_rates_by_hand():

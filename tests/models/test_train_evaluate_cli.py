@@ -76,7 +76,7 @@ def test_cli_prints_a_clean_error_for_a_model_of_another_feature_version(tmp_pat
 
 
 def test_parse_sizes():
-    from nnda.models.commands import parse_sizes
+    from nnda.reports.model_commands import parse_sizes
     assert parse_sizes("1-3,8") == [1, 2, 3, 8]
     assert parse_sizes("5") == [5]
     with pytest.raises(ConfigError):

@@ -7,8 +7,8 @@ from nnda.errors import ConfigError, ModelError
 from nnda.models.experiment import fit, repeat, sweep
 from nnda.models.pairs import PairSet
 from nnda.models.scorer import load_model, save_model
-from nnda.models.tables import repeats_table, sweep_table
 from nnda.models.trainers import GDSettings
+from nnda.reports.classifier_tables import repeats_table, sweep_table
 
 
 def test_fit_is_deterministic_for_a_seed(train_pairs, tmp_path):

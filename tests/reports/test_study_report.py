@@ -103,7 +103,7 @@ def _summary(stats: dict[str, tuple], confidence=0.95) -> tuple[dict, dict]:
 def test_summary_calls_a_win_clear_only_when_the_intervals_are_apart():
     clear = verdicts(*_summary({"a": (100.0, 90.0, 110.0), "b": (150.0, 120.0, 180.0)}))[0]
     assert (clear.best, clear.second, clear.clear) == ("a", "b", True)
-    assert "**a** 100.0 m [90.0 m, 110.0 m], clearly ahead of b" in clear.text
+    assert "**a** 100.0 [90.0, 110.0] m, clearly ahead of b" in clear.text
     close = verdicts(*_summary({"a": (130.0, 100.0, 160.0), "b": (120.0, 90.0, 150.0)}))[0]
     assert (close.best, close.clear) == ("b", False) and "not separable at 95% from a" in close.text
     tie = verdicts(*_summary({"a": (5.0, 5.0, 5.0), "b": (5.0, 5.0, 5.0), "c": (9.0, 9.0, 9.0)}))[0]
@@ -170,6 +170,6 @@ def test_extended_and_seed_feature_trackers_are_compared_cell_by_cell():
     verdicts = {row[1]: row[4] for row in table.rows}
     assert verdicts["Association losses"] == "nn-ext better, intervals apart"
     assert verdicts["Hit rate (%)"] == "nn-ext ahead, intervals overlap"
-    assert verdicts["GOSPA (m)"] == "equal" and verdicts["False tracks"] == "—"
-    assert verdicts["Time per scan (ms)"] == "nn-seed better, intervals apart"
+    assert verdicts["GOSPA, mean over scans (m)"] == "equal" and verdicts["False tracks"] == "—"
+    assert verdicts["Time per scan, mean over scans (ms)"] == "nn-seed better, intervals apart"
     assert counts == {1: 1, 0: 5, -1: 1}

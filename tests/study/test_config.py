@@ -40,11 +40,26 @@ def test_written_study_reads_back_equal(tmp_path):
     ({"trackers": {"a": {"kind": "gnn"}}, "scenarios": [{"preset": "S1"}], "runs": 0}, "runs: Input should be greater"),
     ({"trackers": {"a": {"kind": "gnn", "colour": "red"}}, "scenarios": [{"preset": "S1"}]},
      "trackers.a.colour: Extra inputs are not permitted"),
+    ({"trackers": {"a": {"kind": "gnn"}}, "scenarios": [{"preset": "S1"}], "ownership": "nearest"},
+     "ownership: Input should be 'auto', 'contacts' or 'position'"),
 ])
 def test_malformed_studies_name_the_field(data, message):
     with pytest.raises(ConfigError, match="invalid study") as err:
         study_from_dict(data, "s.toml")
     assert message in str(err.value) and str(err.value).startswith("s.toml")
+
+
+def test_ownership_reads_back_and_enters_the_job_keys_only_when_not_auto(tmp_path):
+    from nnda.study.plan import plan_study
+
+    base = {"trackers": {"a": {"kind": "gnn"}}, "scenarios": [{"preset": "S4"}], "runs": 1}
+    auto, position = study_from_dict(base), study_from_dict({**base, "ownership": "position"})
+    assert auto.ownership == "auto"
+    (tmp_path / "s.toml").write_text(study_to_toml(position))
+    assert load_study(tmp_path / "s.toml") == position
+    plans = plan_study(auto), plan_study(position)
+    assert [j.ownership for p in plans for j in p.jobs] == ["auto", "position"]
+    assert plans[0].fingerprint != plans[1].fingerprint
 
 
 def test_unreadable_study_files(tmp_path):

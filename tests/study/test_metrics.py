@@ -1,17 +1,21 @@
-"""Run metrics on hand-made tracker outputs with known answers."""
+"""Run metrics on hand-made tracker outputs with known answers: ownership by contacts and by position,
+agreement of the two on a tracker run, bad outputs."""
 
 from __future__ import annotations
 
+import math
 from collections import defaultdict
 
 import numpy as np
 import pytest
 
 from nnda.data.generator import generate
+from nnda.data.presets import PRESETS
 from nnda.data.scenario import Clutter, ProcessNoise, Scenario, Segment, Target
-from nnda.study.metrics import run_metrics
+from nnda.study.metrics import ScoredRun, ScoringError, run_metrics
 from nnda.tracking.output import TrackerOutput
 from nnda.tracking.output import TrackStatus as S
+from nnda.tracking.registry import make_tracker
 
 
 @pytest.fixture(scope="module")
@@ -90,7 +94,7 @@ def test_false_track_and_clutter_in_a_target_track(dataset):
         b.add(k, 99, S.PRELIMINARY if k < 7 else S.CONFIRMED, b.contact(k, -1))
     m = run_metrics(dataset, b.outputs())
     assert (m.confirmed_tracks, m.false_tracks) == (3, 1)
-    assert m.n_false_per_scan[6:11].tolist() == [1] * 5 and m.n_false_per_scan[:6].sum() == 0
+    assert m.series["false_tracks_per_scan"][6:11].tolist() == [1] * 5 and m.false_tracks_per_scan[:6].sum() == 0
     assert m.gospa_false[6] == pytest.approx(1000.0**2 / 2)
     # a target track that takes one clutter contact instead of its own
     b2 = Builder(dataset)
@@ -119,5 +123,114 @@ def test_track_break_and_lost_target(dataset):
 
 
 def test_one_output_per_scan_is_required(dataset):
-    with pytest.raises(ValueError, match="one output per scan"):
+    with pytest.raises(ScoringError, match="one output per scan"):
         run_metrics(dataset, Builder(dataset).outputs()[:-1])
+
+
+OFFSET = (30.0, 40.0)  # m: target A's track sits 50 m off the truth
+
+
+def layout(ds, with_contacts: bool) -> Builder:
+    """A followed 50 m off (track 10); B by track 11 (deleted at scan 10), then track 12 from scan 12
+    (a break); track 99, confirmed at scans 7-11, far from both targets (a false track)."""
+    b = Builder(ds)
+
+    def add(k, track, status, target):
+        x, y = _truth_xy(ds, k, target)
+        if track == 10:
+            x, y = x + OFFSET[0], y + OFFSET[1]
+        b.add(k, track, status, b.contact(k, target) if with_contacts else None, (x, y))
+
+    for k in range(2, 21):
+        add(k, 10, S.PRELIMINARY if k < 4 else S.CONFIRMED, 0)
+    for k in range(2, 11):
+        add(k, 11, S.DELETED if k == 10 else S.PRELIMINARY if k < 4 else S.CONFIRMED, 1)
+    for k in range(12, 21):
+        add(k, 12, S.PRELIMINARY if k < 14 else S.CONFIRMED, 1)
+    for k in range(5, 12):
+        row = b.contact(k, -1) if with_contacts else None
+        b.add(k, 99, S.PRELIMINARY if k < 7 else S.CONFIRMED, row, (-30_000.0, -30_000.0))
+    return b
+
+
+def test_ownership_by_position_on_outputs_without_contacts(dataset):
+    m = run_metrics(dataset, layout(dataset, with_contacts=False).outputs())
+    assert m.ownership == "position"
+    assert (m.confirmed_tracks, m.false_tracks, m.track_breaks, m.lost_targets) == (4, 1, 1, 1)
+    # A matched at scans 4-20 (17, 50 m off), B at 4-9 and 14-20 (13, exact)
+    assert m.position_rmse_m == pytest.approx(math.sqrt(17 * 50.0**2 / 30), rel=1e-12)
+    assert m.series["false_tracks_per_scan"][6:11].tolist() == [1] * 5
+    assert m.motp_m == pytest.approx(17 * 50.0 / 30, rel=1e-12)
+    # 40 target-scans, 30 matched: 10 misses; track 99 is 5 false positives; B's track change is a switch
+    assert m.id_switches == 1
+    assert m.mota == pytest.approx(1 - (10 + 5 + 1) / 40, rel=1e-12)
+    # the measures that count contacts are undefined without contacts
+    assert m.hits is m.losses is m.clutter_associated is m.hit_rate is None
+    assert m.target_contacts == 40
+
+
+def test_both_kinds_agree_on_the_same_tracks(dataset):
+    by_contacts = run_metrics(dataset, layout(dataset, with_contacts=True).outputs())
+    by_position = run_metrics(dataset, layout(dataset, with_contacts=True).outputs(), ownership="position")
+    assert (by_contacts.ownership, by_position.ownership) == ("contacts", "position")
+    for key in ("confirmed_tracks", "false_tracks", "track_breaks", "lost_targets", "mota", "id_switches"):
+        assert by_contacts.values[key] == by_position.values[key], key
+    assert by_contacts.position_rmse_m == pytest.approx(by_position.position_rmse_m, rel=1e-12)
+    # hits and losses by position: a track never confirmed has no owner, so the initiator contacts
+    # before confirmation are outside the counted span; every used target contact is still a hit
+    assert by_position.hits == by_contacts.hits
+
+
+def test_contacts_are_required_for_ownership_by_contacts(dataset):
+    outputs = layout(dataset, with_contacts=False).outputs()
+    with pytest.raises(ScoringError, match="ownership by contacts: the outputs report no contacts"):
+        run_metrics(dataset, outputs, ownership="contacts")
+    with pytest.raises(ScoringError, match="ownership must be one of auto, contacts, position"):
+        run_metrics(dataset, outputs, ownership="nearest")
+
+
+@pytest.fixture(scope="module")
+def gnn_run():
+    ds = generate(PRESETS["S2"], seed=5)
+    tracker = make_tracker("gnn", ds.scenario.sensor)
+    return ds, [tracker.step(scan) for scan in ds.scans()]
+
+
+def test_ownership_by_position_agrees_with_contacts_on_a_tracker_run(gnn_run):
+    ds, outputs = gnn_run
+    a, b = ScoredRun(ds, outputs), ScoredRun(ds, outputs, ownership="position")
+    assert (a.ownership, b.ownership) == ("contacts", "position")
+    shown = a.ever_confirmed
+    assert shown.sum() >= len(ds.scenario.targets)
+    assert (a.owner[shown] == b.owner[shown]).mean() >= 0.9
+    ma, mb = run_metrics(ds, outputs), run_metrics(ds, outputs, ownership="position")
+    for key in ("confirmed_tracks", "false_tracks", "track_breaks", "lost_targets"):
+        assert abs(ma.values[key] - mb.values[key]) <= 1, key
+    assert mb.position_rmse_m == pytest.approx(ma.position_rmse_m, rel=0.05)
+    assert mb.hit_rate == pytest.approx(ma.hit_rate, abs=2.0)
+    for key in ("gospa", "ospa", "mota", "motp_m", "id_switches"):  # ownership plays no part in these
+        assert ma.values[key] == mb.values[key], key
+
+
+def _output(k, n=1, **change):
+    fields = dict(scan=k, time=2.0 * k, track_id=np.arange(n, dtype=np.int64), status=np.full(n, S.CONFIRMED, np.int8),
+                  state=np.zeros((n, 4)) + [1e4, 0, 1e4, 0], covariance=np.zeros((n, 4, 4)),
+                  contact=np.full(n, -1, np.int64))
+    fields.update(change)
+    return TrackerOutput(**fields)
+
+
+@pytest.mark.parametrize("k, change, message", [
+    (3, {"scan": 4}, r"output 2 \(scan 4\): expected scan 3"),
+    (5, {"state": np.zeros((2, 4))}, r"scan 5\): state has shape \(2, 4\), expected \(1, 4\)"),
+    (5, {"status": np.zeros(3, np.int8)}, r"scan 5\): status has shape \(3,\)"),
+    (6, {"state": np.array([[np.nan, 0.0, 1.0, 0.0]])}, r"scan 6\): track 0 has a non-finite state"),
+    (7, {"track_id": np.array([4, 4]), "status": np.full(2, S.CONFIRMED, np.int8), "state": np.zeros((2, 4)),
+         "contact": np.full(2, -1)}, r"scan 7\): a track id appears more than once"),
+    (8, {"contact": np.array([10_000])}, r"scan 8\): track 0 names contact 10000, but the scan has \d+ contacts"),
+])
+def test_bad_outputs_are_refused_naming_the_scan(dataset, k, change, message):
+    outputs = [_output(i) for i in range(1, dataset.n_scans + 1)]
+    outputs[k - 1] = _output(k, **change)
+    with pytest.raises(ScoringError, match=message):
+        run_metrics(dataset, outputs)

@@ -7,7 +7,8 @@ shared with the tracker), ``feature_sets`` (both sets by name),
 ``preprocessing`` (normaliser, split), ``mlp`` (numpy network and weight
 layout), ``network`` and ``trainers`` (torch: GD and Levenberg-Marquardt),
 ``experiment`` (fit, sweep, repeats), ``ablation`` (which features buy
-what), ``metrics``, ``tables``, ``plots``,
-``scorer`` (model file and numpy scorer; no torch) and ``commands`` (CLI).
+what), ``metrics``, ``plots`` and ``scorer`` (model file and numpy scorer;
+no torch). The tables and the ``nnda train`` / ``nnda evaluate`` commands
+are `nnda.reports.classifier_tables` and `nnda.reports.model_commands`.
 Nothing is imported here, so ``import nnda.models.scorer`` never loads torch.
 """

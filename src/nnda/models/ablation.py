@@ -19,7 +19,7 @@ Per data model, the pairs are also described (`describe_pairs`): how many
 there are and how many negatives fall inside the track's 99 % gate
 (d^2 < 9.21), where a pair seen alone looks like the track's own contact.
 Per variant and data model: test-split accuracy and AUC over the seeds
-(mean and 95% bootstrap interval, `nnda.models.tables.mean_interval`) and
+(mean and 95% bootstrap interval, `nnda.reports.classifier_tables.mean_interval`) and
 the ROC averaged vertically over the seeds (mean sensitivity at fixed
 false-positive rates of each seed's test split).
 """

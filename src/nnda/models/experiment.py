@@ -46,7 +46,6 @@ from nnda.models.trainers import (
 Method = Literal["gd", "lm"]
 METHODS: tuple[Method, ...] = ("gd", "lm")
 Init = Literal["nguyen-widrow", "uniform"]
-SUBSETS = ("train", "validation", "test", "all")
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,7 @@
 
 Present when the study names an ablation (``ablation = ...``, the output of
 ``nnda train --ablation``), which `nnda compare` copies into the study
-directory as ``ablation.json``. The tables are `nnda.models.tables.ablation_table`;
+directory as ``ablation.json``. The tables are `nnda.reports.classifier_tables.ablation_table`;
 the reading below them is computed from the same numbers: where the seed's
 features land under each data model of spec §14.1, which of the two the
 thesis's Levenberg-Marquardt figure (99.2 % accuracy) fits, and whether the
@@ -13,7 +13,8 @@ on the spec's data model.
 from __future__ import annotations
 
 from nnda.models.metrics import SPEC_TABLE_6_3
-from nnda.models.tables import TextTable, ablation_table, mean_interval
+from nnda.reports.classifier_tables import ablation_table, mean_interval
+from nnda.reports.text_table import TextTable, interval
 
 #: issue 9's targets for the extended features on the spec's (measured-history) data model
 TARGET_ACCURACY, TARGET_AUC = 0.99, 0.998
@@ -33,7 +34,7 @@ def _interval(doc: dict, history: str, variant: str, method: str, key: str) -> t
 
 
 def _fmt(iv: tuple[float, float, float]) -> str:
-    return f"{iv[0]:.4f} [{iv[1]:.4f}, {iv[2]:.4f}]"
+    return interval(*iv, "{:.4f}")
 
 
 def _limit(pairs: dict | None) -> str:

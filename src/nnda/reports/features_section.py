@@ -15,20 +15,13 @@ two intervals are apart. Reads ``study.json``, ``classifier.json``,
 from __future__ import annotations
 
 from nnda.models.features import KINEMATIC
-from nnda.models.tables import TextTable
 from nnda.reports.study_summary import apart, stat
-from nnda.reports.study_tables import DASH, TIME_KEY, cell
+from nnda.reports.text_table import DASH, TextTable, stat_cell
+from nnda.study.measures import TIME, Measure, measure
 
-#: (metric key, row label, number format, scale, +1 if higher is better)
-MEASURES = (
-    ("losses", "Association losses", "{:.1f}", 1.0, -1),
-    ("false_tracks", "False tracks", "{:.2f}", 1.0, -1),
-    ("track_breaks", "Track breaks", "{:.2f}", 1.0, -1),
-    ("lost_targets", "Lost targets", "{:.2f}", 1.0, -1),
-    ("hit_rate", "Hit rate (%)", "{:.2f}", 1.0, +1),
-    ("gospa", "GOSPA (m)", "{:.1f}", 1.0, -1),
-    (TIME_KEY, "Time per scan (ms)", "{:.3g}", 1e3, -1),
-)
+#: the measures association changes (registry keys), in the table's order
+COMPARED: tuple[Measure, ...] = tuple(measure(k) for k in (
+    "losses", "false_tracks", "track_breaks", "lost_targets", "hit_rate", "gospa", TIME.key))
 
 
 def feature_pairs(manifest: dict, classifier: dict) -> list[tuple[str, str]]:
@@ -61,11 +54,11 @@ def comparison(seed: str, ext: str, summary: dict, timing: dict) -> tuple[TextTa
     timing_by = {s["name"]: s for s in timing["scenarios"]}
     rows, counts = [], {1: 0, 0: 0, -1: 0}
     for sc in summary["scenarios"]:
-        for key, label, fmt, scale, sense in MEASURES:
-            a, b = (stat(sc, timing_by[sc["name"]], t, key) for t in (seed, ext))
-            words, outcome = _verdict(seed, ext, a, b, sense)
+        for m in COMPARED:
+            a, b = (stat(sc, timing_by[sc["name"]], t, m.key) for t in (seed, ext))
+            words, outcome = _verdict(seed, ext, a, b, m.sense)
             counts[outcome] += 1
-            rows.append((sc["name"], label, cell(a, fmt, scale), cell(b, fmt, scale), words))
+            rows.append((sc["name"], m.title, stat_cell(a, m.fmt, m.scale), stat_cell(b, m.fmt, m.scale), words))
     note = (f"Mean [{summary['confidence']:.0%} interval] over runs; a difference is called only when the two "
             f"intervals are apart.")
     return TextTable(f"{seed} (seed features) against {ext} (extended features)",

@@ -14,10 +14,13 @@ from __future__ import annotations
 
 import math
 
-from nnda.models.tables import TextTable
 from nnda.peers.parameters import EQUIVALENT, MATCHING
-from nnda.reports.study_tables import DASH, TIME_KEY, cell
+from nnda.reports.text_table import DASH, TextTable, stat_cell
+from nnda.study.measures import TIME, measure
 from nnda.tracking.registry import PEERS
+
+#: the measures beside the time per scan (registry keys)
+COLUMNS = tuple(measure(k) for k in ("gospa", "false_tracks"))
 
 
 def peer_labels(summary: dict) -> list[str]:
@@ -40,7 +43,7 @@ def _ratios(summary: dict, timing: dict) -> dict[str, dict[str, tuple[str, float
     peers = {label: kinds[label] for label in peer_labels(summary)}
     out = {}
     for sc in timing["scenarios"]:
-        times = {label: t[TIME_KEY]["mean"] for label, t in sc["trackers"].items()}
+        times = {label: t[TIME.key]["mean"] for label, t in sc["trackers"].items()}
         row = {}
         for label, kind in kinds.items():
             ref = None if label in peers else _reference(kind, peers, times)
@@ -65,14 +68,13 @@ def against_stonesoup(section, summary: dict, timing: dict):
         for label, t in sc["trackers"].items():
             ref = ratios[sc["name"]].get(label)
             rows.append((label + (" (Stone Soup)" if label in peers else ""),
-                         cell(timing_by[sc["name"]]["trackers"][label][TIME_KEY], "{:.4g}", 1e3),
-                         cell(t["metrics"].get("gospa"), "{:.1f}"),
-                         cell(t["metrics"].get("false_tracks"), "{:.2f}"),
+                         stat_cell(timing_by[sc["name"]]["trackers"][label][TIME.key], TIME.fmt, TIME.scale),
+                         *(stat_cell(t["metrics"].get(m.key), m.fmt, m.scale) for m in COLUMNS),
                          f"{ref[1]:.3g}x vs {ref[0]}" if ref else DASH))
         sec_note = (f"Mean over {max(t['runs'] for t in sc['trackers'].values())} run(s) "
-                    f"[{conf:.0%} t-interval]; GOSPA is the mean over scans (m).")
+                    f"[{conf:.0%} t-interval].")
         section.table(TextTable(f"{sc['name']}: ours against Stone Soup",
-                                ("Tracker", "Time per scan (ms)", "GOSPA (m)", "False tracks", "Speed ratio"),
+                                ("Tracker", TIME.title, *(m.title for m in COLUMNS), "Speed ratio"),
                                 tuple(rows), sec_note), f"peers-{sc['name']}")
     overall = {}
     for row in ratios.values():

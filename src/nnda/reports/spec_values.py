@@ -33,9 +33,5 @@ for _name in SPEC_TRACKING:
 for _name in ("S3", "S5"):
     SPEC_TRACKING[_name]["classical"]["lost_targets"] = 2
 
-#: which tracker kind each spec column describes
-SPEC_COLUMNS = {"classical": "mht", "proposed": "nn"}
+#: column titles of the thesis's two methods in the per-scenario tables
 SPEC_COLUMN_TITLES = {"classical": "thesis: IMM/TOMHT", "proposed": "thesis: neural"}
-#: true targets per validation scenario (§10.2)
-SPEC_TARGETS = {"S1": 4, "S2": 4, "S3": 4, "S4": 4, "S5": 4, "S6": 6}
-SPEC_TIMING_NOTE = "thesis timings: MATLAB on an Intel i5-2450M (2.5 GHz), one run; compare ratios, not seconds"

@@ -15,6 +15,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.ticker import FuncFormatter  # noqa: E402
 
+from nnda.study.measures import TIME, measure  # noqa: E402
+
 KM = 1e-3
 #: margin (m) around the true trajectories in track plots; coasting tracks may run further out
 VIEW_MARGIN_M = 3_000.0
@@ -51,7 +53,7 @@ def time_per_scan(times: dict[tuple[str, str], np.ndarray], scenarios: list[str]
     fig, ax = plt.subplots(figsize=(max(6.0, 1.3 * len(scenarios) * max(1, len(trackers)) / 2 + 3), 4.5),
                            constrained_layout=True)
     for j, tracker in enumerate(trackers):
-        data = [np.asarray(times[s, tracker]) * 1e3 for s in scenarios]
+        data = [np.asarray(times[s, tracker]) * TIME.scale for s in scenarios]
         pos = np.arange(len(scenarios)) + (j - (len(trackers) - 1) / 2) * width
         box = ax.boxplot(data, positions=pos, widths=width * 0.85, whis=(5, 95), showfliers=False,
                          patch_artist=True, medianprops={"color": "k"})
@@ -64,32 +66,40 @@ def time_per_scan(times: dict[tuple[str, str], np.ndarray], scenarios: list[str]
     ax.yaxis.set_major_formatter(plain)
     ax.yaxis.set_minor_formatter(plain)
     ax.set_xticks(np.arange(len(scenarios)), scenarios)
-    ax.set(ylabel="time per scan (ms, log scale)", title="Time per scan (box: quartiles, whiskers: 5-95%)")
+    ax.set(ylabel=f"{TIME.label.lower()} ({TIME.unit}, log scale)",
+           title=f"{TIME.label} (box: quartiles, whiskers: 5-95%)")
     ax.grid(alpha=0.3, which="both", axis="y")
     ax.legend(loc="best", fontsize=8)
     return _png(fig)
 
 
+#: the per-scan measures of the over-time figure's first three panels (registry keys)
+OVER_TIME = ("gospa", "ospa", "false_tracks_per_scan")
+
+
 def over_time(scenario: dict, period_s: float, cutoff_m: float) -> bytes:
-    """Per-scan means over runs of one ``summary.json`` scenario: GOSPA, OSPA, false tracks, and the
-    GOSPA missed and false parts as counts (part / (c²/2))."""
+    """Per-scan means over runs of one ``summary.json`` scenario: GOSPA, OSPA, false tracks present, and
+    the GOSPA missed and false parts as counts (part / (c²/2))."""
     trackers = list(scenario["trackers"])
     colours = _colours(trackers)
     fig, axes = plt.subplots(2, 2, figsize=(11, 6.5), sharex=True, constrained_layout=True)
+    panels = [measure(k) for k in OVER_TIME]
+    missed, false = measure("gospa_missed"), measure("gospa_false")
     half_c2 = cutoff_m**2 / 2
     for name, t in scenario["trackers"].items():
         s = {k: np.array([np.nan if v is None else v for v in series]) for k, series in t["series_mean"].items()}
-        time = period_s * np.arange(1, s["gospa"].size + 1)
+        time = period_s * np.arange(1, s[panels[0].series_name].size + 1)
         c = colours[name]
-        axes[0, 0].plot(time, s["gospa"], color=c, lw=1.3, label=name)
-        axes[0, 1].plot(time, s["ospa"], color=c, lw=1.3, label=name)
-        axes[1, 0].plot(time, s["false_tracks"], color=c, lw=1.3, label=name)
-        axes[1, 1].plot(time, s["gospa_missed"] / half_c2, color=c, lw=1.3, label=f"{name} missed")
-        axes[1, 1].plot(time, s["gospa_false"] / half_c2, color=c, lw=1.1, ls="--", label=f"{name} false")
-    axes[0, 0].set(ylabel="GOSPA (m)", title=f"GOSPA (c = {cutoff_m:g} m, p = 2, alpha = 2)")
-    axes[0, 1].set(ylabel="OSPA (m)", title="OSPA")
-    axes[1, 0].set(ylabel="false tracks", xlabel="time (s)", title="Confirmed false tracks")
-    axes[1, 1].set(ylabel="per scan", xlabel="time (s)", title="GOSPA: missed targets (solid), false tracks (dashed)")
+        for ax, m in zip(axes.ravel(), panels):
+            ax.plot(time, s[m.series_name], color=c, lw=1.3, label=name)
+        axes[1, 1].plot(time, s[missed.series_name] / half_c2, color=c, lw=1.3, label=f"{name} missed")
+        axes[1, 1].plot(time, s[false.series_name] / half_c2, color=c, lw=1.1, ls="--", label=f"{name} false")
+    for ax, m in zip(axes.ravel(), panels):
+        ax.set(ylabel=f"{m.label} ({m.unit})" if m.unit else m.label.lower(), title=m.label)
+    axes[0, 0].set_title(f"{panels[0].label} (c = {cutoff_m:g} m, p = 2, alpha = 2)")
+    axes[1, 0].set(xlabel="time (s)")
+    axes[1, 1].set(ylabel="per scan", xlabel="time (s)",
+                   title="GOSPA: missed targets (solid), false tracks (dashed)")
     for ax in axes.ravel():
         ax.grid(alpha=0.3)
     axes[0, 0].legend(fontsize=8)

@@ -28,17 +28,12 @@ import pyarrow.parquet as pq
 from nnda.errors import DatasetError
 from nnda.files import atomic_file, read_json
 from nnda.models.ablation import ABLATION_FILE
-from nnda.models.tables import TextTable
 from nnda.reports import ablation_section, features_section, study_figures
+from nnda.reports.classifier_tables import classifier_table, model_test_table
 from nnda.reports.peers_section import against_stonesoup, peer_labels
 from nnda.reports.study_summary import summary_markdown
-from nnda.reports.study_tables import (
-    classifier_table,
-    is_thesis_scenario,
-    model_test_table,
-    scenario_table,
-    table_html,
-)
+from nnda.reports.study_tables import is_thesis_scenario, scenario_table
+from nnda.reports.text_table import DASH, TextTable
 from nnda.reports.trajectory_plot import figure_div, plotly_js, trajectory_figure
 from nnda.study.classifier import CLASSIFIER_FILE, CLASSIFIER_FORMAT, read_ablation
 from nnda.study.classifier import FORMAT_VERSION as CLASSIFIER_VERSION
@@ -75,7 +70,7 @@ class Section:
 
     def table(self, table: TextTable, ident: str = "") -> None:
         self.md.append(table.markdown())
-        self.html.append(table_html(table, ident))
+        self.html.append(table.html(ident))
 
     def figure(self, fig: Figure) -> None:
         self.md += [f"![{fig.caption}]({FIGURES}/{fig.name})", ""]
@@ -137,7 +132,7 @@ def _setup(manifest: dict, summary: dict, timing: dict) -> Section:
              f"{gospa['cutoff_m']:g} m, p = {gospa['p']}, alpha = {gospa['alpha']}; OSPA with the same c and p. "
              f"Intervals: {summary['confidence']:.0%} Student-t over runs.")
     sec.table(TextTable("Trackers", ("Label", "Kind", "Model", "Parameters"), tuple(
-        (t["label"], t["kind"], t["model"] or "—", _json_compact(t["params"]) if t["params"] else "defaults")
+        (t["label"], t["kind"], t["model"] or DASH, _json_compact(t["params"]) if t["params"] else "defaults")
         for t in manifest["trackers"])))
     sec.table(TextTable("Scenarios", ("Name", "Source", "Targets", "Scans", "Clutter per scan", "Runs"), tuple(
         (s["name"], s["source"], ", ".join(s["targets"]), str(s["n_scans"]), str(s["clutter_per_scan"]), str(s["runs"]))
@@ -153,13 +148,23 @@ def _setup(manifest: dict, summary: dict, timing: dict) -> Section:
              f"{ex['jobs_skipped']} resumed from earlier in {ex['seconds']:.1f} s (last invocation). Machine: "
              f"{machine['processor']}, {machine['cpus']} CPU(s), {machine['platform']}, Python {machine['python']}, "
              f"nnda {machine['nnda_version']}. Timing: {timing['method']}.")
-    sec.text("Bookkeeping (`nnda.study.metrics`): a track belongs to the target that produced most of its "
-             "contacts; only tracks confirmed at some scan count. Hits are target contacts used by a track of "
+    # summaries written before track ownership had two kinds hold no "ownership": theirs was by contacts
+    kinds = {t: ", ".join(v.get("ownership", ["contacts"])) for sc in summary["scenarios"]
+             for t, v in sc["trackers"].items()}
+    by = "; ".join(f"{t}: by {k}" for t, k in kinds.items())
+    option = summary.get("ownership", "auto")
+    sec.text(f"Bookkeeping (`nnda.study.metrics`): a track belongs to a target by contacts (the target that "
+             f"produced most of its contacts) or, for outputs without contacts, by position (the target it was "
+             f"matched to in most of its confirmed scans); study option ownership = {option!r} "
+             f"({by}). Only tracks confirmed at some scan count. Hits are target contacts used by a track of "
              "their own target; association losses are target contacts after the target's first track exists "
              "that no track of that target used; hit rate = hits / (hits + losses + clutter associated). A false "
-             "track is a confirmed track whose contacts are mostly clutter; a track break is a further confirmed "
-             "track of an already tracked target; a lost target had its track deleted while it still produced "
-             "contacts. GOSPA and OSPA compare the confirmed tracks' positions with the true positions per scan.")
+             "track is a confirmed track owned by no target (mostly clutter, or mostly unmatched); a track break "
+             "is a further confirmed track of an already tracked target; a lost target had its track deleted "
+             "while it still produced contacts. GOSPA and OSPA compare the confirmed tracks' positions with the "
+             f"true positions per scan. MOTA, MOTP and identity switches are CLEAR-MOT (Bernardin & Stiefelhagen "
+             f"2008) over the per-scan matching of confirmed tracks to targets closer than {gospa['cutoff_m']:g} m "
+             f"(the GOSPA cut-off), which also gives ownership by position.")
     return sec
 
 

@@ -14,43 +14,23 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from nnda.reports.spec_values import SPEC_TRACKING
+from nnda.reports.text_table import stat_cell
+from nnda.study.measures import TIME, Measure, measure
 
-TIME = "mean_time_per_scan_s"
-
-
-@dataclass(frozen=True)
-class Headline:
-    """A measure the summary ranks: key, words, +1 if higher is better, value format, scale."""
-
-    key: str
-    words: str
-    sense: int
-    fmt: str
-    scale: float = 1.0
-
-
-HEADLINES = (
-    Headline("hit_rate", "hit rate", +1, "{:.2f} %"),
-    Headline("false_tracks", "false tracks", -1, "{:.2f}"),
-    Headline("lost_targets", "lost targets", -1, "{:.2f}"),
-    Headline("gospa", "mean GOSPA", -1, "{:.1f} m"),
-    Headline("position_rmse_m", "position RMSE", -1, "{:.1f} m"),
-    Headline(TIME, "time per scan", -1, "{:.3g} ms", 1e3),
-)
+#: the measures the summary ranks (keys of `nnda.study.measures`; each has a better direction)
+HEADLINES: tuple[Measure, ...] = tuple(measure(k) for k in (
+    "hit_rate", "false_tracks", "lost_targets", "gospa", "position_rmse_m", "mota", TIME.key))
 
 
 def stat(scenario: dict, timing: dict, tracker: str, key: str) -> dict | None:
     """A tracker's mean/interval record of ``key`` in one scenario (time per scan from ``timing``)."""
-    if key == TIME:
-        return timing["trackers"][tracker][TIME]
+    if key == TIME.key:
+        return timing["trackers"][tracker][TIME.key]
     return scenario["trackers"][tracker]["metrics"].get(key)
 
 
-def _fmt(h: Headline, stat: dict) -> str:
-    text = h.fmt.format(stat["mean"] * h.scale)
-    if stat.get("ci_low") is not None and stat["ci_low"] != stat["ci_high"]:
-        text += f" [{h.fmt.format(stat['ci_low'] * h.scale)}, {h.fmt.format(stat['ci_high'] * h.scale)}]"
-    return text
+def _fmt(m: Measure, stat: dict) -> str:
+    return stat_cell(stat, m.fmt, m.scale) + (f" {m.unit}" if m.unit else "")
 
 
 def apart(a: dict, b: dict) -> bool:
@@ -65,7 +45,7 @@ class Verdict:
     """The outcome of one measure in one scenario."""
 
     scenario: str
-    headline: Headline
+    headline: Measure
     best: str | None  # None: a tie for best
     second: str | None
     clear: bool
@@ -87,16 +67,16 @@ def verdicts(summary: dict, timing: dict) -> list[Verdict]:
             best, second = ranked[0], ranked[1]
             tied = [t for t in ranked if stats[t]["mean"] == stats[best]["mean"]]
             if len(tied) == len(ranked):
-                text = f"{h.words}: all trackers equal ({_fmt(h, stats[best])})"
+                text = f"{h.label}: all trackers equal ({_fmt(h, stats[best])})"
                 out.append(Verdict(sc["name"], h, None, None, False, text))
                 continue
             if len(tied) > 1:
-                text = f"{h.words}: {', '.join(f'**{t}**' for t in tied)} tie for best at {_fmt(h, stats[best])}"
+                text = f"{h.label}: {', '.join(f'**{t}**' for t in tied)} tie for best at {_fmt(h, stats[best])}"
                 out.append(Verdict(sc["name"], h, None, None, False, text))
                 continue
             clear = apart(stats[best], stats[second])
             relation = "clearly ahead of" if clear else f"not separable at {level} from"
-            text = (f"{h.words}: **{best}** {_fmt(h, stats[best])}, {relation} {second} "
+            text = (f"{h.label}: **{best}** {_fmt(h, stats[best])}, {relation} {second} "
                     f"{_fmt(h, stats[second])}")
             out.append(Verdict(sc["name"], h, best, second, clear, text))
     return out
@@ -112,12 +92,12 @@ def _time_ratios(summary: dict, timing: dict) -> list[str]:
         spec = SPEC_TRACKING.get(tsc["name"])
         for a in nn:
             for b in mht:
-                ta, tb = tsc["trackers"][a][TIME]["mean"], tsc["trackers"][b][TIME]["mean"]
+                ta, tb = tsc["trackers"][a][TIME.key]["mean"], tsc["trackers"][b][TIME.key]["mean"]
                 if ta is None or not tb:
                     continue
                 line = f"{tsc['name']}: {a} / {b} time per scan = {ta / tb:.3f}"
                 if spec:
-                    ratio = spec["proposed"][TIME] / spec["classical"][TIME]
+                    ratio = spec["proposed"][TIME.key] / spec["classical"][TIME.key]
                     line += f" (thesis, proposed / classical: {ratio:.3f})"
                 lines.append(line)
     return lines
@@ -131,7 +111,7 @@ def summary_markdown(summary: dict, timing: dict) -> str:
     best = {t: sum(v.best == t for v in vs) for t in trackers}
     level = f"{summary['confidence']:.0%}"
     lines = [f"Across {len(summary['scenarios'])} scenario(s) and {len(HEADLINES)} headline measures "
-             f"({', '.join(h.words for h in HEADLINES)}), best means, ties left out (clear wins: "
+             f"({', '.join(h.label for h in HEADLINES)}), best means, ties left out (clear wins: "
              f"{level} intervals apart): "
              + ", ".join(f"{t} {best[t]} ({clear[t]})"
                          for t in sorted(trackers, key=lambda t: (-clear[t], -best[t], t)))

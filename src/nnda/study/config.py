@@ -5,7 +5,8 @@ A study is validated data (pydantic), read from TOML or JSON::
     name = "thesis"
     seed = 0                  # every preset run is generated from (scenario, seed, run)
     runs = 100                # Monte Carlo runs per generated scenario
-    gospa_cutoff_m = 1000.0   # GOSPA/OSPA cut-off c (p = 2, alpha = 2)
+    gospa_cutoff_m = 1000.0   # GOSPA/OSPA cut-off c (p = 2, alpha = 2), also the position matching's threshold
+    ownership = "auto"        # track ownership: by "contacts", by "position", or "auto" (nnda.study.metrics)
 
     ablation = "models/ablation"  # optional: an `nnda train --ablation` directory, shown in the report
 
@@ -30,8 +31,9 @@ A study is validated data (pydantic), read from TOML or JSON::
 
 Relative paths are resolved against the study file's directory. Defaults
 where the specification is silent: seed 0, 10 runs, GOSPA cut-off 1000 m
-(the order of the initiation window and gates for this radar), 95%
-t-intervals over runs.
+(the order of the initiation window and gates for this radar), track
+ownership "auto" (by contacts when a tracker's outputs report them, by
+position otherwise), 95% t-intervals over runs.
 """
 
 from __future__ import annotations
@@ -47,7 +49,7 @@ from nnda.errors import ConfigError, validated
 from nnda.files import read_config
 from nnda.models.features import KINEMATIC
 from nnda.models.innovation import IMM_INNOVATION
-from nnda.study.metrics import DEFAULT_CUTOFF_M
+from nnda.study.metrics import DEFAULT_CUTOFF_M, Ownership
 
 _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 #: labels become file and directory names, so they are kept to a safe alphabet
@@ -102,7 +104,9 @@ class Study(BaseModel):
     description: str = ""
     seed: Annotated[int, Field(ge=0)] = 0
     runs: Annotated[int, Field(ge=1, description="Monte Carlo runs of each generated scenario")] = 10
-    gospa_cutoff_m: Annotated[float, Field(gt=0, description="GOSPA/OSPA cut-off c (m)")] = DEFAULT_CUTOFF_M
+    gospa_cutoff_m: Annotated[float, Field(
+        gt=0, description="GOSPA/OSPA cut-off c (m), also the threshold of the position matching")] = DEFAULT_CUTOFF_M
+    ownership: Ownership = Field(default="auto", description="track ownership: auto, contacts or position")
     confidence: Annotated[float, Field(gt=0, lt=1, description="level of the t-intervals")] = 0.95
     models: dict[Label, Path] = Field(default_factory=dict)
     ablation: Path | None = Field(default=None, description="`nnda train --ablation` output for the report")
@@ -204,7 +208,7 @@ def study_to_toml(study: Study, relative_to: Path | None = None) -> str:
         return str(p)
 
     lines = [f"{k} = {_toml_value(getattr(study, k))}"
-             for k in ("name", "description", "seed", "runs", "gospa_cutoff_m", "confidence")]
+             for k in ("name", "description", "seed", "runs", "gospa_cutoff_m", "ownership", "confidence")]
     if study.ablation is not None:
         lines.append(f"ablation = {_toml_value(path(study.ablation))}")
     if study.models:

@@ -4,8 +4,8 @@
 builds the run's dataset (generated from scenario, seed and run, or read
 from disk, so every tracker sees the same data), steps the tracker through
 every scan with `time.perf_counter` around each `step` (single BLAS thread,
-spec A29), scores the outputs with `nnda.study.metrics.run_metrics` and
-returns a JSON-ready record. The caller writes the record to the job's own
+spec A29), scores the outputs with `nnda.study.metrics.run_metrics` (every
+run measure of `nnda.study.measures`) and returns a JSON-ready record. The caller writes the record to the job's own
 file; wall-clock timings are kept apart from the metrics (``timing``) so
 that everything else is bit-identical for the same seed.
 """
@@ -20,20 +20,14 @@ from threadpoolctl import threadpool_limits
 from nnda.data.dataset import Dataset, read_dataset
 from nnda.data.generator import generate
 from nnda.files import digest, finite_or_none
+from nnda.study.measures import RUN_MEASURES, SERIES_MEASURES
 from nnda.study.metrics import RunMetrics, run_metrics
 from nnda.study.plan import JobSpec
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
 
 JOB_FORMAT = "nnda.study-job"
-JOB_FORMAT_VERSION = 1
-
-#: per-scan series of a run (name in the record -> RunMetrics field)
-SERIES = {
-    "gospa": "gospa", "gospa_localisation": "gospa_localisation", "gospa_missed": "gospa_missed",
-    "gospa_false": "gospa_false", "ospa": "ospa", "false_tracks": "n_false_per_scan",
-}
-
+JOB_FORMAT_VERSION = 2  # 2: CLEAR-MOT measures and the ownership kind used
 
 def dataset_digest(dataset: Dataset) -> str:
     """SHA-256 of a dataset's contacts: equal digests mean the trackers saw the same data."""
@@ -42,13 +36,15 @@ def dataset_digest(dataset: Dataset) -> str:
 
 
 def scalars(m: RunMetrics) -> dict[str, float | int | None]:
-    """The run's single numbers: `RunMetrics.scalars` plus the means over scans of every other
-    per-scan series (GOSPA parts in m^2, false tracks per scan)."""
-    out = dict(m.scalars())
-    for name in ("gospa_localisation", "gospa_missed", "gospa_false"):
-        out[name] = float(getattr(m, name).mean())
-    out["false_tracks_per_scan"] = float(m.n_false_per_scan.mean())
-    return {k: (v if isinstance(v, int) else finite_or_none(float(v))) for k, v in out.items()}
+    """The run's single numbers, one per run measure (a per-scan measure's mean over scans): counts
+    as ints, other values as floats, undefined ones (NaN, or no contacts to count) as None."""
+    return {k: (v if isinstance(v, int) or v is None else finite_or_none(float(v)))
+            for k, v in ((ms.key, m.values[ms.key]) for ms in RUN_MEASURES)}
+
+
+def series(m: RunMetrics) -> dict[str, list]:
+    """The per-scan series of the run, by their record names (`Measure.series_name`)."""
+    return {ms.series_name: m.series[ms.key].tolist() for ms in SERIES_MEASURES}
 
 
 def _tracks(outputs, dataset: Dataset) -> dict:
@@ -81,14 +77,14 @@ def run_job(job: JobSpec) -> dict:
             start = time.perf_counter()
             outputs.append(tracker.step(scan))
             seconds[i] = time.perf_counter() - start
-        m = run_metrics(dataset, outputs, job.cutoff_m)
+        m = run_metrics(dataset, outputs, job.cutoff_m, job.ownership)
     record = {
         "format": JOB_FORMAT, "format_version": JOB_FORMAT_VERSION, "key": job.key,
         "scenario": job.scenario, "tracker": job.tracker, "kind": job.kind, "run": job.run, "seed": job.seed,
         "dataset_digest": dataset_digest(dataset), "n_scans": dataset.n_scans,
         "n_targets": len(dataset.scenario.targets),
-        "metrics": scalars(m),
-        "series": {name: getattr(m, field).tolist() for name, field in SERIES.items()},
+        "ownership": m.ownership, "metrics": scalars(m),
+        "series": series(m),
         "timing": {"time_per_scan_s": seconds.tolist()},
     }
     if job.keeps_tracks:

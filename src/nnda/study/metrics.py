@@ -1,11 +1,27 @@
-"""Tracking metrics of one run: the spec's table columns plus standard set metrics.
+"""The bookkeeping of one run: who owns each track, and every measure of `nnda.study.measures`.
 
-Bookkeeping rules (spec §9.2 and its default A26, written down here once):
+Ownership comes in two kinds (``ownership`` = "auto", "contacts" or "position"):
 
-* A track's *owner* is the target that produced the majority of the contacts
-  it used (ties go to the lower target id, and a target-clutter tie to the
-  target; a track with mostly clutter is owned by -1). Only tracks
-  that were confirmed at some scan count as displayed tracks.
+* **by contacts**: a track's *owner* is the target that produced the
+  majority of the contacts it used (ties go to the lower target id, and a
+  target-clutter tie to the target; a track with mostly clutter is owned by
+  -1, a false track);
+* **by position**: each scan, the confirmed tracks are matched to the true
+  targets by `nnda.study.matching` (CLEAR-MOT's rule, threshold = the
+  GOSPA cut-off c); a track's owner is the target it was matched to in
+  most of its confirmed scans (ties to the lower id), and -1 (false) when
+  it went unmatched in more of its confirmed scans than that. A track never
+  confirmed has no owner.
+
+"auto" (the study's default) takes contacts when the outputs report any
+(a `TrackerOutput.contact` other than NO_CONTACT, or no track at all) and
+position otherwise, as for outputs without contacts (PHD filters). The
+measures that count contacts (hits, losses, clutter associated, hit rate)
+need the outputs' contacts and are undefined (None) without them.
+
+Bookkeeping rules (spec §9.2 and its default A26, written down here once).
+Only tracks that were confirmed at some scan count as displayed tracks.
+
 * **Hits**: target contacts used by a displayed track of their own target.
   **Association losses**: target contacts after the first scan in which any
   track owned by that target exists, not used by a displayed track of that
@@ -14,167 +30,250 @@ Bookkeeping rules (spec §9.2 and its default A26, written down here once):
   contacts used by displayed tracks owned by a target.
   **Hit rate** = 100 hits / (hits + losses + clutter associated) (§9.2).
 * **Confirmed tracks**: distinct tracks ever confirmed. **False tracks**:
-  confirmed tracks owned by clutter. **Track breaks**: displayed tracks of a
+  confirmed tracks owned by -1. **Track breaks**: displayed tracks of a
   target beyond its first. **Lost targets**: targets whose displayed track
   was deleted while the target still produced contacts afterwards.
 * **Time to confirm**: per target, from its first contact to the first scan
   in which a displayed track it owns is confirmed (s).
 * **Position RMSE**: over scans where a confirmed track owned by the target
-  is reported, the IMM position estimate against the truth (m).
+  is reported, the track's position estimate against the truth (m).
 * **GOSPA** (alpha = 2, p = 2, cut-off c) and **OSPA** per scan between true
   positions of existing targets and confirmed tracks' positions.
+* **CLEAR-MOT** from the position matching of every scan (confirmed tracks
+  against the targets present, threshold c): MOTA = 1 - (misses + false
+  positives + identity switches) / target-scans, MOTP = mean distance of
+  the matched pairs (m), identity switches counted as `nnda.study.matching`
+  says.
+
+`run_metrics` checks the outputs first: one per scan, in scan order, with
+consistent array shapes, finite states, each track once a scan
+and contacts inside their scan; a problem raises `ScoringError` naming the
+scan and the field.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
+from typing import Literal
 
 import numpy as np
 
 from nnda.data.dataset import Dataset
+from nnda.errors import NndaError
 from nnda.study.gospa import gospa, ospa
+from nnda.study.matching import Matches, match_scans
+from nnda.study.measures import RUN_MEASURES
 from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
 
-#: GOSPA/OSPA cut-off distance (m), of the order of the gating region for our geometry
+#: GOSPA/OSPA cut-off distance (m), of the order of the gating region for our geometry; also the
+#: distance threshold of the position matching (ownership by position, CLEAR-MOT)
 DEFAULT_CUTOFF_M = 1_000.0
+Ownership = Literal["auto", "contacts", "position"]
+OWNERSHIP: tuple[str, ...] = ("auto", "contacts", "position")
+_NEVER = np.iinfo(np.int64).max
+
+
+class ScoringError(NndaError, ValueError):
+    """A tracker's outputs cannot be scored: wrong count or order, inconsistent shapes, non-finite states."""
+
+
+def _check_outputs(dataset: Dataset, outputs: Sequence[TrackerOutput]) -> None:
+    if len(outputs) != dataset.n_scans:
+        raise ScoringError(f"expected one output per scan ({dataset.n_scans}), got {len(outputs)}")
+    sizes = np.diff(dataset.scan_bounds())
+    for k, o in enumerate(outputs, start=1):
+        where = f"output {k - 1} (scan {o.scan})"
+        if o.scan != k:
+            raise ScoringError(f"{where}: expected scan {k}; outputs must come one per scan, in scan order")
+        n = np.shape(o.track_id)[0] if np.ndim(o.track_id) == 1 else -1
+        shapes = {"track_id": (n,), "status": (n,), "state": (n, 4), "contact": (n,)}
+        for field, shape in shapes.items():
+            if np.shape(getattr(o, field)) != shape:
+                raise ScoringError(f"{where}: {field} has shape {np.shape(getattr(o, field))}, expected {shape} "
+                                  f"(track_id has {n} tracks)")
+        if np.unique(o.track_id).size != n:
+            raise ScoringError(f"{where}: a track id appears more than once")
+        bad = ~np.isfinite(np.asarray(o.state, float)).all(axis=1)
+        if bad.any():
+            raise ScoringError(f"{where}: track {int(o.track_id[np.argmax(bad)])} has a non-finite state")
+        meas = np.asarray(o.contact)
+        off = (meas != NO_CONTACT) & ((meas < 0) | (meas >= sizes[k - 1]))
+        if off.any():
+            raise ScoringError(f"{where}: track {int(o.track_id[np.argmax(off)])} names contact {int(meas[off][0])}, "
+                              f"but the scan has {int(sizes[k - 1])} contacts (or -1 for none)")
+
+
+class ScoredRun:
+    """A tracker's outputs on a dataset, flattened, with the ownership and the intermediates the
+    measures share (each computed once, on first use). Report arrays have one entry per reported
+    track per scan, shape (R,), in scan order: ``scan``, ``track`` (index into ``track_ids``),
+    ``status``, ``x``/``y`` (m), ``row`` (the detection row used, or -1)."""
+
+    def __init__(self, dataset: Dataset, outputs: Sequence[TrackerOutput], cutoff_m: float = DEFAULT_CUTOFF_M,
+                 ownership: Ownership = "auto") -> None:
+        if ownership not in OWNERSHIP:
+            raise ScoringError(f"ownership must be one of {', '.join(OWNERSHIP)}, got {ownership!r}")
+        if not cutoff_m > 0:
+            raise ScoringError(f"the cut-off must be > 0 m, got {cutoff_m}")
+        _check_outputs(dataset, outputs)
+        self.dataset, self.cutoff_m = dataset, float(cutoff_m)
+        det = dataset.detections
+        self.n_targets = len(dataset.scenario.targets)
+        bounds = dataset.scan_bounds()
+        self.scan = np.concatenate([np.full(len(o), o.scan) for o in outputs]).astype(np.int64)
+        tid = np.concatenate([o.track_id for o in outputs]).astype(np.int64)
+        self.status = np.concatenate([o.status for o in outputs]).astype(np.int64)
+        state = np.concatenate([o.state for o in outputs]).reshape(-1, 4)
+        self.x, self.y = state[:, 0], state[:, 2]
+        meas = np.concatenate([o.contact for o in outputs]).astype(np.int64)
+        self.row = np.where(meas == NO_CONTACT, -1, bounds[self.scan - 1] + meas)
+        self.track_ids, self.track = np.unique(tid, return_inverse=True)
+        #: True when the outputs report contacts (or no track at all): the contact measures are defined
+        self.has_contacts = bool(self.row.size == 0 or (self.row >= 0).any())
+        if ownership == "contacts" and not self.has_contacts:
+            raise ScoringError("ownership by contacts: the outputs report no contacts (every contact is NO_CONTACT); "
+                              "use ownership 'position' or 'auto'")
+        self.ownership = ("contacts" if self.has_contacts else "position") if ownership == "auto" else ownership
+        self.used = self.row >= 0
+        self.contact_owner = np.where(self.used, det.target_id[np.maximum(self.row, 0)], -2)  # -2: no contact
+        self.confirmed = self.status == TrackStatus.CONFIRMED
+        self.target_rows = np.flatnonzero(det.target_id >= 0)
+
+    # ------------------------------------------------------------------ ownership
+
+    @cached_property
+    def owner(self) -> np.ndarray:
+        """Owner of each track (n_tracks,): a target id, or -1 (module docstring)."""
+        n = self.track_ids.size
+        votes = np.zeros((n, self.n_targets + 1), np.int64)  # column 0: clutter contacts / unmatched scans
+        if self.ownership == "contacts":
+            np.add.at(votes, (self.track[self.used], self.contact_owner[self.used] + 1), 1)
+        else:
+            m = self.matches
+            np.add.at(votes, (m.track, m.target + 1), 1)
+            votes[:, 0] = np.bincount(self.track[self.confirmed], minlength=n) - votes[:, 1:].sum(axis=1)
+        target_votes = votes[:, 1:]
+        owner = np.argmax(target_votes, axis=1)  # ties -> lower target id
+        best = target_votes.max(axis=1)
+        owner[(best == 0) | (best < votes[:, 0])] = -1
+        return owner
+
+    @cached_property
+    def ever_confirmed(self) -> np.ndarray:
+        """(n_tracks,) True for tracks confirmed at some scan (the displayed tracks)."""
+        out = np.zeros(self.track_ids.size, bool)
+        out[self.track[self.confirmed]] = True
+        return out
+
+    @cached_property
+    def displayed(self) -> np.ndarray:
+        """(R,) the report belongs to a displayed track."""
+        return self.ever_confirmed[self.track]
+
+    @cached_property
+    def row_owner(self) -> np.ndarray:
+        """(R,) owner of each report's track."""
+        return self.owner[self.track]
+
+    # ------------------------------------------------------------------ contacts
+
+    @cached_property
+    def hit_row(self) -> np.ndarray:
+        """(n_detections,) True for contacts used by a displayed track of their own target."""
+        hit = np.zeros(self.dataset.detections.scan.size, bool)
+        good = self.used & self.displayed & (self.row_owner >= 0)
+        hit[self.row[good & (self.contact_owner == self.row_owner)]] = True
+        return hit
+
+    @cached_property
+    def counted(self) -> np.ndarray:
+        """(target contacts,) True for target contacts at or after their target's first owned track."""
+        det = self.dataset.detections
+        first_track_scan = np.full(self.n_targets, _NEVER)
+        owned = self.row_owner >= 0
+        np.minimum.at(first_track_scan, self.row_owner[owned], self.scan[owned])
+        return det.scan[self.target_rows] >= first_track_scan[det.target_id[self.target_rows]]
+
+    @cached_property
+    def clutter_rows(self) -> np.ndarray:
+        """Distinct clutter contacts used by displayed tracks owned by a target."""
+        good = self.used & self.displayed & (self.row_owner >= 0)
+        return np.unique(self.row[good & (self.contact_owner == -1)])
+
+    # ------------------------------------------------------------------ positions
+
+    @cached_property
+    def truth_xy(self) -> np.ndarray:
+        """(M, 2) true positions (m), rows of ``dataset.truth``."""
+        return np.column_stack([self.dataset.truth.x, self.dataset.truth.y])
+
+    @cached_property
+    def matches(self) -> Matches:
+        """The position matching of confirmed tracks to targets, threshold = the cut-off."""
+        t, c = self.dataset.truth, self.confirmed
+        return match_scans(t.scan.astype(np.int64), t.target_id.astype(np.int64), self.truth_xy, self.scan[c],
+                           self.track[c], np.column_stack([self.x[c], self.y[c]]), self.dataset.n_scans,
+                           self.n_targets, self.track_ids.size, self.cutoff_m)
+
+    @cached_property
+    def set_distances(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per scan: GOSPA [distance, localisation, missed, false] (n_scans, 4) and OSPA (n_scans,)."""
+        n_scans, truth = self.dataset.n_scans, self.dataset.truth
+        g = np.zeros((n_scans, 4))
+        o = np.zeros(n_scans)
+        truth_bounds = np.searchsorted(truth.scan, np.arange(1, n_scans + 2))
+        out_bounds = np.searchsorted(self.scan, np.arange(1, n_scans + 2))
+        for k in range(n_scans):
+            tt = slice(truth_bounds[k], truth_bounds[k + 1])
+            oo = slice(out_bounds[k], out_bounds[k + 1])
+            conf = self.confirmed[oo]
+            est = np.column_stack([self.x[oo][conf], self.y[oo][conf]])
+            r = gospa(self.truth_xy[tt], est, self.cutoff_m)
+            g[k] = r.distance, r.localisation, r.missed, r.false
+            o[k] = ospa(self.truth_xy[tt], est, self.cutoff_m)
+        return g, o
 
 
 @dataclass(frozen=True)
 class RunMetrics:
-    """Metrics of one tracker on one dataset; per-scan arrays have shape (n_scans,)."""
+    """Every measure of one tracker on one dataset (`nnda.study.measures.MEASURES` but the time).
 
-    target_contacts: int
-    hits: int
-    losses: int
-    clutter_associated: int
-    hit_rate: float
-    confirmed_tracks: int
-    false_tracks: int
-    track_breaks: int
-    lost_targets: int
-    mean_time_to_confirm_s: float
-    position_rmse_m: float
-    gospa: np.ndarray
-    gospa_localisation: np.ndarray
-    gospa_missed: np.ndarray
-    gospa_false: np.ndarray
-    ospa: np.ndarray
-    n_false_per_scan: np.ndarray
+    ``values[key]`` is a measure's value for the run (a per-scan measure's is its mean over
+    scans; None where undefined: the contact measures of outputs without contacts), and
+    ``series[key]`` the (n_scans,) array of each per-scan measure. Attribute access reads
+    both: ``m.hits`` is ``values["hits"]``, ``m.gospa`` the per-scan array ``series["gospa"]``.
+    ``ownership`` is the kind used: "contacts" or "position".
+    """
 
-    def scalars(self) -> dict[str, float]:
-        """The run's single-number metrics (per-scan series reduced to their means)."""
-        out = {k: getattr(self, k) for k in (
-            "target_contacts", "hits", "losses", "clutter_associated", "hit_rate", "confirmed_tracks",
-            "false_tracks", "track_breaks", "lost_targets", "mean_time_to_confirm_s", "position_rmse_m")}
-        out.update(gospa=float(self.gospa.mean()), ospa=float(self.ospa.mean()))
-        return out
+    values: dict[str, int | float | None]
+    series: dict[str, np.ndarray]
+    ownership: str
+
+    def __getattr__(self, name: str):
+        if name.startswith("__") or name in ("values", "series", "ownership"):
+            raise AttributeError(name)
+        if name in self.series:
+            return self.series[name]
+        if name in self.values:
+            return self.values[name]
+        raise AttributeError(f"RunMetrics has no measure {name!r}")
 
 
-def _flatten(outputs: Sequence[TrackerOutput], bounds: np.ndarray):
-    """Concatenate the outputs into long arrays: scan, track id, status, x, y, detection row (-1)."""
-    scan = np.concatenate([np.full(len(o), o.scan) for o in outputs])
-    tid = np.concatenate([o.track_id for o in outputs]).astype(np.int64)
-    status = np.concatenate([o.status for o in outputs]).astype(np.int64)
-    state = np.concatenate([o.state for o in outputs]).reshape(-1, 4)
-    meas = np.concatenate([o.contact for o in outputs]).astype(np.int64)
-    row = np.where(meas == NO_CONTACT, -1, bounds[scan - 1] + meas)
-    return scan, tid, status, state[:, 0], state[:, 2], row
-
-
-def run_metrics(dataset: Dataset, outputs: Sequence[TrackerOutput], cutoff_m: float = DEFAULT_CUTOFF_M
-                ) -> RunMetrics:
-    """Metrics of a tracker's per-scan ``outputs`` (one per scan, in order) on ``dataset``."""
-    if len(outputs) != dataset.n_scans:
-        raise ValueError(f"expected one output per scan ({dataset.n_scans}), got {len(outputs)}")
-    det, truth = dataset.detections, dataset.truth
-    n_targets = len(dataset.scenario.targets)
-    bounds = dataset.scan_bounds()
-    scan, tid, status, x, y, row = _flatten(outputs, bounds)
-
-    used = row >= 0
-    contact_owner = np.where(used, det.target_id[np.maximum(row, 0)], -2)  # -2: no contact
-
-    # owner of each track = majority target among its contacts (clutter = -1)
-    tracks, tinv = np.unique(tid, return_inverse=True)
-    votes = np.zeros((tracks.size, n_targets + 1), np.int64)  # column 0 = clutter
-    np.add.at(votes, (tinv[used], contact_owner[used] + 1), 1)
-    target_votes = votes[:, 1:]
-    owner = np.argmax(target_votes, axis=1)  # ties -> lower target id
-    best = target_votes.max(axis=1)
-    owner[(best == 0) | (best < votes[:, 0])] = -1
-    ever_confirmed = np.zeros(tracks.size, bool)
-    ever_confirmed[tinv[status == TrackStatus.CONFIRMED]] = True
-    displayed = ever_confirmed[tinv]
-    row_owner = owner[tinv]
-
-    # hits, losses, clutter
-    target_rows = np.flatnonzero(det.target_id >= 0)
-    hit_row = np.zeros(det.scan.size, bool)
-    good = used & displayed & (row_owner >= 0)
-    hit_row[row[good & (contact_owner == row_owner)]] = True
-    first_track_scan = np.full(n_targets, np.iinfo(np.int64).max)
-    owned = row_owner >= 0
-    np.minimum.at(first_track_scan, row_owner[owned], scan[owned])
-    counted = det.scan[target_rows] >= first_track_scan[det.target_id[target_rows]]
-    hits = int(hit_row[target_rows].sum())
-    losses = int((counted & ~hit_row[target_rows]).sum())
-    clutter_rows = np.unique(row[good & (contact_owner == -1)])
-    clutter_assoc = int(clutter_rows.size)
-    denom = hits + losses + clutter_assoc
-    hit_rate = 100.0 * hits / denom if denom else float("nan")
-
-    confirmed_ids = ever_confirmed
-    false_tracks = int((confirmed_ids & (owner < 0)).sum())
-    per_target = np.bincount(owner[confirmed_ids & (owner >= 0)], minlength=n_targets)
-    breaks = int(np.maximum(per_target - 1, 0).sum())
-
-    # lost targets: a displayed track of the target deleted before the target's last contact
-    last_contact = np.zeros(n_targets, np.int64)
-    np.maximum.at(last_contact, det.target_id[target_rows], det.scan[target_rows])
-    deleted = displayed & (status == TrackStatus.DELETED) & (row_owner >= 0)
-    lost = np.unique(row_owner[deleted & (scan < last_contact[np.maximum(row_owner, 0)])])
-
-    # time to confirm
-    first_contact = np.full(n_targets, np.iinfo(np.int64).max)
-    np.minimum.at(first_contact, det.target_id[target_rows], det.scan[target_rows])
-    first_conf = np.full(n_targets, np.iinfo(np.int64).max)
-    conf_rows = (status == TrackStatus.CONFIRMED) & (row_owner >= 0)
-    np.minimum.at(first_conf, row_owner[conf_rows], scan[conf_rows])
-    reached = first_conf < np.iinfo(np.int64).max
-    period = dataset.scenario.sensor.scan_period_s
-    ttc = float(np.mean((first_conf[reached] - first_contact[reached]) * period)) if reached.any() else float("nan")
-
-    # position error of confirmed owned tracks against their target's truth at that scan
-    truth_key = truth.scan.astype(np.int64) * (n_targets + 1) + truth.target_id
-    est_key = scan[conf_rows] * (n_targets + 1) + row_owner[conf_rows]
-    pos = np.searchsorted(truth_key, est_key)
-    found = (pos < truth_key.size) & (truth_key[np.minimum(pos, truth_key.size - 1)] == est_key)
-    err2 = (x[conf_rows][found] - truth.x[pos[found]]) ** 2 + (y[conf_rows][found] - truth.y[pos[found]]) ** 2
-    rmse = float(np.sqrt(err2.mean())) if err2.size else float("nan")
-
-    # set metrics per scan
-    n_scans = dataset.n_scans
-    g = np.zeros((n_scans, 4))
-    o = np.zeros(n_scans)
-    nfalse = np.zeros(n_scans, np.int64)
-    truth_bounds = np.searchsorted(truth.scan, np.arange(1, n_scans + 2))
-    out_bounds = np.searchsorted(scan, np.arange(1, n_scans + 2))
-    for k in range(n_scans):
-        tt = slice(truth_bounds[k], truth_bounds[k + 1])
-        oo = slice(out_bounds[k], out_bounds[k + 1])
-        conf = status[oo] == TrackStatus.CONFIRMED
-        est = np.column_stack([x[oo][conf], y[oo][conf]])
-        tru = np.column_stack([truth.x[tt], truth.y[tt]])
-        r = gospa(tru, est, cutoff_m)
-        g[k] = r.distance, r.localisation, r.missed, r.false
-        o[k] = ospa(tru, est, cutoff_m)
-        nfalse[k] = int((owner[tinv[oo]][conf] < 0).sum())
-
-    return RunMetrics(
-        target_contacts=int(target_rows.size), hits=hits, losses=losses, clutter_associated=clutter_assoc,
-        hit_rate=hit_rate, confirmed_tracks=int(confirmed_ids.sum()), false_tracks=false_tracks,
-        track_breaks=breaks, lost_targets=int(lost.size), mean_time_to_confirm_s=ttc, position_rmse_m=rmse,
-        gospa=g[:, 0], gospa_localisation=g[:, 1], gospa_missed=g[:, 2], gospa_false=g[:, 3], ospa=o,
-        n_false_per_scan=nfalse,
-    )
+def run_metrics(dataset: Dataset, outputs: Sequence[TrackerOutput], cutoff_m: float = DEFAULT_CUTOFF_M,
+                ownership: Ownership = "auto") -> RunMetrics:
+    """Every measure of a tracker's per-scan ``outputs`` (one per scan, in order) on ``dataset``."""
+    run = ScoredRun(dataset, outputs, cutoff_m, ownership)
+    values: dict[str, int | float | None] = {}
+    series: dict[str, np.ndarray] = {}
+    for m in RUN_MEASURES:
+        if m.contacts and not run.has_contacts:
+            values[m.key] = None
+            continue
+        value = m.compute(run)
+        if m.per_scan:
+            series[m.key] = value
+            value = float(value.mean())
+        values[m.key] = value
+    return RunMetrics(values, series, run.ownership)

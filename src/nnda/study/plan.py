@@ -8,8 +8,11 @@ message before any job runs.
 Each job carries a *key*: a SHA-256 over what determines its result (the
 scenario's config or the dataset's bytes, the tracker kind and parameters
 with the model file's digest in place of its path, run, seed, GOSPA
-cut-off, nnda version). A saved job result is reused on resume only under
-the same key; the study's *fingerprint* hashes all keys.
+cut-off, track ownership when it is not the default "auto", nnda version).
+A saved job result is reused on resume only under the same key; the
+study's *fingerprint* hashes all keys. (Leaving the default ownership out
+keeps the keys, and the fingerprints, of studies planned before the option
+existed.)
 """
 
 from __future__ import annotations
@@ -93,6 +96,7 @@ class JobSpec:
     seed: int
     cutoff_m: float
     key: str
+    ownership: str = "auto"
     generate: Scenario | None = None
     dataset: Path | None = None
 
@@ -239,6 +243,7 @@ def plan_study(study: Study, where: str = "study") -> StudyPlan:
     tracker_ids = {t.label: {"kind": t.kind, "model_sha256": model_digest.get(t.model),
                              "params": {k: v for k, v in t.params.items() if k != MODEL_PARAM}}
                    for t in trackers}
+    ownership = {} if study.ownership == "auto" else {"ownership": study.ownership}
     jobs = []
     for sc in scenarios:
         source = digest(_canonical(sc.scenario.model_dump(mode="json"))) if sc.generated else None
@@ -248,10 +253,11 @@ def plan_study(study: Study, where: str = "study") -> StudyPlan:
                 key = digest(_canonical({
                     "nnda": nnda.__version__, "scenario": sc.name, "data": data_id, "tracker": t.label,
                     **tracker_ids[t.label], "run": run, "seed": study.seed, "cutoff_m": study.gospa_cutoff_m,
+                    **ownership,
                 }))
                 jobs.append(JobSpec(
                     scenario=sc.name, tracker=t.label, run=run, kind=t.kind, params=t.params, seed=study.seed,
-                    cutoff_m=study.gospa_cutoff_m, key=key,
+                    cutoff_m=study.gospa_cutoff_m, key=key, ownership=study.ownership,
                     generate=sc.scenario if sc.generated else None,
                     dataset=None if sc.generated else sc.datasets[run],
                 ))

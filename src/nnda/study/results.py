@@ -4,11 +4,16 @@ Written next to the job files, always rebuilt from them in plan order
 (scenario, tracker, run), so they do not depend on the order jobs finished:
 
 * ``results.parquet``: one row per job: scenario, tracker, kind, run, seed,
-  dataset digest, every scalar metric, and the per-scan series as list
-  columns (``<name>_per_scan``);
+  dataset digest, the track ownership used ("contacts" or "position"), the
+  value of every run measure of `nnda.study.measures` (columns in key
+  order; counts as int64), and the per-scan series as list columns
+  (``<series name>_per_scan``). The series of
+  ``false_tracks_per_scan`` is named ``false_tracks``, so its list column
+  takes the name of the run value (its mean, which is left out): format
+  version 1 keeps that layout;
 * ``summary.json``: per scenario and tracker, mean and t-interval over runs
-  of every scalar (cut to the measure's possible range), and every
-  per-scan series averaged over runs;
+  of every run measure (cut to the measure's ``bounds``), every per-scan
+  series averaged over runs, and the ownership kinds its runs used;
 * ``trajectories.parquet``: run 0's truth and every confirmed track's
   reports (the report's trajectory plot);
 * ``timing.parquet`` and ``timing.json``: the wall-clock time per scan of
@@ -35,7 +40,7 @@ from scipy import stats
 import nnda
 from nnda.errors import DatasetError
 from nnda.files import atomic_file, finite_or_none, read_json, write_json
-from nnda.study.job import SERIES
+from nnda.study.measures import RUN_MEASURES, SERIES_MEASURES, TIME
 from nnda.study.plan import StudyPlan
 from nnda.study.runner import Execution, read_job
 from nnda.tracking.output import TrackStatus
@@ -48,8 +53,6 @@ SUMMARY_FILE = "summary.json"
 TRAJECTORIES_FILE = "trajectories.parquet"
 TIMING_FILE = "timing.parquet"
 TIMING_SUMMARY_FILE = "timing.json"
-#: possible range of a measure where it is not [0, inf) (every run metric is non-negative)
-BOUNDS = {"hit_rate": (0.0, 100.0)}
 #: GOSPA's fixed parameters (the cut-off is the study's)
 GOSPA_P, GOSPA_ALPHA = 2, 2
 
@@ -107,7 +110,7 @@ def _column(values: list, kind: str) -> pa.Array:
 
 
 def results_table(records: list[dict]) -> pa.Table:
-    """One row per job (see the module docstring); integer metrics stay integers."""
+    """One row per job (see the module docstring); counts stay integers."""
     cols: dict[str, pa.Array] = {
         "scenario": _column([r["scenario"] for r in records], "str"),
         "tracker": _column([r["tracker"] for r in records], "str"),
@@ -117,12 +120,15 @@ def results_table(records: list[dict]) -> pa.Table:
         "dataset_digest": _column([r["dataset_digest"] for r in records], "str"),
         "n_scans": _column([r["n_scans"] for r in records], "int32"),
         "n_targets": _column([r["n_targets"] for r in records], "int32"),
+        "ownership": _column([r["ownership"] for r in records], "str"),
     }
-    for name, value in records[0]["metrics"].items():
-        cols[name] = _column([r["metrics"][name] for r in records], "int" if isinstance(value, int) else "float")
-    for name in SERIES:
-        kind = pa.int64() if name == "false_tracks" else pa.float64()
-        cols[f"{name}_per_scan"] = pa.array([r["series"][name] for r in records], type=pa.list_(kind))
+    for m in sorted(RUN_MEASURES, key=lambda m: m.key):
+        kind = "int" if m.integer and not m.per_scan else "float"
+        cols[m.key] = _column([r["metrics"][m.key] for r in records], kind)
+    for m in SERIES_MEASURES:  # false_tracks -> false_tracks_per_scan replaces that run value (module docstring)
+        kind = pa.int64() if m.integer else pa.float64()
+        cols[f"{m.series_name}_per_scan"] = pa.array([r["series"][m.series_name] for r in records],
+                                                     type=pa.list_(kind))
     return pa.table(cols)
 
 
@@ -133,7 +139,7 @@ def timing_table(records: list[dict]) -> pa.Table:
         "scenario": _column([r["scenario"] for r in records], "str"),
         "tracker": _column([r["tracker"] for r in records], "str"),
         "run": _column([r["run"] for r in records], "int32"),
-        "mean_time_per_scan_s": _column([float(np.mean(t)) for t in times], "float"),
+        TIME.key: _column([float(np.mean(t)) for t in times], "float"),
         "time_per_scan_s": pa.array(times, type=pa.list_(pa.float64())),
     })
 
@@ -183,9 +189,10 @@ def summarise(plan: StudyPlan, records: list[dict]) -> dict:
             mine = [r for r in records if r["scenario"] == sc.name and r["tracker"] == t.label]
             trackers[t.label] = {
                 "kind": t.kind, "model": t.model, "runs": len(mine),
-                "metrics": {name: mean_ci([r["metrics"][name] for r in mine], conf, *BOUNDS.get(name, (0.0, math.inf)))
-                            for name in mine[0]["metrics"]},
-                "series_mean": {name: _nanmean_rows([r["series"][name] for r in mine]) for name in SERIES},
+                "ownership": sorted({r["ownership"] for r in mine}),
+                "metrics": {m.key: mean_ci([r["metrics"][m.key] for r in mine], conf, *m.bounds) for m in RUN_MEASURES},
+                "series_mean": {m.series_name: _nanmean_rows([r["series"][m.series_name] for r in mine])
+                                for m in SERIES_MEASURES},
             }
         scenarios.append({"name": sc.name, "source": sc.source, "runs": sc.runs, "n_scans": sc.scenario.n_scans,
                           "targets": [tg.name for tg in sc.scenario.targets], "trackers": trackers})
@@ -193,6 +200,7 @@ def summarise(plan: StudyPlan, records: list[dict]) -> dict:
         "format": SUMMARY_FORMAT, "format_version": FORMAT_VERSION, "study": plan.study.name,
         "fingerprint": plan.fingerprint, "seed": plan.study.seed, "confidence": conf,
         "gospa": {"cutoff_m": plan.study.gospa_cutoff_m, "p": GOSPA_P, "alpha": GOSPA_ALPHA},
+        "ownership": plan.study.ownership,
         "trackers": [{"label": t.label, "kind": t.kind, "model": t.model} for t in plan.trackers],
         "scenarios": scenarios,
     }
@@ -208,7 +216,7 @@ def summarise_timing(plan: StudyPlan, records: list[dict], execution: Execution)
                     if r["scenario"] == sc.name and r["tracker"] == t.label]
             every = np.concatenate(runs)
             trackers[t.label] = {
-                "mean_time_per_scan_s": mean_ci([float(x.mean()) for x in runs], plan.study.confidence, 0.0),
+                TIME.key: mean_ci([float(x.mean()) for x in runs], plan.study.confidence, *TIME.bounds),
                 "median_s": float(np.median(every)), "p95_s": float(np.percentile(every, 95)),
                 "max_s": float(every.max()),
             }

@@ -1,4 +1,4 @@
-"""Result tables of the association network, printable (rich) and writable (Markdown).
+"""Tables of the association network: ``nnda train`` / ``nnda evaluate``'s and the study report's.
 
 Layouts follow the spec's Table 6.3 (rows TP, FN, TN, FP, sensitivity,
 specificity, false-positive rate), extended by accuracy, AUC and MSE, and
@@ -7,25 +7,27 @@ reads ``mean [lo, hi]``: the mean over seeds and a 95% percentile-bootstrap
 confidence interval of that mean (10,000 resamples, fixed seed). The
 bootstrap keeps the interval inside the range of the runs, which a Student t
 interval does not when a few runs end in a poor local minimum (bounded
-rates would get intervals past 1); median rows show the typical run.
+rates would get intervals past 1); median rows show the typical run. The
+study report's two tables (`classifier_table`, `model_test_table`) read the
+model figures of ``classifier.json`` (`nnda.study.classifier`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-from rich.table import Table
 
+from nnda.models.features import KINEMATIC
 from nnda.models.metrics import SPEC_TABLE_6_3, ClassifierMetrics
+from nnda.reports.text_table import DASH, TextTable, interval
 
 if TYPE_CHECKING:  # the experiment module imports torch; tables are also made without it
     from nnda.models.experiment import FitResult, RunSummary, SweepResult
 
 #: (row label, metric field, format) of the Table 6.3 layout plus accuracy, AUC and MSE
-MEASURES = (
+CLASSIFIER_MEASURES = (
     ("TP", "tp", "{:.0f}"),
     ("FN", "fn", "{:.0f}"),
     ("TN", "tn", "{:.0f}"),
@@ -38,32 +40,6 @@ MEASURES = (
     ("MSE", "mse", "{:.4f}"),
 )
 METHOD_NAMES = {"gd": "Gradient descent", "lm": "Levenberg-Marquardt"}
-
-
-@dataclass(frozen=True)
-class TextTable:
-    """A titled table of strings, with an optional note printed under it."""
-
-    title: str
-    header: tuple[str, ...]
-    rows: tuple[tuple[str, ...], ...]
-    note: str = ""
-
-    def rich(self) -> Table:
-        table = Table(title=self.title, caption=self.note or None, caption_justify="left")
-        for i, name in enumerate(self.header):
-            table.add_column(name, justify="left" if i == 0 else "right")
-        for row in self.rows:
-            table.add_row(*row)
-        return table
-
-    def markdown(self) -> str:
-        lines = [f"### {self.title}", "", "| " + " | ".join(self.header) + " |",
-                 "|" + "|".join(["---"] + ["---:"] * (len(self.header) - 1)) + "|"]
-        lines += ["| " + " | ".join(row) + " |" for row in self.rows]
-        if self.note:
-            lines += ["", self.note]
-        return "\n".join(lines) + "\n"
 
 
 def _spec(method: str, key: str, fmt: str) -> str:
@@ -79,7 +55,7 @@ def metrics_table(
     if spec_method is not None:
         header += (f"spec {spec_method.upper()} (all)",)
     rows = []
-    for label, key, fmt in MEASURES:
+    for label, key, fmt in CLASSIFIER_MEASURES:
         row = [label, *(fmt.format(getattr(m, key)) for m in columns.values())]
         if spec_method is not None:
             row.append(_spec(spec_method, key, fmt))
@@ -110,8 +86,7 @@ def mean_interval(values: Sequence[float], level: float = 0.95, resamples: int =
 
 
 def _cell(values: Sequence[float], fmt: str) -> str:
-    mean, lo, hi = mean_interval(values)
-    return f"{fmt.format(mean)} [{fmt.format(lo)}, {fmt.format(hi)}]"
+    return interval(*mean_interval(values), fmt)
 
 
 def repeats_table(runs: Sequence[RunSummary]) -> TextTable:
@@ -121,7 +96,7 @@ def repeats_table(runs: Sequence[RunSummary]) -> TextTable:
     columns = [(m, subset) for subset in ("test", "all") for m in methods]
     header = ("Measure", *(f"{m.upper()}, {s}" for m, s in columns), *(f"spec {m.upper()}" for m in methods))
     rows = []
-    for label, key, fmt in MEASURES:
+    for label, key, fmt in CLASSIFIER_MEASURES:
         mean_fmt = "{:.1f}" if fmt == "{:.0f}" else fmt  # mean counts get one decimal
         row = [label, *(_cell([getattr(r.metrics[s], key) for r in by_method[m]], mean_fmt)
                         for m, s in columns)]
@@ -169,7 +144,6 @@ def sweep_table(result: SweepResult) -> TextTable:
                                            "Test accuracy mean", "Epochs mean", ""), tuple(rows), note)
 
 
-
 def ablation_table(results: Sequence[dict], method: str) -> TextTable:
     """Feature ablation of one training method: test accuracy and AUC per variant (rows) under each data
     model (columns), mean [95% bootstrap interval] over seeds. ``results`` are the ``results`` entries of
@@ -193,3 +167,46 @@ def ablation_table(results: Sequence[dict], method: str) -> TextTable:
             f"data model (track = measured contacts); 'true': the targets' true positions (spec §14.1). Thesis "
             f"(one run, all pairs): GD 0.941 / 0.979, LM 0.992 / 0.9981.")
     return TextTable(f"Feature ablation, {METHOD_NAMES[method]}", header, tuple(rows), note)
+
+
+def classifier_table(models: list[dict]) -> TextTable:
+    """Table 6.3 layout: each model over all its training pairs, beside the thesis's GD and LM columns."""
+    header = ("Measure", *(f"{m['label']} (all pairs)" for m in models), "thesis GD", "thesis LM")
+    rows = []
+    for label, key, fmt in CLASSIFIER_MEASURES:
+        row = [label]
+        for m in models:
+            value = m["evaluation"]["metrics"].get(key)
+            row.append(DASH if value is None else fmt.format(value))
+        for method in ("gd", "lm"):
+            value = SPEC_TABLE_6_3[method].get(key)
+            row.append(DASH if value is None else fmt.format(value))
+        rows.append(tuple(row))
+    extra = (("Method", lambda m: METHOD_NAMES.get(m["method"], str(m["method"] or DASH))),
+             ("Features", lambda m: str(m.get("features", KINEMATIC.name))),
+             ("Hidden units", lambda m: str(m["n_hidden"])),
+             ("Epochs (best)", lambda m: f"{m['epochs']} ({m['best_epoch']})" if m["epochs"] is not None else DASH),
+             ("Stopped by", lambda m: str(m["stop_reason"] or DASH)),
+             ("Pairs (own contact)", lambda m: f"{m['evaluation']['n_pairs']} ({m['evaluation']['n_positive']})"))
+    spec_extra = {"Method": ("Gradient descent", "Levenberg-Marquardt"),
+                  "Features": (KINEMATIC.name, KINEMATIC.name), "Hidden units": ("5", "5"),
+                  "Epochs (best)": ("1000", "35"), "Stopped by": (DASH, DASH),
+                  "Pairs (own contact)": ("2766 (831)", "2766 (831)")}
+    for label, get in extra:
+        rows.append((label, *(get(m) for m in models), *spec_extra[label]))
+    sources = "; ".join(f"{m['label']}: {m['evaluation']['pairs_from']}" for m in models)
+    note = f"Scores of every pair of the models' training data. Pairs: {sources}."
+    return TextTable("Association network (layout of the thesis's Table 6.3)", header, tuple(rows), note)
+
+
+def model_test_table(models: list[dict]) -> TextTable:
+    """The test-split metrics each model file records about itself."""
+    header = ("Measure", *(f"{m['label']} (test split)" for m in models))
+    rows = []
+    for label, key, fmt in CLASSIFIER_MEASURES:
+        row = [label]
+        for m in models:
+            value = (m.get("test_metrics") or {}).get(key)
+            row.append(DASH if value is None else fmt.format(value))
+        rows.append(tuple(row))
+    return TextTable("As recorded in the model files (test split)", header, tuple(rows))

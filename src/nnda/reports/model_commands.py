@@ -1,4 +1,7 @@
-"""CLI commands of the models stage: ``nnda train`` and ``nnda evaluate``.
+"""CLI commands that train and score the association network and end in its tables: ``nnda train``,
+``nnda evaluate``. They live in reports/ with the tables they print and write
+(`nnda.reports.classifier_tables`, `nnda.reports.text_table`), as ``nnda compare`` does, since
+models/ sits below reports/ and may not import them.
 
 ``nnda train`` has four modes, each writing one output directory atomically:
 
@@ -147,8 +150,8 @@ def _train_one(pairs: PairSet, method: str, hidden: int, seed: int, init: str, s
                tmp: Path, console: Console) -> None:
     from nnda.models.experiment import fit
     from nnda.models.plots import plot_losses, plot_roc
-    from nnda.models.tables import fit_table
     from nnda.models.trainers import GDSettings, LMSettings
+    from nnda.reports.classifier_tables import fit_table
 
     settings = GDSettings() if method == "gd" else LMSettings()
     shape = f"{pairs.feature_set.size}-{hidden}-1"
@@ -180,7 +183,7 @@ def _train_sweep(pairs: PairSet, method: str, sizes: list[int], restarts: int, s
                  tmp: Path, console: Console) -> None:
     from nnda.models.experiment import sweep
     from nnda.models.plots import plot_sweep
-    from nnda.models.tables import sweep_table
+    from nnda.reports.classifier_tables import sweep_table
 
     bar, task = _run_bar(len(sizes) * restarts, f"sweeping {method.upper()} over hidden sizes")
     with bar:
@@ -200,7 +203,7 @@ def _train_sweep(pairs: PairSet, method: str, sizes: list[int], restarts: int, s
 def _train_repeats(pairs: PairSet, methods: tuple[str, ...], hidden: int, seeds: range, init: str,
                    tmp: Path, console: Console) -> None:
     from nnda.models.experiment import repeat
-    from nnda.models.tables import repeats_table
+    from nnda.reports.classifier_tables import repeats_table
 
     bar, task = _run_bar(len(seeds) * len(methods), f"training {'+'.join(m.upper() for m in methods)}")
     with bar:
@@ -226,7 +229,7 @@ def _train_ablation(data: Path, methods: tuple[str, ...], hidden: int, seeds: ra
         variants,
     )
     from nnda.models.plots import plot_ablation_roc
-    from nnda.models.tables import ablation_table
+    from nnda.reports.classifier_tables import ablation_table
 
     datasets = list(iter_datasets(data))
     total = len(HISTORIES) * len(variants()) * len(seeds) * len(methods)
@@ -260,7 +263,7 @@ def evaluate(
     """
     from nnda.models.metrics import classifier_metrics
     from nnda.models.plots import plot_roc
-    from nnda.models.tables import metrics_table
+    from nnda.reports.classifier_tables import metrics_table
 
     scorer = load_model(model)
     recorded = scorer.metadata.get("pair_options", {})

@@ -1,0 +1,249 @@
+"""The registry of a study's measures: what each one is, how it reads, and the function that computes it.
+
+Every table, summary and figure of the report iterates `MEASURES` (or
+picks keys from it) instead of keeping its own labels and units, and the
+study's job records, ``results.parquet`` and ``summary.json`` hold one
+value per `RUN_MEASURES` key. A `Measure` has:
+
+* ``key``: its name in job records, ``results.parquet`` and ``summary.json``;
+* ``label`` and ``unit``: how a table names it (``title`` = "label (unit)");
+  ``fmt`` and ``scale``: how a value reads (``fmt.format(value * scale)``, in
+  ``unit``);
+* ``better``: "higher", "lower" or "none" (a property of the data or the
+  tracker's size, not of its quality);
+* ``bounds``: its possible range (low, high), which cuts confidence
+  intervals over runs;
+* ``per_scan``: True for a per-scan series whose run value is its mean
+  over scans (the series is kept as well, under ``series_name``), False
+  for a value of the whole run;
+* ``compute``: the function of a `nnda.study.metrics.ScoredRun` that gives
+  the value (the (n_scans,) array of a per-scan measure); None for the time
+  per scan, which the job measures around each `Tracker.step` and keeps in
+  ``timing.json`` (wall-clock time changes between two runs of a study);
+* ``integer``: a count (int64: the value of a per-run measure, the series
+  of a per-scan one); ``contacts``: the value needs the outputs' contacts
+  (None for outputs without them).
+
+The bookkeeping the functions share (ownership, the position matching)
+is `nnda.study.metrics`'s; its module docstring states the rules.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Literal
+
+import numpy as np
+
+from nnda.tracking.output import TrackStatus
+
+if TYPE_CHECKING:
+    from nnda.study.metrics import ScoredRun
+
+Better = Literal["higher", "lower", "none"]
+_NEVER = np.iinfo(np.int64).max
+_COUNT = (0.0, math.inf)
+
+
+@dataclass(frozen=True)
+class Measure:
+    """One measure of the registry (module docstring)."""
+
+    key: str
+    label: str
+    unit: str
+    better: Better
+    bounds: tuple[float, float]
+    per_scan: bool
+    compute: Callable[[ScoredRun], Any] | None
+    fmt: str = "{:.2f}"
+    scale: float = 1.0
+    integer: bool = False
+    contacts: bool = False
+    series: str = ""
+
+    @property
+    def title(self) -> str:
+        """The row or column name of a table: label, ", mean over scans" for a per-scan measure, unit."""
+        text = self.label + (", mean over scans" if self.per_scan else "")
+        return f"{text} ({self.unit})" if self.unit else text
+
+    @property
+    def sense(self) -> int:
+        """+1 when higher is better, -1 when lower is, 0 when neither."""
+        return {"higher": 1, "lower": -1, "none": 0}[self.better]
+
+    @property
+    def series_name(self) -> str:
+        """Name of a per-scan measure's series in job records (``results.parquet``: ``<name>_per_scan``)."""
+        return self.series or self.key
+
+    @property
+    def timing(self) -> bool:
+        """True for the wall-clock measure kept in ``timing.json`` rather than with the metrics."""
+        return self.compute is None
+
+
+# ----------------------------------------------------------------------------- contacts
+
+def _target_contacts(r: ScoredRun) -> int:
+    return int(r.target_rows.size)
+
+
+def _hits(r: ScoredRun) -> int:
+    return int(r.hit_row[r.target_rows].sum())
+
+
+def _losses(r: ScoredRun) -> int:
+    return int((r.counted & ~r.hit_row[r.target_rows]).sum())
+
+
+def _clutter_associated(r: ScoredRun) -> int:
+    return int(r.clutter_rows.size)
+
+
+def _hit_rate(r: ScoredRun) -> float:
+    hits = _hits(r)
+    denom = hits + _losses(r) + _clutter_associated(r)
+    return 100.0 * hits / denom if denom else float("nan")
+
+
+# ----------------------------------------------------------------------------- tracks
+
+def _confirmed_tracks(r: ScoredRun) -> int:
+    return int(r.ever_confirmed.sum())
+
+
+def _false_tracks(r: ScoredRun) -> int:
+    return int((r.ever_confirmed & (r.owner < 0)).sum())
+
+
+def _track_breaks(r: ScoredRun) -> int:
+    per_target = np.bincount(r.owner[r.ever_confirmed & (r.owner >= 0)], minlength=r.n_targets)
+    return int(np.maximum(per_target - 1, 0).sum())
+
+
+def _lost_targets(r: ScoredRun) -> int:
+    """Targets whose displayed track was deleted before the target's last contact."""
+    det = r.dataset.detections
+    last_contact = np.zeros(r.n_targets, np.int64)
+    np.maximum.at(last_contact, det.target_id[r.target_rows], det.scan[r.target_rows])
+    deleted = r.displayed & (r.status == TrackStatus.DELETED) & (r.row_owner >= 0)
+    return int(np.unique(r.row_owner[deleted & (r.scan < last_contact[np.maximum(r.row_owner, 0)])]).size)
+
+
+def _owned_confirmed(r: ScoredRun) -> np.ndarray:
+    return r.confirmed & (r.row_owner >= 0)
+
+
+def _time_to_confirm(r: ScoredRun) -> float:
+    det = r.dataset.detections
+    first_contact = np.full(r.n_targets, _NEVER)
+    np.minimum.at(first_contact, det.target_id[r.target_rows], det.scan[r.target_rows])
+    first_conf = np.full(r.n_targets, _NEVER)
+    rows = _owned_confirmed(r)
+    np.minimum.at(first_conf, r.row_owner[rows], r.scan[rows])
+    reached = first_conf < _NEVER
+    if not reached.any():
+        return float("nan")
+    period = r.dataset.scenario.sensor.scan_period_s
+    return float(np.mean((first_conf[reached] - first_contact[reached]) * period))
+
+
+def _position_rmse(r: ScoredRun) -> float:
+    """Confirmed owned tracks' positions against their target's truth at the same scan (m)."""
+    truth, n = r.dataset.truth, r.n_targets
+    rows = _owned_confirmed(r)
+    truth_key = truth.scan.astype(np.int64) * (n + 1) + truth.target_id
+    est_key = r.scan[rows] * (n + 1) + r.row_owner[rows]
+    pos = np.searchsorted(truth_key, est_key)
+    found = (pos < truth_key.size) & (truth_key[np.minimum(pos, truth_key.size - 1)] == est_key)
+    err2 = (r.x[rows][found] - truth.x[pos[found]]) ** 2 + (r.y[rows][found] - truth.y[pos[found]]) ** 2
+    return float(np.sqrt(err2.mean())) if err2.size else float("nan")
+
+
+# ----------------------------------------------------------------------------- per scan
+
+def _gospa_part(i: int) -> Callable[[ScoredRun], np.ndarray]:
+    return lambda r: r.set_distances[0][:, i]
+
+
+def _ospa(r: ScoredRun) -> np.ndarray:
+    return r.set_distances[1]
+
+
+def _false_per_scan(r: ScoredRun) -> np.ndarray:
+    """(n_scans,) confirmed tracks owned by -1 in each scan (int64)."""
+    return np.bincount(r.scan[r.confirmed & (r.row_owner < 0)] - 1, minlength=r.dataset.n_scans).astype(np.int64)
+
+
+# ----------------------------------------------------------------------------- CLEAR-MOT
+
+def _mota(r: ScoredRun) -> float:
+    """1 - (misses + false positives + identity switches) / target-scans (Bernardin & Stiefelhagen eq. 2)."""
+    m, n_truth = r.matches, int(r.dataset.truth.scan.size)
+    if n_truth == 0:
+        return float("nan")
+    misses, false_positives = n_truth - m.scan.size, int(r.confirmed.sum()) - m.scan.size
+    return 1.0 - (misses + false_positives + int(m.switch.sum())) / n_truth
+
+
+def _motp(r: ScoredRun) -> float:
+    """Mean distance (m) of the matched (target, track) pairs over all scans (eq. 1)."""
+    d = r.matches.distance
+    return float(d.sum() / d.size) if d.size else float("nan")
+
+
+def _id_switches(r: ScoredRun) -> int:
+    return int(r.matches.switch.sum())
+
+
+# ----------------------------------------------------------------------------- the registry
+
+#: every measure, in the order of the report's per-scenario tables (the thesis's seven rows first)
+MEASURES: tuple[Measure, ...] = (
+    Measure("target_contacts", "Target contacts", "", "none", _COUNT, False, _target_contacts, "{:.1f}",
+            integer=True),
+    Measure("hits", "Hits", "", "higher", _COUNT, False, _hits, "{:.1f}", integer=True, contacts=True),
+    Measure("losses", "Association losses", "", "lower", _COUNT, False, _losses, "{:.1f}", integer=True,
+            contacts=True),
+    Measure("clutter_associated", "Clutter associated with tracks", "", "lower", _COUNT, False,
+            _clutter_associated, integer=True, contacts=True),
+    Measure("hit_rate", "Hit rate", "%", "higher", (0.0, 100.0), False, _hit_rate, contacts=True),
+    Measure("mean_time_per_scan_s", "Time per scan", "ms", "lower", _COUNT, True, None, "{:.4g}", 1e3),
+    Measure("confirmed_tracks", "Confirmed tracks", "", "none", _COUNT, False, _confirmed_tracks, integer=True),
+    Measure("false_tracks", "False tracks", "", "lower", _COUNT, False, _false_tracks, integer=True),
+    Measure("track_breaks", "Track breaks", "", "lower", _COUNT, False, _track_breaks, integer=True),
+    Measure("lost_targets", "Lost targets", "", "lower", _COUNT, False, _lost_targets, integer=True),
+    Measure("mean_time_to_confirm_s", "Time to confirm", "s", "lower", _COUNT, False, _time_to_confirm, "{:.1f}"),
+    Measure("position_rmse_m", "Position RMSE", "m", "lower", _COUNT, False, _position_rmse, "{:.1f}"),
+    Measure("gospa", "GOSPA", "m", "lower", _COUNT, True, _gospa_part(0), "{:.1f}"),
+    Measure("gospa_localisation", "GOSPA localisation part", "m²", "lower", _COUNT, True, _gospa_part(1),
+            "{:,.0f}"),
+    Measure("gospa_missed", "GOSPA missed-target part", "m²", "lower", _COUNT, True, _gospa_part(2), "{:,.0f}"),
+    Measure("gospa_false", "GOSPA false-track part", "m²", "lower", _COUNT, True, _gospa_part(3), "{:,.0f}"),
+    Measure("ospa", "OSPA", "m", "lower", _COUNT, True, _ospa, "{:.1f}"),
+    # its series is "false_tracks" in job records (results.parquet: false_tracks_per_scan, see nnda.study.results)
+    Measure("false_tracks_per_scan", "False tracks present", "", "lower", _COUNT, True, _false_per_scan, "{:.3f}",
+            integer=True, series="false_tracks"),
+    Measure("mota", "MOTA", "", "higher", (-math.inf, 1.0), False, _mota, "{:.3f}"),
+    Measure("motp_m", "MOTP", "m", "lower", _COUNT, False, _motp, "{:.1f}"),
+    Measure("id_switches", "Identity switches", "", "lower", _COUNT, False, _id_switches, integer=True),
+)
+#: the measures computed from a run's outputs (all but the wall-clock time), in registry order
+RUN_MEASURES: tuple[Measure, ...] = tuple(m for m in MEASURES if not m.timing)
+#: the run measures kept as per-scan series too
+SERIES_MEASURES: tuple[Measure, ...] = tuple(m for m in RUN_MEASURES if m.per_scan)
+_BY_KEY = {m.key: m for m in MEASURES}
+#: the time per scan (s): the job's wall-clock measure
+TIME: Measure = next(m for m in MEASURES if m.timing)
+
+
+def measure(key: str) -> Measure:
+    """The registered measure ``key``; KeyError naming the registered keys otherwise."""
+    try:
+        return _BY_KEY[key]
+    except KeyError:
+        raise KeyError(f"no measure {key!r}; registered: {', '.join(_BY_KEY)}") from None
