@@ -105,8 +105,9 @@ class Clutter(BaseModel):
 
     Laws: ``square`` (default) uniform in a square of side ``side_m`` centred on
     ``centre_m`` (scenario frame, m; default: centre of the targets' noise-free
-    bounding box); ``gaussian`` with std ``sigma_m`` per axis centred on
-    ``centre_m`` (default: the targets' mean position); ``annulus`` uniform in
+    bounding box at the sensor's sweeps); ``gaussian`` with std ``sigma_m`` per
+    axis centred on ``centre_m`` (default: the targets' mean position at those
+    sweeps); ``annulus`` uniform in
     area over the sensor's coverage (its ring, or its sector of the ring);
     ``none``. Points outside the sensor's coverage are redrawn (the §14 rule),
     so every sweep holds exactly ``count`` points, or a Poisson number of mean
@@ -239,7 +240,9 @@ class Scenario(BaseModel):
     description: str = ""
     duration_s: PositiveFloat
     targets: Annotated[list[Target], Field(min_length=1)]
-    sensors: Annotated[tuple[Sensor, ...], Field(min_length=1)] = (Sensor(),)
+    # at least one, checked in _consistent (Field(min_length=1) would report a second, misleading
+    # "at least 1 item" problem whenever a sensor is invalid)
+    sensors: tuple[Sensor, ...] = (Sensor(),)
     process_noise: ProcessNoise = ProcessNoise()
     seed: Annotated[int, Field(ge=0)] = 0
 
@@ -264,6 +267,8 @@ class Scenario(BaseModel):
 
     @model_validator(mode="after")
     def _consistent(self) -> Scenario:
+        if not self.sensors:
+            raise ValueError("sensors: give at least one sensor")
         for i, sensor in enumerate(self.sensors):
             ratio = self.duration_s / sensor.scan_period_s
             if not math.isclose(ratio, round(ratio), abs_tol=1e-9):
