@@ -111,7 +111,7 @@ def realise(plan: Plan, seed: int, run: int) -> Dataset:
     sc = plan.scenario
     jitter = sc.process_noise.model == "jitter" and sc.process_noise.sigma_accel > 0
     x, y, detected = np.empty_like(plan.x), np.empty_like(plan.y), np.empty(plan.x.size, dtype=bool)
-    parts = []  # per sensor: (scan, range, azimuth, x, y, target_id) of its detections, unsorted
+    parts = []  # per sensor: (scan, range, azimuth, x, y, target_id, sensor) of its detections, unsorted
     for j, sensor in enumerate(sc.sensors):
         g_process, g_detect, g_measure, g_clutter = run_streams(sc, seed, run, j)
         rows = np.flatnonzero(plan.sensor == j)
