@@ -45,7 +45,7 @@ def reference_loop(runs: int) -> int:
                 contacts.append((r, az))
             targets_seen = len(contacts)
             while len(contacts) < targets_seen + SCENARIO.clutter.count:
-                x, y = plan.clutter_centre + rng.uniform(-0.5, 0.5, 2) * SCENARIO.clutter.side_m
+                x, y = plan.clutter_centre[0] + rng.uniform(-0.5, 0.5, 2) * SCENARIO.clutter.side_m
                 r = np.hypot(x, y)
                 if sensor.min_range_m <= r <= sensor.max_range_m:
                     contacts.append((r, np.arctan2(x, y)))

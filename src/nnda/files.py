@@ -137,9 +137,10 @@ def write_json(path: str | Path, data: Any, indent: int | None = 1) -> Path:
     return Path(path)
 
 
-def read_json(path: str | Path, expected_format: str, version: int,
+def read_json(path: str | Path, expected_format: str, version: int | tuple[int, ...],
               error: type[NndaError] = DatasetError) -> dict:
-    """Read a JSON document of ``expected_format`` and ``version``; ``error`` naming the file otherwise."""
+    """Read a JSON document of ``expected_format`` and ``version`` (or one of several); ``error`` naming the
+    file otherwise."""
     path = Path(path)
     if not path.is_file():
         raise error(f"{path}: missing")
@@ -150,9 +151,10 @@ def read_json(path: str | Path, expected_format: str, version: int,
     if not isinstance(data, dict) or data.get("format") != expected_format:
         found = data.get("format") if isinstance(data, dict) else type(data).__name__
         raise error(f"{path}: field 'format' is {found!r}, expected {expected_format!r}")
-    if data.get("format_version") != version:
+    versions = (version,) if isinstance(version, int) else version
+    if data.get("format_version") not in versions:
         raise error(f"{path}: field 'format_version' is {data.get('format_version')!r}; this nnda "
-                    f"({nnda.__version__}) reads version {version} only")
+                    f"({nnda.__version__}) reads version {' or '.join(map(str, versions))} only")
     return data
 
 

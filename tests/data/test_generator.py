@@ -113,7 +113,7 @@ def test_square_clutter_partly_outside_coverage_is_redrawn_inside():
 def test_clutter_region_outside_coverage_is_an_error():
     sq = Clutter(law="square", side_m=1_000.0, centre_m=(0.0, 0.0))
     sc = _noise_only(n_targets=1, duration=20.0).model_copy(update={"clutter": sq})
-    with pytest.raises(ValueError, match="does not overlap the radar coverage"):
+    with pytest.raises(ValueError, match="clutter of sensor .radar.: .* does not overlap the coverage"):
         generate(sc, seed=1)
 
 

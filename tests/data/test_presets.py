@@ -92,7 +92,7 @@ def test_t5_and_t7_are_mirror_images():
 
 
 def test_groups_and_unknown_preset():
-    assert set(GROUPS) == {"train", "trajectories", "validation"}
+    assert set(GROUPS) == {"train", "trajectories", "validation", "multisensor"}
     assert [s.name for s in resolve("validation")] == ["S1", "S2", "S3", "S4", "S5", "S6"]
     with pytest.raises(ConfigError, match="unknown preset 'S9'"):
         preset("S9")

@@ -9,14 +9,16 @@ import pytest
 import spec_reference as ref
 
 from nnda.data.scenario import Sensor
-from nnda.data.sensor import cart_to_polar, measure
+from nnda.data.sensor import cart_to_polar, measure, polar_to_cart
 from nnda.errors import FilterError
-from nnda.filters.measurement import PolarMeasurement, PositionMeasurement, converted_covariance
+from nnda.filters.measurement import PolarMeasurement, PositionMeasurement, converted_covariance, measurement_model
 from nnda.filters.two_point import two_point
 
 RNG = np.random.default_rng(5)
 X = np.column_stack([RNG.uniform(-2.5e4, 2.5e4, 8), RNG.normal(0, 100, 8), RNG.uniform(-2.5e4, 2.5e4, 8),
                      RNG.normal(0, 100, 8), RNG.normal(0, 0.03, 8)])
+#: a radar away from the origin (m)
+ORIGIN = (-12_345.0, 6_789.0)
 
 
 def test_polar_prediction_and_jacobian_match_the_spec():
@@ -106,3 +108,71 @@ def test_polar_measurement_checks():
         pm.validate("z", np.array([[1e4, 0.1], [1e4, math.nan]]))
     with pytest.raises(FilterError, match="range must be > 0"):
         pm.validate("z", np.array([[-1e4, 0.1]]))
+
+
+def test_origin_model_computes_exactly_the_origin_formulas():
+    """At (0, 0) no shift is computed: h, H and the converted positions are the pre-sensor expressions bit for bit."""
+    pm = PolarMeasurement(origin=(0.0, 0.0))
+    assert pm == PolarMeasurement() and pm._shift is None
+    z, H = pm.predict(X)
+    r, az = cart_to_polar(X[:, 0], X[:, 2])
+    np.testing.assert_array_equal(z, np.column_stack([r, az]))
+    np.testing.assert_array_equal(H[:, 0, [0, 2]], X[:, [0, 2]] / r[:, None])
+    np.testing.assert_array_equal(H[:, 1, [0, 2]], X[:, [2, 0]] * [1.0, -1.0] / (r * r)[:, None])
+    xy, _ = pm.position(z)
+    np.testing.assert_array_equal(xy, np.column_stack(polar_to_cart(z[:, 0], z[:, 1])))
+
+
+def test_shifted_polar_model_is_the_origin_model_on_shifted_states():
+    shifted, at_origin = PolarMeasurement(origin=ORIGIN), PolarMeasurement()
+    moved = X.copy()
+    moved[:, 0] -= ORIGIN[0]
+    moved[:, 2] -= ORIGIN[1]
+    z, H = shifted.predict(X)
+    z0, H0 = at_origin.predict(moved)
+    np.testing.assert_allclose(z, z0, rtol=1e-9)
+    np.testing.assert_allclose(H, H0, rtol=1e-9, atol=1e-9 * np.abs(H0).max())
+    xy, cov = shifted.position(z)
+    xy0, cov0 = at_origin.position(z)
+    np.testing.assert_allclose(xy, xy0 + ORIGIN, rtol=1e-9)
+    np.testing.assert_allclose(xy, X[:, [0, 2]], rtol=1e-9)  # back to the states' own positions
+    np.testing.assert_array_equal(cov, cov0)  # the error ellipse only rotates with the azimuth
+    np.testing.assert_array_equal(shifted.residual(z, z0), at_origin.residual(z, z0))
+    one, _ = shifted.predict(X[0, :4])  # a single state (n,) works as a batch of one
+    np.testing.assert_allclose(one, z[0], rtol=1e-12)
+
+
+def test_shifted_polar_jacobian_is_the_derivative():
+    pm = PolarMeasurement(origin=ORIGIN)
+    _, H = pm.predict(X)
+    for i, h in ((0, 1e-2), (2, 1e-2)):
+        e = np.zeros(5)
+        e[i] = h
+        num = pm.residual(pm.predict(X + e)[0], pm.predict(X - e)[0]) / (2 * h)
+        np.testing.assert_allclose(H[:, :, i], num, rtol=1e-7, atol=1e-12)
+    assert not H[:, :, [1, 3, 4]].any()
+
+
+def test_models_from_sensors():
+    radar = Sensor(name="west", x_m=-10_000.0, y_m=2_000.0, sigma_range_m=20.0, sigma_azimuth_mrad=2.0)
+    pm = measurement_model(radar)
+    assert isinstance(pm, PolarMeasurement) and pm == PolarMeasurement(20.0, 2e-3, (-10_000.0, 2_000.0))
+    assert PolarMeasurement.from_sensor(Sensor()).origin == (0.0, 0.0)
+    fix = Sensor(name="gps", kind="position", sigma_position_m=4.0)
+    pos = measurement_model(fix)
+    assert isinstance(pos, PositionMeasurement)
+    np.testing.assert_array_equal(pos.R, [[16.0, 0.0], [0.0, 16.0]])
+    with pytest.raises(FilterError, match="sensor 'gps' is a position sensor"):
+        PolarMeasurement.from_sensor(fix)
+    with pytest.raises(FilterError, match="sensor 'west' is a polar sensor"):
+        PositionMeasurement.from_sensor(radar)
+    with pytest.raises(FilterError, match="not positive definite"):
+        measurement_model(Sensor(kind="position", sigma_position_m=0.0))
+
+
+def test_polar_origin_checks():
+    with pytest.raises(FilterError, match=r"PolarMeasurement.origin: non-finite value inf"):
+        PolarMeasurement(origin=(math.inf, 0.0))
+    with pytest.raises(FilterError, match=r"PolarMeasurement.origin: expected shape \(2\)"):
+        PolarMeasurement(origin=(1.0, 2.0, 3.0))
+    assert PolarMeasurement(origin=(1, 2)).origin == (1.0, 2.0)

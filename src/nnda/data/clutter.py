@@ -1,8 +1,9 @@
-"""Clutter: false contacts per scan (spec §2, ambiguity A3 and the §14 calibration).
+"""Clutter: false contacts per sweep of one sensor (spec §2, ambiguity A3 and the §14 calibration).
 
-Points are drawn in Cartesian coordinates and redrawn until they lie inside
-the radar coverage, so the count per scan is exact (the §14 "resampled" rule;
-dropping them instead would lower the clutter-pair count by about 2%).
+Points are drawn in Cartesian coordinates (scenario frame, m) and redrawn
+until they lie inside the sensor's coverage, so the count per sweep is exact
+(the §14 "resampled" rule; dropping them instead would lower the
+clutter-pair count by about 2%).
 """
 
 from __future__ import annotations
@@ -10,28 +11,31 @@ from __future__ import annotations
 import numpy as np
 
 from nnda.data.scenario import Clutter, Sensor
-from nnda.data.sensor import in_coverage
+from nnda.data.sensor import TWO_PI, in_coverage, polar_to_cart_at
 from nnda.errors import ConfigError
 
 _MIN_BATCH = 256
 _PROBE = 20_000  # draws used to tell an empty region from an unlucky batch
 
 
-def clutter_counts(clutter: Clutter, n_scans: int, rng: np.random.Generator) -> np.ndarray:
-    """Number of clutter points in each scan, shape (n_scans,), int64."""
+def clutter_counts(clutter: Clutter, n_sweeps: int, rng: np.random.Generator) -> np.ndarray:
+    """Number of clutter points in each of a sensor's sweeps, shape (n_sweeps,), int64."""
     if clutter.law == "none" or clutter.count == 0:
-        return np.zeros(n_scans, dtype=np.int64)
+        return np.zeros(n_sweeps, dtype=np.int64)
     if clutter.count_law == "poisson":
-        return rng.poisson(clutter.count, n_scans).astype(np.int64)
-    return np.full(n_scans, clutter.count, dtype=np.int64)
+        return rng.poisson(clutter.count, n_sweeps).astype(np.int64)
+    return np.full(n_sweeps, clutter.count, dtype=np.int64)
 
 
 def _draw(clutter: Clutter, sensor: Sensor, centre: np.ndarray, n: int, rng: np.random.Generator):
-    if clutter.law == "annulus":
+    if clutter.law == "annulus":  # uniform in area over the ring, or over its sector
         r2 = rng.uniform(sensor.min_range_m**2, sensor.max_range_m**2, n)
-        theta = rng.uniform(0.0, 2.0 * np.pi, n)
-        r = np.sqrt(r2)
-        return r * np.sin(theta), r * np.cos(theta)
+        if sensor.full_circle:
+            theta = rng.uniform(0.0, TWO_PI, n)
+        else:
+            b, h = sensor.boresight_rad, sensor.half_fov_rad
+            theta = rng.uniform(b - h, b + h, n)
+        return polar_to_cart_at(sensor.position, np.sqrt(r2), theta)
     if clutter.law == "square":
         xy = rng.uniform(-0.5, 0.5, (n, 2)) * clutter.side_m + centre
     else:  # gaussian
@@ -42,7 +46,7 @@ def _draw(clutter: Clutter, sensor: Sensor, centre: np.ndarray, n: int, rng: np.
 def clutter_positions(
     clutter: Clutter, sensor: Sensor, centre: np.ndarray, total: int, rng: np.random.Generator
 ) -> tuple[np.ndarray, np.ndarray]:
-    """``total`` clutter positions (x, y in m), each inside the coverage.
+    """``total`` clutter positions (x, y in m, scenario frame, shapes (total,)), each inside the coverage.
 
     ``centre`` (2,) is the square's or the Gaussian's centre in m.
     Raises ConfigError when the clutter region does not meet the coverage.
@@ -52,13 +56,15 @@ def clutter_positions(
         rate = accepted / drawn if drawn else 1.0
         batch = max(_MIN_BATCH, int(1.2 * (total - have) / max(rate, 1e-3)))
         x, y = _draw(clutter, sensor, centre, batch, rng)
-        keep = in_coverage(sensor, np.hypot(x, y))
+        keep = in_coverage(sensor, x, y)
         drawn += batch
         accepted += int(keep.sum())
         if accepted == 0 and drawn >= _PROBE:
+            sector = "" if sensor.full_circle else f", sector {sensor.boresight_deg:g} +- {sensor.fov_deg / 2:g} deg"
             raise ConfigError(
-                f"clutter: the {clutter.law} region centred at ({centre[0]:.0f}, {centre[1]:.0f}) m "
-                f"does not overlap the radar coverage {sensor.min_range_m:.0f}-{sensor.max_range_m:.0f} m"
+                f"clutter of sensor {sensor.name!r}: the {clutter.law} region centred at ({centre[0]:.0f}, "
+                f"{centre[1]:.0f}) m does not overlap the coverage of the sensor at ({sensor.x_m:.0f}, "
+                f"{sensor.y_m:.0f}) m ({sensor.min_range_m:.0f}-{sensor.max_range_m:.0f} m{sector})"
             )
         xs.append(x[keep])
         ys.append(y[keep])

@@ -1,18 +1,24 @@
 """Datasets in memory and on disk (conventions.md, "Dataset on disk").
 
 A dataset directory holds ``scenario.json`` (manifest: format, version, seed,
-run, the validated scenario), ``detections.parquet`` and ``truth.parquet``.
-A *collection* directory (a Monte Carlo set or a preset group) holds one
-dataset directory per member and a ``collection.json`` manifest listing them.
-Everything is written to a temporary sibling and renamed into place, so a
-failed write leaves nothing behind; readers check format, version and
-schema and name the file and field they refuse.
+run, the validated scenario with its sensors), ``detections.parquet`` and
+``truth.parquet``. A *collection* directory (a Monte Carlo set or a preset
+group) holds one dataset directory per member and a ``collection.json``
+manifest listing them. Everything is written to a temporary sibling and
+renamed into place, so a failed write leaves nothing behind; readers check
+format, version and schema and name the file and field they refuse.
+
+Format versions: 2 (written) has a ``sensor`` column in
+``detections.parquet``, the index of the detecting sensor in the manifest's
+``scenario.sensors``; 1 (one radar at the origin, the scenario in the
+one-sensor form) still reads, with that column all 0.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +32,10 @@ from nnda.files import atomic_directory, dumps, read_json
 
 FORMAT = "nnda.dataset"
 COLLECTION_FORMAT = "nnda.collection"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+#: dataset format versions `read_dataset` reads (1: one radar, no ``sensor`` column)
+READABLE_VERSIONS = (1, 2)
+COLLECTION_FORMAT_VERSION = 1
 MANIFEST = "scenario.json"
 COLLECTION_MANIFEST = "collection.json"
 DETECTIONS_FILE = "detections.parquet"
@@ -38,9 +47,13 @@ class Detections:
     """All contacts of a dataset, one entry per detection; arrays of shape (N,).
 
     Rows are ordered by scan, then by azimuth (the order a rotating antenna
-    reports them). ``range`` m, ``azimuth`` rad in [0, 2 pi) clockwise from
-    north, ``x``/``y`` m from the measured polar values, ``target_id`` is the
-    index of the originating target or -1 for clutter.
+    reports them). ``sensor`` is the index of the detecting sensor in
+    ``scenario.sensors`` (None, the default, means sensor 0 for every row);
+    ``range`` m and ``azimuth`` rad in [0, 2 pi) clockwise from north are
+    measured from that sensor's position; ``x``/``y`` m are the detection's
+    position in the scenario frame (a polar sensor's converted from its
+    measured range and azimuth, a position sensor's as measured);
+    ``target_id`` is the index of the originating target or -1 for clutter.
     """
 
     scan: np.ndarray
@@ -51,6 +64,11 @@ class Detections:
     y: np.ndarray
     is_clutter: np.ndarray
     target_id: np.ndarray
+    sensor: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.sensor is None:
+            object.__setattr__(self, "sensor", np.zeros(np.shape(self.scan), dtype=np.int32))
 
 
 @dataclass(frozen=True)
@@ -70,11 +88,13 @@ class Truth:
     detected: np.ndarray
 
 
-DETECTIONS_SCHEMA = pa.schema([
+#: ``detections.parquet`` of format version 1: no ``sensor`` column
+DETECTIONS_SCHEMA_V1 = pa.schema([
     ("scan", pa.int32()), ("time", pa.float64()), ("range", pa.float64()),
     ("azimuth", pa.float64()), ("x", pa.float64()), ("y", pa.float64()),
     ("is_clutter", pa.bool_()), ("target_id", pa.int32()),
 ])
+DETECTIONS_SCHEMA = DETECTIONS_SCHEMA_V1.append(pa.field("sensor", pa.int32()))
 TRUTH_SCHEMA = pa.schema([
     ("scan", pa.int32()), ("time", pa.float64()), ("target_id", pa.int32()),
     ("x", pa.float64()), ("y", pa.float64()), ("vx", pa.float64()), ("vy", pa.float64()),
@@ -84,11 +104,17 @@ TRUTH_SCHEMA = pa.schema([
 
 @dataclass(frozen=True)
 class Scan:
-    """One antenna sweep as a tracker sees it: index k, time (s) and (N, 2) [range m, azimuth rad]."""
+    """One sweep of one sensor as a tracker sees it: index k, time (s), measurements (N, 2), sensor.
+
+    ``sensor`` is the sweeping sensor's index in ``scenario.sensors``. A polar
+    sensor's measurements are [range m, azimuth rad] from that sensor's
+    position; a position sensor's are [x m, y m] in the scenario frame.
+    """
 
     index: int
     time: float
     measurements: np.ndarray
+    sensor: int = 0
 
 
 @dataclass(frozen=True)
@@ -105,17 +131,28 @@ class Dataset:
     def n_scans(self) -> int:
         return self.scenario.n_scans
 
+    @cached_property
+    def scan_time(self) -> np.ndarray:
+        """Time (s) of each scan k = 1..n_scans, shape (n_scans,)."""
+        return self.scenario.scan_schedule()[0]
+
+    @cached_property
+    def scan_sensor(self) -> np.ndarray:
+        """Index in ``scenario.sensors`` of the sensor sweeping each scan k = 1..n_scans, shape (n_scans,), int32."""
+        return self.scenario.scan_schedule()[1]
+
     def scan_bounds(self) -> np.ndarray:
         """Row offsets of each scan in ``detections``: scan k is rows [b[k-1], b[k]), shape (n_scans+1,)."""
         return np.searchsorted(self.detections.scan, np.arange(1, self.n_scans + 2))
 
     def scans(self) -> Iterator[Scan]:
-        """The sweeps in order, including empty ones; measurements are (N, 2) [range, azimuth]."""
+        """The sweeps in time order, including empty ones, each with its sensor's measurements (see `Scan`)."""
         b = self.scan_bounds()
-        polar = np.column_stack([self.detections.range, self.detections.azimuth])
-        period = self.scenario.sensor.scan_period_s
-        for k in range(1, self.n_scans + 1):
-            yield Scan(k, k * period, polar[b[k - 1]:b[k]])
+        d = self.detections
+        by_kind = {"polar": np.column_stack([d.range, d.azimuth]), "position": np.column_stack([d.x, d.y])}
+        measurements = [by_kind[s.kind] for s in self.scenario.sensors]
+        for k, (time, sensor) in enumerate(zip(self.scan_time.tolist(), self.scan_sensor.tolist()), start=1):
+            yield Scan(k, time, measurements[sensor][b[k - 1]:b[k]], sensor)
 
 
 # ----------------------------------------------------------------------------- writing
@@ -139,6 +176,7 @@ def manifest(dataset: Dataset) -> dict:
         "n_detections": int(dataset.detections.scan.size),
         "n_clutter": int(dataset.detections.is_clutter.sum()),
         "target_names": [t.name for t in s.targets],
+        "sensor_names": [sensor.name for sensor in s.sensors],
         "scenario": s.model_dump(mode="json"),
     }
 
@@ -176,7 +214,7 @@ def write_collection(
                 on_member(name)
         (tmp / COLLECTION_MANIFEST).write_text(dumps({
             "format": COLLECTION_FORMAT,
-            "format_version": FORMAT_VERSION,
+            "format_version": COLLECTION_FORMAT_VERSION,
             "nnda_version": nnda.__version__,
             "description": description,
             "members": names,
@@ -226,14 +264,35 @@ def _check_rows(path: Path, scan: np.ndarray, n_scans: int, target_id: np.ndarra
         raise DatasetError(f"{path}: column 'target_id' leaves the range {low}..{n_targets - 1}")
 
 
+def _check_sensors(path: Path, detections: Detections, scan_sensor: np.ndarray, n_sensors: int) -> None:
+    """The ``sensor`` column names sensors of the manifest, each row the one sweeping its scan."""
+    sensor = detections.sensor
+    if sensor.size and (sensor.min() < 0 or sensor.max() >= n_sensors):
+        row = int(np.flatnonzero((sensor < 0) | (sensor >= n_sensors))[0])
+        raise DatasetError(f"{path}: column 'sensor' names sensor {sensor[row]} at row {row}, but {MANIFEST} "
+                           f"lists {n_sensors} sensor(s) (indices 0..{n_sensors - 1})")
+    wrong = sensor != scan_sensor[detections.scan - 1]
+    if wrong.any():
+        row = int(np.flatnonzero(wrong)[0])
+        raise DatasetError(f"{path}: column 'sensor' is {sensor[row]} at row {row}, but scan "
+                           f"{detections.scan[row]} is a sweep of sensor {scan_sensor[detections.scan[row] - 1]}")
+
+
+def _one_radar_at_origin(scenario: Scenario) -> bool:
+    if len(scenario.sensors) != 1:
+        return False
+    s = scenario.sensors[0]
+    return s.kind == "polar" and s.position == (0.0, 0.0) and s.full_circle and s.scan_offset_s == 0
+
+
 def read_dataset(path: str | Path) -> Dataset:
-    """Read and validate one dataset directory."""
+    """Read and validate one dataset directory (format version 2, or 1 as one radar at the origin)."""
     path = Path(path)
     if not path.is_dir():
         raise DatasetError(f"{path}: no such dataset directory")
     if not (path / MANIFEST).is_file():
         raise DatasetError(f"{path / MANIFEST}: missing (not an nnda dataset directory?)")
-    meta = read_json(path / MANIFEST, FORMAT, FORMAT_VERSION)
+    meta = read_json(path / MANIFEST, FORMAT, READABLE_VERSIONS)
     for key in ("seed", "run", "scenario"):
         if key not in meta:
             raise DatasetError(f"{path / MANIFEST}: field {key!r} is missing")
@@ -241,14 +300,21 @@ def read_dataset(path: str | Path) -> Dataset:
         scenario = scenario_from_dict(meta["scenario"], f"{path / MANIFEST} (field 'scenario')")
     except ConfigError as exc:
         raise DatasetError(str(exc)) from None
-    detections = _read_table(path / DETECTIONS_FILE, DETECTIONS_SCHEMA, Detections)
+    version = meta["format_version"]
+    if version == 1 and not _one_radar_at_origin(scenario):
+        raise DatasetError(f"{path / MANIFEST}: a format-1 dataset holds one radar at the origin, but field "
+                           f"'scenario' describes other sensors")
+    schema = DETECTIONS_SCHEMA_V1 if version == 1 else DETECTIONS_SCHEMA
+    detections = _read_table(path / DETECTIONS_FILE, schema, Detections)
     truth = _read_table(path / TRUTH_FILE, TRUTH_SCHEMA, Truth)
     n_scans, n_targets = scenario.n_scans, len(scenario.targets)
     _check_rows(path / DETECTIONS_FILE, detections.scan, n_scans, detections.target_id, n_targets, True)
     _check_rows(path / TRUTH_FILE, truth.scan, n_scans, truth.target_id, n_targets, False)
     if not np.array_equal(detections.is_clutter, detections.target_id < 0):
         raise DatasetError(f"{path / DETECTIONS_FILE}: columns 'is_clutter' and 'target_id' disagree")
-    return Dataset(scenario, int(meta["seed"]), int(meta["run"]), detections, truth)
+    dataset = Dataset(scenario, int(meta["seed"]), int(meta["run"]), detections, truth)
+    _check_sensors(path / DETECTIONS_FILE, detections, dataset.scan_sensor, len(scenario.sensors))
+    return dataset
 
 
 def is_collection(path: str | Path) -> bool:
@@ -258,7 +324,7 @@ def is_collection(path: str | Path) -> bool:
 def collection_members(path: str | Path) -> list[Path]:
     """Member dataset directories of a collection, in manifest order."""
     path = Path(path)
-    meta = read_json(path / COLLECTION_MANIFEST, COLLECTION_FORMAT, FORMAT_VERSION)
+    meta = read_json(path / COLLECTION_MANIFEST, COLLECTION_FORMAT, COLLECTION_FORMAT_VERSION)
     members = meta.get("members")
     if not isinstance(members, list) or not all(isinstance(m, str) for m in members):
         raise DatasetError(f"{path / COLLECTION_MANIFEST}: field 'members' must be a list of names")

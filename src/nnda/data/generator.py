@@ -1,14 +1,19 @@
 """Scenario generator: noise-free truth + process noise + measurement noise + clutter + gaps.
 
-Spec §3.2. The noise-free part (trajectories sampled at the scan times) is
-computed once per scenario in a `Plan`; each run then draws its own noise,
-detections and clutter, vectorised over all scans and targets.
+Spec §3.2. The noise-free part (trajectories sampled at the scan times of
+every sensor) is computed once per scenario in a `Plan`; each run then draws
+its own noise, detections and clutter, vectorised over all scans and targets
+of one sensor at a time.
 
-Random streams: run ``i`` of seed ``s`` of scenario ``name`` uses
-``SeedSequence(s, spawn_key=(crc32(name), i))``, split into independent
-children for process noise, detection draws, measurement noise and clutter.
-So a run is the same whether generated alone or inside a Monte Carlo set,
-and changing the clutter law leaves the target noise as it was.
+Random streams: run ``i`` of seed ``s`` of scenario ``name`` uses, for its
+first sensor, ``SeedSequence(s, spawn_key=(crc32(name), i))`` and, for
+sensor ``j >= 1``, ``SeedSequence(s, spawn_key=(crc32(name), i,
+FURTHER_SENSORS_KEY, j))``; each is split into independent children for
+process noise, detection draws, measurement noise and clutter. So a run is
+the same whether generated alone or inside a Monte Carlo set, changing the
+clutter law leaves the target noise as it was, a one-sensor scenario draws
+what it drew before scenarios had several sensors, and a sensor's draws do
+not depend on the other sensors.
 """
 
 from __future__ import annotations
@@ -21,18 +26,25 @@ import numpy as np
 
 from nnda.data.clutter import clutter_counts, clutter_positions
 from nnda.data.dataset import Dataset, Detections, Truth
-from nnda.data.scenario import Scenario
-from nnda.data.sensor import cart_to_polar, in_coverage, measure, polar_to_cart
+from nnda.data.scenario import Clutter, Scenario
+from nnda.data.sensor import cart_to_polar_at, in_coverage, in_coverage_polar, measure, polar_to_cart_at
 from nnda.data.trajectory import evaluate
+
+#: spawn-key entry under a run's root SeedSequence that leads to the streams of sensors 1, 2, ...
+#: (the first sensor's four streams are the root's children 0-3)
+FURTHER_SENSORS_KEY = 4
 
 
 @dataclass(frozen=True)
 class Plan:
-    """Noise-free truth of a scenario at its scan times; arrays of shape (M,).
+    """Noise-free truth of a scenario at its scan times; row arrays of shape (M,).
 
     Rows are (scan, target) pairs where the target exists, ordered by scan
-    then target. ``missed`` flags the scripted gaps; ``pd`` is each row's
-    detection probability.
+    then target; ``sensor`` is the index of the sensor sweeping the row's
+    scan. ``missed`` flags the scripted gaps; ``pd`` is each row's
+    detection probability. ``scan_time`` and ``scan_sensor`` (n_scans,) are
+    `Scenario.scan_schedule`; ``clutter_centre`` (n_sensors, 2) m is each
+    sensor's square or Gaussian clutter centre.
     """
 
     scenario: Scenario
@@ -45,72 +57,95 @@ class Plan:
     vy: np.ndarray
     missed: np.ndarray
     pd: np.ndarray
-    clutter_centre: np.ndarray  # (2,) m
+    sensor: np.ndarray
+    scan_time: np.ndarray
+    scan_sensor: np.ndarray
+    clutter_centre: np.ndarray
 
     @classmethod
     def of(cls, scenario: Scenario) -> Plan:
-        period = scenario.sensor.scan_period_s
-        scan_times = period * np.arange(1, scenario.n_scans + 1)
+        scan_time, scan_sensor = scenario.scan_schedule()
+        sensor_pd = np.array([s.pd for s in scenario.sensors])
         rows = []
         for tid, target in enumerate(scenario.targets):
-            local = scan_times - target.start_time_s
+            local = scan_time - target.start_time_s
             alive = (local >= -1e-9) & (local <= target.duration_s + 1e-9)
             k = np.flatnonzero(alive) + 1
             st = evaluate(target, np.clip(local[alive], 0.0, target.duration_s))
-            pd = scenario.sensor.pd if target.pd is None else target.pd
-            rows.append((k, np.full(k.size, tid), st.x, st.y, st.vx, st.vy,
-                         np.isin(k, target.missed_scans), np.full(k.size, pd)))
+            pd = sensor_pd[scan_sensor[k - 1]] if target.pd is None else np.full(k.size, target.pd)
+            rows.append((k, np.full(k.size, tid), st.x, st.y, st.vx, st.vy, np.isin(k, target.missed_scans), pd))
         cols = [np.concatenate(c) for c in zip(*rows)]
         order = np.lexsort((cols[1], cols[0]))
         scan, tid, x, y, vx, vy, missed, pd = (c[order] for c in cols)
-        return cls(scenario, scan.astype(np.int32), scan * period, tid.astype(np.int32),
-                   x, y, vx, vy, missed, pd, _clutter_centre(scenario, x, y))
+        sensor = scan_sensor[scan - 1]
+        centres = np.array([_clutter_centre(s.clutter, x[sensor == j], y[sensor == j])
+                            for j, s in enumerate(scenario.sensors)])
+        return cls(scenario, scan.astype(np.int32), scan_time[scan - 1], tid.astype(np.int32),
+                   x, y, vx, vy, missed, pd, sensor, scan_time, scan_sensor, centres)
 
 
-def _clutter_centre(scenario: Scenario, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Square: centre of the noise-free bounding box; Gaussian: mean position (spec §14)."""
-    if scenario.clutter.centre_m is not None:
-        return np.asarray(scenario.clutter.centre_m, dtype=float)
+def _clutter_centre(clutter: Clutter, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Square: centre of the noise-free bounding box; Gaussian: mean position (spec §14); (2,) m.
+
+    ``x``, ``y`` are the noise-free target positions at the sensor's sweeps.
+    """
+    if clutter.centre_m is not None:
+        return np.asarray(clutter.centre_m, dtype=float)
     if x.size == 0:
         return np.zeros(2)
-    if scenario.clutter.law == "gaussian":
+    if clutter.law == "gaussian":
         return np.array([x.mean(), y.mean()])
     return np.array([(x.min() + x.max()) / 2, (y.min() + y.max()) / 2])
 
 
-def run_streams(scenario: Scenario, seed: int, run: int) -> list[np.random.Generator]:
-    """Independent generators (process noise, detection, measurement, clutter) of one run."""
+def run_streams(scenario: Scenario, seed: int, run: int, sensor: int = 0) -> list[np.random.Generator]:
+    """Independent generators (process noise, detection, measurement, clutter) of one sensor in one run."""
     key = zlib.crc32(scenario.name.encode())
-    root = np.random.SeedSequence(seed, spawn_key=(key, run))
+    spawn_key = (key, run) if sensor == 0 else (key, run, FURTHER_SENSORS_KEY, sensor)
+    root = np.random.SeedSequence(seed, spawn_key=spawn_key)
     return [np.random.default_rng(child) for child in root.spawn(4)]
 
 
 def realise(plan: Plan, seed: int, run: int) -> Dataset:
     """Draw one run of a planned scenario."""
     sc = plan.scenario
-    sensor, period = sc.sensor, sc.sensor.scan_period_s
-    g_process, g_detect, g_measure, g_clutter = run_streams(sc, seed, run)
+    jitter = sc.process_noise.model == "jitter" and sc.process_noise.sigma_accel > 0
+    x, y, detected = np.empty_like(plan.x), np.empty_like(plan.y), np.empty(plan.x.size, dtype=bool)
+    parts = []  # per sensor: (scan, range, azimuth, x, y, target_id, sensor) of its detections, unsorted
+    for j, sensor in enumerate(sc.sensors):
+        g_process, g_detect, g_measure, g_clutter = run_streams(sc, seed, run, j)
+        rows = np.flatnonzero(plan.sensor == j)
+        xj, yj = plan.x[rows], plan.y[rows]
+        if jitter:
+            scale = 0.5 * sensor.scan_period_s**2 * sc.process_noise.sigma_accel  # (T^2 / 2) sigma_accel, m
+            w = g_process.standard_normal((2, rows.size)) * scale
+            xj, yj = xj + w[0], yj + w[1]
+        x[rows], y[rows] = xj, yj
 
-    x, y = plan.x, plan.y
-    if sc.process_noise.model == "jitter" and sc.process_noise.sigma_accel > 0:
-        w = g_process.standard_normal((2, x.size)) * (0.5 * period**2 * sc.process_noise.sigma_accel)
-        x, y = x + w[0], y + w[1]
+        za, zb = measure(sensor, xj, yj, g_measure)
+        covered = in_coverage(sensor, za, zb) if sensor.kind == "position" else in_coverage_polar(sensor, za, zb)
+        seen = ~plan.missed[rows] & (g_detect.random(rows.size) < plan.pd[rows]) & covered
+        detected[rows] = seen
 
-    r, az = measure(sensor, x, y, g_measure)
-    detected = ~plan.missed & (g_detect.random(x.size) < plan.pd) & in_coverage(sensor, r)
+        sweeps = np.flatnonzero(plan.scan_sensor == j) + 1
+        counts = clutter_counts(sensor.clutter, sweeps.size, g_clutter)
+        cx, cy = clutter_positions(sensor.clutter, sensor, plan.clutter_centre[j], int(counts.sum()), g_clutter)
+        scan = np.concatenate([plan.scan[rows][seen], np.repeat(sweeps, counts)])
+        tid = np.concatenate([plan.target_id[rows][seen], np.full(cx.size, -1, dtype=np.int32)])
+        if sensor.kind == "position":
+            mx, my = np.concatenate([za[seen], cx]), np.concatenate([zb[seen], cy])
+            r, az = cart_to_polar_at(sensor.position, mx, my)
+        else:
+            cr, caz = cart_to_polar_at(sensor.position, cx, cy)
+            r, az = np.concatenate([za[seen], cr]), np.concatenate([zb[seen], caz])
+            mx, my = polar_to_cart_at(sensor.position, r, az)
+        parts.append((scan, r, az, mx, my, tid, np.full(scan.size, j, dtype=np.int32)))
 
-    counts = clutter_counts(sc.clutter, sc.n_scans, g_clutter)
-    cx, cy = clutter_positions(sc.clutter, sensor, plan.clutter_centre, int(counts.sum()), g_clutter)
-    cr, caz = cart_to_polar(cx, cy)
-
-    scan = np.concatenate([plan.scan[detected], np.repeat(np.arange(1, sc.n_scans + 1), counts)])
-    rng_ = np.concatenate([r[detected], cr])
-    azim = np.concatenate([az[detected], caz])
-    tid = np.concatenate([plan.target_id[detected], np.full(cr.size, -1, dtype=np.int32)])
-    order = np.lexsort((azim, scan))
-    scan, rng_, azim, tid = scan[order].astype(np.int32), rng_[order], azim[order], tid[order]
-    mx, my = polar_to_cart(rng_, azim)
-    detections = Detections(scan, scan * period, rng_, azim, mx, my, tid < 0, tid)
+    scan, r, az, mx, my, tid, sensor_of = (np.concatenate(c) for c in zip(*parts))
+    order = np.lexsort((az, scan))
+    scan, r, az, mx, my, tid, sensor_of = (a[order] for a in (scan, r, az, mx, my, tid, sensor_of))
+    scan = scan.astype(np.int32)
+    detections = Detections(scan, plan.scan_time[scan - 1], r, az, mx, my, tid < 0, tid, sensor_of)
     truth = Truth(plan.scan, plan.time, plan.target_id, x, y, plan.vx, plan.vy, detected)
     return Dataset(sc, seed, run, detections, truth)
 

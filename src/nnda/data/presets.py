@@ -3,12 +3,15 @@
 * ``train01`` .. ``train17``: the 17 single-target training scenarios (§3.3)
   with their gap tables (§3.3.1) and the §3.5 placements;
 * ``T1`` .. ``T7``: each validation trajectory alone (§3.4), 200 s, no gaps;
-* ``S1`` .. ``S6``: the multi-target validation scenarios with Tables 5.12/5.13.
+* ``S1`` .. ``S6``: the multi-target validation scenarios with Tables 5.12/5.13;
+* ``two-radars`` (no counterpart in the spec): two polar radars 20 km apart
+  with overlapping 120-degree sectors and four targets crossing both.
 
 Training presets use the calibrated clutter of §14 (100 points per scan,
 uniform in a 16.6 km square on the target's bounding box); validation
 presets keep 100 points per scan in a square fitted to their targets (see
-`_fitted_clutter`). Groups ``train``, ``trajectories`` and ``validation`` name these sets.
+`_fitted_clutter`). Groups ``train``, ``trajectories`` and ``validation`` name
+the spec's sets, ``multisensor`` the scenes with several sensors.
 Trajectories are data: (initial speed m/s, [(duration s, a_t m/s^2,
 a_n m/s^2), ...]) with positive a_n a right turn (spec A6).
 """
@@ -19,7 +22,7 @@ import math
 
 import numpy as np
 
-from nnda.data.scenario import Clutter, Scenario, Segment, Target
+from nnda.data.scenario import Clutter, Scenario, Segment, Sensor, Target
 from nnda.data.trajectory import evaluate
 from nnda.errors import ConfigError
 
@@ -182,10 +185,39 @@ def _trajectory(name: str) -> Scenario:
                     seed=200 + int(name[1:]))
 
 
+# --- two radars (no spec counterpart) ----------------------------------------------------------
+#: the radars 20 km apart on the east-west axis, each looking across the other's side of north, so
+#: both sectors wrap through north and overlap north of the baseline; the east radar sweeps 1 s after
+#: the west one, so the scans alternate every second
+TWO_RADARS = (
+    Sensor(name="west", x_m=-10_000.0, y_m=0.0, boresight_deg=30.0, fov_deg=120.0, pd=0.9,
+           clutter=Clutter(law="annulus", count=100)),
+    Sensor(name="east", x_m=10_000.0, y_m=0.0, boresight_deg=330.0, fov_deg=120.0, scan_offset_s=1.0, pd=0.85,
+           sigma_range_m=20.0, sigma_azimuth_mrad=2.0, clutter=Clutter(law="annulus", count=100)),
+)
+# (name, x0 m, y0 m, heading deg, speed m/s, [(duration s, a_n m/s^2), ...]): each leaves one sector for a while
+TWO_RADAR_TARGETS: list[tuple[str, float, float, float, float, list[tuple[float, float]]]] = [
+    ("southbound", 0.0, 27_000.0, 180.0, 110.0, [(180, 0.0)]),
+    ("eastbound", -22_000.0, 15_000.0, 90.0, 150.0, [(180, 0.0)]),
+    ("left-turner", 12_000.0, 26_000.0, 225.0, 120.0, [(60, 0.0), (60, -4.0), (60, 0.0)]),
+    ("right-turner", -6_000.0, 8_000.0, 30.0, 90.0, [(100, 0.0), (80, 3.0)]),
+]
+
+
+def _two_radars() -> Scenario:
+    targets = [Target(name=name, x_m=x, y_m=y, heading_deg=heading, speed_m_s=speed,
+                      segments=[Segment(duration_s=d, normal_accel=an or None) for d, an in sections])
+               for name, x, y, heading, speed, sections in TWO_RADAR_TARGETS]
+    return Scenario(name="two-radars", duration_s=180.0, targets=targets, sensors=TWO_RADARS, seed=301,
+                    description="two radars 20 km apart (west T = 2 s, east 1 s later; 120-degree sectors across "
+                                "north), four targets crossing both coverages, 100 clutter points per sweep")
+
+
 def _build() -> dict[str, Scenario]:
     presets = {s.name: s for s in (_training(i) for i in range(1, len(TRAINING_SCENARIOS) + 1))}
     presets.update({n: _trajectory(n) for n in VALIDATION_TRAJECTORIES})
     presets.update({n: _validation(n) for n in VALIDATION_SCENARIOS})
+    presets["two-radars"] = _two_radars()
     return presets
 
 
@@ -195,11 +227,13 @@ GROUPS: dict[str, list[str]] = {
     "train": [f"train{i:02d}" for i in range(1, len(TRAINING_SCENARIOS) + 1)],
     "trajectories": list(VALIDATION_TRAJECTORIES),
     "validation": list(VALIDATION_SCENARIOS),
+    "multisensor": ["two-radars"],
 }
 GROUP_DESCRIPTIONS = {
     "train": "the 17 training scenarios (one target each) that build the neural training set",
     "trajectories": "validation trajectories T1-T7, each alone",
     "validation": "multi-target validation scenarios S1-S6",
+    "multisensor": "scenes with several sensors: two-radars",
 }
 
 

@@ -1,4 +1,4 @@
-"""Scenario configuration: targets, sensor, clutter, duration and seed.
+"""Scenario configuration: targets, sensors (each with its clutter), duration and seed.
 
 A scenario is validated data (pydantic), loadable from TOML or JSON. It speaks
 as a pilot would (conventions.md): headings in degrees clockwise from north,
@@ -13,12 +13,14 @@ ambiguity labels (A2, A3, ...) mark the defaults the spec chose.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from nnda.errors import validated
+from nnda.errors import ConfigError, validated
 from nnda.files import read_config
 
 _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
@@ -27,6 +29,9 @@ FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 Probability = Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)]
+
+#: a sensor position must lie within this distance of the origin on each axis (m): the scenario's frame
+FRAME_HALF_WIDTH_M = 1e7
 
 
 class Segment(BaseModel):
@@ -95,38 +100,17 @@ class Target(BaseModel):
         return self
 
 
-class Sensor(BaseModel):
-    """The static radar at the origin (spec §2)."""
-
-    model_config = _STRICT
-
-    scan_period_s: PositiveFloat = 2.0
-    sigma_range_m: NonNegativeFloat = 30.0
-    sigma_azimuth_mrad: NonNegativeFloat = 3.0
-    min_range_m: NonNegativeFloat = 5_000.0
-    max_range_m: PositiveFloat = 30_000.0
-    pd: Probability = Field(default=1.0, description="detection probability outside scripted gaps (A4)")
-
-    @model_validator(mode="after")
-    def _coverage(self) -> Sensor:
-        if self.min_range_m >= self.max_range_m:
-            raise ValueError("min_range_m must be below max_range_m")
-        return self
-
-    @property
-    def sigma_azimuth_rad(self) -> float:
-        return self.sigma_azimuth_mrad * 1e-3
-
-
 class Clutter(BaseModel):
-    """False contacts per scan (spec §2 and ambiguity A3, calibrated in §14).
+    """False contacts per sweep of one sensor (spec §2 and ambiguity A3, calibrated in §14).
 
     Laws: ``square`` (default) uniform in a square of side ``side_m`` centred on
-    ``centre_m`` (default: centre of the targets' noise-free bounding box);
-    ``gaussian`` with std ``sigma_m`` per axis centred on ``centre_m`` (default:
-    the targets' mean position); ``annulus`` uniform in area over the coverage
-    ring; ``none``. Points outside the coverage are redrawn (the §14 rule), so
-    every scan holds exactly ``count`` points, or a Poisson number of mean
+    ``centre_m`` (scenario frame, m; default: centre of the targets' noise-free
+    bounding box at the sensor's sweeps); ``gaussian`` with std ``sigma_m`` per
+    axis centred on ``centre_m`` (default: the targets' mean position at those
+    sweeps); ``annulus`` uniform in
+    area over the sensor's coverage (its ring, or its sector of the ring);
+    ``none``. Points outside the sensor's coverage are redrawn (the §14 rule),
+    so every sweep holds exactly ``count`` points, or a Poisson number of mean
     ``count`` when ``count_law = "poisson"``.
     """
 
@@ -140,11 +124,97 @@ class Clutter(BaseModel):
     centre_m: tuple[FiniteFloat, FiniteFloat] | None = None
 
 
+class Sensor(BaseModel):
+    """One sensor of a scenario: where it is, what it covers, when it sweeps, how well it measures.
+
+    The default is the spec's static radar at the origin (§2). ``kind``:
+    ``"polar"`` measures (range m, azimuth rad clockwise from north) from its
+    position (x_m, y_m), with noise ``sigma_range_m`` and
+    ``sigma_azimuth_mrad``; ``"position"`` measures a Cartesian fix (x, y) in
+    the scenario frame with noise ``sigma_position_m`` per axis (the other
+    kind's sigmas are unused). Coverage: ranges in [min_range_m, max_range_m]
+    from the sensor's position and azimuths within fov_deg / 2 of
+    boresight_deg (degrees clockwise from north; fov_deg = 360 is the whole
+    ring). The sensor sweeps at the times scan_offset_s + k scan_period_s
+    (k integer) in (0, duration], sees each target with probability ``pd``
+    (unless the target overrides it) and adds its own ``clutter``.
+    """
+
+    model_config = _STRICT
+
+    name: Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z0-9_.\-]+$")] = "radar"
+    kind: Literal["polar", "position"] = "polar"
+    x_m: FiniteFloat = 0.0
+    y_m: FiniteFloat = 0.0
+    boresight_deg: Annotated[float, Field(ge=-360, le=360, allow_inf_nan=False)] = 0.0
+    fov_deg: Annotated[float, Field(gt=0, le=360, allow_inf_nan=False)] = 360.0
+    scan_period_s: PositiveFloat = 2.0
+    scan_offset_s: NonNegativeFloat = 0.0
+    sigma_range_m: NonNegativeFloat = 30.0
+    sigma_azimuth_mrad: NonNegativeFloat = 3.0
+    sigma_position_m: NonNegativeFloat = 10.0
+    min_range_m: NonNegativeFloat = 5_000.0
+    max_range_m: PositiveFloat = 30_000.0
+    pd: Probability = Field(default=1.0, description="detection probability outside scripted gaps (A4)")
+    clutter: Clutter = Clutter()
+
+    @field_validator("x_m", "y_m")
+    @classmethod
+    def _inside_frame(cls, value: float) -> float:
+        if abs(value) > FRAME_HALF_WIDTH_M:
+            raise ValueError(f"{value:g} m lies outside the scenario's frame (|x|, |y| <= {FRAME_HALF_WIDTH_M:g} m)")
+        return value
+
+    @model_validator(mode="after")
+    def _coverage_and_timing(self) -> Sensor:
+        if self.min_range_m >= self.max_range_m:
+            raise ValueError("min_range_m must be below max_range_m")
+        if self.scan_offset_s >= self.scan_period_s:
+            raise ValueError(f"scan_offset_s = {self.scan_offset_s} must be below scan_period_s = {self.scan_period_s}")
+        return self
+
+    @property
+    def sigma_azimuth_rad(self) -> float:
+        return self.sigma_azimuth_mrad * 1e-3
+
+    @property
+    def position(self) -> tuple[float, float]:
+        """(x east, y north) of the sensor in the scenario frame, m."""
+        return (self.x_m, self.y_m)
+
+    @property
+    def full_circle(self) -> bool:
+        """Does the sensor see every azimuth (fov_deg = 360)?"""
+        return self.fov_deg == 360.0
+
+    @property
+    def boresight_rad(self) -> float:
+        return math.radians(self.boresight_deg)
+
+    @property
+    def half_fov_rad(self) -> float:
+        return math.radians(self.fov_deg) / 2
+
+    def n_sweeps(self, duration_s: float) -> int:
+        """Sweeps inside (0, duration_s]: one per period (the scenario checks it is a whole number)."""
+        return round(duration_s / self.scan_period_s)
+
+    def sweep_times(self, duration_s: float) -> np.ndarray:
+        """Times (s) of the sweeps inside (0, duration_s], increasing, shape (n_sweeps,).
+
+        offset + k T for k = 1.. with no offset (t = T, 2T, ..., duration),
+        k = 0.. with one (t = offset, offset + T, ...).
+        """
+        first = 0 if self.scan_offset_s > 0 else 1
+        return np.arange(first, first + self.n_sweeps(duration_s)) * self.scan_period_s + self.scan_offset_s
+
+
 class ProcessNoise(BaseModel):
     """Target process noise (spec §3.2 and ambiguity A2).
 
     ``jitter`` (default): each scan adds an independent position perturbation
-    (T^2/2) w with w ~ N(0, sigma_accel^2) per axis, not carried into velocity.
+    (T^2/2) w with w ~ N(0, sigma_accel^2) per axis, not carried into velocity;
+    T is the scan period of the sensor that sweeps that scan.
     """
 
     model_config = _STRICT
@@ -154,7 +224,15 @@ class ProcessNoise(BaseModel):
 
 
 class Scenario(BaseModel):
-    """Everything needed to generate a dataset, apart from the run index."""
+    """Everything needed to generate a dataset, apart from the run index.
+
+    ``sensors`` lists one or more sensors. The one-sensor form of every
+    format-1 dataset and older config, top-level ``sensor`` and ``clutter``,
+    still validates (as that one sensor with that clutter); giving it beside
+    ``sensors`` is an error. A scan is one sweep of one sensor: the sweeps of
+    all sensors, merged in time order (ties in sensor order), are the scans
+    k = 1..n_scans, and a target's ``missed_scans`` count in that numbering.
+    """
 
     model_config = _STRICT
 
@@ -162,24 +240,45 @@ class Scenario(BaseModel):
     description: str = ""
     duration_s: PositiveFloat
     targets: Annotated[list[Target], Field(min_length=1)]
-    sensor: Sensor = Sensor()
-    clutter: Clutter = Clutter()
+    # at least one, checked in _consistent (Field(min_length=1) would report a second, misleading
+    # "at least 1 item" problem whenever a sensor is invalid)
+    sensors: tuple[Sensor, ...] = (Sensor(),)
     process_noise: ProcessNoise = ProcessNoise()
     seed: Annotated[int, Field(ge=0)] = 0
 
-    @property
-    def n_scans(self) -> int:
-        """Scans k = 1..n_scans at times t_k = k T (spec §1)."""
-        return round(self.duration_s / self.sensor.scan_period_s)
+    @model_validator(mode="before")
+    @classmethod
+    def _one_sensor_form(cls, data: Any) -> Any:
+        """Top-level ``sensor`` and ``clutter`` -> ``sensors = [sensor with that clutter]``."""
+        if not isinstance(data, dict) or not {"sensor", "clutter"} & data.keys():
+            return data
+        if "sensors" in data:
+            raise ValueError("give either `sensors` or the one-sensor form `sensor` / `clutter`, not both")
+        data = dict(data)
+        sensor = data.pop("sensor", {})
+        if isinstance(sensor, Sensor):
+            sensor = sensor.model_dump(exclude_unset=True)
+        if isinstance(sensor, dict) and "clutter" in data:
+            if "clutter" in sensor:
+                raise ValueError("clutter is given twice: as `clutter` and as `sensor.clutter`")
+            sensor = {**sensor, "clutter": data.pop("clutter")}
+        data["sensors"] = [sensor]
+        return data
 
     @model_validator(mode="after")
     def _consistent(self) -> Scenario:
-        ratio = self.duration_s / self.sensor.scan_period_s
-        if not math.isclose(ratio, round(ratio), abs_tol=1e-9):
-            raise ValueError(
-                f"duration_s = {self.duration_s} is not a whole number of scan periods "
-                f"({self.sensor.scan_period_s} s)"
-            )
+        if not self.sensors:
+            raise ValueError("sensors: give at least one sensor")
+        for i, sensor in enumerate(self.sensors):
+            ratio = self.duration_s / sensor.scan_period_s
+            if not math.isclose(ratio, round(ratio), abs_tol=1e-9):
+                raise ValueError(
+                    f"duration_s = {self.duration_s} is not a whole number of scan periods "
+                    f"({sensor.scan_period_s} s) of sensor {i} ({sensor.name!r})"
+                )
+        sensor_names = [s.name for s in self.sensors]
+        if len(set(sensor_names)) != len(sensor_names):
+            raise ValueError(f"sensor names must be unique, got {sensor_names}")
         names = [t.name for t in self.targets]
         if len(set(names)) != len(names):
             raise ValueError(f"target names must be unique, got {names}")
@@ -190,6 +289,52 @@ class Scenario(BaseModel):
                     f"target {t.name!r}: missed_scans {late} lie after the last scan ({self.n_scans})"
                 )
         return self
+
+    @property
+    def n_scans(self) -> int:
+        """Scans k = 1..n_scans: every sweep of every sensor (one sensor: t_k = k T, spec §1)."""
+        return sum(s.n_sweeps(self.duration_s) for s in self.sensors)
+
+    def scan_schedule(self) -> tuple[np.ndarray, np.ndarray]:
+        """Time (s, float64) and sensor index (int32) of each scan k = 1..n_scans; shapes (n_scans,)."""
+        times = np.concatenate([s.sweep_times(self.duration_s) for s in self.sensors])
+        sensor = np.repeat(np.arange(len(self.sensors), dtype=np.int32),
+                           [s.n_sweeps(self.duration_s) for s in self.sensors])
+        order = np.lexsort((sensor, times))
+        return times[order], sensor[order]
+
+    @property
+    def sensor(self) -> Sensor:
+        """The only sensor, for one-sensor code; ConfigError when the scenario has several."""
+        if len(self.sensors) != 1:
+            names = ", ".join(s.name for s in self.sensors)
+            raise ConfigError(f"scenario {self.name!r} has {len(self.sensors)} sensors ({names}); "
+                              f"this code handles one sensor only: use `sensors`")
+        return self.sensors[0]
+
+    @property
+    def clutter(self) -> Clutter:
+        """The clutter of the only sensor (see `sensor`)."""
+        return self.sensor.clutter
+
+    def model_copy(self, *, update: Mapping[str, Any] | None = None, deep: bool = False) -> Scenario:
+        """pydantic's copy (no validation), also given the one-sensor keys.
+
+        ``sensor`` replaces the only sensor and keeps its clutter (unless the
+        new sensor sets one); ``clutter`` replaces that sensor's clutter.
+        """
+        if update and {"sensor", "clutter"} & update.keys():
+            update = dict(update)
+            if "sensors" in update:
+                raise ConfigError("model_copy: give either `sensors` or `sensor` / `clutter`, not both")
+            new = update.pop("sensor", None)
+            own = new is not None and "clutter" in new.model_fields_set
+            if own and "clutter" in update:
+                raise ConfigError("model_copy: clutter is given twice: as `clutter` and as `sensor.clutter`")
+            sensor = self.sensor if new is None else new
+            clutter = update.pop("clutter", sensor.clutter if own else self.clutter)
+            update["sensors"] = (sensor.model_copy(update={"clutter": clutter}),)
+        return super().model_copy(update=update, deep=deep)
 
 
 def scenario_from_dict(data: dict, source: str = "<config>") -> Scenario:

@@ -1,10 +1,15 @@
-"""Measurement models: the radar's polar measurement (spec §7.1.3) and a linear position fix.
+"""Measurement models: a radar's polar measurement (spec §7.1.3) and a linear position fix.
 
 Both work on batches: states (..., n) whose components 0 and 2 are the
-Cartesian position (x east, y north, m), measurements (..., 2). The polar
-measurement is z = (range m, azimuth rad clockwise from north), with
-h(X) = (sqrt(x^2 + y^2), atan2(x, y)) (eqs. 5.19-5.22); its azimuth
-residuals are wrapped to [-pi, pi) by `nnda.data.sensor.wrap_angle`.
+Cartesian position (x east, y north, m, scenario frame), measurements
+(..., 2). The polar measurement is z = (range m, azimuth rad clockwise from
+north) from the radar at ``origin`` = (x_s, y_s), with
+h(X) = (sqrt(dx^2 + dy^2), atan2(dx, dy)), dx = x - x_s, dy = y - y_s
+(eqs. 5.19-5.22 with the radar at the origin); its azimuth residuals are
+wrapped to [-pi, pi) by `nnda.data.sensor.wrap_angle`. With the origin at
+(0, 0) no shift is computed, so the results are those of the radar at the
+origin bit for bit. `measurement_model` gives the model of a scenario's
+sensor of either kind.
 """
 
 from __future__ import annotations
@@ -16,9 +21,9 @@ from typing import ClassVar, Protocol
 import numpy as np
 
 from nnda.data.scenario import Sensor
-from nnda.data.sensor import cart_to_polar, polar_to_cart, wrap_angle
+from nnda.data.sensor import cart_to_polar, polar_to_cart_at, wrap_angle
 from nnda.errors import FilterError
-from nnda.validation import check_covariance, check_finite, check_positive
+from nnda.validation import check_array, check_covariance, check_finite, check_positive
 
 
 class MeasurementModel(Protocol):
@@ -76,26 +81,38 @@ _AZIMUTH_SIGN = np.array([1.0, -1.0])
 
 @dataclass(frozen=True)
 class PolarMeasurement:
-    """Range and azimuth from the radar at the origin (spec §7.1.3).
+    """Range and azimuth from a radar at ``origin`` (m, scenario frame; default the origin, spec §7.1.3).
 
     ``sigma_range`` m and ``sigma_azimuth`` rad give R = diag(sigma_range^2,
     sigma_azimuth^2) (eq. 5.25); defaults are the spec's 30 m and 3 mrad.
-    The Jacobian is H1/H2 of eqs. 5.23-5.24, padded with zero columns to the
-    state size.
+    The Jacobian is H1/H2 of eqs. 5.23-5.24 at the position relative to the
+    radar, padded with zero columns to the state size.
     """
 
     sigma_range: float = 30.0
     sigma_azimuth: float = 3e-3
+    origin: tuple[float, float] = (0.0, 0.0)
     dim: ClassVar[int] = 2
 
     def __post_init__(self) -> None:
         check_positive("PolarMeasurement.sigma_range", self.sigma_range, error=FilterError)
         check_positive("PolarMeasurement.sigma_azimuth", self.sigma_azimuth, error=FilterError)
+        origin = check_array("PolarMeasurement.origin", self.origin, (2,), error=FilterError)
+        check_finite("PolarMeasurement.origin", origin, error=FilterError)
+        object.__setattr__(self, "origin", (float(origin[0]), float(origin[1])))
 
     @classmethod
     def from_sensor(cls, sensor: Sensor) -> PolarMeasurement:
-        """The measurement model of a scenario's radar."""
-        return cls(sensor.sigma_range_m, sensor.sigma_azimuth_rad)
+        """The measurement model of a scenario's polar sensor, at its position."""
+        if sensor.kind != "polar":
+            raise FilterError(f"PolarMeasurement.from_sensor: sensor {sensor.name!r} is a {sensor.kind} sensor; "
+                              f"use measurement_model(sensor)")
+        return cls(sensor.sigma_range_m, sensor.sigma_azimuth_rad, sensor.position)
+
+    @cached_property
+    def _shift(self) -> np.ndarray | None:
+        """The origin as an array (2,), or None at (0, 0), where no shift is computed."""
+        return None if self.origin == (0.0, 0.0) else np.array(self.origin)
 
     @cached_property
     def R(self) -> np.ndarray:
@@ -107,13 +124,14 @@ class PolarMeasurement:
         H is a transposed view of a contiguous H^T (..., n, 2), the operand
         of P H^T, so that product runs on contiguous arrays.
         """
-        px, py = x[..., 0], x[..., 2]
-        r, azimuth = cart_to_polar(px, py)
+        p = x[..., 0:3:2]  # (px, py), relative to the radar
+        if self._shift is not None:
+            p = p - self._shift
+        r, azimuth = cart_to_polar(p[..., 0], p[..., 1])
         z = np.empty((*x.shape[:-1], 2))
         z[..., 0] = r
         z[..., 1] = azimuth
         Ht = np.zeros((*x.shape[:-1], x.shape[-1], 2))
-        p = x[..., 0:3:2]  # (px, py)
         Ht[..., 0:3:2, 0] = p / r[..., None]  # d range / d(px, py) = (px, py) / r
         Ht[..., 0:3:2, 1] = p[..., ::-1] * _AZIMUTH_SIGN / (r * r)[..., None]  # d azimuth: (py, -px) / r^2
         return z, Ht.swapaxes(-1, -2)
@@ -125,10 +143,11 @@ class PolarMeasurement:
         return nu
 
     def position(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Cartesian positions (eqs. 5.26-5.27) and their covariances (eqs. 5.44-5.46)."""
+        """Cartesian positions in the scenario frame (eqs. 5.26-5.27, shifted by the origin) and their
+        covariances (eqs. 5.44-5.46)."""
         r, azimuth = z[..., 0], z[..., 1]
         xy = np.empty(z.shape)
-        xy[..., 0], xy[..., 1] = polar_to_cart(r, azimuth)
+        xy[..., 0], xy[..., 1] = polar_to_cart_at(self.origin, r, azimuth)
         return xy, converted_covariance(r, azimuth, self.sigma_range, self.sigma_azimuth)
 
     def validate(self, name: str, z: np.ndarray) -> None:
@@ -159,6 +178,15 @@ class PositionMeasurement:
         check_covariance("PositionMeasurement.covariance", R, error=FilterError)
         object.__setattr__(self, "covariance", tuple(map(tuple, R.tolist())))
 
+    @classmethod
+    def from_sensor(cls, sensor: Sensor) -> PositionMeasurement:
+        """The measurement model of a scenario's position sensor: R = sigma_position_m^2 I."""
+        if sensor.kind != "position":
+            raise FilterError(f"PositionMeasurement.from_sensor: sensor {sensor.name!r} is a {sensor.kind} sensor; "
+                              f"use measurement_model(sensor)")
+        var = sensor.sigma_position_m**2
+        return cls(((var, 0.0), (0.0, var)))
+
     @cached_property
     def R(self) -> np.ndarray:
         return np.array(self.covariance)
@@ -179,3 +207,10 @@ class PositionMeasurement:
 
     def validate(self, name: str, z: np.ndarray) -> None:
         check_finite(name, z, error=FilterError)
+
+
+def measurement_model(sensor: Sensor) -> PolarMeasurement | PositionMeasurement:
+    """The measurement model of a scenario's sensor, by its kind (polar or position), at its position."""
+    if sensor.kind == "position":
+        return PositionMeasurement.from_sensor(sensor)
+    return PolarMeasurement.from_sensor(sensor)

@@ -1,4 +1,4 @@
-"""Picture of a dataset: radar coverage, clutter, target contacts and true tracks."""
+"""Picture of a dataset: every sensor's position and coverage, clutter, target contacts and true tracks."""
 
 from __future__ import annotations
 
@@ -9,51 +9,113 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.patches import Circle, Patch, Wedge  # noqa: E402
 
 from nnda.data.dataset import Dataset  # noqa: E402
+from nnda.data.scenario import Sensor  # noqa: E402
+
+KM = 1e-3
+
+
+def coverage_patches(sensor: Sensor, colour: str = "k") -> list[Patch]:
+    """Outline of a sensor's coverage in km (x east, y north): its two range circles, or its sector wedge.
+
+    A sector of width fov_deg about boresight_deg (clockwise from north) is a
+    matplotlib `Wedge`, whose angles run counter-clockwise from east:
+    theta = 90 - azimuth.
+    """
+    centre = (sensor.x_m * KM, sensor.y_m * KM)
+    style = dict(fill=False, ls="--", color=colour, lw=0.8)
+    if sensor.full_circle:
+        return [Circle(centre, r * KM, **style) for r in (sensor.min_range_m, sensor.max_range_m)]
+    theta = (90.0 - sensor.boresight_deg) % 360.0
+    half = sensor.fov_deg / 2
+    return [Wedge(centre, sensor.max_range_m * KM, theta - half, theta + half,
+                  width=(sensor.max_range_m - sensor.min_range_m) * KM, **style)]
+
+
+def _outline(sensor: Sensor) -> np.ndarray:
+    """Points (2, n) in m bounding a sensor's coverage: the ring's extremes, or the sector's arc and apex."""
+    if sensor.full_circle:
+        az = np.radians(np.arange(0.0, 360.0, 90.0))  # the ring's extreme points
+    else:
+        az = np.radians(sensor.boresight_deg + np.linspace(-sensor.fov_deg / 2, sensor.fov_deg / 2, 361))
+    x = np.append(sensor.x_m + sensor.max_range_m * np.sin(az), sensor.x_m)
+    y = np.append(sensor.y_m + sensor.max_range_m * np.cos(az), sensor.y_m)
+    return np.stack([x, y])
+
+
+def _timing(dataset: Dataset) -> str:
+    sc = dataset.scenario
+    if len(sc.sensors) == 1:
+        return f"{sc.n_scans} scans of {sc.sensors[0].scan_period_s:g} s"
+    periods = ", ".join(f"{s.name} {s.scan_period_s:g} s" + (f" from {s.scan_offset_s:g} s" if s.scan_offset_s else "")
+                        for s in sc.sensors)
+    return f"{sc.n_scans} scans from {len(sc.sensors)} sensors ({periods})"
 
 
 def plot_scenario(dataset: Dataset, out: str | Path, dpi: int = 120) -> Path:
     """Write a PNG with the whole coverage (left) and a zoom on the targets (right).
 
-    Grey dots are clutter of every scan, coloured dots each target's contacts,
-    lines the true tracks (a circle marks each start); dashed circles are the
-    radar's minimum and maximum range. Axes in km, x east, y north.
+    Lines are the true tracks (a circle marks each start); dashed outlines
+    are each sensor's coverage (range circles, or a sector) and a triangle
+    its position. With one sensor, grey dots are clutter of every scan and
+    coloured dots each target's contacts (in the colour of its track); with
+    several, dots take their sensor's colour (faint: clutter; solid: target
+    contacts) and tracks are black. Axes in km, x east, y north.
     """
     det, truth, sc = dataset.detections, dataset.truth, dataset.scenario
     fig, axes = plt.subplots(1, 2, figsize=(14, 7), constrained_layout=True)
-    km = 1e-3
     colours = plt.get_cmap("tab10")
+    several = len(sc.sensors) > 1
+    sensor_colour = [colours(j % 10) if several else "k" for j in range(len(sc.sensors))]
     for ax in axes:
-        clutter = det.is_clutter
-        ax.scatter(det.x[clutter] * km, det.y[clutter] * km, s=1, c="0.7", lw=0, label="clutter", rasterized=True)
+        if several:
+            for j, sensor in enumerate(sc.sensors):
+                mine = det.sensor == j
+                c = sensor_colour[j]
+                ax.scatter(det.x[mine & det.is_clutter] * KM, det.y[mine & det.is_clutter] * KM, s=1, color=c,
+                           alpha=0.25, lw=0, rasterized=True)
+                ax.scatter(det.x[mine & ~det.is_clutter] * KM, det.y[mine & ~det.is_clutter] * KM, s=6, color=c,
+                           lw=0, label=f"{sensor.name} ({int((mine & ~det.is_clutter).sum())} target contacts)")
+        else:
+            clutter = det.is_clutter
+            ax.scatter(det.x[clutter] * KM, det.y[clutter] * KM, s=1, c="0.7", lw=0, label="clutter",
+                       rasterized=True)
         for tid, target in enumerate(sc.targets):
-            c = colours(tid % 10)
+            c = "k" if several else colours(tid % 10)
             mine = det.target_id == tid
-            ax.scatter(det.x[mine] * km, det.y[mine] * km, s=6, color=c, lw=0)
+            if not several:
+                ax.scatter(det.x[mine] * KM, det.y[mine] * KM, s=6, color=c, lw=0)
             rows = truth.target_id == tid
-            ax.plot(truth.x[rows] * km, truth.y[rows] * km, color=c, lw=1.2,
+            ax.plot(truth.x[rows] * KM, truth.y[rows] * KM, color=c, lw=1.2,
                     label=f"{target.name} ({mine.sum()} contacts)")
             if rows.any():
                 first = np.flatnonzero(rows)[0]
-                ax.plot(truth.x[first] * km, truth.y[first] * km, "o", mfc="none", color=c)
-        for radius in (sc.sensor.min_range_m, sc.sensor.max_range_m):
-            ax.add_patch(plt.Circle((0, 0), radius * km, fill=False, ls="--", color="k", lw=0.8))
-        ax.plot(0, 0, "k^", ms=8)
+                ax.plot(truth.x[first] * KM, truth.y[first] * KM, "o", mfc="none", color=c)
+                if several:
+                    ax.annotate(target.name, (truth.x[first] * KM, truth.y[first] * KM), fontsize=8,
+                                xytext=(4, 4), textcoords="offset points")
+        for sensor, c in zip(sc.sensors, sensor_colour):
+            for patch in coverage_patches(sensor, c):
+                ax.add_patch(patch)
+            ax.plot(sensor.x_m * KM, sensor.y_m * KM, "^", color=c, ms=8)
         ax.set_aspect("equal")
         ax.set_xlabel("x east (km)")
         ax.set_ylabel("y north (km)")
         ax.grid(alpha=0.3)
-    reach = sc.sensor.max_range_m * km * 1.05
-    axes[0].set(xlim=(-reach, reach), ylim=(-reach, reach), title="radar coverage")
+    x, y = np.concatenate([_outline(s) for s in sc.sensors], axis=1)
+    margin = 0.05 * max(s.max_range_m for s in sc.sensors)
+    axes[0].set(xlim=((x.min() - margin) * KM, (x.max() + margin) * KM),
+                ylim=((y.min() - margin) * KM, (y.max() + margin) * KM),
+                title="sensor coverage" if several else "radar coverage")
     pad = 2.0
-    axes[1].set(xlim=(truth.x.min() * km - pad, truth.x.max() * km + pad),
-                ylim=(truth.y.min() * km - pad, truth.y.max() * km + pad), title="targets (zoom)")
+    axes[1].set(xlim=(truth.x.min() * KM - pad, truth.x.max() * KM + pad),
+                ylim=(truth.y.min() * KM - pad, truth.y.max() * KM + pad), title="targets (zoom)")
     axes[1].legend(loc="best", fontsize=8, markerscale=4)
     n_clutter = int(det.is_clutter.sum())
-    fig.suptitle(f"{sc.name}: {sc.n_scans} scans of {sc.sensor.scan_period_s:g} s, "
-                 f"{n_clutter} clutter points ({n_clutter / sc.n_scans:.0f}/scan), seed {dataset.seed}, "
-                 f"run {dataset.run}")
+    fig.suptitle(f"{sc.name}: {_timing(dataset)}, {n_clutter} clutter points ({n_clutter / sc.n_scans:.0f}/scan), "
+                 f"seed {dataset.seed}, run {dataset.run}")
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=dpi, metadata={"Software": None})

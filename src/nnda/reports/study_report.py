@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 
+from nnda.data.scenario import scenario_from_dict
 from nnda.errors import DatasetError
 from nnda.files import atomic_file, read_json
 from nnda.models.ablation import ABLATION_FILE
@@ -232,7 +233,7 @@ def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
                            f"rerun `nnda compare --resume` to rebuild them")
     scenarios = [s["name"] for s in summary["scenarios"]]
     trackers = [t["label"] for t in summary["trackers"]]
-    periods = {s["name"]: s["scenario"]["sensor"]["scan_period_s"] for s in manifest["scenarios"]}
+    periods = {s["name"]: scenario_from_dict(s["scenario"]).sensor.scan_period_s for s in manifest["scenarios"]}
     figures: list[Figure] = []
 
     top = Section("summary", "Summary", [], [])
