@@ -1,4 +1,5 @@
 # Two entry points: `make demo` (the whole job) and `make test` (the default test suite).
+# `make test-cpus` runs that suite again as on machines with other CPUs (CI runs both).
 # Each creates .venv when it is missing and installs the package with its pinned builds.
 
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
@@ -8,7 +9,7 @@ STAMP  := $(VENV)/.nnda-installed
 DEMO   ?= demo
 SEED   ?= 0
 
-.PHONY: demo test test-slow bench install clean chromium lint
+.PHONY: demo test test-cpus test-slow bench install clean chromium lint
 
 install: $(STAMP)
 
@@ -37,6 +38,19 @@ chromium:
 	  echo "installing Debian's chromium for the report's browser test" && apt-get update -qq && \
 	  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null; } || \
 	  echo "chromium not available: the report's browser test will be skipped"
+
+# The default suite twice more, as on machines with other CPUs (issue 22): with OpenBLAS choosing its
+# kernels itself (OPENBLAS_CORETYPE and OPENBLAS_L2_SIZE unset), then with numpy's SIMD dispatch cut to
+# its baseline by disabling every dispatch target numpy was built with and this CPU has (x86_64: X86_V3,
+# X86_V4, ...; aarch64: ASIMDHP, SVE, ...), asked at run time: numpy refuses to disable a baseline one.
+NPY_DISPATCHED := import numpy._core._multiarray_umath as m; \
+  print(" ".join(f for f in m.__cpu_dispatch__ if m.__cpu_features__.get(f)))
+
+test-cpus: $(STAMP) chromium
+	env -u OPENBLAS_CORETYPE -u OPENBLAS_L2_SIZE $(BIN)/python -m pytest -q
+	@features="$$(env -u NPY_DISABLE_CPU_FEATURES $(BIN)/python -c '$(NPY_DISPATCHED)')" && \
+	  echo "NPY_DISABLE_CPU_FEATURES=\"$$features\" $(BIN)/python -m pytest -q" && \
+	  NPY_DISABLE_CPU_FEATURES="$$features" $(BIN)/python -m pytest -q
 
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -m slow

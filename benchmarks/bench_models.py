@@ -14,11 +14,14 @@ Prints figures, and ratios against reference runs in the same process:
 * the numpy scorer in pairs/s for batch sizes from one scan to a million
   pairs, against the torch forward pass on the same batch.
 
-Run: .venv/bin/python benchmarks/bench_models.py
+Run: .venv/bin/python benchmarks/bench_models.py [--quick]
+(``--quick``: 2 seeds for the warm fits and scorer batches up to 1,000 pairs;
+it checks that the benchmark runs, its figures mean little.)
 """
 
 from __future__ import annotations
 
+import argparse
 import statistics
 import time
 import timeit
@@ -36,6 +39,7 @@ from nnda.models.network import as_tensor, forward
 from nnda.models.pairs import pairs_from_datasets
 
 SEEDS = range(10)
+SCORER_BATCHES = (50, 1_000, 100_000, 1_000_000)
 
 
 def best_of(fn, repeats: int) -> float:
@@ -64,7 +68,7 @@ def extended_per_scan(sensor, n_tracks: int = 50, per_track: int = 4) -> None:
           f"{t_all * 1e6:.0f} us in one call, {t_loop * 1e3:.1f} ms one call per pair ({t_loop / t_all:.0f}x)")
 
 
-def main() -> None:
+def main(seeds: range = SEEDS, batches: tuple[int, ...] = SCORER_BATCHES) -> None:
     torch.set_num_threads(1)  # as the trainers do (nnda.models.trainers)
     print(f"torch {torch.__version__}, 1 thread")
     datasets = [generate(s, 0) for s in resolve("train")]
@@ -82,8 +86,8 @@ def main() -> None:
     cold = time.perf_counter() - t
     print(f"\nLM, first fit of the process: {cold:.3f} s wall "
           f"(trainer clock {first.training.seconds:.3f} s, {first.training.epochs} epochs)")
-    lm = [fit(pairs, "lm", 5, seed=s).training for s in SEEDS]
-    gd = [fit(pairs, "gd", 5, seed=s).training for s in SEEDS]
+    lm = [fit(pairs, "lm", 5, seed=s).training for s in seeds]
+    gd = [fit(pairs, "gd", 5, seed=s).training for s in seeds]
     for name, runs in (("LM", lm), ("GD", gd)):
         secs = [r.seconds for r in runs]
         per_epoch = [r.seconds / max(r.epochs, 1) for r in runs]
@@ -115,7 +119,7 @@ def main() -> None:
     scorer = first.scorer
     rng = np.random.default_rng(0)
     print("\nscorer throughput (pairs/s): numpy scorer vs torch forward on normalised inputs")
-    for n in (50, 1_000, 100_000, 1_000_000):
+    for n in batches:
         feats = pairs.features[rng.integers(0, len(pairs), n)]
         repeats = max(3, min(200, 2_000_000 // n))
         t_np = best_of(lambda: scorer(feats), repeats)
@@ -127,4 +131,9 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="2 seeds, scorer batches up to 1,000 pairs")
+    if parser.parse_args().quick:
+        main(range(2), SCORER_BATCHES[:2])
+    else:
+        main()

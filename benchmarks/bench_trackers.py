@@ -4,14 +4,14 @@ Part 1: every registered tracker on S1-S6 (100 clutter points per scan),
 mean and 95th-percentile wall time per scan, with the GNN as the reference
 run in the same process (ratio column). Part 2: the same trackers as clutter
 grows 100 -> 1,000 -> 10,000 per scan (S6's six targets) and as targets grow
-6 -> 50 -> 200 (100 clutter), over SCALING_SCANS scans each; a tracker is
-dropped from the bigger settings once it passes 10 s per scan.
+6 -> 50 -> 200 (100 clutter), over SCALING_SCANS scans each (``--scans``); a
+tracker is dropped from the bigger settings once it passes 10 s per scan.
 
 The neural tracker needs a model: pass ``--model PATH`` (a file written by
 ``nnda train``), once per model to time (e.g. the seed-feature and the
 IMM-extended one: rows ``nn:kinematic-3``, ``nn:imm-innovation-9``); without
 it the neural tracker is skipped with a note.
-Usage: python benchmarks/bench_trackers.py [--model PATH]... [--runs N] [--repeat R] [--no-scaling]
+Usage: python benchmarks/bench_trackers.py [--model PATH]... [--runs N] [--repeat R] [--scans N] [--no-scaling]
 """
 
 from __future__ import annotations
@@ -114,9 +114,9 @@ def scaling_settings(scans: int = SCALING_SCANS) -> list[tuple[str, int, Scenari
     return settings + [("targets", n, many_targets(n, seed=n, scans=scans)) for n in (6, 50, 200)]
 
 
-def part2(rows: list[tuple[str, str, dict]]) -> None:
-    settings = scaling_settings()
-    print(f"\nscaling: mean ms per scan over {SCALING_SCANS} scans (x = stopped: over {GIVE_UP_S:.0f} s/scan before)")
+def part2(rows: list[tuple[str, str, dict]], scans: int = SCALING_SCANS) -> None:
+    settings = scaling_settings(scans)
+    print(f"\nscaling: mean ms per scan over {scans} scans (x = stopped: over {GIVE_UP_S:.0f} s/scan before)")
     print(f"{'tracker':<20s}" + "".join(f"{k}={v:<9d}" for k, v, _ in settings))
     for label, kind, params in rows:
         row, stopped = [], {"clutter": False, "targets": False}
@@ -137,6 +137,7 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--repeat", type=int, default=1, help="time each S1-S6 run this many times and keep "
                         "each scan's fastest (for a busy machine)")
+    parser.add_argument("--scans", type=int, default=SCALING_SCANS, help="scans per scaling setting")
     parser.add_argument("--no-scaling", action="store_true")
     args = parser.parse_args()
     rows = entries(args.model)
@@ -144,7 +145,7 @@ def main() -> None:
         print("note: the neural tracker is skipped (give --model PATH, a file written by `nnda train`)")
     part1(rows, args.runs, args.repeat)
     if not args.no_scaling:
-        part2(rows)
+        part2(rows, args.scans)
 
 
 if __name__ == "__main__":

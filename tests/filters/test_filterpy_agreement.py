@@ -1,8 +1,8 @@
 """nnda's batched filters against filterpy and a per-track loop, to 1e-9 relative, over generated trajectories.
 
-Relative means: a state entry within 1e-9 of its own size (or of its standard
-deviation, for entries near zero), a covariance entry P_ij within 1e-9 of
-sqrt(P_ii P_jj).
+Relative as in tolerances.py: a state entry within 1e-9 of its own size (or
+of its standard deviation, for entries near zero), a covariance entry P_ij
+within 1e-9 of sqrt(P_ii P_jj).
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 import spec_reference as ref
 from filterpy.kalman import ExtendedKalmanFilter, IMMEstimator, KalmanFilter
+from tolerances import RTOL, assert_cov, assert_state
 
 from nnda.data.scenario import Segment, Sensor, Target
 from nnda.data.sensor import measure, polar_to_cart
@@ -23,7 +24,6 @@ from nnda.filters.measurement import PolarMeasurement, PositionMeasurement
 from nnda.filters.motion import ConstantVelocity, CoordinatedTurn
 from nnda.filters.two_point import two_point
 
-RTOL = 1e-9
 MANOEUVRING = Target(
     name="m", x_m=-8_000.0, y_m=14_000.0, heading_deg=100.0, speed_m_s=150.0,
     segments=[Segment(duration_s=40), Segment(duration_s=30, turn_rate_deg_s=3.0),
@@ -34,21 +34,10 @@ MANOEUVRING = Target(
 GAPS = {9, 16, 17, 31, 40, 41, 42}
 
 
-def assert_cov(actual, desired):
-    desired = np.asarray(desired)
-    sd = np.sqrt(np.diag(desired))
-    np.testing.assert_array_less(np.abs(actual - desired), RTOL * np.outer(sd, sd) + 1e-300)
-
-
-def assert_state(actual, desired, P):
-    desired = np.asarray(desired)
-    np.testing.assert_array_less(np.abs(actual - desired), RTOL * np.maximum(np.abs(desired), np.sqrt(np.diag(P))))
-
-
 def assert_measurement(actual, desired):
-    """Predicted (range, azimuth): range relative, azimuth to 1e-12 rad after wrapping."""
+    """Predicted (range, azimuth): range relative, azimuth to RTOL rad (its own scale) after wrapping."""
     assert math.isclose(actual[0], desired[0], rel_tol=RTOL)
-    assert abs(ref.polar_residual(actual, desired)[1]) < 1e-12
+    assert abs(ref.polar_residual(actual, desired)[1]) < RTOL
 
 
 def polar_track(seed: int = 0):

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 from scipy.special import logsumexp
+from tolerances import RTOL, assert_cov, assert_state
 
 from nnda.data.sensor import cart_to_polar
 from nnda.errors import FilterError
@@ -30,6 +31,7 @@ def tracks(seed: int = 0, k: int = K):
 
 
 def test_batch_equals_loop():
+    """A batch of K tracks against K batches of one: products summed in other orders, equal to rounding."""
     imm = IMM()
     Z = tracks(1)
     rng = np.random.default_rng(2)
@@ -42,13 +44,13 @@ def test_batch_equals_loop():
         batch = imm.update(pred, Z[:, k], mask)
         for i in range(K):
             p = imm.predict(singles[i], dt[i])
-            for a, b in zip((p.measurement.z, p.measurement.S), (pred.measurement.z[i], pred.measurement.S[i])):
-                np.testing.assert_allclose(a[0], b, rtol=1e-12)
+            # range m, azimuth rad (atol: an azimuth near north)
+            np.testing.assert_allclose(p.measurement.z[0], pred.measurement.z[i], rtol=RTOL, atol=RTOL)
+            assert_cov(p.measurement.S[0], pred.measurement.S[i])
             singles[i] = imm.update(p, Z[i:i + 1, k], mask[i:i + 1])
-            for name in ("x", "P", "mu"):
-                np.testing.assert_allclose(
-                    getattr(singles[i], name)[0], getattr(batch, name)[i], rtol=1e-12, atol=1e-12
-                )
+            assert_state(singles[i].x[0], batch.x[i], batch.P[i])
+            assert_cov(singles[i].P[0], batch.P[i])
+            np.testing.assert_allclose(singles[i].mu[0], batch.mu[i], rtol=RTOL)
 
 
 def test_missed_scan_keeps_the_prediction_and_propagates_mode_probabilities():
@@ -57,7 +59,7 @@ def test_missed_scan_keeps_the_prediction_and_propagates_mode_probabilities():
     state = imm.initialise(Z[:, 0], Z[:, 1], 0.0, 2.0)
     state = imm.update(imm.predict(state, 2.0), Z[:, 2])
     pred = imm.predict(state, 2.0)
-    np.testing.assert_allclose(pred.state.mu, state.mu @ np.array(imm.tpm), rtol=1e-15)
+    np.testing.assert_array_equal(pred.state.mu, state.mu @ np.array(imm.tpm))  # exactly: predict's product
     mask = np.arange(K) % 2 == 0
     z = np.where(mask[:, None], Z[:, 3], np.nan)
     out = imm.update(pred, z, mask)
@@ -66,7 +68,7 @@ def test_missed_scan_keeps_the_prediction_and_propagates_mode_probabilities():
     np.testing.assert_array_equal(out.P[missed], pred.state.P[missed])
     np.testing.assert_array_equal(out.mu[missed], pred.state.mu[missed])
     full = imm.update(pred, Z[:, 3])
-    np.testing.assert_array_equal(out.x[mask], full.x[mask])
+    np.testing.assert_array_equal(out.x[mask], full.x[mask])  # exactly: one batch, missed rows replaced
     assert not np.array_equal(full.x[missed], pred.state.x[missed])
 
 
@@ -81,8 +83,9 @@ def test_take_and_concat():
     np.testing.assert_array_equal(sub.measurement.S, pred.measurement.S[idx])
     np.testing.assert_array_equal(sub.state.x, pred.state.x[idx])
     # branching one track over several measurements: take repeats, update with one z per copy
-    upd = imm.update(sub, Z[idx, 2])
-    np.testing.assert_allclose(upd.x[0], imm.update(pred, Z[:, 2]).x[5], rtol=1e-13)
+    # (a batch of 4 against one of K: equal to rounding)
+    upd, whole = imm.update(sub, Z[idx, 2]), imm.update(pred, Z[:, 2])
+    assert_state(upd.x[0], whole.x[5], whole.P[5])
     both = IMMState.concat([state.take(slice(0, 3)), state.take(np.arange(K) >= 3)])
     for name in ("x", "P", "mu"):
         np.testing.assert_array_equal(getattr(both, name), getattr(state, name))
@@ -116,7 +119,7 @@ def test_gating_distances_and_log_likelihoods_against_every_contact():
     ll = imm.log_likelihood(pred, contacts)
     log_norm = -np.log(2 * math.pi * np.sqrt(np.linalg.det(pred.measurement.S)))[..., None]
     manual = logsumexp(-0.5 * per_model + log_norm, b=pred.state.mu[..., None], axis=1)
-    np.testing.assert_allclose(ll, manual, rtol=1e-10)
+    np.testing.assert_allclose(ll, manual, rtol=RTOL)
     # far-away contacts do not underflow to -inf
     assert np.isfinite(imm.log_likelihood(pred, np.array([[29_000.0, 3.0]]))).all()
 
@@ -141,9 +144,10 @@ def test_combined_estimate_covers_the_shared_dimensions():
     x, P = imm.estimate(state)
     assert x.shape == (K, 4) and P.shape == (K, 4, 4)
     mu = state.mu
-    np.testing.assert_allclose(x, mu[:, :1] * state.x[:, 0, :4] + mu[:, 1:] * state.x[:, 1, :4], rtol=1e-12)
+    assert_state(x, mu[:, :1] * state.x[:, 0, :4] + mu[:, 1:] * state.x[:, 1, :4], P)
     assert np.linalg.eigvalsh(P).min() > 0
-    np.testing.assert_allclose(P, np.swapaxes(P, 1, 2), rtol=0, atol=0)
+    # exactly symmetric: entries (i, j) and (j, i) are the same weighted sum of exactly symmetric terms
+    np.testing.assert_array_equal(P, np.swapaxes(P, 1, 2))
     # padding of the CV model stays exactly zero
     assert (state.x[:, 0, 4] == 0).all() and (state.P[:, 0, 4] == 0).all() and (state.P[:, 0, :, 4] == 0).all()
 
@@ -173,7 +177,7 @@ def test_a_mode_with_probability_zero_stays_finite():
     alone = ct.initialise(Z[:, 0], Z[:, 1], 0.0, 2.0)
     for k in range(2, 8):
         alone = ct.update(ct.predict(alone, 2.0), Z[:, k])
-    np.testing.assert_allclose(state.x[:, 1], alone.x[:, 0], rtol=1e-12)
+    assert_state(state.x[:, 1], alone.x[:, 0], alone.P[:, 0])  # another model stack: equal to rounding
 
 
 def test_make_state_and_from_cv():

@@ -41,7 +41,7 @@ def test_a_contact_on_the_prediction_has_zero_innovation(predicted):
     imm, pred, gate = predicted
     f = _features(imm, pred, gate.z)
     assert f.shape == (1, IMM_INNOVATION.size)
-    assert np.allclose(f[0, 3:6], 0.0, atol=1e-12)
+    assert np.allclose(f[0, 3:6], 0.0, atol=1e-12)  # exact zeros: the innovation is z minus itself
 
 
 def test_one_sigma_in_range_reads_one(predicted):
@@ -85,7 +85,7 @@ def extended_pairs():
 def test_extended_pairs_extend_the_seed_pairs(extended_pairs, train_pairs):
     assert extended_pairs.feature_set is IMM_INNOVATION
     assert np.array_equal(extended_pairs.labels, train_pairs.labels)
-    assert np.array_equal(extended_pairs.features[:, :3], train_pairs.features)
+    assert np.array_equal(extended_pairs.features[:, :3], train_pairs.features)  # exactly: the same call
 
 
 def test_own_contacts_are_chi_square_distributed_under_the_filter(extended_pairs):
@@ -109,7 +109,10 @@ def test_true_history_feeds_the_filter_true_positions():
 
 
 def test_extraction_computes_what_the_tracker_computes(tmp_path):
-    """The neural tracker on a clean single-target scene scores exactly the features of the training pairs."""
+    """The neural tracker on a clean single-target scene scores the features of the training pairs.
+
+    The same code on other batches (one scan's pairs against one target's): equal to rounding.
+    """
     from nnda.tracking.registry import make_tracker
 
     scenario = PRESETS["train05"].model_copy(update={"clutter": Clutter(law="none")})

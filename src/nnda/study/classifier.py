@@ -12,9 +12,9 @@ The ROC and the metrics over *all* pairs (the spec's "Total" rows, §10.1)
 need the scores of every pair, which the file does not hold, so they are
 computed here: the named datasets are regenerated from their presets with
 their seed and run (bit-identical to the training data), their pairs built
-with the recorded options, and scored. When the names are not presets
-(a model trained on other data), the 17 training presets with their own
-seeds stand in, and the record says so.
+with the recorded options on the model's own feature set, and scored. When
+the names are not presets (a model trained on other data), the 17 training
+presets with their own seeds stand in, and the record says so.
 """
 
 from __future__ import annotations
@@ -87,6 +87,9 @@ def evaluate_models(models: tuple[ModelPlan, ...] | list[ModelPlan]) -> dict:
         meta = scorer.metadata
         recorded = meta.get("pair_options", {}) if isinstance(meta.get("pair_options"), dict) else {}
         options = {k: recorded[k] for k in PAIR_OPTIONS if k in recorded}
+        # pairs of the model's own feature set, whatever its metadata records (a model saved through
+        # the API records none): the cache key holds it, so a seed and an extended model never share pairs
+        options["features"] = scorer.features.name
         sources, described = training_sources(meta)
         key = (tuple(sources), tuple(sorted(options.items())))
         if key not in cache:
