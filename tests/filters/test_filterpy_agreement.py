@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 import spec_reference as ref
 from filterpy.kalman import ExtendedKalmanFilter, IMMEstimator, KalmanFilter
-from tolerances import RTOL, assert_cov, assert_state
 
 from nnda.data.scenario import Segment, Sensor, Target
 from nnda.data.sensor import measure, polar_to_cart
@@ -23,6 +22,7 @@ from nnda.filters.imm import IMM
 from nnda.filters.measurement import PolarMeasurement, PositionMeasurement
 from nnda.filters.motion import ConstantVelocity, CoordinatedTurn
 from nnda.filters.two_point import two_point
+from tolerances import RTOL, assert_cov, assert_state
 
 MANOEUVRING = Target(
     name="m", x_m=-8_000.0, y_m=14_000.0, heading_deg=100.0, speed_m_s=150.0,

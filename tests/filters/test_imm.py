@@ -7,13 +7,13 @@ import math
 import numpy as np
 import pytest
 from scipy.special import logsumexp
-from tolerances import RTOL, assert_cov, assert_state
 
 from nnda.data.sensor import cart_to_polar
 from nnda.errors import FilterError
 from nnda.filters.imm import IMM, IMMPrediction, IMMState
 from nnda.filters.measurement import PositionMeasurement
 from nnda.filters.motion import ConstantVelocity, CoordinatedTurn
+from tolerances import RTOL, assert_cov, assert_state
 
 K = 7
 

@@ -7,13 +7,13 @@ import math
 import numpy as np
 import pytest
 import spec_reference as ref
-from tolerances import RTOL
 
 from nnda.data.scenario import Sensor
 from nnda.data.sensor import cart_to_polar, measure, polar_to_cart
 from nnda.errors import FilterError
 from nnda.filters.measurement import PolarMeasurement, PositionMeasurement, converted_covariance, measurement_model
 from nnda.filters.two_point import two_point
+from tolerances import RTOL
 
 RNG = np.random.default_rng(5)
 X = np.column_stack([RNG.uniform(-2.5e4, 2.5e4, 8), RNG.normal(0, 100, 8), RNG.uniform(-2.5e4, 2.5e4, 8),

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from filterpy.common import Q_discrete_white_noise
 from spec_reference import ct_F, ct_f, ct_Q, cv_F, cv_Q
-from tolerances import RTOL
 
 from nnda.errors import FilterError
 from nnda.filters.motion import ConstantVelocity, CoordinatedTurn
+from tolerances import RTOL
 
 RNG = np.random.default_rng(11)
 STATES = np.column_stack([

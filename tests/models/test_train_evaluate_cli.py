@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 from nnda.cli import app
 from nnda.errors import ConfigError
 from nnda.models.pairs import load_pairs
-from nnda.models.scorer import load_model
+from nnda.models.scorer import Scorer, load_model, save_model
 
 runner = CliRunner()
 
@@ -96,6 +96,10 @@ def test_extended_model_and_ablation_modes(train_dir, tmp_path):
     assert result.exit_code == 0, result.output  # evaluate rebuilds the pairs with the model's feature set
     training = json.loads((ext / "training.json").read_text())
     assert json.loads((tmp_path / "ev" / "evaluation.json").read_text())["metrics"] == training["metrics"]["all"]
+    bare = load_model(ext)  # a model saved through the API records no pair options: evaluate still uses its set
+    save_model(Scorer(bare.weights, bare.normaliser, bare.features, metadata={}), tmp_path / "bare.json")
+    result = runner.invoke(app, ["evaluate", str(tmp_path / "bare.json"), "--data", str(train_dir)])
+    assert result.exit_code == 0, result.output
 
     abl = tmp_path / "abl"
     result = runner.invoke(app, ["train", "--data", str(train_dir), "--ablation", "--repeats", "2", "--starts", "1",

@@ -11,7 +11,6 @@ import itertools
 import numpy as np
 import pytest
 from scipy.special import logsumexp
-from tolerances import RTOL, assert_cov, assert_state
 
 from nnda.data.dataset import Scan
 from nnda.data.generator import generate
@@ -28,6 +27,7 @@ from nnda.tracking.jpda import JPDATracker, best_pairs, pair_likelihoods, pda_up
 from nnda.tracking.marginals import Marginals, clusters, jpda_marginals, log_miss_weight, loopy_marginals
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
+from tolerances import RTOL, assert_cov, assert_state
 
 
 def brute_force(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float) -> tuple[np.ndarray, np.ndarray]:

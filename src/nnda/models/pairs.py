@@ -61,6 +61,15 @@ PAIR_OPTIONS = ("history", "other_targets", "max_missed", "features")
 OtherTargets = Literal["negative", "drop"]
 
 
+def model_pair_options(metadata: dict, features: str) -> dict:
+    """The `extract_pairs` options that rebuild a model's pairs: those its ``metadata`` records
+    ("pair_options"), with the feature set always the model's own ``features`` (a model saved through
+    the API records none)."""
+    recorded = metadata.get("pair_options", {})
+    options = {k: recorded[k] for k in PAIR_OPTIONS if k in recorded} if isinstance(recorded, dict) else {}
+    return {**options, "features": features}
+
+
 @dataclass(frozen=True)
 class PairSet:
     """Labelled pairs; row arrays of shape (N,) unless stated.

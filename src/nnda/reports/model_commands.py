@@ -37,7 +37,7 @@ from nnda.data.dataset import atomic_directory, iter_datasets
 from nnda.errors import ConfigError
 from nnda.models.feature_sets import FEATURE_SETS
 from nnda.models.features import KINEMATIC
-from nnda.models.pairs import PAIR_OPTIONS, PairSet, load_pairs
+from nnda.models.pairs import PairSet, load_pairs, model_pair_options
 from nnda.models.scorer import MODEL_FILE, load_model, save_model
 
 if TYPE_CHECKING:
@@ -266,8 +266,7 @@ def evaluate(
     from nnda.reports.classifier_tables import metrics_table
 
     scorer = load_model(model)
-    recorded = scorer.metadata.get("pair_options", {})
-    options = {k: recorded[k] for k in PAIR_OPTIONS if k in recorded}
+    options = model_pair_options(scorer.metadata, scorer.features.name)
     pairs = load_pairs(data, **options)
     console = Console()
     console.print(_describe(pairs, data))

@@ -30,7 +30,7 @@ from nnda.errors import DatasetError
 from nnda.files import finite_or_none, read_json
 from nnda.models.ablation import ABLATION_FILE, ABLATION_FORMAT, ABLATION_FORMAT_VERSION
 from nnda.models.metrics import classifier_metrics, roc
-from nnda.models.pairs import PAIR_OPTIONS, PairSet, pairs_from_datasets
+from nnda.models.pairs import PairSet, model_pair_options, pairs_from_datasets
 from nnda.models.scorer import load_model
 from nnda.study.plan import ModelPlan
 
@@ -85,11 +85,8 @@ def evaluate_models(models: tuple[ModelPlan, ...] | list[ModelPlan]) -> dict:
     for m in models:
         scorer = load_model(m.path)
         meta = scorer.metadata
-        recorded = meta.get("pair_options", {}) if isinstance(meta.get("pair_options"), dict) else {}
-        options = {k: recorded[k] for k in PAIR_OPTIONS if k in recorded}
-        # pairs of the model's own feature set, whatever its metadata records (a model saved through
-        # the API records none): the cache key holds it, so a seed and an extended model never share pairs
-        options["features"] = scorer.features.name
+        # the cache key holds the feature set, so a seed and an extended model never share pairs
+        options = model_pair_options(meta, scorer.features.name)
         sources, described = training_sources(meta)
         key = (tuple(sources), tuple(sorted(options.items())))
         if key not in cache:
