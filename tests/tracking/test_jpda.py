@@ -27,6 +27,7 @@ from nnda.tracking.jpda import JPDATracker, best_pairs, pair_likelihoods, pda_up
 from nnda.tracking.marginals import Marginals, clusters, jpda_marginals, log_miss_weight, loopy_marginals
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
+from nnda.tracking.tracker import ScanContacts
 from tolerances import RTOL, assert_cov, assert_state
 
 
@@ -340,17 +341,22 @@ def test_contacts_are_reported_when_likelier_than_no_detection(n, odds, reported
     assert (out.contact[0] >= 0) == reported
 
 
+def _scan(z, xy, sensor: Sensor | None = None) -> ScanContacts:
+    """A checked scan at t = 2 s from the radar at the origin (or ``sensor``)."""
+    return ScanContacts(1, 2.0, 0, IMM.for_sensor(sensor or Sensor()), z, xy)
+
+
 def test_clutter_density_estimates():
     sensor = Sensor()
     z = _polar([[0.0, 10_000.0], [1_000.0, 10_000.0], [0.0, 12_500.0], [0.0, 20_000.0]])
     xy = np.array([[0.0, 10_000.0], [1_000.0, 10_000.0], [0.0, 12_500.0], [0.0, 20_000.0]])
     at = np.array([0, 3])
-    scan = make_tracker("jpda", sensor, {"clutter_density": "scan"}).clutter_density(z, xy, at)
+    scan = make_tracker("jpda", sensor, {"clutter_density": "scan"}).clutter_density(_scan(z, xy), at)
     np.testing.assert_allclose(scan, 4 / (25_000.0 * 2 * np.pi))
-    local = make_tracker("jpda", sensor, {"clutter_radius_m": 2_000.0}).clutter_density(z, xy, at)
+    local = make_tracker("jpda", sensor, {"clutter_radius_m": 2_000.0}).clutter_density(_scan(z, xy), at)
     area = (2 * 2_000.0) ** 2  # the square of half-side clutter_radius_m
     np.testing.assert_allclose(local, [2 / area * 10_000.0, 1 / area * 20_000.0])
-    fixed = make_tracker("jpda", sensor, {"clutter_density": 5e-4}).clutter_density(z, xy, at)
+    fixed = make_tracker("jpda", sensor, {"clutter_density": 5e-4}).clutter_density(_scan(z, xy), at)
     np.testing.assert_allclose(fixed, 5e-4)
 
 
@@ -384,9 +390,9 @@ def test_k_d_tree_gating_gives_the_dense_gatings_results(monkeypatch):
     sizes = []
 
     class Sizes(JPDATracker):
-        def associate(self, tracks, pred, z, xy, time):
-            sizes.append(len(tracks) * len(z))
-            return super().associate(tracks, pred, z, xy, time)
+        def associate(self, tracks, pred, scan):
+            sizes.append(len(tracks) * len(scan.z))
+            return super().associate(tracks, pred, scan)
 
     runs, switch = [], gating.DENSE_PAIRS
     for dense_pairs in (switch, 10**12):

@@ -64,9 +64,9 @@ class Recording(NeuralTracker):
             return self.loaded(features)
         self.scorer = counted
 
-    def associate(self, tracks, pred, z, xy, time):
-        assoc = super().associate(tracks, pred, z, xy, time)
-        self.seen.append((tracks, z.copy(), xy.copy(), time, assoc.contact.copy()))
+    def associate(self, tracks, pred, scan):
+        assoc = super().associate(tracks, pred, scan)
+        self.seen.append((tracks, scan.z.copy(), scan.xy.copy(), scan.time, assoc.contact.copy()))
         return assoc
 
 
@@ -252,9 +252,9 @@ def test_k_d_tree_candidate_search_gives_the_dense_searchs_tracks(model_file, mo
     sizes, runs, switch = [], [], features.DENSE_PAIRS
 
     class Sizes(NeuralTracker):
-        def associate(self, tracks, pred, z, xy, time):
-            sizes.append(len(tracks) * len(z))
-            return super().associate(tracks, pred, z, xy, time)
+        def associate(self, tracks, pred, scan):
+            sizes.append(len(tracks) * len(scan.z))
+            return super().associate(tracks, pred, scan)
 
     for dense_pairs in (switch, 10**12):
         monkeypatch.setattr(features, "DENSE_PAIRS", dense_pairs)

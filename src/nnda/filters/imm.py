@@ -32,7 +32,7 @@ time (dt = 4, 6 or 8 s); both uses are supported because ``dt`` is per track.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from typing import TYPE_CHECKING
 
@@ -42,7 +42,7 @@ from nnda.errors import FilterError
 from nnda.filters import kalman
 from nnda.filters.batch import Batch
 from nnda.filters.kalman import MeasurementPrediction
-from nnda.filters.measurement import MeasurementModel, PolarMeasurement
+from nnda.filters.measurement import MeasurementModel, PolarMeasurement, measurement_model
 from nnda.filters.motion import ConstantVelocity, CoordinatedTurn, MotionModel, process_noise
 from nnda.filters.two_point import two_point
 from nnda.validation import check_array, check_covariance, check_finite, check_nonnegative
@@ -186,11 +186,16 @@ class IMM:
     # ------------------------------------------------------------- creation
     @classmethod
     def for_sensor(cls, sensor: Sensor) -> IMM:
-        """The IMM every tracker runs for a radar: the spec's CV + CT models and TPM, the radar's noise.
+        """The IMM every tracker runs for a sensor: the spec's CV + CT models and TPM, the sensor's
+        measurement model (`measurement_model`: its kind, noise and position).
 
         The training pairs of the IMM-extended features (`nnda.models.pairs`) run this same filter.
         """
-        return cls(measurement=PolarMeasurement.from_sensor(sensor))
+        return cls(measurement=measurement_model(sensor))
+
+    def for_measurement(self, measurement: MeasurementModel) -> IMM:
+        """This IMM (motion models, TPM, mode priors) with another measurement model: one sensor's of several."""
+        return replace(self, measurement=measurement)
 
     def initialise(
         self, z1: np.ndarray, z2: np.ndarray, t1: np.ndarray | float, t2: np.ndarray | float

@@ -48,6 +48,21 @@ class MeasurementModel(Protocol):
         """Cartesian positions (..., 2) of measurements and their covariances (..., 2, 2)."""
         ...
 
+    def cartesian(self, z: np.ndarray) -> np.ndarray:
+        """Cartesian positions (..., 2) of measurements, m, scenario frame (`position` without covariances)."""
+        ...
+
+    def spread(self, z: np.ndarray, S: np.ndarray) -> np.ndarray:
+        """A bound (..., ) in m^2 on the Cartesian variance, along any direction, of a measurement
+        distribution of mean z (..., 2) and covariance S (..., 2, 2): the radius of a circle holding
+        a gate of squared radius g is sqrt(g * spread)."""
+        ...
+
+    def area_jacobian(self, z: np.ndarray) -> np.ndarray:
+        """|det d(x, y) / dz| (...,) at measurements z: an area density (m^-2) times it is the density in
+        measurement space."""
+        ...
+
     def validate(self, name: str, z: np.ndarray) -> None:
         """Raise FilterError unless every measurement in ``z`` (..., 2) is valid."""
         ...
@@ -150,6 +165,20 @@ class PolarMeasurement:
         xy[..., 0], xy[..., 1] = polar_to_cart_at(self.origin, r, azimuth)
         return xy, converted_covariance(r, azimuth, self.sigma_range, self.sigma_azimuth)
 
+    def cartesian(self, z: np.ndarray) -> np.ndarray:
+        """Cartesian positions (..., 2) in the scenario frame."""
+        xy = np.empty(z.shape)
+        xy[..., 0], xy[..., 1] = polar_to_cart_at(self.origin, z[..., 0], z[..., 1])
+        return xy
+
+    def spread(self, z: np.ndarray, S: np.ndarray) -> np.ndarray:
+        """S_rr + r^2 S_aa (m^2): range variance plus the cross-range variance at range r."""
+        return S[..., 0, 0] + z[..., 0] ** 2 * S[..., 1, 1]
+
+    def area_jacobian(self, z: np.ndarray) -> np.ndarray:
+        """The range r (m): an area element is r dr dtheta."""
+        return z[..., 0]
+
     def validate(self, name: str, z: np.ndarray) -> None:
         """Finite values and positive ranges."""
         if np.isfinite(z).all() and (z[..., 0] > 0).all():
@@ -204,6 +233,18 @@ class PositionMeasurement:
     def position(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The fixes themselves and R for each."""
         return z, np.broadcast_to(self.R, (*z.shape[:-1], 2, 2))
+
+    def cartesian(self, z: np.ndarray) -> np.ndarray:
+        """The fixes themselves."""
+        return z
+
+    def spread(self, z: np.ndarray, S: np.ndarray) -> np.ndarray:
+        """trace S (m^2)."""
+        return S[..., 0, 0] + S[..., 1, 1]
+
+    def area_jacobian(self, z: np.ndarray) -> np.ndarray:
+        """1: the measurement space is the plane."""
+        return np.ones(z.shape[:-1])
 
     def validate(self, name: str, z: np.ndarray) -> None:
         check_finite(name, z, error=FilterError)

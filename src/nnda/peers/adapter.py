@@ -50,10 +50,11 @@ def to_seconds(when: datetime) -> float:
 
 
 def measurement_model(sensor: Sensor, seed: int | None = None) -> CartesianToBearingRange:
-    """Stone Soup's polar model of our radar: [azimuth rad cw from north, range m] of [x, vx, y, vy];
-    ``seed`` seeds its noise when it simulates."""
+    """Stone Soup's polar model of our radar: [azimuth rad cw from north, range m] of [x, vx, y, vy]
+    from the radar's position; ``seed`` seeds its noise when it simulates."""
     return CartesianToBearingRange(ndim_state=4, mapping=(2, 0), seed=seed,
-                                   noise_covar=np.diag([sensor.sigma_azimuth_rad ** 2, sensor.sigma_range_m ** 2]))
+                                   noise_covar=np.diag([sensor.sigma_azimuth_rad ** 2, sensor.sigma_range_m ** 2]),
+                                   translation_offset=np.array([[sensor.y_m], [sensor.x_m]]))
 
 
 def to_detections(scan: Scan, model: CartesianToBearingRange) -> list[Detection]:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from abc import abstractmethod
+from collections.abc import Sequence
 from typing import Annotated, ClassVar, Literal
 
 import numpy as np
@@ -43,7 +44,7 @@ from nnda.filters.kalman import GATE_99
 from nnda.peers.adapter import TrackBook, measurement_model, to_datetime, to_detections
 from nnda.tracking.clutter_density import local_density
 from nnda.tracking.output import TrackerOutput
-from nnda.tracking.tracker import ContactTrackerConfig, TrackerConfig, checked_config, checked_scan
+from nnda.tracking.tracker import ContactTrackerConfig, TrackerConfig, checked_config, checked_scan, only_sensor
 
 
 class PeerConfig(ContactTrackerConfig):
@@ -67,14 +68,15 @@ class PeerJPDAConfig(PeerConfig):
 class StoneSoupTracker:
     """A Stone Soup multi-target tracker stepped one scan at a time; subclasses pick the association.
 
-    Meets our `nnda.tracking.tracker.Tracker` protocol: built as ``cls(sensor, config)``.
+    Meets our `nnda.tracking.tracker.Tracker` protocol: built as ``cls(sensors, config)`` for one polar radar.
     """
 
     name: ClassVar[str]
     config_type: ClassVar[type[TrackerConfig]]
 
-    def __init__(self, sensor: Sensor, config: PeerConfig | None = None) -> None:
-        self.sensor = sensor
+    def __init__(self, sensors: Sensor | Sequence[Sensor], config: PeerConfig | None = None) -> None:
+        self.sensor = only_sensor(self.name, sensors)
+        self.sensors = (self.sensor,)
         self.config = checked_config(self, config)
         self.reset()
 
@@ -110,7 +112,7 @@ class StoneSoupTracker:
 
     def step(self, scan: Scan) -> TrackerOutput:
         """Process one sweep and report every track (confirmed, held by the initiator, just deleted)."""
-        z, time = checked_scan(self.name, scan, self.last_time)
+        z, time = checked_scan(self.name, scan, self.last_time, self.sensors)
         scan = Scan(scan.index, time, z)
         self._before(z)
         self.tracker.update_tracker(to_datetime(time), set(to_detections(scan, self.model)))

@@ -77,7 +77,7 @@ def time_per_scan(times: dict[tuple[str, str], np.ndarray], scenarios: list[str]
 OVER_TIME = ("gospa", "ospa", "false_tracks_per_scan")
 
 
-def over_time(scenario: dict, period_s: float, cutoff_m: float) -> bytes:
+def over_time(scenario: dict, scan_times: np.ndarray, cutoff_m: float) -> bytes:
     """Per-scan means over runs of one ``summary.json`` scenario: GOSPA, OSPA, false tracks present, and
     the GOSPA missed and false parts as counts (part / (c²/2))."""
     trackers = list(scenario["trackers"])
@@ -88,7 +88,7 @@ def over_time(scenario: dict, period_s: float, cutoff_m: float) -> bytes:
     half_c2 = cutoff_m**2 / 2
     for name, t in scenario["trackers"].items():
         s = {k: np.array([np.nan if v is None else v for v in series]) for k, series in t["series_mean"].items()}
-        time = period_s * np.arange(1, s[panels[0].series_name].size + 1)
+        time = scan_times[:s[panels[0].series_name].size]
         c = colours[name]
         for ax, m in zip(axes.ravel(), panels):
             ax.plot(time, s[m.series_name], color=c, lw=1.3, label=name)

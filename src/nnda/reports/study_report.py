@@ -233,7 +233,7 @@ def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
                            f"rerun `nnda compare --resume` to rebuild them")
     scenarios = [s["name"] for s in summary["scenarios"]]
     trackers = [t["label"] for t in summary["trackers"]]
-    periods = {s["name"]: scenario_from_dict(s["scenario"]).sensor.scan_period_s for s in manifest["scenarios"]}
+    scan_times = {s["name"]: scenario_from_dict(s["scenario"]).scan_schedule()[0] for s in manifest["scenarios"]}
     figures: list[Figure] = []
 
     top = Section("summary", "Summary", [], [])
@@ -260,7 +260,7 @@ def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
     over = Section("over-time", "False tracks and GOSPA over time", [], [])
     for sc in summary["scenarios"]:
         fig = Figure(f"over_time_{sc['name']}.png", f"{sc['name']}: per-scan means over runs",
-                     study_figures.over_time(sc, periods[sc["name"]], summary["gospa"]["cutoff_m"]))
+                     study_figures.over_time(sc, scan_times[sc["name"]], summary["gospa"]["cutoff_m"]))
         figures.append(fig)
         over.figure(fig)
     sections.append(over)

@@ -55,10 +55,9 @@ def _tracks(outputs, dataset: Dataset) -> dict:
     state = np.concatenate([o.state for o in outputs]).reshape(-1, 4)
     keep = np.isin(tid, np.unique(tid[status == TrackStatus.CONFIRMED]))
     order = np.lexsort((scan[keep], tid[keep]))
-    period = dataset.scenario.sensor.scan_period_s
     t = dataset.truth
     return {
-        "tracks": {"scan": scan[keep][order].tolist(), "time": (scan[keep][order] * period).tolist(),
+        "tracks": {"scan": scan[keep][order].tolist(), "time": dataset.scan_time[scan[keep][order] - 1].tolist(),
                    "track_id": tid[keep][order].tolist(), "status": status[keep][order].tolist(),
                    "x": state[keep, 0][order].tolist(), "y": state[keep, 2][order].tolist()},
         "truth": {"scan": t.scan.tolist(), "time": t.time.tolist(), "target_id": t.target_id.tolist(),
@@ -71,7 +70,7 @@ def run_job(job: JobSpec) -> dict:
     """Run one job and return its record (see the module docstring)."""
     with threadpool_limits(1):
         dataset = read_dataset(job.dataset) if job.dataset is not None else generate(job.generate, job.seed, job.run)
-        tracker = make_tracker(job.kind, dataset.scenario.sensor, job.params)
+        tracker = make_tracker(job.kind, dataset.scenario.sensors, job.params)
         outputs, seconds = [], np.empty(dataset.n_scans)
         for i, scan in enumerate(dataset.scans()):
             start = time.perf_counter()

@@ -148,8 +148,8 @@ def _time_to_confirm(r: ScoredRun) -> float:
     reached = first_conf < _NEVER
     if not reached.any():
         return float("nan")
-    period = r.dataset.scenario.sensor.scan_period_s
-    return float(np.mean((first_conf[reached] - first_contact[reached]) * period))
+    time = r.dataset.scan_time  # of scan k at k - 1
+    return float(np.mean(time[first_conf[reached] - 1] - time[first_contact[reached] - 1]))
 
 
 def _position_rmse(r: ScoredRun) -> float:

@@ -215,7 +215,7 @@ def _scenarios(study: Study, where: str) -> tuple[ScenarioPlan, ...]:
     return tuple(plans)
 
 
-def _trackers(study: Study, models: tuple[ModelPlan, ...], sensors: list[Sensor], where: str
+def _trackers(study: Study, models: tuple[ModelPlan, ...], sensors: list[tuple[Sensor, ...]], where: str
               ) -> tuple[TrackerPlan, ...]:
     model_path = {m.label: m.path for m in models}
     plans = []
@@ -223,8 +223,8 @@ def _trackers(study: Study, models: tuple[ModelPlan, ...], sensors: list[Sensor]
         params = dict(spec.params)
         if spec.model is not None:
             params[MODEL_PARAM] = str(model_path[spec.model])
-        for sensor in sensors:  # builds each tracker once per distinct radar: validates kind and params
-            make_tracker(spec.kind, sensor, params, where=f"{where}: tracker {label!r}")
+        for setup in sensors:  # builds each tracker once per distinct set of sensors: validates kind and params
+            make_tracker(spec.kind, setup, params, where=f"{where}: tracker {label!r}")
         plans.append(TrackerPlan(label, spec.kind, params, spec.model))
     return tuple(plans)
 
@@ -237,7 +237,8 @@ def plan_study(study: Study, where: str = "study") -> StudyPlan:
                               f"registered trackers: {', '.join([*TRACKERS, *PEERS])}")
     models = _models(study, where)
     scenarios = _scenarios(study, where)
-    sensors = list({s.scenario.sensor.model_dump_json(): s.scenario.sensor for s in scenarios}.values())
+    sensors = list({str([s.model_dump_json() for s in sc.scenario.sensors]): sc.scenario.sensors
+                    for sc in scenarios}.values())
     trackers = _trackers(study, models, sensors, where)
     model_digest = {m.label: m.sha256 for m in models}
     tracker_ids = {t.label: {"kind": t.kind, "model_sha256": model_digest.get(t.model),

@@ -1,6 +1,6 @@
 """Multi-target trackers: the shared framework and the association methods.
 
-``nnda.tracking.registry.make_tracker(name, sensor, params)`` builds any
+``nnda.tracking.registry.make_tracker(name, sensors, params)`` builds any
 registered tracker (``gnn``, ``jpda``, ``mht``, ``nn``); each consumes scans
 with ``step(scan)`` and returns a `nnda.tracking.output.TrackerOutput`.
 Modules: ``tracker`` (the protocol and the single-hypothesis framework),

@@ -1,4 +1,7 @@
-"""Local clutter density from a scan's own contacts, for the MHT and JPDA likelihood ratios.
+"""Clutter density from a scan's own contacts, for the MHT and JPDA likelihood ratios.
+
+`measurement_volume` is a sensor's coverage measured in its measurement
+space, for a scan-wide density (contacts over the volume).
 
 The density at a point is the number of the scan's contacts in the square of
 half-side ``radius`` around it, over the square's area (at least one
@@ -11,8 +14,20 @@ from __future__ import annotations
 
 import numpy as np
 
+from nnda.data.scenario import Sensor
+from nnda.data.sensor import TWO_PI
+
 #: grid cells per ``radius``
 _CELLS = 4
+
+
+def measurement_volume(sensor: Sensor) -> float:
+    """The sensor's coverage in its measurement space: (r_max - r_min) x sector (m rad) for a polar
+    sensor, the ring sector's area (m^2) for a position sensor."""
+    sector = TWO_PI * (sensor.fov_deg / 360.0)
+    if sensor.kind == "polar":
+        return (sensor.max_range_m - sensor.min_range_m) * sector
+    return 0.5 * sector * (sensor.max_range_m**2 - sensor.min_range_m**2)
 
 
 def local_density(contacts: np.ndarray, at: np.ndarray, radius: float) -> np.ndarray:

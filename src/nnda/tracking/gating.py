@@ -14,7 +14,6 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from nnda.data.sensor import polar_to_cart
 from nnda.filters import kalman
 from nnda.filters.imm import IMM
 from nnda.filters.kalman import MeasurementPrediction
@@ -36,8 +35,9 @@ def gate(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, xy: np.ndarray, thr
     """Pairs (track, contact) with squared Mahalanobis distance <= ``threshold``.
 
     ``mp`` is the combined measurement prediction of K tracks
-    (`IMM.combined_measurement`), ``z`` (N, 2) the polar contacts and ``xy``
-    (N, 2) their Cartesian positions (m).
+    (`IMM.combined_measurement`), ``z`` (N, 2) the contacts in the
+    measurement space of ``imm.measurement`` and ``xy`` (N, 2) their
+    Cartesian positions (m).
     """
     K, N = len(mp.z), len(z)
     if K == 0 or N == 0:
@@ -47,10 +47,10 @@ def gate(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, xy: np.ndarray, thr
         d2 = imm.mahalanobis(mp, z)
         rows, cols = np.nonzero(d2 <= threshold)
         return Gated(rows, cols, d2[rows, cols])
-    # radius of a circle holding the gate ellipse: sqrt(threshold * trace of S in metres^2)
-    r_pred = mp.z[:, 0]
-    radius = np.sqrt(threshold * (mp.S[:, 0, 0] + r_pred**2 * mp.S[:, 1, 1])) + 1.0
-    centre = np.column_stack(polar_to_cart(r_pred, mp.z[:, 1]))
+    # radius of a circle holding the gate ellipse: sqrt(threshold * its largest spread in metres^2)
+    measurement = imm.measurement
+    radius = np.sqrt(threshold * measurement.spread(mp.z, mp.S)) + 1.0
+    centre = measurement.cartesian(mp.z)
     near = cKDTree(xy).query_ball_point(centre, radius, return_sorted=True)
     counts = np.fromiter((len(c) for c in near), np.int64, K)
     rows = np.repeat(np.arange(K), counts)

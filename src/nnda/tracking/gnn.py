@@ -28,6 +28,7 @@ from nnda.tracking.output import NO_CONTACT, TrackStatus
 from nnda.tracking.tracker import (
     Association,
     ContactTrackerConfig,
+    ScanContacts,
     SingleHypothesisTracker,
     TrackerConfig,
     Tracks,
@@ -53,11 +54,11 @@ class GNNTracker(SingleHypothesisTracker):
         super().reset()
         self.n_greedy = 0  # assignments too large to solve exactly (see GNNConfig.max_exact_pairs)
 
-    def associate(self, tracks: Tracks, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray,
-                  time: float) -> Association:
+    def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
         contact = np.full(len(tracks), NO_CONTACT, np.int64)
-        mp = self.filter.combined_measurement(pred)
-        g = gate(self.filter, mp, z, xy, self.config.gate)
+        imm, z = scan.filter, scan.z
+        mp = imm.combined_measurement(pred)
+        g = gate(imm, mp, z, scan.xy, self.config.gate)
         confirmed = tracks.status == TrackStatus.CONFIRMED
         for stage in (confirmed, ~confirmed):  # confirmed tracks choose first
             taken = np.zeros(len(z), bool)
@@ -72,4 +73,4 @@ class GNNTracker(SingleHypothesisTracker):
                 rows, cols = greedy_matching(r, c, -(d2 + mp.log_det_S[r]))
                 self.n_greedy += 1
             contact[rows] = cols
-        return hard_update(self.filter, pred, z, contact)
+        return hard_update(imm, pred, z, contact)

@@ -69,18 +69,18 @@ from typing import Annotated, ClassVar, Literal
 import numpy as np
 from pydantic import Field
 
-from nnda.data.sensor import TWO_PI
 from nnda.filters import kalman
 from nnda.filters.imm import IMMPrediction, IMMState
 from nnda.filters.kalman import GATE_99
 from nnda.filters.measurement import MeasurementModel
-from nnda.tracking.clutter_density import local_density
+from nnda.tracking.clutter_density import local_density, measurement_volume
 from nnda.tracking.gating import gate
 from nnda.tracking.marginals import jpda_marginals, log_miss_weight, runs
 from nnda.tracking.output import NO_CONTACT, TrackStatus
 from nnda.tracking.tracker import (
     Association,
     ContactTrackerConfig,
+    ScanContacts,
     SingleHypothesisTracker,
     TrackerConfig,
     Tracks,
@@ -185,29 +185,30 @@ class JPDATracker(SingleHypothesisTracker):
         self.n_clusters = 0  # clusters seen since the last reset
         self.n_approximated = 0  # of which solved by belief propagation (over max_joint_events)
 
-    def clutter_density(self, z: np.ndarray, xy: np.ndarray, at: np.ndarray) -> np.ndarray:
-        """Clutter density (m rad)^-1 at the contacts ``at`` (M,) of a scan z (N, 2) polar, xy (N, 2) m."""
+    def clutter_density(self, scan: ScanContacts, at: np.ndarray) -> np.ndarray:
+        """Clutter density in the measurement space of the scan's sensor (polar: (m rad)^-1) at its
+        contacts ``at`` (M,)."""
         cfg = self.config
         if cfg.clutter_density == "scan":
-            coverage = (self.sensor.max_range_m - self.sensor.min_range_m) * TWO_PI
-            return np.full(at.size, len(z) / coverage)
+            return np.full(at.size, len(scan.z) / measurement_volume(self.sensors[scan.sensor]))
         if cfg.clutter_density == "local":
-            return local_density(xy, xy[at], cfg.clutter_radius_m) * z[at, 0]
+            xy = scan.xy
+            return local_density(xy, xy[at], cfg.clutter_radius_m) * scan.filter.measurement.area_jacobian(scan.z[at])
         return np.full(at.size, cfg.clutter_density)
 
-    def associate(self, tracks: Tracks, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray,
-                  time: float) -> Association:
+    def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
         cfg = self.config
         contact = np.full(len(tracks), NO_CONTACT, np.int64)
         state = IMMState(pred.state.x.copy(), pred.state.P.copy(), pred.state.mu.copy())
+        imm, z = scan.filter, scan.z
         if not len(z):
             return Association(contact, state)
-        g = gate(self.filter, self.filter.combined_measurement(pred), z, xy, cfg.gate)
+        g = gate(imm, imm.combined_measurement(pred), z, scan.xy, cfg.gate)
         near = np.zeros(len(z), bool)
         near[g.cols] = True
         near = np.flatnonzero(near)  # the contacts in some gate
         log_density = np.zeros(len(z))
-        log_density[near] = np.log(self.clutter_density(z, xy, near))
+        log_density[near] = np.log(self.clutter_density(scan, near))
         log_miss = log_miss_weight(cfg.pd, cfg.gate)
         taken = np.zeros(len(z), bool)
         confirmed = tracks.status == TrackStatus.CONFIRMED
@@ -217,7 +218,7 @@ class JPDATracker(SingleHypothesisTracker):
                 continue
             start, track = runs(g.rows[sel])  # the stage's tracks with pairs, numbered 0, 1, ...
             rows, cols = g.rows[sel[start]], g.cols[sel]
-            log_ratio = (np.log(cfg.pd) + self.filter.pair_log_likelihood(pred, rows[track], z[cols])
+            log_ratio = (np.log(cfg.pd) + imm.pair_log_likelihood(pred, rows[track], z[cols])
                          - log_density[cols])
             m = jpda_marginals(track, cols, log_ratio, rows.size, log_miss, cfg.max_joint_events)
             self.n_clusters += m.approximated.size
@@ -230,7 +231,7 @@ class JPDATracker(SingleHypothesisTracker):
             won = wins[track]
             winner = (np.cumsum(wins) - 1)[track[won]]
             active = pred.take(rows[wins])
-            nu, log_lik = pair_likelihoods(active, z, winner, cols[won], self.filter.measurement)
+            nu, log_lik = pair_likelihoods(active, z, winner, cols[won], imm.measurement)
             updated = pda_update(active, winner, nu, log_lik, m.beta[won], m.beta0[wins])
             state.x[rows[wins]], state.P[rows[wins]], state.mu[rows[wins]] = updated.x, updated.P, updated.mu
         return Association(contact, state)

@@ -132,16 +132,19 @@ def cap_pairs(i: np.ndarray, j: np.ndarray, initiators: np.ndarray, contacts: np
 
 
 def advance(status: np.ndarray, hits: np.ndarray, misses: np.ndarray, consecutive: np.ndarray,
-            detected: np.ndarray, cfg: LifecycleConfig
+            detected: np.ndarray, cfg: LifecycleConfig, observed: np.ndarray | None = None
             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """One scan of the M/N and deletion logic for a batch of tracks, all arrays (K,).
 
     ``hits``/``misses`` count detections and misses since the M/N test began
     (the scan after the track became preliminary); ``consecutive`` counts
     consecutive misses. Call once per scan for each existing preliminary or
-    confirmed track. Returns new (status, hits, misses, consecutive).
+    confirmed track. A track not ``observed`` (K,) by the scan (outside the
+    coverage of the sensor that swept it; default: all observed) keeps its
+    counters and status. Returns new (status, hits, misses, consecutive).
     """
     detected = np.asarray(detected, bool)
+    status_before, hits_before, misses_before, consecutive_before = status, hits, misses, consecutive
     hits = hits + detected
     misses = misses + ~detected
     consecutive = np.where(detected, 0, consecutive + 1)
@@ -150,4 +153,7 @@ def advance(status: np.ndarray, hits: np.ndarray, misses: np.ndarray, consecutiv
     status[prelim & (hits >= cfg.m)] = CONFIRMED
     status[prelim & (misses >= cfg.n - cfg.m + 1)] = DELETED
     status[(status == CONFIRMED) & (consecutive > cfg.max_misses)] = DELETED
-    return status, hits, misses, consecutive
+    if observed is None:
+        return status, hits, misses, consecutive
+    return tuple(np.where(observed, new, old) for new, old in (
+        (status, status_before), (hits, hits_before), (misses, misses_before), (consecutive, consecutive_before)))

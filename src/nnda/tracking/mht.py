@@ -56,13 +56,12 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from nnda.data.dataset import Scan
-from nnda.data.sensor import polar_to_cart
 from nnda.filters.batch import Batch
 from nnda.filters.kalman import GATE_99
 from nnda.tracking.clutter_density import local_density
 from nnda.tracking.gating import gate
 from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
-from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, TrackerConfig, Tracks
+from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts, TrackerConfig, Tracks
 
 #: history entry of a scan before the family existed, or whose contact is not known (a miss is NO_CONTACT)
 UNKNOWN = -2
@@ -125,17 +124,17 @@ class MHTTracker(ContactTracker):
 
     # ---------------------------------------------------------------------- one scan
     def step(self, scan: Scan) -> TrackerOutput:
-        z, time = self._checked(scan)
-        xy = np.column_stack(polar_to_cart(z[:, 0], z[:, 1])) if len(z) else np.empty((0, 2))
+        sc = self._checked(scan)
+        z, xy, time = sc.z, sc.xy, sc.time
         leaves, shown, chosen = None, None, np.empty(0, np.int64)
         used = np.zeros(len(z), bool)
         if self.leaves is not None and len(self.leaves):
-            leaves, shown = self._branch(self.leaves, z, xy, time)
+            leaves, shown = self._branch(self.leaves, sc)
             chosen = self._global_hypothesis(leaves)
             now = leaves.hist[chosen, -1]
             used[now[now >= 0]] = True
         families = 0 if leaves is None else np.unique(leaves.tracks.track_id).size
-        born, contact = self.initiation(z, xy, used, time, families)
+        born, contact = self.initiation(z, xy, used, time, families, sc.sensor)
         if born is not None:
             new = self._new_leaves(born, contact)
             x, P = self.filter.estimate(born.filt)
@@ -149,13 +148,17 @@ class MHTTracker(ContactTracker):
         return self._report(scan.index, time, leaves, shown, chosen)
 
     # ---------------------------------------------------------------------- branching
-    def _branch(self, leaves: Leaves, z: np.ndarray, xy: np.ndarray, time: float) -> tuple[Leaves, _Shown]:
-        cfg, imm, tr = self.config, self.filter, leaves.tracks
+    def _branch(self, leaves: Leaves, scan: ScanContacts) -> tuple[Leaves, _Shown]:
+        cfg, imm, tr = self.config, scan.filter, leaves.tracks
+        z, xy, time = scan.z, scan.xy, scan.time
         L = len(leaves)
         pred = imm.predict(tr.filt, time - tr.t2)
         x_pred, P_pred = imm.estimate(pred.state)
         p_gate = 1.0 - math.exp(-cfg.gate / 2.0)  # chi-square cdf, 2 dof
         miss_score = leaves.score + math.log(1.0 - cfg.pd * p_gate)
+        observed = self._observed(scan, pred)  # a leaf its sensor cannot see keeps its score and counters
+        if observed is not None:
+            miss_score = np.where(observed, miss_score, leaves.score)
 
         parent = np.arange(L)
         contact = np.full(L, NO_CONTACT, np.int64)
@@ -166,7 +169,7 @@ class MHTTracker(ContactTracker):
             pl, pj = gated.rows, gated.cols
             if pl.size:
                 ll = imm.pair_log_likelihood(pred, pl, z[pj])
-                beta_ft = self._clutter_density(x_pred, xy) * mp.z[:, 0]
+                beta_ft = self._clutter_density(x_pred, xy) * imm.measurement.area_jacobian(mp.z)
                 det = leaves.score[pl] + math.log(cfg.pd) + ll - np.log(beta_ft[pl])
                 order = np.lexsort((-det, pl))
                 pl, pj, det = pl[order], pj[order], det[order]
@@ -183,7 +186,8 @@ class MHTTracker(ContactTracker):
         if dp.size:
             updated = imm.update(pred.take(dp), z[dc])
             filt = type(filt).concat([filt.take(~detected), updated])  # misses come first
-        tracks = children.after_scan(contact, filt, z, xy, time, cfg.lifecycle)
+        tracks = children.after_scan(contact, filt, z, xy, time, cfg.lifecycle,
+                                     None if observed is None else observed[parent])
         max_score = np.maximum(leaves.max_score[parent], score)
         if cfg.confirmation == "score":
             confirm = (tracks.status == TrackStatus.PRELIMINARY) & (score > cfg.confirmation_score)

@@ -34,6 +34,7 @@ Contacts left over go to initiation, as for every tracker.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, ClassVar, Literal
 
@@ -52,10 +53,12 @@ from nnda.tracking.output import CONFIRMED, NO_CONTACT
 from nnda.tracking.tracker import (
     Association,
     ContactTrackerConfig,
+    ScanContacts,
     SingleHypothesisTracker,
     TrackerConfig,
     Tracks,
     hard_update,
+    only_sensor,
 )
 
 
@@ -83,8 +86,9 @@ class NeuralTracker(SingleHypothesisTracker):
     name: ClassVar[str] = "nn"
     config_type: ClassVar[type[TrackerConfig]] = NeuralConfig
 
-    def __init__(self, sensor: Sensor, config: NeuralConfig) -> None:
-        super().__init__(sensor, config)
+    def __init__(self, sensors: Sensor | Sequence[Sensor], config: NeuralConfig) -> None:
+        # the pair features (azimuth sectors, speeds from two contacts) are those of one radar's contacts
+        super().__init__(only_sensor(self.name, sensors), config)
         try:
             self.scorer: Scorer = load_model(self.config.model)
         except ModelError as exc:
@@ -100,9 +104,9 @@ class NeuralTracker(SingleHypothesisTracker):
         super().reset()
         self._first_time = np.empty(0)  # time (s) of each track's first contact, by track id
 
-    def associate(self, tracks: Tracks, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray,
-                  time: float) -> Association:
+    def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
         contact = np.full(len(tracks), NO_CONTACT, np.int64)
+        z, xy, time = scan.z, scan.xy, scan.time
         if len(z):
             # the framework's arrays are checked already (scan checks, filter outputs): no second check here;
             # the scorer still refuses a non-finite feature
@@ -112,7 +116,7 @@ class NeuralTracker(SingleHypothesisTracker):
                                          tracks.t2[track], xy[cand], time, check=False)
                 if self._extended:
                     age = time - self._born(tracks)[track]
-                    features = innovation_features(self.filter, pred, track, z[cand], features, age)
+                    features = innovation_features(scan.filter, pred, track, z[cand], features, age)
                 score = self.scorer(features)
                 match = score > self.config.threshold
                 rank = score[match]
@@ -120,7 +124,7 @@ class NeuralTracker(SingleHypothesisTracker):
                     rank = rank + 2.0 * (tracks.status[track[match]] == CONFIRMED)
                 chosen_track, chosen_contact = greedy_matching(track[match], cand[match], rank)
                 contact[chosen_track] = chosen_contact
-        return hard_update(self.filter, pred, z, contact)
+        return hard_update(scan.filter, pred, z, contact)
 
     def _born(self, tracks: Tracks) -> np.ndarray:
         """Time (s) of each track's first contact, (K,). Track ids count up from 0 and a track is first

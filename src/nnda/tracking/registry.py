@@ -1,4 +1,4 @@
-"""Trackers by name: ``make_tracker("gnn", sensor, {...})`` validates the config and builds one.
+"""Trackers by name: ``make_tracker("gnn", sensors, {...})`` validates the config and builds one.
 
 `TRACKERS` maps a name to its class. Iterating it gives the built-in
 trackers; the Stone Soup peers (`PEERS`, the ``nnda[peers]`` extra) are
@@ -12,7 +12,7 @@ the extra.
 from __future__ import annotations
 
 import importlib
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from nnda.data.scenario import Sensor
@@ -54,13 +54,18 @@ TRACKERS: dict[str, type[Tracker]] = _Registry(
     {cls.name: cls for cls in (GNNTracker, JPDATracker, MHTTracker, NeuralTracker)})
 
 
-def make_tracker(name: str, sensor: Sensor, params: Mapping[str, Any] | None = None,
+def make_tracker(name: str, sensors: Sensor | Sequence[Sensor], params: Mapping[str, Any] | None = None,
                  where: str = "tracker config") -> Tracker:
-    """A tracker of kind ``name`` with its config validated from ``params`` (defaults: the spec's)."""
+    """A tracker of kind ``name`` for ``sensors`` (a scenario's, or one) with its config validated from
+    ``params`` (defaults: the spec's); a tracker that cannot use these sensors is a ConfigError."""
     if name not in TRACKERS:
         raise ConfigError(f"{where}: unknown tracker {name!r}; choose one of {', '.join([*TRACKERS, *PEERS])}")
     try:
         cls = TRACKERS[name]
     except ConfigError as exc:
         raise ConfigError(f"{where}: {exc}") from None
-    return cls(sensor, validated(cls.config_type, dict(params or {}), where, f"{name} config"))
+    config = validated(cls.config_type, dict(params or {}), where, f"{name} config")
+    try:
+        return cls(sensors, config)
+    except ConfigError as exc:
+        raise ConfigError(f"{where}: {exc}") from None

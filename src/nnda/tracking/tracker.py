@@ -3,27 +3,31 @@
 **Protocol.** A tracker is anything with a ``name``, a ``config_type`` (its
 strict pydantic config, a `TrackerConfig`), ``reset()`` and ``step(scan) ->
 TrackerOutput`` (conventions.md, "Interfaces"); it is built as
-``cls(sensor, config)``, by `nnda.tracking.registry.make_tracker`. Nothing
-more is assumed: a peer (Stone Soup), a PHD filter or a track-before-detect
-tracker meets it without an IMM or an initiator. `checked_scan` is the scan
-check every one of them can share.
+``cls(sensors, config)`` (a scenario's sensors, or one `Sensor`), by
+`nnda.tracking.registry.make_tracker`. Nothing more is assumed: a peer
+(Stone Soup), a PHD filter or a track-before-detect tracker meets it
+without an IMM or an initiator. `checked_scan` is the scan check every one
+of them can share; `sensor_tuple` and `only_sensor` read the sensors.
 
 **Framework.** `ContactTracker` holds what trackers that build tracks from
 contacts share: a per-track filter component (the IMM, `IMM.for_sensor` by
-default) and the two-point initiation (`TwoPointInitiation`). The
-single-hypothesis trackers (`SingleHypothesisTracker`: GNN, JPDA, neural)
-then differ in one hook only, `associate`; each scan:
+default), one copy of it per sensor with that sensor's measurement model,
+and the two-point initiation (`TwoPointInitiation`). A scan is one sweep of
+one sensor: its contacts update the tracks through that sensor's filter, so
+two radars' scans refine the same tracks. The single-hypothesis trackers
+(`SingleHypothesisTracker`: GNN, JPDA, neural) then differ in one hook
+only, `associate`; each scan:
 
-1. check the scan (time increasing, (N, 2) finite polar contacts);
+1. check the scan (time increasing, a known sensor, (N, 2) finite contacts);
 2. predict every live track's filter to the scan time, over the time since
    its last update (spec §7.1.8: a missed scan is not an update);
 3. **associate** (the method's part): decide which contact, if any, updates
    each track and return the states after the scan (`Association`);
 4. the M/N and deletion logic of `nnda.tracking.lifecycle`;
-5. initiation: last scan's initiators pair with this scan's unused contacts
-   inside their [D_min, D_max] window, each pair opening a preliminary
-   track (two-point start); unused contacts outside every window become the
-   next initiators (spec §4, A11);
+5. initiation: the initiators of the sensor's last scan pair with this
+   scan's unused contacts inside their [D_min, D_max] window, each pair
+   opening a preliminary track (two-point start); unused contacts outside
+   every window become that sensor's next initiators (spec §4, A11);
 6. report every track (and those deleted in this scan, once more).
 
 Track records are batched arrays (`Tracks`), so steps 2-6 have no Python
@@ -36,6 +40,7 @@ from __future__ import annotations
 import math
 import warnings
 from abc import ABC, abstractmethod
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import ClassVar, Protocol, runtime_checkable
 
@@ -44,10 +49,11 @@ from pydantic import BaseModel, ConfigDict
 
 from nnda.data.dataset import Scan
 from nnda.data.scenario import Sensor
-from nnda.data.sensor import polar_to_cart
-from nnda.errors import BoundWarning, TrackingError
+from nnda.data.sensor import in_coverage
+from nnda.errors import BoundWarning, ConfigError, TrackingError
 from nnda.filters.batch import Batch
 from nnda.filters.imm import IMM, IMMPrediction, IMMState
+from nnda.filters.measurement import measurement_model
 from nnda.tracking.lifecycle import LifecycleConfig, advance, cap_pairs, cap_per_initiator, window_pairs
 from nnda.tracking.output import DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
 
@@ -66,7 +72,7 @@ class ContactTrackerConfig(TrackerConfig):
 
 @runtime_checkable
 class Tracker(Protocol):
-    """What a study runs: one scan in, every track out. Built as ``cls(sensor, config)``."""
+    """What a study runs: one scan in, every track out. Built as ``cls(sensors, config)``."""
 
     name: ClassVar[str]
     config_type: ClassVar[type[TrackerConfig]]
@@ -86,12 +92,35 @@ def checked_config(tracker: Tracker, config: TrackerConfig | None) -> TrackerCon
     return config
 
 
-def checked_scan(name: str, scan: Scan, last_time: float) -> tuple[np.ndarray, float]:
-    """The contacts z (N, 2) [range m, azimuth rad] and time (s) of ``scan``, checked for tracker ``name``.
+def sensor_tuple(sensors: Sensor | Sequence[Sensor]) -> tuple[Sensor, ...]:
+    """The sensors a tracker is built for, as a tuple (one `Sensor` or a scenario's ``sensors``)."""
+    found = (sensors,) if isinstance(sensors, Sensor) else tuple(sensors)
+    if not found or not all(isinstance(s, Sensor) for s in found):
+        raise TrackingError(f"a tracker needs one or more nnda.data.scenario.Sensor, got {sensors!r}")
+    return found
 
-    Raises TrackingError unless the time is finite and after ``last_time``
-    and every contact is finite with a positive range.
+
+def only_sensor(name: str, sensors: Sensor | Sequence[Sensor], kind: str = "polar") -> Sensor:
+    """The one sensor of a tracker that works with a single sensor of ``kind``; ConfigError otherwise."""
+    found = sensor_tuple(sensors)
+    if len(found) != 1 or found[0].kind != kind:
+        described = ", ".join(f"{s.name} ({s.kind})" for s in found)
+        raise ConfigError(f"tracker {name!r} works with one {kind} sensor; this scenario has {described}")
+    return found[0]
+
+
+def checked_scan(name: str, scan: Scan, last_time: float, sensors: tuple[Sensor, ...]) -> tuple[np.ndarray, float]:
+    """The contacts z (N, 2) and time (s) of ``scan``, checked for tracker ``name`` built for ``sensors``.
+
+    Raises TrackingError unless the time is finite and after ``last_time``,
+    the scan's sensor is one of ``sensors`` and every contact is finite
+    (with a positive range for a polar sensor: [range m, azimuth rad]).
     """
+    sensor = scan.sensor
+    if not (isinstance(sensor, (int, np.integer)) and 0 <= sensor < len(sensors)):
+        raise TrackingError(f"{name}: scan {scan.index} comes from sensor {sensor!r}, but this tracker was built "
+                            f"for {len(sensors)} sensor(s) ({', '.join(s.name for s in sensors)})")
+    polar = sensors[sensor].kind == "polar"
     time = float(scan.time)
     if not math.isfinite(time):
         raise TrackingError(f"{name}: scan {scan.index} has a non-finite time {scan.time}")
@@ -102,12 +131,12 @@ def checked_scan(name: str, scan: Scan, last_time: float) -> tuple[np.ndarray, f
     if z.size == 0:
         return np.empty((0, 2)), time
     if z.ndim != 2 or z.shape[1] != 2:
-        raise TrackingError(f"{name}: scan {scan.index}: measurements must have shape (N, 2) "
-                            f"[range m, azimuth rad], got {z.shape}")
-    if not (np.isfinite(z).all() and (z[:, 0] > 0).all()):
-        row = int(np.flatnonzero(~np.isfinite(z).all(axis=1) | ~(z[:, 0] > 0))[0])
+        what = "[range m, azimuth rad]" if polar else "[x m, y m]"
+        raise TrackingError(f"{name}: scan {scan.index}: measurements must have shape (N, 2) {what}, got {z.shape}")
+    if not (np.isfinite(z).all() and (not polar or (z[:, 0] > 0).all())):
+        row = int(np.flatnonzero(~np.isfinite(z).all(axis=1) | (polar & ~(z[:, 0] > 0)))[0])
         raise TrackingError(f"{name}: scan {scan.index}: contact {row} is invalid {z[row].tolist()} "
-                            f"(non-finite or non-positive range)")
+                            f"({'non-finite or non-positive range' if polar else 'non-finite'})")
     return z, time
 
 
@@ -134,15 +163,16 @@ class Tracks(Batch):
     consecutive: np.ndarray
 
     def after_scan(self, contact: np.ndarray, filt: IMMState, z: np.ndarray, xy: np.ndarray, time: float,
-                   lifecycle: LifecycleConfig) -> Tracks:
+                   lifecycle: LifecycleConfig, observed: np.ndarray | None = None) -> Tracks:
         """These tracks after a scan at ``time``: ``contact`` (K,) is the contact each used
-        (NO_CONTACT: missed), ``filt`` their filter states from then on. The contact history moves on where a
-        contact was used, and the M/N counters and status advance (`lifecycle.advance`)."""
+        (NO_CONTACT: missed), ``filt`` their filter states from then on. The contact history moves on where
+        a contact was used, and the M/N counters and status advance (`lifecycle.advance`) where the scan
+        ``observed`` the track (default: everywhere)."""
         det = contact != NO_CONTACT
         c = np.maximum(contact, 0)
         d1 = det[:, None]
         status, hits, misses, consecutive = advance(self.status, self.hits, self.misses, self.consecutive,
-                                                    det, lifecycle)
+                                                    det, lifecycle, observed)
         return Tracks(
             track_id=self.track_id, status=status, filt=filt,
             p1=np.where(d1, self.p2, self.p1), t1=np.where(det, self.t2, self.t1),
@@ -166,69 +196,71 @@ class Association:
 
 
 class TwoPointInitiation:
-    """Initiators and the preliminary tracks they open (spec §4.2 and A11), for one radar.
+    """Initiators and the preliminary tracks they open (spec §4.2 and A11), per sensor.
 
-    Holds the previous scan's unused contacts; ``__call__`` pairs them with
-    this scan's unused contacts inside the [D_min, D_max] window of
-    ``lifecycle`` and starts a preliminary track per pair with the filter's
-    two-point start. Track ids count up from 0 after each `reset`. At most
-    ``lifecycle.max_tracks`` tracks live at once: ``n_refused`` counts the
-    pairs refused for want of room since the last reset, and the first
-    refusal of a run is a `BoundWarning`.
+    Holds each sensor's unused contacts of its previous scan; ``__call__``
+    pairs them with the same sensor's unused contacts of this scan inside the
+    [D_min, D_max] window of ``lifecycle`` (from that sensor's scan period
+    and noise) and starts a preliminary track per pair with that sensor's
+    filter's two-point start. Track ids count up from 0 after each `reset`,
+    over all sensors. At most ``lifecycle.max_tracks`` tracks live at once:
+    ``n_refused`` counts the pairs refused for want of room since the last
+    reset, and the first refusal of a run is a `BoundWarning`.
     """
 
-    def __init__(self, track_filter: IMM, lifecycle: LifecycleConfig, sensor: Sensor) -> None:
-        self.filter = track_filter
+    def __init__(self, filters: Sequence[IMM], lifecycle: LifecycleConfig, sensors: Sequence[Sensor]) -> None:
+        self.filters = tuple(filters)
         self.lifecycle = lifecycle
-        self.d_min, self.d_max = lifecycle.window(sensor.scan_period_s, sensor.sigma_range_m)
+        self.windows = tuple(lifecycle.window(s.scan_period_s, _sigma_m(s)) for s in sensors)
         self.reset()
 
     def reset(self) -> None:
         """Forget every initiator; ids start again at 0."""
-        self.contacts = np.empty((0, 2))  # polar contacts of the previous scan
-        self.xy = np.empty((0, 2))  # and their Cartesian positions (m)
-        self.time = -np.inf
+        n = len(self.filters)
+        self.contacts = [np.empty((0, 2))] * n  # per sensor: contacts of its previous scan
+        self.xy = [np.empty((0, 2))] * n  # and their Cartesian positions (m)
+        self.time = [-np.inf] * n
         self.next_id = 0
         self.n_refused = 0
 
-    def __call__(self, z: np.ndarray, xy: np.ndarray, used: np.ndarray, time: float, live: int
+    def __call__(self, z: np.ndarray, xy: np.ndarray, used: np.ndarray, time: float, live: int, sensor: int = 0
                  ) -> tuple[Tracks | None, np.ndarray | None]:
-        """Open preliminary tracks from the initiators with this scan's contacts z (N, 2) polar, xy (N, 2)
-        m that no track ``used`` (N,), given ``live`` tracks already; keep the contacts outside every
-        window as the next initiators.
+        """Open preliminary tracks from ``sensor``'s initiators with this scan's contacts z (N, 2), xy
+        (N, 2) m that no track ``used`` (N,), given ``live`` tracks already; keep the contacts outside
+        every window as the sensor's next initiators.
 
         Returns the new tracks (or None) and the contact each one used.
         """
         free = np.flatnonzero(~used)
         born, contact = None, None
         in_window = np.zeros(len(free), bool)
-        if len(self.contacts) and len(free):
-            init_xy, free_xy = self.xy, xy[free]
-            i, j = window_pairs(init_xy, free_xy, self.d_min, self.d_max)
-            i, j = cap_per_initiator(i, j, init_xy, free_xy, self.d_min, self.d_max,
-                                     self.lifecycle.max_tracks_per_initiator)
+        d_min, d_max = self.windows[sensor]
+        if len(self.contacts[sensor]) and len(free):
+            init_xy, free_xy, before = self.xy[sensor], xy[free], self.time[sensor]
+            i, j = window_pairs(init_xy, free_xy, d_min, d_max)
+            i, j = cap_per_initiator(i, j, init_xy, free_xy, d_min, d_max, self.lifecycle.max_tracks_per_initiator)
             room = max(self.lifecycle.max_tracks - live, 0)
             if len(i) > room:
                 in_window[j] = True  # every windowed contact is spoken for, opened or not
                 self._refuse(len(i) - room, live, time)
-                i, j = cap_pairs(i, j, init_xy, free_xy, self.d_min, self.d_max, room)
+                i, j = cap_pairs(i, j, init_xy, free_xy, d_min, d_max, room)
             if len(i):
                 in_window[j] = True
                 contact = free[j]
                 p1 = init_xy[i]
-                p2, cov2 = self.filter.measurement.position(z[contact])
+                p2, cov2 = self.filters[sensor].measurement.position(z[contact])
                 k = len(i)
                 zeros = np.zeros(k, np.int64)
                 born = Tracks(
                     track_id=np.arange(self.next_id, self.next_id + k, dtype=np.int64),
                     status=np.full(k, PRELIMINARY, np.int8),
-                    filt=self.filter.start(p1, p2, cov2, time - self.time),
-                    p1=p1, t1=np.full(k, self.time), p2=p2, t2=np.full(k, time),
+                    filt=self.filters[sensor].start(p1, p2, cov2, time - before),
+                    p1=p1, t1=np.full(k, before), p2=p2, t2=np.full(k, time),
                     az2=z[contact, 1], hits=zeros, misses=zeros.copy(), consecutive=zeros.copy(),
                 )
                 self.next_id += k
         rest = free[~in_window]
-        self.contacts, self.xy, self.time = z[rest], xy[rest], time
+        self.contacts[sensor], self.xy[sensor], self.time[sensor] = z[rest], xy[rest], time
         return born, contact
 
     def _refuse(self, n: int, live: int, time: float) -> None:
@@ -239,24 +271,32 @@ class TwoPointInitiation:
         self.n_refused += n
 
 
-class ContactTracker(ABC):
-    """Base of the trackers that build tracks from contacts: the radar, a per-track filter, initiation.
+def _sigma_m(sensor: Sensor) -> float:
+    """The sensor's noise along a contact-to-contact distance (m): range noise, or position noise."""
+    return sensor.sigma_range_m if sensor.kind == "polar" else sensor.sigma_position_m
 
-    Construct with the radar (`nnda.data.scenario.Sensor`: noise, coverage,
-    scan period), a config and optionally the per-track filter (default: the
-    spec's IMM for this radar, `IMM.for_sensor`); ``step(scan)`` processes
-    one sweep.
+
+class ContactTracker(ABC):
+    """Base of the trackers that build tracks from contacts: the sensors, a per-track filter, initiation.
+
+    Construct with the scenario's sensors (`nnda.data.scenario.Sensor`: kind,
+    position, noise, coverage, scan period; or one sensor), a config and
+    optionally the per-track filter (default: the spec's IMM, `IMM.for_sensor`
+    of the first sensor); the other sensors get copies of it with their own
+    measurement models (`IMM.for_measurement`). ``step(scan)`` processes one
+    sweep of one of the sensors.
     """
 
     name: ClassVar[str]
     config_type: ClassVar[type[TrackerConfig]] = ContactTrackerConfig
 
-    def __init__(self, sensor: Sensor, config: ContactTrackerConfig | None = None,
+    def __init__(self, sensors: Sensor | Sequence[Sensor], config: ContactTrackerConfig | None = None,
                  track_filter: IMM | None = None) -> None:
-        self.sensor = sensor
+        self.sensors = sensor_tuple(sensors)
         self.config = checked_config(self, config)
-        self.filter = track_filter if track_filter is not None else IMM.for_sensor(sensor)
-        self.initiation = TwoPointInitiation(self.filter, self.config.lifecycle, sensor)
+        self.filter = track_filter if track_filter is not None else IMM.for_sensor(self.sensors[0])
+        self.filters = (self.filter, *(self.filter.for_measurement(measurement_model(s)) for s in self.sensors[1:]))
+        self.initiation = TwoPointInitiation(self.filters, self.config.lifecycle, self.sensors)
         self.reset()
 
     def reset(self) -> None:
@@ -268,8 +308,38 @@ class ContactTracker(ABC):
     def step(self, scan: Scan) -> TrackerOutput:
         """Process one sweep and report every track."""
 
-    def _checked(self, scan: Scan) -> tuple[np.ndarray, float]:
-        return checked_scan(self.name, scan, self.last_time)
+    def _checked(self, scan: Scan) -> ScanContacts:
+        z, time = checked_scan(self.name, scan, self.last_time, self.sensors)
+        imm = self.filters[scan.sensor]
+        return ScanContacts(scan.index, time, int(scan.sensor), imm, z, imm.measurement.cartesian(z))
+
+    def _observed(self, scan: ScanContacts, pred: IMMPrediction) -> np.ndarray | None:
+        """Which tracks the scan's sensor can see at their predicted positions: inside its coverage, or
+        outside every sensor's (a track nobody sees still misses). None (all) with one sensor."""
+        if len(self.sensors) == 1:
+            return None
+        x = self.filter.estimate(pred.state)[0]
+        px, py = x[:, 0], x[:, 2]
+        inside = np.array([in_coverage(s, px, py) for s in self.sensors])  # (sensors, K)
+        return inside[scan.sensor] | ~inside.any(axis=0)
+
+
+@dataclass(frozen=True)
+class ScanContacts:
+    """One checked scan as the framework hands it to a method.
+
+    ``sensor`` indexes the tracker's sensors and ``filter`` is the per-track
+    filter with that sensor's measurement model; ``z`` (N, 2) holds the
+    contacts in its measurement space (polar: [range m, azimuth rad] from the
+    sensor) and ``xy`` (N, 2) their positions (m, scenario frame).
+    """
+
+    index: int
+    time: float
+    sensor: int
+    filter: IMM
+    z: np.ndarray
+    xy: np.ndarray
 
 
 def hard_update(track_filter: IMM, pred: IMMPrediction, z: np.ndarray, contact: np.ndarray) -> Association:
@@ -293,36 +363,36 @@ class SingleHypothesisTracker(ContactTracker):
         self.tracks: Tracks | None = None
 
     @abstractmethod
-    def associate(self, tracks: Tracks, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray,
-                  time: float) -> Association:
-        """Associate this scan's contacts z (N, 2) polar / xy (N, 2) Cartesian (m) with the tracks.
+    def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
+        """Associate the scan's contacts (``scan.z``, ``scan.xy``) with the tracks.
 
-        ``pred`` is every track's filter prediction to ``time`` (s). Return
-        the contact chosen for each track and the states after the scan
-        (updated, or the prediction for a track without a contact; see
-        `hard_update`).
+        ``pred`` is every track's prediction to ``scan.time`` (s) by
+        ``scan.filter``. Return the contact chosen for each track and the
+        states after the scan (updated, or the prediction for a track without
+        a contact; see `hard_update`).
         """
 
     def step(self, scan: Scan) -> TrackerOutput:
         """Process one sweep and report every track."""
-        z, time = self._checked(scan)
-        xy = np.empty((len(z), 2))
-        xy[:, 0], xy[:, 1] = polar_to_cart(z[:, 0], z[:, 1])
+        sc = self._checked(scan)
+        z, xy, time = sc.z, sc.xy, sc.time
         used = np.zeros(len(z), bool)
         shown = []  # (tracks, filter state to report, contact used) per block of the output
         tracks = self.tracks
         if tracks is not None:
-            pred = self.filter.predict(tracks.filt, time - tracks.t2, check=False)
-            assoc = self.associate(tracks, pred, z, xy, time)
+            pred = sc.filter.predict(tracks.filt, time - tracks.t2, check=False)
+            assoc = self.associate(tracks, pred, sc)
             c = assoc.contact
             det = c != NO_CONTACT
             used[c[det]] = True
+            observed = self._observed(sc, pred)
             # a missed track keeps its last posterior (§7.1.8) and reports its prediction
-            tracks = tracks.after_scan(c, _pick(det, assoc.filt, tracks.filt), z, xy, time, self.config.lifecycle)
+            tracks = tracks.after_scan(c, _pick(det, assoc.filt, tracks.filt), z, xy, time, self.config.lifecycle,
+                                       observed)
             shown.append((tracks, assoc.filt, c))
             alive = np.flatnonzero(tracks.status != DELETED)
             tracks = None if not alive.size else tracks if alive.size == len(tracks) else tracks.take(alive)
-        born, born_contact = self.initiation(z, xy, used, time, 0 if tracks is None else len(tracks))
+        born, born_contact = self.initiation(z, xy, used, time, 0 if tracks is None else len(tracks), sc.sensor)
         if born is not None:
             shown.append((born, born.filt, born_contact))
             tracks = born if tracks is None else Tracks.concat([tracks, born])
