@@ -31,7 +31,7 @@ def test_written_study_reads_back_equal(tmp_path):
 
 
 @pytest.mark.parametrize("data, message", [
-    ({"trackers": {}, "scenarios": [{"preset": "S1"}]}, "trackers: Dictionary should have at least 1 item"),
+    ({"trackers": {}, "scenarios": [{"preset": "S1"}]}, "name at least one tracker"),
     ({"trackers": {"a": {"kind": "gnn"}}, "scenarios": [{"preset": "S1", "path": "x"}]},
      "give exactly one of preset, config or path"),
     ({"trackers": {"a": {"kind": "nn", "model": "lm"}}, "scenarios": [{"preset": "S1"}]},

@@ -31,6 +31,7 @@ from nnda.files import atomic_file, read_json
 from nnda.models.ablation import ABLATION_FILE
 from nnda.reports import ablation_section, features_section, study_figures
 from nnda.reports.classifier_tables import classifier_table, model_test_table
+from nnda.reports.filters_section import filters_section
 from nnda.reports.peers_section import against_stonesoup, peer_labels
 from nnda.reports.study_summary import summary_markdown
 from nnda.reports.study_tables import is_thesis_scenario, scenario_table
@@ -222,32 +223,10 @@ def _scenarios(manifest: dict, summary: dict, timing: dict) -> Section:
     return sec
 
 
-def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
-    """Markdown text, HTML text and the figures of the report of study directory ``out``."""
-    out = Path(out)
-    manifest = read_json(out / MANIFEST, STUDY_FORMAT, STUDY_FORMAT_VERSION)
-    summary, timing = read_summary(out)
-    classifier = read_json(out / CLASSIFIER_FILE, CLASSIFIER_FORMAT, CLASSIFIER_VERSION)
-    if not summary["fingerprint"] == timing["fingerprint"] == manifest["fingerprint"]:
-        raise DatasetError(f"{out}: study.json, summary.json and timing.json come from different studies; "
-                           f"rerun `nnda compare --resume` to rebuild them")
-    scenarios = [s["name"] for s in summary["scenarios"]]
-    trackers = [t["label"] for t in summary["trackers"]]
-    scan_times = {s["name"]: scenario_from_dict(s["scenario"]).scan_schedule()[0] for s in manifest["scenarios"]}
-    figures: list[Figure] = []
-
-    top = Section("summary", "Summary", [], [])
-    top.text(summary_markdown(summary, timing))
-    sections = [top, _setup(manifest, summary, timing), _classifier(classifier, figures),
-                _scenarios(manifest, summary, timing)]
-    pairs = features_section.feature_pairs(manifest, classifier)
-    if pairs:
-        sections.append(_features_in_tracker(pairs, summary, timing))
-    if (out / ABLATION_FILE).is_file():
-        sections.append(_ablation(read_ablation(out / ABLATION_FILE), figures))
-    if peer_labels(summary):
-        sections.append(against_stonesoup(Section("peers", "Against Stone Soup", [], []), summary, timing))
-
+def _tracker_figures(out: Path, summary: dict, scenarios: list[str], trackers: list[str],
+                     scan_times: dict[str, np.ndarray], figures: list[Figure]) -> list[Section]:
+    """The sections of figures over the trackers: time per scan, per-scan means over time, trajectories."""
+    sections = []
     timing_sec = Section("timing", "Time per scan", [], [])
     fig = Figure("time_per_scan.png", "Time per scan of every scan and run (log scale)",
                  study_figures.time_per_scan(_times(out), scenarios, trackers))
@@ -280,6 +259,40 @@ def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
         div = figure_div(trajectory_figure(name, mine, trackers), f"trajectories-{name}")
         traj.html.append(f'<div class="plot">{div}</div>')
     sections.append(traj)
+
+    return sections
+
+
+def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
+    """Markdown text, HTML text and the figures of the report of study directory ``out``."""
+    out = Path(out)
+    manifest = read_json(out / MANIFEST, STUDY_FORMAT, STUDY_FORMAT_VERSION)
+    summary, timing = read_summary(out)
+    classifier = read_json(out / CLASSIFIER_FILE, CLASSIFIER_FORMAT, CLASSIFIER_VERSION)
+    if not summary["fingerprint"] == timing["fingerprint"] == manifest["fingerprint"]:
+        raise DatasetError(f"{out}: study.json, summary.json and timing.json come from different studies; "
+                           f"rerun `nnda compare --resume` to rebuild them")
+    scenarios = [s["name"] for s in summary["scenarios"]]
+    trackers = [t["label"] for t in summary["trackers"]]
+    scan_times = {s["name"]: scenario_from_dict(s["scenario"]).scan_schedule()[0] for s in manifest["scenarios"]}
+    figures: list[Figure] = []
+
+    top = Section("summary", "Summary", [], [])
+    top.text(summary_markdown(summary, timing))
+    sections = [top, _setup(manifest, summary, timing), _classifier(classifier, figures)]
+    if trackers:
+        sections.append(_scenarios(manifest, summary, timing))
+        pairs = features_section.feature_pairs(manifest, classifier)
+        if pairs:
+            sections.append(_features_in_tracker(pairs, summary, timing))
+        if (out / ABLATION_FILE).is_file():
+            sections.append(_ablation(read_ablation(out / ABLATION_FILE), figures))
+        if peer_labels(summary):
+            sections.append(against_stonesoup(Section("peers", "Against Stone Soup", [], []), summary, timing))
+    if summary.get("filters"):
+        sections.append(filters_section(Section("filters", "Single-target filters", [], []), summary, timing))
+    if trackers:
+        sections += _tracker_figures(out, summary, scenarios, trackers, scan_times, figures)
 
     title = f"nnda study report: {manifest['study']['name']}"
     md = "\n".join([f"# {title}", ""] + [line for s in sections for line in [f"## {s.title}", "", *s.md]])

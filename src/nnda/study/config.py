@@ -21,6 +21,10 @@ A study is validated data (pydantic), read from TOML or JSON::
     kind = "gnn"
     params = { gate = 9.21 }  # the tracker's own validated config
 
+    [filters.imm-cv]          # optional: a single-target filter (nnda.filters.single_target), run on the
+    kind = "imm"              # study's single-target scenarios with the target's own contacts
+    params = { motion = "cv" }
+
     [[scenarios]]
     preset = "validation"     # a preset or a preset group (S1-S6 here)
     [[scenarios]]
@@ -75,6 +79,15 @@ class TrackerSpec(BaseModel):
         return self
 
 
+class FilterSpec(BaseModel):
+    """One single-target filter of the study: a registered kind and its parameters."""
+
+    model_config = _STRICT
+
+    kind: Annotated[str, Field(min_length=1, description="registered filter name (nnda.filters.single_target)")]
+    params: dict[str, Any] = Field(default_factory=dict, description="the filter's config")
+
+
 class ScenarioSpec(BaseModel):
     """Where one or more scenarios come from: a preset (or group), a config file, or datasets on disk."""
 
@@ -110,11 +123,18 @@ class Study(BaseModel):
     confidence: Annotated[float, Field(gt=0, lt=1, description="level of the t-intervals")] = 0.95
     models: dict[Label, Path] = Field(default_factory=dict)
     ablation: Path | None = Field(default=None, description="`nnda train --ablation` output for the report")
-    trackers: Annotated[dict[Label, TrackerSpec], Field(min_length=1)]
+    trackers: dict[Label, TrackerSpec] = Field(default_factory=dict)
+    filters: dict[Label, FilterSpec] = Field(default_factory=dict, description="single-target filters: jobs "
+                                             "on the study's single-target scenarios")
     scenarios: Annotated[list[ScenarioSpec], Field(min_length=1)]
 
     @model_validator(mode="after")
     def _models_declared(self) -> Study:
+        if not self.trackers and not self.filters:
+            raise ValueError("name at least one tracker ([trackers.<label>]) or filter ([filters.<label>])")
+        both = sorted(set(self.trackers) & set(self.filters))
+        if both:
+            raise ValueError(f"label(s) {', '.join(both)} name both a tracker and a filter; labels must differ")
         for label, spec in self.trackers.items():
             if spec.model is not None and spec.model not in self.models:
                 raise ValueError(f"tracker {label!r} uses model {spec.model!r}, which [models] does not declare "
@@ -217,6 +237,10 @@ def study_to_toml(study: Study, relative_to: Path | None = None) -> str:
         lines += ["", f"[trackers.{_toml_key(label)}]", f"kind = {_toml_value(spec.kind)}"]
         if spec.model is not None:
             lines.append(f"model = {_toml_value(spec.model)}")
+        if spec.params:
+            lines.append(f"params = {_toml_value(spec.params)}")
+    for label, spec in study.filters.items():
+        lines += ["", f"[filters.{_toml_key(label)}]", f"kind = {_toml_value(spec.kind)}"]
         if spec.params:
             lines.append(f"params = {_toml_value(spec.params)}")
     for s in study.scenarios:

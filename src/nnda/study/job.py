@@ -1,4 +1,4 @@
-"""One job of a study: a tracker over one run of one scenario, measured and scored.
+"""One job of a study: a tracker over one run of one scenario (or a single-target filter), measured and scored.
 
 `run_job` is what a worker process (local or on a Dask cluster) executes. It
 builds the run's dataset (generated from scenario, seed and run, or read
@@ -8,6 +8,12 @@ spec A29), scores the outputs with `nnda.study.metrics.run_metrics` (every
 run measure of `nnda.study.measures`) and returns a JSON-ready record. The caller writes the record to the job's own
 file; wall-clock timings are kept apart from the metrics (``timing``) so
 that everything else is bit-identical for the same seed.
+
+A "filter" job (`JobSpec.task`) runs a single-target filter
+(`nnda.filters.single_target`) through the target's own contacts (the
+generator's labels pick them: no association) and scores its estimates
+against the truth with `nnda.study.filter_measures`; its record has the
+same layout, with those measures.
 """
 
 from __future__ import annotations
@@ -20,6 +26,8 @@ from threadpoolctl import threadpool_limits
 from nnda.data.dataset import Dataset, read_dataset
 from nnda.data.generator import generate
 from nnda.files import digest, finite_or_none
+from nnda.filters.single_target import make_filter
+from nnda.study.filter_measures import FILTER_MEASURES, FILTER_SERIES, FilterRun
 from nnda.study.measures import RUN_MEASURES, SERIES_MEASURES
 from nnda.study.metrics import RunMetrics, run_metrics
 from nnda.study.plan import JobSpec
@@ -70,6 +78,8 @@ def run_job(job: JobSpec) -> dict:
     """Run one job and return its record (see the module docstring)."""
     with threadpool_limits(1):
         dataset = read_dataset(job.dataset) if job.dataset is not None else generate(job.generate, job.seed, job.run)
+        if job.task == "filter":
+            return _run_filter(job, dataset)
         tracker = make_tracker(job.kind, dataset.scenario.sensors, job.params)
         outputs, seconds = [], np.empty(dataset.n_scans)
         for i, scan in enumerate(dataset.scans()):
@@ -89,3 +99,44 @@ def run_job(job: JobSpec) -> dict:
     if job.keeps_tracks:
         record.update(_tracks(outputs, dataset))
     return record
+
+
+def _run_value(series: np.ndarray) -> float:
+    """A per-scan filter measure's run value: its mean over the scans where it is defined (NaN if none)."""
+    finite = series[np.isfinite(series)]
+    return float(finite.mean()) if finite.size else float("nan")
+
+
+def _run_filter(job: JobSpec, dataset: Dataset) -> dict:
+    """A filter job's record: the filter through the target's own contacts, scored against the truth."""
+    f = make_filter(job.kind, dataset.scenario.sensors, job.params)
+    d, truth = dataset.detections, dataset.truth
+    own = np.flatnonzero(d.target_id == 0)
+    contact = np.full(dataset.n_scans, -1)
+    contact[d.scan[own] - 1] = own  # a target has at most one contact per scan
+    rows = np.flatnonzero(truth.target_id == 0)  # the scans where the target exists, in scan order
+    scans = truth.scan[rows] - 1
+    by_kind = {"polar": np.column_stack([d.range, d.azimuth]), "position": np.column_stack([d.x, d.y])}
+    z_of = [by_kind[s.kind] for s in dataset.scenario.sensors]
+    x, P = np.full((len(rows), 4), np.nan), np.full((len(rows), 4, 4), np.nan)
+    seconds = np.empty(len(rows))
+    for i, k in enumerate(scans.tolist()):
+        sensor = int(dataset.scan_sensor[k])
+        z = z_of[sensor][contact[k]] if contact[k] >= 0 else None
+        start = time.perf_counter()
+        est = f.step(float(dataset.scan_time[k]), sensor, z)
+        seconds[i] = time.perf_counter() - start
+        if est is not None:
+            x[i], P[i] = est.x, est.P
+    run = FilterRun(dataset.scan_time[scans], x, P,
+                    np.column_stack([truth.x[rows], truth.vx[rows], truth.y[rows], truth.vy[rows]]))
+    values = {m.key: m.compute(run) for m in FILTER_MEASURES}
+    return {
+        "format": JOB_FORMAT, "format_version": JOB_FORMAT_VERSION, "key": job.key, "task": "filter",
+        "scenario": job.scenario, "tracker": job.tracker, "kind": job.kind, "run": job.run, "seed": job.seed,
+        "dataset_digest": dataset_digest(dataset), "n_scans": dataset.n_scans, "n_targets": 1,
+        "metrics": {m.key: finite_or_none(_run_value(values[m.key]) if m.per_scan else values[m.key])
+                    for m in FILTER_MEASURES},
+        "series": {m.series_name: [finite_or_none(float(v)) for v in values[m.key]] for m in FILTER_SERIES},
+        "timing": {"time_per_scan_s": seconds.tolist()},
+    }

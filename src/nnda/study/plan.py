@@ -1,4 +1,10 @@
-"""A study resolved into independent (scenario, run, tracker) jobs, every input checked first.
+"""A study resolved into independent jobs, every input checked first.
+
+A job is one of two kinds (``JobSpec.task``): "track", a tracker over one
+run of a scenario (every scenario, every tracker), or "filter", a
+single-target filter over one run of a single-target scenario with the
+target's own contacts (`nnda.filters.single_target`). Both share the keys,
+the resume rule, local processes and Dask (`nnda.study.runner`).
 
 `plan_study` reads every model file and dataset the study names and builds
 every tracker once with its parameters, so a wrong tracker name, a missing
@@ -8,7 +14,8 @@ message before any job runs.
 Each job carries a *key*: a SHA-256 over what determines its result (the
 scenario's config or the dataset's bytes, the tracker kind and parameters
 with the model file's digest in place of its path, run, seed, GOSPA
-cut-off, track ownership when it is not the default "auto", nnda version).
+cut-off, track ownership when it is not the default "auto", the task when
+it is not "track", nnda version).
 A saved job result is reused on resume only under the same key; the
 study's *fingerprint* hashes all keys. (Leaving the default ownership out
 keeps the keys, and the fingerprints, of studies planned before the option
@@ -35,6 +42,7 @@ from nnda.data.presets import resolve
 from nnda.data.scenario import Scenario, Sensor, load_scenario
 from nnda.errors import ConfigError, DatasetError, ModelError
 from nnda.files import digest, file_digest
+from nnda.filters.single_target import make_filter
 from nnda.models.scorer import MODEL_FILE, load_model
 from nnda.study.config import MODEL_PARAM, Study
 from nnda.tracking.registry import PEERS, TRACKERS, make_tracker
@@ -85,8 +93,22 @@ class TrackerPlan:
 
 
 @dataclass(frozen=True)
+class FilterPlan:
+    """A single-target filter of the study and the single-target scenarios it runs on."""
+
+    label: str
+    kind: str
+    params: dict
+    scenarios: tuple[str, ...]
+
+
+@dataclass(frozen=True)
 class JobSpec:
-    """Everything a worker needs to run one job; picklable, no open files."""
+    """Everything a worker needs to run one job; picklable, no open files.
+
+    ``tracker`` is the label of the tracker or, for a "filter" ``task``, of the filter; ``kind`` its
+    registered name.
+    """
 
     scenario: str
     tracker: str
@@ -99,6 +121,7 @@ class JobSpec:
     ownership: str = "auto"
     generate: Scenario | None = None
     dataset: Path | None = None
+    task: str = "track"
 
     @property
     def keeps_tracks(self) -> bool:
@@ -120,6 +143,7 @@ class StudyPlan:
     models: tuple[ModelPlan, ...]
     trackers: tuple[TrackerPlan, ...]
     jobs: tuple[JobSpec, ...]
+    filters: tuple[FilterPlan, ...] = ()
 
     @property
     def fingerprint(self) -> str:
@@ -262,4 +286,41 @@ def plan_study(study: Study, where: str = "study") -> StudyPlan:
                     generate=sc.scenario if sc.generated else None,
                     dataset=None if sc.generated else sc.datasets[run],
                 ))
-    return StudyPlan(study, scenarios, models, trackers, tuple(jobs))
+    filters = _filters(study, scenarios, where)
+    for sc in scenarios:
+        source = digest(_canonical(sc.scenario.model_dump(mode="json"))) if sc.generated else None
+        for run in range(sc.runs):
+            data_id = source if sc.generated else sc.dataset_digests[run]
+            for f in filters:
+                if sc.name not in f.scenarios:
+                    continue
+                key = digest(_canonical({
+                    "nnda": nnda.__version__, "task": "filter", "scenario": sc.name, "data": data_id,
+                    "filter": f.label, "kind": f.kind, "params": f.params, "run": run, "seed": study.seed,
+                }))
+                jobs.append(JobSpec(
+                    scenario=sc.name, tracker=f.label, run=run, kind=f.kind, params=f.params, seed=study.seed,
+                    cutoff_m=study.gospa_cutoff_m, key=key, generate=sc.scenario if sc.generated else None,
+                    dataset=None if sc.generated else sc.datasets[run], task="filter",
+                ))
+    return StudyPlan(study, scenarios, models, trackers, tuple(jobs), filters)
+
+
+def _filters(study: Study, scenarios: tuple[ScenarioPlan, ...], where: str) -> tuple[FilterPlan, ...]:
+    """The study's filters, each built once per distinct set of sensors (validates kind and params), on
+    the single-target scenarios."""
+    if not study.filters:
+        return ()
+    single = tuple(sc for sc in scenarios if len(sc.scenario.targets) == 1)
+    if not single:
+        counts = ", ".join(f"{sc.name} ({len(sc.scenario.targets)})" for sc in scenarios)
+        raise ConfigError(f"{where}: filters run on single-target scenarios, and this study has none "
+                          f"(targets per scenario: {counts})")
+    setups = list({str([s.model_dump_json() for s in sc.scenario.sensors]): sc.scenario.sensors
+                   for sc in single}.values())
+    plans = []
+    for label, spec in study.filters.items():
+        for setup in setups:
+            make_filter(spec.kind, setup, spec.params, where=f"{where}: filter {label!r}")
+        plans.append(FilterPlan(label, spec.kind, dict(spec.params), tuple(sc.name for sc in single)))
+    return tuple(plans)

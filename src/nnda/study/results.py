@@ -17,7 +17,13 @@ Written next to the job files, always rebuilt from them in plan order
 * ``trajectories.parquet``: run 0's truth and every confirmed track's
   reports (the report's trajectory plot);
 * ``timing.parquet`` and ``timing.json``: the wall-clock time per scan of
-  every job and its aggregates, plus how the study was executed.
+  every job and its aggregates, plus how the study was executed;
+* with filter jobs (``[filters.<label>]``): ``filter_results.parquet``, one
+  row per filter job with every measure of `nnda.study.filter_measures`,
+  and in ``summary.json`` a ``filters`` list (per single-target scenario
+  and filter, mean and t-interval of each measure, per-scan means) and the
+  filters' time per scan in ``timing.json``; a study without filters
+  writes neither.
 
 Timing is the only thing that changes between two runs of the same study,
 so it lives in its own two files: ``results.parquet``, ``summary.json`` and
@@ -40,6 +46,7 @@ from scipy import stats
 import nnda
 from nnda.errors import DatasetError
 from nnda.files import atomic_file, finite_or_none, read_json, write_json
+from nnda.study.filter_measures import FILTER_MEASURES, FILTER_SERIES
 from nnda.study.measures import RUN_MEASURES, SERIES_MEASURES, TIME
 from nnda.study.plan import StudyPlan
 from nnda.study.runner import Execution, read_job
@@ -49,6 +56,7 @@ SUMMARY_FORMAT = "nnda.study-summary"
 TIMING_FORMAT = "nnda.study-timing"
 FORMAT_VERSION = 1
 RESULTS_FILE = "results.parquet"
+FILTER_RESULTS_FILE = "filter_results.parquet"
 SUMMARY_FILE = "summary.json"
 TRAJECTORIES_FILE = "trajectories.parquet"
 TIMING_FILE = "timing.parquet"
@@ -90,9 +98,10 @@ def _nanmean_rows(rows: list[list[float]]) -> list[float | None]:
 
 
 def collect(plan: StudyPlan, out: str | Path) -> list[dict]:
-    """Every job record in (scenario, tracker, run) order; checks that all trackers saw the same data."""
+    """Every job record in (scenario, tracker or filter, run) order; checks that all saw the same data."""
     out = Path(out)
-    order = {(s.name, t.label): (i, j) for i, s in enumerate(plan.scenarios) for j, t in enumerate(plan.trackers)}
+    labels = [t.label for t in plan.trackers] + [f.label for f in plan.filters]
+    order = {(s.name, label): (i, j) for i, s in enumerate(plan.scenarios) for j, label in enumerate(labels)}
     jobs = sorted(plan.jobs, key=lambda j: (*order[j.scenario, j.tracker], j.run))
     records = [read_job(job, out) for job in jobs]
     seen: dict[tuple[str, int], str] = {}
@@ -179,9 +188,54 @@ def trajectories_table(records: list[dict]) -> pa.Table:
     return pa.table({k: pa.array(v, type=types[k]) for k, v in rows.items()})
 
 
+def _tracking(records: list[dict]) -> list[dict]:
+    """The records of the tracker jobs (the filter jobs' have ``task`` "filter")."""
+    return [r for r in records if r.get("task", "track") == "track"]
+
+
+def filter_results_table(records: list[dict]) -> pa.Table:
+    """One row per filter job: scenario, filter, kind, run, seed, dataset digest, every filter measure."""
+    cols: dict[str, pa.Array] = {
+        "scenario": _column([r["scenario"] for r in records], "str"),
+        "filter": _column([r["tracker"] for r in records], "str"),
+        "kind": _column([r["kind"] for r in records], "str"),
+        "run": _column([r["run"] for r in records], "int32"),
+        "seed": _column([r["seed"] for r in records], "int"),
+        "dataset_digest": _column([r["dataset_digest"] for r in records], "str"),
+    }
+    for m in FILTER_MEASURES:
+        cols[m.key] = _column([r["metrics"][m.key] for r in records], "float")
+    for m in FILTER_SERIES:
+        cols[f"{m.series_name}_per_scan"] = pa.array([r["series"][m.series_name] for r in records],
+                                                     type=pa.list_(pa.float64()))
+    return pa.table(cols)
+
+
+def _filter_summary(plan: StudyPlan, records: list[dict]) -> list[dict]:
+    conf, out = plan.study.confidence, []
+    for sc in plan.scenarios:
+        filters = {}
+        for f in plan.filters:
+            mine = [r for r in records if r["scenario"] == sc.name and r["tracker"] == f.label]
+            if not mine:
+                continue
+            filters[f.label] = {
+                "kind": f.kind, "runs": len(mine),
+                "metrics": {m.key: mean_ci([r["metrics"][m.key] for r in mine], conf, *m.bounds)
+                            for m in FILTER_MEASURES},
+                "series_mean": {m.series_name: _nanmean_rows([r["series"][m.series_name] for r in mine])
+                                for m in FILTER_SERIES},
+            }
+        if filters:
+            out.append({"name": sc.name, "runs": sc.runs, "filters": filters})
+    return out
+
+
 def summarise(plan: StudyPlan, records: list[dict]) -> dict:
     """The ``summary.json`` content (deterministic: no timing, no paths)."""
     conf = plan.study.confidence
+    filter_records = [r for r in records if r.get("task") == "filter"]
+    records = _tracking(records)
     scenarios = []
     for sc in plan.scenarios:
         trackers = {}
@@ -203,24 +257,32 @@ def summarise(plan: StudyPlan, records: list[dict]) -> dict:
         "ownership": plan.study.ownership,
         "trackers": [{"label": t.label, "kind": t.kind, "model": t.model} for t in plan.trackers],
         "scenarios": scenarios,
+        **({"filters": _filter_summary(plan, filter_records)} if plan.filters else {}),
     }
 
 
 def summarise_timing(plan: StudyPlan, records: list[dict], execution: Execution) -> dict:
-    """The ``timing.json`` content: time per scan per scenario and tracker, and the execution."""
-    scenarios = []
-    for sc in plan.scenarios:
-        trackers = {}
-        for t in plan.trackers:
-            runs = [np.asarray(r["timing"]["time_per_scan_s"]) for r in records
-                    if r["scenario"] == sc.name and r["tracker"] == t.label]
-            every = np.concatenate(runs)
-            trackers[t.label] = {
-                TIME.key: mean_ci([float(x.mean()) for x in runs], plan.study.confidence, *TIME.bounds),
-                "median_s": float(np.median(every)), "p95_s": float(np.percentile(every, 95)),
-                "max_s": float(every.max()),
-            }
-        scenarios.append({"name": sc.name, "trackers": trackers})
+    """The ``timing.json`` content: time per scan per scenario and tracker (and filter), and the execution."""
+    def times(labels: list[str], task: str) -> list[dict]:
+        scenarios = []
+        for sc in plan.scenarios:
+            found = {}
+            for label in labels:
+                runs = [np.asarray(r["timing"]["time_per_scan_s"]) for r in records if r["scenario"] == sc.name
+                        and r["tracker"] == label and r.get("task", "track") == task]
+                if not runs:
+                    continue
+                every = np.concatenate(runs)
+                found[label] = {
+                    TIME.key: mean_ci([float(x.mean()) for x in runs], plan.study.confidence, *TIME.bounds),
+                    "median_s": float(np.median(every)), "p95_s": float(np.percentile(every, 95)),
+                    "max_s": float(every.max()),
+                }
+            if found or task == "track":
+                scenarios.append({"name": sc.name, "trackers" if task == "track" else "filters": found})
+        return scenarios
+
+    filters = {"filters": times([f.label for f in plan.filters], "filter")} if plan.filters else {}
     return {
         "format": TIMING_FORMAT, "format_version": FORMAT_VERSION, "fingerprint": plan.fingerprint,
         "execution": {"executor": execution.executor, "workers": execution.workers, "jobs_run": execution.jobs_run,
@@ -229,7 +291,8 @@ def summarise_timing(plan: StudyPlan, records: list[dict], execution: Execution)
                     "processor": platform.processor() or platform.machine(), "cpus": os.cpu_count(),
                     "nnda_version": nnda.__version__},
         "method": "time.perf_counter around each Tracker.step, one BLAS thread per job (spec A29)",
-        "scenarios": scenarios,
+        "scenarios": times([t.label for t in plan.trackers], "track"),
+        **filters,
     }
 
 
@@ -243,9 +306,15 @@ def write_results(plan: StudyPlan, out: str | Path, execution: Execution) -> dic
     out = Path(out)
     records = collect(plan, out)
     summary = summarise(plan, records)
-    _write_parquet(results_table(records), out / RESULTS_FILE)
-    _write_parquet(trajectories_table(records), out / TRAJECTORIES_FILE)
-    _write_parquet(timing_table(records), out / TIMING_FILE)
+    tracking = _tracking(records)
+    _write_parquet(results_table(tracking), out / RESULTS_FILE)
+    _write_parquet(trajectories_table(tracking), out / TRAJECTORIES_FILE)
+    _write_parquet(timing_table(tracking), out / TIMING_FILE)
+    if plan.filters:
+        _write_parquet(filter_results_table([r for r in records if r.get("task") == "filter"]),
+                       out / FILTER_RESULTS_FILE)
+    else:
+        (out / FILTER_RESULTS_FILE).unlink(missing_ok=True)  # a study rerun without filters keeps no stale file
     write_json(out / SUMMARY_FILE, summary)
     write_json(out / TIMING_SUMMARY_FILE, summarise_timing(plan, records, execution))
     return summary
