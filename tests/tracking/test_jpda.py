@@ -1,12 +1,10 @@
-"""JPDA: marginals against brute-force enumeration, the fallback, the IMM-PDA update, the tracker.
+"""JPDA: the IMM-PDA update and the tracker (its marginals are tested in test_marginals.py).
 
 Behaviour every model-free tracker shares (S1/S2, no clutter, crossing,
 gaps, bad scans) is checked for JPDA in test_trackers_common.py.
 """
 
 from __future__ import annotations
-
-import itertools
 
 import numpy as np
 import pytest
@@ -24,194 +22,11 @@ from nnda.filters.motion import ConstantVelocity
 from nnda.study.metrics import run_metrics
 from nnda.tracking import gating
 from nnda.tracking.jpda import JPDATracker, best_pairs, pair_likelihoods, pda_update
-from nnda.tracking.marginals import Marginals, clusters, jpda_marginals, log_miss_weight, loopy_marginals
+from nnda.tracking.marginals import jpda_marginals, log_miss_weight
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
 from nnda.tracking.tracker import ScanContacts
 from tolerances import RTOL, assert_cov, assert_state
-
-
-def brute_force(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float) -> tuple[np.ndarray, np.ndarray]:
-    """Marginals by listing every joint assignment of all tracks at once (no clusters)."""
-    K, N = gate.shape
-    beta, beta0, total = np.zeros((K, N)), np.zeros(K), 0.0
-    for event in itertools.product(*[[-1, *np.flatnonzero(gate[t])] for t in range(K)]):
-        used = [j for j in event if j >= 0]
-        if len(used) != len(set(used)):
-            continue
-        w = np.exp(sum(log_miss if j < 0 else log_ratio[t, j] for t, j in enumerate(event)))
-        total += w
-        for t, j in enumerate(event):
-            if j < 0:
-                beta0[t] += w
-            else:
-                beta[t, j] += w
-    return beta / total, beta0 / total
-
-
-def marginals(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float, max_events: int
-              ) -> tuple[Marginals, np.ndarray]:
-    """`jpda_marginals` of the pairs where ``gate`` (K, N) is True; also returns its beta as (K, N)."""
-    t, c = np.nonzero(gate)
-    m = jpda_marginals(t, c, log_ratio[t, c], gate.shape[0], log_miss, max_events)
-    dense = np.zeros(gate.shape)
-    dense[t, c] = m.beta
-    return m, dense
-
-
-def loopy(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float) -> tuple[np.ndarray, np.ndarray]:
-    """`loopy_marginals` of the pairs where ``gate`` is True, beta as (K, N)."""
-    t, c = np.nonzero(gate)
-    beta, beta0 = loopy_marginals(t, c, log_ratio[t, c], gate.shape[0], log_miss)
-    dense = np.zeros(gate.shape)
-    dense[t, c] = beta
-    return dense, beta0
-
-
-def test_two_tracks_sharing_a_contact_match_brute_force():
-    # track 0 gates contacts 0 and 1, track 1 gates 1 and 2: one cluster of two tracks
-    gate = np.array([[1, 1, 0], [0, 1, 1]], bool)
-    log_ratio = np.log(np.array([[4.0, 2.0, 1.0], [1.0, 6.0, 0.5]]))  # 1.0: outside the gate
-    log_miss = np.log(0.1)
-    m, got = marginals(gate, log_ratio, log_miss, max_events=10_000)
-    beta, beta0 = brute_force(gate, log_ratio, log_miss)
-    np.testing.assert_allclose(got, beta, rtol=RTOL, atol=RTOL)  # probabilities: atol on their scale, 1
-    np.testing.assert_allclose(m.beta0, beta0, rtol=RTOL)
-    # by hand: the 8 feasible events have weights
-    # {miss,miss} .01, {0,miss} .4, {1,miss} .2, {miss,1} .6, {miss,2} .05, {0,1} 24, {0,2} 2, {1,2} 1
-    total = 0.01 + 0.4 + 0.2 + 0.6 + 0.05 + 24 + 2 + 1
-    assert got[0, 0] == pytest.approx((0.4 + 24 + 2) / total)
-    assert got[1, 1] == pytest.approx((0.6 + 24) / total)
-    assert m.beta0[1] == pytest.approx((0.01 + 0.4 + 0.2) / total)
-    assert not m.approximated.any() and m.cluster.tolist() == [0, 0]
-
-
-@pytest.mark.parametrize("seed", range(40))
-def test_random_gates_match_brute_force(seed):
-    rng = np.random.default_rng(seed)
-    K, N = rng.integers(1, 6), rng.integers(1, 6)
-    gate = rng.random((K, N)) < 0.5
-    log_ratio = rng.normal(0.0, 2.0, (K, N))
-    log_miss = float(rng.normal(-2.0, 1.0))
-    m, got = marginals(gate, log_ratio, log_miss, max_events=10_000)
-    beta, beta0 = brute_force(gate, log_ratio, log_miss)
-    np.testing.assert_allclose(got, beta, atol=RTOL)
-    np.testing.assert_allclose(m.beta0, beta0, atol=RTOL)
-    np.testing.assert_allclose(got.sum(axis=1) + m.beta0, 1.0)
-
-
-def test_clusters_join_tracks_through_shared_contacts():
-    gate = np.array([[1, 0, 0, 0], [0, 0, 1, 0], [1, 1, 0, 0], [0, 0, 1, 1], [0, 0, 0, 0]], bool)
-    n, label = clusters(*np.nonzero(gate), 5)
-    assert n == 3 and label.tolist() == [0, 1, 0, 1, 2]
-    n, label = clusters(*np.nonzero(np.eye(3, dtype=bool)), 3)  # nothing shared
-    assert n == 3 and label.tolist() == [0, 1, 2]
-    # contact indices need not be compact: the same graph with contacts 1000 apart
-    t, c = np.nonzero(gate)
-    assert clusters(t, 1000 * c + 7, 5)[1].tolist() == [0, 1, 0, 1, 2]
-
-
-def test_cap_falls_back_to_belief_propagation():
-    # a chain (no cycle): belief propagation is exact there
-    gate = np.array([[1, 1, 0, 0], [0, 1, 1, 0], [0, 0, 1, 1]], bool)
-    rng = np.random.default_rng(7)
-    log_ratio = rng.normal(1.0, 1.5, gate.shape)
-    exact = brute_force(gate, log_ratio, -2.0)
-    m, got = marginals(gate, log_ratio, -2.0, max_events=5)
-    assert m.approximated.tolist() == [True]
-    np.testing.assert_allclose(got, exact[0], atol=1e-9)
-    np.testing.assert_allclose(m.beta0, exact[1], atol=1e-9)
-    # with a cycle (two tracks, two shared contacts) it is an approximation, close to the truth
-    gate = np.ones((2, 2), bool)
-    log_ratio = np.log(np.array([[3.0, 1.0], [1.0, 2.0]]))
-    beta, beta0 = loopy(gate, log_ratio, np.log(0.2))
-    exact = brute_force(gate, log_ratio, np.log(0.2))
-    np.testing.assert_allclose(beta.sum(axis=1) + beta0, 1.0)
-    np.testing.assert_allclose(beta, exact[0], atol=0.1)
-
-
-def test_only_oversized_clusters_are_approximated():
-    gate = np.zeros((3, 5), bool)
-    gate[0, 0] = True  # small cluster: 2 events
-    gate[1:, 1:] = True  # two tracks over four contacts: 1 + 8 + 12 = 21 events
-    log_ratio = np.zeros(gate.shape)
-    m, got = marginals(gate, log_ratio, np.log(0.1), max_events=20)
-    assert m.approximated.tolist() == [False, True]
-    exact = brute_force(gate, log_ratio, np.log(0.1))
-    assert got[0, 0] == pytest.approx(exact[0][0, 0], rel=RTOL)
-
-
-@pytest.mark.parametrize("seed", range(20))
-def test_capped_random_gates_stay_exact_below_the_cap(seed):
-    rng = np.random.default_rng(100 + seed)
-    K, N = rng.integers(2, 7), rng.integers(2, 7)
-    gate = rng.random((K, N)) < 0.4
-    gate[0] = False  # a track with nothing in its gate: its cluster assigns no contact at all
-    log_ratio = rng.normal(1.0, 2.0, (K, N))
-    m, got = marginals(gate, log_ratio, -2.2, max_events=int(rng.integers(2, 30)))
-    beta, beta0 = brute_force(gate, log_ratio, -2.2)
-    exact = ~m.approximated[m.cluster]
-    np.testing.assert_allclose(got[exact], beta[exact], atol=RTOL)
-    np.testing.assert_allclose(m.beta0[exact], beta0[exact], atol=RTOL)
-    np.testing.assert_allclose(got.sum(axis=1) + m.beta0, 1.0)
-    assert m.beta0[0] == 1.0
-
-
-def listed_events(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float, tracks: list[int], cap: int
-                  ) -> tuple[bool, np.ndarray | None]:
-    """Enumerate a cluster's joint events track by track, as `jpda_marginals` does.
-
-    Returns whether the partial events listed (every option of every event,
-    counted before dropping those that reuse a contact) stay within ``cap``
-    and, if so, the exact beta (K, N) of the cluster's tracks.
-    """
-    events, listed = [((), 0.0)], 0
-    for t in tracks:
-        options = [-1, *np.flatnonzero(gate[t])]
-        listed += len(events) * len(options)
-        if listed > cap:
-            return False, None
-        events = [(e + (j,), w + (log_miss if j < 0 else log_ratio[t, j]))
-                  for e, w in events for j in options if j < 0 or j not in e]
-    beta = np.zeros(gate.shape)
-    for e, w in events:
-        for t, j in zip(tracks, e):
-            if j >= 0:
-                beta[t, j] += np.exp(w)
-    return True, beta / sum(np.exp(w) for _, w in events)
-
-
-@pytest.mark.parametrize("seed", range(10))
-def test_exactly_the_clusters_over_the_cap_are_approximated(seed):
-    # random chains and blobs of 1-9 tracks, caps around the listing sizes (some clusters are
-    # dropped before any listing, others part-way)
-    rng = np.random.default_rng(300 + seed)
-    K, N = 24, 30
-    gate = np.zeros((K, N), bool)
-    t = 0
-    while t < K:
-        s = min(int(rng.integers(1, 10)), K - t)
-        c = int(rng.integers(0, N - s))
-        for i in range(s):
-            gate[t + i, c + i: c + i + int(rng.integers(1, 4))] = True
-        t += s
-    gate &= rng.random(gate.shape) < 0.9
-    log_ratio = rng.normal(0.0, 1.0, gate.shape)
-    max_events = int(rng.integers(10, 300))
-    m, got = marginals(gate, log_ratio, -2.0, max_events)
-    for c in range(m.approximated.size):
-        tracks = np.flatnonzero(m.cluster == c)
-        within, beta = listed_events(gate, log_ratio, -2.0, tracks.tolist(), max_events)
-        assert m.approximated[c] != within
-        if within:
-            np.testing.assert_allclose(got[tracks], beta[tracks], atol=RTOL)
-    assert m.approximated.any() and not m.approximated.all()
-
-
-def test_miss_weight():
-    assert np.exp(log_miss_weight(0.9, 9.21)) == pytest.approx(1 - 0.9 * (1 - np.exp(-9.21 / 2)))
-    assert np.isfinite(log_miss_weight(1.0, 2000.0))  # 1 - P_D P_G underflows in the naive form
-
 
 # ---------------------------------------------------------------------------------- the update
 
@@ -286,8 +101,8 @@ def test_mode_probabilities_of_an_isolated_track_are_the_imm_pdaf_ones():
     z = np.array([[12_310.0, 0.522], [12_240.0, 0.5235]])
     pd, gate, density = 0.9, 9.21, 1e-3
     log_ratio = np.log(pd) + imm.log_likelihood(pred, z) - np.log(density)
-    m, beta = marginals(np.ones((1, 2), bool), log_ratio, log_miss_weight(pd, gate), 100)
-    got = _update(imm, pred, z, beta, m.beta0)
+    m = jpda_marginals(np.zeros(2, np.int64), np.arange(2), log_ratio[0], 1, log_miss_weight(pd, gate), 100)
+    got = _update(imm, pred, z, m.beta[None], m.beta0)
     mp = pred.measurement
     nu = imm.measurement.residual(z[:, None, :], mp.z[0][None])  # (N, r, 2)
     lik = np.exp(kalman.gaussian_log_likelihood(kalman.mahalanobis_2x2(nu, mp.S_inv[0][None]),
