@@ -86,6 +86,10 @@ def main() -> None:
     """Entry point: run the app, turning nnda's input errors into one clear message."""
     try:
         app()
+    except KeyboardInterrupt:
+        Console(stderr=True).print(Text("interrupted: nothing half-written was left; a study's finished jobs are "
+                                        "kept for --resume", style="bold red"), highlight=False)
+        sys.exit(130)
     except (NndaError, FileExistsError) as exc:
         # the message is plain text: a path or a config section in brackets must not read as markup
         Console(stderr=True).print(Text.assemble(("error:", "bold red"), " ", str(exc)), highlight=False,

@@ -115,14 +115,16 @@ def test_resume_after_a_killed_study_gives_the_uninterrupted_results(tmp_path, w
     assert saved(out) == saved(tmp_path / "uninterrupted")
 
 
-def test_resume_refuses_another_study_and_overwrite_replaces_it(reference, tmp_path):
+def test_resume_of_a_changed_study_reruns_only_what_changed_and_overwrite_replaces_it(reference, tmp_path):
     study_file, _, _ = reference
     out = tmp_path / "out"
     compare(load_study(study_file), out, workers=1)
     changed = study_file.parent / "changed.toml"
     changed.write_text(study_file.read_text().replace("gate = 6.0", "gate = 7.0"))
-    with pytest.raises(ConfigError, match="holds the results of a different study"):
-        compare(load_study(changed), out, resume=True, workers=1)
+    resumed = compare(load_study(changed), out, resume=True, workers=1)
+    assert (resumed.execution.jobs_run, resumed.execution.jobs_skipped) == (6, 6)  # gnn-tight's jobs only
+    fresh = compare(load_study(changed), tmp_path / "fresh", workers=1)
+    assert saved(out) == saved(tmp_path / "fresh") and fresh.summary == resumed.summary
     again = compare(load_study(changed), out, overwrite=True, workers=1)
     assert again.execution.jobs_run == 12
     (tmp_path / "mine").mkdir()

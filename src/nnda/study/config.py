@@ -44,10 +44,11 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
 from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, model_validator
 
 from nnda.errors import ConfigError, validated
 from nnda.files import read_config
@@ -56,8 +57,8 @@ from nnda.models.innovation import IMM_INNOVATION
 from nnda.study.metrics import DEFAULT_CUTOFF_M, Ownership
 
 _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
-#: labels become file and directory names, so they are kept to a safe alphabet
-Label = Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z0-9_.\-]+$")]
+#: labels become file and directory names, so they are kept to a safe alphabet (and start with no dot)
+Label = Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z0-9_\-][A-Za-z0-9_.\-]*$")]
 
 #: the tracker parameter that receives a model file's path
 MODEL_PARAM = "model"
@@ -127,6 +128,8 @@ class Study(BaseModel):
     filters: dict[Label, FilterSpec] = Field(default_factory=dict, description="single-target filters: jobs "
                                              "on the study's single-target scenarios")
     scenarios: Annotated[list[ScenarioSpec], Field(min_length=1)]
+    #: the directory relative paths were resolved against (the study file's), set by `resolved`
+    _base: Path | None = PrivateAttr(default=None)
 
     @model_validator(mode="after")
     def _models_declared(self) -> Study:
@@ -146,11 +149,32 @@ class Study(BaseModel):
         def fix(p: Path | None) -> Path | None:
             return None if p is None else (p if p.is_absolute() else base / p).resolve()
 
-        return self.model_copy(update={
+        copy = self.model_copy(update={
             "models": {k: fix(v) for k, v in self.models.items()}, "ablation": fix(self.ablation),
             "scenarios": [s.model_copy(update={"config": fix(s.config), "path": fix(s.path)})
                           for s in self.scenarios],
         })
+        copy._base = base.resolve()
+        return copy
+
+    def __eq__(self, other: object) -> bool:
+        """Equal fields: where the study file was read from (``_base``) does not make two studies differ."""
+        return isinstance(other, Study) and self.model_dump() == other.model_dump()
+
+    def __hash__(self) -> int:
+        return hash(self.model_dump_json())
+
+    def relative(self, path: Path) -> str:
+        """``path`` as results record it: relative to the study file's directory (so the same study gives
+        the same results from any directory), or as it is when there is no such directory."""
+        if self._base is None:
+            return str(path)
+        return os.path.relpath(path, self._base)
+
+    def inputs(self) -> list[Path]:
+        """Every file or directory the study reads: model files, scenario configs, datasets, the ablation."""
+        paths = [*self.models.values(), *(s.config or s.path for s in self.scenarios if s.preset is None)]
+        return paths + ([self.ablation] if self.ablation is not None else [])
 
 
 def study_from_dict(data: dict, source: str = "<study>", base: Path | None = None) -> Study:

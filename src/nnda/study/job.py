@@ -35,7 +35,7 @@ from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
 
 JOB_FORMAT = "nnda.study-job"
-JOB_FORMAT_VERSION = 2  # 2: CLEAR-MOT measures and the ownership kind used
+JOB_FORMAT_VERSION = 3  # 2: CLEAR-MOT measures and the ownership kind used; 3: the record's own SHA-256
 
 def dataset_digest(dataset: Dataset) -> str:
     """SHA-256 of a dataset's contacts: equal digests mean the trackers saw the same data."""

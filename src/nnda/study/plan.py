@@ -41,7 +41,7 @@ from nnda.data.dataset import (
 from nnda.data.presets import resolve
 from nnda.data.scenario import Scenario, Sensor, load_scenario
 from nnda.errors import ConfigError, DatasetError, ModelError
-from nnda.files import digest, file_digest
+from nnda.files import digest, file_digest, path_component
 from nnda.filters.single_target import make_filter
 from nnda.models.scorer import MODEL_FILE, load_model
 from nnda.study.config import MODEL_PARAM, Study
@@ -190,7 +190,7 @@ def _dataset_digest(path: Path) -> str:
     return file_digest(path / MANIFEST, path / DETECTIONS_FILE, path / TRUTH_FILE)
 
 
-def _from_disk(path: Path, name: str | None, where: str) -> list[ScenarioPlan]:
+def _from_disk(path: Path, name: str | None, where: str, shown: str) -> list[ScenarioPlan]:
     """Datasets under ``path`` grouped by scenario name, each group one scenario of the study."""
     try:
         if not path.is_dir():
@@ -208,7 +208,7 @@ def _from_disk(path: Path, name: str | None, where: str) -> list[ScenarioPlan]:
     plans = []
     for scenario_name, group in groups.items():
         dirs = tuple(m for m, _ in group)
-        plans.append(ScenarioPlan(name or scenario_name, f"datasets in {path}", group[0][1], len(dirs), dirs,
+        plans.append(ScenarioPlan(name or scenario_name, f"datasets in {shown}", group[0][1], len(dirs), dirs,
                                   tuple(_dataset_digest(d) for d in dirs)))
     return plans
 
@@ -228,10 +228,10 @@ def _scenarios(study: Study, where: str) -> tuple[ScenarioPlan, ...]:
                 s = load_scenario(spec.config)
             except ConfigError as exc:
                 raise ConfigError(f"{here}: {exc}") from None
-            plans.append(ScenarioPlan(s.name, f"config {spec.config}", s, study.runs))
+            plans.append(ScenarioPlan(s.name, f"config {study.relative(spec.config)}", s, study.runs))
         else:
-            plans += _from_disk(spec.path, spec.name, here)
-    names = [p.name for p in plans]
+            plans += _from_disk(spec.path, spec.name, here, study.relative(spec.path))
+    names = [path_component(p.name, f"{where}: scenario name") for p in plans]  # they name job directories
     twice = sorted({n for n in names if names.count(n) > 1})
     if twice:
         raise ConfigError(f"{where}: scenario name(s) {', '.join(twice)} appear more than once; "

@@ -7,10 +7,13 @@ Layout of a study directory::
     results.parquet, summary.json, ...        the aggregates (`nnda.study.results`)
 
 Every job is independent and its record is written as soon as it arrives,
-by this process (so Dask workers need no shared disk for results). With
-``resume`` the jobs whose file exists with the same key are skipped; the
-aggregates are always rebuilt from the job files in plan order, so a
-resumed study, a local one and a Dask one give the same bytes.
+by this process (so Dask workers need no shared disk for results), with
+the SHA-256 of its own content. With ``resume`` the jobs whose file exists
+with the same key and an intact digest are kept and the others run, so a
+study changed after a failure (the cause fixed) resumes with whatever still
+holds; the aggregates are always rebuilt from the job files in plan order,
+so a resumed study, a local one and a Dask one give the same bytes. A lock
+(`nnda.files.directory_lock`) keeps a second writer off the directory.
 
 Dask is optional (``pip install 'nnda[dask]'``) and imported only when asked
 for. ``dask="local"`` starts a `LocalCluster` of ``workers`` single-threaded
@@ -32,7 +35,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from nnda.errors import ConfigError, DatasetError
-from nnda.files import read_json, write_json
+from nnda.files import digest, dumps, read_json, write_json
 from nnda.study.job import JOB_FORMAT, JOB_FORMAT_VERSION, run_job
 from nnda.study.plan import STUDY_FORMAT, STUDY_FORMAT_VERSION, JobSpec, StudyPlan
 
@@ -54,29 +57,31 @@ class Execution:
     seconds: float
 
 
-def _check_out(plan: StudyPlan, out: Path, resume: bool, overwrite: bool) -> None:
-    """Refuse an ``out`` that holds anything but this study's unfinished jobs (or, with
-    ``overwrite``, remove an earlier study directory there)."""
-    manifest = out / MANIFEST
+def check_out(out: Path, resume: bool, overwrite: bool) -> bool:
+    """Whether ``out`` holds an earlier study; refuse an ``out`` that is a file, a directory holding
+    something else, or an earlier study without ``resume`` (continue it) or ``overwrite`` (replace it)."""
     if out.exists() and not out.is_dir():
         raise FileExistsError(f"{out}: exists and is not a directory")
     if not out.exists() or not any(out.iterdir()):
-        return
+        return False
     if resume and overwrite:
         raise ConfigError("give --resume or --overwrite, not both")
-    if not manifest.is_file():
+    if not (out / MANIFEST).is_file():
         raise DatasetError(f"{out}: not a study directory ({MANIFEST} is missing); choose another --out")
-    if overwrite:
-        shutil.rmtree(out)  # only ever a study directory: it holds study.json
-        return
-    if not resume:
+    if not (resume or overwrite):
         raise FileExistsError(f"{out}: already exists; pass --resume to continue that study, --overwrite to "
                               f"replace it, or choose another --out")
-    saved = read_json(manifest, STUDY_FORMAT, STUDY_FORMAT_VERSION)
-    if saved.get("fingerprint") != plan.fingerprint:
-        raise ConfigError(f"{out}: holds the results of a different study (its trackers, scenarios, seed, runs, "
-                          f"model files or datasets differ from this one); resume needs the same study, "
-                          f"or choose another --out")
+    read_json(out / MANIFEST, STUDY_FORMAT, STUDY_FORMAT_VERSION)  # a study manifest, of a version we read
+    return True
+
+
+def _sealed(record: dict) -> dict:
+    """The record with the SHA-256 of its canonical content (without that field) in ``sha256``."""
+    return {**record, "sha256": digest(dumps({k: v for k, v in record.items() if k != "sha256"}, None).encode())}
+
+
+def _intact(record: dict) -> bool:
+    return record.get("sha256") == _sealed(record)["sha256"]
 
 
 def is_done(job: JobSpec, out: Path) -> bool:
@@ -89,7 +94,8 @@ def is_done(job: JobSpec, out: Path) -> bool:
     except (json.JSONDecodeError, UnicodeDecodeError):
         return False  # cannot happen with atomic writes, but a damaged file is simply recomputed
     return (isinstance(record, dict) and record.get("format") == JOB_FORMAT
-            and record.get("format_version") == JOB_FORMAT_VERSION and record.get("key") == job.key)
+            and record.get("format_version") == JOB_FORMAT_VERSION and record.get("key") == job.key
+            and _intact(record))  # an edited or damaged record is run again
 
 
 def read_job(job: JobSpec, out: Path) -> dict:
@@ -98,6 +104,9 @@ def read_job(job: JobSpec, out: Path) -> dict:
     record = read_json(path, JOB_FORMAT, JOB_FORMAT_VERSION)
     if record.get("key") != job.key:
         raise DatasetError(f"{path}: holds the result of another job definition (key differs)")
+    if not _intact(record):
+        raise DatasetError(f"{path}: corrupt or edited job file (its SHA-256 does not match its content); "
+                           f"delete it and run the study again with --resume")
     return record
 
 
@@ -106,7 +115,8 @@ class JobFailed(RuntimeError):
 
     def __init__(self, job: JobSpec, exc: BaseException) -> None:
         super().__init__(f"job {job.relpath} ({job.tracker} on {job.scenario} run {job.run}) failed: "
-                         f"{type(exc).__name__}: {exc}; finished jobs are kept: fix the cause, then --resume")
+                         f"{type(exc).__name__}: {exc}; finished jobs are kept: fix the cause, then run again "
+                         f"with --resume (the jobs whose inputs did not change are kept)")
 
 
 def _result(job: JobSpec, future) -> dict:
@@ -197,15 +207,18 @@ def run_jobs(plan: StudyPlan, out: str | Path, resume: bool = False, workers: in
 
     ``workers`` = 1 without Dask runs the jobs in this process. The study
     manifest is written before the first job, so an interrupted study can be
-    resumed with the same plan. ``overwrite`` replaces an earlier study
-    directory at ``out`` (never a directory without a study manifest).
+    resumed. ``overwrite`` replaces an earlier study directory at ``out``
+    (never a directory without a study manifest); `nnda.study.compare.compare`
+    runs an overwriting study in a sibling directory, so the earlier one
+    stays whole until the new one is done.
     """
     out = Path(out)
     if workers < 1:
         raise ConfigError(f"--jobs must be at least 1, got {workers}")
     if dask is not None:
         require_dask()  # before anything is written
-    _check_out(plan, out, resume, overwrite)
+    if check_out(out, resume, overwrite) and overwrite:
+        shutil.rmtree(out)  # only ever a study directory: it holds study.json
     write_json(out / MANIFEST, plan.manifest())
     todo = [job for job in plan.jobs if not is_done(job, out)]
     skipped = len(plan.jobs) - len(todo)
@@ -221,7 +234,7 @@ def run_jobs(plan: StudyPlan, out: str | Path, resume: bool = False, workers: in
         on_job(done, len(plan.jobs), None)
     if todo:
         for job, record in stream:
-            write_json(out / job.relpath, record, indent=None)
+            write_json(out / job.relpath, _sealed(record), indent=None)
             done += 1
             if on_job is not None:
                 on_job(done, len(plan.jobs), job)
