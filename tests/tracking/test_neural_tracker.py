@@ -290,3 +290,12 @@ def test_extended_features_lose_fewer_contacts_than_the_seed_features(model_file
     assert m["ext"].losses < m["seed"].losses
     assert m["ext"].track_breaks <= m["seed"].track_breaks
     assert m["ext"].hit_rate > 90.0
+
+
+def test_a_model_scoring_nan_is_an_error_not_silence(model_file):
+    ds = generate(PRESETS["S1"], seed=3)
+    tracker = NeuralTracker(ds.scenario.sensor, NeuralTracker.config_type(model=model_file))
+    tracker.scorer = lambda features: np.full(len(features), np.nan)  # a broken model
+    with pytest.raises(TrackingError, match=r"nn: scan \d+: the model .* scored \d+ of \d+ pairs as NaN"):
+        for scan in ds.scans():
+            tracker.step(scan)

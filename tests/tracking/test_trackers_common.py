@@ -181,10 +181,28 @@ def test_live_tracks_are_bounded_with_a_warning(name):
         out = tracker.step(Scan(2, 4.0, polar(2_000)))
     assert len(out) == 50 and tracker.initiation.n_refused > 0
     refused = tracker.initiation.n_refused
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")  # the first refusal of a run warns, later ones are counted
+    with warnings.catch_warnings(record=True) as later:
+        warnings.simplefilter("always")
         for k in range(3, 6):
             assert len(tracker.step(Scan(k, 2.0 * k, polar(2_000)))) <= 50 + 50
+    assert not [w for w in later if "refused" in str(w.message)]  # the first refusal of a run warns, later count
     assert tracker.initiation.n_refused > refused
     tracker.reset()
     assert tracker.initiation.n_refused == 0
+
+
+@pytest.mark.parametrize("name, params, counter", [
+    ("gnn", {"max_exact_pairs": 0}, "n_greedy"),
+    ("jpda", {"max_joint_events": 1}, "n_approximated"),
+    ("mht", {"max_hypotheses": 5}, None),
+])
+def test_work_bounds_warn_once_when_they_bite(name, params, counter):
+    ds = generate(PRESETS["S2"], seed=1)
+    tracker = make_tracker(name, ds.scenario.sensor, params)
+    with pytest.warns(BoundWarning) as caught:
+        for scan in ds.scans():
+            tracker.step(scan)
+    messages = [str(w.message) for w in caught if issubclass(w.category, BoundWarning)]
+    for key in params:  # once per bound and run
+        assert sum(f"(config field {key})" in m for m in messages) == 1, messages
+    assert counter is None or getattr(tracker, counter) > 1

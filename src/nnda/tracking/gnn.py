@@ -72,5 +72,7 @@ class GNNTracker(SingleHypothesisTracker):
             else:  # every gated pair costs less than a miss, so greedy takes cheapest first
                 rows, cols = greedy_matching(r, c, -(d2 + mp.log_det_S[r]))
                 self.n_greedy += 1
+                self._bound_hit("max_exact_pairs", f"{r.size} candidate pairs matched greedily, not exactly",
+                                scan.time)
             contact[rows] = cols
         return hard_update(imm, pred, z, contact)

@@ -223,6 +223,9 @@ class JPDATracker(SingleHypothesisTracker):
             m = jpda_marginals(track, cols, log_ratio, rows.size, log_miss, cfg.max_joint_events)
             self.n_clusters += m.approximated.size
             self.n_approximated += int(m.approximated.sum())
+            if m.approximated.any():
+                self._bound_hit("max_joint_events", f"{int(m.approximated.sum())} cluster(s) past the joint-event "
+                                "cap solved by loopy belief propagation, not enumeration", scan.time)
             best = best_pairs(track, m.beta)
             wins = m.beta[best] > m.beta0
             contact[rows[wins]] = cols[best[wins]]

@@ -126,6 +126,7 @@ class MHTTracker(ContactTracker):
     def step(self, scan: Scan) -> TrackerOutput:
         sc = self._checked(scan)
         z, xy, time = sc.z, sc.xy, sc.time
+        self.last_time = time  # the scan being processed, from here on (bound warnings name it)
         leaves, shown, chosen = None, None, np.empty(0, np.int64)
         used = np.zeros(len(z), bool)
         if self.leaves is not None and len(self.leaves):
@@ -144,7 +145,6 @@ class MHTTracker(ContactTracker):
                                                               np.concatenate([shown.P, P]))
             chosen = np.concatenate([chosen, first + np.arange(len(new))])
         self.leaves = None if leaves is None else self._prune(leaves, chosen)
-        self.last_time = time
         return self._report(scan.index, time, leaves, shown, chosen)
 
     # ---------------------------------------------------------------------- branching
@@ -251,6 +251,8 @@ class MHTTracker(ContactTracker):
             members = np.flatnonzero(joint & ~exact)
             chosen = np.concatenate([chosen, _greedy_compatible(members, fam, rows, res, leaves.score)])
             self.n_clusters_greedy += int(np.unique(leaf_cluster[joint & ~exact]).size)
+            self._bound_hit("max_exact_leaves", "a cluster's global hypothesis chosen greedily, not exactly",
+                            self.last_time)
         return np.sort(chosen)
 
     @staticmethod
@@ -318,6 +320,8 @@ class MHTTracker(ContactTracker):
         rank = np.arange(order.size) - np.searchsorted(fam[order], fam[order])
         kept = order[rank < cfg.max_hypotheses_per_track]
         if kept.size > cfg.max_hypotheses:
+            self._bound_hit("max_hypotheses", f"{kept.size - cfg.max_hypotheses} hypotheses pruned past the cap",
+                            self.last_time)
             kept = kept[np.lexsort((-leaves.score[kept], ~is_chosen[kept]))][: cfg.max_hypotheses]
         kept = np.sort(kept)
         return leaves.take(kept) if kept.size else None

@@ -42,7 +42,7 @@ import numpy as np
 from pydantic import Field
 
 from nnda.data.scenario import Sensor
-from nnda.errors import ConfigError, ModelError
+from nnda.errors import ConfigError, ModelError, TrackingError
 from nnda.filters.imm import IMMPrediction
 from nnda.models.feature_sets import FEATURE_SETS
 from nnda.models.features import candidate_pairs, pair_features
@@ -118,6 +118,10 @@ class NeuralTracker(SingleHypothesisTracker):
                     age = time - self._born(tracks)[track]
                     features = innovation_features(scan.filter, pred, track, z[cand], features, age)
                 score = self.scorer(features)
+                if not np.isfinite(score).all():  # NaN never beats the threshold: it would track nothing silently
+                    raise TrackingError(f"{self.name}: scan {scan.index}: the model {self.config.model} scored "
+                                        f"{int((~np.isfinite(score)).sum())} of {score.size} pairs as NaN; its "
+                                        f"weights or normaliser are broken: retrain it")
                 match = score > self.config.threshold
                 rank = score[match]
                 if self.config.confirmed_first:  # scores lie in (-1, 1): +2 puts confirmed tracks first

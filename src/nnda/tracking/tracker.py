@@ -303,6 +303,15 @@ class ContactTracker(ABC):
         """Forget every track and initiator (start of a new run)."""
         self.initiation.reset()
         self.last_time = -np.inf
+        self._bounds_hit: set[str] = set()
+
+    def _bound_hit(self, field: str, what: str, time: float) -> None:
+        """A BoundWarning the first time in a run that the bound of config ``field`` bites (``what`` it did);
+        the tracker's own counters say how often."""
+        if field not in self._bounds_hit:
+            self._bounds_hit.add(field)
+            warnings.warn(f"{self.name}, t = {time} s: {what} (config field {field}); later cases of this run are "
+                          f"only counted", BoundWarning, stacklevel=3)
 
     @abstractmethod
     def step(self, scan: Scan) -> TrackerOutput:
