@@ -27,6 +27,8 @@ from scipy.spatial import cKDTree
 from nnda.errors import FilterError
 from nnda.filters.batch import Batch
 from nnda.filters.kalman import symmetrise
+import os
+_CAND = bool(os.environ.get("CAND"))
 from nnda.validation import check_array, check_covariance, check_finite, check_nonnegative
 
 
@@ -127,7 +129,7 @@ def merge(mixture: Mixture, threshold: float) -> Mixture:
         j = np.where(swap, pairs[:, 1], pairs[:, 0])
         i = np.where(swap, pairs[:, 0], pairs[:, 1])
         d = m[i] - m[j]
-        d2 = np.einsum("ki,ki->k", d, np.linalg.solve(P[j], d[..., None])[..., 0])
+        d2 = np.einsum("ki,ki->k", d, np.linalg.solve(P[i if _CAND else j], d[..., None])[..., 0])
         near = d2 <= threshold
         j, i = j[near], i[near]
     else:
