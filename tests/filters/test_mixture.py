@@ -20,15 +20,16 @@ def random_mixture(seed: int, j: int = 40, n: int = 4, clusters: int = 6) -> Mix
     return Mixture.make(w, means, covs, rng.permutation(j) + 100)
 
 
-def merge_reference(mix: Mixture, U: float) -> list[tuple[float, np.ndarray, np.ndarray, int]]:
-    """Vo & Ma's loop as written: heaviest first, its group under its covariance, moment-matched."""
+def merge_reference(mix: Mixture, U: float, covariance: str) -> list[tuple[float, np.ndarray, np.ndarray, int]]:
+    """Vo & Ma's loop as written: heaviest first, its group under the heaviest's or each candidate's
+    covariance, moment-matched."""
     w, m, P, lab = mix.weights, mix.means, mix.covariances, mix.labels
     left = list(range(len(w)))
     out = []
     while left:
         j = max(left, key=lambda k: (w[k], -k))
-        Pinv = np.linalg.inv(P[j])
-        group = [i for i in left if (m[i] - m[j]) @ Pinv @ (m[i] - m[j]) <= U]
+        group = [i for i in left
+                 if (m[i] - m[j]) @ np.linalg.inv(P[j if covariance == "heaviest" else i]) @ (m[i] - m[j]) <= U]
         W = sum(w[i] for i in group)
         mean = sum(w[i] * m[i] for i in group) / W
         cov = sum(w[i] * (P[i] + np.outer(mean - m[i], mean - m[i])) for i in group) / W
@@ -39,10 +40,11 @@ def merge_reference(mix: Mixture, U: float) -> list[tuple[float, np.ndarray, np.
 
 @pytest.mark.parametrize("seed", range(8))
 @pytest.mark.parametrize("U", [0.0, 4.0, 25.0, 400.0])
-def test_merge_matches_the_reference(seed, U):
+@pytest.mark.parametrize("covariance", ["heaviest", "candidate"])
+def test_merge_matches_the_reference(seed, U, covariance):
     mix = random_mixture(seed)
-    got = merge(mix, U)
-    ref = merge_reference(mix, U)
+    got = merge(mix, U, covariance)
+    ref = merge_reference(mix, U, covariance)
     assert len(got) == len(ref)
     np.testing.assert_allclose(got.weights, [r[0] for r in ref], rtol=1e-12)
     np.testing.assert_allclose(got.means, [r[1] for r in ref], rtol=1e-9, atol=1e-9)
@@ -73,12 +75,12 @@ def test_merge_two_components_by_hand():
     np.testing.assert_array_equal(got.labels, [7, 9])
 
 
-def test_merge_uses_the_heaviests_covariance():
-    """A wide light component near a tight heavy one: far under the heavy one's covariance, so not merged
-    (under its own wide covariance it would be near)."""
+def test_merge_covariance_choice():
+    """A wide light component near a tight heavy one: far under the heavy one's covariance (d^2 = 25), near
+    under its own (d^2 = 0.25)."""
     mix = Mixture.make([0.9, 0.1], [[0.0, 0.0], [5.0, 0.0]], [np.eye(2), 100 * np.eye(2)], [1, 2])
-    assert len(merge(mix, 4.0)) == 2
-    assert len(merge(mix, 25.0)) == 1
+    assert len(merge(mix, 4.0)) == 2 and len(merge(mix, 25.0)) == 1
+    assert len(merge(mix, 4.0, "candidate")) == 1 and len(merge(mix, 0.2, "candidate")) == 2
 
 
 @pytest.mark.parametrize("seed", range(4))
@@ -117,6 +119,8 @@ def test_bad_input():
         prune(random_mixture(0), -1.0)
     with pytest.raises(FilterError, match="merge threshold"):
         merge(random_mixture(0), np.nan)
+    with pytest.raises(FilterError, match="'heaviest' or 'candidate'"):
+        merge(random_mixture(0), 4.0, "mean")
     with pytest.raises(FilterError, match="weights: must be >= 0"):
         Mixture.make([0.5, -0.1], np.zeros((2, 2)), [np.eye(2)] * 2, [0, 1])
     with pytest.raises(FilterError, match="not positive definite"):

@@ -20,6 +20,7 @@ labels are the track tags a PHD filter propagates (Clark, Panta & Vo 2006).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -27,8 +28,6 @@ from scipy.spatial import cKDTree
 from nnda.errors import FilterError
 from nnda.filters.batch import Batch
 from nnda.filters.kalman import symmetrise
-import os
-_CAND = bool(os.environ.get("CAND"))
 from nnda.validation import check_array, check_covariance, check_finite, check_nonnegative
 
 
@@ -92,12 +91,15 @@ def cap(mixture: Mixture, j_max: int) -> Mixture:
     return mixture.take(top[np.lexsort((top, -w[top]))])
 
 
-def merge(mixture: Mixture, threshold: float) -> Mixture:
+def merge(mixture: Mixture, threshold: float, covariance: Literal["heaviest", "candidate"] = "heaviest") -> Mixture:
     """Greedy Mahalanobis merge in Vo & Ma's order (Table II, steps 2-4), with U = ``threshold``.
 
     Repeatedly take the heaviest remaining component j (ties: the earlier
-    one), gather every remaining i with (m_i - m_j)^T P_j^-1 (m_i - m_j) <= U
-    (under the heaviest's covariance P_j), and replace the group L by one
+    one), gather every remaining i with (m_i - m_j)^T C^-1 (m_i - m_j) <= U,
+    where C is the heaviest's covariance P_j (``covariance="heaviest"``) or
+    each candidate's own P_i (``"candidate"``, as Vo & Ma's Table II and
+    Stone Soup write it: a wide component near a tight one then joins it),
+    and replace the group L by one
     component: w = sum_L w_i, m = sum_L w_i m_i / w,
     P = sum_L w_i (P_i + (m - m_i)(m - m_i)^T) / w, carrying j's label. The
     result lists the merged components in the order their heaviest was
@@ -106,14 +108,16 @@ def merge(mixture: Mixture, threshold: float) -> Mixture:
     kept exactly; weights are not capped at one.
 
     Vectorised: a k-d tree over the means finds every pair that could merge
-    (|m_i - m_j|^2 <= U trace(P_j) bounds the distance, since
-    lambda_max(P_j) <= trace(P_j)); only those pairs get the exact distance,
+    (|m_i - m_j|^2 <= U max_k trace(P_k) bounds the distance, since
+    lambda_max(C) <= trace(C)); only those pairs get the exact distance,
     all at once. The greedy loop then runs once per merged group and only
     over components that have such a pair; each iteration is a vectorised
     step over the heaviest's candidates. The moments of all groups are
     summed at once.
     """
     check_nonnegative("merge threshold", threshold, error=FilterError)
+    if covariance not in ("heaviest", "candidate"):
+        raise FilterError(f"merge: covariance must be 'heaviest' or 'candidate', got {covariance!r}")
     J = len(mixture)
     if J < 2:
         return mixture
@@ -124,12 +128,12 @@ def merge(mixture: Mixture, threshold: float) -> Mixture:
     radius = np.sqrt(threshold * np.trace(P, axis1=1, axis2=2).max())
     pairs = cKDTree(m).query_pairs(radius, output_type="ndarray")
     if len(pairs):
-        # orient each pair (heavier j, lighter i) and keep those within U under P_j
+        # orient each pair (heavier j, lighter i) and keep those within U
         swap = rank[pairs[:, 0]] > rank[pairs[:, 1]]
         j = np.where(swap, pairs[:, 1], pairs[:, 0])
         i = np.where(swap, pairs[:, 0], pairs[:, 1])
         d = m[i] - m[j]
-        d2 = np.einsum("ki,ki->k", d, np.linalg.solve(P[i if _CAND else j], d[..., None])[..., 0])
+        d2 = np.einsum("ki,ki->k", d, np.linalg.solve(P[i if covariance == "candidate" else j], d[..., None])[..., 0])
         near = d2 <= threshold
         j, i = j[near], i[near]
     else:

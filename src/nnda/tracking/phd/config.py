@@ -130,6 +130,9 @@ class PHDConfig(TrackerConfig):
         "radar", description="named reduction/extraction set; explicit fields override it")
     prune_threshold: Annotated[float, Field(ge=0, description="drop components of weight <= T")]
     merge_threshold: Annotated[float, Field(ge=0, description="squared Mahalanobis distance U of a merge")]
+    merge_covariance: Literal["candidate", "heaviest"] = Field(
+        "candidate", description="the covariance of the merge distance: each candidate's (Vo & Ma's Table II) "
+        "or the heaviest's (`nnda.filters.mixture.merge`)")
     max_components: Annotated[int, Field(ge=1, description="J_max, components kept after merging")]
     extraction_threshold: Annotated[float, Field(gt=0, description="report components of weight >= this")]
     linearisation: Literal["linear", "ekf", "ukf"] = Field(
@@ -202,8 +205,8 @@ class CPHDConfig(PHDConfig):
     """``cphd``: the cardinalised PHD, EK linearisation by default; no spawning (the CPHD has none)."""
 
     max_cardinality: Annotated[int, Field(ge=1, description="N_max, the cardinality support 0..N_max")] = 100
-    extraction: Literal["map", "threshold"] = Field(
-        "map", description="map: the MAP count's heaviest components; threshold: as the PHD")
+    extraction: Literal["threshold", "map"] = Field(
+        "threshold", description="threshold: as the PHD; map: the MAP count's heaviest components")
 
     @model_validator(mode="after")
     def _no_spawn(self) -> CPHDConfig:

@@ -38,8 +38,10 @@ the contacts; each step is a vector operation over the degrees).
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
-from scipy.special import gammaln, logsumexp, xlogy
+from scipy.special import gammaln, xlogy
 from scipy.stats import binom, poisson
 
 from nnda.errors import TrackingError
@@ -50,35 +52,29 @@ def predict_cardinality(p: np.ndarray, ps: float, birth_mean: float) -> np.ndarr
     """Predicted cardinality (N_max+1,) of ``p`` (N_max+1,): each target survives with probability
     ``ps`` (binomial thinning), then a Poisson number of mean ``birth_mean`` is born (a convolution);
     the mass past N_max is cut and the rest renormalised."""
-    n = np.arange(len(p))
-    survive = binom.pmf(n[:, None], n[None, :], ps) @ p  # P(j survivors) = sum_l C(l, j) ps^j (1-ps)^(l-j) p(l)
-    out = np.convolve(survive, poisson.pmf(n, birth_mean))[:len(p)]
+    out = np.convolve(_thinning(len(p), ps) @ p, poisson.pmf(np.arange(len(p)), birth_mean))[:len(p)]
     return out / out.sum()
 
 
-def _vieta(lam: np.ndarray, degree: int) -> tuple[np.ndarray, np.ndarray]:
-    """Prefix ESFs of ``lam`` (m,) >= 0, truncated at ``degree``: rows (m+1, degree+1), row z the ESFs
-    of lam[:z] divided by exp(its log scale) (m+1,), so every row's largest entry is 1."""
-    m = len(lam)
-    rows = np.zeros((m + 1, degree + 1))
-    scale = np.zeros(m + 1)
-    rows[0, 0] = 1.0
-    for z in range(m):
-        nxt = rows[z].copy()
-        nxt[1:] += lam[z] * rows[z, :-1]
-        top = nxt.max()
-        rows[z + 1] = nxt / top
-        scale[z + 1] = scale[z] + np.log(top)
-    return rows, scale
+@lru_cache(maxsize=8)
+def _thinning(size: int, ps: float) -> np.ndarray:
+    """(size, size) matrix of P(j survivors | l targets) = C(l, j) ps^j (1 - ps)^(l - j)."""
+    n = np.arange(size)
+    return binom.pmf(n[:, None], n[None, :], ps)
 
 
-def log_esf(log_lam: np.ndarray, degree: int) -> np.ndarray:
-    """log e_k(Lambda), k = 0..degree, of Lambda = exp(``log_lam``) (m,) (-inf entries are zeros);
-    e_k = 0 (log -inf) for k > m."""
-    lam, shift = _scaled(log_lam)
-    rows, scale = _vieta(lam, degree)
+def _logsumexp(a: np.ndarray, axis: int | None = None) -> np.ndarray:
+    """log sum exp of ``a`` along ``axis`` (all -inf: -inf), shifted by the maximum."""
+    top = np.max(a, axis=axis, keepdims=True)
+    top = np.where(np.isfinite(top), top, 0.0)
     with np.errstate(divide="ignore"):
-        return np.log(rows[-1]) + scale[-1] + shift * np.arange(degree + 1)
+        out = np.log(np.sum(np.exp(a - top), axis=axis, keepdims=True)) + top
+    return out.squeeze(axis) if axis is not None else out.reshape(())
+
+
+#: the recursions renormalise every this many contacts: with every scaled Lambda <= 1 a value at most
+#: doubles per step, so it stays below 2^64 times its last norm in between
+_RENORM = 64
 
 
 def _scaled(log_lam: np.ndarray) -> tuple[np.ndarray, float]:
@@ -87,33 +83,87 @@ def _scaled(log_lam: np.ndarray) -> tuple[np.ndarray, float]:
     return np.exp(log_lam - shift), shift
 
 
+def _prefix(lam: np.ndarray, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """Prefix ESFs of ``lam`` (m,) in [0, 1] (Vieta's recursion e_k += lam_z e_(k-1)), truncated at
+    ``degree``: rows (m+1, degree+1), row z the ESFs of lam[:z] divided by exp(``scale[z]``) (m+1,)."""
+    m = len(lam)
+    rows = np.zeros((m + 1, degree + 1))
+    scale = np.zeros(m + 1)
+    rows[0, 0] = 1.0
+    for z in range(m):
+        row = rows[z + 1]
+        row[:] = rows[z]
+        row[1:] += lam[z] * rows[z, :-1]
+        scale[z + 1] = scale[z]
+        if z % _RENORM == _RENORM - 1:
+            top = row.max()
+            row /= top
+            scale[z + 1] += np.log(top)
+    return rows, scale
+
+
+def log_esf(log_lam: np.ndarray, degree: int) -> np.ndarray:
+    """log e_k(Lambda), k = 0..degree, of Lambda = exp(``log_lam``) (m,) (-inf entries are zeros);
+    e_k = 0 (log -inf) for k > m."""
+    lam, shift = _scaled(log_lam)
+    rows, scale = _prefix(lam, degree)
+    return _log_last(rows, scale, shift)
+
+
+def _log_last(rows: np.ndarray, scale: np.ndarray, shift: float) -> np.ndarray:
+    """log e_k of the whole set from `_prefix`'s rows of Lambda / exp(shift)."""
+    with np.errstate(divide="ignore"):
+        return np.log(rows[-1]) + scale[-1] + shift * np.arange(rows.shape[1])
+
+
 def log_leave_one_out(log_lam: np.ndarray, log_b: np.ndarray) -> np.ndarray:
     """log sum_k b_k e_k(Lambda without Lambda_z) for every z: (m,) from ``log_lam`` (m,) and the
     coefficients ``log_b`` (L+1,) (degrees past L are not needed: their b is 0)."""
-    m = len(log_lam)
-    if m == 0:
-        return np.empty(0)
-    degree = len(log_b) - 1
     lam, shift = _scaled(log_lam)
-    pre, pre_scale = _vieta(lam, degree)  # pre[z]: ESFs of lam[:z]
-    # rescale b so that b_k s^k e_k(lam / s) = b_k e_k(lam), and normalise it
-    log_bs = log_b + shift * np.arange(degree + 1)
+    pre, pre_scale = _prefix(lam, len(log_b) - 1)
+    return _leave_one_out(lam, shift, pre, pre_scale, log_b)
+
+
+def _leave_one_out(lam: np.ndarray, shift: float, pre: np.ndarray, pre_scale: np.ndarray, log_b: np.ndarray
+                   ) -> np.ndarray:
+    """`log_leave_one_out` from `_prefix`'s rows (truncated to len(log_b) columns) of lam = Lambda / e^shift.
+
+    Backward over the contacts: g[a] = sum_c b[a + c] (ESFs of the contacts after z)[c], so that
+    sum_k b_k e_k(Lambda without z) = sum_a (prefix ESFs before z)[a] g[a]; taking z into the suffix is
+    g[a] += lam_z g[a + 1]. Every term is non-negative.
+    """
+    m, degree = len(lam), len(log_b) - 1
+    pre = pre[:, :degree + 1]
+    log_bs = log_b + shift * np.arange(degree + 1)  # b_k e_k(Lambda) = b_k s^k e_k(Lambda / s)
     top = log_bs.max()
     if not np.isfinite(top):  # every coefficient zero
         return np.full(m, -np.inf)
-    g = np.exp(log_bs - top)  # g_z[a] = sum_c b[a + c] suffix_z[c]: starts with an empty suffix
+    g = np.exp(log_bs - top)
     g_scale = top
-    out = np.empty(m)
-    for z in range(m - 1, -1, -1):
-        with np.errstate(divide="ignore"):
-            out[z] = np.log(pre[z] @ g) + pre_scale[z] + g_scale
-        g = g.copy()
+    dot = np.empty(m)
+    scale = np.empty(m)
+    for step, z in enumerate(range(m - 1, -1, -1)):
+        dot[z] = pre[z] @ g
+        scale[z] = pre_scale[z] + g_scale
         g[:-1] += lam[z] * g[1:]
-        peak = g.max()
-        if peak > 0:
+        if step % _RENORM == _RENORM - 1:
+            peak = g.max()
             g /= peak
             g_scale += np.log(peak)
-    return out
+    with np.errstate(divide="ignore"):
+        return np.log(dot) + scale
+
+
+@lru_cache(maxsize=64)
+def _falling(u: int, n_max: int, degree: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The parts of Upsilon^u's factor that depend on (n, k) only, (n_max+1, degree+1) each: where
+    k + u <= n, log n! / (n-k-u)!, and r = n - k - u (0 elsewhere)."""
+    n = np.arange(n_max + 1)[:, None]
+    k = np.arange(degree + 1)[None, :]
+    r = n - k - u
+    ok = r >= 0
+    rr = np.maximum(r, 0)
+    return ok, np.where(ok, gammaln(n + 1.0) - gammaln(rr + 1.0), 0.0), rr
 
 
 def _log_coefficients(u: int, m: int, n_max: int, degree: int, clutter_rate: float, pd: float, W: float
@@ -121,14 +171,11 @@ def _log_coefficients(u: int, m: int, n_max: int, degree: int, clutter_rate: flo
     """log of Upsilon^u's factor (n_max+1, degree+1) at (n, k), for ESFs of the normalised Lambda / W:
     e^-lambda lambda^(m-k) n! / (n-k-u)! (1 - p_D)^(n-k-u) W^-u for k <= m and k + u <= n, else -inf
     (((1 - p_D) W)^(n-k-u) / W^n e_k(Lambda) = (1 - p_D)^(n-k-u) W^-u e_k(Lambda / W))."""
-    n = np.arange(n_max + 1)[:, None]
-    k = np.arange(degree + 1)[None, :]
-    r = n - k - u
-    ok = (r >= 0) & (k <= m)
-    rr = np.maximum(r, 0)
+    ok, log_falling, r = _falling(u, n_max, degree)
+    k = np.arange(degree + 1)
     with np.errstate(divide="ignore", invalid="ignore"):
-        v = (-clutter_rate + xlogy(m - k, clutter_rate) + gammaln(n + 1.0) - gammaln(rr + 1.0)
-             + xlogy(rr, 1.0 - pd) - u * np.log(W))
+        clutter = np.where(k <= m, -clutter_rate + xlogy(m - k, clutter_rate), -np.inf)
+        v = clutter[None, :] + log_falling + xlogy(r, 1.0 - pd) - u * np.log(W)
     return np.where(ok, v, -np.inf)
 
 
@@ -155,11 +202,12 @@ def cphd_weights(weights: np.ndarray, pairs: Pairs, pd: float, clutter_rate: flo
     # log Lambda(z) / W of the contacts with pairs (W = 0: no component, Lambda = 0)
     seen = np.unique(pairs.i) if W > 0 else np.empty(0, np.int64)
     log_lam = per_contact_logsumexp(log_psi, pairs.i, m, np.full(m, -np.inf))[seen] - (np.log(W) if W > 0 else 0.0)
-    degree = min(m, n_max)
-    log_e = log_esf(log_lam, min(len(seen), degree))
-    log_e = np.concatenate([log_e, np.full(degree + 1 - len(log_e), -np.inf)])
-    ups0 = logsumexp(_log_coefficients(0, m, n_max, degree, clutter_rate, pd, 1.0) + log_e, axis=1)
-    den = logsumexp(ups0 + log_p)
+    degree = min(len(seen), n_max)  # e_k = 0 past the number of contacts with Lambda > 0
+    lam, shift = _scaled(log_lam)
+    pre, pre_scale = _prefix(lam, degree)  # one forward pass: the ESFs and the leave-one-out sums
+    log_e = _log_last(pre, pre_scale, shift)
+    ups0 = _logsumexp(_log_coefficients(0, m, n_max, degree, clutter_rate, pd, 1.0) + log_e, axis=1)
+    den = _logsumexp(ups0 + log_p)
     if not np.isfinite(den):
         raise TrackingError(f"CPHD: no target count up to max_cardinality = {n_max} explains a scan of {m} "
                             f"contacts with clutter rate {clutter_rate}")
@@ -167,14 +215,14 @@ def cphd_weights(weights: np.ndarray, pairs: Pairs, pd: float, clutter_rate: flo
     posterior /= posterior.sum()
     if W == 0:
         return np.zeros(len(pairs.j)), np.zeros(J), posterior
-    ups1 = logsumexp(_log_coefficients(1, m, n_max, degree, clutter_rate, pd, W) + log_e, axis=1)
-    missed = (1.0 - pd) * weights * np.exp(logsumexp(ups1 + log_p) - den)
+    ups1 = _logsumexp(_log_coefficients(1, m, n_max, degree, clutter_rate, pd, W) + log_e, axis=1)
+    missed = (1.0 - pd) * weights * np.exp(_logsumexp(ups1 + log_p) - den)
     if not len(seen):
         return np.zeros(0), missed, posterior
     loo_degree = min(len(seen) - 1, n_max - 1)
-    log_b = logsumexp(_log_coefficients(1, m - 1, n_max, loo_degree, clutter_rate, pd, W) + log_p[:, None], axis=0)
+    log_b = _logsumexp(_log_coefficients(1, m - 1, n_max, loo_degree, clutter_rate, pd, W) + log_p[:, None], axis=0)
     log_r = np.full(m, -np.inf)
-    log_r[seen] = log_leave_one_out(log_lam, log_b) - den  # log <Upsilon^1[Z \ z], p> / <Upsilon^0[Z], p>
+    log_r[seen] = _leave_one_out(lam, shift, pre, pre_scale, log_b) - den  # log <Upsilon^1[Z \ z], p> / <Upsilon^0[Z], p>
     with np.errstate(invalid="ignore"):
         detected = np.exp(log_psi + log_r[pairs.i])
     return np.nan_to_num(detected, nan=0.0), missed, posterior

@@ -18,8 +18,8 @@ linearisation takes). One scan (J components, N contacts):
    (`nnda.tracking.phd.extraction`);
 4. newborn components for the next scan from this scan's contacts, weighted
    by how little the filter explains them (measurement-driven birth);
-5. report the extracted components (weight >= the extraction threshold; for
-   ``cphd`` by default its MAP count of heaviest components) as CONFIRMED
+5. report the extracted components (weight >= the extraction threshold; or,
+   ``cphd`` with ``extraction="map"``, its MAP count of heaviest ones) as CONFIRMED
    tracks, id = label, state [x, vx, y, vy], no contact (a PHD associates
    none); the scan's target-count estimate is in ``tracker.cardinality``.
 
@@ -192,7 +192,7 @@ class GMPHDTracker:
         det, missed, mean, map_count, dist = self._weights(pred, pairs, rate, log_c, born)
         missed[len(pred) - newborn:] = 0.0  # a newborn its first update misses is dropped (measurement birth)
         post = gmphd.posterior(pred, pairs, missed, det, cfg.prune_threshold)
-        post = cap(merge(post, cfg.merge_threshold), cfg.max_components)
+        post = cap(merge(post, cfg.merge_threshold, cfg.merge_covariance), cfg.max_components)
         post, self.next_label = relabel_duplicates(post, self.next_label)
         self.mixture = post
         birth = cfg.birth
