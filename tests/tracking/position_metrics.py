@@ -12,9 +12,10 @@ from scipy.optimize import linear_sum_assignment
 
 @dataclass(frozen=True)
 class PositionScore:
-    """``rmse_m`` over assigned (truth, track) pairs; ``missed`` truths unassigned after each target's first
-    ``warmup`` scans, of ``truths`` such; ``false`` reports unassigned, of ``reports``; ``breaks`` owned
-    tracks per target beyond the first; ``count_error`` mean |reports - truths| per scan."""
+    """``rmse_m`` over assigned (truth, track) pairs; ``missed`` detected truths (a target with a contact in
+    that scan) unassigned after each target's first ``warmup`` scans, of ``truths`` such; ``false`` reports
+    unassigned, of ``reports``; ``breaks`` owned tracks per target beyond the first (a track is owned by the
+    target it is assigned to most often); ``count_error`` mean |reports - truths| per scan."""
 
     rmse_m: float
     missed: int
@@ -27,6 +28,8 @@ class PositionScore:
 
 def position_score(dataset, outputs, cutoff_m: float = 500.0, warmup: int = 3, confirmed_only: bool = True
                    ) -> PositionScore:
+    """Score ``outputs`` (one `TrackerOutput` per scan) against ``dataset``'s truth: per scan, confirmed tracks
+    assigned to true positions (optimal assignment, pairs closer than ``cutoff_m``)."""
     truth = dataset.truth
     first = {int(t): int(truth.scan[truth.target_id == t].min()) for t in np.unique(truth.target_id)}
     err, missed, truths, false, reports, count_err = [], 0, 0, 0, 0, []
@@ -48,7 +51,7 @@ def position_score(dataset, outputs, cutoff_m: float = 500.0, warmup: int = 3, c
             err.extend(d[r, c])
             for a, b in zip(tid[r], ids[c]):
                 owners.setdefault(int(b), Counter())[int(a)] += 1
-        late = np.array([o.scan >= first[int(t)] + warmup for t in tid], bool)
+        late = np.array([o.scan >= first[int(t)] + warmup for t in tid], bool) & truth.detected[sel]
         truths += int(late.sum())
         missed += int((late & ~hit).sum())
         false += int((~used).sum())

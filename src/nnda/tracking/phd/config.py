@@ -123,34 +123,16 @@ def _birth_kind(value: Any) -> str:
     return value.get("kind", "measurement") if isinstance(value, dict) else getattr(value, "kind", "")
 
 
-class PHDConfig(TrackerConfig):
-    """Settings of a GM-PHD tracker (see the module docstring for presets and clutter units)."""
+class CommonConfig(TrackerConfig):
+    """What every GM-PHD tracker here shares (ours and the Stone Soup peer): reduction and extraction (by
+    preset), CV noise, survival and detection probabilities, clutter, the pair gate."""
 
     preset: Literal["radar", "seed-000", "seed-002"] = Field(
         "radar", description="named reduction/extraction set; explicit fields override it")
     prune_threshold: Annotated[float, Field(ge=0, description="drop components of weight <= T")]
     merge_threshold: Annotated[float, Field(ge=0, description="squared Mahalanobis distance U of a merge")]
-    merge_covariance: Literal["candidate", "heaviest"] = Field(
-        "candidate", description="the covariance of the merge distance: each candidate's (Vo & Ma's Table II) "
-        "or the heaviest's (`nnda.filters.mixture.merge`)")
     max_components: Annotated[int, Field(ge=1, description="J_max, components kept after merging")]
     extraction_threshold: Annotated[float, Field(gt=0, description="report components of weight >= this")]
-    linearisation: Literal["linear", "ekf", "ukf"] = Field(
-        "ekf", description="linear: Cartesian fixes (a radar's contacts converted); ekf / ukf: polar radar")
-    unscented: UnscentedConfig = UnscentedConfig()
-    motion: Literal["cv", "ct"] = "cv"
-    sigma_q: Annotated[float, Field(ge=0, description="acceleration noise (m/s^2) of the motion model")] = 10.0
-    sigma_omega: Annotated[float, Field(ge=0, description="turn-rate noise (rad/s) of the CT model")] = 0.044
-    ps: Probability = Field(0.99, description="survival probability per scan")
-    pd: Probability = Field(0.9, description="detection probability")
-    clutter: Annotated[float, Field(ge=0)] | Literal["scan", "local"] = Field(
-        "local", description="false contacts per scan (lambda), or 'scan' / 'local' estimates (module docs)")
-    clutter_radius_m: Annotated[float, Field(gt=0)] = 3_000.0
-    gate: Annotated[float, Field(gt=0)] | None = Field(
-        50.0, description="squared Mahalanobis gate of the (component, contact) pairs; None: every pair")
-    birth: Annotated[Annotated[MeasurementBirth, Tag("measurement")] | Annotated[StaticBirth, Tag("static")],
-                     Discriminator(_birth_kind)] = MeasurementBirth()
-    spawn: Spawn | None = None
 
     @model_validator(mode="before")
     @classmethod
@@ -159,6 +141,31 @@ class PHDConfig(TrackerConfig):
             preset = data.get("preset", "radar")
             data = {**REDUCTION_PRESETS.get(preset, {}), **data}
         return data
+
+    sigma_q: Annotated[float, Field(ge=0, description="acceleration noise (m/s^2) of the motion model")] = 10.0
+    ps: Probability = Field(0.99, description="survival probability per scan")
+    pd: Probability = Field(0.9, description="detection probability")
+    clutter: Annotated[float, Field(ge=0)] | Literal["scan", "local"] = Field(
+        "local", description="false contacts per scan (lambda), or 'scan' / 'local' estimates (module docs)")
+    clutter_radius_m: Annotated[float, Field(gt=0)] = 3_000.0
+    gate: Annotated[float, Field(gt=0)] | None = Field(
+        50.0, description="squared Mahalanobis gate of the (component, contact) pairs; None: every pair")
+
+
+class PHDConfig(CommonConfig):
+    """Settings of a GM-PHD tracker (see the module docstring for presets and clutter units)."""
+
+    merge_covariance: Literal["candidate", "heaviest"] = Field(
+        "candidate", description="the covariance of the merge distance: each candidate's (Vo & Ma's Table II) "
+        "or the heaviest's (`nnda.filters.mixture.merge`)")
+    linearisation: Literal["linear", "ekf", "ukf"] = Field(
+        "ekf", description="linear: Cartesian fixes (a radar's contacts converted); ekf / ukf: polar radar")
+    unscented: UnscentedConfig = UnscentedConfig()
+    motion: Literal["cv", "ct"] = "cv"
+    sigma_omega: Annotated[float, Field(ge=0, description="turn-rate noise (rad/s) of the CT model")] = 0.044
+    birth: Annotated[Annotated[MeasurementBirth, Tag("measurement")] | Annotated[StaticBirth, Tag("static")],
+                     Discriminator(_birth_kind)] = MeasurementBirth()
+    spawn: Spawn | None = None
 
     @model_validator(mode="after")
     def _state_sizes(self) -> PHDConfig:

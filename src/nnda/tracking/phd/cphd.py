@@ -222,7 +222,8 @@ def cphd_weights(weights: np.ndarray, pairs: Pairs, pd: float, clutter_rate: flo
     loo_degree = min(len(seen) - 1, n_max - 1)
     log_b = _logsumexp(_log_coefficients(1, m - 1, n_max, loo_degree, clutter_rate, pd, W) + log_p[:, None], axis=0)
     log_r = np.full(m, -np.inf)
-    log_r[seen] = _leave_one_out(lam, shift, pre, pre_scale, log_b) - den  # log <Upsilon^1[Z \ z], p> / <Upsilon^0[Z], p>
+    # log <Upsilon^1[Z \ z], p> / <Upsilon^0[Z], p>
+    log_r[seen] = _leave_one_out(lam, shift, pre, pre_scale, log_b) - den
     with np.errstate(invalid="ignore"):
         detected = np.exp(log_psi + log_r[pairs.i])
     return np.nan_to_num(detected, nan=0.0), missed, posterior

@@ -45,6 +45,7 @@ from nnda.tracking.output import CONFIRMED, NO_CONTACT, TrackerOutput
 from nnda.tracking.phd import cphd, gmphd
 from nnda.tracking.phd.birth import measurement_births
 from nnda.tracking.phd.config import (
+    CommonConfig,
     CPHDConfig,
     EKPHDConfig,
     GMPHDConfig,
@@ -75,6 +76,29 @@ class Cardinality:
     extracted: int
 
 
+def clutter(config: CommonConfig, z: np.ndarray, xy: np.ndarray, volume: float, polar: bool,
+            expected_detections: float) -> tuple[float, np.ndarray]:
+    """(lambda, log clutter spatial density (N,)) of one scan for ``config.clutter`` (see
+    `nnda.tracking.phd.config`): contacts z (N, 2) as measured, xy (N, 2) m their Cartesian positions,
+    ``volume`` the coverage in the update's measurement space (m rad if ``polar``, else m^2),
+    ``expected_detections`` p_D times the predicted target count."""
+    n = len(z)
+    if config.clutter == "local":
+        density = local_density(xy, xy, config.clutter_radius_m)  # contacts per m^2
+        if polar:
+            density = density * z[:, 0]  # per m rad: dx dy = r dr d(azimuth)
+        return float(n), np.log(density / max(n, 1))
+    rate = max(n - expected_detections, 0.0) if config.clutter == "scan" else float(config.clutter)
+    return rate, np.full(n, -np.log(volume))
+
+
+def coverage_volume(sensor: Sensor, polar: bool) -> float:
+    """The radar's coverage annulus in measurement space: (r_max - r_min) 2 pi m rad (polar) or
+    pi (r_max^2 - r_min^2) m^2 (Cartesian)."""
+    r0, r1 = sensor.min_range_m, sensor.max_range_m
+    return (r1 - r0) * TWO_PI if polar else np.pi * (r1**2 - r0**2)
+
+
 class GMPHDTracker:
     """Gaussian-mixture PHD tracker (Vo & Ma 2006) with tag propagation; see the module docstring."""
 
@@ -95,9 +119,7 @@ class GMPHDTracker:
                               gmphd.EKF(self.measurement) if cfg.linearisation == "ekf" else
                               gmphd.UKF(self.measurement, cfg.unscented.transform()))
         self.motion = cfg.motion_model()
-        r0, r1 = sensor.min_range_m, sensor.max_range_m
-        #: coverage in the update's measurement space: m^2 (linear) or m rad (polar)
-        self.volume = np.pi * (r1**2 - r0**2) if cfg.linearisation == "linear" else (r1 - r0) * TWO_PI
+        self.volume = coverage_volume(sensor, cfg.linearisation != "linear")
         birth = cfg.birth
         self.static = None if not isinstance(birth, StaticBirth) else Mixture.make(
             [c.weight for c in birth.components], [c.mean for c in birth.components],
@@ -158,17 +180,6 @@ class GMPHDTracker:
             newborn = len(self.newborn)
         return (Mixture.concat(parts) if len(parts) > 1 else parts[0]), born, newborn
 
-    def _clutter(self, z: np.ndarray, xy: np.ndarray, expected_detections: float) -> tuple[float, np.ndarray]:
-        """(lambda, log clutter spatial density (N,)) of this scan, in the update's measurement space."""
-        cfg, n = self.config, len(z)
-        if cfg.clutter == "local":
-            density = local_density(xy, xy, cfg.clutter_radius_m)  # per m^2
-            if self.config.linearisation != "linear":
-                density = density * z[:, 0]  # per m rad: dx dy = r dr d(azimuth)
-            return float(n), np.log(density / max(n, 1))
-        rate = max(n - expected_detections, 0.0) if cfg.clutter == "scan" else float(cfg.clutter)
-        return rate, np.full(n, -np.log(self.volume))
-
     def _weights(self, pred: Mixture, pairs: gmphd.Pairs, rate: float, log_c: np.ndarray, born: float
                  ) -> tuple[np.ndarray, np.ndarray, float, int | None, np.ndarray | None]:
         """Step 2's weights: detection copies (P,), missed copies (J,), and the count (mean, map, p(n))."""
@@ -188,7 +199,8 @@ class GMPHDTracker:
         zc, contact_R = self.linearisation.contacts(z)
         xy, cov = self.measurement.position(z)
         pairs = self.linearisation.pairs(pred, zc, contact_R, cfg.gate)
-        rate, log_c = self._clutter(z, xy, cfg.pd * float(pred.weights.sum()))
+        rate, log_c = clutter(cfg, z, xy, self.volume, cfg.linearisation != "linear",
+                              cfg.pd * float(pred.weights.sum()))
         det, missed, mean, map_count, dist = self._weights(pred, pairs, rate, log_c, born)
         missed[len(pred) - newborn:] = 0.0  # a newborn its first update misses is dropped (measurement birth)
         post = gmphd.posterior(pred, pairs, missed, det, cfg.prune_threshold)
