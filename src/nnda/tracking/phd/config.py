@@ -16,7 +16,7 @@ azimuth) for the polar linearisations (``ekf``, ``ukf``: V = (r_max -
 r_min) 2 pi), per m^2 for Cartesian fixes (``linear``: V = pi (r_max^2 -
 r_min^2)). ``clutter`` gives lambda as a number, or ``"scan"``: each scan's
 own estimate, its contact count less the expected target detections
-(p_D times the predicted target count), at least 0; or ``"local"``: each
+(p_D times the predicted target count), at least 0.001; or ``"local"``: each
 contact's local density (`nnda.tracking.clutter_density.local_density`, a
 square of half-side ``clutter_radius_m``), times its range for the polar
 space, with lambda the contact count.

@@ -210,7 +210,8 @@ def cphd_weights(weights: np.ndarray, pairs: Pairs, pd: float, clutter_rate: flo
     den = _logsumexp(ups0 + log_p)
     if not np.isfinite(den):
         raise TrackingError(f"CPHD: no target count up to max_cardinality = {n_max} explains a scan of {m} "
-                            f"contacts with clutter rate {clutter_rate}")
+                            f"contacts with clutter rate {clutter_rate} (with no clutter, every contact needs a "
+                            f"component near it and every target a contact when p_D = 1)")
     posterior = np.exp(ups0 + log_p - den)
     posterior /= posterior.sum()
     if W == 0:

@@ -76,6 +76,11 @@ class Cardinality:
     extracted: int
 
 
+#: the floor of the per-scan clutter estimate: never exactly no clutter, so that a contact no component
+#: explains is clutter, not a scan the CPHD's model cannot have produced
+MIN_SCAN_CLUTTER = 1e-3
+
+
 def clutter(config: CommonConfig, z: np.ndarray, xy: np.ndarray, volume: float, polar: bool,
             expected_detections: float) -> tuple[float, np.ndarray]:
     """(lambda, log clutter spatial density (N,)) of one scan for ``config.clutter`` (see
@@ -88,7 +93,7 @@ def clutter(config: CommonConfig, z: np.ndarray, xy: np.ndarray, volume: float, 
         if polar:
             density = density * z[:, 0]  # per m rad: dx dy = r dr d(azimuth)
         return float(n), np.log(density / max(n, 1))
-    rate = max(n - expected_detections, 0.0) if config.clutter == "scan" else float(config.clutter)
+    rate = max(n - expected_detections, MIN_SCAN_CLUTTER) if config.clutter == "scan" else float(config.clutter)
     return rate, np.full(n, -np.log(volume))
 
 
