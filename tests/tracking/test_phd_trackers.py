@@ -104,7 +104,7 @@ def test_cphd_cardinality_concentrates_on_the_true_count_without_clutter():
         if scan.index in steady:
             right.append(c.map == n_true[scan.index])
             mass.append(c.distribution[n_true[scan.index]])
-    assert len(steady) > 80 and all(right) and min(mass) > 0.4 and np.median(mass) > 0.95
+    assert len(steady) > 80 and all(right) and min(mass) > 0.4 and np.median(mass) > 0.9
 
 
 def test_gmphd_cardinality_record_is_the_weight_total():
@@ -141,7 +141,8 @@ def test_presets_and_overrides():
     ({"pd": 0.0}, "pd: Input should be greater than 0"),
     ({"max_components": 0}, "max_components: Input should be greater than or equal to 1"),
     ({"preset": "seed-003"}, "preset: Input should be"),
-    ({"birth": {"kind": "static", "components": [{"weight": 1.0, "mean": [0, 0, 0], "covariance": np.eye(3).tolist()}]}},
+    ({"birth": {"kind": "static", "components": [
+        {"weight": 1.0, "mean": [0, 0, 0], "covariance": np.eye(3).tolist()}]}},
      r"birth.components.0.mean: the cv state has 4 entries"),
     ({"motion": "ct", "birth": {"kind": "static", "components": [
         {"weight": 1.0, "mean": [0, 0, 1e4, 0], "covariance": np.eye(4).tolist()}]}}, "the ct state has 5 entries"),

@@ -183,11 +183,13 @@ class StoneSoupGMPHD:
 
     Stone Soup's PHD updater evaluates the likelihood of a contact's bearing without wrapping the
     difference, so contacts are given with azimuths in [-pi, pi), its model's range: a target crossing due
-    south (the seam) loses its likelihood there. Stone Soup's tracker adds one birth component per scan; measurement-driven birth is not among its
-    components, so the newborn components of our ``ekphd`` (one per contact of the previous scan, velocity
-    0 +/- the birth speed spread, weight rate / N: Stone Soup's update does not say how much of a contact
-    its components explain) are put into its mixture before each scan, tagged as births (Stone Soup drops
-    a birth its first update misses, as ours does), and its own birth component is given weight 0.
+    south (the seam) loses its likelihood there.
+
+    Stone Soup's tracker adds one birth component per scan; measurement-driven birth is not among its
+    components, so the newborn components of our ``ekphd`` (one per contact of the previous scan,
+    velocity 0 +/- the birth speed spread, weight rate / N: Stone Soup's update does not say how much of
+    a contact its components explain) are put into its mixture before each scan, tagged as births (Stone
+    Soup drops a birth its first update misses, as ours does), and its own birth component weighs 0.
     """
 
     name: ClassVar[str] = "stonesoup-gmphd"
