@@ -126,10 +126,8 @@ def _contact_major(j, i, *arrays, keep=None):
 
 
 class Linearisation(ABC):
-    """How contacts enter the update: ``kind`` names it, `contacts` maps a scan's measurements to what the
-    pairs are formed with, `pairs` forms the gated pairs."""
-
-    kind: str
+    """How contacts enter the update: `contacts` maps a scan's measurements to what the pairs are formed
+    with, `predict_measurement` linearises the components, `pairs` forms the gated pairs."""
 
     def __init__(self, measurement: MeasurementModel) -> None:
         self.measurement = measurement
@@ -158,16 +156,12 @@ class Linearisation(ABC):
 class EKF(Linearisation):
     """The measurement model's Jacobian at each component's mean (`nnda.filters.kalman`)."""
 
-    kind = "ekf"
-
     def predict_measurement(self, x, P):
         return kalman.predict_measurement(x, P, self.measurement)
 
 
 class UKF(Linearisation):
     """The unscented transform of each component (`nnda.filters.unscented`)."""
-
-    kind = "ukf"
 
     def __init__(self, measurement: MeasurementModel, transform: unscented.UnscentedTransform) -> None:
         super().__init__(measurement)
@@ -193,8 +187,6 @@ class Linear(Linearisation):
     azimuth-dependent), so S_ji = H P_j H^T + R_i.
     """
 
-    kind = "linear"
-
     def contacts(self, z):
         return self.measurement.position(z)
 
@@ -206,6 +198,8 @@ class Linear(Linearisation):
                                              np.broadcast_to(H, (*x.shape[:-1], *H.shape)), PHt)
 
     def pairs(self, mixture, z, contact_R=None, gate=None):
+        if contact_R is None:  # fixes with the model's own noise
+            contact_R = np.broadcast_to(self.measurement.R, (len(z), 2, 2))
         mp = self.predict_measurement(mixture.means, mixture.covariances)
         j, i = _gated(mp, z, gate, float(contact_R[:, 0, 0].max(initial=0.0)))
         nu = z[i] - mp.z[j]

@@ -10,21 +10,26 @@ linearisation takes). One scan (J components, N contacts):
 1. predict the posterior to the scan time (survival ps), add spawned
    components, last scan's newborn components (predicted, without ps) and
    static births (`nnda.tracking.phd.gmphd`, `nnda.tracking.phd.birth`);
-2. update with every (component, contact) pair at once: GM-PHD weights
-   (`gmphd.phd_weights`) or, for ``cphd``, the cardinalised ones with the
-   cardinality distribution (`nnda.tracking.phd.cphd`); only copies heavier
-   than the prune threshold are built;
+2. update with every (component, contact) pair inside the chi-square gate
+   at once: GM-PHD weights (`gmphd.phd_weights`) or, for ``cphd``, the
+   cardinalised ones with the cardinality distribution
+   (`nnda.tracking.phd.cphd`); only copies heavier than the prune threshold
+   are built, and a newborn component's missed copy is dropped (a target is
+   born detected);
 3. merge and cap (`nnda.filters.mixture`), make labels unique
    (`nnda.tracking.phd.extraction`);
 4. newborn components for the next scan from this scan's contacts, weighted
    by how little the filter explains them (measurement-driven birth);
 5. report the extracted components (weight >= the extraction threshold; or,
-   ``cphd`` with ``extraction="map"``, its MAP count of heaviest ones) as CONFIRMED
-   tracks, id = label, state [x, vx, y, vy], no contact (a PHD associates
-   none); the scan's target-count estimate is in ``tracker.cardinality``.
+   ``cphd`` with ``extraction="map"``, its MAP count of heaviest ones) as
+   CONFIRMED tracks, id = label, state [x, vx, y, vy], no contact (a PHD
+   associates none); the scan's target-count estimate is in
+   ``tracker.cardinality``.
 
-After `step`, ``tracker.mixture`` holds the posterior intensity and
-``tracker.cardinality`` a `Cardinality` record of the scan.
+After `step`, ``tracker.mixture`` holds the posterior intensity (at most
+J_max components) and ``tracker.cardinality`` a `Cardinality` record of the
+scan. The work and memory of a scan grow with J_max + N components and the
+gated pairs, not with J x N.
 """
 
 from __future__ import annotations
@@ -186,12 +191,13 @@ class GMPHDTracker:
         return (Mixture.concat(parts) if len(parts) > 1 else parts[0]), born, newborn
 
     def _weights(self, pred: Mixture, pairs: gmphd.Pairs, rate: float, log_c: np.ndarray, born: float
-                 ) -> tuple[np.ndarray, np.ndarray, float, int | None, np.ndarray | None]:
-        """Step 2's weights: detection copies (P,), missed copies (J,), and the count (mean, map, p(n))."""
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """Step 2's weights: of the detection copies (P,), of the missed copies (J,), and the posterior
+        cardinality distribution (None: a PHD has none)."""
         with np.errstate(divide="ignore"):
             log_kappa = np.log(rate) + log_c
         det, missed = gmphd.phd_weights(pred.weights, pairs, self.config.pd, log_kappa)
-        return det, missed, float(missed.sum() + det.sum()), None, None
+        return det, missed, None
 
     def _extracted(self, post: Mixture, map_count: int | None) -> np.ndarray:
         return above(post, self.config.extraction_threshold)
@@ -206,8 +212,12 @@ class GMPHDTracker:
         pairs = self.linearisation.pairs(pred, zc, contact_R, cfg.gate)
         rate, log_c = clutter(cfg, z, xy, self.volume, cfg.linearisation != "linear",
                               cfg.pd * float(pred.weights.sum()))
-        det, missed, mean, map_count, dist = self._weights(pred, pairs, rate, log_c, born)
+        det, missed, dist = self._weights(pred, pairs, rate, log_c, born)
         missed[len(pred) - newborn:] = 0.0  # a newborn its first update misses is dropped (measurement birth)
+        if dist is None:
+            mean, map_count = float(missed.sum() + det.sum()), None
+        else:
+            mean, map_count = float(np.arange(len(dist)) @ dist), int(np.argmax(dist))
         post = gmphd.posterior(pred, pairs, missed, det, cfg.prune_threshold)
         post = cap(merge(post, cfg.merge_threshold, cfg.merge_covariance), cfg.max_components)
         post, self.next_label = relabel_duplicates(post, self.next_label)
@@ -261,8 +271,7 @@ class CPHDTracker(GMPHDTracker):
         p = cphd.predict_cardinality(self.distribution, cfg.ps, born)  # births: Poisson of the birth weight
         det, missed, p = cphd.cphd_weights(pred.weights, pairs, cfg.pd, rate, log_c, p)
         self.distribution = p
-        n = np.arange(len(p))
-        return det, missed, float(n @ p), int(np.argmax(p)), p
+        return det, missed, p
 
     def _extracted(self, post, map_count):
         if self.config.extraction == "map":
