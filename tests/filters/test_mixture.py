@@ -38,11 +38,11 @@ def merge_reference(mix: Mixture, U: float, covariance: str) -> list[tuple[float
     return out
 
 
-@pytest.mark.parametrize("seed", range(8))
+@pytest.mark.parametrize("seed, j", [(s, 40) for s in range(6)] + [(6, 150), (7, 300)])  # all pairs; k-d tree
 @pytest.mark.parametrize("U", [0.0, 4.0, 25.0, 400.0])
 @pytest.mark.parametrize("covariance", ["heaviest", "candidate"])
-def test_merge_matches_the_reference(seed, U, covariance):
-    mix = random_mixture(seed)
+def test_merge_matches_the_reference(seed, j, U, covariance):
+    mix = random_mixture(seed, j=j, clusters=6 if j <= 40 else 40)
     got = merge(mix, U, covariance)
     ref = merge_reference(mix, U, covariance)
     assert len(got) == len(ref)

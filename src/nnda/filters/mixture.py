@@ -20,6 +20,7 @@ labels are the track tags a PHD filter propagates (Clark, Panta & Vo 2006).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Literal
 
 import numpy as np
@@ -29,6 +30,9 @@ from nnda.errors import FilterError
 from nnda.filters.batch import Batch
 from nnda.filters.kalman import symmetrise
 from nnda.validation import check_array, check_covariance, check_finite, check_nonnegative
+
+#: `merge` forms every pair of up to this many components; beyond, a k-d tree finds the near ones
+ALL_PAIRS = 64
 
 
 @dataclass(frozen=True)
@@ -69,6 +73,12 @@ class Mixture(Batch):
         return self.means.shape[1]
 
 
+@lru_cache(maxsize=None)
+def _all_pairs(J: int) -> tuple[np.ndarray, np.ndarray]:
+    """Every pair (a < b) of J components (cached: J <= ALL_PAIRS)."""
+    return np.triu_indices(J, 1)
+
+
 def prune(mixture: Mixture, threshold: float) -> Mixture:
     """The components with weight > ``threshold`` (T, >= 0), in their order; the dropped weight is not
     redistributed (Vo & Ma, Table II, step 1), so the total weight falls by what was dropped."""
@@ -107,13 +117,16 @@ def merge(mixture: Mixture, threshold: float, covariance: Literal["heaviest", "c
     returned as they are. Total weight, and each group's weighted mean, are
     kept exactly; weights are not capped at one.
 
-    Vectorised: a k-d tree over the means finds every pair that could merge
-    (|m_i - m_j|^2 <= U max_k trace(P_k) bounds the distance, since
-    lambda_max(C) <= trace(C)); only those pairs get the exact distance,
-    all at once. The greedy loop then runs once per merged group and only
-    over components that have such a pair; each iteration is a vectorised
-    step over the heaviest's candidates. The moments of all groups are
-    summed at once.
+    Vectorised: the pairs that could merge come from a k-d tree over the
+    means (all pairs for up to `ALL_PAIRS` components), within
+    |m_i - m_j|^2 <= U max_k trace(P_k) (lambda_max(C) <= trace(C)); of
+    those, the pairs with some (m_i - m_j)_k^2 / C_kk > U are out (for a
+    positive definite C the Mahalanobis distance is at least each
+    coordinate's), and only the rest get the exact distance, all at once.
+    The greedy loop then runs once per merged group and only over
+    components that have such a pair; each iteration is a vectorised step
+    over the heaviest's candidates. The moments of all groups are summed
+    at once.
     """
     check_nonnegative("merge threshold", threshold, error=FilterError)
     if covariance not in ("heaviest", "candidate"):
@@ -125,36 +138,40 @@ def merge(mixture: Mixture, threshold: float, covariance: Literal["heaviest", "c
     order = np.lexsort((np.arange(J), -w))  # greedy order: heaviest first, ties by index
     rank = np.empty(J, np.int64)
     rank[order] = np.arange(J)
-    radius = np.sqrt(threshold * np.trace(P, axis1=1, axis2=2).max())
-    pairs = cKDTree(m).query_pairs(radius, output_type="ndarray")
-    if len(pairs):
-        # orient each pair (heavier j, lighter i) and keep those within U
-        swap = rank[pairs[:, 0]] > rank[pairs[:, 1]]
-        j = np.where(swap, pairs[:, 1], pairs[:, 0])
-        i = np.where(swap, pairs[:, 0], pairs[:, 1])
-        d = m[i] - m[j]
-        d2 = np.einsum("ki,ki->k", d, np.linalg.solve(P[i if covariance == "candidate" else j], d[..., None])[..., 0])
-        near = d2 <= threshold
-        j, i = j[near], i[near]
+    k = np.arange(m.shape[1])
+    diag = P[:, k, k]  # (J, n)
+    if J <= ALL_PAIRS:
+        a, b = _all_pairs(J)
     else:
-        j = i = np.empty(0, np.int64)
+        a, b = cKDTree(m).query_pairs(np.sqrt(threshold * diag.sum(axis=1).max()), output_type="ndarray").T
+    # orient each pair (heavier j, lighter i), then keep those within U
+    swap = rank[a] > rank[b]
+    j, i = np.where(swap, b, a), np.where(swap, a, b)
+    c = i if covariance == "candidate" else j
+    d = m[i] - m[j]
+    maybe = np.flatnonzero((d * d <= threshold * diag[c]).all(axis=1))
+    j, i, c, d = j[maybe], i[maybe], c[maybe], d[maybe]
+    near = np.einsum("ki,ki->k", d, np.linalg.solve(P[c], d[..., None])[..., 0]) <= threshold
+    j, i = j[near], i[near]
+    if not len(j):
+        return mixture.take(order)
+    # candidates of each heavier component, as CSR rows in greedy order
+    by_rank = np.lexsort((rank[i], rank[j]))
+    j, i = j[by_rank], i[by_rank]
+    rj = rank[j]
+    starts = np.searchsorted(rj, np.arange(J + 1))
     group = np.arange(J)  # the heaviest of each component's group (itself until merged)
-    if len(j):
-        # candidates of each heavier component, as CSR rows in greedy order
-        by_rank = np.lexsort((rank[i], rank[j]))
-        j, i = j[by_rank], i[by_rank]
-        starts = np.searchsorted(rank[j], np.arange(J + 1))
-        free = np.ones(J, bool)
-        for r in np.unique(rank[j]):  # once per possible group leader, heaviest first
-            leader = order[r]
-            if not free[leader]:
-                continue
-            members = i[starts[r]:starts[r + 1]]
-            members = members[free[members]]
-            group[members] = leader
-            free[members] = False
-            free[leader] = False
-    leaders = order[np.isin(order, group)]  # the heaviest of each group, in greedy order
+    free = np.ones(J, bool)
+    for r in rj[np.r_[True, rj[1:] != rj[:-1]]]:  # once per possible group leader, heaviest first
+        leader = order[r]
+        if not free[leader]:
+            continue
+        members = i[starts[r]:starts[r + 1]]
+        members = members[free[members]]
+        group[members] = leader
+        free[members] = False
+        free[leader] = False
+    leaders = order[group[order] == order]  # the heaviest of each group, in greedy order
     if len(leaders) == J:
         return mixture.take(order)
     slot = np.empty(J, np.int64)

@@ -44,8 +44,9 @@ from nnda.filters.mixture import Mixture
 from nnda.filters.motion import POS, MotionModel
 
 
-def predict(mixture: Mixture, motion: MotionModel, dt: float, ps: float) -> Mixture:
-    """Survivors of ``mixture`` after ``dt`` s (Proposition 1): weights ps w, EKF-predicted moments, same labels."""
+def predict(mixture: Mixture, motion: MotionModel, dt: float, ps: float | np.ndarray) -> Mixture:
+    """Survivors of ``mixture`` after ``dt`` s (Proposition 1): weights ps w (``ps`` a number or one per
+    component (J,)), EKF-predicted moments, same labels."""
     m, P = kalman.predict(mixture.means, mixture.covariances, motion, dt)
     return Mixture(ps * mixture.weights, m, P, mixture.labels)
 
@@ -121,7 +122,7 @@ def _contact_major(j, i, *arrays, keep=None):
     """Pairs (and their arrays) restricted to ``keep`` and sorted by contact, then component."""
     if keep is not None:
         j, i, arrays = j[keep], i[keep], [a[keep] for a in arrays]
-    order = np.lexsort((j, i))
+    order = np.argsort(i * (j.max(initial=0) + 1) + j, kind="stable")
     return (j[order], i[order], *(a[order] for a in arrays))
 
 

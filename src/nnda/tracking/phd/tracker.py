@@ -169,25 +169,26 @@ class GMPHDTracker:
             raise TrackingError(f"{self.name}: scan {scan.index}: contact {row} is invalid {z[row].tolist()}")
         return z, time
 
-    def _predicted(self, time: float) -> tuple[Mixture, float, int]:
-        """Step 1: the predicted intensity at ``time`` (s), the weight of its births, and how many of its
-        components (the last ones) are last scan's newborn."""
+    def _predicted(self, time: float) -> tuple[Mixture, float, slice]:
+        """Step 1: the predicted intensity at ``time`` (s), the weight of its births, and where last scan's
+        newborn components are in it (survivors, newborn, spawned, static births)."""
         cfg = self.config
-        parts, born, newborn = [self.mixture], 0.0, 0
+        parts, born, newborn = [self.mixture], 0.0, slice(0, 0)
         if np.isfinite(self.last_time):
             dt = time - self.last_time
-            parts = [gmphd.predict(self.mixture, self.motion, dt, cfg.ps)]
-            if cfg.spawn is not None and len(self.mixture):
-                parts.append(gmphd.spawn(self.mixture, self.motion, dt, cfg.spawn.weight, self.spawn_covariance,
-                                         self._fresh(len(self.mixture))))
+            old, nb = self.mixture, self.newborn
+            # survivors (times p_S) and newborn (not: they are born now) predicted in one call
+            ps = np.concatenate([np.full(len(old), cfg.ps), np.ones(len(nb))])
+            parts = [gmphd.predict(Mixture.concat([old, nb]) if len(nb) else old, self.motion, dt, ps)]
+            born += float(nb.weights.sum())
+            newborn = slice(len(old), len(old) + len(nb))
+            if cfg.spawn is not None and len(old):
+                parts.append(gmphd.spawn(old, self.motion, dt, cfg.spawn.weight, self.spawn_covariance,
+                                         self._fresh(len(old))))
         if self.static is not None and (cfg.birth.every_scan or not np.isfinite(self.last_time)):
             s = self.static
             parts.append(Mixture(s.weights, s.means, s.covariances, self._fresh(len(s))))
             born += float(s.weights.sum())
-        if len(self.newborn) and np.isfinite(self.last_time):
-            parts.append(gmphd.predict(self.newborn, self.motion, time - self.last_time, 1.0))
-            born += float(self.newborn.weights.sum())
-            newborn = len(self.newborn)
         return (Mixture.concat(parts) if len(parts) > 1 else parts[0]), born, newborn
 
     def _weights(self, pred: Mixture, pairs: gmphd.Pairs, rate: float, log_c: np.ndarray, born: float
@@ -213,7 +214,7 @@ class GMPHDTracker:
         rate, log_c = clutter(cfg, z, xy, self.volume, cfg.linearisation != "linear",
                               cfg.pd * float(pred.weights.sum()))
         det, missed, dist = self._weights(pred, pairs, rate, log_c, born)
-        missed[len(pred) - newborn:] = 0.0  # a newborn its first update misses is dropped (measurement birth)
+        missed[newborn] = 0.0  # a newborn its first update misses is dropped (measurement birth)
         if dist is None:
             mean, map_count = float(missed.sum() + det.sum()), None
         else:
