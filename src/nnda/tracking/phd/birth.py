@@ -13,10 +13,12 @@ each contact with weight
 position from the contact (its Cartesian fix and covariance), velocity 0
 with standard deviation ``speed_sigma`` per axis, at the time of scan k; the
 tracker predicts it to scan k + 1 like every other component (without the
-survival factor). The filter is given no truth.
+survival factor) and drops its missed copy there (a newborn is taken to be
+detected at its first update, as Stone Soup's PHD updater does too). The
+filter is given no truth.
 
-Static birth (Vo & Ma 2006's gamma_k) adds fixed components at the scan
-time; placed at the targets' true initial states and given at the first
+Static birth (Vo & Ma 2006's gamma_k; `nnda.tracking.phd.config.StaticBirth`,
+added by the tracker) puts fixed components at the scan time; placed at the targets' true initial states and given at the first
 scan only, it is the seeds' oracle birth (the caller builds it from the
 truth; the tracker never reads truth).
 """

@@ -31,9 +31,11 @@ from Vieta's recursion on Lambda / max(Lambda); the N values
 <Upsilon^1[Z \\ {z}], p> come from one forward pass (prefix ESFs) and one
 backward pass (the prefix's partner, a correlation of the Upsilon^1
 coefficients with the suffix ESFs), both sums of non-negative terms only
-(no subtraction, so no cancellation), renormalised at every step: O(N
-min(N, N_max)) work in 2 N vectorised steps (the recursion is sequential in
-the contacts; each step is a vector operation over the degrees).
+(no subtraction, so no cancellation), renormalised every 64 contacts. Only
+the N_g contacts with a gated pair enter them (a contact without one has
+Lambda = 0: it counts in |Z| only): O(N_g min(N_g, N_max)) work in 2 N_g
+vectorised steps (the recursion is sequential in the contacts; each step is
+a vector operation over the degrees).
 """
 
 from __future__ import annotations
