@@ -1,5 +1,9 @@
 """Behaviour every model-free tracker must show (the neural tracker has its own tests), and the protocol
-every registered tracker meets."""
+every registered tracker meets.
+
+The contact trackers (`ContactTracker`s: GNN, JPDA, MHT) are scored by the contacts their tracks used
+(`nnda.study.metrics.run_metrics`); the PHD trackers associate no contact, so the same scenes score them by
+position (`position_metrics.position_score`: each scan's tracks assigned to the true positions)."""
 
 from __future__ import annotations
 
@@ -19,9 +23,14 @@ from nnda.filters.motion import ConstantVelocity
 from nnda.study.metrics import run_metrics
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import PEERS, TRACKERS, make_tracker
-from nnda.tracking.tracker import Tracker, TrackerConfig
+from nnda.tracking.tracker import ContactTracker, Tracker, TrackerConfig
+from position_metrics import position_score
 
 MODEL_FREE = [name for name in TRACKERS if name != "nn"]
+#: trackers whose tracks are built from contacts (scored by the contacts they used)
+CONTACT = [name for name in MODEL_FREE if issubclass(TRACKERS[name], ContactTracker)]
+#: trackers that report positions without contacts (the PHD family), scored by position
+POSITION = [name for name in MODEL_FREE if name not in CONTACT]
 
 
 def run(name, dataset, params=None):
@@ -39,7 +48,7 @@ def crossing() -> Scenario:
     return Scenario(name="crossing", duration_s=160.0, targets=[a, b], clutter=Clutter(count=100))
 
 
-@pytest.mark.parametrize("name", MODEL_FREE)
+@pytest.mark.parametrize("name", CONTACT)
 @pytest.mark.parametrize("preset", ["S1", "S2"])
 def test_follows_every_target_of_s1_and_s2(name, preset):
     ds = generate(PRESETS[preset], seed=3)
@@ -53,7 +62,7 @@ def test_follows_every_target_of_s1_and_s2(name, preset):
     assert m.position_rmse_m < 80.0  # measurement noise is 30 m x up to 70 m cross-range
 
 
-@pytest.mark.parametrize("name", MODEL_FREE)
+@pytest.mark.parametrize("name", CONTACT)
 def test_no_clutter_full_detection_one_track_per_target(name):
     sc = PRESETS["S6"].model_copy(update={"clutter": Clutter(law="none")})
     ds = generate(sc, seed=1)
@@ -63,7 +72,7 @@ def test_no_clutter_full_detection_one_track_per_target(name):
     assert m.clutter_associated == 0 and m.hit_rate > 97.0
 
 
-@pytest.mark.parametrize("name", MODEL_FREE)
+@pytest.mark.parametrize("name", CONTACT)
 def test_crossing_targets_keep_their_identity(name):
     ds = generate(crossing(), seed=2)
     _, outs = run(name, ds)
@@ -72,12 +81,17 @@ def test_crossing_targets_keep_their_identity(name):
     assert m.hits >= 0.9 * m.target_contacts and m.clutter_associated <= 3
 
 
-@pytest.mark.parametrize("name", MODEL_FREE)
-def test_keeps_a_target_through_a_three_scan_gap(name):
+def gappy() -> Scenario:
+    """One target turning after a minute, with two three-scan detection gaps, in clutter."""
     t = Target(name="gappy", x_m=-12_000.0, y_m=-8_000.0, heading_deg=45.0, speed_m_s=120.0,
                segments=[Segment(duration_s=60.0), Segment(duration_s=60.0, normal_accel=4.0)],
                missed_scans=[20, 21, 22, 40, 41, 42])
-    ds = generate(Scenario(name="gap", duration_s=120.0, targets=[t]), seed=4)
+    return Scenario(name="gap", duration_s=120.0, targets=[t])
+
+
+@pytest.mark.parametrize("name", CONTACT)
+def test_keeps_a_target_through_a_three_scan_gap(name):
+    ds = generate(gappy(), seed=4)
     _, outs = run(name, ds)
     m = run_metrics(ds, outs)
     assert m.lost_targets == 0 and m.track_breaks == 0
@@ -103,6 +117,54 @@ def test_same_data_same_output(name):
     for x, y in zip(a, b):
         np.testing.assert_array_equal(x.track_id, y.track_id)
         np.testing.assert_array_equal(x.state, y.state)
+
+
+@pytest.mark.parametrize("name", POSITION)
+@pytest.mark.parametrize("preset", ["S1", "S2"])
+def test_position_trackers_follow_every_target_of_s1_and_s2(name, preset):
+    ds = generate(PRESETS[preset], seed=3)
+    _, outs = run(name, ds)
+    p = position_score(ds, outs)
+    assert p.missed <= 0.02 * p.truths  # after each target's first 3 scans
+    assert p.false <= 0.15 * len(outs)  # clutter near a target briefly makes a second report
+    assert p.breaks <= 2 and p.count_error < 0.3
+    assert p.rmse_m < 80.0  # measurement noise is 30 m x up to 70 m cross-range
+
+
+@pytest.mark.parametrize("name", POSITION)
+def test_position_trackers_without_clutter_one_track_per_target(name):
+    sc = PRESETS["S6"].model_copy(update={"clutter": Clutter(law="none")})
+    ds = generate(sc, seed=1)
+    _, outs = run(name, ds)
+    p = position_score(ds, outs)
+    assert (p.missed, p.breaks) == (0, 0) and p.false <= 1
+    n_true = np.bincount(ds.truth.scan, minlength=ds.n_scans + 1)
+    # from the third scan one report per target (the CPHD may keep the last target one scan after it ends)
+    assert sum(len(o) != n_true[o.scan] for o in outs[2:]) <= 1
+
+
+@pytest.mark.parametrize("name", POSITION)
+def test_position_trackers_keep_crossing_targets_and_gaps(name):
+    """Crossing targets: the tracks stay on their targets; a target through two three-scan gaps keeps its
+    label (a PHD reports nothing during a gap: its weight falls below the extraction threshold)."""
+    ds = generate(crossing(), seed=2)
+    p = position_score(ds, run(name, ds)[1])
+    assert p.breaks <= 1 and p.missed <= 0.05 * p.truths
+    ds = generate(gappy(), seed=4)
+    p = position_score(ds, run(name, ds)[1])
+    assert p.breaks == 0 and p.missed <= 6
+
+
+@pytest.mark.parametrize("name", POSITION)
+def test_the_measurement_model_is_a_component(name):
+    """A PHD tracker given the radar's measurement model explicitly runs as by default; another changes it."""
+    ds = generate(PRESETS["S3"], seed=2)
+    cls, sensor = TRACKERS[name], ds.scenario.sensor
+    default = np.concatenate([o.state for o in run(name, ds)[1]])
+    explicit = cls(sensor, measurement=PolarMeasurement.from_sensor(sensor))
+    np.testing.assert_array_equal(default, np.concatenate([explicit.step(s).state for s in ds.scans()]))
+    wider = cls(sensor, measurement=PolarMeasurement(60.0, 6e-3))
+    assert not np.array_equal(default, np.concatenate([wider.step(s).state for s in ds.scans()]))
 
 
 def test_deleted_tracks_are_reported_once():
@@ -153,7 +215,7 @@ def test_every_registered_tracker_meets_the_protocol(name, model_file):
         np.testing.assert_array_equal(o.contact, p.contact)
 
 
-@pytest.mark.parametrize("name", MODEL_FREE)
+@pytest.mark.parametrize("name", CONTACT)
 def test_the_per_track_filter_is_a_component(name):
     """A tracker given the default filter explicitly runs as by default; another filter changes it."""
     ds = generate(PRESETS["S3"], seed=2)
@@ -170,7 +232,7 @@ def test_the_per_track_filter_is_a_component(name):
     assert not np.array_equal(np.concatenate(default), np.concatenate([o.state for o in outs]))
 
 
-@pytest.mark.parametrize("name", MODEL_FREE)
+@pytest.mark.parametrize("name", CONTACT)
 def test_live_tracks_are_bounded_with_a_warning(name):
     """Two scans of dense clutter would open a track per pair in the window; max_tracks bounds them."""
     rng = np.random.default_rng(0)

@@ -94,6 +94,16 @@ def predict_measurement(x: np.ndarray, P: np.ndarray, measurement: MeasurementMo
     PHt = P @ H.swapaxes(-1, -2)
     S = H @ PHt
     S += measurement.R
+    return measurement_prediction(z, S, H, PHt)
+
+
+def measurement_prediction(z: np.ndarray, S: np.ndarray, H: np.ndarray, PHt: np.ndarray) -> MeasurementPrediction:
+    """The `MeasurementPrediction` of z (..., 2), S (..., 2, 2), H (..., 2, n) and P H^T (..., n, 2).
+
+    S is made exactly symmetric in place and inverted in closed form; raises
+    FilterError unless every S is positive definite. Shared by the EKF
+    (`predict_measurement`) and the unscented transform (`nnda.filters.unscented`).
+    """
     S[..., 1, 0] = S[..., 0, 1]  # equal up to rounding; make S exactly symmetric
     S_inv, det = inverse_2x2(S)
     if not (np.minimum(det, S[..., 0, 0]) > 0).all():

@@ -6,7 +6,8 @@ Kept free of Stone Soup imports so the report can print it anywhere.
 from __future__ import annotations
 
 #: our tracker kind -> its nearest Stone Soup equivalent (speed ratios are taken against it)
-EQUIVALENT = {"gnn": "stonesoup-gnn", "jpda": "stonesoup-jpda"}
+EQUIVALENT = {"gnn": "stonesoup-gnn", "jpda": "stonesoup-jpda", "gmphd": "stonesoup-gmphd",
+              "ekphd": "stonesoup-gmphd", "ukphd": "stonesoup-gmphd", "cphd": "stonesoup-gmphd"}
 
 #: (part, Stone Soup component and setting, what it is matched to in nnda)
 MATCHING = (
@@ -29,6 +30,24 @@ MATCHING = (
      "two-point start + M/N = 3/4: confirmed at the 5th contact at the earliest"),
     ("deletion", "UpdateTimeStepsDeleter(max_misses + 1 = 4)", "confirmed tracks survive 3 misses, deleted "
      "at the 4th (A14)"),
+    ("GM-PHD (stonesoup-gmphd)", "PointProcessMultiTargetTracker: GaussianMixtureHypothesiser over a "
+     "DistanceHypothesiser (Mahalanobis, missed_distance sqrt(50)), PHDUpdater around an ExtendedKalmanUpdater, "
+     "GaussianMixtureReducer", "ekphd: the same recursion on the gated (component, contact) pairs, batched"),
+    ("GM-PHD motion, P_S, P_D", "one CV model, q = sigma_q^2 T with sigma_q = 10 m/s^2; prob_survival 0.99, "
+     "prob_detection 0.9", "ekphd's CV model (10 m/s^2), p_S 0.99, p_D 0.9"),
+    ("GM-PHD clutter", "clutter_spatial_density set each scan to the mean of our per-contact local intensities "
+     "(per m rad)", "ekphd: each contact's own local intensity (contacts in a 3 km half-side square, times range)"),
+    ("GM-PHD birth", "Stone Soup has no measurement-driven birth: our newborn components go into its mixture as "
+     "births, one per contact of the previous scan, weight 0.1 / N, velocity 0 +/- 100 m/s per axis; its own "
+     "birth component weighs 0", "ekphd: the same newborn components weighted by how little the filter explains "
+     "each contact, 0.1 (1 - e_i) / sum (1 - e)"),
+    ("GM-PHD reduction", "GaussianMixtureReducer: prune 1e-5 (keeps w >= T and spreads the pruned weight over "
+     "the rest), merge 4 under the candidate's covariance with merged weights capped at 1, at most 100 "
+     "components; extraction_threshold 0.5 (w > 0.5)", "the radar preset: prune w <= 1e-5 (the weight is "
+     "dropped), merge 4 under the candidate's covariance (weights not capped), J_max 100, extraction w >= 0.5"),
+    ("GM-PHD bearings", "PHDUpdater evaluates the likelihood of the raw bearing difference (not wrapped): "
+     "contacts go in with azimuths in [-pi, pi), so a target crossing due south loses its likelihood there",
+     "every azimuth residual wrapped"),
     ("stonesoup-mfa", "not offered yet: Stone Soup's MFA (MFAHypothesiser, MFADataAssociator) needs ortools, "
      "which the peers extra does not install, and keeps Gaussian-mixture tracks that its tracker classes do "
      "not drive: the per-scan mixture update and the hand-over from the initiator would be our own glue "

@@ -21,13 +21,17 @@ from nnda.data.sensor import TWO_PI
 _CELLS = 4
 
 
+def coverage_area(sensor: Sensor) -> float:
+    """The sensor's coverage (its ring, or its sector of the ring) in m^2."""
+    return 0.5 * TWO_PI * (sensor.fov_deg / 360.0) * (sensor.max_range_m**2 - sensor.min_range_m**2)
+
+
 def measurement_volume(sensor: Sensor) -> float:
     """The sensor's coverage in its measurement space: (r_max - r_min) x sector (m rad) for a polar
-    sensor, the ring sector's area (m^2) for a position sensor."""
-    sector = TWO_PI * (sensor.fov_deg / 360.0)
+    sensor, its area (m^2) for a position sensor."""
     if sensor.kind == "polar":
-        return (sensor.max_range_m - sensor.min_range_m) * sector
-    return 0.5 * sector * (sensor.max_range_m**2 - sensor.min_range_m**2)
+        return (sensor.max_range_m - sensor.min_range_m) * TWO_PI * (sensor.fov_deg / 360.0)
+    return coverage_area(sensor)
 
 
 def local_density(contacts: np.ndarray, at: np.ndarray, radius: float) -> np.ndarray:

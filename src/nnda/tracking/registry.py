@@ -21,12 +21,14 @@ from nnda.tracking.gnn import GNNTracker
 from nnda.tracking.jpda import JPDATracker
 from nnda.tracking.mht import MHTTracker
 from nnda.tracking.neural import NeuralTracker
+from nnda.tracking.phd.tracker import CPHDTracker, EKPHDTracker, GMPHDTracker, UKPHDTracker
 from nnda.tracking.tracker import Tracker
 
 #: Stone Soup peer trackers: name -> "module:class", imported on first lookup
 PEERS: dict[str, str] = {
     "stonesoup-gnn": "nnda.peers.trackers:StoneSoupGNN",
     "stonesoup-jpda": "nnda.peers.trackers:StoneSoupJPDA",
+    "stonesoup-gmphd": "nnda.peers.trackers:StoneSoupGMPHD",
 }
 #: the optional extra the peers need (`nnda.peers.EXTRA` says the same to the peers' own commands)
 PEERS_EXTRA = "pip install 'nnda[peers]'"
@@ -51,7 +53,8 @@ class _Registry(dict):
 
 
 TRACKERS: dict[str, type[Tracker]] = _Registry(
-    {cls.name: cls for cls in (GNNTracker, JPDATracker, MHTTracker, NeuralTracker)})
+    {cls.name: cls for cls in (GNNTracker, JPDATracker, MHTTracker, NeuralTracker,
+                               GMPHDTracker, EKPHDTracker, UKPHDTracker, CPHDTracker)})
 
 
 def make_tracker(name: str, sensors: Sensor | Sequence[Sensor], params: Mapping[str, Any] | None = None,

@@ -1,0 +1,192 @@
+"""Gaussian mixtures as batched records, and their reduction: prune, merge, cap (Vo & Ma 2006, Table II).
+
+A mixture of J weighted Gaussians in an n-dimensional state space is one
+`Mixture` record of arrays with the component axis first, so selecting,
+reordering and concatenating components are `Batch.take` / `Batch.concat`:
+
+    mix = Mixture.make(w, m, P, labels)   # w (J,), m (J, n), P (J, n, n), labels (J,) int64, checked
+    mix = prune(mix, 1e-5)                 # drop w <= T                       (J' <= J components)
+    mix = merge(mix, 4.0)                  # greedy Mahalanobis merge, U = 4   (heaviest first)
+    mix = cap(mix, 100)                    # keep the J_max heaviest
+    n_hat = mix.weights.sum()              # a PHD's expected number of targets
+
+Each reduction is a pure function (a new record; the input is not
+modified) with its contract in its docstring; the tests hold each against a
+slow, loop-per-component reference. Weights are any non-negative numbers
+(a PHD's intensity integrates to the expected target count, not to one);
+labels are the track tags a PHD filter propagates (Clark, Panta & Vo 2006).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Literal
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from nnda.errors import FilterError
+from nnda.filters.batch import Batch
+from nnda.filters.kalman import symmetrise
+from nnda.validation import check_array, check_covariance, check_finite, check_nonnegative
+
+#: `merge` forms every pair of up to this many components; beyond, a k-d tree finds the near ones
+ALL_PAIRS = 64
+
+
+@dataclass(frozen=True)
+class Mixture(Batch):
+    """J weighted Gaussian components: ``weights`` (J,) >= 0, ``means`` (J, n), ``covariances`` (J, n, n)
+    symmetric positive definite, ``labels`` (J,) int64 track tags. Build a checked one with `make`."""
+
+    weights: np.ndarray
+    means: np.ndarray
+    covariances: np.ndarray
+    labels: np.ndarray
+
+    @classmethod
+    def make(cls, weights, means, covariances, labels) -> Mixture:
+        """A checked mixture: shapes agree, values finite, weights >= 0, covariances SPD; raises FilterError."""
+        m = check_array("Mixture.means", means, (None, None), error=FilterError)
+        j, n = m.shape
+        w = check_array("Mixture.weights", weights, (j,), error=FilterError)
+        P = check_array("Mixture.covariances", covariances, (j, n, n), error=FilterError)
+        labels = np.asarray(labels)
+        if labels.shape != (j,) or not np.issubdtype(labels.dtype, np.integer):
+            raise FilterError(f"Mixture.labels: expected {j} integers, got {labels.dtype} of shape {labels.shape}")
+        check_finite("Mixture.weights", w, error=FilterError)
+        check_finite("Mixture.means", m, error=FilterError)
+        if (w < 0).any():
+            raise FilterError(f"Mixture.weights: must be >= 0, got {w[w < 0][0]} at index {int(np.argmax(w < 0))}")
+        check_covariance("Mixture.covariances", P, error=FilterError)
+        return cls(w, m, P, labels.astype(np.int64))
+
+    @classmethod
+    def empty(cls, n: int) -> Mixture:
+        """No components in an n-dimensional state space."""
+        return cls(np.empty(0), np.empty((0, n)), np.empty((0, n, n)), np.empty(0, np.int64))
+
+    @property
+    def dim(self) -> int:
+        """State size n."""
+        return self.means.shape[1]
+
+
+@lru_cache(maxsize=None)
+def _all_pairs(J: int) -> tuple[np.ndarray, np.ndarray]:
+    """Every pair (a < b) of J components (cached: J <= ALL_PAIRS)."""
+    return np.triu_indices(J, 1)
+
+
+def prune(mixture: Mixture, threshold: float) -> Mixture:
+    """The components with weight > ``threshold`` (T, >= 0), in their order; the dropped weight is not
+    redistributed (Vo & Ma, Table II, step 1), so the total weight falls by what was dropped."""
+    check_nonnegative("prune threshold", threshold, error=FilterError)
+    keep = mixture.weights > threshold
+    return mixture if keep.all() else mixture.take(keep)
+
+
+def cap(mixture: Mixture, j_max: int) -> Mixture:
+    """At most ``j_max`` (>= 1) components: the heaviest, in decreasing weight (ties: the earlier
+    component first); a mixture already that small is returned unchanged, in its order."""
+    if j_max < 1:
+        raise FilterError(f"cap: j_max must be >= 1, got {j_max}")
+    w = mixture.weights
+    if len(w) <= j_max:
+        return mixture
+    v = w[np.argpartition(-w, j_max - 1)[j_max - 1]]  # the j_max-th largest weight
+    above = np.flatnonzero(w > v)
+    top = np.concatenate([above, np.flatnonzero(w == v)[:j_max - len(above)]])  # ties at v: earliest
+    return mixture.take(top[np.lexsort((top, -w[top]))])
+
+
+def merge(mixture: Mixture, threshold: float, covariance: Literal["heaviest", "candidate"] = "heaviest") -> Mixture:
+    """Greedy Mahalanobis merge in Vo & Ma's order (Table II, steps 2-4), with U = ``threshold``.
+
+    Repeatedly take the heaviest remaining component j (ties: the earlier
+    one), gather every remaining i with (m_i - m_j)^T C^-1 (m_i - m_j) <= U,
+    where C is the heaviest's covariance P_j (``covariance="heaviest"``) or
+    each candidate's own P_i (``"candidate"``, as Vo & Ma's Table II and
+    Stone Soup write it: a wide component near a tight one then joins it),
+    and replace the group L by one
+    component: w = sum_L w_i, m = sum_L w_i m_i / w,
+    P = sum_L w_i (P_i + (m - m_i)(m - m_i)^T) / w, carrying j's label. The
+    result lists the merged components in the order their heaviest was
+    taken (decreasing weight of the heaviest). Groups with one member are
+    returned as they are. Total weight, and each group's weighted mean, are
+    kept exactly; weights are not capped at one.
+
+    Vectorised: the pairs that could merge come from a k-d tree over the
+    means (all pairs for up to `ALL_PAIRS` components), within
+    |m_i - m_j|^2 <= U max_k trace(P_k) (lambda_max(C) <= trace(C)); of
+    those, the pairs with some (m_i - m_j)_k^2 / C_kk > U are out (for a
+    positive definite C the Mahalanobis distance is at least each
+    coordinate's), and only the rest get the exact distance, all at once.
+    The greedy loop then runs once per merged group and only over
+    components that have such a pair; each iteration is a vectorised step
+    over the heaviest's candidates. The moments of all groups are summed
+    at once.
+    """
+    check_nonnegative("merge threshold", threshold, error=FilterError)
+    if covariance not in ("heaviest", "candidate"):
+        raise FilterError(f"merge: covariance must be 'heaviest' or 'candidate', got {covariance!r}")
+    J = len(mixture)
+    if J < 2:
+        return mixture
+    w, m, P = mixture.weights, mixture.means, mixture.covariances
+    order = np.lexsort((np.arange(J), -w))  # greedy order: heaviest first, ties by index
+    rank = np.empty(J, np.int64)
+    rank[order] = np.arange(J)
+    k = np.arange(m.shape[1])
+    diag = P[:, k, k]  # (J, n)
+    if J <= ALL_PAIRS:
+        a, b = _all_pairs(J)
+    else:
+        a, b = cKDTree(m).query_pairs(np.sqrt(threshold * diag.sum(axis=1).max()), output_type="ndarray").T
+    # orient each pair (heavier j, lighter i), then keep those within U
+    swap = rank[a] > rank[b]
+    j, i = np.where(swap, b, a), np.where(swap, a, b)
+    c = i if covariance == "candidate" else j
+    d = m[i] - m[j]
+    maybe = np.flatnonzero((d * d <= threshold * diag[c]).all(axis=1))
+    j, i, c, d = j[maybe], i[maybe], c[maybe], d[maybe]
+    near = np.einsum("ki,ki->k", d, np.linalg.solve(P[c], d[..., None])[..., 0]) <= threshold
+    j, i = j[near], i[near]
+    if not len(j):
+        return mixture.take(order)
+    # candidates of each heavier component, as CSR rows in greedy order
+    by_rank = np.lexsort((rank[i], rank[j]))
+    j, i = j[by_rank], i[by_rank]
+    rj = rank[j]
+    starts = np.searchsorted(rj, np.arange(J + 1))
+    group = np.arange(J)  # the heaviest of each component's group (itself until merged)
+    free = np.ones(J, bool)
+    for r in rj[np.r_[True, rj[1:] != rj[:-1]]]:  # once per possible group leader, heaviest first
+        leader = order[r]
+        if not free[leader]:
+            continue
+        members = i[starts[r]:starts[r + 1]]
+        members = members[free[members]]
+        group[members] = leader
+        free[members] = False
+        free[leader] = False
+    leaders = order[group[order] == order]  # the heaviest of each group, in greedy order
+    if len(leaders) == J:
+        return mixture.take(order)
+    slot = np.empty(J, np.int64)
+    slot[leaders] = np.arange(len(leaders))
+    g = slot[group]  # each component's group, numbered in greedy order
+    by_group = np.argsort(g, kind="stable")
+    first = np.searchsorted(g[by_group], np.arange(len(leaders)))
+    ws, ms, Ps = w[by_group], m[by_group], P[by_group]
+    W = np.add.reduceat(ws, first)
+    safe = np.where(W > 0, W, 1.0)  # a group of zero weight keeps its heaviest's moments (below)
+    mean = np.add.reduceat(ws[:, None] * ms, first) / safe[:, None]
+    d = mean[g[by_group]] - ms
+    cov = np.add.reduceat(ws[:, None, None] * (Ps + d[:, :, None] * d[:, None, :]), first) / safe[:, None, None]
+    alone = (np.bincount(g) == 1) | (W == 0)
+    mean[alone] = m[leaders[alone]]
+    cov = symmetrise(cov)
+    cov[alone] = P[leaders[alone]]
+    return Mixture(W, mean, cov, mixture.labels[leaders])

@@ -1,0 +1,222 @@
+"""Configs of the PHD trackers: strict pydantic models, checked once when a tracker is configured.
+
+Reduction and extraction come as named parameter sets (``preset``), any of
+whose four numbers an explicit field overrides:
+
+| preset     | prune T | merge U | J_max | extraction | from                                        |
+|------------|---------|---------|-------|------------|---------------------------------------------|
+| `radar`    | 1e-5    | 4       | 100   | 0.5        | this study's radar scenes (the default)     |
+| `seed-000` | 1e-5    | 4       | 15    | 0.25       | Frencl 2014, pedestrians (spec seed-000 4.1)|
+| `seed-002` | 1e-6    | 25      | 1000  | 0.8        | the harbour thesis (spec seed-002 Table 4.3)|
+
+Clutter (``clutter``) is a Poisson number of false contacts per scan, of
+mean lambda, spread uniformly over the radar's coverage in measurement
+space, so its intensity is kappa = lambda / V: per m per rad of (range,
+azimuth) for the polar linearisations (``ekf``, ``ukf``: V = (r_max -
+r_min) 2 pi), per m^2 for Cartesian fixes (``linear``: V = pi (r_max^2 -
+r_min^2)). ``clutter`` gives lambda as a number, or ``"scan"``: each scan's
+own estimate, its contact count less the expected target detections
+(p_D times the predicted target count), at least 0.001; or ``"local"``: each
+contact's local density (`nnda.tracking.clutter_density.local_density`, a
+square of half-side ``clutter_radius_m``), times its range for the polar
+space, with lambda the contact count.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, model_validator
+
+from nnda.errors import ConfigError
+from nnda.filters.motion import ConstantVelocity, CoordinatedTurn, MotionModel
+from nnda.filters.unscented import UnscentedTransform
+from nnda.tracking.tracker import TrackerConfig
+from nnda.validation import check_covariance
+
+_STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+#: a probability of these filters: in (0, 1]
+Probability = Annotated[float, Field(gt=0, le=1)]
+
+#: reduction and extraction parameter sets by name (see the module table)
+REDUCTION_PRESETS: dict[str, dict[str, float]] = {
+    "radar": {"prune_threshold": 1e-5, "merge_threshold": 4.0, "max_components": 100, "extraction_threshold": 0.5},
+    "seed-000": {"prune_threshold": 1e-5, "merge_threshold": 4.0, "max_components": 15,
+                 "extraction_threshold": 0.25},
+    "seed-002": {"prune_threshold": 1e-6, "merge_threshold": 25.0, "max_components": 1000,
+                 "extraction_threshold": 0.8},
+}
+
+
+def _spd(name: str, matrix: list[list[float]], n: int) -> None:
+    """Raise ValueError (ConfigError) unless ``matrix`` is an n x n symmetric positive definite matrix."""
+    P = np.asarray(matrix, dtype=float)
+    if P.shape != (n, n):
+        raise ConfigError(f"{name}: expected a {n} x {n} matrix for the state size {n}, got shape {P.shape}")
+    check_covariance(name, P, error=ConfigError)
+
+
+class MeasurementBirth(BaseModel):
+    """Measurement-driven birth (Ristic et al. 2012, `nnda.tracking.phd.birth`): ``rate`` expected births
+    per scan spread over the last scan's unexplained contacts, velocity 0 +/- ``speed_sigma_m_s``."""
+
+    model_config = _STRICT
+
+    kind: Literal["measurement"] = "measurement"
+    rate: Annotated[float, Field(gt=0, description="expected births per scan (nu_b)")] = 0.1
+    speed_sigma_m_s: Annotated[float, Field(gt=0, description="newborn velocity std per axis (m/s)")] = 100.0
+
+
+class BirthComponent(BaseModel):
+    """One Gaussian of a static birth intensity: weight, mean and covariance in the filter's state."""
+
+    model_config = _STRICT
+
+    weight: Annotated[float, Field(gt=0)]
+    mean: list[float]
+    covariance: list[list[float]]
+
+    @model_validator(mode="after")
+    def _covariance(self) -> BirthComponent:
+        _spd("covariance", self.covariance, len(self.mean))
+        return self
+
+
+class StaticBirth(BaseModel):
+    """Fixed birth components (Vo & Ma's gamma_k) at every scan, or at the first only (``every_scan``
+    false: with the true initial states as means, the seeds' oracle birth)."""
+
+    model_config = _STRICT
+
+    kind: Literal["static"] = "static"
+    components: Annotated[list[BirthComponent], Field(min_length=1)]
+    every_scan: bool = True
+
+
+class Spawn(BaseModel):
+    """Spawning (Vo & Ma's beta): every component spawns one of weight ``weight`` w at its predicted mean,
+    covariance F P F^T + ``covariance`` (the filter's state size)."""
+
+    model_config = _STRICT
+
+    weight: Annotated[float, Field(gt=0)]
+    covariance: list[list[float]]
+
+
+class UnscentedConfig(BaseModel):
+    """Scaled unscented transform parameters (`nnda.filters.unscented.UnscentedTransform`)."""
+
+    model_config = _STRICT
+
+    alpha: Annotated[float, Field(gt=0)] = 1.0
+    beta: float = 2.0
+    kappa: float = 0.0
+
+    def transform(self) -> UnscentedTransform:
+        return UnscentedTransform(self.alpha, self.beta, self.kappa)
+
+
+def _birth_kind(value: Any) -> str:
+    """The birth model's ``kind`` (a mapping without one is the default, measurement-driven birth)."""
+    return value.get("kind", "measurement") if isinstance(value, dict) else getattr(value, "kind", "")
+
+
+class CommonConfig(TrackerConfig):
+    """What every GM-PHD tracker here shares (ours and the Stone Soup peer): reduction and extraction (by
+    preset), CV noise, survival and detection probabilities, clutter, the pair gate."""
+
+    preset: Literal["radar", "seed-000", "seed-002"] = Field(
+        "radar", description="named reduction/extraction set; explicit fields override it")
+    prune_threshold: Annotated[float, Field(ge=0, description="drop components of weight <= T")]
+    merge_threshold: Annotated[float, Field(ge=0, description="squared Mahalanobis distance U of a merge")]
+    max_components: Annotated[int, Field(ge=1, description="J_max, components kept after merging")]
+    extraction_threshold: Annotated[float, Field(gt=0, description="report components of weight >= this")]
+
+    @model_validator(mode="before")
+    @classmethod
+    def _preset(cls, data: Any) -> Any:
+        if isinstance(data, dict):
+            preset = data.get("preset", "radar")
+            data = {**REDUCTION_PRESETS.get(preset, {}), **data}
+        return data
+
+    sigma_q: Annotated[float, Field(ge=0, description="acceleration noise (m/s^2) of the motion model")] = 10.0
+    ps: Probability = Field(0.99, description="survival probability per scan")
+    pd: Probability = Field(0.9, description="detection probability")
+    clutter: Annotated[float, Field(ge=0)] | Literal["scan", "local"] = Field(
+        "local", description="false contacts per scan (lambda), or 'scan' / 'local' estimates (module docs)")
+    clutter_radius_m: Annotated[float, Field(gt=0)] = 3_000.0
+    gate: Annotated[float, Field(gt=0)] | None = Field(
+        50.0, description="squared Mahalanobis gate of the (component, contact) pairs; None: every pair")
+
+
+class PHDConfig(CommonConfig):
+    """Settings of a GM-PHD tracker (see the module docstring for presets and clutter units)."""
+
+    merge_covariance: Literal["candidate", "heaviest"] = Field(
+        "candidate", description="the covariance of the merge distance: each candidate's (Vo & Ma's Table II) "
+        "or the heaviest's (`nnda.filters.mixture.merge`)")
+    linearisation: Literal["linear", "ekf", "ukf"] = Field(
+        "ekf", description="linear: Cartesian fixes (a radar's contacts converted); ekf / ukf: polar radar")
+    unscented: UnscentedConfig = UnscentedConfig()
+    motion: Literal["cv", "ct"] = "cv"
+    sigma_omega: Annotated[float, Field(ge=0, description="turn-rate noise (rad/s) of the CT model")] = 0.044
+    birth: Annotated[Annotated[MeasurementBirth, Tag("measurement")] | Annotated[StaticBirth, Tag("static")],
+                     Discriminator(_birth_kind)] = MeasurementBirth()
+    spawn: Spawn | None = None
+
+    @model_validator(mode="after")
+    def _state_sizes(self) -> PHDConfig:
+        n = self.state_dim
+        if isinstance(self.birth, StaticBirth):
+            for i, c in enumerate(self.birth.components):
+                if len(c.mean) != n:
+                    raise ValueError(f"birth.components.{i}.mean: the {self.motion} state has {n} entries "
+                                     f"([x, vx, y, vy{', omega' if n == 5 else ''}]), got {len(c.mean)}")
+        if self.spawn is not None:
+            _spd("spawn.covariance", self.spawn.covariance, n)
+        if self.linearisation == "ukf" and not n + self.unscented.kappa > 0:
+            raise ValueError(f"unscented.kappa: n + kappa must be > 0 for the state size {n}")
+        return self
+
+    @property
+    def state_dim(self) -> int:
+        """Size of the filter's state: 4 (CV) or 5 (CT)."""
+        return 4 if self.motion == "cv" else 5
+
+    def motion_model(self) -> MotionModel:
+        if self.motion == "cv":
+            return ConstantVelocity(self.sigma_q)
+        return CoordinatedTurn(sigma_q=self.sigma_q, sigma_omega=self.sigma_omega)
+
+
+class GMPHDConfig(PHDConfig):
+    """``gmphd``: the GM-PHD on Cartesian fixes (a radar's contacts converted with their covariance)."""
+
+    linearisation: Literal["linear", "ekf", "ukf"] = "linear"
+
+
+class EKPHDConfig(PHDConfig):
+    """``ekphd``: the GM-PHD with the EKF's linearisation of the polar radar measurement."""
+
+
+class UKPHDConfig(PHDConfig):
+    """``ukphd``: the GM-PHD with the unscented transform of the polar radar measurement."""
+
+    linearisation: Literal["linear", "ekf", "ukf"] = "ukf"
+
+
+class CPHDConfig(PHDConfig):
+    """``cphd``: the cardinalised PHD, EK linearisation by default; no spawning (the CPHD has none)."""
+
+    max_cardinality: Annotated[int, Field(ge=1, description="N_max, the cardinality support 0..N_max")] = 100
+    extraction: Literal["threshold", "map"] = Field(
+        "threshold", description="threshold: as the PHD; map: the MAP count's heaviest components")
+
+    @model_validator(mode="after")
+    def _no_spawn(self) -> CPHDConfig:
+        if self.spawn is not None:
+            raise ValueError("spawn: the CPHD filter has no spawning model")
+        return self

@@ -1,0 +1,232 @@
+"""The cardinalised PHD update (Vo, Vo & Cantoni 2007) for Gaussian mixtures, in the log domain.
+
+Beside the intensity, the CPHD filter carries the distribution p(n) of the
+number of targets on the capped support n = 0..N_max. Per scan, with J
+predicted components and N contacts:
+
+    p = predict_cardinality(p, ps, birth_mean)          # binomial thinning (*) Poisson births   (N_max+1,)
+    pairs = EKF(radar).pairs(pred, z, gate=50.0)        # as the GM-PHD (`nnda.tracking.phd.gmphd`)
+    det, missed, p = cphd_weights(pred.weights, pairs, pd, clutter_rate, log_c, p)
+    post = gmphd.posterior(pred, pairs, missed, det, prune_above=1e-5)
+
+With Poisson clutter of mean lambda and spatial density c(z) (per unit of
+measurement space), Lambda_z = p_D sum_j w_j q_j(z) / c(z) and, for u = 0, 1,
+
+    Upsilon^u[Z](n) = sum_{k=0}^{min(|Z|, n-u)} e^-lambda lambda^(|Z|-k) n! / (n-k-u)!
+                      ((1 - p_D) W)^(n-k-u) / W^n  e_k(Lambda(Z)),      W = sum_j w_j
+                    = W^-u sum_k ... (1 - p_D)^(n-k-u) e_k(Lambda(Z) / W)     (computed so)
+
+(the GM-CPHD update of Vo, Vo & Cantoni, "Analytic implementations of the
+cardinalized probability hypothesis density filter", IEEE TSP 55(7), 2007,
+Sec. IV-B, with the Poisson clutter cardinality's (|Z|-k)! p_K(|Z|-k)
+written out). Then p'(n) = Upsilon^0[Z](n) p(n) / <Upsilon^0[Z], p>, missed
+copies weigh (1 - p_D) w_j <Upsilon^1[Z], p> / <Upsilon^0[Z], p> and the
+copy of component j updated by z weighs
+p_D w_j q_j(z) / c(z) <Upsilon^1[Z \\ {z}], p> / <Upsilon^0[Z], p>.
+
+Numerics. The elementary symmetric functions e_k span hundreds of orders
+of magnitude, so every sum runs on logarithms (the factors above) or on
+rescaled values with their scale kept as a logarithm. e_k(Lambda) comes
+from Vieta's recursion on Lambda / max(Lambda); the N values
+<Upsilon^1[Z \\ {z}], p> come from one forward pass (prefix ESFs) and one
+backward pass (the prefix's partner, a correlation of the Upsilon^1
+coefficients with the suffix ESFs), both sums of non-negative terms only
+(no subtraction, so no cancellation), renormalised every 64 contacts. Only
+the N_g contacts with a gated pair enter them (a contact without one has
+Lambda = 0: it counts in |Z| only): O(N_g min(N_g, N_max)) work in 2 N_g
+vectorised steps (the recursion is sequential in the contacts; each step is
+a vector operation over the degrees).
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+from scipy.special import gammaln, xlogy
+from scipy.stats import binom, poisson
+
+from nnda.errors import TrackingError
+from nnda.tracking.phd.gmphd import Pairs, per_contact_logsumexp
+
+
+def predict_cardinality(p: np.ndarray, ps: float, birth_mean: float) -> np.ndarray:
+    """Predicted cardinality (N_max+1,) of ``p`` (N_max+1,): each target survives with probability
+    ``ps`` (binomial thinning), then a Poisson number of mean ``birth_mean`` is born (a convolution);
+    the mass past N_max is cut and the rest renormalised."""
+    out = np.convolve(_thinning(len(p), ps) @ p, poisson.pmf(np.arange(len(p)), birth_mean))[:len(p)]
+    return out / out.sum()
+
+
+@lru_cache(maxsize=8)
+def _thinning(size: int, ps: float) -> np.ndarray:
+    """(size, size) matrix of P(j survivors | l targets) = C(l, j) ps^j (1 - ps)^(l - j)."""
+    n = np.arange(size)
+    return binom.pmf(n[:, None], n[None, :], ps)
+
+
+def _logsumexp(a: np.ndarray, axis: int | None = None) -> np.ndarray:
+    """log sum exp of ``a`` along ``axis`` (all -inf: -inf), shifted by the maximum."""
+    top = np.max(a, axis=axis, keepdims=True)
+    top = np.where(np.isfinite(top), top, 0.0)
+    with np.errstate(divide="ignore"):
+        out = np.log(np.sum(np.exp(a - top), axis=axis, keepdims=True)) + top
+    return out.squeeze(axis) if axis is not None else out.reshape(())
+
+
+#: the recursions renormalise every this many contacts: with every scaled Lambda <= 1 a value at most
+#: doubles per step, so it stays below 2^64 times its last norm in between
+_RENORM = 64
+
+
+def _scaled(log_lam: np.ndarray) -> tuple[np.ndarray, float]:
+    """Lambda / s and log s with s = max(Lambda) (s = 1 when every Lambda is 0)."""
+    shift = float(log_lam.max()) if len(log_lam) and np.isfinite(log_lam).any() else 0.0
+    return np.exp(log_lam - shift), shift
+
+
+def _prefix(lam: np.ndarray, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """Prefix ESFs of ``lam`` (m,) in [0, 1] (Vieta's recursion e_k += lam_z e_(k-1)), truncated at
+    ``degree``: rows (m+1, degree+1), row z the ESFs of lam[:z] divided by exp(``scale[z]``) (m+1,)."""
+    m = len(lam)
+    rows = np.zeros((m + 1, degree + 1))
+    scale = np.zeros(m + 1)
+    rows[0, 0] = 1.0
+    for z in range(m):
+        row = rows[z + 1]
+        row[:] = rows[z]
+        row[1:] += lam[z] * rows[z, :-1]
+        scale[z + 1] = scale[z]
+        if z % _RENORM == _RENORM - 1:
+            top = row.max()
+            row /= top
+            scale[z + 1] += np.log(top)
+    return rows, scale
+
+
+def log_esf(log_lam: np.ndarray, degree: int) -> np.ndarray:
+    """log e_k(Lambda), k = 0..degree, of Lambda = exp(``log_lam``) (m,) (-inf entries are zeros);
+    e_k = 0 (log -inf) for k > m."""
+    lam, shift = _scaled(log_lam)
+    rows, scale = _prefix(lam, degree)
+    return _log_last(rows, scale, shift)
+
+
+def _log_last(rows: np.ndarray, scale: np.ndarray, shift: float) -> np.ndarray:
+    """log e_k of the whole set from `_prefix`'s rows of Lambda / exp(shift)."""
+    with np.errstate(divide="ignore"):
+        return np.log(rows[-1]) + scale[-1] + shift * np.arange(rows.shape[1])
+
+
+def log_leave_one_out(log_lam: np.ndarray, log_b: np.ndarray) -> np.ndarray:
+    """log sum_k b_k e_k(Lambda without Lambda_z) for every z: (m,) from ``log_lam`` (m,) and the
+    coefficients ``log_b`` (L+1,) (degrees past L are not needed: their b is 0)."""
+    lam, shift = _scaled(log_lam)
+    pre, pre_scale = _prefix(lam, len(log_b) - 1)
+    return _leave_one_out(lam, shift, pre, pre_scale, log_b)
+
+
+def _leave_one_out(lam: np.ndarray, shift: float, pre: np.ndarray, pre_scale: np.ndarray, log_b: np.ndarray
+                   ) -> np.ndarray:
+    """`log_leave_one_out` from `_prefix`'s rows (truncated to len(log_b) columns) of lam = Lambda / e^shift.
+
+    Backward over the contacts: g[a] = sum_c b[a + c] (ESFs of the contacts after z)[c], so that
+    sum_k b_k e_k(Lambda without z) = sum_a (prefix ESFs before z)[a] g[a]; taking z into the suffix is
+    g[a] += lam_z g[a + 1]. Every term is non-negative.
+    """
+    m, degree = len(lam), len(log_b) - 1
+    pre = pre[:, :degree + 1]
+    log_bs = log_b + shift * np.arange(degree + 1)  # b_k e_k(Lambda) = b_k s^k e_k(Lambda / s)
+    top = log_bs.max()
+    if not np.isfinite(top):  # every coefficient zero
+        return np.full(m, -np.inf)
+    g = np.exp(log_bs - top)
+    g_scale = top
+    dot = np.empty(m)
+    scale = np.empty(m)
+    for step, z in enumerate(range(m - 1, -1, -1)):
+        dot[z] = pre[z] @ g
+        scale[z] = pre_scale[z] + g_scale
+        g[:-1] += lam[z] * g[1:]
+        if step % _RENORM == _RENORM - 1:
+            peak = g.max()
+            g /= peak
+            g_scale += np.log(peak)
+    with np.errstate(divide="ignore"):
+        return np.log(dot) + scale
+
+
+@lru_cache(maxsize=64)
+def _falling(u: int, n_max: int, degree: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The parts of Upsilon^u's factor that depend on (n, k) only, (n_max+1, degree+1) each: where
+    k + u <= n, log n! / (n-k-u)!, and r = n - k - u (0 elsewhere)."""
+    n = np.arange(n_max + 1)[:, None]
+    k = np.arange(degree + 1)[None, :]
+    r = n - k - u
+    ok = r >= 0
+    rr = np.maximum(r, 0)
+    return ok, np.where(ok, gammaln(n + 1.0) - gammaln(rr + 1.0), 0.0), rr
+
+
+def _log_coefficients(u: int, m: int, n_max: int, degree: int, clutter_rate: float, pd: float, W: float
+                      ) -> np.ndarray:
+    """log of Upsilon^u's factor (n_max+1, degree+1) at (n, k), for ESFs of the normalised Lambda / W:
+    e^-lambda lambda^(m-k) n! / (n-k-u)! (1 - p_D)^(n-k-u) W^-u for k <= m and k + u <= n, else -inf
+    (((1 - p_D) W)^(n-k-u) / W^n e_k(Lambda) = (1 - p_D)^(n-k-u) W^-u e_k(Lambda / W))."""
+    ok, log_falling, r = _falling(u, n_max, degree)
+    k = np.arange(degree + 1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        clutter = np.where(k <= m, -clutter_rate + xlogy(m - k, clutter_rate), -np.inf)
+        v = clutter[None, :] + log_falling + xlogy(r, 1.0 - pd) - u * np.log(W)
+    return np.where(ok, v, -np.inf)
+
+
+def cphd_weights(weights: np.ndarray, pairs: Pairs, pd: float, clutter_rate: float, log_c: np.ndarray,
+                 cardinality: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """GM-CPHD update weights: of the detection copies (P,), of the missed copies (J,), and the posterior
+    cardinality (N_max+1,).
+
+    ``weights`` (J,) predicted weights, ``pairs`` the gated pairs
+    (`nnda.tracking.phd.gmphd.Pairs`), ``pd`` detection probability,
+    ``clutter_rate`` lambda (mean false contacts per scan), ``log_c`` (N,)
+    log clutter spatial density at each contact, ``cardinality`` the
+    predicted p(n). A contact without a pair has Lambda = 0 and enters only
+    through the count |Z|, so the symmetric functions run over the others.
+    Raises TrackingError when no n <= N_max explains the scan (more
+    contacts than N_max targets and no clutter).
+    """
+    n_max = len(cardinality) - 1
+    J, m = len(weights), pairs.n_contacts
+    W = float(weights.sum())
+    with np.errstate(divide="ignore"):
+        log_p = np.log(cardinality)
+        log_psi = np.log(pd * weights)[pairs.j] + pairs.log_likelihood - log_c[pairs.i]  # p_D w q / c
+    # log Lambda(z) / W of the contacts with pairs (W = 0: no component, Lambda = 0)
+    seen = np.unique(pairs.i) if W > 0 else np.empty(0, np.int64)
+    log_lam = per_contact_logsumexp(log_psi, pairs.i, m, np.full(m, -np.inf))[seen] - (np.log(W) if W > 0 else 0.0)
+    degree = min(len(seen), n_max)  # e_k = 0 past the number of contacts with Lambda > 0
+    lam, shift = _scaled(log_lam)
+    pre, pre_scale = _prefix(lam, degree)  # one forward pass: the ESFs and the leave-one-out sums
+    log_e = _log_last(pre, pre_scale, shift)
+    ups0 = _logsumexp(_log_coefficients(0, m, n_max, degree, clutter_rate, pd, 1.0) + log_e, axis=1)
+    den = _logsumexp(ups0 + log_p)
+    if not np.isfinite(den):
+        raise TrackingError(f"CPHD: no target count up to max_cardinality = {n_max} explains a scan of {m} "
+                            f"contacts with clutter rate {clutter_rate} (with no clutter, every contact needs a "
+                            f"component near it and every target a contact when p_D = 1)")
+    posterior = np.exp(ups0 + log_p - den)
+    posterior /= posterior.sum()
+    if W == 0:
+        return np.zeros(len(pairs.j)), np.zeros(J), posterior
+    ups1 = _logsumexp(_log_coefficients(1, m, n_max, degree, clutter_rate, pd, W) + log_e, axis=1)
+    missed = (1.0 - pd) * weights * np.exp(_logsumexp(ups1 + log_p) - den)
+    if not len(seen):
+        return np.zeros(0), missed, posterior
+    loo_degree = min(len(seen) - 1, n_max - 1)
+    log_b = _logsumexp(_log_coefficients(1, m - 1, n_max, loo_degree, clutter_rate, pd, W) + log_p[:, None], axis=0)
+    log_r = np.full(m, -np.inf)
+    # log <Upsilon^1[Z \ z], p> / <Upsilon^0[Z], p>
+    log_r[seen] = _leave_one_out(lam, shift, pre, pre_scale, log_b) - den
+    with np.errstate(invalid="ignore"):
+        detected = np.exp(log_psi + log_r[pairs.i])
+    return np.nan_to_num(detected, nan=0.0), missed, posterior

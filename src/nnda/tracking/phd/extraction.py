@@ -1,0 +1,48 @@
+"""Track labels and state extraction of the PHD trackers (tag propagation, Clark, Panta & Vo 2006).
+
+Every component carries a label: a newborn or spawned component gets a
+fresh one, the copies an update makes of a component keep its label, and a
+merged component keeps its heaviest member's (`nnda.filters.mixture.merge`).
+After reduction two components may still share a label (copies of one
+component updated by contacts too far apart to merge): `relabel_duplicates`
+keeps the label on the heaviest and gives the others fresh ones, so labels
+are unique and the extracted components are tracks with stable ids.
+Extraction reports each component once (no round(w) copies).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nnda.filters.mixture import Mixture
+
+
+def relabel_duplicates(mixture: Mixture, next_label: int) -> tuple[Mixture, int]:
+    """``mixture`` with unique labels, and the next free label.
+
+    Among components sharing a label the heaviest keeps it (ties: the
+    earlier); the others, in their order, get ``next_label``,
+    ``next_label + 1``, ...
+    """
+    lab, w = mixture.labels, mixture.weights
+    order = np.lexsort((np.arange(len(lab)), -w, lab))
+    repeat = np.zeros(len(lab), bool)
+    repeat[1:] = lab[order][1:] == lab[order][:-1]
+    dup = np.sort(order[repeat])
+    if not len(dup):
+        return mixture, next_label
+    labels = lab.copy()
+    labels[dup] = np.arange(next_label, next_label + len(dup))
+    return Mixture(w, mixture.means, mixture.covariances, labels), next_label + len(dup)
+
+
+def above(mixture: Mixture, threshold: float) -> np.ndarray:
+    """Indices of the components of weight >= ``threshold`` (Vo & Ma 2006, Table III, each once)."""
+    return np.flatnonzero(mixture.weights >= threshold)
+
+
+def heaviest(mixture: Mixture, count: int) -> np.ndarray:
+    """Indices of the ``count`` heaviest components (all of them if fewer; ties: the earlier), the CPHD's
+    extraction of its MAP cardinality (Vo, Vo & Cantoni 2007)."""
+    order = np.lexsort((np.arange(len(mixture)), -mixture.weights))
+    return np.sort(order[:count])

@@ -1,0 +1,262 @@
+"""The Gaussian-mixture PHD recursion (Vo & Ma 2006) as pure functions, batched over components x contacts.
+
+One scan, with J predicted components and N contacts (shapes on the right):
+
+    pred = predict(post, motion, dt, ps)                # survivors: w ps, F m, F P F^T + Q      (J,)
+    pred = Mixture.concat([pred, spawn(post, ...), births])  # spawned and newborn components
+    pairs = EKF(radar).pairs(pred, z, gate=50.0)        # gated (j, i): innovation, log q_j(z_i)  (P,)
+    det, missed = phd_weights(pred.weights, pairs, pd, log_kappa)  # detection (P,), missed (J,)
+    post = posterior(pred, pairs, missed, det, prune_above=1e-5)   # missed copies, then per contact
+
+`posterior` builds the J (1 + N) components of Proposition 2 when every
+pair is formed (``gate=None``); the chi-square gate leaves out the pairs
+whose likelihood is negligible (found without forming them: a window on
+the first measurement coordinate, then the exact distance), and
+``prune_above`` drops the light copies before they are built. The three
+linearisations give the same `Pairs`: `Linear` (Cartesian position fixes,
+one noise covariance per contact: a radar's contacts converted with their
+own covariance), `EKF` and `UKF` (the polar radar measurement through the
+EKF's Jacobian or the unscented transform). All the pairs' likelihoods
+come from 2 x 2 closed forms; the Kalman correction of the pairs that are
+kept is `nnda.filters.kalman.correct` (covariance P - K S K^T, symmetrised);
+nothing loops over components or contacts.
+The CPHD filter (`nnda.tracking.phd.cphd`) reuses all of this and replaces
+`phd_weights` only.
+
+Equations are those of Vo & Ma, "The Gaussian mixture probability
+hypothesis density filter", IEEE TSP 54(11), 2006: Proposition 1 (prediction
+of survivors and spawns) and Proposition 2 (update: missed copies
+(1 - p_D) w, detection copies
+w_j(z) = p_D w_j q_j(z) / (kappa(z) + p_D sum_l w_l q_l(z))), Table I.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+
+import numpy as np
+
+from nnda.filters import kalman, unscented
+from nnda.filters.kalman import MeasurementPrediction
+from nnda.filters.measurement import MeasurementModel
+from nnda.filters.mixture import Mixture
+from nnda.filters.motion import POS, MotionModel
+
+
+def predict(mixture: Mixture, motion: MotionModel, dt: float, ps: float | np.ndarray) -> Mixture:
+    """Survivors of ``mixture`` after ``dt`` s (Proposition 1): weights ps w (``ps`` a number or one per
+    component (J,)), EKF-predicted moments, same labels."""
+    m, P = kalman.predict(mixture.means, mixture.covariances, motion, dt)
+    return Mixture(ps * mixture.weights, m, P, mixture.labels)
+
+
+def spawn(mixture: Mixture, motion: MotionModel, dt: float, weight: float, covariance: np.ndarray,
+          labels: np.ndarray) -> Mixture:
+    """Targets spawned by the components of ``mixture`` over ``dt`` s (Proposition 1, with F_beta = F, d = 0):
+    weights ``weight`` w, means F m, covariances F P F^T + Q_beta (``covariance`` (n, n)), new ``labels`` (J,)."""
+    m, F = motion.transition(mixture.means, np.asarray(dt, dtype=float))
+    return Mixture(weight * mixture.weights, m, kalman.propagate_covariance(F, mixture.covariances, covariance),
+                   labels)
+
+
+@dataclass(frozen=True)
+class Pairs:
+    """The (predicted component j, contact i) pairs of one update that pass the gate, contact-major.
+
+    ``j``, ``i`` (P,) index the components and contacts (sorted by i, then
+    j), ``nu`` (P, 2) holds the innovations z_i - h(m_j) and
+    ``log_likelihood`` (P,) log q_j(z_i) = log N(z_i; h(m_j), S_ji);
+    ``n_contacts`` is N. ``component`` is the measurement prediction of
+    each component (leading shape (J,)) and ``contact_R`` (N, 2, 2), when
+    given, the noise of each contact, added to the component's noise-free
+    S (then S_ji differs per contact). A pair outside the gate has q = 0.
+    """
+
+    j: np.ndarray
+    i: np.ndarray
+    nu: np.ndarray
+    log_likelihood: np.ndarray
+    n_contacts: int
+    component: MeasurementPrediction
+    contact_R: np.ndarray | None = None
+
+    def prediction(self, k: np.ndarray) -> MeasurementPrediction:
+        """The measurement predictions of pairs ``k`` (leading shape (K,)), for their correction."""
+        j, c = self.j[k], self.component
+        if self.contact_R is None:
+            return c.take(j)
+        return kalman.measurement_prediction(c.z[j], c.S[j] + self.contact_R[self.i[k]], c.H[j], c.PHt[j])
+
+
+def candidates(z0: np.ndarray, centre: np.ndarray, half_width: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every (j, i) with |z0[i] - centre[j]| <= half_width[j]: contacts' first coordinates ``z0`` (N,),
+    components' predicted ones ``centre`` (J,) and windows ``half_width`` (J,); one sort and two binary
+    searches, the pairs expanded without a loop. Returns component and contact indices (P,)."""
+    order = np.argsort(z0, kind="stable")
+    zs = z0[order]
+    lo = np.searchsorted(zs, centre - half_width, "left")
+    hi = np.searchsorted(zs, centre + half_width, "right")
+    counts = np.maximum(hi - lo, 0)
+    j = np.repeat(np.arange(len(centre)), counts)
+    start = np.repeat(lo - (np.cumsum(counts) - counts), counts)
+    return j, order[start + np.arange(len(j))]
+
+
+def _gated(mp: MeasurementPrediction, z: np.ndarray, gate: float | None, noise_00: float
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """Candidate pairs of components ``mp`` and contacts z (N, 2) for a chi-square ``gate`` (None: all).
+
+    d^2 = nu^T S^-1 nu >= nu_0^2 / S_00 for any positive definite S, so a
+    pair with |nu_0| > sqrt(gate S_00) is outside the gate: a window on the
+    first coordinate (range, or x) prefilters exactly; ``noise_00`` bounds
+    the contacts' own noise on it (added to the components' S_00).
+    """
+    J, N = len(mp.z), len(z)
+    if gate is None:
+        return np.repeat(np.arange(J), N), np.tile(np.arange(N), J)
+    return candidates(z[:, 0], mp.z[:, 0], np.sqrt(gate * (mp.S[:, 0, 0] + noise_00)))
+
+
+def _contact_major(j, i, *arrays, keep=None):
+    """Pairs (and their arrays) restricted to ``keep`` and sorted by contact, then component."""
+    if keep is not None:
+        j, i, arrays = j[keep], i[keep], [a[keep] for a in arrays]
+    order = np.argsort(i * (j.max(initial=0) + 1) + j, kind="stable")
+    return (j[order], i[order], *(a[order] for a in arrays))
+
+
+class Linearisation(ABC):
+    """How contacts enter the update: `contacts` maps a scan's measurements to what the pairs are formed
+    with, `predict_measurement` linearises the components, `pairs` forms the gated pairs."""
+
+    def __init__(self, measurement: MeasurementModel) -> None:
+        self.measurement = measurement
+
+    def contacts(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """The measurements the update uses (N, 2) and their own noise (N, 2, 2) or None (the model's R)."""
+        return z, None
+
+    @abstractmethod
+    def predict_measurement(self, x: np.ndarray, P: np.ndarray) -> MeasurementPrediction:
+        """Measurement prediction of states x (J, n), P (J, n, n)."""
+
+    def pairs(self, mixture: Mixture, z: np.ndarray, contact_R: np.ndarray | None = None,
+              gate: float | None = None) -> Pairs:
+        """The pairs of the predicted ``mixture`` and the contacts z (N, 2) (from `contacts`) with squared
+        Mahalanobis distance <= ``gate`` (None: all J x N pairs)."""
+        mp = self.predict_measurement(mixture.means, mixture.covariances)
+        j, i = _gated(mp, z, gate, 0.0)
+        nu = self.measurement.residual(z[i], mp.z[j])
+        d2 = kalman.mahalanobis_2x2(nu, mp.S_inv[j])
+        log_det = mp.log_det_S[j]
+        j, i, nu, d2, log_det = _contact_major(j, i, nu, d2, log_det, keep=None if gate is None else d2 <= gate)
+        return Pairs(j, i, nu, kalman.gaussian_log_likelihood(d2, log_det), len(z), mp)
+
+
+class EKF(Linearisation):
+    """The measurement model's Jacobian at each component's mean (`nnda.filters.kalman`)."""
+
+    def predict_measurement(self, x, P):
+        return kalman.predict_measurement(x, P, self.measurement)
+
+
+class UKF(Linearisation):
+    """The unscented transform of each component (`nnda.filters.unscented`)."""
+
+    def __init__(self, measurement: MeasurementModel, transform: unscented.UnscentedTransform) -> None:
+        super().__init__(measurement)
+        self.transform = transform
+
+    def predict_measurement(self, x, P):
+        return unscented.predict_measurement(x, P, self.measurement, self.transform)
+
+
+def _position_h(n: int) -> np.ndarray:
+    """H (2, n) of a Cartesian position fix on [x, vx, y, vy, ...]: its rows pick x and y."""
+    H = np.zeros((2, n))
+    H[0, POS[0]] = H[1, POS[1]] = 1.0
+    return H
+
+
+class Linear(Linearisation):
+    """Cartesian position fixes, H selecting [x, y], each contact with its own noise R_i.
+
+    `contacts` takes them from the measurement model's ``position``: a
+    `PositionMeasurement`'s fixes with its R, or a radar's contacts
+    converted to Cartesian with their converted covariance (range- and
+    azimuth-dependent), so S_ji = H P_j H^T + R_i.
+    """
+
+    def contacts(self, z):
+        return self.measurement.position(z)
+
+    def predict_measurement(self, x, P):
+        """The noise-free prediction: z = H x, S = H P H^T (the contacts' noise is added per pair)."""
+        H = _position_h(x.shape[-1])
+        PHt = np.ascontiguousarray(P[..., POS])
+        return kalman.measurement_prediction(x[..., POS], PHt[..., POS, :].copy(),
+                                             np.broadcast_to(H, (*x.shape[:-1], *H.shape)), PHt)
+
+    def pairs(self, mixture, z, contact_R=None, gate=None):
+        if contact_R is None:  # fixes with the model's own noise
+            contact_R = np.broadcast_to(self.measurement.R, (len(z), 2, 2))
+        mp = self.predict_measurement(mixture.means, mixture.covariances)
+        j, i = _gated(mp, z, gate, float(contact_R[:, 0, 0].max(initial=0.0)))
+        nu = z[i] - mp.z[j]
+        S_inv, det = kalman.inverse_2x2(mp.S[j] + contact_R[i])
+        d2 = kalman.mahalanobis_2x2(nu, S_inv)
+        j, i, nu, d2, det = _contact_major(j, i, nu, d2, det, keep=None if gate is None else d2 <= gate)
+        return Pairs(j, i, nu, kalman.gaussian_log_likelihood(d2, np.log(det)), len(z), mp, contact_R)
+
+
+def per_contact_logsumexp(values: np.ndarray, i: np.ndarray, n: int, floor: np.ndarray) -> np.ndarray:
+    """log(exp(floor_c) + sum over the pairs of contact c of exp(values)) for every contact c: (n,).
+
+    ``values`` (P,) belong to contacts ``i`` (P,), sorted; ``floor`` (n,)
+    is an extra term per contact (-inf: none). Shifted by each contact's
+    maximum, so nothing overflows; a contact whose terms are all -inf gets -inf.
+    """
+    top = floor.copy()
+    if len(i):
+        starts = np.flatnonzero(np.r_[True, i[1:] != i[:-1]])
+        top[i[starts]] = np.maximum(top[i[starts]], np.maximum.reduceat(values, starts))
+    shift = np.where(np.isfinite(top), top, 0.0)
+    with np.errstate(divide="ignore"):
+        total = np.exp(floor - shift) + np.bincount(i, np.exp(values - shift[i]), minlength=n)
+        return np.log(total) + shift
+
+
+def phd_weights(weights: np.ndarray, pairs: Pairs, pd: float, log_kappa: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """GM-PHD update weights (Proposition 2): of the detection copies, one per pair (P,), and of the
+    missed copies (J,).
+
+    ``weights`` (J,) are the predicted weights, ``log_kappa`` (N,) the log
+    clutter intensity at each contact (-inf: none). Computed in the log
+    domain, so a contact that only a far component explains and no clutter
+    explains still normalises, and one nothing explains gets no weight.
+    """
+    with np.errstate(divide="ignore"):
+        log_a = np.log(pd * weights)[pairs.j] + pairs.log_likelihood  # log p_D w_j q_j(z_i)
+    den = per_contact_logsumexp(log_a, pairs.i, pairs.n_contacts, log_kappa)
+    with np.errstate(invalid="ignore"):
+        det = np.exp(log_a - den[pairs.i])
+    return np.nan_to_num(det, nan=0.0), (1.0 - pd) * weights
+
+
+def posterior(pred: Mixture, pairs: Pairs, missed: np.ndarray, detected: np.ndarray,
+              prune_above: float | None = None) -> Mixture:
+    """The updated mixture: J missed copies (``missed`` (J,) weights, predicted moments), then for each
+    contact i the detection copies of its pairs (``detected`` (P,) weights, Kalman-corrected moments);
+    every copy keeps its component's label. With ``prune_above`` only copies of weight > it are built (the
+    same rule as `nnda.filters.mixture.prune`, applied before the corrections are computed)."""
+    if prune_above is None:
+        keep_missed, k = np.ones(len(missed), bool), np.arange(len(detected))
+    else:
+        keep_missed, k = missed > prune_above, np.flatnonzero(detected > prune_above)
+    j = pairs.j[k]
+    m, P = kalman.correct(pred.means[j], pred.covariances[j], pairs.nu[k], pairs.prediction(k))
+    return Mixture(np.concatenate([missed[keep_missed], detected[k]]),
+                   np.concatenate([pred.means[keep_missed], m]),
+                   np.concatenate([pred.covariances[keep_missed], P]),
+                   np.concatenate([pred.labels[keep_missed], pred.labels[j]]))

@@ -1,0 +1,282 @@
+"""The PHD trackers: ``gmphd``, ``ekphd``, ``ukphd`` and ``cphd`` behind the Tracker protocol.
+
+Each is built as ``cls(sensors, config, measurement=None)``: one sensor (a
+polar radar's noise, position and coverage, or a position sensor), a config
+(`nnda.tracking.phd.config`) and optionally the measurement model of the
+scans' contacts as a component (default: the sensor's,
+`nnda.filters.measurement.measurement_model`; a `PositionMeasurement` makes
+the contacts Cartesian (x, y) fixes, which only the ``linear``
+linearisation takes). One scan (J components, N contacts):
+
+1. predict the posterior to the scan time (survival ps), add spawned
+   components, last scan's newborn components (predicted, without ps) and
+   static births (`nnda.tracking.phd.gmphd`, `nnda.tracking.phd.birth`);
+2. update with every (component, contact) pair inside the chi-square gate
+   at once: GM-PHD weights (`gmphd.phd_weights`) or, for ``cphd``, the
+   cardinalised ones with the cardinality distribution
+   (`nnda.tracking.phd.cphd`); only copies heavier than the prune threshold
+   are built, and a newborn component's missed copy is dropped (a target is
+   born detected);
+3. merge and cap (`nnda.filters.mixture`), make labels unique
+   (`nnda.tracking.phd.extraction`);
+4. newborn components for the next scan from this scan's contacts, weighted
+   by how little the filter explains them (measurement-driven birth);
+5. report the extracted components (weight >= the extraction threshold; or,
+   ``cphd`` with ``extraction="map"``, its MAP count of heaviest ones) as
+   CONFIRMED tracks, id = label, state [x, vx, y, vy], no contact (a PHD
+   associates none); the scan's target-count estimate is in
+   ``tracker.cardinality``.
+
+After `step`, ``tracker.mixture`` holds the posterior intensity (at most
+J_max components) and ``tracker.cardinality`` a `Cardinality` record of the
+scan. The work and memory of a scan grow with J_max + N components and the
+gated pairs, not with J x N.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from nnda.data.dataset import Scan
+from nnda.data.scenario import Sensor
+from nnda.errors import TrackingError
+from nnda.filters.measurement import MeasurementModel, PositionMeasurement, measurement_model
+from nnda.filters.mixture import Mixture, cap, merge
+from nnda.tracking.clutter_density import coverage_area, local_density, measurement_volume
+from nnda.tracking.output import CONFIRMED, NO_CONTACT, TrackerOutput
+from nnda.tracking.phd import cphd, gmphd
+from nnda.tracking.phd.birth import measurement_births
+from nnda.tracking.phd.config import (
+    CommonConfig,
+    CPHDConfig,
+    EKPHDConfig,
+    GMPHDConfig,
+    PHDConfig,
+    StaticBirth,
+    UKPHDConfig,
+)
+from nnda.tracking.phd.extraction import above, heaviest, relabel_duplicates
+from nnda.tracking.tracker import TrackerConfig, checked_config, checked_scan, only_sensor, sensor_tuple
+
+
+@dataclass(frozen=True)
+class Cardinality:
+    """The target count after one scan.
+
+    ``mean`` is the expected number of targets (a PHD: the updated
+    intensity's total weight, before pruning; the CPHD: the mean of its
+    distribution), ``map`` the CPHD's most probable count (None for a PHD),
+    ``distribution`` the CPHD's p(n), n = 0..N_max (None for a PHD),
+    ``extracted`` the number of tracks reported.
+    """
+
+    scan: int
+    time: float
+    mean: float
+    map: int | None
+    distribution: np.ndarray | None
+    extracted: int
+
+
+#: the floor of the per-scan clutter estimate: never exactly no clutter, so that a contact no component
+#: explains is clutter, not a scan the CPHD's model cannot have produced
+MIN_SCAN_CLUTTER = 1e-3
+
+
+def clutter(config: CommonConfig, z: np.ndarray, xy: np.ndarray, volume: float, polar: bool,
+            expected_detections: float) -> tuple[float, np.ndarray]:
+    """(lambda, log clutter spatial density (N,)) of one scan for ``config.clutter`` (see
+    `nnda.tracking.phd.config`): contacts z (N, 2) as measured, xy (N, 2) m their Cartesian positions,
+    ``volume`` the coverage in the update's measurement space (m rad if ``polar``, else m^2),
+    ``expected_detections`` p_D times the predicted target count."""
+    n = len(z)
+    if config.clutter == "local":
+        density = local_density(xy, xy, config.clutter_radius_m)  # contacts per m^2
+        if polar:
+            density = density * z[:, 0]  # per m rad: dx dy = r dr d(azimuth)
+        return float(n), np.log(density / max(n, 1))
+    rate = max(n - expected_detections, MIN_SCAN_CLUTTER) if config.clutter == "scan" else float(config.clutter)
+    return rate, np.full(n, -np.log(volume))
+
+
+def coverage_volume(sensor: Sensor, polar: bool) -> float:
+    """The sensor's coverage in the update's measurement space: m rad for polar contacts, else m^2."""
+    return measurement_volume(sensor) if polar else coverage_area(sensor)
+
+
+class GMPHDTracker:
+    """Gaussian-mixture PHD tracker (Vo & Ma 2006) with tag propagation; see the module docstring."""
+
+    name: ClassVar[str] = "gmphd"
+    config_type: ClassVar[type[TrackerConfig]] = GMPHDConfig
+
+    def __init__(self, sensors: Sensor | Sequence[Sensor], config: PHDConfig | None = None,
+                 measurement: MeasurementModel | None = None) -> None:
+        found = sensor_tuple(sensors)
+        self.sensor = only_sensor(self.name, found, found[0].kind)  # one sensor, of either kind
+        self.sensors = (self.sensor,)
+        self.config = cfg = checked_config(self, config)
+        self.measurement = measurement if measurement is not None else measurement_model(self.sensor)
+        self.cartesian = isinstance(self.measurement, PositionMeasurement)
+        if self.cartesian and cfg.linearisation != "linear":
+            raise TrackingError(f"{self.name}: linearisation {cfg.linearisation!r} linearises the polar radar "
+                                f"measurement, but the contacts are Cartesian position fixes (a "
+                                f"PositionMeasurement); use linearisation 'linear'")
+        self.linearisation = (gmphd.Linear(self.measurement) if cfg.linearisation == "linear" else
+                              gmphd.EKF(self.measurement) if cfg.linearisation == "ekf" else
+                              gmphd.UKF(self.measurement, cfg.unscented.transform()))
+        self.motion = cfg.motion_model()
+        self.volume = coverage_volume(self.sensor, cfg.linearisation != "linear")
+        birth = cfg.birth
+        self.static = None if not isinstance(birth, StaticBirth) else Mixture.make(
+            [c.weight for c in birth.components], [c.mean for c in birth.components],
+            [c.covariance for c in birth.components], np.zeros(len(birth.components), np.int64))
+        self.spawn_covariance = None if cfg.spawn is None else np.asarray(cfg.spawn.covariance, dtype=float)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the intensity, the newborn components and the labels (the start of a run)."""
+        n = self.config.state_dim
+        self.mixture = Mixture.empty(n)
+        self.newborn = Mixture.empty(n)
+        self.next_label = 0
+        self.last_time = -np.inf
+        self.cardinality: Cardinality | None = None
+
+    # ------------------------------------------------------------------ steps
+    def _fresh(self, k: int) -> np.ndarray:
+        labels = np.arange(self.next_label, self.next_label + k, dtype=np.int64)
+        self.next_label += k
+        return labels
+
+    def _checked(self, scan: Scan) -> tuple[np.ndarray, float]:
+        """The scan's contacts (N, 2) and time: polar contacts by `checked_scan`, Cartesian fixes finite."""
+        if not self.cartesian:
+            return checked_scan(self.name, scan, self.last_time, self.sensors)
+        _, time = checked_scan(self.name, Scan(scan.index, scan.time, np.empty((0, 2)), scan.sensor), self.last_time,
+                               self.sensors)
+        z = np.asarray(scan.measurements, dtype=float)
+        if z.size == 0:
+            return np.empty((0, 2)), time
+        if z.ndim != 2 or z.shape[1] != 2:
+            raise TrackingError(f"{self.name}: scan {scan.index}: position fixes must have shape (N, 2) [x m, y m], "
+                                f"got {z.shape}")
+        bad = ~np.isfinite(z).all(axis=1)
+        if bad.any():
+            row = int(np.flatnonzero(bad)[0])
+            raise TrackingError(f"{self.name}: scan {scan.index}: contact {row} is invalid {z[row].tolist()}")
+        return z, time
+
+    def _predicted(self, time: float) -> tuple[Mixture, float, slice]:
+        """Step 1: the predicted intensity at ``time`` (s), the weight of its births, and where last scan's
+        newborn components are in it (survivors, newborn, spawned, static births)."""
+        cfg = self.config
+        parts, born, newborn = [self.mixture], 0.0, slice(0, 0)
+        if np.isfinite(self.last_time):
+            dt = time - self.last_time
+            old, nb = self.mixture, self.newborn
+            # survivors (times p_S) and newborn (not: they are born now) predicted in one call
+            ps = np.concatenate([np.full(len(old), cfg.ps), np.ones(len(nb))])
+            parts = [gmphd.predict(Mixture.concat([old, nb]) if len(nb) else old, self.motion, dt, ps)]
+            born += float(nb.weights.sum())
+            newborn = slice(len(old), len(old) + len(nb))
+            if cfg.spawn is not None and len(old):
+                parts.append(gmphd.spawn(old, self.motion, dt, cfg.spawn.weight, self.spawn_covariance,
+                                         self._fresh(len(old))))
+        if self.static is not None and (cfg.birth.every_scan or not np.isfinite(self.last_time)):
+            s = self.static
+            parts.append(Mixture(s.weights, s.means, s.covariances, self._fresh(len(s))))
+            born += float(s.weights.sum())
+        return (Mixture.concat(parts) if len(parts) > 1 else parts[0]), born, newborn
+
+    def _weights(self, pred: Mixture, pairs: gmphd.Pairs, rate: float, log_c: np.ndarray, born: float
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """Step 2's weights: of the detection copies (P,), of the missed copies (J,), and the posterior
+        cardinality distribution (None: a PHD has none)."""
+        with np.errstate(divide="ignore"):
+            log_kappa = np.log(rate) + log_c
+        det, missed = gmphd.phd_weights(pred.weights, pairs, self.config.pd, log_kappa)
+        return det, missed, None
+
+    def _extracted(self, post: Mixture, map_count: int | None) -> np.ndarray:
+        return above(post, self.config.extraction_threshold)
+
+    def step(self, scan: Scan) -> TrackerOutput:
+        """Process one sweep; report the extracted components as confirmed tracks."""
+        z, time = self._checked(scan)
+        cfg = self.config
+        pred, born, newborn = self._predicted(time)
+        zc, contact_R = self.linearisation.contacts(z)
+        xy, cov = self.measurement.position(z)
+        pairs = self.linearisation.pairs(pred, zc, contact_R, cfg.gate)
+        rate, log_c = clutter(cfg, z, xy, self.volume, cfg.linearisation != "linear",
+                              cfg.pd * float(pred.weights.sum()))
+        det, missed, dist = self._weights(pred, pairs, rate, log_c, born)
+        missed[newborn] = 0.0  # a newborn its first update misses is dropped (measurement birth)
+        if dist is None:
+            mean, map_count = float(missed.sum() + det.sum()), None
+        else:
+            mean, map_count = float(np.arange(len(dist)) @ dist), int(np.argmax(dist))
+        post = gmphd.posterior(pred, pairs, missed, det, cfg.prune_threshold)
+        post = cap(merge(post, cfg.merge_threshold, cfg.merge_covariance), cfg.max_components)
+        post, self.next_label = relabel_duplicates(post, self.next_label)
+        self.mixture = post
+        birth = cfg.birth
+        if birth.kind == "measurement" and len(z):
+            explained = np.bincount(pairs.i, det, minlength=len(z))
+            self.newborn = measurement_births(xy, cov, explained, birth.rate, birth.speed_sigma_m_s,
+                                              self.motion, self.next_label)
+            self.next_label += len(self.newborn)
+        else:
+            self.newborn = Mixture.empty(cfg.state_dim)
+        self.last_time = time
+        shown = self._extracted(post, map_count)
+        shown = shown[np.argsort(post.labels[shown], kind="stable")]
+        self.cardinality = Cardinality(scan.index, time, mean, map_count, dist, len(shown))
+        k = len(shown)
+        return TrackerOutput(scan.index, time, post.labels[shown], np.full(k, CONFIRMED, np.int8),
+                             post.means[shown, :4], post.covariances[shown, :4, :4],
+                             np.full(k, NO_CONTACT, np.int64))
+
+
+class EKPHDTracker(GMPHDTracker):
+    """GM-PHD with the EKF linearisation of the polar radar measurement (EK-PHD)."""
+
+    name: ClassVar[str] = "ekphd"
+    config_type: ClassVar[type[TrackerConfig]] = EKPHDConfig
+
+
+class UKPHDTracker(GMPHDTracker):
+    """GM-PHD with the unscented transform of the polar radar measurement (UK-PHD)."""
+
+    name: ClassVar[str] = "ukphd"
+    config_type: ClassVar[type[TrackerConfig]] = UKPHDConfig
+
+
+class CPHDTracker(GMPHDTracker):
+    """Cardinalised PHD tracker (Vo, Vo & Cantoni 2007): the intensity and the distribution of the target
+    count on 0..max_cardinality; EK linearisation by default."""
+
+    name: ClassVar[str] = "cphd"
+    config_type: ClassVar[type[TrackerConfig]] = CPHDConfig
+
+    def reset(self) -> None:
+        super().reset()
+        self.distribution = np.zeros(self.config.max_cardinality + 1)
+        self.distribution[0] = 1.0  # no target before the first scan
+
+    def _weights(self, pred, pairs, rate, log_c, born):
+        cfg = self.config
+        p = cphd.predict_cardinality(self.distribution, cfg.ps, born)  # births: Poisson of the birth weight
+        det, missed, p = cphd.cphd_weights(pred.weights, pairs, cfg.pd, rate, log_c, p)
+        self.distribution = p
+        return det, missed, p
+
+    def _extracted(self, post, map_count):
+        if self.config.extraction == "map":
+            return heaviest(post, map_count)
+        return super()._extracted(post, map_count)

@@ -1,0 +1,234 @@
+"""The PHD trackers (`nnda.tracking.phd.tracker`): the Kalman oracle, configs and their errors, presets,
+Cartesian fixes, births, spawning, CT motion and the cardinality records."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from nnda.data.dataset import Scan
+from nnda.data.generator import generate
+from nnda.data.presets import PRESETS
+from nnda.data.scenario import Clutter, Scenario, Segment, Sensor, Target
+from nnda.data.sensor import polar_to_cart
+from nnda.errors import ConfigError, TrackingError
+from nnda.filters import kalman, unscented
+from nnda.filters.measurement import PolarMeasurement, PositionMeasurement
+from nnda.filters.motion import ConstantVelocity
+from nnda.tracking.output import CONFIRMED, NO_CONTACT
+from nnda.tracking.phd.config import REDUCTION_PRESETS
+from nnda.tracking.phd.tracker import CPHDTracker, GMPHDTracker
+from nnda.tracking.registry import TRACKERS, make_tracker
+from position_metrics import position_score
+
+PHD = ["gmphd", "ekphd", "ukphd", "cphd"]
+
+
+def lone_target() -> Scenario:
+    """One manoeuvring target, no clutter, detected every scan (the sensor's PD is 1)."""
+    t = Target(name="lone", x_m=-9_000.0, y_m=12_000.0, heading_deg=60.0, speed_m_s=150.0,
+               segments=[Segment(duration_s=40.0), Segment(duration_s=40.0, turn_rate_deg_s=2.0)])
+    return Scenario(name="lone", duration_s=80.0, targets=[t], clutter=Clutter(law="none"))
+
+
+def oracle_config(m0, P0, **extra) -> dict:
+    """p_D = p_S = 1, no clutter, one static birth of weight 1 at the first scan only (the oracle birth)."""
+    return {"pd": 1.0, "ps": 1.0, "clutter": 0.0,
+            "birth": {"kind": "static", "every_scan": False,
+                      "components": [{"weight": 1.0, "mean": list(m0), "covariance": P0.tolist()}]}, **extra}
+
+
+def assert_close(a, b, P):
+    """States within 1e-9 of their own size (or of their standard deviation)."""
+    np.testing.assert_array_less(np.abs(a - b), 1e-9 * np.maximum(np.abs(b), np.sqrt(np.diag(P))) + 1e-300)
+
+
+@pytest.mark.parametrize("name", ["gmphd", "gmphd-cartesian", "ekphd", "ukphd", "cphd"])
+def test_one_target_without_clutter_is_a_kalman_filter(name):
+    """One target, no clutter, p_D 1: the single component is the Kalman filter (EKF, UKF, converted or
+    Cartesian-fix KF) step for step, to 1e-9."""
+    ds = generate(lone_target(), seed=5)
+    scans = list(ds.scans())
+    sensor, radar = ds.scenario.sensor, PolarMeasurement.from_sensor(ds.scenario.sensor)
+    xy0, _ = radar.position(scans[0].measurements)
+    m0 = np.array([xy0[0, 0], -100.0, xy0[0, 1], 60.0])
+    P0 = np.diag([200.0**2, 150.0**2, 200.0**2, 150.0**2])
+    kind = name.split("-")[0]
+    cartesian = name.endswith("cartesian")
+    fixes = PositionMeasurement(((40.0**2, 0.0), (0.0, 40.0**2)))
+    if cartesian:  # the contacts as Cartesian fixes
+        scans = [Scan(s.index, s.time, np.column_stack(polar_to_cart(*s.measurements.T))) for s in scans]
+    tracker = TRACKERS[kind](sensor, TRACKERS[kind].config_type.model_validate(
+        oracle_config(m0, P0, **({"max_cardinality": 5} if kind == "cphd" else {}))),
+        measurement=fixes if cartesian else None)
+    cv = ConstantVelocity(10.0)
+    x, P, t = m0[None], P0[None], scans[0].time
+    for k, scan in enumerate(scans):
+        if k:
+            x, P = kalman.predict(x, P, cv, scan.time - t)
+        z = scan.measurements
+        if kind == "gmphd":
+            model = fixes if cartesian else PositionMeasurement(tuple(map(tuple, radar.position(z)[1][0])))
+            zz = z if cartesian else radar.position(z)[0]
+            mp = kalman.predict_measurement(x, P, model)
+        else:
+            model, zz = radar, z
+            mp = (unscented.predict_measurement(x, P, radar) if kind == "ukphd"
+                  else kalman.predict_measurement(x, P, radar))
+        x, P, _ = kalman.update(x, P, zz, mp, model)
+        t = scan.time
+        out = tracker.step(scan)
+        assert len(out) == 1 and len(tracker.mixture) == 1
+        assert tracker.mixture.weights[0] == pytest.approx(1.0, rel=1e-12)
+        assert_close(out.state[0], x[0], P[0])
+        np.testing.assert_array_less(np.abs(out.covariance[0] - P[0]),
+                                     1e-9 * np.sqrt(np.outer(np.diag(P[0]), np.diag(P[0]))))
+        assert out.contact[0] == NO_CONTACT and out.status[0] == CONFIRMED
+        if kind == "cphd":
+            assert tracker.cardinality.map == 1 and tracker.cardinality.distribution[1] == pytest.approx(1.0)
+
+
+def test_cphd_cardinality_concentrates_on_the_true_count_without_clutter():
+    """Away from the scans where targets end (with p_S 0.99 and p_D 0.9 the filter takes a few misses to
+    believe a death), the MAP count is the true one and holds nearly all the probability."""
+    sc = PRESETS["S6"].model_copy(update={"clutter": Clutter(law="none")})
+    ds = generate(sc, seed=2)
+    tracker = make_tracker("cphd", ds.scenario.sensor, {"clutter": "scan"})
+    n_true = np.bincount(ds.truth.scan, minlength=ds.n_scans + 2)
+    steady = [k for k in range(4, ds.n_scans + 1) if len(set(n_true[k - 3:k + 1])) == 1]
+    right, mass = [], []
+    for scan in ds.scans():
+        tracker.step(scan)
+        c = tracker.cardinality
+        assert c.distribution.sum() == pytest.approx(1.0) and c.mean == pytest.approx(np.arange(101) @ c.distribution)
+        if scan.index in steady:
+            right.append(c.map == n_true[scan.index])
+            mass.append(c.distribution[n_true[scan.index]])
+    assert len(steady) > 80 and all(right) and min(mass) > 0.4 and np.median(mass) > 0.9
+
+
+def test_gmphd_cardinality_record_is_the_weight_total():
+    ds = generate(PRESETS["S4"], seed=1)
+    tracker = make_tracker("ekphd", ds.scenario.sensor)
+    for scan in list(ds.scans())[:20]:
+        out = tracker.step(scan)
+        c = tracker.cardinality
+        assert c.map is None and c.distribution is None and c.extracted == len(out)
+        assert (c.scan, c.time) == (scan.index, scan.time)
+        # the record is the updated intensity's total before reduction: pruning and merging change it little
+        assert c.mean == pytest.approx(tracker.mixture.weights.sum(), rel=0.1, abs=0.02)
+    assert 3.0 < c.mean < 6.0
+
+
+def test_presets_and_overrides():
+    for name in PHD:
+        for preset, values in REDUCTION_PRESETS.items():
+            cfg = make_tracker(name, Sensor(), {"preset": preset}).config
+            assert {k: getattr(cfg, k) for k in values} == values
+    cfg = make_tracker("ekphd", Sensor(), {"preset": "seed-002", "max_components": 200}).config
+    assert (cfg.prune_threshold, cfg.merge_threshold, cfg.max_components, cfg.extraction_threshold) == (
+        1e-6, 25.0, 200, 0.8)
+    assert make_tracker("gmphd", Sensor()).config.linearisation == "linear"
+    assert make_tracker("ukphd", Sensor()).config.linearisation == "ukf"
+    assert make_tracker("cphd", Sensor()).config.linearisation == "ekf"
+    again = type(cfg).model_validate(cfg.model_dump())  # a dumped config reads back the same
+    assert again == cfg
+
+
+@pytest.mark.parametrize("params, message", [
+    ({"pd": 1.2}, "pd: Input should be less than or equal to 1"),
+    ({"ps": -0.1}, "ps: Input should be greater than 0"),
+    ({"pd": 0.0}, "pd: Input should be greater than 0"),
+    ({"max_components": 0}, "max_components: Input should be greater than or equal to 1"),
+    ({"preset": "seed-003"}, "preset: Input should be"),
+    ({"birth": {"kind": "static", "components": [
+        {"weight": 1.0, "mean": [0, 0, 0], "covariance": np.eye(3).tolist()}]}},
+     r"birth.components.0.mean: the cv state has 4 entries"),
+    ({"motion": "ct", "birth": {"kind": "static", "components": [
+        {"weight": 1.0, "mean": [0, 0, 1e4, 0], "covariance": np.eye(4).tolist()}]}}, "the ct state has 5 entries"),
+    ({"birth": {"kind": "static", "components": [{"weight": 1.0, "mean": [0, 0, 1e4, 0],
+                                                  "covariance": (-np.eye(4)).tolist()}]}}, "not positive definite"),
+    ({"spawn": {"weight": 0.05, "covariance": np.eye(5).tolist()}}, "spawn.covariance: expected a 4 x 4 matrix"),
+    ({"birth": {"rate": -1}}, "birth.measurement.rate"),
+    ({"extraction_threshold": 0}, "extraction_threshold"),
+    ({"linearisation": "ukf", "unscented": {"kappa": -4.0}}, "unscented.kappa: n \\+ kappa must be > 0"),
+    ({"clutter": "everywhere"}, "clutter"),
+    ({"gating": 9.0}, "gating: Extra inputs are not permitted"),
+])
+def test_bad_configs_are_refused_when_configured(params, message):
+    with pytest.raises(ConfigError, match=message):
+        make_tracker("ekphd", Sensor(), params)
+
+
+def test_cphd_specific_settings():
+    with pytest.raises(ConfigError, match="spawn: .*no spawning"):
+        make_tracker("cphd", Sensor(), {"spawn": {"weight": 0.05, "covariance": np.eye(4).tolist()}})
+    with pytest.raises(ConfigError, match="max_cardinality"):
+        make_tracker("cphd", Sensor(), {"max_cardinality": 0})
+
+
+@pytest.mark.parametrize("kind", ["ekphd", "ukphd", "cphd"])
+def test_a_polar_linearisation_refuses_cartesian_fixes(kind):
+    fixes = PositionMeasurement(((900.0, 0.0), (0.0, 900.0)))
+    with pytest.raises(TrackingError, match="linearises the polar radar measurement.*use linearisation 'linear'"):
+        TRACKERS[kind](Sensor(), measurement=fixes)
+
+
+def test_cartesian_fixes():
+    """gmphd on Cartesian (x, y) fixes (a PositionMeasurement) follows S1's targets; bad fixes are refused."""
+    ds = generate(PRESETS["S1"], seed=3)
+    fixes = PositionMeasurement(((60.0**2, 0.0), (0.0, 60.0**2)))
+    tracker = GMPHDTracker(ds.scenario.sensor, measurement=fixes)
+    outs = [tracker.step(Scan(s.index, s.time, np.column_stack(polar_to_cart(*s.measurements.T))))
+            for s in ds.scans()]
+    p = position_score(ds, outs)
+    assert p.missed <= 0.02 * p.truths and p.rmse_m < 80.0 and p.breaks <= 2
+    tracker.reset()
+    tracker.step(Scan(1, 2.0, np.array([[-5_000.0, -3_000.0]])))  # negative coordinates are fine
+    with pytest.raises(TrackingError, match="does not come after"):
+        tracker.step(Scan(2, 2.0, np.array([[1.0, 2.0]])))
+    with pytest.raises(TrackingError, match="contact 1 is invalid"):
+        tracker.step(Scan(2, 4.0, np.array([[1.0, 2.0], [np.inf, 0.0]])))
+    with pytest.raises(TrackingError, match=r"shape \(N, 2\) \[x m, y m\]"):
+        tracker.step(Scan(2, 4.0, np.ones((2, 3))))
+
+
+def test_static_birth_every_scan_spawning_and_ct():
+    """Seed 000's options: a static birth over the scene every scan, spawning, and the CT model."""
+    ds = generate(PRESETS["S2"], seed=3)
+    births = [{"weight": 0.05, "mean": [x, 0.0, y, 0.0], "covariance": np.diag([4e6, 1e4, 4e6, 1e4]).tolist()}
+              for x, y in [(-18_000.0, 6_000.0), (-12_000.0, -14_000.0), (2_000.0, -22_000.0), (-12_200.0, -13_800.0)]]
+    static = make_tracker("ekphd", ds.scenario.sensor, {"birth": {"kind": "static", "components": births}})
+    p = position_score(ds, [static.step(s) for s in ds.scans()], warmup=6)
+    assert p.missed <= 0.05 * p.truths and p.rmse_m < 80.0
+    spawning = make_tracker("ekphd", ds.scenario.sensor,
+                            {"spawn": {"weight": 0.01, "covariance": np.diag([1e4, 400.0, 1e4, 400.0]).tolist()}})
+    p = position_score(ds, [spawning.step(s) for s in ds.scans()])
+    assert p.missed <= 0.05 * p.truths and p.rmse_m < 80.0
+    ct = make_tracker("ekphd", ds.scenario.sensor, {"motion": "ct", "sigma_q": 5.0})
+    outs = [ct.step(s) for s in ds.scans()]
+    assert ct.mixture.dim == 5 and outs[-1].state.shape[1] == 4
+    p = position_score(ds, outs)
+    assert p.missed <= 0.05 * p.truths and p.rmse_m < 80.0
+
+
+def test_labels_are_unique_and_the_mixture_bounded():
+    ds = generate(PRESETS["S6"], seed=4)
+    tracker = make_tracker("ekphd", ds.scenario.sensor, {"max_components": 40})
+    for scan in ds.scans():
+        out = tracker.step(scan)
+        assert np.unique(tracker.mixture.labels).size == len(tracker.mixture) <= 40
+        assert np.unique(out.track_id).size == len(out)
+        assert (np.diff(out.track_id) > 0).all()  # reported in label order
+
+
+def test_map_extraction_reports_the_map_count():
+    ds = generate(PRESETS["S1"], seed=3)
+    tracker = make_tracker("cphd", ds.scenario.sensor, {"extraction": "map"})
+    for scan in ds.scans():
+        out = tracker.step(scan)
+        assert len(out) == min(tracker.cardinality.map, len(tracker.mixture))
+
+
+def test_the_cphd_is_its_own_class():
+    assert issubclass(CPHDTracker, GMPHDTracker) and CPHDTracker.name == "cphd"
