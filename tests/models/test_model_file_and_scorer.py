@@ -7,6 +7,7 @@ import pytest
 import torch
 
 from nnda.errors import ModelError
+from nnda.files import content_digest, with_content_digest
 from nnda.models.features import KINEMATIC
 from nnda.models.mlp import MLPWeights, n_weights, nguyen_widrow, unpack
 from nnda.models.network import as_tensor, forward
@@ -48,9 +49,10 @@ def test_model_file_round_trip_is_exact(scorer, tmp_path):
 
 
 def _rewrite(path, **changes):
+    """Change fields of a model file as a writer of those values would have: its digest re-recorded."""
     doc = json.loads(path.read_text())
     doc.update(changes)
-    path.write_text(json.dumps(doc))
+    path.write_text(json.dumps(with_content_digest(doc, "sha256")))
 
 
 def test_loader_refuses_bad_files(scorer, tmp_path):
@@ -70,10 +72,22 @@ def test_loader_refuses_bad_files(scorer, tmp_path):
         load_model(path)
     save_model(scorer, path)
     doc = json.loads(path.read_text())
-    doc["network"]["weights"] = doc["network"]["weights"][:-1]
-    path.write_text(json.dumps(doc))
+    _rewrite(path, network={**doc["network"], "weights": doc["network"]["weights"][:-1]})
     with pytest.raises(ModelError, match="network.weights"):
         load_model(path)
+
+
+def test_a_hand_edited_weight_is_a_corrupt_model_file_and_format_1_loads_unverified(scorer, tmp_path):
+    path = save_model(scorer, tmp_path / "model.json")
+    doc = json.loads(path.read_text())
+    assert doc["format_version"] == 2 and doc["sha256"] == content_digest(doc, "sha256")
+    doc["network"]["weights"][4] += 1e-12
+    path.write_text(json.dumps(doc, indent=1))
+    with pytest.raises(ModelError, match=rf"{path}: corrupt model file: its content does not match field 'sha256'"):
+        load_model(path)
+    del doc["sha256"]
+    path.write_text(json.dumps({**doc, "format_version": 1}))  # written before the digest existed
+    assert load_model(path).weights.to_vector()[4] == scorer.weights.to_vector()[4] + 1e-12
 
 
 def test_scorer_refuses_nan_and_wrong_shapes(scorer):
