@@ -35,7 +35,8 @@ def small_scenario() -> Scenario:
 def small_disk(tmp_path):
     """A 1 MiB tmpfs (root only) for full and read-only disks; skipped where mounting is not allowed.
 
-    ``mount -o remount,ro`` makes it read-only; it is unmounted afterwards.
+    ``mount -o remount,ro`` makes it read-only. It is unmounted afterwards; a
+    file still open on it fails the test.
     """
     mount = tmp_path / "disk"
     mount.mkdir()
@@ -45,4 +46,7 @@ def small_disk(tmp_path):
     if done.returncode != 0:
         pytest.skip(f"cannot mount a tmpfs here: {done.stderr.decode().strip()}")
     yield mount
-    subprocess.run(["umount", str(mount)], check=False)
+    done = subprocess.run(["umount", str(mount)], capture_output=True, text=True)
+    if done.returncode != 0:  # a file is still open there: detach the disk, and fail the test that left it
+        subprocess.run(["umount", "--lazy", str(mount)], check=False)
+        pytest.fail(f"{mount} was still in use after the test ({done.stderr.strip()}): an open file left behind?")

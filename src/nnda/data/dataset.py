@@ -207,8 +207,10 @@ def manifest(dataset: Dataset, sha256: dict[str, str]) -> dict:
 def write_dataset_files(dataset: Dataset, directory: Path) -> None:
     """Write the three files of a dataset into an existing, empty ``directory``: the data files, then the
     manifest with their digests."""
-    pq.write_table(_table(dataset.detections, DETECTIONS_SCHEMA), directory / DETECTIONS_FILE)
-    pq.write_table(_table(dataset.truth, TRUTH_SCHEMA), directory / TRUTH_FILE)
+    for name, record, schema in ((DETECTIONS_FILE, dataset.detections, DETECTIONS_SCHEMA),
+                                 (TRUTH_FILE, dataset.truth, TRUTH_SCHEMA)):
+        with open(directory / name, "wb") as f:  # closed even when a write fails (a full disk)
+            pq.write_table(_table(record, schema), f)
     (directory / MANIFEST).write_text(dumps(manifest(dataset, file_digests(directory, DATA_FILES))))
 
 
