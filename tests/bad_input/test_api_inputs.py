@@ -32,12 +32,12 @@ def _scenario(**changes):
 
 
 @pytest.mark.parametrize("kwargs, message", [
-    ({"seed": -1}, "seed -1: give a whole number >= 0"),
-    ({"seed": 1.5}, "seed 1.5: give a whole number >= 0"),
-    ({"seed": True}, "seed True"),
-    ({"run": -2}, "run -2: give a whole number >= 0"),
-    ({"run": "0"}, "run '0'"),
-    ({"max_detections": 0}, "max_detections = 0: give a whole number >= 1"),
+    ({"seed": -1}, "seed is -1; it must be a whole number >= 0"),
+    ({"seed": 1.5}, "seed is 1.5; it must be a whole number >= 0"),
+    ({"seed": True}, "seed is True"),
+    ({"run": -2}, "run is -2; it must be a whole number >= 0"),
+    ({"run": "0"}, "run is '0'"),
+    ({"max_detections": 0}, "max_detections is 0; it must be a whole number >= 1"),
     ({"max_detections": 10}, "scenario 'tiny': one dataset would hold up to 18 detections"),
 ])
 def test_generator_arguments(tiny, kwargs, message):
@@ -48,7 +48,7 @@ def test_generator_arguments(tiny, kwargs, message):
 def test_a_bad_run_in_a_monte_carlo_set_is_named(tiny):
     runs = generate_runs(tiny, [0, -1])
     assert next(runs).run == 0
-    with pytest.raises(ConfigError, match="run -1"):
+    with pytest.raises(ConfigError, match="run is -1"):
         next(runs)
 
 
@@ -159,3 +159,11 @@ def test_paths_that_are_not_datasets_or_models(tmp_path):
 @pytest.fixture(autouse=True)
 def _in_tmp(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
+
+
+def test_an_imported_scene_gets_a_scenario_name_whatever_its_directory(tmp_path):
+    pytest.importorskip("stonesoup")
+    from nnda.peers.importer import StoneSoupScene, import_stonesoup
+
+    path = import_stonesoup(tmp_path / ".Ωmega run", StoneSoupScene(n_scans=3, clutter=2.0), seed=1)
+    assert read_dataset(path).scenario.name == "__mega_run"

@@ -33,7 +33,7 @@ from scipy.special import ndtri
 
 from nnda.data.scenario import Clutter, Scenario, Sensor, Target
 from nnda.data.sensor import in_coverage
-from nnda.errors import ConfigError
+from nnda.errors import ConfigError, NndaError
 
 #: detections one dataset may hold unless the caller raises it (``--max-detections``, ``max_detections=``)
 MAX_DETECTIONS = 50_000_000
@@ -47,6 +47,14 @@ MIN_CLUTTER_INSIDE = 1e-3
 CLUTTER_GRID = 200
 #: a target faster than this (m/s, at any point of its trajectory) is reported as implausible
 MAX_SPEED_M_S = 1_000.0
+
+
+def whole_number(value: object, what: str, least: int = 0, error: type[NndaError] = ConfigError) -> int:
+    """``value`` as an int if it is a whole number >= ``least`` (not a bool, a float or a string); ``error``
+    naming ``what`` (a parameter, a manifest field) otherwise."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
+        raise error(f"{what} is {value!r}; it must be a whole number >= {least}")
+    return int(value)
 
 
 @dataclass(frozen=True)
@@ -89,8 +97,7 @@ def estimate_size(scenario: Scenario) -> SizeEstimate:
 
 def check_size(scenario: Scenario, max_detections: int = MAX_DETECTIONS) -> SizeEstimate:
     """`estimate_size`, or a ConfigError naming the scenario, the estimate and the way to raise the limit."""
-    if isinstance(max_detections, bool) or not isinstance(max_detections, int) or max_detections < 1:
-        raise ConfigError(f"max_detections = {max_detections!r}: give a whole number >= 1")
+    whole_number(max_detections, "max_detections", least=1)
     size = estimate_size(scenario)
     if size.detections > max_detections:
         clutter = {s.clutter.count if s.clutter.law != "none" else 0 for s in scenario.sensors}

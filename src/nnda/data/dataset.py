@@ -37,6 +37,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 import nnda
+from nnda.data.checks import whole_number
 from nnda.data.scenario import Scenario, scenario_from_dict
 from nnda.data.sensor import TWO_PI, polar_to_cart
 from nnda.errors import ConfigError, DatasetError
@@ -394,13 +395,6 @@ def _one_radar_at_origin(scenario: Scenario) -> bool:
     return s.kind == "polar" and s.position == (0.0, 0.0) and s.full_circle and s.scan_offset_s == 0
 
 
-def _whole_number(meta: dict, key: str, where: Path) -> int:
-    value = meta[key]
-    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-        raise DatasetError(f"{where}: field {key!r} is {value!r}; it must be a whole number >= 0")
-    return value
-
-
 def _verify_files(path: Path, meta: dict) -> None:
     """Check the data files against the digests a format-3 manifest records."""
     recorded = meta.get("sha256")
@@ -439,7 +433,8 @@ def read_dataset(path: str | Path) -> Dataset:
     for key in ("seed", "run", "scenario"):
         if key not in meta:
             raise DatasetError(f"{path / MANIFEST}: field {key!r} is missing")
-    seed, run = _whole_number(meta, "seed", path / MANIFEST), _whole_number(meta, "run", path / MANIFEST)
+    seed, run = (whole_number(meta[key], f"{path / MANIFEST}: field {key!r}", error=DatasetError)
+                 for key in ("seed", "run"))
     try:
         scenario = scenario_from_dict(meta["scenario"], f"{path / MANIFEST} (field 'scenario')")
     except ConfigError as exc:

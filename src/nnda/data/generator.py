@@ -24,13 +24,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nnda.data.checks import MAX_DETECTIONS, check_clutter, check_size, target_warnings
+from nnda.data.checks import MAX_DETECTIONS, check_clutter, check_size, target_warnings, whole_number
 from nnda.data.clutter import clutter_counts, clutter_positions
 from nnda.data.dataset import Dataset, Detections, Truth
 from nnda.data.scenario import Clutter, Scenario
 from nnda.data.sensor import cart_to_polar_at, in_coverage, in_coverage_polar, measure, polar_to_cart_at
 from nnda.data.trajectory import evaluate
-from nnda.errors import ConfigError
 
 #: spawn-key entry under a run's root SeedSequence that leads to the streams of sensors 1, 2, ...
 #: (the first sensor's four streams are the root's children 0-3)
@@ -154,12 +153,6 @@ def realise(plan: Plan, seed: int, run: int) -> Dataset:
     return Dataset(sc, seed, run, detections, truth)
 
 
-def _whole_number(value, what: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-        raise ConfigError(f"{what} {value!r}: give a whole number >= 0")
-    return int(value)
-
-
 def generate(scenario: Scenario, seed: int | None = None, run: int = 0,
              max_detections: int = MAX_DETECTIONS) -> Dataset:
     """One run of ``scenario``; ``seed`` defaults to the scenario's own.
@@ -175,11 +168,11 @@ def generate(scenario: Scenario, seed: int | None = None, run: int = 0,
 def generate_runs(scenario: Scenario, runs: Iterable[int], seed: int | None = None,
                   max_detections: int = MAX_DETECTIONS) -> Iterator[Dataset]:
     """Runs of one scenario sharing the noise-free plan (a Monte Carlo set); refusals as `generate`."""
-    seed = _whole_number(scenario.seed if seed is None else seed, "seed")
+    seed = whole_number(scenario.seed if seed is None else seed, "seed")
     check_size(scenario, max_detections)
     plan = Plan.of(scenario)
     for run in runs:
-        yield realise(plan, seed, _whole_number(run, "run"))
+        yield realise(plan, seed, whole_number(run, "run"))
 
 
 def check_scenario(scenario: Scenario, max_detections: int = MAX_DETECTIONS) -> list[str]:
