@@ -22,6 +22,9 @@ two):
   faster than `MAX_SPEED_M_S`, one starting after the scenario's end, one
   that exists at no sweep, and one whose noise-free track never enters the
   coverage of the sensor sweeping.
+
+`whole_number` is the check of a seed, a run index or a count, wherever one
+arrives (generator arguments, dataset manifests).
 """
 
 from __future__ import annotations
