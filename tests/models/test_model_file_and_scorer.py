@@ -108,3 +108,11 @@ def test_nguyen_widrow_spreads_units_over_the_active_region():
     wide = nguyen_widrow(np.tile([0.0, 10.0], (3, 1)), 5, np.random.default_rng(0))
     for lo, hi in ((np.zeros(3), -np.ones(3)), (np.full(3, 10.0), np.ones(3))):
         np.testing.assert_allclose(wide.w1 @ lo + wide.b1, w.w1 @ hi + w.b1)
+
+
+def test_metadata_of_any_json_shape_survives_the_digest(scorer, tmp_path):
+    """Integer keys, tuples and NaN read back as strings, lists and null: the digest is of what reads back."""
+    odd = Scorer(scorer.weights, scorer.normaliser, metadata={"by_size": {10: 0.5, 9: 0.25}, "pair": (1, 2),
+                                                               "auc": float("nan")})
+    loaded = load_model(save_model(odd, tmp_path / "model.json"))
+    assert loaded.metadata == {"by_size": {"10": 0.5, "9": 0.25}, "pair": [1, 2], "auc": None}
