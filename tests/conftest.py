@@ -1,6 +1,9 @@
-"""Shared fixtures: small scenarios built from the public config API."""
+"""Shared fixtures: small scenarios built from the public config API, and a small disk for write faults."""
 
 from __future__ import annotations
+
+import os
+import subprocess
 
 import pytest
 
@@ -26,3 +29,24 @@ def small_scenario() -> Scenario:
         clutter=Clutter(count=10),
         process_noise=ProcessNoise(),
     )
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 1 MiB tmpfs (root only) for full and read-only disks; skipped where mounting is not allowed.
+
+    ``mount -o remount,ro`` makes it read-only. It is unmounted afterwards; a
+    file still open on it fails the test.
+    """
+    mount = tmp_path / "disk"
+    mount.mkdir()
+    if os.geteuid() != 0:
+        pytest.skip("mounting a small tmpfs needs root")
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1m", "tmpfs", str(mount)], capture_output=True)
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.decode().strip()}")
+    yield mount
+    done = subprocess.run(["umount", str(mount)], capture_output=True, text=True)
+    if done.returncode != 0:  # a file is still open there: detach the disk, and fail the test that left it
+        subprocess.run(["umount", "--lazy", str(mount)], check=False)
+        pytest.fail(f"{mount} was still in use after the test ({done.stderr.strip()}): an open file left behind?")

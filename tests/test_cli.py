@@ -68,3 +68,13 @@ def test_generate_refuses_to_overwrite(tmp_path):
     assert nnda("generate", "--preset", "T3", "--out", "d", cwd=tmp_path).returncode == 0
     again = nnda("generate", "--preset", "T3", "--out", "d", cwd=tmp_path)
     assert again.returncode == 2 and "already exists" in again.stderr
+
+
+def test_usage_errors_are_one_plain_line_and_help_still_works(tmp_path):
+    bare = nnda(cwd=tmp_path)
+    assert bare.returncode == 2 and "Usage:" in bare.stdout and bare.stderr == ""  # no arguments: the help
+    assert nnda("generate", "--help", cwd=tmp_path).returncode == 0
+    wrong = nnda("generate", "--preset", "S1", "--out", "d", "--runs", "0", cwd=tmp_path)
+    assert wrong.returncode == 2 and wrong.stderr.count("\n") == 1
+    assert wrong.stderr.startswith("error: Invalid value for '--runs'") and "nnda generate --help" in wrong.stderr
+    assert list(tmp_path.iterdir()) == []

@@ -48,7 +48,7 @@ app.command("import-stonesoup")(peer_commands.import_stonesoup)
 
 def demo(
     out: Annotated[Path, typer.Option(help="directory for everything the demo writes")] = Path("demo"),
-    seed: Annotated[int, typer.Option(help="seed of every random draw")] = 0,
+    seed: Annotated[int, typer.Option(min=0, help="seed of every random draw")] = 0,
     runs: Annotated[int, typer.Option(min=1, help="Monte Carlo runs of each of S1-S6 in the comparison")] = 10,
     jobs: Annotated[int, typer.Option(min=1, help="worker processes of the comparison")] = 2,
 ) -> None:
@@ -62,7 +62,7 @@ def demo(
     plots.mkdir(parents=True, exist_ok=True)
     for group in ("train", "validation"):
         for member in collection_members(data / group):
-            report_commands.plot_scenario(member, plots / f"{member.name}.png")
+            report_commands.plot_scenario(member, plots / f"{member.name}.png", overwrite=True)
     models = (out / "models").resolve()
     lm, ext = model_commands.MethodChoice.lm, model_commands.FeatureChoice[IMM_INNOVATION.name]
     for method in (model_commands.MethodChoice.gd, lm):
@@ -82,16 +82,31 @@ def demo(
 app.command("demo")(demo)
 
 
+def _print_error(message: str) -> None:
+    # plain text: a path or a config section in brackets must not read as markup
+    Console(stderr=True).print(Text.assemble(("error:", "bold red"), " ", message), highlight=False, soft_wrap=True)
+
+
 def main() -> None:
-    """Entry point: run the app, turning nnda's input errors into one clear message."""
+    """Entry point: run the app; bad input is one plain-text line on stderr and exit status 2.
+
+    Bad input is nnda's (`nnda.errors.NndaError`, an output that exists
+    without ``--overwrite``) or the command line's own (an unknown option, a
+    value outside its range), which typer would print as a framed panel.
+    """
     try:
-        app()
-    except KeyboardInterrupt:
-        Console(stderr=True).print(Text("interrupted: nothing half-written was left; a study's finished jobs are "
-                                        "kept for --resume", style="bold red"), highlight=False)
-        sys.exit(130)
+        code = app(standalone_mode=False)
     except (NndaError, FileExistsError) as exc:
-        # the message is plain text: a path or a config section in brackets must not read as markup
-        Console(stderr=True).print(Text.assemble(("error:", "bold red"), " ", str(exc)), highlight=False,
-                                   soft_wrap=True)
+        _print_error(str(exc))
         sys.exit(2)
+    except typer.TyperException as exc:  # click's usage errors
+        ctx = getattr(exc, "ctx", None)
+        if ctx is not None and not exc.format_message().strip():  # no arguments: typer printed the help
+            sys.exit(exc.exit_code)
+        hint = f" (see {ctx.command_path} --help)" if ctx is not None else ""
+        _print_error(f"{exc.format_message()}{hint}")
+        sys.exit(exc.exit_code)
+    except (typer.Abort, KeyboardInterrupt):  # click turns Ctrl-C into Abort
+        _print_error("interrupted: nothing half-written was left; a study's finished jobs are kept for --resume")
+        sys.exit(130)
+    sys.exit(code if isinstance(code, int) else 0)

@@ -9,7 +9,9 @@ manifest records the SHA-256 of each data file beside it (`file_digests`),
 checked on read (`verify_digests`), so a flipped byte is a "corrupt file"
 error rather than data. Names that become path components pass
 `path_component`; an output path passes `check_output_path` against the
-inputs; `directory_lock` keeps a second writer off one output.
+inputs (`check_output_location` also keeps it off the working directory);
+`directory_lock` keeps a second writer off one output. A document that
+guards itself (a model file) records `content_digest` of its other fields.
 """
 
 from __future__ import annotations
@@ -101,8 +103,8 @@ def atomic_directory(out: str | Path, overwrite: bool = False) -> Iterator[Path]
             tmp.rename(out)
     except OSError as exc:
         shutil.rmtree(tmp, ignore_errors=True)
-        if isinstance(exc, NndaError):
-            raise
+        if isinstance(exc, NndaError):  # a nested write's error: name the output, not its temporary copy
+            raise type(exc)(str(exc).replace(str(tmp), str(out))) from None
         raise _unwritable(out, exc) from None
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
@@ -166,6 +168,20 @@ def digest(*parts: bytes) -> str:
     return h.hexdigest()
 
 
+def content_digest(doc: dict, field: str) -> str:
+    """SHA-256 of ``doc``'s canonical one-line JSON (`dumps`) without its key ``field``: the digest a
+    document records of itself, so a hand edit of any other value is caught on read."""
+    return digest(dumps({k: v for k, v in doc.items() if k != field}, indent=None).encode())
+
+
+def with_content_digest(doc: dict, field: str) -> dict:
+    """``doc`` as it reads back from JSON (tuples as lists, NaN as null, keys as strings) with its
+    `content_digest` under ``field``."""
+    doc = json.loads(dumps(doc))
+    doc[field] = content_digest(doc, field)
+    return doc
+
+
 def file_digest(*paths: Path) -> str:
     """SHA-256 of the files' contents, in the order given."""
     return digest(*(Path(p).read_bytes() for p in paths))
@@ -210,6 +226,18 @@ def check_output_path(out: str | Path, inputs: Iterable[str | Path], what: str =
             relation = ("is" if target == source else "contains" if source.is_relative_to(target)
                         else "lies inside")
             raise OutputError(f"{what} {out} {relation} the input {given}; write the output elsewhere")
+
+
+def check_output_location(out: str | Path, inputs: Iterable[str | Path] = (), what: str = "--out") -> None:
+    """`check_output_path` against ``inputs``, and an OutputError if ``out`` is the working directory or
+    contains it (replacing it would remove the directory the command runs in)."""
+    here = Path.cwd().resolve()
+    target = Path(out).resolve()
+    if here.is_relative_to(target):
+        relation = "is" if here == target else "contains"
+        raise OutputError(f"{what} {out} {relation} the current directory {here}; name a new directory for the "
+                          f"output")
+    check_output_path(out, inputs, what)
 
 
 def _alive(pid: int) -> bool:

@@ -128,3 +128,12 @@ def test_results_do_not_depend_on_where_the_study_lives(tmp_path):
         assert (tmp_path / "a/out" / name).read_bytes() == (tmp_path / "b/deeper/out" / name).read_bytes(), name
     source = json.loads((tmp_path / "a/out/summary.json").read_text())["scenarios"][0]["source"]
     assert source == "config one.toml"
+
+
+def test_a_scenario_generation_would_refuse_fails_at_planning(tmp_path):
+    study_file = _tiny(tmp_path)
+    text = (tmp_path / "one.toml").read_text().replace("count = 5", "count = 5\ncentre_m = [500000.0, 0.0]")
+    (tmp_path / "one.toml").write_text(text)  # the clutter square lies far outside the radar's coverage
+    with pytest.raises(ConfigError, match=r"scenario 'one': .*clutter"):
+        plan_study(load_study(study_file))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["one.toml", "study.toml"]

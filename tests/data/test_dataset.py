@@ -7,9 +7,9 @@ from dataclasses import fields
 
 import numpy as np
 import pyarrow as pa
-import pyarrow.parquet as pq
 import pytest
 
+from dataset_edits import edit_manifest, flip_byte, rewrite_table
 from nnda.data import dataset as dataset_module
 from nnda.data.dataset import Detections, Truth, iter_datasets, read_dataset, write_collection, write_dataset
 from nnda.data.generator import generate, generate_runs
@@ -99,11 +99,33 @@ def written(tmp_path, small_scenario):
     return write_dataset(generate(small_scenario, seed=1), tmp_path / "d")
 
 
-def test_truncated_parquet_is_refused(written):
+def test_truncated_parquet_is_a_corrupt_file(written):
     f = written / "detections.parquet"
     f.write_bytes(f.read_bytes()[: f.stat().st_size // 2])
+    with pytest.raises(DatasetError, match="detections.parquet: corrupt file: its SHA-256 is"):
+        read_dataset(written)
+
+
+def test_a_flipped_byte_in_either_data_file_is_a_corrupt_file(written):
+    for name in ("truth.parquet", "detections.parquet"):
+        flip_byte(written / name, 200)
+        with pytest.raises(DatasetError, match=rf"{written / name}: corrupt file"):
+            read_dataset(written)
+        flip_byte(written / name, 200)
+    read_dataset(written)
+
+
+def test_unreadable_parquet_is_refused(written):
+    rewrite_table(written, "truth.parquet", lambda t: t)
+    (written / "detections.parquet").write_bytes(b"PAR1 not really")
+    edit_manifest(written, lambda m: m.update(format_version=2))  # no digests: the Parquet reader sees it
     with pytest.raises(DatasetError, match="detections.parquet: unreadable Parquet"):
         read_dataset(written)
+
+
+def test_format_2_without_digests_still_reads(written):
+    edit_manifest(written, lambda m: (m.update(format_version=2), m.pop("sha256")))
+    assert read_dataset(written).seed == 1
 
 
 def test_other_format_version_is_refused(written):
@@ -128,10 +150,6 @@ def test_invalid_embedded_scenario_is_refused(written):
         read_dataset(written)
 
 
-def _rewrite(path, table):
-    pq.write_table(table, path)
-
-
 @pytest.mark.parametrize("change, message", [
     (lambda t: t.drop_columns(["azimuth"]), "column 'azimuth' is missing"),
     (lambda t: t.set_column(0, "scan", pa.array(t.column("scan").to_numpy().astype("float64"))),
@@ -141,11 +159,10 @@ def _rewrite(path, table):
         2, "range", pa.array(np.where(np.arange(t.num_rows) == 3, np.nan, t.column("range").to_numpy()))),
      "column 'range' has a non-finite value at row 3"),
     (lambda t: t.set_column(0, "scan", pa.array(t.column("scan").to_numpy() + 100, type=pa.int32())),
-     "column 'scan' leaves the range"),
+     r"column 'scan' leaves the range 1..20: 101 at row 0"),
 ])
 def test_bad_detection_tables_are_refused(written, change, message):
-    f = written / "detections.parquet"
-    _rewrite(f, change(pq.read_table(f)))
+    rewrite_table(written, "detections.parquet", change)
     with pytest.raises(DatasetError, match=message):
         read_dataset(written)
 

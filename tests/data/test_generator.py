@@ -10,6 +10,7 @@ from nnda.data.generator import generate, generate_runs
 from nnda.data.presets import PRESETS
 from nnda.data.scenario import Clutter, ProcessNoise, Scenario, Segment, Sensor, Target
 from nnda.data.sensor import cart_to_polar, wrap_angle
+from nnda.errors import ConfigError
 
 
 def _band(sample_std: float, sigma: float, n: int, level: float = 0.99) -> bool:
@@ -113,7 +114,8 @@ def test_square_clutter_partly_outside_coverage_is_redrawn_inside():
 def test_clutter_region_outside_coverage_is_an_error():
     sq = Clutter(law="square", side_m=1_000.0, centre_m=(0.0, 0.0))
     sc = _noise_only(n_targets=1, duration=20.0).model_copy(update={"clutter": sq})
-    with pytest.raises(ValueError, match="clutter of sensor .radar.: .* does not overlap the coverage"):
+    with pytest.raises(ConfigError, match=r"clutter of sensor 'radar': the square region .* has 0.00% of its "
+                                          r"points inside the coverage"):
         generate(sc, seed=1)
 
 

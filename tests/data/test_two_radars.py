@@ -13,6 +13,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
+from dataset_edits import rewrite_table, set_value
 from nnda.data.commands import generate as generate_command
 from nnda.data.dataset import FORMAT_VERSION, read_dataset, write_dataset
 from nnda.data.generator import generate
@@ -20,6 +21,7 @@ from nnda.data.presets import PRESETS
 from nnda.data.scenario import Clutter, ProcessNoise, Scenario, Segment, Sensor, Target, load_scenario
 from nnda.data.sensor import in_coverage, in_coverage_polar, polar_to_cart_at
 from nnda.errors import ConfigError, DatasetError
+from nnda.files import file_digests
 
 V1_FIXTURE = Path(__file__).parent / "fixtures" / "dataset-v1"
 README = Path(__file__).resolve().parents[2] / "README.md"
@@ -170,7 +172,8 @@ def test_round_trip_and_same_seed_same_bytes(tmp_path, two):
     a, b, c = (_files(tmp_path / n) for n in "abc")
     assert a == b and a["detections.parquet"] != c["detections.parquet"]
     meta = json.loads(a["scenario.json"])
-    assert meta["format_version"] == FORMAT_VERSION == 2 and meta["sensor_names"] == ["west", "east"]
+    assert meta["format_version"] == FORMAT_VERSION == 3 and meta["sensor_names"] == ["west", "east"]
+    assert meta["sha256"] == file_digests(tmp_path / "a", ["detections.parquet", "truth.parquet"])
     assert [s["name"] for s in meta["scenario"]["sensors"]] == ["west", "east"]
     assert pq.read_schema(tmp_path / "a" / "detections.parquet").field("sensor").type == pa.int32()
     back = read_dataset(tmp_path / "a")
@@ -239,22 +242,14 @@ def written(tmp_path):
                          tmp_path / "d")
 
 
-@pytest.mark.parametrize("version", [3, 0, "2"])
+@pytest.mark.parametrize("version", [4, 0, "3"])
 def test_unknown_format_version_is_refused(written, version):
     meta = json.loads((written / "scenario.json").read_text())
     meta["format_version"] = version
     (written / "scenario.json").write_text(json.dumps(meta))
     with pytest.raises(DatasetError, match=rf"{written / 'scenario.json'}: field 'format_version' is "
-                                           rf"{version!r}; this nnda \(.*\) reads version 1 or 2 only"):
+                                           rf"{version!r}; this nnda \(.*\) reads version 1 or 2 or 3 only"):
         read_dataset(written)
-
-
-def _set_sensor(path: Path, row: int, value: int) -> None:
-    table = pq.read_table(path)
-    sensor = table.column("sensor").to_numpy().copy()
-    sensor[row] = value
-    pq.write_table(table.set_column(table.schema.get_field_index("sensor"), "sensor",
-                                    pa.array(sensor, type=pa.int32())), path)
 
 
 @pytest.mark.parametrize("value, message", [
@@ -262,22 +257,21 @@ def _set_sensor(path: Path, row: int, value: int) -> None:
     (-1, r"column 'sensor' names sensor -1 at row 3"),
 ])
 def test_detections_of_a_sensor_not_in_the_manifest_are_refused(written, value, message):
-    _set_sensor(written / "detections.parquet", 3, value)
+    rewrite_table(written, "detections.parquet", set_value("sensor", 3, value))
     with pytest.raises(DatasetError, match=rf"detections.parquet: {message}"):
         read_dataset(written)
 
 
 def test_detections_of_the_wrong_sensor_for_their_scan_are_refused(written):
     first = int(pq.read_table(written / "detections.parquet").column("sensor")[0].as_py())
-    _set_sensor(written / "detections.parquet", 0, 1 - first)
+    rewrite_table(written, "detections.parquet", set_value("sensor", 0, 1 - first))
     with pytest.raises(DatasetError, match=r"detections.parquet: column 'sensor' is \d at row 0, but scan 1 is a "
                                            r"sweep of sensor \d"):
         read_dataset(written)
 
 
 def test_a_format_2_dataset_without_the_sensor_column_is_refused(written):
-    path = written / "detections.parquet"
-    pq.write_table(pq.read_table(path).drop_columns(["sensor"]), path)
+    rewrite_table(written, "detections.parquet", lambda t: t.drop_columns(["sensor"]))
     with pytest.raises(DatasetError, match="detections.parquet: column 'sensor' is missing"):
         read_dataset(written)
 
@@ -292,7 +286,8 @@ def test_a_format_2_dataset_without_the_sensor_column_is_refused(written):
     # valid config, but the clutter square misses the east radar's sector: refused before anything is written
     ('[[sensors]]\nname = "w"\n[[sensors]]\nname = "e"\nboresight_deg = 180\nfov_deg = 10\n'
      '[sensors.clutter]\ncentre_m = [0.0, 20000.0]\nside_m = 2000.0\n',
-     "clutter of sensor 'e': the square region centred at .* does not overlap the coverage"),
+     r"scenario 'harbour': clutter of sensor 'e': the square region \(side 2000 m, centred at \(0, 20000\) m\) "
+     r"has 0.00% of its points inside the coverage"),
 ])
 def test_bad_sensor_configs_write_nothing(tmp_path, sensors, message):
     config = tmp_path / "harbour.toml"

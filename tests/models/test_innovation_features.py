@@ -11,6 +11,7 @@ from nnda.data.generator import generate
 from nnda.data.presets import PRESETS, resolve
 from nnda.data.scenario import Clutter
 from nnda.errors import ConfigError, ModelError
+from nnda.files import with_content_digest
 from nnda.filters.imm import IMM
 from nnda.filters.kalman import mahalanobis_2x2
 from nnda.models.feature_sets import FEATURE_SETS, feature_set
@@ -144,11 +145,11 @@ def test_model_file_records_and_checks_the_feature_set(tmp_path):
     assert doc["feature_set"] == IMM_INNOVATION.name and doc["feature_names"] == list(IMM_INNOVATION.names)
     assert load_model(path).features is IMM_INNOVATION
     doc["feature_set"] = KINEMATIC.name  # 9 inputs cannot be the seed's 3 features
-    path.write_text(json.dumps(doc))
+    path.write_text(json.dumps(with_content_digest(doc, "sha256")))  # as a writer of that file would have
     with pytest.raises(ModelError, match="3-9-1|9-3-1|expected 3 inputs"):
         load_model(path)
     doc["feature_set"] = "imm-innovation-12"
-    path.write_text(json.dumps(doc))
+    path.write_text(json.dumps(with_content_digest(doc, "sha256")))
     with pytest.raises(ModelError, match="'imm-innovation-12'.*retrain"):
         load_model(path)
     with pytest.raises(ModelError, match="cannot read the 3 features"):

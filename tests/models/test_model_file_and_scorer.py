@@ -7,6 +7,7 @@ import pytest
 import torch
 
 from nnda.errors import ModelError
+from nnda.files import content_digest, with_content_digest
 from nnda.models.features import KINEMATIC
 from nnda.models.mlp import MLPWeights, n_weights, nguyen_widrow, unpack
 from nnda.models.network import as_tensor, forward
@@ -48,9 +49,10 @@ def test_model_file_round_trip_is_exact(scorer, tmp_path):
 
 
 def _rewrite(path, **changes):
+    """Change fields of a model file as a writer of those values would have: its digest re-recorded."""
     doc = json.loads(path.read_text())
     doc.update(changes)
-    path.write_text(json.dumps(doc))
+    path.write_text(json.dumps(with_content_digest(doc, "sha256")))
 
 
 def test_loader_refuses_bad_files(scorer, tmp_path):
@@ -70,10 +72,22 @@ def test_loader_refuses_bad_files(scorer, tmp_path):
         load_model(path)
     save_model(scorer, path)
     doc = json.loads(path.read_text())
-    doc["network"]["weights"] = doc["network"]["weights"][:-1]
-    path.write_text(json.dumps(doc))
+    _rewrite(path, network={**doc["network"], "weights": doc["network"]["weights"][:-1]})
     with pytest.raises(ModelError, match="network.weights"):
         load_model(path)
+
+
+def test_a_hand_edited_weight_is_a_corrupt_model_file_and_format_1_loads_unverified(scorer, tmp_path):
+    path = save_model(scorer, tmp_path / "model.json")
+    doc = json.loads(path.read_text())
+    assert doc["format_version"] == 2 and doc["sha256"] == content_digest(doc, "sha256")
+    doc["network"]["weights"][4] += 1e-12
+    path.write_text(json.dumps(doc, indent=1))
+    with pytest.raises(ModelError, match=rf"{path}: corrupt model file: its content does not match field 'sha256'"):
+        load_model(path)
+    del doc["sha256"]
+    path.write_text(json.dumps({**doc, "format_version": 1}))  # written before the digest existed
+    assert load_model(path).weights.to_vector()[4] == scorer.weights.to_vector()[4] + 1e-12
 
 
 def test_scorer_refuses_nan_and_wrong_shapes(scorer):
@@ -94,3 +108,11 @@ def test_nguyen_widrow_spreads_units_over_the_active_region():
     wide = nguyen_widrow(np.tile([0.0, 10.0], (3, 1)), 5, np.random.default_rng(0))
     for lo, hi in ((np.zeros(3), -np.ones(3)), (np.full(3, 10.0), np.ones(3))):
         np.testing.assert_allclose(wide.w1 @ lo + wide.b1, w.w1 @ hi + w.b1)
+
+
+def test_metadata_of_any_json_shape_survives_the_digest(scorer, tmp_path):
+    """Integer keys, tuples and NaN read back as strings, lists and null: the digest is of what reads back."""
+    odd = Scorer(scorer.weights, scorer.normaliser, metadata={"by_size": {10: 0.5, 9: 0.25}, "pair": (1, 2),
+                                                               "auc": float("nan")})
+    loaded = load_model(save_model(odd, tmp_path / "model.json"))
+    assert loaded.metadata == {"by_size": {"10": 0.5, "9": 0.25}, "pair": [1, 2], "auc": None}

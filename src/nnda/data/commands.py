@@ -9,12 +9,15 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
+from rich.text import Text
 
+from nnda.data.checks import MAX_DETECTIONS
 from nnda.data.dataset import write_collection, write_dataset
-from nnda.data.generator import generate_runs
+from nnda.data.generator import check_scenario, generate_runs
 from nnda.data.presets import GROUP_DESCRIPTIONS, GROUPS, PRESETS, resolve
 from nnda.data.scenario import load_scenario
 from nnda.errors import ConfigError
+from nnda.files import check_output_location
 
 
 def presets() -> None:
@@ -33,28 +36,42 @@ def generate(
     out: Annotated[Path, typer.Option(help="output directory (a dataset, or a collection of them)")],
     preset: Annotated[str | None, typer.Option(help="preset or group name (see `nnda presets`)")] = None,
     config: Annotated[Path | None, typer.Option(help="scenario config file (.toml or .json)")] = None,
-    seed: Annotated[int | None, typer.Option(help="seed; defaults to the scenario's own")] = None,
+    seed: Annotated[int | None, typer.Option(min=0, help="seed; defaults to the scenario's own")] = None,
     runs: Annotated[int, typer.Option(min=1, help="independently seeded Monte Carlo runs")] = 1,
+    max_detections: Annotated[int, typer.Option(
+        min=1, help="refuse a scenario whose dataset could hold more detections (each about 60 bytes)")
+    ] = MAX_DETECTIONS,
     overwrite: Annotated[bool, typer.Option(help="replace an existing output directory")] = False,
 ) -> None:
     """Generate datasets from a preset, a preset group or a config file.
 
     One scenario and one run give a dataset directory; more runs or a group
-    give a collection directory with one dataset per member.
+    give a collection directory with one dataset per member. Every scenario
+    is checked before the first draw (size, clutter against the coverage);
+    implausible targets are printed as warnings.
     """
     if (preset is None) == (config is None):
         raise ConfigError("give exactly one of --preset or --config")
+    check_output_location(out, [config] if config is not None else [])
     scenarios = resolve(preset) if preset is not None else [load_scenario(config)]
+    warn = Console(stderr=True)
+    for scenario in scenarios:
+        try:
+            lines = check_scenario(scenario, max_detections)
+        except ConfigError as exc:
+            raise ConfigError(f"{config or f'preset {scenario.name}'}: {exc}") from None
+        for line in lines:
+            warn.print(Text.assemble(("warning:", "bold yellow"), " ", line), highlight=False, soft_wrap=True)
     single = len(scenarios) == 1
     if single and runs == 1:
-        dataset = next(generate_runs(scenarios[0], [0], seed))
+        dataset = next(generate_runs(scenarios[0], [0], seed, max_detections))
         write_dataset(dataset, out, overwrite)
-        Console().print(f"wrote {out} ({dataset.detections.scan.size} detections)")
+        Console().print(f"wrote {out} ({dataset.detections.scan.size} detections)", markup=False, highlight=False)
         return
 
     def members():
         for scenario in scenarios:
-            for ds in generate_runs(scenario, range(runs), seed):
+            for ds in generate_runs(scenario, range(runs), seed, max_detections):
                 if runs == 1:
                     yield scenario.name, ds
                 elif single:
@@ -70,4 +87,4 @@ def generate(
         task = bar.add_task(f"generating {what}", total=len(scenarios) * runs)
         write_collection(members(), out, description, overwrite,
                          on_member=lambda _name: bar.advance(task))
-    Console().print(f"wrote {out} ({len(scenarios) * runs} datasets)")
+    Console().print(f"wrote {out} ({len(scenarios) * runs} datasets)", markup=False, highlight=False)

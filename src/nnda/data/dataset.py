@@ -8,14 +8,25 @@ manifest listing them. Everything is written to a temporary sibling and
 renamed into place, so a failed write leaves nothing behind; readers check
 format, version and schema and name the file and field they refuse.
 
-Format versions: 2 (written) has a ``sensor`` column in
-``detections.parquet``, the index of the detecting sensor in the manifest's
-``scenario.sensors``; 1 (one radar at the origin, the scenario in the
-one-sensor form) still reads, with that column all 0.
+Format versions: 3 (written) is 2 plus the SHA-256 of ``detections.parquet``
+and ``truth.parquet`` in the manifest's ``sha256`` field, checked on read,
+so a flipped byte is a "corrupt file" error rather than data; 2 has a
+``sensor`` column in ``detections.parquet``, the index of the detecting
+sensor in the manifest's ``scenario.sensors``; 1 (one radar at the origin,
+the scenario in the one-sensor form) has no such column (read as all 0).
+Versions 1 and 2 still read, without the digest check.
+
+Every dataset read or written passes `check_dataset`: values a tracker or a
+trainer would take at face value must be plausible (positive ranges,
+azimuths in [0, 2 pi), x/y agreeing with range/azimuth from the detecting
+sensor, times of the scan schedule, rows in scan order), each refusal naming
+the file, the column and the row. A collection must hold exactly the members
+its manifest lists.
 """
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from functools import cached_property
@@ -26,20 +37,31 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 import nnda
+from nnda.data.checks import whole_number
 from nnda.data.scenario import Scenario, scenario_from_dict
+from nnda.data.sensor import TWO_PI, polar_to_cart
 from nnda.errors import ConfigError, DatasetError
-from nnda.files import atomic_directory, dumps, read_json
+from nnda.files import atomic_directory, dumps, file_digests, path_component, read_json, verify_digests
 
 FORMAT = "nnda.dataset"
 COLLECTION_FORMAT = "nnda.collection"
-FORMAT_VERSION = 2
-#: dataset format versions `read_dataset` reads (1: one radar, no ``sensor`` column)
-READABLE_VERSIONS = (1, 2)
+FORMAT_VERSION = 3
+#: dataset format versions `read_dataset` reads (1: one radar, no ``sensor`` column; 1 and 2: no digests)
+READABLE_VERSIONS = (1, 2, 3)
+#: the first format version whose manifest records the SHA-256 of its data files
+DIGESTS_SINCE = 3
 COLLECTION_FORMAT_VERSION = 1
 MANIFEST = "scenario.json"
 COLLECTION_MANIFEST = "collection.json"
 DETECTIONS_FILE = "detections.parquet"
 TRUTH_FILE = "truth.parquet"
+DATA_FILES = (DETECTIONS_FILE, TRUTH_FILE)
+#: a detection's x/y may lie this far from the point its range/azimuth give: relative to |(x, y)| + range ...
+POSITION_RTOL = 1e-6
+#: ... plus this much, m
+POSITION_ATOL_M = 1e-3
+#: a time column may differ from the scenario's scan schedule by this much, relative to max(1 s, |t|)
+TIME_RTOL = 1e-9
 
 
 @dataclass(frozen=True)
@@ -163,8 +185,9 @@ def _table(record, schema: pa.Schema) -> pa.Table:
     )
 
 
-def manifest(dataset: Dataset) -> dict:
-    """The ``scenario.json`` content: what the dataset is, from what, with what."""
+def manifest(dataset: Dataset, sha256: dict[str, str]) -> dict:
+    """The ``scenario.json`` content: what the dataset is, from what, with what; ``sha256`` maps each data
+    file's name to its digest (`nnda.files.file_digests`)."""
     s = dataset.scenario
     return {
         "format": FORMAT,
@@ -178,18 +201,23 @@ def manifest(dataset: Dataset) -> dict:
         "target_names": [t.name for t in s.targets],
         "sensor_names": [sensor.name for sensor in s.sensors],
         "scenario": s.model_dump(mode="json"),
+        "sha256": sha256,
     }
 
 
 def write_dataset_files(dataset: Dataset, directory: Path) -> None:
-    """Write the three files of a dataset into an existing, empty ``directory``."""
-    (directory / MANIFEST).write_text(dumps(manifest(dataset)))
-    pq.write_table(_table(dataset.detections, DETECTIONS_SCHEMA), directory / DETECTIONS_FILE)
-    pq.write_table(_table(dataset.truth, TRUTH_SCHEMA), directory / TRUTH_FILE)
+    """Write the three files of a dataset into an existing, empty ``directory``: the data files, then the
+    manifest with their digests."""
+    for name, record, schema in ((DETECTIONS_FILE, dataset.detections, DETECTIONS_SCHEMA),
+                                 (TRUTH_FILE, dataset.truth, TRUTH_SCHEMA)):
+        with open(directory / name, "wb") as f:  # closed even when a write fails (a full disk)
+            pq.write_table(_table(record, schema), f)
+    (directory / MANIFEST).write_text(dumps(manifest(dataset, file_digests(directory, DATA_FILES))))
 
 
 def write_dataset(dataset: Dataset, out: str | Path, overwrite: bool = False) -> Path:
-    """Write one dataset directory atomically; returns its path."""
+    """Check (`check_dataset`) and write one dataset directory atomically; returns its path."""
+    check_dataset(dataset, f"dataset {out}: detections", f"dataset {out}: truth")
     with atomic_directory(out, overwrite) as tmp:
         write_dataset_files(dataset, tmp)
     return Path(out)
@@ -201,17 +229,26 @@ def write_collection(
 ) -> Path:
     """Write datasets as sub-directories of one collection, atomically as a whole.
 
-    ``members`` yields (member name, dataset); ``on_member`` is called after
-    each member is written (progress reporting).
+    ``members`` yields (member name, dataset), at least one; each name must
+    be a safe directory name (`nnda.files.path_component`) and appear once,
+    each dataset pass `check_dataset`. ``on_member`` is called after each
+    member is written (progress reporting).
     """
-    names = []
+    names: list[str] = []
     with atomic_directory(out, overwrite) as tmp:
         for name, dataset in members:
+            path_component(name, f"collection {out}: member name")
+            if name in names:
+                raise ConfigError(f"collection {out}: member name {name!r} is given twice")
+            where = f"collection {out}: member {name!r}"
+            check_dataset(dataset, f"{where}: detections", f"{where}: truth")
             (tmp / name).mkdir()
             write_dataset_files(dataset, tmp / name)
             names.append(name)
             if on_member is not None:
                 on_member(name)
+        if not names:
+            raise ConfigError(f"collection {out}: no members to write")
         (tmp / COLLECTION_MANIFEST).write_text(dumps({
             "format": COLLECTION_FORMAT,
             "format_version": COLLECTION_FORMAT_VERSION,
@@ -220,6 +257,108 @@ def write_collection(
             "members": names,
         }))
     return Path(out)
+
+
+# ----------------------------------------------------------------------------- checks
+
+#: the numpy dtype kind of each Parquet column type
+_KIND = {pa.int32(): "i", pa.float64(): "f", pa.bool_(): "b"}
+
+
+def _first(bad: np.ndarray) -> int | None:
+    """Index of the first True of ``bad``, or None."""
+    rows = np.flatnonzero(bad)
+    return int(rows[0]) if rows.size else None
+
+
+def _check_record(where: str, record, schema: pa.Schema, scan_time: np.ndarray, n_targets: int) -> None:
+    """Checks shared by detections and truth: shapes, dtypes, finite floats, scans, times, target ids."""
+    columns = {f.name: np.asarray(getattr(record, f.name)) for f in schema}
+    n = columns["scan"].shape
+    for f in schema:
+        a = columns[f.name]
+        if a.ndim != 1 or a.shape != n:
+            raise DatasetError(f"{where}: column {f.name!r} has shape {a.shape}, expected {n} as column 'scan'")
+        if a.dtype.kind != _KIND[f.type]:
+            raise DatasetError(f"{where}: column {f.name!r} has dtype {a.dtype}, expected {f.type}")
+        if a.dtype.kind == "f" and (row := _first(~np.isfinite(a))) is not None:
+            raise DatasetError(f"{where}: column {f.name!r} has a non-finite value at row {row}")
+    scan, n_scans = columns["scan"], scan_time.size
+    if (row := _first((scan < 1) | (scan > n_scans))) is not None:
+        raise DatasetError(f"{where}: column 'scan' leaves the range 1..{n_scans}: {scan[row]} at row {row}")
+    if (row := _first(np.diff(scan) < 0)) is not None:
+        raise DatasetError(f"{where}: column 'scan' is not in increasing order: {scan[row + 1]} at row {row + 1} "
+                           f"follows {scan[row]}")
+    time, scheduled = columns["time"], scan_time[scan - 1]
+    if (row := _first(np.abs(time - scheduled) > TIME_RTOL * np.maximum(1.0, np.abs(scheduled)))) is not None:
+        raise DatasetError(f"{where}: column 'time' is {float(time[row])!r} s at row {row}, but scan {scan[row]} is at "
+                           f"{float(scheduled[row])!r} s in the scenario's scan schedule")
+    tid, low = columns["target_id"], -1 if "is_clutter" in schema.names else 0
+    if (row := _first((tid < low) | (tid >= n_targets))) is not None:
+        raise DatasetError(f"{where}: column 'target_id' leaves the range {low}..{n_targets - 1}: {tid[row]} at "
+                           f"row {row} ({n_targets} target(s) in the scenario)")
+
+
+def _check_detections(where: str, dataset: Dataset) -> None:
+    d, sensors = dataset.detections, dataset.scenario.sensors
+    if (row := _first(d.is_clutter != (d.target_id < 0))) is not None:
+        raise DatasetError(f"{where}: columns 'is_clutter' and 'target_id' disagree at row {row} "
+                           f"({bool(d.is_clutter[row])}, {d.target_id[row]})")
+    sensor, n_sensors = d.sensor, len(sensors)
+    if (row := _first((sensor < 0) | (sensor >= n_sensors))) is not None:
+        raise DatasetError(f"{where}: column 'sensor' names sensor {sensor[row]} at row {row}, but {MANIFEST} "
+                           f"lists {n_sensors} sensor(s) (indices 0..{n_sensors - 1})")
+    sweeping = dataset.scan_sensor[d.scan - 1]
+    if (row := _first(sensor != sweeping)) is not None:
+        raise DatasetError(f"{where}: column 'sensor' is {sensor[row]} at row {row}, but scan "
+                           f"{d.scan[row]} is a sweep of sensor {sweeping[row]}")
+    if (row := _first(~(d.range > 0))) is not None:
+        raise DatasetError(f"{where}: column 'range' is {float(d.range[row])!r} m at row {row}; "
+                           f"a range must be positive")
+    if (row := _first((d.azimuth < 0) | (d.azimuth >= TWO_PI))) is not None:
+        raise DatasetError(f"{where}: column 'azimuth' is {float(d.azimuth[row])!r} rad at row {row}, "
+                           f"outside [0, 2 pi)")
+    ox, oy = (np.array([s.x_m for s in sensors])[sensor], np.array([s.y_m for s in sensors])[sensor])
+    px, py = polar_to_cart(d.range, d.azimuth)
+    miss = np.hypot(d.x - (px + ox), d.y - (py + oy))
+    tolerance = POSITION_RTOL * (np.hypot(d.x, d.y) + d.range) + POSITION_ATOL_M
+    if (row := _first(miss > tolerance)) is not None:
+        s = sensors[sensor[row]]
+        raise DatasetError(
+            f"{where}: columns 'x', 'y' at row {row} are ({d.x[row]:.3f}, {d.y[row]:.3f}) m, {miss[row]:.4g} m from "
+            f"the point that columns 'range' ({d.range[row]:.3f} m) and 'azimuth' ({d.azimuth[row]:.6f} rad) give "
+            f"from sensor {s.name!r} at ({s.x_m:g}, {s.y_m:g}) m (tolerance {tolerance[row]:.3g} m)")
+
+
+def _check_truth(where: str, dataset: Dataset) -> None:
+    t, n_targets = dataset.truth, len(dataset.scenario.targets)
+    key = t.scan.astype(np.int64) * n_targets + t.target_id
+    if (row := _first(np.diff(key) <= 0)) is not None:
+        raise DatasetError(f"{where}: rows {row} and {row + 1} (scan, target_id) = ({t.scan[row]}, "
+                           f"{t.target_id[row]}) then ({t.scan[row + 1]}, {t.target_id[row + 1]}) are not in "
+                           f"scan-then-target order or repeat a target's scan")
+
+
+def check_dataset(dataset: Dataset, detections: str, truth: str) -> None:
+    """Raise DatasetError, naming the record, column and row, unless ``dataset``'s values are plausible.
+
+    ``detections`` and ``truth`` name the two records in messages (their
+    files, when the dataset was read from disk). Both: columns of one shape
+    (N,) and the schema's dtypes, finite floats, scans in 1..n_scans in
+    increasing order, times those of `Scenario.scan_schedule` (to
+    `TIME_RTOL` x max(1 s, |t|)), target ids of the scenario's targets
+    (or -1, clutter, in the detections). Detections also: ``is_clutter``
+    exactly where ``target_id`` is -1, each row's ``sensor`` the one
+    sweeping its scan, ranges > 0 m, azimuths in [0, 2 pi) rad, and (x, y)
+    within `POSITION_RTOL` x (|(x, y)| + range) + `POSITION_ATOL_M` m of the
+    point at (range, azimuth) from that sensor. Truth also: one row per
+    (scan, target), ordered by scan then target.
+    """
+    scan_time, n_targets = dataset.scan_time, len(dataset.scenario.targets)
+    _check_record(detections, dataset.detections, DETECTIONS_SCHEMA, scan_time, n_targets)
+    _check_record(truth, dataset.truth, TRUTH_SCHEMA, scan_time, n_targets)
+    _check_detections(detections, dataset)
+    _check_truth(truth, dataset)
 
 
 # ----------------------------------------------------------------------------- reading
@@ -245,37 +384,8 @@ def _read_table(path: Path, schema: pa.Schema, record_type):
         col = table.column(f.name)
         if col.null_count:
             raise DatasetError(f"{path}: column {f.name!r} has {col.null_count} null value(s)")
-        arr = col.to_numpy()
-        if arr.dtype.kind == "f" and not np.isfinite(arr).all():
-            bad = int(np.flatnonzero(~np.isfinite(arr))[0])
-            raise DatasetError(f"{path}: column {f.name!r} has a non-finite value at row {bad}")
-        columns[f.name] = arr
+        columns[f.name] = col.to_numpy()
     return record_type(**columns)
-
-
-def _check_rows(path: Path, scan: np.ndarray, n_scans: int, target_id: np.ndarray, n_targets: int,
-                allow_clutter: bool) -> None:
-    if scan.size and (scan.min() < 1 or scan.max() > n_scans):
-        raise DatasetError(f"{path}: column 'scan' leaves the range 1..{n_scans}")
-    if np.any(np.diff(scan) < 0):
-        raise DatasetError(f"{path}: column 'scan' is not in increasing order")
-    low = -1 if allow_clutter else 0
-    if target_id.size and (target_id.min() < low or target_id.max() >= n_targets):
-        raise DatasetError(f"{path}: column 'target_id' leaves the range {low}..{n_targets - 1}")
-
-
-def _check_sensors(path: Path, detections: Detections, scan_sensor: np.ndarray, n_sensors: int) -> None:
-    """The ``sensor`` column names sensors of the manifest, each row the one sweeping its scan."""
-    sensor = detections.sensor
-    if sensor.size and (sensor.min() < 0 or sensor.max() >= n_sensors):
-        row = int(np.flatnonzero((sensor < 0) | (sensor >= n_sensors))[0])
-        raise DatasetError(f"{path}: column 'sensor' names sensor {sensor[row]} at row {row}, but {MANIFEST} "
-                           f"lists {n_sensors} sensor(s) (indices 0..{n_sensors - 1})")
-    wrong = sensor != scan_sensor[detections.scan - 1]
-    if wrong.any():
-        row = int(np.flatnonzero(wrong)[0])
-        raise DatasetError(f"{path}: column 'sensor' is {sensor[row]} at row {row}, but scan "
-                           f"{detections.scan[row]} is a sweep of sensor {scan_sensor[detections.scan[row] - 1]}")
 
 
 def _one_radar_at_origin(scenario: Scenario) -> bool:
@@ -285,8 +395,35 @@ def _one_radar_at_origin(scenario: Scenario) -> bool:
     return s.kind == "polar" and s.position == (0.0, 0.0) and s.full_circle and s.scan_offset_s == 0
 
 
+def _verify_files(path: Path, meta: dict) -> None:
+    """Check the data files against the digests a format-3 manifest records."""
+    recorded = meta.get("sha256")
+    if (not isinstance(recorded, dict) or sorted(recorded) != sorted(DATA_FILES)
+            or not all(isinstance(v, str) for v in recorded.values())):
+        raise DatasetError(f"{path / MANIFEST}: field 'sha256' must map {' and '.join(DATA_FILES)} to their "
+                           f"SHA-256 digests (format version {meta['format_version']}), got {recorded!r}")
+    verify_digests(path, recorded)
+
+
+def _check_counts(where: Path, meta: dict, dataset: Dataset) -> None:
+    """The manifest's summary fields, where present, describe the data read."""
+    d, sc = dataset.detections, dataset.scenario
+    for key, value in (("n_scans", sc.n_scans), ("n_detections", int(d.scan.size)),
+                       ("n_clutter", int(d.is_clutter.sum())), ("target_names", [t.name for t in sc.targets]),
+                       ("sensor_names", [s.name for s in sc.sensors])):
+        if key in meta and meta[key] != value:
+            raise DatasetError(f"{where}: field {key!r} is {meta[key]!r}, but the dataset holds {value!r}")
+
+
 def read_dataset(path: str | Path) -> Dataset:
-    """Read and validate one dataset directory (format version 2, or 1 as one radar at the origin)."""
+    """Read and check one dataset directory (format version 3; 2 and 1, one radar at the origin, unverified).
+
+    Refuses, naming the file and field or column and row: a missing or
+    foreign manifest, a seed or run that is not a whole number >= 0, an
+    invalid scenario, a data file whose SHA-256 differs from the manifest's
+    (format 3: "corrupt file"), a Parquet file of another schema, and values
+    `check_dataset` refuses.
+    """
     path = Path(path)
     if not path.is_dir():
         raise DatasetError(f"{path}: no such dataset directory")
@@ -296,6 +433,8 @@ def read_dataset(path: str | Path) -> Dataset:
     for key in ("seed", "run", "scenario"):
         if key not in meta:
             raise DatasetError(f"{path / MANIFEST}: field {key!r} is missing")
+    seed, run = (whole_number(meta[key], f"{path / MANIFEST}: field {key!r}", error=DatasetError)
+                 for key in ("seed", "run"))
     try:
         scenario = scenario_from_dict(meta["scenario"], f"{path / MANIFEST} (field 'scenario')")
     except ConfigError as exc:
@@ -304,16 +443,14 @@ def read_dataset(path: str | Path) -> Dataset:
     if version == 1 and not _one_radar_at_origin(scenario):
         raise DatasetError(f"{path / MANIFEST}: a format-1 dataset holds one radar at the origin, but field "
                            f"'scenario' describes other sensors")
+    if version >= DIGESTS_SINCE:
+        _verify_files(path, meta)
     schema = DETECTIONS_SCHEMA_V1 if version == 1 else DETECTIONS_SCHEMA
     detections = _read_table(path / DETECTIONS_FILE, schema, Detections)
     truth = _read_table(path / TRUTH_FILE, TRUTH_SCHEMA, Truth)
-    n_scans, n_targets = scenario.n_scans, len(scenario.targets)
-    _check_rows(path / DETECTIONS_FILE, detections.scan, n_scans, detections.target_id, n_targets, True)
-    _check_rows(path / TRUTH_FILE, truth.scan, n_scans, truth.target_id, n_targets, False)
-    if not np.array_equal(detections.is_clutter, detections.target_id < 0):
-        raise DatasetError(f"{path / DETECTIONS_FILE}: columns 'is_clutter' and 'target_id' disagree")
-    dataset = Dataset(scenario, int(meta["seed"]), int(meta["run"]), detections, truth)
-    _check_sensors(path / DETECTIONS_FILE, detections, dataset.scan_sensor, len(scenario.sensors))
+    dataset = Dataset(scenario, seed, run, detections, truth)
+    check_dataset(dataset, str(path / DETECTIONS_FILE), str(path / TRUTH_FILE))
+    _check_counts(path / MANIFEST, meta, dataset)
     return dataset
 
 
@@ -322,13 +459,44 @@ def is_collection(path: str | Path) -> bool:
 
 
 def collection_members(path: str | Path) -> list[Path]:
-    """Member dataset directories of a collection, in manifest order."""
+    """Member dataset directories of a collection, in manifest order.
+
+    The manifest lists at least one member, each once and each a plain
+    directory name (`nnda.files.path_component`); the directory holds
+    exactly those members beside the manifest (hidden entries aside).
+    DatasetError naming the collection and the members otherwise.
+    """
     path = Path(path)
-    meta = read_json(path / COLLECTION_MANIFEST, COLLECTION_FORMAT, COLLECTION_FORMAT_VERSION)
+    where = path / COLLECTION_MANIFEST
+    meta = read_json(where, COLLECTION_FORMAT, COLLECTION_FORMAT_VERSION)
     members = meta.get("members")
     if not isinstance(members, list) or not all(isinstance(m, str) for m in members):
-        raise DatasetError(f"{path / COLLECTION_MANIFEST}: field 'members' must be a list of names")
+        raise DatasetError(f"{where}: field 'members' must be a list of names")
+    if not members:
+        raise DatasetError(f"{where}: field 'members' is empty; a collection holds at least one dataset")
+    for m in members:
+        try:
+            path_component(m, f"{where}: member")
+        except ConfigError as exc:
+            raise DatasetError(str(exc)) from None
+    twice = sorted({m for m, n in Counter(members).items() if n > 1})
+    if twice:
+        raise DatasetError(f"{where}: field 'members' lists {', '.join(twice)} more than once")
+    missing = [m for m in members if not (path / m).is_dir()]
+    if missing:
+        raise DatasetError(f"{path}: member(s) {_some(missing)} listed in {COLLECTION_MANIFEST} are missing")
+    listed = {*members, COLLECTION_MANIFEST}
+    extra = sorted(p.name for p in path.iterdir() if p.name not in listed and not p.name.startswith("."))
+    if extra:
+        raise DatasetError(f"{path}: {_some(extra)} not listed in {COLLECTION_MANIFEST}; a collection holds "
+                           f"exactly its members (move the extra entries out, or regenerate the collection)")
     return [path / m for m in members]
+
+
+def _some(names: list[str], shown: int = 5) -> str:
+    """The first ``shown`` names, and how many more."""
+    more = f" and {len(names) - shown} more" if len(names) > shown else ""
+    return ", ".join(names[:shown]) + more
 
 
 def iter_datasets(path: str | Path) -> Iterator[Dataset]:

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from nnda.data.checks import MAX_DETECTIONS, check_clutter, check_size, target_warnings, whole_number
 from nnda.data.clutter import clutter_counts, clutter_positions
 from nnda.data.dataset import Dataset, Detections, Truth
 from nnda.data.scenario import Clutter, Scenario
@@ -44,7 +45,8 @@ class Plan:
     scan. ``missed`` flags the scripted gaps; ``pd`` is each row's
     detection probability. ``scan_time`` and ``scan_sensor`` (n_scans,) are
     `Scenario.scan_schedule`; ``clutter_centre`` (n_sensors, 2) m is each
-    sensor's square or Gaussian clutter centre.
+    sensor's square or Gaussian clutter centre. `of` refuses a clutter region
+    that the coverage (almost) misses (`nnda.data.checks.check_clutter`).
     """
 
     scenario: Scenario
@@ -80,6 +82,7 @@ class Plan:
         sensor = scan_sensor[scan - 1]
         centres = np.array([_clutter_centre(s.clutter, x[sensor == j], y[sensor == j])
                             for j, s in enumerate(scenario.sensors)])
+        check_clutter(scenario, centres)
         return cls(scenario, scan.astype(np.int32), scan_time[scan - 1], tid.astype(np.int32),
                    x, y, vx, vy, missed, pd, sensor, scan_time, scan_sensor, centres)
 
@@ -150,14 +153,36 @@ def realise(plan: Plan, seed: int, run: int) -> Dataset:
     return Dataset(sc, seed, run, detections, truth)
 
 
-def generate(scenario: Scenario, seed: int | None = None, run: int = 0) -> Dataset:
-    """One run of ``scenario``; ``seed`` defaults to the scenario's own."""
-    return realise(Plan.of(scenario), scenario.seed if seed is None else seed, run)
+def generate(scenario: Scenario, seed: int | None = None, run: int = 0,
+             max_detections: int = MAX_DETECTIONS) -> Dataset:
+    """One run of ``scenario``; ``seed`` defaults to the scenario's own.
+
+    Refused before anything is drawn (ConfigError): a seed or run that is
+    not a whole number >= 0, a scenario whose dataset could hold more than
+    ``max_detections`` detections (`nnda.data.checks.check_size`), a clutter
+    region outside its sensor's coverage (`Plan.of`).
+    """
+    return next(generate_runs(scenario, [run], seed, max_detections))
 
 
-def generate_runs(scenario: Scenario, runs: Iterable[int], seed: int | None = None) -> Iterator[Dataset]:
-    """Runs of one scenario sharing the noise-free plan (a Monte Carlo set)."""
+def generate_runs(scenario: Scenario, runs: Iterable[int], seed: int | None = None,
+                  max_detections: int = MAX_DETECTIONS) -> Iterator[Dataset]:
+    """Runs of one scenario sharing the noise-free plan (a Monte Carlo set); refusals as `generate`."""
+    seed = whole_number(scenario.seed if seed is None else seed, "seed")
+    check_size(scenario, max_detections)
     plan = Plan.of(scenario)
-    seed = scenario.seed if seed is None else seed
     for run in runs:
-        yield realise(plan, seed, run)
+        yield realise(plan, seed, whole_number(run, "run"))
+
+
+def check_scenario(scenario: Scenario, max_detections: int = MAX_DETECTIONS) -> list[str]:
+    """Every check of ``scenario`` short of generating it; returns its plausibility warnings.
+
+    Raises what `generate` raises before drawing (size above
+    ``max_detections``, clutter outside the coverage); the returned lines
+    (`nnda.data.checks.target_warnings`) name implausible targets, for a
+    command to print.
+    """
+    check_size(scenario, max_detections)
+    plan = Plan.of(scenario)
+    return target_warnings(scenario, plan.target_id, plan.sensor, plan.x, plan.y)

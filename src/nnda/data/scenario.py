@@ -21,7 +21,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from nnda.errors import ConfigError, validated
-from nnda.files import read_config
+from nnda.files import path_component, read_config
 
 _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
@@ -245,6 +245,11 @@ class Scenario(BaseModel):
     sensors: tuple[Sensor, ...] = (Sensor(),)
     process_noise: ProcessNoise = ProcessNoise()
     seed: Annotated[int, Field(ge=0)] = 0
+
+    @field_validator("name")
+    @classmethod
+    def _a_file_name(cls, value: str) -> str:
+        return path_component(value, "a scenario name")  # it names collection members, plots, study jobs
 
     @model_validator(mode="before")
     @classmethod

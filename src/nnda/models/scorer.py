@@ -2,7 +2,7 @@
 
 A model file is one small JSON document::
 
-    {"format": "nnda.model", "format_version": 1,
+    {"format": "nnda.model", "format_version": 2, "sha256": "<64 hex digits>",
      "feature_set": "kinematic-3", "feature_version": 1, "feature_names": [F names],
      "network": {"n_inputs": F, "n_hidden": 5, "activation": "tanh", "weights": [K floats]},
      "normaliser": {"kind": "zscore", "mean": [F floats], "scale": [F floats]},
@@ -12,6 +12,12 @@ A model file is one small JSON document::
 features). ``weights`` is the flat layout of `nnda.models.mlp`. Floats are written
 with full precision, so a model survives a round trip bit for bit. The file
 is written atomically (`nnda.files.write_json`).
+
+``sha256`` (format version 2) is the SHA-256 of the document's canonical
+JSON without that field (`nnda.files.content_digest`): `load_model` refuses
+a file whose content no longer matches it ("corrupt model file": a flipped
+byte, a hand-edited weight). Files of format version 1, written before the
+field existed, still load, unverified.
 """
 
 from __future__ import annotations
@@ -24,14 +30,18 @@ import numpy as np
 
 import nnda
 from nnda.errors import ModelError
-from nnda.files import read_json, write_json
+from nnda.files import content_digest, read_json, with_content_digest, write_json
 from nnda.models.feature_sets import FEATURE_SETS
 from nnda.models.features import KINEMATIC, FeatureSet
 from nnda.models.mlp import MLPWeights, n_weights
 from nnda.models.preprocessing import Normaliser
 
 MODEL_FORMAT = "nnda.model"
-MODEL_FORMAT_VERSION = 1
+MODEL_FORMAT_VERSION = 2
+#: model format versions `load_model` reads (1: no ``sha256``, loaded unverified)
+READABLE_MODEL_VERSIONS = (1, 2)
+#: the field of a model file holding the SHA-256 of the rest of it
+DIGEST_FIELD = "sha256"
 MODEL_FILE = "model.json"
 
 
@@ -61,9 +71,9 @@ class Scorer:
 
 
 def model_document(scorer: Scorer) -> dict:
-    """The JSON content of a model file."""
+    """The JSON content of a model file, its ``sha256`` included."""
     w = scorer.weights
-    return {
+    return with_content_digest({
         "format": MODEL_FORMAT,
         "format_version": MODEL_FORMAT_VERSION,
         "nnda_version": nnda.__version__,
@@ -75,7 +85,7 @@ def model_document(scorer: Scorer) -> dict:
         "normaliser": {"kind": "zscore", "mean": scorer.normaliser.mean.tolist(),
                        "scale": scorer.normaliser.scale.tolist()},
         "metadata": scorer.metadata,
-    }
+    }, DIGEST_FIELD)
 
 
 def save_model(scorer: Scorer, path: str | Path) -> Path:
@@ -101,15 +111,16 @@ def load_model(path: str | Path) -> Scorer:
     """Read a model file, or the ``model.json`` inside a model directory, into a Scorer.
 
     Refuses (ModelError, naming the file and field) a missing or unreadable
-    file, another format or format version, and a model built on another
-    feature set or feature version than this nnda computes.
+    file, another format or format version, a file whose content does not
+    match its ``sha256`` (format 2: "corrupt model file"), and a model built
+    on another feature set or feature version than this nnda computes.
     """
     path = Path(path)
     if path.is_dir():
         path = path / MODEL_FILE
     if not path.is_file():
         raise ModelError(f"{path}: no such model file")
-    doc = read_json(path, MODEL_FORMAT, MODEL_FORMAT_VERSION, ModelError)
+    doc = read_json(path, MODEL_FORMAT, READABLE_MODEL_VERSIONS, ModelError)
     feature_set, feature_version = _field(doc, "feature_set", path), _field(doc, "feature_version", path)
     features = FEATURE_SETS.get(feature_set) if isinstance(feature_set, str) else None
     if features is None or feature_version != features.version:
@@ -118,6 +129,13 @@ def load_model(path: str | Path) -> Scorer:
             f"{path}: the model was trained on features {feature_set!r} version {feature_version!r}, "
             f"but this nnda computes {known}; retrain it with `nnda train`"
         )
+    # after the feature set: a model of another set or version is refused with the same advice either way
+    if doc["format_version"] >= 2:
+        recorded = doc.get(DIGEST_FIELD)
+        if recorded != content_digest(doc, DIGEST_FIELD):
+            raise ModelError(f"{path}: corrupt model file: its content does not match field {DIGEST_FIELD!r} "
+                             f"(recorded {str(recorded)[:16]}...); it was changed after `nnda train` wrote it: "
+                             f"retrain it or restore a good copy")
     net, norm = _field(doc, "network", path), _field(doc, "normaliser", path)
     if not isinstance(net, dict) or not isinstance(norm, dict):
         raise ModelError(f"{path}: fields 'network' and 'normaliser' must be objects")

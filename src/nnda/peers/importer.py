@@ -136,6 +136,13 @@ def _truth(rows: list[tuple], T: float) -> Truth:
                  x=x[order], y=y[order], vx=vx[order], vy=vy[order], detected=det[order].astype(bool))
 
 
+def _scenario_name(name: str) -> str:
+    """``name`` as a scenario name: ASCII letters, digits, '_', '.', '-' kept, anything else and a leading
+    dot replaced by '_'."""
+    kept = "".join(c if (c.isascii() and c.isalnum()) or c in "_.-" else "_" for c in name)
+    return "_" + kept[1:] if kept.startswith(".") else kept
+
+
 def _scenario(scene: StoneSoupScene, paths: dict, name: str, seed: int) -> Scenario:
     T = scene.sensor.scan_period_s
     targets = []
@@ -147,7 +154,7 @@ def _scenario(scene: StoneSoupScene, paths: dict, name: str, seed: int) -> Scena
             speed_m_s=max(math.hypot(vx, vy), 1e-6), start_time_s=to_seconds(first.timestamp),
             segments=[Segment(duration_s=max(T, (len(path.states) - 1) * T))]))
     return Scenario(
-        name=''.join(c if c.isalnum() or c in "_.-" else "_" for c in name), seed=seed,
+        name=_scenario_name(name), seed=seed,
         description=(f"simulated by Stone Soup (seed {seed}): {scene.targets} targets at start, birth rate "
                      f"{scene.birth_rate}/scan, death probability {scene.death_probability}/scan, "
                      f"ConstantVelocity motion with sigma_accel {scene.sigma_accel} m/s^2; "

@@ -11,6 +11,8 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from nnda.data.dataset import read_dataset
+from nnda.errors import ConfigError, OutputError
+from nnda.files import check_output_location
 from nnda.study.config import load_study
 from nnda.study.plan import JobSpec
 
@@ -18,12 +20,21 @@ from nnda.study.plan import JobSpec
 def plot_scenario(
     dataset: Annotated[Path, typer.Argument(help="dataset directory")],
     out: Annotated[Path, typer.Option(help="PNG file to write")],
+    overwrite: Annotated[bool, typer.Option(help="replace an existing file at --out")] = False,
 ) -> None:
     """Plot a dataset: coverage, clutter, target contacts and true tracks."""
     from nnda.reports.scenario_plot import plot_scenario as draw  # matplotlib only when plotting
 
+    if out.is_dir():
+        raise OutputError(f"--out {out}: is a directory; give the PNG file to write, e.g. {out / 'scenario.png'}")
+    if out.suffix.lower() != ".png":
+        raise ConfigError(f"--out {out}: unknown figure type {out.suffix or '(no suffix)'!r}; plot-scenario "
+                          f"writes PNG: give a file name ending in .png")
+    if out.exists() and not overwrite:
+        raise FileExistsError(f"{out}: already exists (pass --overwrite to replace it)")
+    check_output_location(out, [dataset])
     draw(read_dataset(dataset), out)
-    Console().print(f"wrote {out}")
+    Console().print(f"wrote {out}", markup=False, highlight=False)
 
 
 def report(

@@ -33,8 +33,9 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from nnda.data.dataset import atomic_directory, iter_datasets
+from nnda.data.dataset import iter_datasets
 from nnda.errors import ConfigError
+from nnda.files import atomic_directory, check_output_location
 from nnda.models.feature_sets import FEATURE_SETS
 from nnda.models.features import KINEMATIC
 from nnda.models.pairs import PairSet, load_pairs, model_pair_options
@@ -124,17 +125,18 @@ def train(
         raise ConfigError("--method both needs --repeats N (N >= 2); a sweep or a model takes gd or lm")
     if ablation and repeats < 2:
         raise ConfigError("--ablation needs --repeats N (N >= 2; the issue's protocol uses 10) for its intervals")
+    check_output_location(out, [data])  # --out replaced with --overwrite must never be the training data
     methods = ("gd", "lm") if method is MethodChoice.both else (method.value,)
     console = Console()
     if ablation:
         with atomic_directory(out, overwrite) as tmp:
             _train_ablation(data, methods, hidden, range(seed, seed + repeats), init.value, starts or 3, tmp, console)
-        console.print(f"wrote {out}/")
+        console.print(f"wrote {out}/", markup=False, highlight=False)
         return
     sizes = parse_sizes(sweep_sizes) if sweep_sizes is not None else None
     options = {"history": history.value, "other_targets": "negative", "max_missed": 3, "features": features.value}
     pairs = load_pairs(data, **options)
-    console.print(_describe(pairs, data))
+    console.print(_describe(pairs, data), markup=False, highlight=False)
     provenance = {"data": str(data), "pair_options": options, "dataset_names": list(pairs.names)}
     with atomic_directory(out, overwrite) as tmp:
         if sizes is not None:
@@ -143,7 +145,7 @@ def train(
             _train_repeats(pairs, methods, hidden, range(seed, seed + repeats), init.value, tmp, console)
         else:
             _train_one(pairs, method.value, hidden, seed, init.value, starts or 1, provenance, tmp, console)
-    console.print(f"wrote {out}/")
+    console.print(f"wrote {out}/", markup=False, highlight=False)
 
 
 def _train_one(pairs: PairSet, method: str, hidden: int, seed: int, init: str, starts: int, provenance: dict,
@@ -265,11 +267,13 @@ def evaluate(
     from nnda.models.plots import plot_roc
     from nnda.reports.classifier_tables import metrics_table
 
+    if out is not None:
+        check_output_location(out, [model, data])
     scorer = load_model(model)
     options = model_pair_options(scorer.metadata, scorer.features.name)
     pairs = load_pairs(data, **options)
     console = Console()
-    console.print(_describe(pairs, data))
+    console.print(_describe(pairs, data), markup=False, highlight=False)
     scores = scorer(pairs.features)
     metrics = classifier_metrics(pairs.labels, scores)
     table = metrics_table(f"{model} on {data}", {"all pairs": metrics})
@@ -279,5 +283,5 @@ def evaluate(
                                                   "pair_options": options, "metrics": metrics.as_dict()})
             (tmp / "metrics.md").write_text(table.markdown())
             plot_roc({"all pairs": (pairs.labels, scores)}, tmp / "roc.png", f"ROC of {model.name} on {data.name}")
-        console.print(f"wrote {out}/")
+        console.print(f"wrote {out}/", markup=False, highlight=False)
     console.print(table.rich())

@@ -13,6 +13,7 @@ from matplotlib.patches import Circle, Patch, Wedge  # noqa: E402
 
 from nnda.data.dataset import Dataset  # noqa: E402
 from nnda.data.scenario import Sensor  # noqa: E402
+from nnda.files import atomic_file  # noqa: E402
 
 KM = 1e-3
 
@@ -62,7 +63,9 @@ def plot_scenario(dataset: Dataset, out: str | Path, dpi: int = 120) -> Path:
     its position. With one sensor, grey dots are clutter of every scan and
     coloured dots each target's contacts (in the colour of its track); with
     several, dots take their sensor's colour (faint: clutter; solid: target
-    contacts) and tracks are black. Axes in km, x east, y north.
+    contacts) and tracks are black. Axes in km, x east, y north. The file
+    appears whole or not at all (`nnda.files.atomic_file`; a full or
+    read-only disk is an OutputError).
     """
     det, truth, sc = dataset.detections, dataset.truth, dataset.scenario
     fig, axes = plt.subplots(1, 2, figsize=(14, 7), constrained_layout=True)
@@ -116,8 +119,9 @@ def plot_scenario(dataset: Dataset, out: str | Path, dpi: int = 120) -> Path:
     n_clutter = int(det.is_clutter.sum())
     fig.suptitle(f"{sc.name}: {_timing(dataset)}, {n_clutter} clutter points ({n_clutter / sc.n_scans:.0f}/scan), "
                  f"seed {dataset.seed}, run {dataset.run}")
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=dpi, metadata={"Software": None})
-    plt.close(fig)
-    return out
+    try:
+        with atomic_file(out) as tmp:
+            fig.savefig(tmp, dpi=dpi, format="png", metadata={"Software": None})
+    finally:
+        plt.close(fig)
+    return Path(out)

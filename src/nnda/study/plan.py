@@ -38,6 +38,7 @@ from nnda.data.dataset import (
     is_collection,
     read_dataset,
 )
+from nnda.data.generator import check_scenario
 from nnda.data.presets import resolve
 from nnda.data.scenario import Scenario, Sensor, load_scenario
 from nnda.errors import ConfigError, DatasetError, ModelError
@@ -231,6 +232,12 @@ def _scenarios(study: Study, where: str) -> tuple[ScenarioPlan, ...]:
             plans.append(ScenarioPlan(s.name, f"config {study.relative(spec.config)}", s, study.runs))
         else:
             plans += _from_disk(spec.path, spec.name, here, study.relative(spec.path))
+    for p in plans:  # what generation would refuse (size, clutter outside the coverage), before any job
+        if p.generated:
+            try:
+                check_scenario(p.scenario)
+            except ConfigError as exc:
+                raise ConfigError(f"{where}: scenario {p.name!r}: {exc}") from None
     names = [path_component(p.name, f"{where}: scenario name") for p in plans]  # they name job directories
     twice = sorted({n for n in names if names.count(n) > 1})
     if twice:
