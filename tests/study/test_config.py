@@ -25,7 +25,7 @@ def test_written_study_reads_back_equal(tmp_path):
     (tmp_path / "s.toml").write_text(text)
     assert load_study(tmp_path / "s.toml") == study
     assert 'ablation = "models/ablation"' in text
-    assert list(study.trackers) == ["mht", "nn-gd", "nn-seed", "nn-ext", "gnn", "jpda"]
+    assert list(study.trackers) == ["mht", "nn-gd", "nn-seed", "nn-ext", "gnn", "jpda", "ekphd", "cphd"]
     assert study.trackers["nn-ext"].params == {"feature_set": "imm-innovation-9"}
     assert study.scenarios[0].preset == "validation"
 

@@ -234,3 +234,18 @@ def test_bad_outputs_are_refused_naming_the_scan(dataset, k, change, message):
     outputs[k - 1] = _output(k, **change)
     with pytest.raises(ScoringError, match=message):
         run_metrics(dataset, outputs)
+
+
+def test_the_count_error_counts_reported_tracks_against_targets_present():
+    from nnda.data.generator import generate
+    from nnda.data.presets import PRESETS
+    from nnda.tracking.registry import make_tracker
+
+    ds = generate(PRESETS["S1"], seed=3)
+    tracker = make_tracker("gnn", ds.scenario.sensors)
+    outs = [tracker.step(scan) for scan in ds.scans()]
+    m = run_metrics(ds, outs)
+    present = np.bincount(ds.truth.scan - 1, minlength=ds.n_scans)
+    reported = np.array([int((o.status == 2).sum()) for o in outs])
+    np.testing.assert_array_equal(m.count_error, np.abs(reported - present))
+    assert m.count_error[-10:].max() <= 1  # every target followed at the end of S1

@@ -193,7 +193,8 @@ def default_study(gd_model: str | Path, lm_model: str | Path, ext_model: str | P
                   seed: int = 0, ablation: str | Path | None = None) -> Study:
     """The specification's comparison (seed-001 §10.2) and issue 9's: IMM/TOMHT against the neural
     tracker with the seed's features (gradient-descent and Levenberg-Marquardt models: ``nn-gd``,
-    ``nn-seed``) and with the IMM-extended features (``nn-ext``), plus the GNN and JPDA baselines, on S1-S6.
+    ``nn-seed``) and with the IMM-extended features (``nn-ext``), plus the GNN and JPDA baselines and
+    the association-free EK-PHD and CPHD filters (``ekphd``, ``cphd``, issue 14), on S1-S6.
 
     Model paths are kept as given (relative ones are resolved when the study is written and read).
     """
@@ -201,7 +202,8 @@ def default_study(gd_model: str | Path, lm_model: str | Path, ext_model: str | P
     return Study(
         name="thesis-comparison",
         description="IMM + track-oriented MHT against neural association (seed features with GD and LM "
-                    "models, IMM-extended features with LM), with GNN and JPDA baselines, on S1-S6",
+                    "models, IMM-extended features with LM), with GNN and JPDA baselines and the EK-PHD and "
+                    "CPHD filters, on S1-S6",
         seed=seed, runs=runs,
         models={"gd": Path(gd_model), "lm": Path(lm_model), "ext": Path(ext_model)},
         ablation=None if ablation is None else Path(ablation),
@@ -209,7 +211,8 @@ def default_study(gd_model: str | Path, lm_model: str | Path, ext_model: str | P
                   "nn-gd": TrackerSpec(kind="nn", model="gd", params=seed_set),
                   "nn-seed": TrackerSpec(kind="nn", model="lm", params=seed_set),
                   "nn-ext": TrackerSpec(kind="nn", model="ext", params=ext_set),
-                  "gnn": TrackerSpec(kind="gnn"), "jpda": TrackerSpec(kind="jpda")},
+                  "gnn": TrackerSpec(kind="gnn"), "jpda": TrackerSpec(kind="jpda"),
+                  "ekphd": TrackerSpec(kind="ekphd"), "cphd": TrackerSpec(kind="cphd")},
         scenarios=[ScenarioSpec(preset="validation")],
     )
 

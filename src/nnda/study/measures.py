@@ -174,6 +174,14 @@ def _ospa(r: ScoredRun) -> np.ndarray:
     return r.set_distances[1]
 
 
+def _count_error(r: ScoredRun) -> np.ndarray:
+    """(n_scans,) |confirmed tracks reported - targets present| in each scan: how well the tracker counts."""
+    n = r.dataset.n_scans
+    reported = np.bincount(r.scan[r.confirmed] - 1, minlength=n)
+    present = np.bincount(r.dataset.truth.scan - 1, minlength=n)
+    return np.abs(reported - present).astype(float)
+
+
 def _false_per_scan(r: ScoredRun) -> np.ndarray:
     """(n_scans,) confirmed tracks owned by -1 in each scan (int64)."""
     return np.bincount(r.scan[r.confirmed & (r.row_owner < 0)] - 1, minlength=r.dataset.n_scans).astype(np.int64)
@@ -225,6 +233,8 @@ MEASURES: tuple[Measure, ...] = (
     Measure("gospa_missed", "GOSPA missed-target part", "m²", "lower", _COUNT, True, _gospa_part(2), "{:,.0f}"),
     Measure("gospa_false", "GOSPA false-track part", "m²", "lower", _COUNT, True, _gospa_part(3), "{:,.0f}"),
     Measure("ospa", "OSPA", "m", "lower", _COUNT, True, _ospa, "{:.1f}"),
+    Measure("count_error", "Target-count error (confirmed tracks vs targets)", "", "lower", _COUNT, True, _count_error,
+            "{:.2f}"),
     # its series is "false_tracks" in job records (results.parquet: false_tracks_per_scan, see nnda.study.results)
     Measure("false_tracks_per_scan", "False tracks present", "", "lower", _COUNT, True, _false_per_scan, "{:.3f}",
             integer=True, series="false_tracks"),
