@@ -110,25 +110,24 @@ def _run_value(series: np.ndarray) -> float:
 def _run_filter(job: JobSpec, dataset: Dataset) -> dict:
     """A filter job's record: the filter through the target's own contacts, scored against the truth."""
     f = make_filter(job.kind, dataset.scenario.sensors, job.params)
-    d, truth = dataset.detections, dataset.truth
-    own = np.flatnonzero(d.target_id == 0)
-    contact = np.full(dataset.n_scans, -1)
-    contact[d.scan[own] - 1] = own  # a target has at most one contact per scan
+    truth, bounds = dataset.truth, dataset.scan_bounds()
+    own = dataset.detections.target_id == 0
     rows = np.flatnonzero(truth.target_id == 0)  # the scans where the target exists, in scan order
-    scans = truth.scan[rows] - 1
-    by_kind = {"polar": np.column_stack([d.range, d.azimuth]), "position": np.column_stack([d.x, d.y])}
-    z_of = [by_kind[s.kind] for s in dataset.scenario.sensors]
+    alive = set(truth.scan[rows].tolist())
     x, P = np.full((len(rows), 4), np.nan), np.full((len(rows), 4, 4), np.nan)
     seconds = np.empty(len(rows))
-    for i, k in enumerate(scans.tolist()):
-        sensor = int(dataset.scan_sensor[k])
-        z = z_of[sensor][contact[k]] if contact[k] >= 0 else None
+    i = 0
+    for scan in dataset.scans():
+        if scan.index not in alive:
+            continue
+        mine = np.flatnonzero(own[bounds[scan.index - 1]:bounds[scan.index]])  # at most one contact per scan
         start = time.perf_counter()
-        est = f.step(float(dataset.scan_time[k]), sensor, z)
+        est = f.step(float(scan.time), scan.sensor, scan.measurements[mine[0]] if mine.size else None)
         seconds[i] = time.perf_counter() - start
         if est is not None:
             x[i], P[i] = est.x, est.P
-    run = FilterRun(dataset.scan_time[scans], x, P,
+        i += 1
+    run = FilterRun(dataset.scan_time[truth.scan[rows] - 1], x, P,
                     np.column_stack([truth.x[rows], truth.vx[rows], truth.y[rows], truth.vy[rows]]))
     values = {m.key: m.compute(run) for m in FILTER_MEASURES}
     return {
