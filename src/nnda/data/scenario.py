@@ -13,7 +13,7 @@ ambiguity labels (A2, A3, ...) mark the defaults the spec chose.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -340,6 +340,15 @@ class Scenario(BaseModel):
             clutter = update.pop("clutter", sensor.clutter if own else self.clutter)
             update["sensors"] = (sensor.model_copy(update={"clutter": clutter}),)
         return super().model_copy(update=update, deep=deep)
+
+
+def sensor_tuple(sensors: Sensor | Sequence[Sensor]) -> tuple[Sensor, ...]:
+    """Sensors as a tuple: one `Sensor` or a scenario's ``sensors`` (what trackers and filters are built for);
+    ConfigError when there is none or an entry is not a `Sensor`."""
+    found = (sensors,) if isinstance(sensors, Sensor) else tuple(sensors)
+    if not found or not all(isinstance(s, Sensor) for s in found):
+        raise ConfigError(f"expected one or more nnda.data.scenario.Sensor, got {sensors!r}")
+    return found
 
 
 def scenario_from_dict(data: dict, source: str = "<config>") -> Scenario:

@@ -26,7 +26,7 @@ from typing import Any, ClassVar, Literal, Protocol
 import numpy as np
 from pydantic import BaseModel, ConfigDict
 
-from nnda.data.scenario import Sensor
+from nnda.data.scenario import Sensor, sensor_tuple
 from nnda.errors import ConfigError, FilterError, validated
 from nnda.filters.imm import IMM, IMMState
 from nnda.filters.measurement import measurement_model
@@ -73,9 +73,7 @@ class IMMFilter:
     config_type: ClassVar[type[FilterConfig]] = IMMFilterConfig
 
     def __init__(self, sensors: Sensor | Sequence[Sensor], config: IMMFilterConfig | None = None) -> None:
-        sensors = (sensors,) if isinstance(sensors, Sensor) else tuple(sensors)
-        if not sensors:
-            raise ConfigError(f"filter {self.name!r}: no sensor")
+        sensors = sensor_tuple(sensors)
         self.config = config if config is not None else IMMFilterConfig()
         base = IMM.for_sensor(sensors[0])
         if self.config.motion == "cv":

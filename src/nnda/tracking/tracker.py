@@ -7,7 +7,7 @@ TrackerOutput`` (conventions.md, "Interfaces"); it is built as
 `nnda.tracking.registry.make_tracker`. Nothing more is assumed: a peer
 (Stone Soup), a PHD filter or a track-before-detect tracker meets it
 without an IMM or an initiator. `checked_scan` is the scan check every one
-of them can share; `sensor_tuple` and `only_sensor` read the sensors.
+of them can share; `nnda.data.scenario.sensor_tuple` and `only_sensor` read the sensors.
 
 **Framework.** `ContactTracker` holds what trackers that build tracks from
 contacts share: a per-track filter component (the IMM, `IMM.for_sensor` by
@@ -48,7 +48,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict
 
 from nnda.data.dataset import Scan
-from nnda.data.scenario import Sensor
+from nnda.data.scenario import Sensor, sensor_tuple
 from nnda.data.sensor import in_coverage
 from nnda.errors import BoundWarning, ConfigError, TrackingError
 from nnda.filters.batch import Batch
@@ -90,14 +90,6 @@ def checked_config(tracker: Tracker, config: TrackerConfig | None) -> TrackerCon
     if not isinstance(config, tracker.config_type):
         raise TrackingError(f"{tracker.name}: config must be a {tracker.config_type.__name__}")
     return config
-
-
-def sensor_tuple(sensors: Sensor | Sequence[Sensor]) -> tuple[Sensor, ...]:
-    """The sensors a tracker is built for, as a tuple (one `Sensor` or a scenario's ``sensors``)."""
-    found = (sensors,) if isinstance(sensors, Sensor) else tuple(sensors)
-    if not found or not all(isinstance(s, Sensor) for s in found):
-        raise TrackingError(f"a tracker needs one or more nnda.data.scenario.Sensor, got {sensors!r}")
-    return found
 
 
 def only_sensor(name: str, sensors: Sensor | Sequence[Sensor], kind: str = "polar") -> Sensor:

@@ -42,7 +42,7 @@ from typing import ClassVar
 import numpy as np
 
 from nnda.data.dataset import Scan
-from nnda.data.scenario import Sensor
+from nnda.data.scenario import Sensor, sensor_tuple
 from nnda.errors import TrackingError
 from nnda.filters.measurement import MeasurementModel, PositionMeasurement, measurement_model
 from nnda.filters.mixture import Mixture, cap, merge
@@ -60,7 +60,7 @@ from nnda.tracking.phd.config import (
     UKPHDConfig,
 )
 from nnda.tracking.phd.extraction import above, heaviest, relabel_duplicates
-from nnda.tracking.tracker import TrackerConfig, checked_config, checked_scan, only_sensor, sensor_tuple
+from nnda.tracking.tracker import TrackerConfig, checked_config, checked_scan, only_sensor
 
 
 @dataclass(frozen=True)
