@@ -22,9 +22,9 @@ def _alone(sensor: int) -> Scenario:
     return TWO.model_copy(update={"sensors": (TWO.sensors[sensor],)})
 
 
-def _gospa(name: str, scenario: Scenario, seed: int) -> float:
+def _gospa(name: str, scenario: Scenario, seed: int, config: dict | None = None) -> float:
     ds = generate(scenario, seed)
-    tracker = make_tracker(name, ds.scenario.sensors)
+    tracker = make_tracker(name, ds.scenario.sensors, config)
     return float(np.mean(run_metrics(ds, [tracker.step(scan) for scan in ds.scans()]).gospa))  # per-scan mean, m
 
 
@@ -81,3 +81,49 @@ def test_position_sensor_contacts_are_not_ranges():
     tracker.step(Scan(1, 2.0, np.array([[-100.0, 50.0]])))  # a negative x is a position, not a bad range
     with pytest.raises(TrackingError, match=r"contact 0 is invalid \[nan, 1.0\] \(non-finite\)"):
         tracker.step(Scan(2, 4.0, np.array([[np.nan, 1.0]])))
+
+
+@pytest.mark.parametrize("name", ["ekphd", "cphd"])
+def test_a_phd_component_outside_the_sweeping_radars_sector_is_not_thinned(name):
+    """The west-only target stays reported through the east radar's sweeps: that radar's p_D is 0 where it
+    cannot see (with its p_D everywhere, every east sweep would cut the weight to 1 - p_D, below extraction)."""
+    west_only = Target(name="west-only", x_m=18_000.0, y_m=2_000.0, heading_deg=0.0, speed_m_s=100.0,
+                       segments=[Segment(duration_s=70.0)])
+    sc = TWO.model_copy(update={"duration_s": 70.0, "targets": [west_only]})
+    ds = generate(sc, 3)
+    tracker = make_tracker(name, ds.scenario.sensors, {"sensor_pd": [0.9, 0.85]})
+    outs = [tracker.step(scan) for scan in ds.scans()]
+    t = ds.truth
+    near = [bool(len(o.state)) and np.hypot(o.state[:, 0] - x, o.state[:, 2] - y).min() < 300.0
+            for o, x, y in zip(outs, t.x, t.y)]
+    east = ds.scan_sensor[4:] == 1
+    assert np.mean(np.asarray(near[4:])[east]) >= 0.9 and np.mean(near[4:]) >= 0.85
+
+
+def test_two_radars_help_a_phd_tracker():
+    """Over three runs the EK-PHD on both radars (each with its own p_D) beats it on either radar alone."""
+    def mean_gospa(sensors: tuple[int, ...], pd: list[float]) -> float:
+        sc = TWO.model_copy(update={"sensors": tuple(TWO.sensors[s] for s in sensors)})
+        return float(np.mean([_gospa("ekphd", sc, seed, {"sensor_pd": pd}) for seed in (3, 4, 5)]))
+
+    both, west, east = mean_gospa((0, 1), [0.9, 0.85]), mean_gospa((0,), [0.9]), mean_gospa((1,), [0.85])
+    assert both < 0.95 * min(west, east), (both, west, east)
+
+
+def test_phd_trackers_take_each_radars_detection_probability():
+    tracker = make_tracker("cphd", TWO.sensors, {"sensor_pd": [0.9, 0.6]})
+    assert [v.pd for v in tracker.views] == [0.9, 0.6]
+    with pytest.raises(TrackingError, match=r"sensor_pd gives 1 detection probabilities for 2 sensor\(s\) \(west, "
+                                            r"east\)"):
+        make_tracker("ekphd", TWO.sensors, {"sensor_pd": [0.9]})
+    with pytest.raises(ConfigError, match="sensor_pd"):
+        make_tracker("ekphd", TWO.sensors, {"sensor_pd": [0.9, 1.5]})
+
+
+@pytest.mark.parametrize("name", ["gmphd", "cphd"])
+def test_one_sensors_own_detection_probability_is_its_pd(name):
+    """``sensor_pd`` of the one sensor runs exactly as ``pd`` (the single-sensor path is unchanged)."""
+    ds = generate(_alone(0), seed=4)
+    runs = [[make_tracker(name, ds.scenario.sensors, cfg).step(scan) for scan in ds.scans()]
+            for cfg in ({"pd": 0.8}, {"pd": 0.5, "sensor_pd": [0.8]})]
+    assert all(np.array_equal(a.state, b.state) for a, b in zip(*runs))

@@ -71,17 +71,20 @@ def test_predict_cardinality_against_the_sums():
 
 
 def cphd_reference(w, q, pd, lam, c, p):
-    """VVC 2007's GM-CPHD update term by term (dense q (J, N), plain floats, no logs)."""
+    """VVC 2007's GM-CPHD update term by term (dense q (J, N), plain floats, no logs); ``pd`` a number or
+    one per component (J,): the missed mass <1 - p_D, v> in place of (1 - p_D) W."""
     J, m = q.shape
     n_max = len(p) - 1
     W = w.sum()
-    Lam = np.array([pd * w @ q[:, i] / c[i] for i in range(m)])
+    pd = np.broadcast_to(pd, w.shape)
+    missed_mass = (1 - pd) @ w
+    Lam = np.array([(pd * w) @ q[:, i] / c[i] for i in range(m)])
 
     def ups(u, L, n):
         mm = len(L)
         e = esf_brute(L)
         return sum(math.exp(-lam) * lam ** (mm - k) * math.factorial(n) / math.factorial(n - k - u)
-                   * ((1 - pd) * W) ** (n - k - u) / W ** n * e[k] for k in range(min(mm, n - u) + 1))
+                   * missed_mass ** (n - k - u) / W ** n * e[k] for k in range(min(mm, n - u) + 1))
 
     den = sum(ups(0, Lam, n) * p[n] for n in range(n_max + 1))
     post = np.array([ups(0, Lam, n) * p[n] / den for n in range(n_max + 1)])
@@ -93,7 +96,8 @@ def cphd_reference(w, q, pd, lam, c, p):
     return det, missed, post
 
 
-@pytest.mark.parametrize("pd, lam", [(0.9, 2.5), (0.6, 0.3), (0.99, 6.0)])
+@pytest.mark.parametrize("pd, lam", [(0.9, 2.5), (0.6, 0.3), (0.99, 6.0),
+                                     (np.array([0.9, 0.0, 0.8, 0.9, 0.5]), 2.5)])  # p_D per component
 def test_weights_against_the_formulas(pd, lam):
     pred, z = scene(0, J=5, N=6)
     lin = gmphd.EKF(PolarMeasurement(30.0, 3e-3))

@@ -143,7 +143,7 @@ class CommonConfig(TrackerConfig):
         return data
 
     sigma_q: Annotated[float, Field(ge=0, description="acceleration noise (m/s^2) of the motion model")] = 10.0
-    ps: Probability = Field(0.99, description="survival probability per scan")
+    ps: Probability = Field(0.99, description="survival probability per scan (per shortest scan period)")
     pd: Probability = Field(0.9, description="detection probability")
     clutter: Annotated[float, Field(ge=0)] | Literal["scan", "local"] = Field(
         "local", description="false contacts per scan (lambda), or 'scan' / 'local' estimates (module docs)")
@@ -166,6 +166,8 @@ class PHDConfig(CommonConfig):
     birth: Annotated[Annotated[MeasurementBirth, Tag("measurement")] | Annotated[StaticBirth, Tag("static")],
                      Discriminator(_birth_kind)] = MeasurementBirth()
     spawn: Spawn | None = None
+    sensor_pd: Annotated[tuple[Probability, ...], Field(min_length=1)] | None = Field(
+        None, description="detection probability of each sensor, in the scenario's order; None: pd for all")
 
     @model_validator(mode="after")
     def _state_sizes(self) -> PHDConfig:

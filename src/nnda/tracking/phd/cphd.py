@@ -168,26 +168,28 @@ def _falling(u: int, n_max: int, degree: int) -> tuple[np.ndarray, np.ndarray, n
     return ok, np.where(ok, gammaln(n + 1.0) - gammaln(rr + 1.0), 0.0), rr
 
 
-def _log_coefficients(u: int, m: int, n_max: int, degree: int, clutter_rate: float, pd: float, W: float
+def _log_coefficients(u: int, m: int, n_max: int, degree: int, clutter_rate: float, miss: float, W: float
                       ) -> np.ndarray:
     """log of Upsilon^u's factor (n_max+1, degree+1) at (n, k), for ESFs of the normalised Lambda / W:
-    e^-lambda lambda^(m-k) n! / (n-k-u)! (1 - p_D)^(n-k-u) W^-u for k <= m and k + u <= n, else -inf
-    (((1 - p_D) W)^(n-k-u) / W^n e_k(Lambda) = (1 - p_D)^(n-k-u) W^-u e_k(Lambda / W))."""
+    e^-lambda lambda^(m-k) n! / (n-k-u)! q^(n-k-u) W^-u for k <= m and k + u <= n, else -inf, with
+    ``miss`` q = <1 - p_D, v> / <1, v> (1 - p_D for a constant p_D):
+    (<1 - p_D, v>^(n-k-u) / W^n e_k(Lambda) = q^(n-k-u) W^-u e_k(Lambda / W))."""
     ok, log_falling, r = _falling(u, n_max, degree)
     k = np.arange(degree + 1)
     with np.errstate(divide="ignore", invalid="ignore"):
         clutter = np.where(k <= m, -clutter_rate + xlogy(m - k, clutter_rate), -np.inf)
-        v = clutter[None, :] + log_falling + xlogy(r, 1.0 - pd) - u * np.log(W)
+        v = clutter[None, :] + log_falling + xlogy(r, miss) - u * np.log(W)
     return np.where(ok, v, -np.inf)
 
 
-def cphd_weights(weights: np.ndarray, pairs: Pairs, pd: float, clutter_rate: float, log_c: np.ndarray,
+def cphd_weights(weights: np.ndarray, pairs: Pairs, pd: float | np.ndarray, clutter_rate: float, log_c: np.ndarray,
                  cardinality: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """GM-CPHD update weights: of the detection copies (P,), of the missed copies (J,), and the posterior
     cardinality (N_max+1,).
 
     ``weights`` (J,) predicted weights, ``pairs`` the gated pairs
-    (`nnda.tracking.phd.gmphd.Pairs`), ``pd`` detection probability,
+    (`nnda.tracking.phd.gmphd.Pairs`), ``pd`` detection probability (a
+    number, or one per component (J,): state-dependent p_D at the means),
     ``clutter_rate`` lambda (mean false contacts per scan), ``log_c`` (N,)
     log clutter spatial density at each contact, ``cardinality`` the
     predicted p(n). A contact without a pair has Lambda = 0 and enters only
@@ -198,6 +200,7 @@ def cphd_weights(weights: np.ndarray, pairs: Pairs, pd: float, clutter_rate: flo
     n_max = len(cardinality) - 1
     J, m = len(weights), pairs.n_contacts
     W = float(weights.sum())
+    miss = 1.0 - pd if np.ndim(pd) == 0 else float((1.0 - pd) @ weights) / W if W > 0 else 1.0
     with np.errstate(divide="ignore"):
         log_p = np.log(cardinality)
         log_psi = np.log(pd * weights)[pairs.j] + pairs.log_likelihood - log_c[pairs.i]  # p_D w q / c
@@ -208,7 +211,7 @@ def cphd_weights(weights: np.ndarray, pairs: Pairs, pd: float, clutter_rate: flo
     lam, shift = _scaled(log_lam)
     pre, pre_scale = _prefix(lam, degree)  # one forward pass: the ESFs and the leave-one-out sums
     log_e = _log_last(pre, pre_scale, shift)
-    ups0 = _logsumexp(_log_coefficients(0, m, n_max, degree, clutter_rate, pd, 1.0) + log_e, axis=1)
+    ups0 = _logsumexp(_log_coefficients(0, m, n_max, degree, clutter_rate, miss, 1.0) + log_e, axis=1)
     den = _logsumexp(ups0 + log_p)
     if not np.isfinite(den):
         raise TrackingError(f"CPHD: no target count up to max_cardinality = {n_max} explains a scan of {m} "
@@ -218,12 +221,12 @@ def cphd_weights(weights: np.ndarray, pairs: Pairs, pd: float, clutter_rate: flo
     posterior /= posterior.sum()
     if W == 0:
         return np.zeros(len(pairs.j)), np.zeros(J), posterior
-    ups1 = _logsumexp(_log_coefficients(1, m, n_max, degree, clutter_rate, pd, W) + log_e, axis=1)
+    ups1 = _logsumexp(_log_coefficients(1, m, n_max, degree, clutter_rate, miss, W) + log_e, axis=1)
     missed = (1.0 - pd) * weights * np.exp(_logsumexp(ups1 + log_p) - den)
     if not len(seen):
         return np.zeros(0), missed, posterior
     loo_degree = min(len(seen) - 1, n_max - 1)
-    log_b = _logsumexp(_log_coefficients(1, m - 1, n_max, loo_degree, clutter_rate, pd, W) + log_p[:, None], axis=0)
+    log_b = _logsumexp(_log_coefficients(1, m - 1, n_max, loo_degree, clutter_rate, miss, W) + log_p[:, None], axis=0)
     log_r = np.full(m, -np.inf)
     # log <Upsilon^1[Z \ z], p> / <Upsilon^0[Z], p>
     log_r[seen] = _leave_one_out(lam, shift, pre, pre_scale, log_b) - den

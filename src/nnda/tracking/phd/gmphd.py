@@ -227,11 +227,13 @@ def per_contact_logsumexp(values: np.ndarray, i: np.ndarray, n: int, floor: np.n
         return np.log(total) + shift
 
 
-def phd_weights(weights: np.ndarray, pairs: Pairs, pd: float, log_kappa: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def phd_weights(weights: np.ndarray, pairs: Pairs, pd: float | np.ndarray, log_kappa: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
     """GM-PHD update weights (Proposition 2): of the detection copies, one per pair (P,), and of the
     missed copies (J,).
 
-    ``weights`` (J,) are the predicted weights, ``log_kappa`` (N,) the log
+    ``weights`` (J,) are the predicted weights, ``pd`` the detection
+    probability (a number, or one per component (J,)), ``log_kappa`` (N,) the log
     clutter intensity at each contact (-inf: none). Computed in the log
     domain, so a contact that only a far component explains and no clutter
     explains still normalises, and one nothing explains gets no weight.

@@ -1,14 +1,16 @@
 """The PHD trackers: ``gmphd``, ``ekphd``, ``ukphd`` and ``cphd`` behind the Tracker protocol.
 
-Each is built as ``cls(sensors, config, measurement=None)``: one sensor (a
-polar radar's noise, position and coverage, or a position sensor), a config
-(`nnda.tracking.phd.config`) and optionally the measurement model of the
-scans' contacts as a component (default: the sensor's,
-`nnda.filters.measurement.measurement_model`; a `PositionMeasurement` makes
-the contacts Cartesian (x, y) fixes, which only the ``linear``
-linearisation takes). One scan (J components, N contacts):
+Each is built as ``cls(sensors, config, measurement=None)``: one sensor or
+several (polar radars, each with its noise, position and coverage, or
+position sensors), a config (`nnda.tracking.phd.config`) and, with one
+sensor, optionally the measurement model of the scans' contacts as a
+component (default: each sensor's, `nnda.filters.measurement.measurement_model`;
+a `PositionMeasurement` makes the contacts Cartesian (x, y) fixes, which
+only the ``linear`` linearisation takes). One scan (J components, N
+contacts):
 
-1. predict the posterior to the scan time (survival ps), add spawned
+1. predict the posterior to the scan time (survival ps per shortest scan
+   period of the sensors: ps^(dt / T); with one sensor dt = T), add spawned
    components, last scan's newborn components (predicted, without ps) and
    static births (`nnda.tracking.phd.gmphd`, `nnda.tracking.phd.birth`);
 2. update with every (component, contact) pair inside the chi-square gate
@@ -16,7 +18,7 @@ linearisation takes). One scan (J components, N contacts):
    cardinalised ones with the cardinality distribution
    (`nnda.tracking.phd.cphd`); only copies heavier than the prune threshold
    are built, and a newborn component's missed copy is dropped (a target is
-   born detected);
+   born detected) unless the scan's sensor cannot see it;
 3. merge and cap (`nnda.filters.mixture`), make labels unique
    (`nnda.tracking.phd.extraction`);
 4. newborn components for the next scan from this scan's contacts, weighted
@@ -26,6 +28,15 @@ linearisation takes). One scan (J components, N contacts):
    CONFIRMED tracks, id = label, state [x, vx, y, vy], no contact (a PHD
    associates none); the scan's target-count estimate is in
    ``tracker.cardinality``.
+
+Several sensors (the iterated-corrector PHD and CPHD): each scan updates
+with its own sensor's measurement model, clutter volume and detection
+probability (``sensor_pd``, else ``pd``), in time order. A component the
+scan's sensor cannot see at its predicted mean (outside its range limits or
+sector) gets p_D = 0 from that scan, so it is not thinned by a sensor that
+could not have detected it, unless no sensor covers it (then it misses, as
+with one sensor, where p_D is the same everywhere); the CPHD's cardinality
+update uses the intensity-weighted miss probability <1 - p_D, v> / <1, v>.
 
 After `step`, ``tracker.mixture`` holds the posterior intensity (at most
 J_max components) and ``tracker.cardinality`` a `Cardinality` record of the
@@ -43,6 +54,7 @@ import numpy as np
 
 from nnda.data.dataset import Scan
 from nnda.data.scenario import Sensor, sensor_tuple
+from nnda.data.sensor import in_coverage
 from nnda.errors import TrackingError
 from nnda.filters.measurement import MeasurementModel, PositionMeasurement, measurement_model
 from nnda.filters.mixture import Mixture, cap, merge
@@ -60,7 +72,7 @@ from nnda.tracking.phd.config import (
     UKPHDConfig,
 )
 from nnda.tracking.phd.extraction import above, heaviest, relabel_duplicates
-from nnda.tracking.tracker import TrackerConfig, checked_config, checked_scan, only_sensor
+from nnda.tracking.tracker import TrackerConfig, checked_config, checked_scan
 
 
 @dataclass(frozen=True)
@@ -108,6 +120,20 @@ def coverage_volume(sensor: Sensor, polar: bool) -> float:
     return measurement_volume(sensor) if polar else coverage_area(sensor)
 
 
+@dataclass(frozen=True)
+class SensorView:
+    """What the update takes from one of a tracker's sensors: its contacts' measurement model and how the
+    components are linearised for it, its coverage ``volume`` in the update's measurement space
+    (`coverage_volume`), its detection probability ``pd`` and whether its contacts are Cartesian fixes."""
+
+    sensor: Sensor
+    measurement: MeasurementModel
+    linearisation: gmphd.Linearisation
+    volume: float
+    pd: float
+    cartesian: bool
+
+
 class GMPHDTracker:
     """Gaussian-mixture PHD tracker (Vo & Ma 2006) with tag propagation; see the module docstring."""
 
@@ -116,27 +142,38 @@ class GMPHDTracker:
 
     def __init__(self, sensors: Sensor | Sequence[Sensor], config: PHDConfig | None = None,
                  measurement: MeasurementModel | None = None) -> None:
-        found = sensor_tuple(sensors)
-        self.sensor = only_sensor(self.name, found, found[0].kind)  # one sensor, of either kind
-        self.sensors = (self.sensor,)
+        self.sensors = sensor_tuple(sensors)
         self.config = cfg = checked_config(self, config)
-        self.measurement = measurement if measurement is not None else measurement_model(self.sensor)
-        self.cartesian = isinstance(self.measurement, PositionMeasurement)
-        if self.cartesian and cfg.linearisation != "linear":
-            raise TrackingError(f"{self.name}: linearisation {cfg.linearisation!r} linearises the polar radar "
-                                f"measurement, but the contacts are Cartesian position fixes (a "
-                                f"PositionMeasurement); use linearisation 'linear'")
-        self.linearisation = (gmphd.Linear(self.measurement) if cfg.linearisation == "linear" else
-                              gmphd.EKF(self.measurement) if cfg.linearisation == "ekf" else
-                              gmphd.UKF(self.measurement, cfg.unscented.transform()))
+        if measurement is not None and len(self.sensors) != 1:
+            raise TrackingError(f"{self.name}: a measurement model replaces the one sensor's; this tracker has "
+                                f"{len(self.sensors)} sensors")
+        pds = cfg.sensor_pd if cfg.sensor_pd is not None else (cfg.pd,) * len(self.sensors)
+        if len(pds) != len(self.sensors):
+            raise TrackingError(f"{self.name}: sensor_pd gives {len(pds)} detection probabilities for "
+                                f"{len(self.sensors)} sensor(s) ({', '.join(s.name for s in self.sensors)})")
+        self.views = tuple(self._view(s, measurement, pd) for s, pd in zip(self.sensors, pds, strict=True))
+        self.period = min(s.scan_period_s for s in self.sensors)
         self.motion = cfg.motion_model()
-        self.volume = coverage_volume(self.sensor, cfg.linearisation != "linear")
         birth = cfg.birth
         self.static = None if not isinstance(birth, StaticBirth) else Mixture.make(
             [c.weight for c in birth.components], [c.mean for c in birth.components],
             [c.covariance for c in birth.components], np.zeros(len(birth.components), np.int64))
         self.spawn_covariance = None if cfg.spawn is None else np.asarray(cfg.spawn.covariance, dtype=float)
         self.reset()
+
+    def _view(self, sensor: Sensor, measurement: MeasurementModel | None, pd: float) -> SensorView:
+        cfg = self.config
+        measurement = measurement if measurement is not None else measurement_model(sensor)
+        cartesian = isinstance(measurement, PositionMeasurement)
+        if cartesian and cfg.linearisation != "linear":
+            raise TrackingError(f"{self.name}: linearisation {cfg.linearisation!r} linearises the polar radar "
+                                f"measurement, but the contacts of sensor {sensor.name!r} are Cartesian position "
+                                f"fixes (a PositionMeasurement); use linearisation 'linear'")
+        linearisation = (gmphd.Linear(measurement) if cfg.linearisation == "linear" else
+                         gmphd.EKF(measurement) if cfg.linearisation == "ekf" else
+                         gmphd.UKF(measurement, cfg.unscented.transform()))
+        return SensorView(sensor, measurement, linearisation, coverage_volume(sensor, cfg.linearisation != "linear"),
+                          pd, cartesian)
 
     def reset(self) -> None:
         """Forget the intensity, the newborn components and the labels (the start of a run)."""
@@ -155,10 +192,10 @@ class GMPHDTracker:
 
     def _checked(self, scan: Scan) -> tuple[np.ndarray, float]:
         """The scan's contacts (N, 2) and time: polar contacts by `checked_scan`, Cartesian fixes finite."""
-        if not self.cartesian:
-            return checked_scan(self.name, scan, self.last_time, self.sensors)
         _, time = checked_scan(self.name, Scan(scan.index, scan.time, np.empty((0, 2)), scan.sensor), self.last_time,
-                               self.sensors)
+                               self.sensors)  # the time and the sensor index first
+        if not self.views[scan.sensor].cartesian:
+            return checked_scan(self.name, scan, self.last_time, self.sensors)
         z = np.asarray(scan.measurements, dtype=float)
         if z.size == 0:
             return np.empty((0, 2)), time
@@ -171,16 +208,20 @@ class GMPHDTracker:
             raise TrackingError(f"{self.name}: scan {scan.index}: contact {row} is invalid {z[row].tolist()}")
         return z, time
 
-    def _predicted(self, time: float) -> tuple[Mixture, float, slice]:
-        """Step 1: the predicted intensity at ``time`` (s), the weight of its births, and where last scan's
-        newborn components are in it (survivors, newborn, spawned, static births)."""
+    def _survival(self, time: float) -> float:
+        """p_S from the last scan to ``time`` (s): ``ps`` per shortest scan period, ps^(dt / T)."""
+        return self.config.ps ** ((time - self.last_time) / self.period) if np.isfinite(self.last_time) else 1.0
+
+    def _predicted(self, time: float, survival: float) -> tuple[Mixture, float, slice]:
+        """Step 1: the predicted intensity at ``time`` (s) with p_S ``survival``, the weight of its births,
+        and where last scan's newborn components are in it (survivors, newborn, spawned, static births)."""
         cfg = self.config
         parts, born, newborn = [self.mixture], 0.0, slice(0, 0)
         if np.isfinite(self.last_time):
             dt = time - self.last_time
             old, nb = self.mixture, self.newborn
             # survivors (times p_S) and newborn (not: they are born now) predicted in one call
-            ps = np.concatenate([np.full(len(old), cfg.ps), np.ones(len(nb))])
+            ps = np.concatenate([np.full(len(old), survival), np.ones(len(nb))])
             parts = [gmphd.predict(Mixture.concat([old, nb]) if len(nb) else old, self.motion, dt, ps)]
             born += float(nb.weights.sum())
             newborn = slice(len(old), len(old) + len(nb))
@@ -193,13 +234,23 @@ class GMPHDTracker:
             born += float(s.weights.sum())
         return (Mixture.concat(parts) if len(parts) > 1 else parts[0]), born, newborn
 
-    def _weights(self, pred: Mixture, pairs: gmphd.Pairs, rate: float, log_c: np.ndarray, born: float
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-        """Step 2's weights: of the detection copies (P,), of the missed copies (J,), and the posterior
+    def _detection(self, view: SensorView, scan_sensor: int, pred: Mixture) -> float | np.ndarray:
+        """p_D of the predicted components for the scan's sensor: its ``pd`` with one sensor; with several,
+        per component (J,): ``pd`` inside its coverage or outside every sensor's, 0 elsewhere."""
+        if len(self.views) == 1:
+            return view.pd
+        px, py = pred.means[:, 0], pred.means[:, 2]
+        inside = np.array([in_coverage(s, px, py) for s in self.sensors])  # (sensors, J)
+        return np.where(inside[scan_sensor] | ~inside.any(axis=0), view.pd, 0.0)
+
+    def _weights(self, pred: Mixture, pairs: gmphd.Pairs, rate: float, log_c: np.ndarray, born: float,
+                 pd: float | np.ndarray, survival: float) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """Step 2's weights with detection probability ``pd`` (a number or (J,)) and the prediction's p_S
+        ``survival``: of the detection copies (P,), of the missed copies (J,), and the posterior
         cardinality distribution (None: a PHD has none)."""
         with np.errstate(divide="ignore"):
             log_kappa = np.log(rate) + log_c
-        det, missed = gmphd.phd_weights(pred.weights, pairs, self.config.pd, log_kappa)
+        det, missed = gmphd.phd_weights(pred.weights, pairs, pd, log_kappa)
         return det, missed, None
 
     def _extracted(self, post: Mixture, map_count: int | None) -> np.ndarray:
@@ -208,15 +259,18 @@ class GMPHDTracker:
     def step(self, scan: Scan) -> TrackerOutput:
         """Process one sweep; report the extracted components as confirmed tracks."""
         z, time = self._checked(scan)
-        cfg = self.config
-        pred, born, newborn = self._predicted(time)
-        zc, contact_R = self.linearisation.contacts(z)
-        xy, cov = self.measurement.position(z)
-        pairs = self.linearisation.pairs(pred, zc, contact_R, cfg.gate)
-        rate, log_c = clutter(cfg, z, xy, self.volume, cfg.linearisation != "linear",
-                              cfg.pd * float(pred.weights.sum()))
-        det, missed, dist = self._weights(pred, pairs, rate, log_c, born)
-        missed[newborn] = 0.0  # a newborn its first update misses is dropped (measurement birth)
+        cfg, view = self.config, self.views[scan.sensor]
+        survival = self._survival(time)
+        pred, born, newborn = self._predicted(time, survival)
+        zc, contact_R = view.linearisation.contacts(z)
+        xy, cov = view.measurement.position(z)
+        pairs = view.linearisation.pairs(pred, zc, contact_R, cfg.gate)
+        pd = self._detection(view, scan.sensor, pred)
+        expected = pd * float(pred.weights.sum()) if np.ndim(pd) == 0 else float(pd @ pred.weights)
+        rate, log_c = clutter(cfg, z, xy, view.volume, cfg.linearisation != "linear", expected)
+        det, missed, dist = self._weights(pred, pairs, rate, log_c, born, pd, survival)
+        # a newborn its first update misses is dropped (measurement birth), unless that sensor cannot see it
+        missed[newborn] = 0.0 if np.ndim(pd) == 0 else np.where(pd[newborn] > 0, 0.0, missed[newborn])
         if dist is None:
             mean, map_count = float(missed.sum() + det.sum()), None
         else:
@@ -269,10 +323,9 @@ class CPHDTracker(GMPHDTracker):
         self.distribution = np.zeros(self.config.max_cardinality + 1)
         self.distribution[0] = 1.0  # no target before the first scan
 
-    def _weights(self, pred, pairs, rate, log_c, born):
-        cfg = self.config
-        p = cphd.predict_cardinality(self.distribution, cfg.ps, born)  # births: Poisson of the birth weight
-        det, missed, p = cphd.cphd_weights(pred.weights, pairs, cfg.pd, rate, log_c, p)
+    def _weights(self, pred, pairs, rate, log_c, born, pd, survival):
+        p = cphd.predict_cardinality(self.distribution, survival, born)  # births: Poisson of the birth weight
+        det, missed, p = cphd.cphd_weights(pred.weights, pairs, pd, rate, log_c, p)
         self.distribution = p
         return det, missed, p
 
