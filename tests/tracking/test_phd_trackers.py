@@ -15,11 +15,11 @@ from nnda.errors import ConfigError, TrackingError
 from nnda.filters import kalman, unscented
 from nnda.filters.measurement import PolarMeasurement, PositionMeasurement
 from nnda.filters.motion import ConstantVelocity
+from nnda.study.metrics import run_metrics
 from nnda.tracking.output import CONFIRMED, NO_CONTACT
 from nnda.tracking.phd.config import REDUCTION_PRESETS
 from nnda.tracking.phd.tracker import CPHDTracker, GMPHDTracker
 from nnda.tracking.registry import TRACKERS, make_tracker
-from position_metrics import position_score
 
 PHD = ["gmphd", "ekphd", "ukphd", "cphd"]
 
@@ -181,8 +181,8 @@ def test_cartesian_fixes():
     tracker = GMPHDTracker(ds.scenario.sensor, measurement=fixes)
     outs = [tracker.step(Scan(s.index, s.time, np.column_stack(polar_to_cart(*s.measurements.T))))
             for s in ds.scans()]
-    p = position_score(ds, outs)
-    assert p.missed <= 0.02 * p.truths and p.rmse_m < 80.0 and p.breaks <= 2
+    m = run_metrics(ds, outs, ownership="position")
+    assert m.mota >= 0.88 and m.position_rmse_m < 80.0 and m.track_breaks <= 2
     tracker.reset()
     tracker.step(Scan(1, 2.0, np.array([[-5_000.0, -3_000.0]])))  # negative coordinates are fine
     with pytest.raises(TrackingError, match="does not come after"):
@@ -199,17 +199,17 @@ def test_static_birth_every_scan_spawning_and_ct():
     births = [{"weight": 0.05, "mean": [x, 0.0, y, 0.0], "covariance": np.diag([4e6, 1e4, 4e6, 1e4]).tolist()}
               for x, y in [(-18_000.0, 6_000.0), (-12_000.0, -14_000.0), (2_000.0, -22_000.0), (-12_200.0, -13_800.0)]]
     static = make_tracker("ekphd", ds.scenario.sensor, {"birth": {"kind": "static", "components": births}})
-    p = position_score(ds, [static.step(s) for s in ds.scans()], warmup=6)
-    assert p.missed <= 0.05 * p.truths and p.rmse_m < 80.0
+    m = run_metrics(ds, [static.step(s) for s in ds.scans()], ownership="position")
+    assert m.mota >= 0.88 and m.position_rmse_m < 80.0
     spawning = make_tracker("ekphd", ds.scenario.sensor,
                             {"spawn": {"weight": 0.01, "covariance": np.diag([1e4, 400.0, 1e4, 400.0]).tolist()}})
-    p = position_score(ds, [spawning.step(s) for s in ds.scans()])
-    assert p.missed <= 0.05 * p.truths and p.rmse_m < 80.0
+    m = run_metrics(ds, [spawning.step(s) for s in ds.scans()], ownership="position")
+    assert m.mota >= 0.88 and m.position_rmse_m < 80.0
     ct = make_tracker("ekphd", ds.scenario.sensor, {"motion": "ct", "sigma_q": 5.0})
     outs = [ct.step(s) for s in ds.scans()]
     assert ct.mixture.dim == 5 and outs[-1].state.shape[1] == 4
-    p = position_score(ds, outs)
-    assert p.missed <= 0.05 * p.truths and p.rmse_m < 80.0
+    m = run_metrics(ds, outs, ownership="position")
+    assert m.mota >= 0.88 and m.position_rmse_m < 80.0
 
 
 def test_labels_are_unique_and_the_mixture_bounded():
