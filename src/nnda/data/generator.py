@@ -27,6 +27,7 @@ import numpy as np
 from nnda.data.checks import MAX_DETECTIONS, check_clutter, check_size, target_warnings, whole_number
 from nnda.data.clutter import clutter_counts, clutter_positions
 from nnda.data.dataset import Dataset, Detections, Truth
+from nnda.data.occlusion import hidden
 from nnda.data.scenario import Clutter, Scenario
 from nnda.data.sensor import cart_to_polar_at, in_coverage, in_coverage_polar, measure, polar_to_cart_at
 from nnda.data.trajectory import evaluate
@@ -43,7 +44,8 @@ class Plan:
     Rows are (scan, target) pairs where the target exists, ordered by scan
     then target; ``sensor`` is the index of the sensor sweeping the row's
     scan. ``missed`` flags the scripted gaps; ``pd`` is each row's
-    detection probability. ``scan_time`` and ``scan_sensor`` (n_scans,) are
+    detection probability and ``length`` its target's hull length (m, 0 for
+    a point; `nnda.data.occlusion`). ``scan_time`` and ``scan_sensor`` (n_scans,) are
     `Scenario.scan_schedule`; ``clutter_centre`` (n_sensors, 2) m is each
     sensor's square or Gaussian clutter centre. `of` refuses a clutter region
     that the coverage (almost) misses (`nnda.data.checks.check_clutter`).
@@ -59,6 +61,7 @@ class Plan:
     vy: np.ndarray
     missed: np.ndarray
     pd: np.ndarray
+    length: np.ndarray
     sensor: np.ndarray
     scan_time: np.ndarray
     scan_sensor: np.ndarray
@@ -79,12 +82,13 @@ class Plan:
         cols = [np.concatenate(c) for c in zip(*rows)]
         order = np.lexsort((cols[1], cols[0]))
         scan, tid, x, y, vx, vy, missed, pd = (c[order] for c in cols)
+        lengths = np.array([t.length_m or 0.0 for t in scenario.targets])
         sensor = scan_sensor[scan - 1]
         centres = np.array([_clutter_centre(s.clutter, x[sensor == j], y[sensor == j])
                             for j, s in enumerate(scenario.sensors)])
         check_clutter(scenario, centres)
         return cls(scenario, scan.astype(np.int32), scan_time[scan - 1], tid.astype(np.int32),
-                   x, y, vx, vy, missed, pd, sensor, scan_time, scan_sensor, centres)
+                   x, y, vx, vy, missed, pd, lengths[tid], sensor, scan_time, scan_sensor, centres)
 
 
 def _clutter_centre(clutter: Clutter, x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -128,6 +132,8 @@ def realise(plan: Plan, seed: int, run: int) -> Dataset:
         za, zb = measure(sensor, xj, yj, g_measure)
         covered = in_coverage(sensor, za, zb) if sensor.kind == "position" else in_coverage_polar(sensor, za, zb)
         seen = ~plan.missed[rows] & (g_detect.random(rows.size) < plan.pd[rows]) & covered
+        if plan.length.any():  # ships hide the shorter ships behind them (nnda.data.occlusion)
+            seen &= ~hidden(sensor.position, plan.scan[rows], xj, yj, plan.length[rows])
         detected[rows] = seen
 
         sweeps = np.flatnonzero(plan.scan_sensor == j) + 1

@@ -81,6 +81,9 @@ class Target(BaseModel):
         default_factory=list, description="scripted gap table: scans with no detection"
     )
     pd: Probability | None = Field(default=None, description="overrides the sensor's PD")
+    length_m: PositiveFloat | None = Field(
+        default=None, description="hull length: hides shorter targets behind it from a sensor "
+        "(nnda.data.occlusion); None: a point that hides nothing")
 
     @property
     def duration_s(self) -> float:
