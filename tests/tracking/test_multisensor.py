@@ -113,7 +113,7 @@ def test_two_radars_help_a_phd_tracker():
 def test_phd_trackers_take_each_radars_detection_probability():
     tracker = make_tracker("cphd", TWO.sensors, {"sensor_pd": [0.9, 0.6]})
     assert [v.pd for v in tracker.views] == [0.9, 0.6]
-    with pytest.raises(TrackingError, match=r"sensor_pd gives 1 detection probabilities for 2 sensor\(s\) \(west, "
+    with pytest.raises(ConfigError, match=r"sensor_pd gives 1 detection probabilities for 2 sensor\(s\) \(west, "
                                             r"east\)"):
         make_tracker("ekphd", TWO.sensors, {"sensor_pd": [0.9]})
     with pytest.raises(ConfigError, match="sensor_pd"):

@@ -170,7 +170,7 @@ def test_cphd_specific_settings():
 @pytest.mark.parametrize("kind", ["ekphd", "ukphd", "cphd"])
 def test_a_polar_linearisation_refuses_cartesian_fixes(kind):
     fixes = PositionMeasurement(((900.0, 0.0), (0.0, 900.0)))
-    with pytest.raises(TrackingError, match="linearises the polar radar measurement.*use linearisation 'linear'"):
+    with pytest.raises(ConfigError, match="linearises the polar radar measurement.*use linearisation 'linear'"):
         TRACKERS[kind](Sensor(), measurement=fixes)
 
 

@@ -101,6 +101,59 @@ def cap(mixture: Mixture, j_max: int) -> Mixture:
     return mixture.take(top[np.lexsort((top, -w[top]))])
 
 
+def merge_groups(mixture: Mixture, threshold: float, covariance: Literal["heaviest", "candidate"] = "heaviest"
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """The groups `merge` forms: each component's group (J,), numbered 0..G-1 in greedy order, and the
+    heaviest component of each group (G,) (`merge`'s leaders, in that order)."""
+    check_nonnegative("merge threshold", threshold, error=FilterError)
+    if covariance not in ("heaviest", "candidate"):
+        raise FilterError(f"merge: covariance must be 'heaviest' or 'candidate', got {covariance!r}")
+    J = len(mixture)
+    if J < 2:
+        return np.zeros(J, np.int64), np.arange(J)
+    w, m, P = mixture.weights, mixture.means, mixture.covariances
+    order = np.lexsort((np.arange(J), -w))  # greedy order: heaviest first, ties by index
+    rank = np.empty(J, np.int64)
+    rank[order] = np.arange(J)
+    k = np.arange(m.shape[1])
+    diag = P[:, k, k]  # (J, n)
+    if J <= ALL_PAIRS:
+        a, b = _all_pairs(J)
+    else:
+        a, b = cKDTree(m).query_pairs(np.sqrt(threshold * diag.sum(axis=1).max()), output_type="ndarray").T
+    # orient each pair (heavier j, lighter i), then keep those within U
+    swap = rank[a] > rank[b]
+    j, i = np.where(swap, b, a), np.where(swap, a, b)
+    c = i if covariance == "candidate" else j
+    d = m[i] - m[j]
+    maybe = np.flatnonzero((d * d <= threshold * diag[c]).all(axis=1))
+    j, i, c, d = j[maybe], i[maybe], c[maybe], d[maybe]
+    near = np.einsum("ki,ki->k", d, np.linalg.solve(P[c], d[..., None])[..., 0]) <= threshold
+    j, i = j[near], i[near]
+    if not len(j):
+        return rank, order
+    # candidates of each heavier component, as CSR rows in greedy order
+    by_rank = np.lexsort((rank[i], rank[j]))
+    j, i = j[by_rank], i[by_rank]
+    rj = rank[j]
+    starts = np.searchsorted(rj, np.arange(J + 1))
+    group = np.arange(J)  # the heaviest of each component's group (itself until merged)
+    free = np.ones(J, bool)
+    for r in rj[np.r_[True, rj[1:] != rj[:-1]]]:  # once per possible group leader, heaviest first
+        leader = order[r]
+        if not free[leader]:
+            continue
+        members = i[starts[r]:starts[r + 1]]
+        members = members[free[members]]
+        group[members] = leader
+        free[members] = False
+        free[leader] = False
+    leaders = order[group[order] == order]  # the heaviest of each group, in greedy order
+    slot = np.empty(J, np.int64)
+    slot[leaders] = np.arange(len(leaders))
+    return slot[group], leaders
+
+
 def merge(mixture: Mixture, threshold: float, covariance: Literal["heaviest", "candidate"] = "heaviest") -> Mixture:
     """Greedy Mahalanobis merge in Vo & Ma's order (Table II, steps 2-4), with U = ``threshold``.
 
@@ -128,55 +181,18 @@ def merge(mixture: Mixture, threshold: float, covariance: Literal["heaviest", "c
     over the heaviest's candidates. The moments of all groups are summed
     at once.
     """
-    check_nonnegative("merge threshold", threshold, error=FilterError)
-    if covariance not in ("heaviest", "candidate"):
-        raise FilterError(f"merge: covariance must be 'heaviest' or 'candidate', got {covariance!r}")
-    J = len(mixture)
-    if J < 2:
-        return mixture
+    g, leaders = merge_groups(mixture, threshold, covariance)
+    if len(leaders) == len(mixture):
+        return mixture.take(leaders)
+    return combine_groups(mixture, g, leaders)
+
+
+def combine_groups(mixture: Mixture, g: np.ndarray, leaders: np.ndarray) -> Mixture:
+    """One moment-matched component per group: ``g`` (J,) each component's group 0..G-1, ``leaders`` (G,)
+    the component whose label each group carries (and whose moments a group of zero weight keeps):
+    w = sum_L w_i, m = sum_L w_i m_i / w, P = sum_L w_i (P_i + (m - m_i)(m - m_i)^T) / w (symmetrised);
+    a group of one member is that member unchanged."""
     w, m, P = mixture.weights, mixture.means, mixture.covariances
-    order = np.lexsort((np.arange(J), -w))  # greedy order: heaviest first, ties by index
-    rank = np.empty(J, np.int64)
-    rank[order] = np.arange(J)
-    k = np.arange(m.shape[1])
-    diag = P[:, k, k]  # (J, n)
-    if J <= ALL_PAIRS:
-        a, b = _all_pairs(J)
-    else:
-        a, b = cKDTree(m).query_pairs(np.sqrt(threshold * diag.sum(axis=1).max()), output_type="ndarray").T
-    # orient each pair (heavier j, lighter i), then keep those within U
-    swap = rank[a] > rank[b]
-    j, i = np.where(swap, b, a), np.where(swap, a, b)
-    c = i if covariance == "candidate" else j
-    d = m[i] - m[j]
-    maybe = np.flatnonzero((d * d <= threshold * diag[c]).all(axis=1))
-    j, i, c, d = j[maybe], i[maybe], c[maybe], d[maybe]
-    near = np.einsum("ki,ki->k", d, np.linalg.solve(P[c], d[..., None])[..., 0]) <= threshold
-    j, i = j[near], i[near]
-    if not len(j):
-        return mixture.take(order)
-    # candidates of each heavier component, as CSR rows in greedy order
-    by_rank = np.lexsort((rank[i], rank[j]))
-    j, i = j[by_rank], i[by_rank]
-    rj = rank[j]
-    starts = np.searchsorted(rj, np.arange(J + 1))
-    group = np.arange(J)  # the heaviest of each component's group (itself until merged)
-    free = np.ones(J, bool)
-    for r in rj[np.r_[True, rj[1:] != rj[:-1]]]:  # once per possible group leader, heaviest first
-        leader = order[r]
-        if not free[leader]:
-            continue
-        members = i[starts[r]:starts[r + 1]]
-        members = members[free[members]]
-        group[members] = leader
-        free[members] = False
-        free[leader] = False
-    leaders = order[group[order] == order]  # the heaviest of each group, in greedy order
-    if len(leaders) == J:
-        return mixture.take(order)
-    slot = np.empty(J, np.int64)
-    slot[leaders] = np.arange(len(leaders))
-    g = slot[group]  # each component's group, numbered in greedy order
     by_group = np.argsort(g, kind="stable")
     first = np.searchsorted(g[by_group], np.arange(len(leaders)))
     ws, ms, Ps = w[by_group], m[by_group], P[by_group]

@@ -21,6 +21,7 @@ from nnda.tracking.gnn import GNNTracker
 from nnda.tracking.jpda import JPDATracker
 from nnda.tracking.mht import MHTTracker
 from nnda.tracking.neural import NeuralTracker
+from nnda.tracking.phd.fusion import AAFusionTracker, CentralPHDTracker, FusionTracker
 from nnda.tracking.phd.tracker import CPHDTracker, EKPHDTracker, GMPHDTracker, UKPHDTracker
 from nnda.tracking.tracker import Tracker
 
@@ -54,7 +55,8 @@ class _Registry(dict):
 
 TRACKERS: dict[str, type[Tracker]] = _Registry(
     {cls.name: cls for cls in (GNNTracker, JPDATracker, MHTTracker, NeuralTracker,
-                               GMPHDTracker, EKPHDTracker, UKPHDTracker, CPHDTracker)})
+                               GMPHDTracker, EKPHDTracker, UKPHDTracker, CPHDTracker,
+                               FusionTracker, AAFusionTracker, CentralPHDTracker)})
 
 
 def make_tracker(name: str, sensors: Sensor | Sequence[Sensor], params: Mapping[str, Any] | None = None,

@@ -138,7 +138,7 @@ class CommonConfig(TrackerConfig):
     @classmethod
     def _preset(cls, data: Any) -> Any:
         if isinstance(data, dict):
-            preset = data.get("preset", "radar")
+            preset = data.get("preset", cls.model_fields["preset"].default)
             data = {**REDUCTION_PRESETS.get(preset, {}), **data}
         return data
 
@@ -222,3 +222,33 @@ class CPHDConfig(PHDConfig):
         if self.spawn is not None:
             raise ValueError("spawn: the CPHD filter has no spawning model")
         return self
+
+
+class HarbourConfig(PHDConfig):
+    """A GM-PHD for seed-002's harbour (its Table 4.3): the ``seed-002`` reduction set (T 1e-6, U 25,
+    J_max 1000, E 0.8), p_S 0.99, p_D 0.9, the EKF on the CT model. The thesis gives no process noise:
+    sigma_q 0.5 m/s^2 and sigma_omega 0.02 rad/s (ships turning at up to 0.05 rad/s) are ours."""
+
+    preset: Literal["radar", "seed-000", "seed-002"] = "seed-002"
+    motion: Literal["cv", "ct"] = "ct"
+    sigma_q: Annotated[float, Field(ge=0, description="acceleration noise (m/s^2) of the motion model")] = 0.5
+    sigma_omega: Annotated[float, Field(ge=0, description="turn-rate noise (rad/s) of the CT model")] = 0.02
+    birth: Annotated[Annotated[MeasurementBirth, Tag("measurement")] | Annotated[StaticBirth, Tag("static")],
+                     Discriminator(_birth_kind)] = MeasurementBirth(speed_sigma_m_s=10.0)
+
+
+class FusionConfig(HarbourConfig):
+    """A fusion centre over one local GM-PHD per sensor (`nnda.tracking.phd.fusion`): every field of
+    `HarbourConfig` sets the local filters (``sensor_pd`` gives each its own p_D); the centre merges with
+    ``merge_threshold`` and reports fused components of weight >= ``fused_extraction_threshold``."""
+
+    fused_extraction_threshold: Annotated[float, Field(gt=0, description="report fused components of weight "
+                                                                         ">= this")] = 0.8
+
+
+class AAFusionConfig(FusionConfig):
+    """``fusion-aa``: as `FusionConfig`; a target one sensor misses keeps half its weight (two sensors), so
+    the fused components are reported from weight 0.4."""
+
+    fused_extraction_threshold: Annotated[float, Field(gt=0, description="report fused components of weight "
+                                                                         ">= this")] = 0.4

@@ -55,7 +55,7 @@ import numpy as np
 from nnda.data.dataset import Scan
 from nnda.data.scenario import Sensor, sensor_tuple
 from nnda.data.sensor import in_coverage
-from nnda.errors import TrackingError
+from nnda.errors import ConfigError, TrackingError
 from nnda.filters.measurement import MeasurementModel, PositionMeasurement, measurement_model
 from nnda.filters.mixture import Mixture, cap, merge
 from nnda.tracking.clutter_density import coverage_area, local_density, measurement_volume
@@ -145,11 +145,11 @@ class GMPHDTracker:
         self.sensors = sensor_tuple(sensors)
         self.config = cfg = checked_config(self, config)
         if measurement is not None and len(self.sensors) != 1:
-            raise TrackingError(f"{self.name}: a measurement model replaces the one sensor's; this tracker has "
+            raise ConfigError(f"{self.name}: a measurement model replaces the one sensor's; this tracker has "
                                 f"{len(self.sensors)} sensors")
         pds = cfg.sensor_pd if cfg.sensor_pd is not None else (cfg.pd,) * len(self.sensors)
         if len(pds) != len(self.sensors):
-            raise TrackingError(f"{self.name}: sensor_pd gives {len(pds)} detection probabilities for "
+            raise ConfigError(f"{self.name}: sensor_pd gives {len(pds)} detection probabilities for "
                                 f"{len(self.sensors)} sensor(s) ({', '.join(s.name for s in self.sensors)})")
         self.views = tuple(self._view(s, measurement, pd) for s, pd in zip(self.sensors, pds, strict=True))
         self.period = min(s.scan_period_s for s in self.sensors)
@@ -166,7 +166,7 @@ class GMPHDTracker:
         measurement = measurement if measurement is not None else measurement_model(sensor)
         cartesian = isinstance(measurement, PositionMeasurement)
         if cartesian and cfg.linearisation != "linear":
-            raise TrackingError(f"{self.name}: linearisation {cfg.linearisation!r} linearises the polar radar "
+            raise ConfigError(f"{self.name}: linearisation {cfg.linearisation!r} linearises the polar radar "
                                 f"measurement, but the contacts of sensor {sensor.name!r} are Cartesian position "
                                 f"fixes (a PositionMeasurement); use linearisation 'linear'")
         linearisation = (gmphd.Linear(measurement) if cfg.linearisation == "linear" else
@@ -183,6 +183,13 @@ class GMPHDTracker:
         self.next_label = 0
         self.last_time = -np.inf
         self.cardinality: Cardinality | None = None
+
+    def intensity_at(self, time: float) -> Mixture:
+        """The posterior intensity predicted to ``time`` (s) without births (survivors, p_S per `_survival`):
+        what a fusion centre takes from this filter between its scans; the posterior itself at its scan time."""
+        if not np.isfinite(self.last_time) or time == self.last_time or not len(self.mixture):
+            return self.mixture
+        return gmphd.predict(self.mixture, self.motion, time - self.last_time, self._survival(time))
 
     # ------------------------------------------------------------------ steps
     def _fresh(self, k: int) -> np.ndarray:

@@ -1,0 +1,111 @@
+"""Fusion of local GM-PHD filters (the harbour of seed-002): the fusion rules on hand-made intensities, the
+centralised update against single-sensor updates in turn, and every method on the harbour without occlusion."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from nnda.data.dataset import Scan
+from nnda.data.generator import generate
+from nnda.data.presets import PRESETS
+from nnda.data.scenario import Clutter, Sensor
+from nnda.errors import ConfigError
+from nnda.filters.mixture import Mixture
+from nnda.study.metrics import run_metrics
+from nnda.tracking.phd.fusion import CentralPHDTracker, coverage_shares, fuse
+from nnda.tracking.registry import make_tracker
+from tolerances import RTOL
+
+HARBOUR = PRESETS["harbour"]
+
+
+def assert_close(actual, desired):
+    np.testing.assert_allclose(actual, desired, rtol=RTOL, atol=1e-9)
+
+
+def _ship(x: float, y: float, w: float = 1.0, label: int = 0) -> Mixture:
+    P = np.diag([400.0, 4.0, 400.0, 4.0, 1e-4])
+    return Mixture.make([w], [[x, 3.0, y, -1.0, 0.01]], [P], [label])
+
+
+def test_two_radars_seeing_one_ship_fuse_to_one_component_of_both_weights():
+    """The union holds two components, the fusion one: union and merge counts the ship twice, AA once."""
+    a, b = _ship(1_000.0, 5_000.0, 0.95, 3), _ship(1_020.0, 4_990.0, 0.9, 7)
+    union = Mixture.concat([a, b])
+    fused, groups = fuse(union, 25.0)
+    assert len(union) == 2 and len(fused) == 1 and groups.tolist() == [0, 0]
+    assert fused.weights[0] == pytest.approx(1.85) and fused.labels[0] == 3  # the heavier's label
+    shares = coverage_shares(HARBOUR.sensors, np.array([0, 1]), union.means)
+    assert shares.tolist() == [0.5, 0.5]
+    aa, _ = fuse(Mixture(union.weights * shares, union.means, union.covariances, union.labels), 25.0)
+    assert aa.weights[0] == pytest.approx(0.925)
+    assert_close(aa.means[0], (0.95 * a.means[0] + 0.9 * b.means[0]) / 1.85)
+
+
+def test_aa_fusion_of_two_identical_intensities_is_that_intensity():
+    one = Mixture.concat([_ship(1_000.0, 5_000.0, 0.97, 0), _ship(-2_000.0, 4_000.0, 0.6, 1)])
+    union = Mixture.concat([one, one])
+    shares = coverage_shares(HARBOUR.sensors, np.array([0, 0, 1, 1]), union.means)
+    fused, _ = fuse(Mixture(union.weights * shares, union.means, union.covariances, union.labels), 25.0)
+    order = np.argsort(fused.labels)
+    assert_close(fused.weights[order], one.weights)
+    assert_close(fused.means[order], one.means)
+    assert_close(fused.covariances[order], one.covariances)
+
+
+def test_a_ship_only_one_radar_covers_keeps_its_whole_weight():
+    far = _ship(-4_000.0 + 11_500.0, 9_000.0 - 1_000.0)  # inside radar 2's sector, beyond radar 1's 12 km
+    seen = [bool(s) for s in coverage_shares(HARBOUR.sensors, np.array([0, 1]), np.repeat(far.means, 2, axis=0))]
+    assert seen == [False, True]
+    nowhere = _ship(30_000.0, 30_000.0)
+    assert coverage_shares(HARBOUR.sensors, np.array([0]), nowhere.means).tolist() == [0.5]
+
+
+def test_the_central_update_is_the_single_sensor_updates_in_turn():
+    """One GM-PHD on both radars equals a one-radar GM-PHD per radar handing its state to the other."""
+    # both radars cover every component (one coverage): where one sensor cannot see, the central update
+    # gives p_D 0 and a single-sensor one p_D everywhere
+    radars = tuple(s.model_copy(update={"fov_deg": 360.0, "max_range_m": 40_000.0}) for s in HARBOUR.sensors)
+    sc = HARBOUR.model_copy(update={"sensors": radars, "duration_s": 40.0})
+    ds = generate(sc, seed=1)
+    central = CentralPHDTracker(radars)
+    alone = [CentralPHDTracker(r) for r in radars]
+    last = None
+    for scan in ds.scans():
+        out = central.step(scan)
+        f = alone[scan.sensor]
+        if last is not None:
+            f.mixture, f.newborn, f.next_label, f.last_time = (last.mixture, last.newborn, last.next_label,
+                                                               last.last_time)
+        ref = f.step(Scan(scan.index, scan.time, scan.measurements, 0))
+        last = f
+        assert np.array_equal(out.track_id, ref.track_id)
+        assert_close(out.state, ref.state)
+    assert len(central.mixture) > 5
+
+
+@pytest.mark.parametrize("name", ["fusion-merge", "fusion-aa", "fusion-central", "mht", "gnn"])
+def test_without_occlusion_or_clutter_every_method_counts_five_ships(name):
+    ships = [t.model_copy(update={"length_m": None}) for t in HARBOUR.targets]
+    radars = tuple(s.model_copy(update={"clutter": Clutter(law="none")}) for s in HARBOUR.sensors)
+    ds = generate(HARBOUR.model_copy(update={"targets": ships, "sensors": radars}), seed=2)
+    tracker = make_tracker(name, ds.scenario.sensors)
+    outs = [tracker.step(scan) for scan in ds.scans()]
+    m = run_metrics(ds, outs, ownership="position")
+    after = slice(40, None)  # 20 s
+    counts = np.array([len(o) for o in outs])[after]
+    assert m.false_tracks <= (0 if name in ("mht", "gnn", "fusion-central") else 1)  # a brief split, once
+    if name == "fusion-central":  # a lone PHD drops a ship's weight to 1 - p_D at every miss (and its label
+        assert abs(tracker.cardinality.mean - 5.0) < 0.6 and counts.mean() > 4.2 and m.track_breaks <= 2  # may go)
+    else:
+        assert abs(counts.mean() - 5.0) < (0.05 if name in ("mht", "gnn") else 0.15) and m.track_breaks == 0
+
+
+def test_fusion_configs_are_checked():
+    with pytest.raises(ConfigError, match="sensor_pd gives 3 detection probabilities for 2 sensor"):
+        make_tracker("fusion-aa", HARBOUR.sensors, {"sensor_pd": [0.9, 0.9, 0.9]})
+    with pytest.raises(ConfigError, match="fused_extraction_threshold"):
+        make_tracker("fusion-merge", HARBOUR.sensors, {"fused_extraction_threshold": 0.0})
+    with pytest.raises(ConfigError, match="linearises the polar radar"):
+        make_tracker("fusion-merge", (Sensor(kind="position", name="fixes"),))
