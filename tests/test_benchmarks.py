@@ -19,6 +19,7 @@ BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 #: feature sets, for the benchmarks that time the neural tracker (`make bench` runs them without one)
 SMALLEST = {
     "bench_filters.py": ["2"],
+    "bench_fusion.py": ["--scans", "4", "--ships", "5", "--repeat", "1"],
     "bench_generate.py": ["2"],
     "bench_models.py": ["--quick"],
     "bench_phd.py": ["--runs", "1", "--repeat", "1", "--scans", "2", "--peer-scans", "2"],
