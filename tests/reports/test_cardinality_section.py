@@ -12,6 +12,7 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
+from count_study import count_study
 from nnda.reports.cardinality_section import comparisons, run_spread
 from nnda.reports.study_figures import run_band
 from nnda.reports.study_report import build_report, write_report
@@ -19,48 +20,12 @@ from nnda.study.cardinality import CARDINALITY_FILE
 from nnda.study.compare import compare
 from nnda.study.config import load_study
 
-SCENARIO = """
-name = "pair"
-duration_s = 40
-seed = 2
-[clutter]
-count = 15
-[[targets]]
-name = "a"
-x_m = -10000
-y_m = 10000
-heading_deg = 90
-speed_m_s = 100
-segments = [{duration_s = 40}]
-[[targets]]
-name = "b"
-x_m = 12000
-y_m = -8000
-heading_deg = 200
-speed_m_s = 120
-segments = [{duration_s = 20}, {duration_s = 20, normal_accel = 5.0}]
-"""
-
-STUDY = """
-name = "phd"
-seed = 4
-runs = 3
-[trackers.gnn]
-kind = "gnn"
-[trackers.ekphd]
-kind = "ekphd"
-[trackers.cphd]
-kind = "cphd"
-[[scenarios]]
-config = "pair.toml"
-"""
-
 
 @pytest.fixture(scope="module")
-def phd_study(tmp_path_factory):
+def phd_study(tmp_path_factory, pair_scenario):
     root = tmp_path_factory.mktemp("phd-study")
-    (root / "pair.toml").write_text(SCENARIO)
-    (root / "study.toml").write_text(STUDY)
+    (root / "pair.toml").write_text(pair_scenario)
+    (root / "study.toml").write_text(count_study("pair.toml", runs=3, seed=4))
     compare(load_study(root / "study.toml"), root / "out", workers=1)
     write_report(root / "out")
     return root / "out"

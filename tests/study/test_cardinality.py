@@ -9,6 +9,7 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
+from count_study import count_study
 from nnda.data.generator import generate
 from nnda.data.scenario import load_scenario
 from nnda.errors import DatasetError
@@ -21,26 +22,12 @@ from nnda.study.runner import is_done, read_job
 from nnda.tracking.registry import make_tracker
 from tolerances import RTOL
 
-STUDY = """
-name = "counts"
-seed = 5
-runs = 2
-[trackers.gnn]
-kind = "gnn"
-[trackers.ekphd]
-kind = "ekphd"
-[trackers.cphd]
-kind = "cphd"
-[[scenarios]]
-config = "scenarios/one.toml"
-"""
-
 
 @pytest.fixture(scope="module")
 def counted(tmp_path_factory, write_study):
     root = tmp_path_factory.mktemp("counts")
     write_study(root, runs=2)
-    (root / "counts.toml").write_text(STUDY)
+    (root / "counts.toml").write_text(count_study("scenarios/one.toml", runs=2, seed=5))
     study = load_study(root / "counts.toml")
     compare(study, root / "out", workers=1)
     return root, study, root / "out"
