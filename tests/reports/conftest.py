@@ -73,6 +73,12 @@ def write_model(directory) -> None:
 
 
 @pytest.fixture(scope="session")
+def pair_scenario() -> str:
+    """The tiny study's two-target scenario config (TOML text), for other studies of the report tests."""
+    return SCENARIO
+
+
+@pytest.fixture(scope="session")
 def study_dir(tmp_path_factory):
     """The study directory of a finished tiny study, report included."""
     root = tmp_path_factory.mktemp("tiny-study")

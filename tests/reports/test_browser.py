@@ -17,7 +17,7 @@ import pytest
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
          "--disable-component-update", "--disable-sync", "--no-first-run"]
-SECTIONS = ("summary", "setup", "classifier", "scenarios", "timing", "over-time", "trajectories")
+SECTIONS = ("summary", "setup", "classifier", "scenarios", "timing", "over-time", "cardinality", "trajectories")
 
 pytestmark = pytest.mark.skipif(not Path(CHROMIUM).is_file(), reason=(
     "chromium is not installed: `make test` installs Debian's chromium when run as root with apt-get"))
@@ -50,7 +50,7 @@ def test_report_renders_every_section_and_plot_without_console_errors(study_dir,
     dom = run.stdout
     for ident in SECTIONS:
         assert f'<section id="{ident}">' in dom
-    assert dom.count("<img ") == 4 and dom.count("<table") >= 6
+    assert dom.count("<img ") == 6 and dom.count("<table") >= 7
     for scenario in ("pair", "S4"):  # plotly drew each trajectory plot: its div is marked and holds the SVG
         start = dom.index(f'id="trajectories-{scenario}"')
         assert "js-plotly-plot" in dom[dom.rindex("<div", 0, start):dom.index(">", start)]

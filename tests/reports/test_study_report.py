@@ -22,7 +22,8 @@ from nnda.reports.trajectory_plot import plotly_js
 
 SECTIONS = {"summary": "Summary", "setup": "Setup", "classifier": "Association network",
             "scenarios": "Results per scenario", "timing": "Time per scan",
-            "over-time": "False tracks and GOSPA over time", "trajectories": "Trajectories and tracks"}
+            "over-time": "False tracks and GOSPA over time", "cardinality": "Target count over time",
+            "trajectories": "Trajectories and tracks"}
 
 
 def test_markdown_and_html_hold_every_section_and_figure(study_dir):
@@ -32,12 +33,12 @@ def test_markdown_and_html_hold_every_section_and_figure(study_dir):
         assert f"\n## {title}\n" in md
         assert f'<section id="{ident}"><h2>{title}</h2>' in page
     figures = re.findall(r"\]\((figures/[^)]+\.png)\)", md)
-    assert len(figures) == 1 + 1 + 2 + 2  # ROC, time per scan, over time and tracks per scenario
+    assert len(figures) == 1 + 1 + 2 + 2 + 2  # ROC, time per scan; over time, target count, tracks per scenario
     for f in figures:
         assert (study_dir / f).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # self-contained: images inline, plotly.js inline, nothing fetched
     body = page[page.index("<body>"):]  # (plotly.js itself mentions data URIs)
-    assert body.count('<img alt="') == body.count('src="data:image/png;base64,') == 1 + 1 + 2
+    assert body.count('<img alt="') == body.count('src="data:image/png;base64,') == 1 + 1 + 2 + 2
     assert page.count(plotly_js()) == 1
     ours = page.replace(plotly_js(), "")
     assert not re.search(r"<(script|link|img)[^>]*\b(src|href)=\"(http|//)", ours) and "cdn." not in ours.lower()

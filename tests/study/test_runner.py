@@ -22,7 +22,7 @@ from nnda.study.plan import plan_study
 from nnda.study.runner import JobFailed, run_jobs
 
 #: the files that must not depend on how or when the jobs ran (timing lives in timing.*)
-DETERMINISTIC = ("results.parquet", "summary.json", "trajectories.parquet", "classifier.json")
+DETERMINISTIC = ("results.parquet", "summary.json", "trajectories.parquet", "cardinality.parquet", "classifier.json")
 
 
 def saved(out):

@@ -1,4 +1,4 @@
-"""Static figures of a study report (PNG bytes): time per scan, metrics over time, ROC, tracks.
+"""Static figures of a study report (PNG bytes): time per scan, metrics over time, target count, ROC, tracks.
 
 Each function returns the PNG as bytes; the report writes them to files
 for ``report.md`` and embeds them as base64 in ``report.html``.
@@ -7,6 +7,7 @@ for ``report.md`` and embeds them as base64 in ``report.html``.
 from __future__ import annotations
 
 import io
+import warnings
 
 import matplotlib
 
@@ -104,6 +105,44 @@ def over_time(scenario: dict, scan_times: np.ndarray, cutoff_m: float) -> bytes:
         ax.grid(alpha=0.3)
     axes[0, 0].legend(fontsize=8)
     fig.suptitle(f"{scenario['name']}: mean over {max(t['runs'] for t in scenario['trackers'].values())} run(s)")
+    return _png(fig)
+
+
+def run_band(a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per scan of a (runs, scans) array: the mean over runs and the 2.5 and 97.5 percentiles (the central
+    95% of runs); NaN entries (shorter runs) left out, all-NaN scans NaN."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        low, high = np.nanpercentile(a, [2.5, 97.5], axis=0)
+        return np.nanmean(a, axis=0), low, high
+
+
+def target_count(name: str, scan_times: np.ndarray, counts: dict, trackers: list[str]) -> bytes:
+    """Estimated target count over time in one scenario: each tracker's confirmed tracks (left) and, when
+    some tracker reports it, the filter's own expected count (right); mean over runs (line) and the central
+    95% of runs (band), the true count in black. ``counts`` maps labels to `nnda.study.cardinality.Counts`;
+    ``trackers`` is the study's order (the colours of the other figures)."""
+    colours = _colours(trackers)
+    own = {t: c for t, c in counts.items() if c.filter_mean is not None}
+    fig, axes = plt.subplots(1, 2 if own else 1, figsize=(12 if own else 7, 4.5), squeeze=False, sharey=True,
+                             constrained_layout=True)
+    panels = [(axes[0, 0], {t: c.confirmed for t, c in counts.items()}, "confirmed tracks")]
+    if own:
+        panels.append((axes[0, 1], {t: c.filter_mean for t, c in own.items()}, "filter's own expected count"))
+    true = next(iter(counts.values())).true
+    for ax, series, title in panels:
+        for t, a in series.items():
+            mean, low, high = run_band(a)
+            time = scan_times[:mean.size]
+            ax.fill_between(time, low, high, color=colours[t], alpha=0.15, lw=0)
+            ax.plot(time, mean, color=colours[t], lw=1.3, label=t)
+        truth = run_band(true)[0]
+        ax.step(scan_times[:truth.size], truth, where="mid", color="k", lw=1.6, label="true count")
+        ax.set(xlabel="time (s)", ylabel="targets", title=title)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, loc="best")
+    runs = max(c.runs for c in counts.values())
+    fig.suptitle(f"{name}: target count, mean over {runs} run(s) and the central 95% of runs")
     return _png(fig)
 
 

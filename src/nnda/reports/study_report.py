@@ -2,14 +2,16 @@
 
 Built only from the files a study directory keeps (``study.json``,
 ``summary.json``, ``timing.json``, ``classifier.json``, ``timing.parquet``,
-``trajectories.parquet``), so ``nnda report DIR`` rebuilds it at any time.
+``trajectories.parquet``, ``cardinality.parquet``), so ``nnda report DIR`` rebuilds it at any time.
 Sections, in order (their HTML ids in brackets): summary [summary], setup
 [setup], association network [classifier], results per scenario
 [scenarios], seed vs extended features in the tracker [features-in-tracker]
 (when neural trackers run on both feature sets), feature ablation [ablation]
 (when the study names one, from ``ablation.json``), against Stone Soup [peers] (when the study ran a Stone
 Soup peer), time per scan [timing], false tracks and GOSPA over time
-[over-time], trajectories [trajectories]. The HTML embeds its images as
+[over-time], target count over time [cardinality] (from
+``cardinality.parquet``, `nnda.reports.cardinality_section`), trajectories
+[trajectories]. The HTML embeds its images as
 base64 and plotly.js inline: it opens without network or sibling files.
 """
 
@@ -29,7 +31,7 @@ from nnda.data.scenario import scenario_from_dict
 from nnda.errors import DatasetError
 from nnda.files import atomic_file, read_json
 from nnda.models.ablation import ABLATION_FILE
-from nnda.reports import ablation_section, features_section, study_figures
+from nnda.reports import ablation_section, cardinality_section, features_section, study_figures
 from nnda.reports.classifier_tables import classifier_table, model_test_table
 from nnda.reports.filters_section import filters_section
 from nnda.reports.peers_section import against_stonesoup, peer_labels
@@ -131,7 +133,8 @@ def _setup(manifest: dict, summary: dict, timing: dict) -> Section:
     sec.text(f"Study **{study['name']}**{': ' + study['description'] if study['description'] else ''}. "
              f"Seed {study['seed']}; generated scenarios run {study['runs']} time(s), run r of scenario s drawn "
              f"from `nnda.data.generator.generate(s, seed, r)`, the same data for every tracker. GOSPA with c = "
-             f"{gospa['cutoff_m']:g} m, p = {gospa['p']}, alpha = {gospa['alpha']}; OSPA with the same c and p. "
+             f"{gospa['cutoff_m']:g} m, p = {gospa['p']}, alpha = {gospa['alpha']} (localisation, missed and "
+             f"false parts); OSPA with the same c and p (localisation and cardinality parts). "
              f"Intervals: {summary['confidence']:.0%} Student-t over runs.")
     sec.table(TextTable("Trackers", ("Label", "Kind", "Model", "Parameters"), tuple(
         (t["label"], t["kind"], t["model"] or DASH, _json_compact(t["params"]) if t["params"] else "defaults")
@@ -263,6 +266,11 @@ def _tracker_figures(out: Path, summary: dict, scenarios: list[str], trackers: l
     return sections
 
 
+def _kept(fig: Figure, figures: list[Figure]) -> Figure:
+    figures.append(fig)
+    return fig
+
+
 def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
     """Markdown text, HTML text and the figures of the report of study directory ``out``."""
     out = Path(out)
@@ -293,6 +301,9 @@ def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
         sections.append(filters_section(Section("filters", "Single-target filters", [], []), summary, timing))
     if trackers:
         sections += _tracker_figures(out, summary, scenarios, trackers, scan_times, figures)
+        sections.insert(-1, cardinality_section.target_counts(  # before the trajectories
+            Section("cardinality", "Target count over time", [], []), out, summary, scan_times,
+            lambda *made: _kept(Figure(*made), figures)))
 
     title = f"nnda study report: {manifest['study']['name']}"
     md = "\n".join([f"# {title}", ""] + [line for s in sections for line in [f"## {s.title}", "", *s.md]])

@@ -41,7 +41,8 @@ def scenario_table(scenario: dict, timing: dict, thesis: bool, confidence: float
     runs = max(t["runs"] for t in trackers.values())
     note = (f"Mean over {runs} run(s) [{confidence:.0%} t-interval, cut to the measure's possible range]; "
             f"a value without an interval was the same in every run. GOSPA parts are in m² per scan; "
-            f"each missed target or false track adds c²/2.")
+            f"each missed target or false track adds c²/2. OSPA and its localisation and cardinality parts "
+            f"are in m, OSPA² = localisation² + cardinality² in each scan.")
     if spec:
         note += " Thesis columns: one run, MATLAB timings on an i5-2450M (compare ratios, not milliseconds)."
     title = (f"{scenario['name']}: {len(scenario['targets'])} targets, {scenario['n_scans']} scans, "

@@ -3,8 +3,13 @@
 GOSPA (Rahmathullah, Garcia-Fernandez & Svensson, FUSION 2017) with alpha = 2
 splits into a localisation part (assigned pairs closer than the cut-off c), a
 missed-target part and a false-track part, each c^p / 2 per unassigned
-element. OSPA (Schuhmacher, Vo & Vo 2008) is the older, normalised metric.
-Distances are Euclidean in the plane (m). Inputs are (n, 2) position arrays.
+element. OSPA (Schuhmacher, Vo & Vo 2008) is the older, normalised metric;
+for m <= n elements (either set the larger) it splits into a localisation
+part ((1/n) sum of the assigned cut distances min(d, c)^p)^(1/p) and a
+cardinality part (c^p (n - m) / n)^(1/p), both in m, with OSPA^p = loc^p +
+card^p. The study uses the same c and p for both metrics (its GOSPA cut-off,
+default 1000 m, and p = 2; `nnda.study.metrics`). Distances are Euclidean in
+the plane (m). Inputs are (n, 2) position arrays.
 """
 
 from __future__ import annotations
@@ -56,17 +61,34 @@ def gospa(truth: np.ndarray, estimates: np.ndarray, c: float, p: float = 2.0) ->
     return Gospa(float((loc + missed + false) ** (1 / p)), loc, missed, false, n_missed, n_false)
 
 
-def ospa(truth: np.ndarray, estimates: np.ndarray, c: float, p: float = 2.0) -> float:
-    """OSPA distance (m) between two position sets; 0 when both are empty."""
+@dataclass(frozen=True)
+class Ospa:
+    """OSPA of one scan (m): ``distance`` and its ``localisation`` and ``cardinality`` parts, each in m,
+    with distance^p = localisation^p + cardinality^p (module docstring)."""
+
+    distance: float
+    localisation: float
+    cardinality: float
+
+
+def ospa_parts(truth: np.ndarray, estimates: np.ndarray, c: float, p: float = 2.0) -> Ospa:
+    """OSPA (m) between two position sets with its localisation and cardinality parts; all 0 when both
+    sets are empty, (c, 0, c) when exactly one is."""
     truth, estimates = _as_points("truth", truth), _as_points("estimates", estimates)
     m, n = sorted((len(truth), len(estimates)))
     if n == 0:
-        return 0.0
+        return Ospa(0.0, 0.0, 0.0)
     if m == 0:
-        return float(c)
+        return Ospa(float(c), 0.0, float(c))
     d = np.minimum(cdist(truth, estimates), c) ** p
     rows, cols = linear_sum_assignment(d)
-    return float(((d[rows, cols].sum() + c**p * (n - m)) / n) ** (1 / p))
+    loc, card = d[rows, cols].sum(), c**p * (n - m)
+    return Ospa(float(((loc + card) / n) ** (1 / p)), float((loc / n) ** (1 / p)), float((card / n) ** (1 / p)))
+
+
+def ospa(truth: np.ndarray, estimates: np.ndarray, c: float, p: float = 2.0) -> float:
+    """OSPA distance (m) between two position sets; 0 when both are empty."""
+    return ospa_parts(truth, estimates, c, p).distance
 
 
 def _as_points(name: str, a: np.ndarray) -> np.ndarray:

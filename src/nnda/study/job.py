@@ -5,9 +5,12 @@ builds the run's dataset (generated from scenario, seed and run, or read
 from disk, so every tracker sees the same data), steps the tracker through
 every scan with `time.perf_counter` around each `step` (single BLAS thread,
 spec A29), scores the outputs with `nnda.study.metrics.run_metrics` (every
-run measure of `nnda.study.measures`) and returns a JSON-ready record. The caller writes the record to the job's own
-file; wall-clock timings are kept apart from the metrics (``timing``) so
-that everything else is bit-identical for the same seed.
+run measure of `nnda.study.measures`), records the target count of every scan
+(`nnda.study.cardinality`: true, confirmed tracks, and the filter's own
+estimate when the tracker keeps a ``cardinality`` record) and returns a
+JSON-ready record. The caller writes the record to the job's own file;
+wall-clock timings are kept apart from the metrics (``timing``) so that
+everything else is bit-identical for the same seed.
 
 A "filter" job (`JobSpec.task`) runs a single-target filter
 (`nnda.filters.single_target`) through the target's own contacts (the
@@ -27,6 +30,7 @@ from nnda.data.dataset import Dataset, read_dataset
 from nnda.data.generator import generate
 from nnda.files import digest, finite_or_none
 from nnda.filters.single_target import make_filter
+from nnda.study.cardinality import count_record, snapshot
 from nnda.study.filter_measures import FILTER_MEASURES, FILTER_SERIES, FilterRun
 from nnda.study.measures import RUN_MEASURES, SERIES_MEASURES
 from nnda.study.metrics import RunMetrics, run_metrics
@@ -35,7 +39,10 @@ from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
 
 JOB_FORMAT = "nnda.study-job"
-JOB_FORMAT_VERSION = 3  # 2: CLEAR-MOT measures and the ownership kind used; 3: the record's own SHA-256
+#: 2: CLEAR-MOT measures and the ownership kind used; 3: the record's own SHA-256; 4: the OSPA parts and the
+#: per-scan target counts (``cardinality``, `nnda.study.cardinality`). Older records are run again on resume
+#: (`nnda.study.runner.is_done`) and refused by `nnda.study.runner.read_job`, naming the version.
+JOB_FORMAT_VERSION = 4
 
 def dataset_digest(dataset: Dataset) -> str:
     """SHA-256 of a dataset's contacts: equal digests mean the trackers saw the same data."""
@@ -81,11 +88,12 @@ def run_job(job: JobSpec) -> dict:
         if job.task == "filter":
             return _run_filter(job, dataset)
         tracker = make_tracker(job.kind, dataset.scenario.sensors, job.params)
-        outputs, seconds = [], np.empty(dataset.n_scans)
+        outputs, seconds, counts = [], np.empty(dataset.n_scans), []
         for i, scan in enumerate(dataset.scans()):
             start = time.perf_counter()
             outputs.append(tracker.step(scan))
             seconds[i] = time.perf_counter() - start
+            counts.append(snapshot(tracker, scan.index))
         m = run_metrics(dataset, outputs, job.cutoff_m, job.ownership)
     record = {
         "format": JOB_FORMAT, "format_version": JOB_FORMAT_VERSION, "key": job.key,
@@ -94,6 +102,7 @@ def run_job(job: JobSpec) -> dict:
         "n_targets": len(dataset.scenario.targets),
         "ownership": m.ownership, "metrics": scalars(m),
         "series": series(m),
+        "cardinality": count_record(*m.counts, counts),
         "timing": {"time_per_scan_s": seconds.tolist()},
     }
     if job.keeps_tracks:

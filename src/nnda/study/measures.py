@@ -166,19 +166,15 @@ def _position_rmse(r: ScoredRun) -> float:
 
 # ----------------------------------------------------------------------------- per scan
 
-def _gospa_part(i: int) -> Callable[[ScoredRun], np.ndarray]:
-    return lambda r: r.set_distances[0][:, i]
-
-
-def _ospa(r: ScoredRun) -> np.ndarray:
-    return r.set_distances[1]
+def _set_part(metric: int, i: int) -> Callable[[ScoredRun], np.ndarray]:
+    """Column i of `ScoredRun.set_distances`'s metric 0 (GOSPA: distance, localisation, missed, false)
+    or 1 (OSPA: distance, localisation, cardinality)."""
+    return lambda r: r.set_distances[metric][:, i]
 
 
 def _count_error(r: ScoredRun) -> np.ndarray:
     """(n_scans,) |confirmed tracks reported - targets present| in each scan: how well the tracker counts."""
-    n = r.dataset.n_scans
-    reported = np.bincount(r.scan[r.confirmed] - 1, minlength=n)
-    present = np.bincount(r.dataset.truth.scan - 1, minlength=n)
+    reported, present = r.counts
     return np.abs(reported - present).astype(float)
 
 
@@ -227,12 +223,14 @@ MEASURES: tuple[Measure, ...] = (
     Measure("lost_targets", "Lost targets", "", "lower", _COUNT, False, _lost_targets, integer=True),
     Measure("mean_time_to_confirm_s", "Time to confirm", "s", "lower", _COUNT, False, _time_to_confirm, "{:.1f}"),
     Measure("position_rmse_m", "Position RMSE", "m", "lower", _COUNT, False, _position_rmse, "{:.1f}"),
-    Measure("gospa", "GOSPA", "m", "lower", _COUNT, True, _gospa_part(0), "{:.1f}"),
-    Measure("gospa_localisation", "GOSPA localisation part", "m²", "lower", _COUNT, True, _gospa_part(1),
+    Measure("gospa", "GOSPA", "m", "lower", _COUNT, True, _set_part(0, 0), "{:.1f}"),
+    Measure("gospa_localisation", "GOSPA localisation part", "m²", "lower", _COUNT, True, _set_part(0, 1),
             "{:,.0f}"),
-    Measure("gospa_missed", "GOSPA missed-target part", "m²", "lower", _COUNT, True, _gospa_part(2), "{:,.0f}"),
-    Measure("gospa_false", "GOSPA false-track part", "m²", "lower", _COUNT, True, _gospa_part(3), "{:,.0f}"),
-    Measure("ospa", "OSPA", "m", "lower", _COUNT, True, _ospa, "{:.1f}"),
+    Measure("gospa_missed", "GOSPA missed-target part", "m²", "lower", _COUNT, True, _set_part(0, 2), "{:,.0f}"),
+    Measure("gospa_false", "GOSPA false-track part", "m²", "lower", _COUNT, True, _set_part(0, 3), "{:,.0f}"),
+    Measure("ospa", "OSPA", "m", "lower", _COUNT, True, _set_part(1, 0), "{:.1f}"),
+    Measure("ospa_localisation", "OSPA localisation part", "m", "lower", _COUNT, True, _set_part(1, 1), "{:.1f}"),
+    Measure("ospa_cardinality", "OSPA cardinality part", "m", "lower", _COUNT, True, _set_part(1, 2), "{:.1f}"),
     Measure("count_error", "Target-count error (confirmed tracks vs targets)", "", "lower", _COUNT, True, _count_error,
             "{:.2f}"),
     # its series is "false_tracks" in job records (results.parquet: false_tracks_per_scan, see nnda.study.results)

@@ -37,8 +37,14 @@ Only tracks that were confirmed at some scan count as displayed tracks.
   in which a displayed track it owns is confirmed (s).
 * **Position RMSE**: over scans where a confirmed track owned by the target
   is reported, the track's position estimate against the truth (m).
-* **GOSPA** (alpha = 2, p = 2, cut-off c) and **OSPA** per scan between true
-  positions of existing targets and confirmed tracks' positions.
+* **GOSPA** (alpha = 2, p = 2, cut-off c) with its localisation, missed and
+  false parts, and **OSPA** (p = 2, the same c) with its localisation and
+  cardinality parts (`nnda.study.gospa`), per scan between the true
+  positions of the targets present and the confirmed tracks' positions;
+  a run's value is the mean over scans. c is the study's
+  ``gospa_cutoff_m`` (default `DEFAULT_CUTOFF_M` = 1000 m, the order of this
+  radar's gates and initiation window); p = 2 is fixed.
+* **Target-count error**: per scan |confirmed tracks - targets present|.
 * **CLEAR-MOT** from the position matching of every scan (confirmed tracks
   against the targets present, threshold c): MOTA = 1 - (misses + false
   positives + identity switches) / target-scans, MOTP = mean distance of
@@ -62,7 +68,7 @@ import numpy as np
 
 from nnda.data.dataset import Dataset
 from nnda.errors import NndaError
-from nnda.study.gospa import gospa, ospa
+from nnda.study.gospa import gospa, ospa_parts
 from nnda.study.matching import Matches, match_scans
 from nnda.study.measures import RUN_MEASURES
 from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
@@ -218,11 +224,19 @@ class ScoredRun:
                            self.n_targets, self.track_ids.size, self.cutoff_m)
 
     @cached_property
+    def counts(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per scan (n_scans,) int64: the confirmed tracks reported and the targets present (truth rows)."""
+        n = self.dataset.n_scans
+        return (np.bincount(self.scan[self.confirmed] - 1, minlength=n),
+                np.bincount(self.dataset.truth.scan - 1, minlength=n))
+
+    @cached_property
     def set_distances(self) -> tuple[np.ndarray, np.ndarray]:
-        """Per scan: GOSPA [distance, localisation, missed, false] (n_scans, 4) and OSPA (n_scans,)."""
+        """Per scan: GOSPA [distance, localisation, missed, false] (n_scans, 4) and OSPA [distance,
+        localisation, cardinality] (n_scans, 3)."""
         n_scans, truth = self.dataset.n_scans, self.dataset.truth
         g = np.zeros((n_scans, 4))
-        o = np.zeros(n_scans)
+        o = np.zeros((n_scans, 3))
         truth_bounds = np.searchsorted(truth.scan, np.arange(1, n_scans + 2))
         out_bounds = np.searchsorted(self.scan, np.arange(1, n_scans + 2))
         for k in range(n_scans):
@@ -232,7 +246,8 @@ class ScoredRun:
             est = np.column_stack([self.x[oo][conf], self.y[oo][conf]])
             r = gospa(self.truth_xy[tt], est, self.cutoff_m)
             g[k] = r.distance, r.localisation, r.missed, r.false
-            o[k] = ospa(self.truth_xy[tt], est, self.cutoff_m)
+            q = ospa_parts(self.truth_xy[tt], est, self.cutoff_m)
+            o[k] = q.distance, q.localisation, q.cardinality
         return g, o
 
 
@@ -244,15 +259,18 @@ class RunMetrics:
     scans; None where undefined: the contact measures of outputs without contacts), and
     ``series[key]`` the (n_scans,) array of each per-scan measure. Attribute access reads
     both: ``m.hits`` is ``values["hits"]``, ``m.gospa`` the per-scan array ``series["gospa"]``.
-    ``ownership`` is the kind used: "contacts" or "position".
+    ``ownership`` is the kind used: "contacts" or "position"; ``counts`` the per-scan (confirmed
+    tracks, targets present) of `ScoredRun.counts`.
     """
 
     values: dict[str, int | float | None]
     series: dict[str, np.ndarray]
     ownership: str
+    #: per scan (n_scans,) int64: the confirmed tracks reported and the targets present
+    counts: tuple[np.ndarray, np.ndarray] = (np.empty(0, np.int64), np.empty(0, np.int64))
 
     def __getattr__(self, name: str):
-        if name.startswith("__") or name in ("values", "series", "ownership"):
+        if name.startswith("__") or name in ("values", "series", "ownership", "counts"):
             raise AttributeError(name)
         if name in self.series:
             return self.series[name]
@@ -276,4 +294,4 @@ def run_metrics(dataset: Dataset, outputs: Sequence[TrackerOutput], cutoff_m: fl
             series[m.key] = value
             value = float(value.mean())
         values[m.key] = value
-    return RunMetrics(values, series, run.ownership)
+    return RunMetrics(values, series, run.ownership, run.counts)

@@ -16,6 +16,9 @@ Written next to the job files, always rebuilt from them in plan order
   series averaged over runs, and the ownership kinds its runs used;
 * ``trajectories.parquet``: run 0's truth and every confirmed track's
   reports (the report's trajectory plot);
+* ``cardinality.parquet``: one row per tracker job, the target count of every
+  scan: true, confirmed tracks and the filter's own estimate
+  (`nnda.study.cardinality`);
 * ``timing.parquet`` and ``timing.json``: the wall-clock time per scan of
   every job and its aggregates, plus how the study was executed;
 * with filter jobs (``[filters.<label>]``): ``filter_results.parquet``, one
@@ -26,8 +29,8 @@ Written next to the job files, always rebuilt from them in plan order
   writes neither.
 
 Timing is the only thing that changes between two runs of the same study,
-so it lives in its own two files: ``results.parquet``, ``summary.json`` and
-``trajectories.parquet`` are byte-identical for the same study and seed,
+so it lives in its own two files: ``results.parquet``, ``summary.json``,
+``trajectories.parquet`` and ``cardinality.parquet`` are byte-identical for the same study and seed,
 whether run at once, resumed, locally or on Dask.
 """
 
@@ -46,6 +49,7 @@ from scipy import stats
 import nnda
 from nnda.errors import DatasetError
 from nnda.files import atomic_file, finite_or_none, read_json, write_json
+from nnda.study.cardinality import CARDINALITY_FILE, cardinality_table
 from nnda.study.filter_measures import FILTER_MEASURES, FILTER_SERIES
 from nnda.study.measures import RUN_MEASURES, SERIES_MEASURES, TIME
 from nnda.study.plan import StudyPlan
@@ -309,6 +313,7 @@ def write_results(plan: StudyPlan, out: str | Path, execution: Execution) -> dic
     tracking = _tracking(records)
     _write_parquet(results_table(tracking), out / RESULTS_FILE)
     _write_parquet(trajectories_table(tracking), out / TRAJECTORIES_FILE)
+    _write_parquet(cardinality_table(tracking), out / CARDINALITY_FILE)
     _write_parquet(timing_table(tracking), out / TIMING_FILE)
     if plan.filters:
         _write_parquet(filter_results_table([r for r in records if r.get("task") == "filter"]),
