@@ -109,3 +109,22 @@ def test_fusion_configs_are_checked():
         make_tracker("fusion-merge", HARBOUR.sensors, {"fused_extraction_threshold": 0.0})
     with pytest.raises(ConfigError, match="linearises the polar radar"):
         make_tracker("fusion-merge", (Sensor(kind="position", name="fixes"),))
+
+
+@pytest.mark.parametrize("name", ["fusion-central", "cphd"])
+def test_a_filter_on_one_radar_of_two_is_the_filter_on_that_radar_alone(name):
+    """``use_sensors``: the other radar's scans only predict; at the used radar's scans the output is that of
+    the same filter on a scene of that radar alone (which draws the same contacts for it)."""
+    ds = generate(HARBOUR.model_copy(update={"duration_s": 30.0}), seed=3)
+    alone = generate(HARBOUR.model_copy(update={"duration_s": 30.0, "sensors": HARBOUR.sensors[:1]}), seed=3)
+    both = make_tracker(name, ds.scenario.sensors, {"use_sensors": ["radar1"]})
+    one = make_tracker(name, alone.scenario.sensors)
+    mine = [both.step(scan) for scan in ds.scans()]
+    ref = [one.step(scan) for scan in alone.scans()]
+    used = [o for o, s in zip(mine, ds.scan_sensor) if s == 0]
+    assert len(used) == len(ref) and len(mine) == 2 * len(ref)
+    for a, b in zip(used, ref):
+        assert np.array_equal(a.track_id, b.track_id)
+        assert_close(a.state, b.state)
+    with pytest.raises(ConfigError, match="use_sensors names 'radar9'"):
+        make_tracker(name, HARBOUR.sensors, {"use_sensors": ["radar9"]})

@@ -168,6 +168,9 @@ class PHDConfig(CommonConfig):
     spawn: Spawn | None = None
     sensor_pd: Annotated[tuple[Probability, ...], Field(min_length=1)] | None = Field(
         None, description="detection probability of each sensor, in the scenario's order; None: pd for all")
+    use_sensors: Annotated[tuple[str, ...], Field(min_length=1)] | None = Field(
+        None, description="names of the sensors whose scans update the filter; the others' scans only "
+        "predict it (a report still follows every scan); None: every sensor")
 
     @model_validator(mode="after")
     def _state_sizes(self) -> PHDConfig:

@@ -151,6 +151,12 @@ class GMPHDTracker:
         if len(pds) != len(self.sensors):
             raise ConfigError(f"{self.name}: sensor_pd gives {len(pds)} detection probabilities for "
                                 f"{len(self.sensors)} sensor(s) ({', '.join(s.name for s in self.sensors)})")
+        names = [s.name for s in self.sensors]
+        unknown = sorted(set(cfg.use_sensors or ()) - set(names))
+        if unknown:
+            raise ConfigError(f"{self.name}: use_sensors names {', '.join(map(repr, unknown))}, which this scene "
+                              f"does not have (its sensors: {', '.join(names)})")
+        self.used = np.array([cfg.use_sensors is None or n in cfg.use_sensors for n in names])
         self.views = tuple(self._view(s, measurement, pd) for s, pd in zip(self.sensors, pds, strict=True))
         self.period = min(s.scan_period_s for s in self.sensors)
         self.motion = cfg.motion_model()
@@ -242,12 +248,12 @@ class GMPHDTracker:
         return (Mixture.concat(parts) if len(parts) > 1 else parts[0]), born, newborn
 
     def _detection(self, view: SensorView, scan_sensor: int, pred: Mixture) -> float | np.ndarray:
-        """p_D of the predicted components for the scan's sensor: its ``pd`` with one sensor; with several,
-        per component (J,): ``pd`` inside its coverage or outside every sensor's, 0 elsewhere."""
-        if len(self.views) == 1:
+        """p_D of the predicted components for the scan's sensor: its ``pd`` with one sensor used; with
+        several, per component (J,): ``pd`` inside its coverage or outside every used sensor's, else 0."""
+        if self.used.sum() == 1:
             return view.pd
         px, py = pred.means[:, 0], pred.means[:, 2]
-        inside = np.array([in_coverage(s, px, py) for s in self.sensors])  # (sensors, J)
+        inside = np.array([in_coverage(s, px, py) & u for s, u in zip(self.sensors, self.used)])  # (sensors, J)
         return np.where(inside[scan_sensor] | ~inside.any(axis=0), view.pd, 0.0)
 
     def _weights(self, pred: Mixture, pairs: gmphd.Pairs, rate: float, log_c: np.ndarray, born: float,
@@ -267,6 +273,9 @@ class GMPHDTracker:
         """Process one sweep; report the extracted components as confirmed tracks."""
         z, time = self._checked(scan)
         cfg, view = self.config, self.views[scan.sensor]
+        if not self.used[scan.sensor]:  # a scan this filter does not take: its prediction is the report
+            pred = self.intensity_at(time)
+            return self._report(scan.index, time, pred, *self._predicted_count(pred, self._survival(time)))
         survival = self._survival(time)
         pred, born, newborn = self._predicted(time, survival)
         zc, contact_R = view.linearisation.contacts(z)
@@ -295,12 +304,22 @@ class GMPHDTracker:
         else:
             self.newborn = Mixture.empty(cfg.state_dim)
         self.last_time = time
-        shown = self._extracted(post, map_count)
-        shown = shown[np.argsort(post.labels[shown], kind="stable")]
-        self.cardinality = Cardinality(scan.index, time, mean, map_count, dist, len(shown))
+        return self._report(scan.index, time, post, mean, map_count, dist)
+
+    def _predicted_count(self, pred: Mixture, survival: float) -> tuple[float, int | None, np.ndarray | None]:
+        """(mean, MAP count, distribution) of the target count of the predicted intensity ``pred``."""
+        return float(pred.weights.sum()), None, None
+
+    def _report(self, scan: int, time: float, mixture: Mixture, mean: float, map_count: int | None,
+                dist: np.ndarray | None) -> TrackerOutput:
+        """The scan's output: the extracted components of ``mixture`` as confirmed tracks, id = label, in
+        label order; records the scan's `Cardinality`."""
+        shown = self._extracted(mixture, map_count)
+        shown = shown[np.argsort(mixture.labels[shown], kind="stable")]
+        self.cardinality = Cardinality(scan, time, mean, map_count, dist, len(shown))
         k = len(shown)
-        return TrackerOutput(scan.index, time, post.labels[shown], np.full(k, CONFIRMED, np.int8),
-                             post.means[shown, :4], post.covariances[shown, :4, :4],
+        return TrackerOutput(scan, time, mixture.labels[shown], np.full(k, CONFIRMED, np.int8),
+                             mixture.means[shown, :4], mixture.covariances[shown, :4, :4],
                              np.full(k, NO_CONTACT, np.int64))
 
 
@@ -335,6 +354,10 @@ class CPHDTracker(GMPHDTracker):
         det, missed, p = cphd.cphd_weights(pred.weights, pairs, pd, rate, log_c, p)
         self.distribution = p
         return det, missed, p
+
+    def _predicted_count(self, pred, survival):
+        p = cphd.predict_cardinality(self.distribution, survival, 0.0)
+        return float(np.arange(len(p)) @ p), int(np.argmax(p)), p
 
     def _extracted(self, post, map_count):
         if self.config.extraction == "map":
