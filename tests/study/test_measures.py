@@ -34,7 +34,7 @@ def test_every_entry_is_complete_and_consistent():
 
 
 def test_a_run_record_holds_every_run_measure_and_series():
-    ds = generate(PRESETS["S4"], seed=1)
+    ds = generate(PRESETS["S3"], seed=1)
     tracker = make_tracker("gnn", ds.scenario.sensor)
     m = run_metrics(ds, [tracker.step(scan) for scan in ds.scans()])
     record = scalars(m)

@@ -249,3 +249,27 @@ def test_the_count_error_counts_reported_tracks_against_targets_present():
     reported = np.array([int((o.status == 2).sum()) for o in outs])
     np.testing.assert_array_equal(m.count_error, np.abs(reported - present))
     assert m.count_error[-10:].max() <= 1  # every target followed at the end of S1
+
+
+def test_time_to_a_correct_count_and_tracking_while_undetected_against_plain_loops():
+    """Both measures of the harbour's questions, recomputed scan by scan from their definitions."""
+    from nnda.study.matching import match_scans  # noqa: F401  (the matching the measure reads)
+    from nnda.study.measures import SETTLED_SCANS
+
+    harbour = PRESETS["harbour"].model_copy(update={"duration_s": 60.0})
+    ds = generate(harbour, seed=1)
+    for name in ("fusion-aa", "gnn"):
+        tracker = make_tracker(name, ds.scenario.sensors)
+        outs = [tracker.step(scan) for scan in ds.scans()]
+        run = ScoredRun(ds, outs, ownership="position")
+        m = run_metrics(ds, outs, ownership="position")
+        present = np.bincount(ds.truth.scan, minlength=ds.n_scans + 1)[1:]
+        reported = [int((o.status == S.CONFIRMED).sum()) for o in outs]
+        first = next((k for k in range(ds.n_scans - SETTLED_SCANS + 1)
+                      if all(reported[j] == present[j] for j in range(k, k + SETTLED_SCANS))), None)
+        expect = math.nan if first is None else ds.scan_time[first] - ds.scan_time[0]
+        assert m.time_to_count_s == pytest.approx(expect, nan_ok=True)
+        matched = {(int(s), int(t)) for s, t in zip(run.matches.scan, run.matches.target)}
+        t = ds.truth
+        gaps = [(int(s), int(i)) for s, i, d in zip(t.scan, t.target_id, t.detected) if not d]
+        assert m.tracked_undetected == pytest.approx(100.0 * sum(g in matched for g in gaps) / len(gaps))

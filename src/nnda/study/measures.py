@@ -178,6 +178,35 @@ def _count_error(r: ScoredRun) -> np.ndarray:
     return np.abs(reported - present).astype(float)
 
 
+#: scans in a row whose confirmed-track count must equal the number of targets present for the count to be
+#: settled (`_time_to_count`)
+SETTLED_SCANS = 5
+
+
+def _time_to_count(r: ScoredRun) -> float:
+    """Seconds from the first scan to the first of ``SETTLED_SCANS`` scans in a row whose confirmed-track count
+    equals the number of targets present (NaN if that never happens)."""
+    reported, present = r.counts
+    ok = (reported == present).astype(np.int64)
+    if ok.size < SETTLED_SCANS:
+        return float("nan")
+    settled = np.flatnonzero(np.convolve(ok, np.ones(SETTLED_SCANS, np.int64), "valid") == SETTLED_SCANS)
+    time = r.dataset.scan_time
+    return float(time[settled[0]] - time[0]) if settled.size else float("nan")
+
+
+def _tracked_undetected(r: ScoredRun) -> float:
+    """% of the target-scans without a detection (a miss, a gap, occlusion, outside the coverage) in which a
+    confirmed track is matched to the target (the CLEAR-MOT matching); NaN when every target-scan has one."""
+    t, m = r.dataset.truth, r.matches
+    gap = ~t.detected
+    if not gap.any():
+        return float("nan")
+    n = r.n_targets + 1
+    matched = np.isin(t.scan[gap].astype(np.int64) * n + t.target_id[gap], m.scan * n + m.target)
+    return 100.0 * float(matched.mean())
+
+
 def _false_per_scan(r: ScoredRun) -> np.ndarray:
     """(n_scans,) confirmed tracks owned by -1 in each scan (int64)."""
     return np.bincount(r.scan[r.confirmed & (r.row_owner < 0)] - 1, minlength=r.dataset.n_scans).astype(np.int64)
@@ -236,6 +265,9 @@ MEASURES: tuple[Measure, ...] = (
     # its series is "false_tracks" in job records (results.parquet: false_tracks_per_scan, see nnda.study.results)
     Measure("false_tracks_per_scan", "False tracks present", "", "lower", _COUNT, True, _false_per_scan, "{:.3f}",
             integer=True, series="false_tracks"),
+    Measure("time_to_count_s", "Time to a correct count", "s", "lower", _COUNT, False, _time_to_count, "{:.1f}"),
+    Measure("tracked_undetected", "Targets tracked while undetected", "%", "higher", (0.0, 100.0), False,
+            _tracked_undetected, "{:.1f}"),
     Measure("mota", "MOTA", "", "higher", (-math.inf, 1.0), False, _mota, "{:.3f}"),
     Measure("motp_m", "MOTP", "m", "lower", _COUNT, False, _motp, "{:.1f}"),
     Measure("id_switches", "Identity switches", "", "lower", _COUNT, False, _id_switches, integer=True),
