@@ -34,6 +34,7 @@ from nnda.models.ablation import ABLATION_FILE
 from nnda.reports import ablation_section, cardinality_section, features_section, study_figures
 from nnda.reports.classifier_tables import classifier_table, model_test_table
 from nnda.reports.filters_section import filters_section
+from nnda.reports.fusion_section import fusion_section
 from nnda.reports.peers_section import against_stonesoup, peer_labels
 from nnda.reports.study_summary import summary_markdown
 from nnda.reports.study_tables import is_thesis_scenario, scenario_table
@@ -297,6 +298,9 @@ def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
             sections.append(_ablation(read_ablation(out / ABLATION_FILE), figures))
         if peer_labels(summary):
             sections.append(against_stonesoup(Section("peers", "Against Stone Soup", [], []), summary, timing))
+        fused = fusion_section(Section("fusion", "Fusion against single sensors", [], []), manifest, summary)
+        if fused is not None:
+            sections.append(fused)
     if summary.get("filters"):
         sections.append(filters_section(Section("filters", "Single-target filters", [], []), summary, timing))
     if trackers:
