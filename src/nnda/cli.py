@@ -19,6 +19,7 @@ from rich.console import Console
 from rich.text import Text
 
 from nnda.data import commands as data_commands
+from nnda.data import import_commands
 from nnda.data.dataset import collection_members
 from nnda.data.presets import GROUPS
 from nnda.errors import NndaError
@@ -44,6 +45,7 @@ app.command("plot-scenario")(report_commands.plot_scenario)
 app.command("compare")(report_commands.compare)
 app.command("report")(report_commands.report)
 app.command("import-stonesoup")(peer_commands.import_stonesoup)
+app.command("import-detections")(import_commands.import_detections_command)
 
 
 def demo(
