@@ -65,7 +65,7 @@ from nnda.data.dataset import Dataset, Detections, Truth, write_dataset
 from nnda.data.scenario import Clutter, ProcessNoise, Scenario, Segment, Sensor, Target
 from nnda.data.sensor import TWO_PI, cart_to_polar_at, polar_to_cart_at
 from nnda.errors import ConfigError, DatasetError, validated
-from nnda.files import read_config
+from nnda.files import atomic_file, read_config
 
 #: columns nnda reads from a detections file, and from a truth file
 DETECTION_COLUMNS = ("time", "range", "azimuth", "x", "y", "sensor", "target_id")
@@ -87,7 +87,9 @@ def _read_table(path: Path, what: str) -> pa.Table:
     suffix = path.suffix.lower()
     try:
         if suffix == ".csv":
-            return pacsv.read_csv(path, convert_options=pacsv.ConvertOptions(strings_can_be_null=True))
+            # only an empty cell is null: "nan" is a number (refused as not finite), "NA" text (not a number)
+            options = pacsv.ConvertOptions(null_values=[""], strings_can_be_null=True)
+            return pacsv.read_csv(path, convert_options=options)
         if suffix in (".parquet", ".pq"):
             return pq.read_table(path)
     except (pa.ArrowException, OSError) as exc:
@@ -119,7 +121,7 @@ def _numeric(table: pa.Table, path: Path, name: str, column: str) -> np.ndarray:
     bad = ~np.isfinite(a)
     if bad.any():
         row = int(np.argmax(bad))
-        raise DatasetError(f"{_where(path, row, column)}: {a[row]!r} ({name} must be a finite number)")
+        raise DatasetError(f"{_where(path, row, column)}: {float(a[row])!r} ({name} must be a finite number)")
     return a
 
 
@@ -132,7 +134,8 @@ def _labels(table: pa.Table, path: Path, column: str) -> np.ndarray:
         bad = np.isfinite(a) & (a != np.round(a))
         if bad.any():
             row = int(np.argmax(bad))
-            raise DatasetError(f"{_where(path, row, column)}: {a[row]!r} (a target id is a whole number or text)")
+            raise DatasetError(f"{_where(path, row, column)}: {float(a[row])!r} (a target id is a whole number or "
+                               f"text)")
         return np.array([None if not math.isfinite(v) or v < 0 else str(int(v)) for v in a.tolist()], dtype=object)
     if pa.types.is_integer(col.type):
         return np.array([None if v is None or v < 0 else str(v) for v in col.to_pylist()], dtype=object)
@@ -262,7 +265,7 @@ def _check_azimuth(path: Path, column: str, az: np.ndarray, unit: str) -> None:
         shown = az[row] / AZIMUTH_UNITS[unit]
         limits = "[-180, 360) deg" if unit == "deg" else "[-pi, 2 pi) rad"
         hint = "" if unit == "deg" or abs(shown) > 360 else " (degrees? pass --azimuth-unit deg)"
-        raise DatasetError(f"{_where(path, row, column)}: azimuth {shown!r} {unit} is outside {limits}{hint}")
+        raise DatasetError(f"{_where(path, row, column)}: azimuth {float(shown)!r} {unit} is outside {limits}{hint}")
 
 
 def _sensor_index(path: Path, column: str, table: pa.Table, names: list[str]) -> np.ndarray:
@@ -352,7 +355,7 @@ def read_detections(
         bad = ~(rng > 0)
         if bad.any():
             row = int(np.argmax(bad))
-            raise DatasetError(f"{_where(path, row, present['range'])}: range {rng[row]!r} m must be positive")
+            raise DatasetError(f"{_where(path, row, present['range'])}: range {float(rng[row])!r} m must be positive")
     if cart:
         x = _numeric(table, path, "x", present["x"])
         y = _numeric(table, path, "y", present["y"])
@@ -368,7 +371,7 @@ def read_detections(
     bad = ~(t > 0)
     if bad.any():
         row = int(np.argmax(bad))
-        raise DatasetError(f"{_where(path, row, tcol)}: time {t[row] + time_origin!r} s is not after the time "
+        raise DatasetError(f"{_where(path, row, tcol)}: time {float(t[row] + time_origin)!r} s is not after the time "
                            f"origin ({time_origin:g} s); nnda's scans lie at t > 0: pass --time-origin T with T "
                            f"below the first time (e.g. --time-origin {math.floor(t.min() + time_origin) - 1})")
 
@@ -379,12 +382,6 @@ def read_detections(
     for j, spec in enumerate(specs):
         rows = np.flatnonzero(sensor == j)
         tj = t[rows]
-        back = np.diff(tj) < -tol
-        if back.any():
-            i = int(np.argmax(back))
-            raise DatasetError(f"{_where(path, int(rows[i + 1]), tcol)}: time {tj[i + 1] + time_origin!r} s goes "
-                               f"back from {tj[i] + time_origin!r} s (data row {rows[i] + 1}) for sensor "
-                               f"{names[j]!r}; each sensor's rows must be in time order")
         if "scan_offset_s" in spec:  # given in the file's clock: as after the origin
             period = float(spec.get("scan_period_s", Sensor().scan_period_s))
             spec = {**spec, "scan_offset_s": round((float(spec["scan_offset_s"]) - time_origin) % period, 9)}
@@ -395,6 +392,12 @@ def read_detections(
             raise ConfigError(f"--scan-tolerance {tol:g} s: must be below half the scan period of sensor "
                               f"{names[j]!r} ({period:g} s)")
         k = np.round((tj - offset) / period).astype(np.int64)
+        back = np.diff(k) < 0
+        if back.any():
+            i = int(np.argmax(back))
+            raise DatasetError(f"{_where(path, int(rows[i + 1]), tcol)}: time {float(tj[i + 1] + time_origin)!r} s "
+                               f"goes back from {float(tj[i] + time_origin)!r} s (data row {rows[i] + 1}, an earlier "
+                               f"sweep) for sensor {names[j]!r}; each sensor's rows must be in time order")
         miss = np.abs(tj - (offset + k * period))
         first = 1 if offset == 0 else 0
         bad = (miss > tol + 1e-9 * np.maximum(1.0, np.abs(tj))) | (k < first)
@@ -402,7 +405,8 @@ def read_detections(
             i = int(np.argmax(bad))
             nearest = offset + max(k[i], first) * period
             raise DatasetError(
-                f"{_where(path, int(rows[i]), tcol)}: time {tj[i] + time_origin!r} s is {abs(tj[i] - nearest):.6g} s "
+                f"{_where(path, int(rows[i]), tcol)}: time {float(tj[i] + time_origin)!r} s is "
+                f"{abs(tj[i] - nearest):.6g} s "
                 f"from the nearest sweep of sensor {names[j]!r} ({nearest + time_origin:.6g} s; period {period:g} s, "
                 f"offset {offset + time_origin:g} s), beyond the scan tolerance ({tol:g} s): give the sensor's "
                 f"scan_period_s and scan_offset_s, or a larger --scan-tolerance")
@@ -523,7 +527,7 @@ def _read_truth(path: Path, mapping: Mapping[str, str], time_origin: float, tol:
     miss = np.abs(times[near] - t) > tol + 1e-9 * np.maximum(1.0, np.abs(t))
     if miss.any():
         row = int(np.argmax(miss))
-        raise DatasetError(f"{_where(path, row, present['time'])}: time {t[row] + time_origin!r} s is no scan's "
+        raise DatasetError(f"{_where(path, row, present['time'])}: time {float(t[row] + time_origin)!r} s is no scan's "
                            f"time (nearest {times[near[row]] + time_origin:.6g} s, tolerance {tol:g} s); truth "
                            f"rows must be at the sweeps' times")
     first_scan = np.searchsorted(sched_time, times[near], side="left")
@@ -588,3 +592,35 @@ def import_detections(path: str | Path, out: str | Path, overwrite: bool = False
     """`read_detections` (``options`` as there), then write the dataset atomically at ``out``."""
     dataset = read_detections(path, **options)
     return write_dataset(dataset, out, overwrite), dataset
+
+
+# ----------------------------------------------------------------------------- the other way
+
+def export_detections(dataset: Dataset, path: str | Path, truth: str | Path | None = None) -> None:
+    """Write ``dataset``'s detections (and truth) in the import schema, CSV or Parquet by suffix: time, sensor
+    (name), range, azimuth (rad), x, y, target_id (the target's name; empty for clutter). `read_detections`
+    with the scenario's sensors (`sensor_specs`) reads them back into the same scans."""
+    d, sc = dataset.detections, dataset.scenario
+    names = np.array([t.name for t in sc.targets], dtype=object)
+    labels = np.where(d.target_id < 0, None, names[np.maximum(d.target_id, 0)])
+    _write(pa.table({"time": d.time, "sensor": np.array([s.name for s in sc.sensors], dtype=object)[d.sensor],
+                     "range": d.range, "azimuth": d.azimuth, "x": d.x, "y": d.y,
+                     "target_id": pa.array(labels.tolist(), pa.string())}), Path(path))
+    if truth is not None:
+        t = dataset.truth
+        once = np.sort(np.unique(np.column_stack([t.time, t.target_id]), axis=0, return_index=True)[1])
+        _write(pa.table({"time": t.time[once], "target_id": pa.array(names[t.target_id[once]].tolist(), pa.string()),
+                         "x": t.x[once], "y": t.y[once], "vx": t.vx[once], "vy": t.vy[once]}), Path(truth))
+
+
+def sensor_specs(scenario: Scenario) -> list[dict]:
+    """The scenario's sensors as `read_detections` takes them (every field but clutter)."""
+    return [s.model_dump(mode="json", exclude={"clutter"}) for s in scenario.sensors]
+
+
+def _write(table: pa.Table, path: Path) -> None:
+    with atomic_file(path) as tmp:
+        if path.suffix.lower() == ".csv":
+            pacsv.write_csv(table, tmp)
+        else:
+            pq.write_table(table, tmp)
