@@ -492,7 +492,7 @@ def _assemble(path, truth_path, mapping, scenario_name, sensors, duration, time_
     index = {lab: i for i, lab in enumerate(order)}
     tid = (np.array([-1 if v is None else index[v] for v in labels.tolist()], dtype=np.int32)
            if labels is not None else np.full(n, -1, dtype=np.int32))
-    rows = np.lexsort((az_out, scan))
+    rows = _scan_then_azimuth(scan, az_out)
     det = Detections(scan=scan[rows], time=sched_time[scan[rows] - 1], range=r_out[rows], azimuth=az_out[rows],
                      x=x_out[rows], y=y_out[rows], is_clutter=tid[rows] < 0, target_id=tid[rows],
                      sensor=sensor[rows].astype(np.int32))
@@ -506,6 +506,16 @@ def _assemble(path, truth_path, mapping, scenario_name, sensors, duration, time_
                      f"grouped into sweeps within {tol:g} s; targets give each one's first true state "
                      f"(a placeholder when unlabelled), the truth file its motion"))
     return Dataset(scenario, 0, 0, det, truth_rec)
+
+
+def _scan_then_azimuth(scan: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
+    """``np.lexsort((azimuth, scan))`` (stable), by one sort of the key scan x 8 + azimuth (azimuth < 8), several
+    times faster; exact ties the key's rounding makes are checked, and then the slow sort decides."""
+    rows = np.argsort(scan * 8.0 + azimuth, kind="stable")
+    s, a = scan[rows], azimuth[rows]
+    if np.all((np.diff(s) > 0) | ((np.diff(s) == 0) & (np.diff(a) >= 0))):
+        return rows
+    return np.lexsort((azimuth, scan))
 
 
 def _read_truth(path: Path, mapping: Mapping[str, str], time_origin: float, tol: float, sched_time: np.ndarray
