@@ -67,17 +67,24 @@ def _cut(ds: Dataset, scans: int | None) -> Dataset:
 def bench_track(tracker: str, scans: int | None, model: str | None, work: Path) -> None:
     ds = _cut(generate(preset("S6"), seed=0, run=0), scans)
     params = tracker_params(None, model)
-    t0 = time.perf_counter()
-    run = run_tracker(ds, tracker, params)
+    run_tracker(ds, tracker, params)  # warm: imports, caches
+    best = {}
+    for _ in range(3):
+        for score in (False, True):
+            t0 = time.perf_counter()
+            run = run_tracker(ds, tracker, params, score=score)
+            wall = time.perf_counter() - t0
+            own = float(run.step_seconds.sum())
+            if (wall - own) / own < best.get(score, (float("inf"),))[0]:
+                best[score] = ((wall - own) / own, own, wall)
     t1 = time.perf_counter()
     write_track_outputs(work / "track", ds, run, params, 1000.0, overwrite=True)
-    t2 = time.perf_counter()
-    own = float(run.step_seconds.sum())
-    print(f"nnda track {tracker} on S6 ({ds.n_scans} scans, {ds.detections.scan.size:,} detections):")
-    print(f"  tracker's own time (sum of step)       {own:7.3f} s")
-    print(f"  run_tracker (build, steps, table, scores) {t1 - t0:7.3f} s: +{100 * (t1 - t0 - own) / own:.1f}% "
-          f"over the tracker's own time")
-    print(f"  writing tracks, PNG, HTML, scores      {t2 - t1:7.3f} s: +{100 * (t2 - t1) / own:.1f}%")
+    writing = time.perf_counter() - t1
+    print(f"nnda track {tracker} on S6 ({ds.n_scans} scans, {ds.detections.scan.size:,} detections), best of 3:")
+    for score, what in ((False, "the track table (nnda.track)"), (True, "the table and the study's scores")):
+        over, own, wall = best[score]
+        print(f"  {what:34s} {wall:7.3f} s, the tracker's own {own:7.3f} s: +{100 * over:.1f}%")
+    print(f"  writing tracks, PNG, HTML, scores  {writing:7.3f} s: +{100 * writing / best[True][1]:.1f}% (files)")
 
 
 def main() -> None:

@@ -337,6 +337,9 @@ def read_detections(
     for i, s in enumerate(specs):
         s.setdefault("name", "radar" if len(specs) == 1 else f"sensor{i}")
     names = [str(s["name"]) for s in specs]
+    for j, s in enumerate(specs):  # the fields given, before anything is inferred (an offset needs its period)
+        validated(Sensor, {k: v for k, v in s.items() if k != "scan_offset_s"}, f"sensor {j} ({names[j]!r})",
+                  "sensor")
     table = _read_table(path, "detections")
     present = _columns(table, path, DETECTION_COLUMNS, mapping)
     _require(path, present, ["time"], mapping, table, "the time of each detection, s")

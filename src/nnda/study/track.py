@@ -122,9 +122,10 @@ def track_table(dataset: Dataset, outputs: list[TrackerOutput]) -> pa.Table:
 
 def run_tracker(dataset: Dataset | str | Path, tracker: str, config: Mapping[str, Any] | str | Path | None = None,
                 model: str | Path | None = None, cutoff_m: float = DEFAULT_CUTOFF_M, ownership: Ownership = "auto",
-                on_scan: Callable[[int, int], None] | None = None) -> TrackRun:
+                on_scan: Callable[[int, int], None] | None = None, score: bool = True) -> TrackRun:
     """Run ``tracker`` (a registered name) on every scan of ``dataset``, as a study job does; score it by
-    `run_metrics` when the dataset has truth. ``on_scan(done, total)`` is called after each scan."""
+    `run_metrics` when the dataset has truth and ``score`` is true. ``on_scan(done, total)`` is called after
+    each scan."""
     dataset = load(dataset)
     params = tracker_params(config, model)
     with threadpool_limits(1):
@@ -136,7 +137,7 @@ def run_tracker(dataset: Dataset | str | Path, tracker: str, config: Mapping[str
             seconds[i] = time.perf_counter() - start
             if on_scan is not None:
                 on_scan(i + 1, dataset.n_scans)
-        scores = run_metrics(dataset, outputs, cutoff_m, ownership) if has_truth(dataset) else None
+        scores = run_metrics(dataset, outputs, cutoff_m, ownership) if score and has_truth(dataset) else None
     return TrackRun(tracker, outputs, track_table(dataset, outputs), seconds, scores)
 
 
@@ -144,7 +145,7 @@ def track(dataset: Dataset | str | Path, tracker: str, config: Mapping[str, Any]
           model: str | Path | None = None) -> pa.Table:
     """The track table (`TRACK_SCHEMA`) of ``tracker`` on ``dataset`` (a `Dataset` or a dataset directory);
     ``config``: the tracker's params (mapping or .toml/.json file), ``model``: a model for ``nn``."""
-    return run_tracker(dataset, tracker, config, model).table
+    return run_tracker(dataset, tracker, config, model, score=False).table
 
 
 SCORES_FORMAT = "nnda.track-scores"
