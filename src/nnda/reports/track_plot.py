@@ -58,7 +58,7 @@ def track_png(dataset: Dataset, table: pa.Table, tracker: str) -> bytes:
     """The PNG: contacts, truth and confirmed tracks in km (x east, y north)."""
     fig, ax = plt.subplots(figsize=(8, 8))
     x, y, note = _contacts(dataset)
-    ax.scatter(x * KM, y * KM, s=2, c="0.7", lw=0, label="contacts", rasterized=True)
+    ax.scatter(x * KM, y * KM, s=5, c="0.6", lw=0, label="contacts", rasterized=True)
     for i, (name, tx, ty) in enumerate(_truth(dataset)):
         ax.plot(tx * KM, ty * KM, color="0.35", lw=3, alpha=0.4, label="truth" if i == 0 else None)
     tracks = _confirmed_tracks(table)
