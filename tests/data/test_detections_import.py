@@ -184,3 +184,13 @@ def test_the_command_writes_a_dataset_and_refuses_to_overwrite(tmp_path, monkeyp
                                "--sensor", "sigma_range_m=40", "--overwrite"])
     assert done.exit_code == 0, done.output
     assert read_dataset(tmp_path / "ds").scenario.sensors[0].sigma_range_m == 40
+
+
+def test_truth_beyond_the_last_detection_and_an_offset_in_the_file_clock(tmp_path):
+    path = _csv(tmp_path, ["101,12000,0.5,radar,7", "103,12100,0.51,radar,7"])
+    truth = _csv(tmp_path, [f"{t},7,{5000 + 100 * t},11000,100,0" for t in (101, 103, 105)],
+                 header="time,target_id,x,y,vx,vy\n", name="truth.csv")
+    ds = read_detections(path, truth=truth, time_origin=100.0,
+                         sensors=[{"scan_period_s": 2.0, "scan_offset_s": 101.0}])
+    assert ds.scenario.sensors[0].scan_offset_s == 1.0 and ds.scan_time.tolist() == [1.0, 3.0, 5.0]
+    assert ds.truth.scan.tolist() == [1, 2, 3] and ds.truth.detected.tolist() == [True, True, False]

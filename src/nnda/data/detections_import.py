@@ -237,23 +237,23 @@ def _lcm(periods: Sequence[Fraction]) -> Fraction:
     return Fraction(num, den)
 
 
-def _sweep_grid(path: Path, column: str, sensor: dict, t: np.ndarray, rows: np.ndarray, tol: float
-                ) -> tuple[float, float]:
-    """Period and offset (s, after the origin) of a sensor: given, or inferred from its times ``t``."""
-    new = np.concatenate([[True], np.diff(t) > tol])
-    starts = t[new]
+def _sweep_grid(sensor: Mapping[str, Any], t: np.ndarray, tol: float, time_origin: float) -> tuple[float, float]:
+    """Period and offset (s, after the origin) of a sensor: as given (an offset in the file's clock), or
+    inferred from its times ``t`` (after the origin, in order)."""
+    starts = t[np.concatenate([[True], np.diff(t) > tol])] if t.size else t
     period = sensor.get("scan_period_s")
     if period is None:
         gaps = np.diff(starts)
         period = round(float(np.median(gaps)), 6) if gaps.size else Sensor().scan_period_s
-        if period <= 0:
-            period = Sensor().scan_period_s
-    offset = sensor.get("scan_offset_s")
-    if offset is None:
+        period = period if period > 0 else Sensor().scan_period_s
+    period = float(period)
+    if "scan_offset_s" in sensor:
+        offset = round((float(sensor["scan_offset_s"]) - time_origin) % period, 9)
+    else:
         offset = round(float(starts[0] % period), 6) if starts.size else 0.0
-        if offset <= tol or period - offset <= tol:
-            offset = 0.0
-    return float(period), float(offset)
+    if offset <= max(tol, 1e-9) or period - offset <= max(tol, 1e-9):
+        offset = 0.0
+    return period, offset
 
 
 # ----------------------------------------------------------------------------- the import
@@ -385,12 +385,7 @@ def read_detections(
     for j, spec in enumerate(specs):
         rows = np.flatnonzero(sensor == j)
         tj = t[rows]
-        if "scan_offset_s" in spec:  # given in the file's clock: as after the origin
-            period = float(spec.get("scan_period_s", Sensor().scan_period_s))
-            spec = {**spec, "scan_offset_s": round((float(spec["scan_offset_s"]) - time_origin) % period, 9)}
-            if spec["scan_offset_s"] >= period - 1e-9:
-                spec["scan_offset_s"] = 0.0
-        period, offset = _sweep_grid(path, tcol, spec, tj, rows, tol)
+        period, offset = _sweep_grid(spec, tj, tol, time_origin)
         if tol >= period / 2:
             raise ConfigError(f"--scan-tolerance {tol:g} s: must be below half the scan period of sensor "
                               f"{names[j]!r} ({period:g} s)")
@@ -416,11 +411,13 @@ def read_detections(
         sweep[rows] = k - first
         grids.append((period, offset))
         needed.append(int(k.max()) + 1 - first if rows.size else 1)
-        specs[j] = spec
 
     periods = [_fraction(p, f"sensor {names[j]!r}: scan_period_s") for j, (p, _) in enumerate(grids)]
     common = _lcm(periods)
     longest = max(Fraction(m) * p for m, p in zip(needed, periods))
+    truth_rows = _read_truth(Path(truth), mapping, time_origin) if truth is not None else None
+    if truth_rows is not None and truth_rows["t"].size:  # the schedule reaches the last true state too
+        longest = max(longest, Fraction(float(truth_rows["t"].max())))
     duration = common * math.ceil(longest / common)
     n_scans = sum(int(duration / p) for p in periods)
     if n_scans > MAX_SCANS:
@@ -445,13 +442,12 @@ def read_detections(
         built.append(validated(Sensor, full, f"sensor {j} ({names[j]!r})", "sensor"))
 
     labels = _labels(table, path, present["target_id"]) if "target_id" in present else None
-    truth_path = Path(truth) if truth is not None else None
     scenario_name = _scenario_name(name or path.stem)
-    return _assemble(path, truth_path, mapping, scenario_name, built, float(duration), time_origin, tol,
+    return _assemble(path, truth_rows, mapping, scenario_name, built, float(duration), time_origin, tol,
                      t, sweep, sensor, rng, az, x, y, labels, polar)
 
 
-def _assemble(path, truth_path, mapping, scenario_name, sensors, duration, time_origin, tol, t, sweep, sensor,
+def _assemble(path, truth_rows, mapping, scenario_name, sensors, duration, time_origin, tol, t, sweep, sensor,
               rng, az, x, y, labels, polar) -> Dataset:
     """The dataset from the checked columns: scans, positions in both forms, targets, truth."""
     n = t.size
@@ -483,7 +479,8 @@ def _assemble(path, truth_path, mapping, scenario_name, sensors, duration, time_
         raise DatasetError(f"{_where(path, row, mapping.get('x', 'x'))}: the detection lies on sensor "
                            f"{sensors[sensor[row]].name!r} (range 0 m); nnda needs a positive range")
     # targets: the truth file's, else the labels'
-    truth_table = _read_truth(truth_path, mapping, time_origin, tol, sched_time) if truth_path else None
+    truth_table = _truth_scans(truth_rows, time_origin, tol, sched_time) if truth_rows is not None else None
+    truth_path = truth_rows["path"] if truth_rows is not None else None
     known = set(truth_table["label"]) if truth_table is not None else set()
     found = {v for v in labels if v is not None} if labels is not None else set()
     if truth_table is not None and found - known:
@@ -521,9 +518,8 @@ def _scan_then_azimuth(scan: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
     return np.lexsort((azimuth, scan))
 
 
-def _read_truth(path: Path, mapping: Mapping[str, str], time_origin: float, tol: float, sched_time: np.ndarray
-                ) -> dict:
-    """The truth file's rows, each repeated for every scan at its time: scan, label, state, source row."""
+def _read_truth(path: Path, mapping: Mapping[str, str], time_origin: float) -> dict:
+    """The truth file's checked columns: time (after the origin), labels, state; its path and time column."""
     table = _read_table(path, "truth")
     present = _columns(table, path, TRUTH_COLUMNS, mapping)
     _require(path, present, TRUTH_COLUMNS, mapping, table, "a truth file has time, target_id, x, y, vx, vy")
@@ -533,6 +529,13 @@ def _read_truth(path: Path, mapping: Mapping[str, str], time_origin: float, tol:
     if any(v is None for v in labels):
         row = int(np.flatnonzero(np.array([v is None for v in labels]))[0])
         raise DatasetError(f"{_where(path, row, present['target_id'])}: no target id (a truth row needs one)")
+    return {"t": t, "labels": labels, "values": values, "path": path, "time_column": present["time"]}
+
+
+def _truth_scans(truth: dict, time_origin: float, tol: float, sched_time: np.ndarray) -> dict:
+    """The truth rows, each repeated for every scan at its time: scan, label, state, source row."""
+    t, labels, values, path = truth["t"], truth["labels"], truth["values"], truth["path"]
+    present = {"time": truth["time_column"]}
     times = np.unique(sched_time)
     pos = np.clip(np.searchsorted(times, t), 1, max(times.size - 1, 1))
     near = np.where(np.abs(times[pos - 1] - t) <= np.abs(times[np.minimum(pos, times.size - 1)] - t),
