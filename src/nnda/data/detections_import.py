@@ -452,9 +452,7 @@ def _assemble(path, truth_rows, mapping, scenario_name, sensors, duration, time_
     """The dataset from the checked columns: scans, positions in both forms, targets, truth."""
     n = t.size
     draft = Scenario(name=scenario_name, duration_s=duration, sensors=tuple(sensors),
-                     targets=[Target(name="unlabelled", x_m=0, y_m=0, heading_deg=0, speed_m_s=1e-6,
-                                     segments=[Segment(duration_s=duration)])],
-                     process_noise=ProcessNoise(model="none"))
+                     targets=[_placeholder(duration)], process_noise=ProcessNoise(model="none"))
     sched_time, sched_sensor = draft.scan_schedule()
     scan = np.empty(n, dtype=np.int32)
     for j in range(len(sensors)):
@@ -556,11 +554,16 @@ def _truth_scans(truth: dict, time_origin: float, tol: float, sched_time: np.nda
             "time_column": present["time"], "sched_time": sched_time, **{c: v[src] for c, v in values.items()}}
 
 
+def _placeholder(duration: float) -> Target:
+    """The one target of a scenario without labels (a scenario has at least one): at the origin, still."""
+    return Target(name="unlabelled", x_m=0, y_m=0, heading_deg=0, speed_m_s=1e-6,
+                  segments=[Segment(duration_s=duration)])
+
+
 def _targets(order: list[str], truth: dict | None, det: Detections, sched_time: np.ndarray, duration: float
              ) -> list[Target]:
     if not order:
-        return [Target(name="unlabelled", x_m=0, y_m=0, heading_deg=0, speed_m_s=1e-6,
-                       segments=[Segment(duration_s=duration)])]
+        return [_placeholder(duration)]
     targets = []
     labels = np.array(truth["label"], dtype=object) if truth is not None else None
     for i, name in enumerate(order):
