@@ -19,13 +19,14 @@ from rich.console import Console
 from rich.text import Text
 
 from nnda.data import commands as data_commands
+from nnda.data import import_commands
 from nnda.data.dataset import collection_members
 from nnda.data.presets import GROUPS
 from nnda.errors import NndaError
 from nnda.models.innovation import IMM_INNOVATION
 from nnda.peers import commands as peer_commands
 from nnda.reports import commands as report_commands
-from nnda.reports import model_commands
+from nnda.reports import model_commands, track_commands
 from nnda.study.config import default_study, study_to_toml
 
 app = typer.Typer(
@@ -44,6 +45,8 @@ app.command("plot-scenario")(report_commands.plot_scenario)
 app.command("compare")(report_commands.compare)
 app.command("report")(report_commands.report)
 app.command("import-stonesoup")(peer_commands.import_stonesoup)
+app.command("import-detections")(import_commands.import_detections_command)
+app.command("track")(track_commands.track)
 
 
 def demo(

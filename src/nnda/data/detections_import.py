@@ -1,0 +1,645 @@
+"""A user's recorded detections (CSV or Parquet) as an nnda dataset: ``nnda import-detections``.
+
+Usage sketch::
+
+    ds = read_detections("plots.csv", sensors=[{"scan_period_s": 2.0, "sigma_range_m": 30}],
+                         azimuth_unit="deg", columns={"time": "t_sec"})     # a Dataset, checked
+    import_detections("plots.csv", "data/plots", truth="truth.csv")        # read, then write_dataset
+
+The file's schema (names as here, or mapped with ``columns``: nnda name ->
+the file's name; the mapping applies to the truth file too):
+
+* ``time`` (s), required; and the position: ``range`` (m) and ``azimuth``
+  (rad, or degrees with ``azimuth_unit="deg"``; clockwise from north, from
+  the detecting sensor, in [-pi, 2 pi) and stored wrapped to [0, 2 pi)),
+  or ``x`` and ``y`` (m, x east, y north, scenario frame). A polar sensor's
+  detections are taken from ``range``/``azimuth`` when the file has them,
+  a position sensor's from ``x``/``y``; the other pair is derived from the
+  sensor's position.
+* ``sensor`` (optional): a sensor's name or its index in the sensor list;
+  without it every row belongs to the only sensor.
+* ``target_id`` (optional truth label): any integer or text; an empty cell
+  (or a negative integer) marks clutter. Without the column every detection
+  is unlabelled, stored as the format stores clutter (target_id -1).
+* a truth file (optional, same formats): ``time``, ``target_id``, ``x``,
+  ``y``, ``vx``, ``vy`` (s, m, m/s), one row per target per time; each time
+  must be the time of a scan (within the tolerance), its row is stored for
+  every scan at that time, and a detection's target must appear in it.
+
+Scans: a scan is one sensor's detections at one sweep time. Each sensor
+sweeps at ``scan_offset_s + k scan_period_s`` (`nnda.data.scenario.Sensor`);
+a row belongs to the sweep nearest its time and must lie within
+``scan_tolerance`` s of it (default `SCAN_TOLERANCE_S`: equal times up to
+rounding; raise it, below half a period, for a radar that stamps each plot
+with its own time). The dataset records the sweep's time. A sensor's
+period, when not given, is the median gap between its successive distinct
+times (rounded to 1 us) and its offset the first time modulo the period;
+range limits not given are widened from the spec's 5-30 km to hold every
+detection. nnda's scans lie at t > 0: ``time_origin`` (s) is subtracted
+from every time first (for clock times or a file that starts at 0). Rows of
+one sensor must not go back in time (in file order).
+
+Every problem names the file, the data row (1-based, the header not
+counted: line = row + 1 in a CSV with one header line) and the column, as a
+`DatasetError` (the file's content) or a `ConfigError` (the options); the
+reader builds the whole dataset before anything is written, and the writer
+(`nnda.data.dataset.write_dataset`) is atomic, so a refused import leaves
+the output untouched.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from fractions import Fraction
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.compute as pc
+import pyarrow.csv as pacsv
+import pyarrow.parquet as pq
+
+from nnda.data.dataset import Dataset, Detections, Truth, write_dataset
+from nnda.data.scenario import Clutter, ProcessNoise, Scenario, Segment, Sensor, Target
+from nnda.data.sensor import TWO_PI, cart_to_polar_at, polar_to_cart_at
+from nnda.errors import ConfigError, DatasetError, validated
+from nnda.files import atomic_file, read_config
+
+#: columns nnda reads from a detections file, and from a truth file
+DETECTION_COLUMNS = ("time", "range", "azimuth", "x", "y", "sensor", "target_id")
+TRUTH_COLUMNS = ("time", "target_id", "x", "y", "vx", "vy")
+AZIMUTH_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}
+#: default grouping tolerance (s): a row is in a sweep when within this of the sweep's time
+SCAN_TOLERANCE_S = 1e-6
+#: an import refuses a schedule of more scans than this (a clock time without --time-origin)
+MAX_SCANS = 10_000_000
+#: periods and offsets are compared and inferred to this resolution (s)
+TIME_RESOLUTION_S = 1e-6
+
+
+# ----------------------------------------------------------------------------- reading the files
+
+def _read_table(path: Path, what: str) -> pa.Table:
+    if not path.is_file():
+        raise DatasetError(f"{what} {path}: no such file")
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".csv":
+            # only an empty cell is null: "nan" is a number (refused as not finite), "NA" text (not a number)
+            options = pacsv.ConvertOptions(null_values=[""], strings_can_be_null=True)
+            return pacsv.read_csv(path, convert_options=options)
+        if suffix in (".parquet", ".pq"):
+            return pq.read_table(path)
+    except (pa.ArrowException, OSError) as exc:
+        raise DatasetError(f"{what} {path}: unreadable {suffix[1:]} file ({exc})") from None
+    raise ConfigError(f"{what} {path}: unknown file type {suffix or '(no suffix)'!r}; give a .csv or .parquet file")
+
+
+def _where(path: Path, row: int, column: str) -> str:
+    return f"{path}: data row {row + 1} (line {row + 2}), column {column!r}"
+
+
+def _numeric(table: pa.Table, path: Path, name: str, column: str) -> np.ndarray:
+    """Column ``column`` (nnda's ``name``) as finite float64; DatasetError at the first empty, non-numeric,
+    NaN or infinite cell."""
+    col = table.column(column)
+    if not (pa.types.is_integer(col.type) or pa.types.is_floating(col.type)):
+        values = col.to_pylist()
+        for row, v in enumerate(values):
+            try:
+                float(v)
+            except (TypeError, ValueError):
+                got = "an empty cell" if v is None or v == "" else f"{v!r}, not a number"
+                raise DatasetError(f"{_where(path, row, column)}: {got} ({name} must be a number)") from None
+        col = pc.cast(col, pa.float64())
+    if col.null_count:
+        row = int(pc.index(pc.is_null(col), True).as_py())
+        raise DatasetError(f"{_where(path, row, column)}: an empty cell ({name} must be a number)")
+    a = col.to_numpy().astype(np.float64, copy=False)
+    bad = ~np.isfinite(a)
+    if bad.any():
+        row = int(np.argmax(bad))
+        raise DatasetError(f"{_where(path, row, column)}: {float(a[row])!r} ({name} must be a finite number)")
+    return a
+
+
+def _labels(table: pa.Table, path: Path, column: str) -> np.ndarray:
+    """Column ``column`` as text labels (object array); None where the cell is empty or a negative integer
+    (clutter)."""
+    col = table.column(column)
+    if pa.types.is_floating(col.type):
+        a = col.to_numpy(zero_copy_only=False)
+        bad = np.isfinite(a) & (a != np.round(a))
+        if bad.any():
+            row = int(np.argmax(bad))
+            raise DatasetError(f"{_where(path, row, column)}: {float(a[row])!r} (a target id is a whole number or "
+                               f"text)")
+        return np.array([None if not math.isfinite(v) or v < 0 else str(int(v)) for v in a.tolist()], dtype=object)
+    if pa.types.is_integer(col.type):
+        return np.array([None if v is None or v < 0 else str(v) for v in col.to_pylist()], dtype=object)
+    return np.array([None if v is None or str(v) == "" else str(v) for v in col.to_pylist()], dtype=object)
+
+
+def _columns(table: pa.Table, path: Path, names: Sequence[str], mapping: Mapping[str, str]) -> dict[str, str]:
+    """nnda column name -> the file's column name, for the ``names`` the file has."""
+    present = {}
+    for name in names:
+        column = mapping.get(name, name)
+        if column in table.column_names:
+            present[name] = column
+        elif name in mapping:
+            raise DatasetError(f"{path}: column {column!r} (mapped to {name!r} by --column {name}={column}) is "
+                               f"missing; the file has {', '.join(table.column_names)}")
+    return present
+
+
+def _require(path: Path, present: Mapping[str, str], names: Sequence[str], mapping: Mapping[str, str],
+             table: pa.Table, why: str) -> None:
+    missing = [mapping.get(n, n) for n in names if n not in present]
+    if missing:
+        raise DatasetError(f"{path}: required column(s) {', '.join(map(repr, missing))} missing ({why}); the file "
+                           f"has {', '.join(table.column_names) or 'no columns'} (map names with --column "
+                           f"NAME=COLUMN)")
+
+
+def column_mapping(pairs: Sequence[str] | Mapping[str, str] | None) -> dict[str, str]:
+    """``["time=t_sec", ...]`` (or a mapping) as {nnda name: file column}; ConfigError for an unknown name."""
+    if pairs is None:
+        return {}
+    items = pairs.items() if isinstance(pairs, Mapping) else []
+    if not isinstance(pairs, Mapping):
+        parsed = []
+        for p in pairs:
+            name, sep, column = p.partition("=")
+            if not sep or not name or not column:
+                raise ConfigError(f"--column {p!r}: give NAME=COLUMN, e.g. time=t_sec")
+            parsed.append((name.strip(), column.strip()))
+        items = parsed
+    mapping: dict[str, str] = {}
+    known = sorted({*DETECTION_COLUMNS, *TRUTH_COLUMNS})
+    for name, column in items:
+        if name not in known:
+            raise ConfigError(f"--column {name}={column}: unknown column name {name!r}; nnda reads "
+                              f"{', '.join(known)}")
+        if name in mapping:
+            raise ConfigError(f"--column: {name!r} is mapped twice")
+        mapping[name] = column
+    return mapping
+
+
+# ----------------------------------------------------------------------------- sensors
+
+def load_sensors(path: str | Path) -> list[dict]:
+    """The ``[[sensors]]`` tables of a TOML (or JSON) file, fields as in a scenario's sensors."""
+    data = read_config(path, "sensors")
+    sensors = data.get("sensors")
+    extra = sorted(set(data) - {"sensors"})
+    if extra:
+        raise ConfigError(f"{path}: unknown key(s) {', '.join(extra)}; give the sensors as [[sensors]] tables")
+    if not isinstance(sensors, list) or not sensors or not all(isinstance(s, dict) for s in sensors):
+        raise ConfigError(f"{path}: give one or more [[sensors]] tables (Sensor fields: name, kind, x_m, y_m, "
+                          f"scan_period_s, sigma_range_m, ...)")
+    return sensors
+
+
+def sensor_fields(pairs: Sequence[str]) -> dict[str, Any]:
+    """``["scan_period_s=2", "kind=position"]`` as a Sensor field mapping (numbers parsed; validated later)."""
+    fields: dict[str, Any] = {}
+    for p in pairs:
+        name, sep, value = p.partition("=")
+        name, value = name.strip(), value.strip()
+        if not sep or not name:
+            raise ConfigError(f"--sensor {p!r}: give FIELD=VALUE, e.g. scan_period_s=2")
+        if name not in Sensor.model_fields or name == "clutter":
+            fields_known = ", ".join(f for f in Sensor.model_fields if f != "clutter")
+            raise ConfigError(f"--sensor {p!r}: unknown sensor field {name!r}; choose one of {fields_known}")
+        try:
+            fields[name] = float(value) if name not in ("name", "kind") else value
+        except ValueError:
+            raise ConfigError(f"--sensor {p!r}: {name} must be a number") from None
+    return fields
+
+
+def _fraction(seconds: float, what: str) -> Fraction:
+    f = Fraction(seconds).limit_denominator(round(1 / TIME_RESOLUTION_S))
+    if abs(float(f) - seconds) > 1e-9 * max(1.0, seconds):
+        raise ConfigError(f"{what} = {seconds!r} s is not a whole number of microseconds; nnda's scan schedule "
+                          f"needs periods of a common multiple")
+    return f
+
+
+def _lcm(periods: Sequence[Fraction]) -> Fraction:
+    num, den = periods[0].numerator, periods[0].denominator
+    for p in periods[1:]:
+        num, den = math.lcm(num, p.numerator), math.gcd(den, p.denominator)
+    return Fraction(num, den)
+
+
+def _sweep_grid(sensor: Mapping[str, Any], t: np.ndarray, tol: float, time_origin: float) -> tuple[float, float]:
+    """Period and offset (s, after the origin) of a sensor: as given (an offset in the file's clock), or
+    inferred from its times ``t`` (after the origin, in order)."""
+    starts = t[np.concatenate([[True], np.diff(t) > tol])] if t.size else t
+    period = sensor.get("scan_period_s")
+    if period is None:
+        gaps = np.diff(starts)
+        period = round(float(np.median(gaps)), 6) if gaps.size else Sensor().scan_period_s
+        period = period if period > 0 else Sensor().scan_period_s
+    period = float(period)
+    if "scan_offset_s" in sensor:
+        offset = round((float(sensor["scan_offset_s"]) - time_origin) % period, 9)
+    else:
+        offset = round(float(starts[0] % period), 6) if starts.size else 0.0
+    if offset <= max(tol, 1e-9) or period - offset <= max(tol, 1e-9):
+        offset = 0.0
+    return period, offset
+
+
+# ----------------------------------------------------------------------------- the import
+
+def _check_azimuth(path: Path, column: str, az: np.ndarray, unit: str) -> None:
+    bad = (az < -math.pi) | (az >= TWO_PI)
+    if bad.any():
+        row = int(np.argmax(bad))
+        shown = az[row] / AZIMUTH_UNITS[unit]
+        limits = "[-180, 360) deg" if unit == "deg" else "[-pi, 2 pi) rad"
+        hint = "" if unit == "deg" or abs(shown) > 360 else " (degrees? pass --azimuth-unit deg)"
+        raise DatasetError(f"{_where(path, row, column)}: azimuth {float(shown)!r} {unit} is outside {limits}{hint}")
+
+
+def _sensor_index(path: Path, column: str, table: pa.Table, names: list[str]) -> np.ndarray:
+    col = table.column(column)
+    n = len(names)
+    if pa.types.is_integer(col.type) and not col.null_count:
+        idx = col.to_numpy().astype(np.int64)
+        bad = (idx < 0) | (idx >= n)
+        if bad.any():
+            row = int(np.argmax(bad))
+            raise DatasetError(f"{_where(path, row, column)}: unknown sensor {int(idx[row])} (sensors: "
+                               f"{', '.join(f'{i} {s!r}' for i, s in enumerate(names))})")
+        return idx.astype(np.int32)
+    values = np.array(["" if v is None else str(v) for v in col.to_pylist()], dtype=object)
+    uniq, inverse = np.unique(values, return_inverse=True)
+    lookup = []
+    for value in uniq:
+        if value in names:
+            lookup.append(names.index(value))
+        elif value.isdigit() and int(value) < n:
+            lookup.append(int(value))
+        else:
+            row = int(np.argmax(values == value))
+            got = "an empty cell" if value == "" else f"unknown sensor {value!r}"
+            raise DatasetError(f"{_where(path, row, column)}: {got} (sensors: "
+                               f"{', '.join(f'{i} {s!r}' for i, s in enumerate(names))})")
+    return np.asarray(lookup, dtype=np.int32)[inverse]
+
+
+def _uses_polar(kind: str, polar: bool, cart: bool) -> bool:
+    """Does a sensor of ``kind`` take its detections from the range/azimuth columns (else from x/y)?"""
+    return polar and (kind == "polar" or not cart)
+
+
+def _target_order(labels: list[str]) -> list[str]:
+    """Target labels in id order: numerically when every label is an integer, as text otherwise."""
+    if all(s.lstrip("-").isdigit() for s in labels):
+        return sorted(labels, key=int)
+    return sorted(labels)
+
+
+def _scenario_name(name: str) -> str:
+    kept = "".join(c if (c.isascii() and c.isalnum()) or c in "_.-" else "_" for c in name) or "imported"
+    return "_" + kept[1:] if kept.startswith(".") else kept
+
+
+def read_detections(
+    path: str | Path, *, sensors: Sequence[Mapping[str, Any] | Sensor] | None = None,
+    truth: str | Path | None = None, columns: Sequence[str] | Mapping[str, str] | None = None,
+    azimuth_unit: str = "rad", scan_tolerance: float = SCAN_TOLERANCE_S, time_origin: float = 0.0,
+    name: str | None = None,
+) -> Dataset:
+    """The detections file at ``path`` (and its ``truth`` file) as a checked `Dataset` (see the module).
+
+    ``sensors``: one mapping of Sensor fields (or a Sensor) per sensor, in
+    index order (default: one radar of the spec's defaults); fields left out
+    are inferred as the module docstring says. ``columns`` maps nnda's column
+    names to the file's. ``name`` names the scenario (default: the file's stem).
+    """
+    path = Path(path)
+    if azimuth_unit not in AZIMUTH_UNITS:
+        raise ConfigError(f"--azimuth-unit {azimuth_unit!r}: unknown unit; choose one of {', '.join(AZIMUTH_UNITS)}")
+    if not (math.isfinite(scan_tolerance) and scan_tolerance >= 0):
+        raise ConfigError(f"--scan-tolerance {scan_tolerance!r}: must be a finite number of seconds >= 0")
+    if not math.isfinite(time_origin):
+        raise ConfigError(f"--time-origin {time_origin!r}: must be a finite number of seconds")
+    mapping = column_mapping(columns)
+    specs = [s.model_dump(exclude_unset=True) if isinstance(s, Sensor) else dict(s) for s in (sensors or [{}])]
+    for i, s in enumerate(specs):
+        s.setdefault("name", "radar" if len(specs) == 1 else f"sensor{i}")
+    names = [str(s["name"]) for s in specs]
+    for j, s in enumerate(specs):  # the fields given, before anything is inferred (an offset needs its period)
+        validated(Sensor, {k: v for k, v in s.items() if k != "scan_offset_s"}, f"sensor {j} ({names[j]!r})",
+                  "sensor")
+    table = _read_table(path, "detections")
+    present = _columns(table, path, DETECTION_COLUMNS, mapping)
+    _require(path, present, ["time"], mapping, table, "the time of each detection, s")
+    n = table.num_rows
+    t = _numeric(table, path, "time", present["time"]) - time_origin
+    polar, cart = {"range", "azimuth"} <= present.keys(), {"x", "y"} <= present.keys()
+    if not (polar or cart):
+        _require(path, present, ["range", "azimuth"] if "x" not in present and "y" not in present else ["x", "y"],
+                 mapping, table, "a position: range and azimuth, or x and y")
+    rng = az = x = y = None
+    if polar:
+        rng = _numeric(table, path, "range", present["range"])
+        az = _numeric(table, path, "azimuth", present["azimuth"]) * AZIMUTH_UNITS[azimuth_unit]
+        _check_azimuth(path, present["azimuth"], az, azimuth_unit)
+        az = az % TWO_PI
+        bad = ~(rng > 0)
+        if bad.any():
+            row = int(np.argmax(bad))
+            raise DatasetError(f"{_where(path, row, present['range'])}: range {float(rng[row])!r} m must be positive")
+    if cart:
+        x = _numeric(table, path, "x", present["x"])
+        y = _numeric(table, path, "y", present["y"])
+    if "sensor" in present:
+        sensor = _sensor_index(path, present["sensor"], table, names)
+    elif len(specs) > 1:
+        raise DatasetError(f"{path}: {len(specs)} sensors are given but the file has no column "
+                           f"{mapping.get('sensor', 'sensor')!r} saying which one made each detection")
+    else:
+        sensor = np.zeros(n, dtype=np.int32)
+    tol = float(scan_tolerance)
+    tcol = present["time"]
+    bad = ~(t > 0)
+    if bad.any():
+        row = int(np.argmax(bad))
+        raise DatasetError(f"{_where(path, row, tcol)}: time {float(t[row] + time_origin)!r} s is not after the time "
+                           f"origin ({time_origin:g} s); nnda's scans lie at t > 0: pass --time-origin T with T "
+                           f"below the first time (e.g. --time-origin {math.floor(t.min() + time_origin) - 1})")
+
+    # the sweep of each row, per sensor
+    sweep = np.empty(n, dtype=np.int64)
+    grids: list[tuple[float, float]] = []
+    needed: list[int] = []
+    for j, spec in enumerate(specs):
+        rows = np.flatnonzero(sensor == j)
+        tj = t[rows]
+        period, offset = _sweep_grid(spec, tj, tol, time_origin)
+        if tol >= period / 2:
+            raise ConfigError(f"--scan-tolerance {tol:g} s: must be below half the scan period of sensor "
+                              f"{names[j]!r} ({period:g} s)")
+        k = np.round((tj - offset) / period).astype(np.int64)
+        back = np.diff(k) < 0
+        if back.any():
+            i = int(np.argmax(back))
+            raise DatasetError(f"{_where(path, int(rows[i + 1]), tcol)}: time {float(tj[i + 1] + time_origin)!r} s "
+                               f"goes back from {float(tj[i] + time_origin)!r} s (data row {rows[i] + 1}, an earlier "
+                               f"sweep) for sensor {names[j]!r}; each sensor's rows must be in time order")
+        miss = np.abs(tj - (offset + k * period))
+        first = 1 if offset == 0 else 0
+        bad = (miss > tol + 1e-9 * np.maximum(1.0, np.abs(tj))) | (k < first)
+        if bad.any():
+            i = int(np.argmax(bad))
+            nearest = offset + max(k[i], first) * period
+            raise DatasetError(
+                f"{_where(path, int(rows[i]), tcol)}: time {float(tj[i] + time_origin)!r} s is "
+                f"{abs(tj[i] - nearest):.6g} s "
+                f"from the nearest sweep of sensor {names[j]!r} ({nearest + time_origin:.6g} s; period {period:g} s, "
+                f"offset {offset + time_origin:g} s), beyond the scan tolerance ({tol:g} s): give the sensor's "
+                f"scan_period_s and scan_offset_s, or a larger --scan-tolerance")
+        sweep[rows] = k - first
+        grids.append((period, offset))
+        needed.append(int(k.max()) + 1 - first if rows.size else 1)
+
+    periods = [_fraction(p, f"sensor {names[j]!r}: scan_period_s") for j, (p, _) in enumerate(grids)]
+    common = _lcm(periods)
+    longest = max(Fraction(m) * p for m, p in zip(needed, periods))
+    truth_rows = _read_truth(Path(truth), mapping, time_origin) if truth is not None else None
+    if truth_rows is not None and truth_rows["t"].size:  # the schedule reaches the last true state too
+        longest = max(longest, Fraction(float(truth_rows["t"].max())))
+    duration = common * math.ceil(longest / common)
+    n_scans = sum(int(duration / p) for p in periods)
+    if n_scans > MAX_SCANS:
+        raise DatasetError(f"{path}: column {tcol!r}: the times reach {float(longest) + time_origin:.6g} s, a "
+                           f"schedule of {n_scans:,} scans from t = {time_origin:g} s (more than {MAX_SCANS:,}); "
+                           f"clock times? pass --time-origin with a time just before the first")
+
+    # sensors, with what the data implies where the user gave nothing
+    built = []
+    for j, spec in enumerate(specs):
+        mine = sensor == j
+        full = {**spec, "scan_period_s": grids[j][0], "scan_offset_s": grids[j][1]}
+        full.setdefault("clutter", Clutter(law="none").model_dump())
+        origin = (float(full.get("x_m", 0.0)), float(full.get("y_m", 0.0)))
+        if _uses_polar(full.get("kind", "polar"), polar, cart):
+            rj = rng[mine]
+        else:
+            rj = np.hypot(x[mine] - origin[0], y[mine] - origin[1])
+        if rj.size:
+            full.setdefault("min_range_m", float(min(Sensor().min_range_m, math.floor(rj.min()))))
+            full.setdefault("max_range_m", float(max(Sensor().max_range_m, math.ceil(rj.max()))))
+        built.append(validated(Sensor, full, f"sensor {j} ({names[j]!r})", "sensor"))
+
+    labels = _labels(table, path, present["target_id"]) if "target_id" in present else None
+    scenario_name = _scenario_name(name or path.stem)
+    return _assemble(path, truth_rows, mapping, scenario_name, built, float(duration), time_origin, tol,
+                     t, sweep, sensor, rng, az, x, y, labels, polar)
+
+
+def _assemble(path, truth_rows, mapping, scenario_name, sensors, duration, time_origin, tol, t, sweep, sensor,
+              rng, az, x, y, labels, polar) -> Dataset:
+    """The dataset from the checked columns: scans, positions in both forms, targets, truth."""
+    n = t.size
+    draft = Scenario(name=scenario_name, duration_s=duration, sensors=tuple(sensors),
+                     targets=[_placeholder(duration)], process_noise=ProcessNoise(model="none"))
+    sched_time, sched_sensor = draft.scan_schedule()
+    scan = np.empty(n, dtype=np.int32)
+    for j in range(len(sensors)):
+        mine = sensor == j
+        scans_j = np.flatnonzero(sched_sensor == j).astype(np.int32) + 1
+        scan[mine] = scans_j[sweep[mine]]
+    # both position forms, each row from its own sensor
+    r_out, az_out, x_out, y_out = (np.empty(n) for _ in range(4))
+    for j, s in enumerate(sensors):
+        mine = sensor == j
+        if not mine.any():
+            continue
+        if _uses_polar(s.kind, polar, x is not None):
+            r_out[mine], az_out[mine] = rng[mine], az[mine]
+            x_out[mine], y_out[mine] = polar_to_cart_at(s.position, rng[mine], az[mine])
+        else:
+            x_out[mine], y_out[mine] = x[mine], y[mine]
+            r_out[mine], az_out[mine] = cart_to_polar_at(s.position, x[mine], y[mine])
+    bad = ~(r_out > 0)
+    if bad.any():
+        row = int(np.argmax(bad))
+        raise DatasetError(f"{_where(path, row, mapping.get('x', 'x'))}: the detection lies on sensor "
+                           f"{sensors[sensor[row]].name!r} (range 0 m); nnda needs a positive range")
+    # targets: the truth file's, else the labels'
+    truth_table = _truth_scans(truth_rows, time_origin, tol, sched_time) if truth_rows is not None else None
+    truth_path = truth_rows["path"] if truth_rows is not None else None
+    known = set(truth_table["label"]) if truth_table is not None else set()
+    found = {v for v in labels if v is not None} if labels is not None else set()
+    if truth_table is not None and found - known:
+        unknown = found - known
+        row = int(np.flatnonzero(np.isin(labels, list(unknown)))[0])
+        raise DatasetError(f"{_where(path, row, mapping.get('target_id', 'target_id'))}: target {labels[row]!r} "
+                           f"is not in the truth file {truth_path}")
+    order = _target_order(sorted(known | found))
+    index = {lab: i for i, lab in enumerate(order)}
+    tid = (np.array([-1 if v is None else index[v] for v in labels.tolist()], dtype=np.int32)
+           if labels is not None else np.full(n, -1, dtype=np.int32))
+    rows = _scan_then_azimuth(scan, az_out)
+    det = Detections(scan=scan[rows], time=sched_time[scan[rows] - 1], range=r_out[rows], azimuth=az_out[rows],
+                     x=x_out[rows], y=y_out[rows], is_clutter=tid[rows] < 0, target_id=tid[rows],
+                     sensor=sensor[rows].astype(np.int32))
+    targets = _targets(order, truth_table, det, sched_time, duration)
+    truth_rec = _truth_record(truth_table, index, det)
+    what = f"{n} detections from {path.name}" + (f", truth from {truth_path.name}" if truth_path else "")
+    scenario = Scenario(
+        name=scenario_name, duration_s=duration, sensors=tuple(sensors), targets=targets,
+        process_noise=ProcessNoise(model="none"),
+        description=(f"imported by nnda import-detections: {what}; times less the origin {time_origin:g} s, "
+                     f"grouped into sweeps within {tol:g} s; targets give each one's first true state "
+                     f"(a placeholder when unlabelled), the truth file its motion"))
+    return Dataset(scenario, 0, 0, det, truth_rec)
+
+
+def _scan_then_azimuth(scan: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
+    """``np.lexsort((azimuth, scan))`` (stable), by one sort of the key scan x 8 + azimuth (azimuth < 8), several
+    times faster; exact ties the key's rounding makes are checked, and then the slow sort decides."""
+    rows = np.argsort(scan * 8.0 + azimuth, kind="stable")
+    s, a = scan[rows], azimuth[rows]
+    if np.all((np.diff(s) > 0) | ((np.diff(s) == 0) & (np.diff(a) >= 0))):
+        return rows
+    return np.lexsort((azimuth, scan))
+
+
+def _read_truth(path: Path, mapping: Mapping[str, str], time_origin: float) -> dict:
+    """The truth file's checked columns: time (after the origin), labels, state; its path and time column."""
+    table = _read_table(path, "truth")
+    present = _columns(table, path, TRUTH_COLUMNS, mapping)
+    _require(path, present, TRUTH_COLUMNS, mapping, table, "a truth file has time, target_id, x, y, vx, vy")
+    t = _numeric(table, path, "time", present["time"]) - time_origin
+    values = {c: _numeric(table, path, c, present[c]) for c in ("x", "y", "vx", "vy")}
+    labels = _labels(table, path, present["target_id"])
+    if any(v is None for v in labels):
+        row = int(np.flatnonzero(np.array([v is None for v in labels]))[0])
+        raise DatasetError(f"{_where(path, row, present['target_id'])}: no target id (a truth row needs one)")
+    return {"t": t, "labels": labels, "values": values, "path": path, "time_column": present["time"]}
+
+
+def _truth_scans(truth: dict, time_origin: float, tol: float, sched_time: np.ndarray) -> dict:
+    """The truth rows, each repeated for every scan at its time: scan, label, state, source row."""
+    t, labels, values, path = truth["t"], truth["labels"], truth["values"], truth["path"]
+    present = {"time": truth["time_column"]}
+    times = np.unique(sched_time)
+    pos = np.clip(np.searchsorted(times, t), 1, max(times.size - 1, 1))
+    near = np.where(np.abs(times[pos - 1] - t) <= np.abs(times[np.minimum(pos, times.size - 1)] - t),
+                    pos - 1, np.minimum(pos, times.size - 1))
+    miss = np.abs(times[near] - t) > tol + 1e-9 * np.maximum(1.0, np.abs(t))
+    if miss.any():
+        row = int(np.argmax(miss))
+        raise DatasetError(f"{_where(path, row, present['time'])}: time {float(t[row] + time_origin)!r} s is no scan's "
+                           f"time (nearest {times[near[row]] + time_origin:.6g} s, tolerance {tol:g} s); truth "
+                           f"rows must be at the sweeps' times")
+    first_scan = np.searchsorted(sched_time, times[near], side="left")
+    last_scan = np.searchsorted(sched_time, times[near], side="right")
+    reps = last_scan - first_scan
+    src = np.repeat(np.arange(t.size), reps)
+    scan = (np.concatenate([np.arange(a, b) for a, b in zip(first_scan, last_scan)]) + 1 if t.size
+            else np.empty(0, np.int64))
+    return {"scan": scan.astype(np.int32), "label": labels[src].tolist(), "row": src, "path": path,
+            "time_column": present["time"], "sched_time": sched_time, **{c: v[src] for c, v in values.items()}}
+
+
+def _placeholder(duration: float) -> Target:
+    """The one target of a scenario without labels (a scenario has at least one): at the origin, still."""
+    return Target(name="unlabelled", x_m=0, y_m=0, heading_deg=0, speed_m_s=1e-6,
+                  segments=[Segment(duration_s=duration)])
+
+
+def _targets(order: list[str], truth: dict | None, det: Detections, sched_time: np.ndarray, duration: float
+             ) -> list[Target]:
+    if not order:
+        return [_placeholder(duration)]
+    targets = []
+    labels = np.array(truth["label"], dtype=object) if truth is not None else None
+    for i, name in enumerate(order):
+        if labels is not None:
+            rows = np.flatnonzero(labels == name)
+            r0 = rows[np.argmin(truth["scan"][rows])]
+            x0, y0, vx, vy = (float(truth[c][r0]) for c in ("x", "y", "vx", "vy"))
+            times = sched_time[truth["scan"][rows] - 1]
+        else:
+            rows = np.flatnonzero(det.target_id == i)
+            x0, y0, vx, vy = float(det.x[rows[0]]), float(det.y[rows[0]]), 0.0, 0.0
+            times = det.time[rows]
+        start, end = float(times.min()), float(times.max())
+        targets.append(Target(
+            name=name, x_m=x0, y_m=y0, heading_deg=math.degrees(math.atan2(vx, vy)) % 360.0,
+            speed_m_s=max(math.hypot(vx, vy), 1e-6), start_time_s=start,
+            segments=[Segment(duration_s=max(end - start, 1e-3))]))
+    return targets
+
+
+def _truth_record(truth: dict | None, index: Mapping[str, int], det: Detections) -> Truth:
+    if truth is None:
+        e = np.empty(0)
+        return Truth(scan=np.empty(0, np.int32), time=e, target_id=np.empty(0, np.int32), x=e, y=e, vx=e, vy=e,
+                     detected=np.empty(0, bool))
+    tid = np.array([index[v] for v in truth["label"]], dtype=np.int32)
+    scan = truth["scan"]
+    n_targets = max(len(index), 1)
+    key = scan.astype(np.int64) * n_targets + tid
+    order = np.argsort(key, kind="stable")
+    twice = np.flatnonzero(np.diff(key[order]) == 0)
+    if twice.size:
+        a, b = sorted(truth["row"][order[twice[0]:twice[0] + 2]])
+        raise DatasetError(f"{_where(truth['path'], int(b), truth['time_column'])}: target {truth['label'][b]!r} "
+                           f"has a second row at the time of data row {a + 1}; one row per target per scan")
+    seen = np.zeros(0, np.int64) if not det.scan.size else np.unique(
+        det.scan[~det.is_clutter].astype(np.int64) * n_targets + det.target_id[~det.is_clutter])
+    k = key[order]
+    return Truth(scan=scan[order], time=truth["sched_time"][scan[order] - 1], target_id=tid[order],
+                 x=truth["x"][order], y=truth["y"][order], vx=truth["vx"][order], vy=truth["vy"][order],
+                 detected=np.isin(k, seen))
+
+
+def import_detections(path: str | Path, out: str | Path, overwrite: bool = False, **options) -> tuple[Path, Dataset]:
+    """`read_detections` (``options`` as there), then write the dataset atomically at ``out``."""
+    dataset = read_detections(path, **options)
+    return write_dataset(dataset, out, overwrite), dataset
+
+
+# ----------------------------------------------------------------------------- the other way
+
+def export_detections(dataset: Dataset, path: str | Path, truth: str | Path | None = None) -> None:
+    """Write ``dataset``'s detections (and truth) in the import schema, CSV or Parquet by suffix: time, sensor
+    (name), range, azimuth (rad), x, y, target_id (the target's name; empty for clutter). `read_detections`
+    with the scenario's sensors (`sensor_specs`) reads them back into the same scans."""
+    d, sc = dataset.detections, dataset.scenario
+    names = np.array([t.name for t in sc.targets], dtype=object)
+    labels = np.where(d.target_id < 0, None, names[np.maximum(d.target_id, 0)])
+    _write(pa.table({"time": d.time, "sensor": np.array([s.name for s in sc.sensors], dtype=object)[d.sensor],
+                     "range": d.range, "azimuth": d.azimuth, "x": d.x, "y": d.y,
+                     "target_id": pa.array(labels.tolist(), pa.string())}), Path(path))
+    if truth is not None:
+        t = dataset.truth
+        once = np.sort(np.unique(np.column_stack([t.time, t.target_id]), axis=0, return_index=True)[1])
+        _write(pa.table({"time": t.time[once], "target_id": pa.array(names[t.target_id[once]].tolist(), pa.string()),
+                         "x": t.x[once], "y": t.y[once], "vx": t.vx[once], "vy": t.vy[once]}), Path(truth))
+
+
+def sensor_specs(scenario: Scenario) -> list[dict]:
+    """The scenario's sensors as `read_detections` takes them (every field but clutter)."""
+    return [s.model_dump(mode="json", exclude={"clutter"}) for s in scenario.sensors]
+
+
+def _write(table: pa.Table, path: Path) -> None:
+    with atomic_file(path) as tmp:
+        if path.suffix.lower() == ".csv":
+            pacsv.write_csv(table, tmp)
+        else:
+            pq.write_table(table, tmp)

@@ -1,0 +1,55 @@
+"""CLI command of the data stage for a user's own data: ``nnda import-detections``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+
+from nnda.data.detections_import import SCAN_TOLERANCE_S, import_detections, load_sensors, sensor_fields
+from nnda.errors import ConfigError
+from nnda.files import check_output_location
+
+
+def import_detections_command(
+    file: Annotated[Path, typer.Argument(help="detections file: .csv or .parquet")],
+    out: Annotated[Path, typer.Option(help="dataset directory to write")],
+    truth: Annotated[Path | None, typer.Option(
+        help="truth file (.csv or .parquet): time, target_id, x, y, vx, vy")] = None,
+    sensors: Annotated[Path | None, typer.Option(
+        help="TOML file of [[sensors]] tables (fields as in a scenario's sensors)")] = None,
+    sensor: Annotated[list[str] | None, typer.Option(
+        help="FIELD=VALUE of the one sensor (repeatable), e.g. scan_period_s=2, sigma_range_m=30")] = None,
+    column: Annotated[list[str] | None, typer.Option(
+        help="NAME=COLUMN: read nnda's column NAME from the file's COLUMN (repeatable), e.g. time=t_sec")] = None,
+    azimuth_unit: Annotated[str, typer.Option(help="unit of the azimuth column: rad or deg")] = "rad",
+    scan_tolerance: Annotated[float, typer.Option(
+        help="s: a detection belongs to the sweep within this of its time")] = SCAN_TOLERANCE_S,
+    time_origin: Annotated[float, typer.Option(
+        help="s subtracted from every time (nnda's scans lie at t > 0)")] = 0.0,
+    name: Annotated[str | None, typer.Option(help="scenario name (default: the file's stem)")] = None,
+    overwrite: Annotated[bool, typer.Option(help="replace an existing dataset at --out")] = False,
+) -> None:
+    """Import recorded detections (CSV or Parquet) as an nnda dataset: scans grouped by sensor and sweep time.
+
+    Columns: time (s); range (m) and azimuth, or x and y (m); optional sensor
+    (name or index) and target_id (empty: clutter). A sensor's period, offset
+    and range limits not given are inferred from the data.
+    """
+    if sensors is not None and sensor:
+        raise ConfigError("give the sensors either as --sensors FILE or as --sensor FIELD=VALUE, not both")
+    check_output_location(out, [p for p in (file, truth, sensors) if p is not None])
+    specs = load_sensors(sensors) if sensors is not None else [sensor_fields(sensor or [])]
+    path, ds = import_detections(file, out, overwrite, sensors=specs, truth=truth, columns=column,
+                                 azimuth_unit=azimuth_unit, scan_tolerance=scan_tolerance,
+                                 time_origin=time_origin, name=name)
+    d = ds.detections
+    labelled = int((~d.is_clutter).sum())
+    Console().print(f"wrote {path} ({d.scan.size} detections, {labelled} of targets; {ds.n_scans} scans; "
+                    f"{ds.truth.scan.size} truth rows)", markup=False, highlight=False)
+    for s in ds.scenario.sensors:
+        Console().print(f"  sensor {s.name} ({s.kind}) at ({s.x_m:g}, {s.y_m:g}) m: period {s.scan_period_s:g} s, "
+                        f"offset {s.scan_offset_s + time_origin:g} s, ranges {s.min_range_m:g}-{s.max_range_m:g} m",
+                        markup=False, highlight=False)
