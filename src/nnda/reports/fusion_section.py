@@ -13,7 +13,7 @@ tracker using all the sensors against the best single-sensor one: its GOSPA
 as a ratio, whether it reaches a correct count sooner ("the fused picture
 converges faster") and whether it covers more of the undetected
 target-scans ("the occluded ship is recovered"), each said to hold only
-when the intervals do not overlap. Reads ``study.json`` and
+when the intervals do not overlap (and not to fail unless they do). Reads ``study.json`` and
 ``summary.json``.
 """
 
@@ -42,26 +42,23 @@ def _mean(stat: dict | None) -> float | None:
     return None if not stat else stat.get("mean")
 
 
-def _apart(a: dict, b: dict, better: int) -> bool | None:
-    """True when a's interval lies wholly on the better side of b's (``better`` +1 higher, -1 lower), False
-    when the other way round or overlapping; None when either is undefined."""
+def _side(a: dict, b: dict, better: int) -> int | None:
+    """+1 when a's interval lies wholly on the better side of b's (``better`` +1 higher, -1 lower), -1 when
+    wholly on the worse side, 0 when they overlap; None when either is undefined."""
     lo_a, hi_a, lo_b, hi_b = a.get("ci_low"), a.get("ci_high"), b.get("ci_low"), b.get("ci_high")
     if None in (lo_a, hi_a, lo_b, hi_b):
         return None
-    return lo_a > hi_b if better > 0 else hi_a < lo_b
+    above, below = lo_a > hi_b, hi_a < lo_b
+    return 0 if not (above or below) else (1 if above == (better > 0) else -1)
 
 
 def _claim(what: str, mine: dict, theirs: dict, ms, label: str, reference: str) -> str:
-    a, b = _mean(mine), _mean(theirs)
-    if a is None or b is None:
+    if _mean(mine) is None or _mean(theirs) is None:
         return f"{what}: not measured for {label} or {reference}."
     cells = f"{stat_cell(mine, ms.fmt, ms.scale)} {ms.unit} against {stat_cell(theirs, ms.fmt, ms.scale)} {ms.unit}"
-    verdict = _apart(mine, theirs, ms.sense)
-    if verdict:
-        return f"{what}: **holds** for {label} ({cells} for {reference}, intervals apart)."
-    worse = (a - b) * ms.sense < 0
-    return (f"{what}: **does not hold** for {label} ({cells} for {reference}"
-            f"{', worse' if worse else ', intervals overlap'}).")
+    verdict = {1: "**holds**", 0: "not shown (the intervals overlap)", -1: "**does not hold** (worse)",
+               None: "not shown (too few runs for intervals)"}[_side(mine, theirs, ms.sense)]
+    return f"{what}: {verdict} for {label} ({cells} for {reference})."
 
 
 def fusion_section(section, manifest: dict, summary: dict):
@@ -98,9 +95,10 @@ def fusion_section(section, manifest: dict, summary: dict):
             g = _mean(rec["metrics"][GOSPA.key])
             ratio = f"GOSPA {g / scored[best]:.2f}x the best single sensor's" if g else "GOSPA not measured"
             lines.append(f"- {label}: {ratio}. "
-                         + _claim("faster to a correct count", rec["metrics"][TIME_TO_COUNT.key],
+                         + _claim("Faster to a correct count", rec["metrics"][TIME_TO_COUNT.key],
                                   trackers[best]["metrics"][TIME_TO_COUNT.key], TIME_TO_COUNT, label, best) + " "
-                         + _claim("more undetected target-scans covered", rec["metrics"][UNDETECTED.key],
-                                  trackers[best]["metrics"][UNDETECTED.key], UNDETECTED, label, best))
+                         + _claim("More undetected target-scans covered (misses, occlusion)",
+                                  rec["metrics"][UNDETECTED.key], trackers[best]["metrics"][UNDETECTED.key],
+                                  UNDETECTED, label, best))
         section.text("\n".join(lines))
     return section

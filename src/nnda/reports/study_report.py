@@ -127,6 +127,11 @@ def _json_compact(value) -> str:
     return json.dumps(value, sort_keys=True, separators=(", ", ": "))
 
 
+def _per_sensor(value: int | list[int]) -> str:
+    """A number of the study manifest given per sensor for several sensors: "2 / 2"."""
+    return " / ".join(map(str, value)) if isinstance(value, list) else str(value)
+
+
 def _setup(manifest: dict, summary: dict, timing: dict) -> Section:
     study = manifest["study"]
     sec = Section("setup", "Setup", [], [])
@@ -141,7 +146,8 @@ def _setup(manifest: dict, summary: dict, timing: dict) -> Section:
         (t["label"], t["kind"], t["model"] or DASH, _json_compact(t["params"]) if t["params"] else "defaults")
         for t in manifest["trackers"])))
     sec.table(TextTable("Scenarios", ("Name", "Source", "Targets", "Scans", "Clutter per scan", "Runs"), tuple(
-        (s["name"], s["source"], ", ".join(s["targets"]), str(s["n_scans"]), str(s["clutter_per_scan"]), str(s["runs"]))
+        (s["name"], s["source"], ", ".join(s["targets"]), str(s["n_scans"]), _per_sensor(s["clutter_per_scan"]),
+         str(s["runs"]))
         for s in manifest["scenarios"])))
     if manifest["models"]:
         sec.table(TextTable("Model files", ("Label", "File", "SHA-256"), tuple(

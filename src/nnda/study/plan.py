@@ -135,6 +135,12 @@ class JobSpec:
         return f"jobs/{self.scenario}/{self.tracker}/run-{self.run:04d}.json"
 
 
+def _clutter_per_scan(scenario: Scenario) -> int | list[int]:
+    """The clutter points of a sweep (0 for law "none"): a number for one sensor, one per sensor for several."""
+    counts = [sn.clutter.count if sn.clutter.law != "none" else 0 for sn in scenario.sensors]
+    return counts[0] if len(counts) == 1 else counts
+
+
 @dataclass(frozen=True)
 class StudyPlan:
     """The checked study: scenarios, models, trackers and jobs (scenario, run, tracker order)."""
@@ -160,7 +166,7 @@ class StudyPlan:
             "study": self.study.model_dump(mode="json"),
             "scenarios": [{"name": s.name, "source": s.source, "runs": s.runs, "n_scans": s.scenario.n_scans,
                            "targets": [t.name for t in s.scenario.targets],
-                           "clutter_per_scan": s.scenario.clutter.count if s.scenario.clutter.law != "none" else 0,
+                           "clutter_per_scan": _clutter_per_scan(s.scenario),
                            "scenario": s.scenario.model_dump(mode="json")} for s in self.scenarios],
             "models": [{"label": m.label, "path": str(m.path), "sha256": m.sha256, "metadata": m.metadata}
                        for m in self.models],
