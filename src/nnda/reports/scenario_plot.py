@@ -12,6 +12,7 @@ import numpy as np  # noqa: E402
 from matplotlib.patches import Circle, Patch, Wedge  # noqa: E402
 
 from nnda.data.dataset import Dataset  # noqa: E402
+from nnda.data.occlusion import hidden  # noqa: E402
 from nnda.data.scenario import Sensor  # noqa: E402
 from nnda.files import atomic_file  # noqa: E402
 
@@ -46,6 +47,21 @@ def _outline(sensor: Sensor) -> np.ndarray:
     return np.stack([x, y])
 
 
+def hidden_from(dataset: Dataset) -> list[np.ndarray]:
+    """Per sensor, a mask of the truth rows (M,) of its sweeps in which a nearer, longer ship hides the
+    target from it (`nnda.data.occlusion`, on the true positions)."""
+    sc, truth = dataset.scenario, dataset.truth
+    lengths = np.array([t.length_m or 0.0 for t in sc.targets])[truth.target_id]
+    sweep = dataset.scan_sensor[truth.scan - 1]
+    out = []
+    for j, sensor in enumerate(sc.sensors):
+        rows = sweep == j
+        mask = np.zeros(truth.scan.size, bool)
+        mask[rows] = hidden(sensor.position, truth.scan[rows], truth.x[rows], truth.y[rows], lengths[rows])
+        out.append(mask)
+    return out
+
+
 def _timing(dataset: Dataset) -> str:
     sc = dataset.scenario
     if len(sc.sensors) == 1:
@@ -63,7 +79,9 @@ def plot_scenario(dataset: Dataset, out: str | Path, dpi: int = 120) -> Path:
     its position. With one sensor, grey dots are clutter of every scan and
     coloured dots each target's contacts (in the colour of its track); with
     several, dots take their sensor's colour (faint: clutter; solid: target
-    contacts) and tracks are black. Axes in km, x east, y north. The file
+    contacts) and tracks are black; black crosses (x, +, x, ... by sensor) mark a
+    true position hidden from that sensor by a longer ship (occlusion,
+    `nnda.data.occlusion`). Axes in km, x east, y north. The file
     appears whole or not at all (`nnda.files.atomic_file`; a full or
     read-only disk is an OutputError).
     """
@@ -99,6 +117,10 @@ def plot_scenario(dataset: Dataset, out: str | Path, dpi: int = 120) -> Path:
                 if several:
                     ax.annotate(target.name, (truth.x[first] * KM, truth.y[first] * KM), fontsize=8,
                                 xytext=(4, 4), textcoords="offset points")
+        for j, (where, c) in enumerate(zip(hidden_from(dataset), sensor_colour)):
+            if where.any():
+                ax.plot(truth.x[where] * KM, truth.y[where] * KM, "x+"[j % 2], color="k", ms=5, mew=1.0, zorder=5,
+                        label=f"hidden from {sc.sensors[j].name} by a longer ship ({int(where.sum())} scans)")
         for sensor, c in zip(sc.sensors, sensor_colour):
             for patch in coverage_patches(sensor, c):
                 ax.add_patch(patch)
