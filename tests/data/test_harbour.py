@@ -95,3 +95,14 @@ def test_a_hull_length_must_be_positive():
     data["targets"][0]["length_m"] = 0.0
     with pytest.raises(ConfigError, match=r"targets\.0\.length_m"):
         validated(Scenario, data, "harbour", "scenario")
+
+
+def test_a_radar_whose_sector_misses_every_ship_is_named():
+    from nnda.data.generator import check_scenario
+
+    sc = PRESETS["harbour"]
+    away = sc.model_copy(update={"sensors": (sc.sensors[0].model_copy(update={"boresight_deg": 124.0}),
+                                             sc.sensors[1])})
+    assert check_scenario(sc) == []
+    assert check_scenario(away) == ["scenario 'harbour': sensor 'radar1' sees no target at any of its sweeps (its "
+                                    "coverage misses every target): its scans hold clutter only"]

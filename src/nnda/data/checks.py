@@ -169,7 +169,8 @@ def _top_speed(target: Target) -> float:
 
 def target_warnings(scenario: Scenario, target_id: np.ndarray, sensor: np.ndarray, x: np.ndarray,
                     y: np.ndarray) -> list[str]:
-    """One line per implausible target of ``scenario``, naming it; empty when every target is plausible.
+    """One line per implausible target of ``scenario``, naming it, and per sensor of several that sees no
+    target at all; empty when everything is plausible.
 
     The arrays (M,) are the noise-free truth rows (`nnda.data.generator.Plan`):
     target index, index of the sensor sweeping the row's scan, position in m.
@@ -179,6 +180,10 @@ def target_warnings(scenario: Scenario, target_id: np.ndarray, sensor: np.ndarra
         rows = sensor == j
         covered[rows] = in_coverage(s, x[rows], y[rows])
     lines = []
+    for j, s in enumerate(scenario.sensors):
+        if len(scenario.sensors) > 1 and (sensor == j).any() and not covered[sensor == j].any():
+            lines.append(f"scenario {scenario.name!r}: sensor {s.name!r} sees no target at any of its sweeps "
+                         f"(its coverage misses every target): its scans hold clutter only")
     for tid, target in enumerate(scenario.targets):
         name = f"scenario {scenario.name!r}: target {target.name!r}"
         top = _top_speed(target)
