@@ -131,9 +131,10 @@ class FusionTracker:
         found[found] = self.known_keys[pos[found]] == keys[found]
         ids = np.full(n_groups, np.iinfo(np.int64).max)
         np.minimum.at(ids, groups[found], self.known_ids[pos[found]])
-        new = ids == np.iinfo(np.int64).max
-        new[np.setdiff1d(np.arange(n_groups), np.unique(ids, return_index=True)[1])] = True  # a split: the
-        ids[new] = np.arange(self.next_id, self.next_id + int(new.sum()))  # heaviest group keeps the id
+        first = np.zeros(n_groups, bool)
+        first[np.unique(ids, return_index=True)[1]] = True  # a split: the heaviest group keeps the id
+        new = (ids == np.iinfo(np.int64).max) | ~first
+        ids[new] = np.arange(self.next_id, self.next_id + int(new.sum()))
         self.next_id += int(new.sum())
         order = np.argsort(keys)
         self.known_keys, self.known_ids = keys[order], ids[groups][order]
