@@ -199,4 +199,5 @@ class AdditiveGaussianSSM:
         g = self.mean(x_prev)
         nu = self.y[:, None, k - 1].astype(g.dtype) - g @ self.H.T.astype(g.dtype)  # (R, N, m)
         mean = g + nu @ gain_t[:, k - 1].astype(g.dtype)
-        return GaussianProposal(mean, chol[:, k - 1], gaussian_log_density(nu, S_inv_t[:, k - 1], log_det_S[:, k - 1, None]))
+        log_predictive = gaussian_log_density(nu, S_inv_t[:, k - 1], log_det_S[:, k - 1, None])
+        return GaussianProposal(mean, chol[:, k - 1], log_predictive)
