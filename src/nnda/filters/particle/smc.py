@@ -51,7 +51,7 @@ import numpy as np
 
 from nnda.errors import FilterError
 from nnda.filters.particle.resampling import resampler
-from nnda.filters.particle.ssm import StateSpaceModel
+from nnda.filters.particle.ssm import StateSpaceModel, right
 
 #: the algorithms of `SMCConfig.algorithm`
 ALGORITHMS = ("bootstrap", "optimal", "auxiliary", "resample-move")
@@ -208,7 +208,7 @@ class _Filter:
     def _draw(self, mean: np.ndarray, chol: np.ndarray) -> np.ndarray:
         """mean + L e, e ~ N(0, I): mean (R, N, d), chol (R, d, d)."""
         noise = self.rng.standard_normal(mean.shape, dtype=mean.dtype)
-        return mean + noise @ chol.swapaxes(-1, -2).astype(mean.dtype)
+        return mean + noise @ right(chol.swapaxes(-1, -2), mean.dtype)
 
     def optimal(self, k: int) -> None:
         prop = self._proposal(k)

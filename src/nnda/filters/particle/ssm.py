@@ -69,10 +69,16 @@ class StateSpaceModel(Protocol):
     def log_likelihood(self, k: int, x: np.ndarray) -> np.ndarray: ...
 
 
+def right(a: np.ndarray, dtype: np.dtype | type) -> np.ndarray:
+    """``a`` as a C-contiguous array of ``dtype``: the right operand of a particles-times-small-matrix product
+    (numpy's matmul takes a slow path for a transposed or otherwise strided small matrix)."""
+    return np.ascontiguousarray(a, dtype=dtype)
+
+
 def gaussian_log_density(e: np.ndarray, inv_chol_t: np.ndarray, log_det: np.ndarray | float) -> np.ndarray:
     """log N(e; 0, C) (R, N) of residuals e (R, N, m) given L^-T (R, m, m) or (m, m), L the Cholesky factor
     of C, and log |C| broadcasting against (R, N) ((R, 1) or a scalar); float64."""
-    white = e @ inv_chol_t.astype(e.dtype, copy=False)
+    white = e @ right(inv_chol_t, e.dtype)
     d2 = np.einsum("...i,...i->...", white, white, dtype=np.float64)
     return -0.5 * (d2 + log_det + e.shape[-1] * LOG_2PI)
 
@@ -164,13 +170,13 @@ class AdditiveGaussianSSM:
             chol = np.linalg.cholesky(Sigma)
         except np.linalg.LinAlgError:
             raise FilterError("optimal proposal: Sigma_k is not positive definite") from None
-        return np.ascontiguousarray(gain.swapaxes(-1, -2)), chol, S_inv_t, log_det_S
+        return gain.swapaxes(-1, -2), chol, S_inv_t, log_det_S
 
     def sample_initial(self, n: int, rng: np.random.Generator, dtype: type = np.float64) -> np.ndarray:
         """n particles per run from N(m0, P0), (R, n, d) of ``dtype``."""
-        L = np.linalg.cholesky(self.P0).astype(dtype)
+        L = np.linalg.cholesky(self.P0)
         noise = rng.standard_normal((self.runs, n, self.dim), dtype=dtype)
-        return self.m0.astype(dtype) + noise @ L.T
+        return self.m0.astype(dtype) + noise @ right(L.T, dtype)
 
     def transition_mean(self, k: int, x: np.ndarray) -> np.ndarray:
         """g(x) (R, N, d)."""
@@ -179,7 +185,7 @@ class AdditiveGaussianSSM:
     def sample_transition(self, k: int, x: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """g(x) + w, w ~ N(0, Q), (R, N, d) in the dtype of x."""
         out = self.mean(x)
-        out += rng.standard_normal(x.shape, dtype=x.dtype) @ self._chol_Q.T.astype(x.dtype)
+        out += rng.standard_normal(x.shape, dtype=x.dtype) @ right(self._chol_Q.T, x.dtype)
         return out
 
     def transition_log_density(self, k: int, x_prev: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -190,14 +196,14 @@ class AdditiveGaussianSSM:
     def log_likelihood(self, k: int, x: np.ndarray) -> np.ndarray:
         """log N(y_k; H x, R_k) (R, N) of particles x (R, N, d)."""
         inv_t, log_det = self._R_white
-        e = self.y[:, None, k - 1].astype(x.dtype) - x @ self.H.T.astype(x.dtype)
+        e = self.y[:, None, k - 1].astype(x.dtype) - x @ right(self.H.T, x.dtype)
         return gaussian_log_density(e, inv_t[:, k - 1], log_det[:, k - 1, None])
 
     def optimal_proposal(self, k: int, x_prev: np.ndarray) -> GaussianProposal:
         """p(x_k | x_k-1, y_k) = N(m^(j), Sigma_k) and log p(y_k | x_k-1) for particles x_prev (R, N, d)."""
         gain_t, chol, S_inv_t, log_det_S = self._proposal_terms
         g = self.mean(x_prev)
-        nu = self.y[:, None, k - 1].astype(g.dtype) - g @ self.H.T.astype(g.dtype)  # (R, N, m)
-        mean = g + nu @ gain_t[:, k - 1].astype(g.dtype)
+        nu = self.y[:, None, k - 1].astype(g.dtype) - g @ right(self.H.T, g.dtype)  # (R, N, m)
+        mean = g + nu @ right(gain_t[:, k - 1], g.dtype)
         log_predictive = gaussian_log_density(nu, S_inv_t[:, k - 1], log_det_S[:, k - 1, None])
         return GaussianProposal(mean, chol[:, k - 1], log_predictive)
