@@ -25,7 +25,7 @@ from nnda.errors import NndaError
 from nnda.models.innovation import IMM_INNOVATION
 from nnda.peers import commands as peer_commands
 from nnda.reports import commands as report_commands
-from nnda.reports import model_commands
+from nnda.reports import model_commands, reentry_section
 from nnda.study.config import default_study, study_to_toml
 
 app = typer.Typer(
@@ -44,6 +44,7 @@ app.command("plot-scenario")(report_commands.plot_scenario)
 app.command("compare")(report_commands.compare)
 app.command("report")(report_commands.report)
 app.command("import-stonesoup")(peer_commands.import_stonesoup)
+app.command("reentry")(reentry_section.reentry)
 
 
 def demo(
