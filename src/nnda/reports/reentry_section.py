@@ -114,8 +114,10 @@ def reentry_section(section, results: dict):
         section.table(_accuracy(setting), f"reentry-{setting['name']}-accuracy")
         verdicts = [_verdict(c) for c in setting["comparisons"]
                     if c["a"].startswith("bootstrap@") and c["b"].startswith("optimal@")]
-        if verdicts:
-            section.text("\n".join(f"* {v}" for v in verdicts))
+        ranked = sorted(setting["filters"].items(), key=lambda item: item[1]["time_avg"]["position"])
+        verdicts.append("lowest time-averaged position RMSE: " + ", ".join(
+            f"{label} {f['time_avg']['position']:.1f} m" for label, f in ranked[:3]))
+        section.text("\n".join(f"* {v}" for v in verdicts))
         if setting["comparisons"]:
             section.table(_comparisons(setting, conf), f"reentry-{setting['name']}-pairs")
         profile = _profile(setting)
