@@ -200,6 +200,11 @@ class ReentryData:
         """K, the steps with a measurement."""
         return self.z.shape[1]
 
+    def take(self, index: slice) -> ReentryData:
+        """The runs ``index`` (a slice of the run axis), same settings."""
+        return ReentryData(self.truth[index], self.z[index], self.polar[index], self.cov[index],
+                           self.impact[index], self.config)
+
 
 def simulate(cfg: ReentryConfig, runs: int, seed: int | np.random.Generator) -> ReentryData:
     """``runs`` trajectories and their measurements (spec B.1-B.2), cut at the earliest ground impact.

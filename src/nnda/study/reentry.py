@@ -105,12 +105,6 @@ def _label(name: str, n: int | None) -> str:
     return name if n is None else f"{name}@{n}"
 
 
-def _runs(data: ReentryData, index: slice) -> ReentryData:
-    """The runs ``index`` of ``data``."""
-    return ReentryData(data.truth[index], data.z[index], data.polar[index], data.cov[index], data.impact[index],
-                       data.config)
-
-
 def _run_filter(name: str, n: int | None, data: ReentryData, cfg: ReentryStudyConfig,
                 seed: np.random.SeedSequence) -> tuple[np.ndarray, np.ndarray | None, float]:
     """Estimates (R, K, 4), the mean ESS trace (R, K) or None, and the seconds taken."""
@@ -123,7 +117,7 @@ def _run_filter(name: str, n: int | None, data: ReentryData, cfg: ReentryStudyCo
     rng = np.random.default_rng(seed)
     means, ess = [], []
     for start in range(0, data.z.shape[0], per_chunk):
-        out = run_smc(reentry_ssm(_runs(data, slice(start, start + per_chunk))), smc, rng)
+        out = run_smc(reentry_ssm(data.take(slice(start, start + per_chunk))), smc, rng)
         means.append(out.mean)
         ess.append(out.ess)
     return np.concatenate(means), np.concatenate(ess), time.perf_counter() - t0

@@ -14,7 +14,7 @@ Algorithms, step k (W the normalised weights of step k-1):
 - ``optimal``: x_k ~ p(x_k | x_k-1, y_k), w_k = W p(y_k | x_k-1) (spec B.3
   eqs. 16-22; the model's ``optimal_proposal``). ``resample_first`` resamples
   on these weights (which do not depend on x_k) before sampling, the other
-  ordering B.3 asks to offer.
+  ordering B.3 asks to offer; its estimate is the mean after sampling.
 - ``auxiliary`` (Pitt & Shephard; spec A.3(b)): first-stage weights lambda
   = p(y_k | mu^(j)) at a look-ahead point mu (``look_ahead``: "sample", a
   draw of the transition as the paper; "mean", the transition mean; or
@@ -51,7 +51,7 @@ import numpy as np
 
 from nnda.errors import FilterError
 from nnda.filters.particle.resampling import resampler
-from nnda.filters.particle.ssm import StateSpaceModel, right
+from nnda.filters.particle.ssm import GaussianProposal, StateSpaceModel, right
 
 #: the algorithms of `SMCConfig.algorithm`
 ALGORITHMS = ("bootstrap", "optimal", "auxiliary", "resample-move")
@@ -222,7 +222,7 @@ class _Filter:
             self.x = self._draw(prop.mean, prop.chol)
             self._estimate_and_select(k)
 
-    def _proposal(self, k: int):
+    def _proposal(self, k: int) -> GaussianProposal:
         proposal = getattr(self.model, "optimal_proposal", None)
         if proposal is None:
             raise FilterError(f"{self.cfg.algorithm}: the model {type(self.model).__name__} has no optimal proposal")
