@@ -40,13 +40,17 @@ def _accuracy(setting: dict) -> TextTable:
     for label, f in setting["filters"].items():
         avg, fin, ess = f["time_avg"], f["final"], f.get("ess")
         rows.append((label, _m(avg["x"]), _m(fin["x"]), _m(avg["y"]), _m(fin["y"]), _m(avg["vx"]), _m(avg["vy"]),
-                     _m(avg["position"]), _m(fin["position"]), DASH if ess is None else f"{ess['mean']:.0f}",
+                     _m(avg["position"]), _m(fin["position"]), _m(f["median_run_position"]),
+                     _m(f["worst_final_position"]), DASH if ess is None else f"{ess['mean']:.0f}",
                      DASH if ess is None else f"{ess['min']:.0f}", f"{f['runtime_s']:.2f}"))
     return TextTable(f"{setting['name']}: accuracy over {setting['runs']} runs of {setting['steps']} steps",
                      ("Filter", "x avg (m)", "x final (m)", "y avg (m)", "y final (m)", "vx avg (m/s)",
-                      "vy avg (m/s)", "pos avg (m)", "pos final (m)", "mean ESS", "min ESS", "time (s)"),
+                      "vy avg (m/s)", "pos avg (m)", "pos final (m)", "median run (m)", "worst final (m)", "mean ESS",
+                      "min ESS", "time (s)"),
                      tuple(rows), "RMSE over runs; avg = mean of the per-step RMSE over the steps, final = the last "
-                     "step; pos = sqrt(ex^2 + ey^2); filter@N = N particles.")
+                     "step; pos = sqrt(ex^2 + ey^2); median run = the median over runs of a run's time-averaged "
+                     "position error; worst final = the largest final-step position error of a run; filter@N = N "
+                     "particles.")
 
 
 def _comparisons(setting: dict, confidence: float) -> TextTable:

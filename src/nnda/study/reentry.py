@@ -124,18 +124,22 @@ def _run_filter(name: str, n: int | None, data: ReentryData, cfg: ReentryStudyCo
 
 
 def _scores(mean: np.ndarray, truth: np.ndarray) -> dict:
-    """RMSE per step, time-averaged and final per component; per-run position errors."""
+    """RMSE per step, time-averaged and final per component; per-run position errors (time-averaged and
+    final), their median and the worst final one (a diverged run shows there)."""
     err = mean - truth[:, 1:]
     rmse = np.sqrt((err**2).mean(axis=0))  # (K, 4)
     pos2 = err[..., 0] ** 2 + err[..., 2] ** 2  # (R, K)
     position = np.sqrt(pos2.mean(axis=0))
+    per_run, final = np.sqrt(pos2.mean(axis=1)), np.sqrt(pos2[:, -1])
     return {
         "rmse": {c: rmse[:, i].tolist() for i, c in enumerate(COMPONENTS)} | {"position": position.tolist()},
         "time_avg": {c: float(rmse[:, i].mean()) for i, c in enumerate(COMPONENTS)} | {
             "position": float(position.mean())},
         "final": {c: float(rmse[-1, i]) for i, c in enumerate(COMPONENTS)} | {"position": float(position[-1])},
-        "per_run_position": np.sqrt(pos2.mean(axis=1)).tolist(),
-        "per_run_final_position": np.sqrt(pos2[:, -1]).tolist(),
+        "per_run_position": per_run.tolist(),
+        "per_run_final_position": final.tolist(),
+        "median_run_position": float(np.median(per_run)),
+        "worst_final_position": float(final.max()),
     }
 
 
