@@ -6,6 +6,7 @@ All work on the R runs of a `nnda.data.reentry.ReentryData` at once:
     est = ekf(data)                              # est.mean (R, K, 4), est.cov (R, K, 4, 4), est.log_likelihood (R,)
     est = ukf(data, UnscentedTransform())        # unscented prediction through g
     est = converted_kf(data, sigma_w=30.0)       # linear KF: constant velocity + gravity, drag unknown
+    est = ekf(data, update=False)                # the prior alone, predicted (no measurement used)
 
 Every baseline starts from N(m0, Sigma0), predicts with the model's g and
 Q (EKF: linearised, eq. 4.39 with the Jacobian of g; UKF: sigma points
@@ -62,8 +63,9 @@ class GaussianEstimates:
     log_likelihood: np.ndarray
 
 
-def _filter(data: ReentryData, predict: Predict) -> GaussianEstimates:
-    """Run predict / linear update over the steps of every run; ``predict`` maps (x (R, 4), P (R, 4, 4))."""
+def _filter(data: ReentryData, predict: Predict, update: bool = True) -> GaussianEstimates:
+    """Run predict / linear update over the steps of every run; ``predict`` maps (x (R, 4), P (R, 4, 4));
+    without ``update`` the measurements only enter the log-likelihood (the prior's predictions)."""
     m0, P0 = initial_distribution(data.config)
     R, K = data.z.shape[:2]
     x, P = np.tile(m0, (R, 1)), np.tile(P0, (R, 1, 1))
@@ -75,20 +77,22 @@ def _filter(data: ReentryData, predict: Predict) -> GaussianEstimates:
         mp = kalman.measurement_prediction(x @ H.T, H @ PHt + data.cov[:, k], Hs, PHt)
         nu = data.z[:, k] - mp.z
         ll += kalman.gaussian_log_likelihood(kalman.mahalanobis_2x2(nu, mp.S_inv), mp.log_det_S)
-        x, P = kalman.correct(x, P, nu, mp)
+        if update:
+            x, P = kalman.correct(x, P, nu, mp)
         mean[:, k], cov[:, k] = x, P
     return GaussianEstimates(mean, cov, ll)
 
 
-def ekf(data: ReentryData) -> GaussianEstimates:
-    """Extended Kalman filter: x' = g(x), P' = J P J^T + Q with J = dg/ds at x."""
+def ekf(data: ReentryData, update: bool = True) -> GaussianEstimates:
+    """Extended Kalman filter: x' = g(x), P' = J P J^T + Q with J = dg/ds at x. Without ``update``, the
+    prior alone (m0, Sigma0 predicted to every step; spec B.5's "prior only" reference)."""
     cfg = data.config
     Q = process_noise(cfg)
 
     def predict(x, P):
         return transition_mean(x, cfg), kalman.propagate_covariance(transition_jacobian(x, cfg), P, Q)
 
-    return _filter(data, predict)
+    return _filter(data, predict, update)
 
 
 def ukf(data: ReentryData, transform: UnscentedTransform = UnscentedTransform()) -> GaussianEstimates:

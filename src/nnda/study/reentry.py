@@ -41,7 +41,9 @@ RESULTS_FILE = "results.json"
 #: the particle filters and the Gaussian baselines a setting may run
 PARTICLE_FILTERS = ("bootstrap", "optimal", "auxiliary", "resample-move")
 BASELINES = ("ekf", "ukf", "converted-kf")
-FILTER_NAMES = PARTICLE_FILTERS + BASELINES
+#: the prior alone (m0, Sigma0 predicted, no measurement): the reference of spec B.6's "below 0.35 x prior only"
+PRIOR = "prior"
+FILTER_NAMES = PARTICLE_FILTERS + BASELINES + (PRIOR,)
 #: the state components scored, in state order
 COMPONENTS = ("x", "vx", "y", "vy")
 #: resamples of the paired bootstrap interval of an RMSE ratio
@@ -109,8 +111,9 @@ def _run_filter(name: str, n: int | None, data: ReentryData, cfg: ReentryStudyCo
                 seed: np.random.SeedSequence) -> tuple[np.ndarray, np.ndarray | None, float]:
     """Estimates (R, K, 4), the mean ESS trace (R, K) or None, and the seconds taken."""
     t0 = time.perf_counter()
-    if name in BASELINES:
-        est = {"ekf": ekf, "ukf": ukf, "converted-kf": lambda d: converted_kf(d, cfg.converted_kf_sigma_w)}[name](data)
+    if name in BASELINES + (PRIOR,):
+        est = {"ekf": ekf, "ukf": ukf, "converted-kf": lambda d: converted_kf(d, cfg.converted_kf_sigma_w),
+               PRIOR: lambda d: ekf(d, update=False)}[name](data)
         return est.mean, None, time.perf_counter() - t0
     smc = SMCConfig(name, n, resampling=cfg.resampling, ess_threshold=cfg.ess_threshold)
     per_chunk = max(1, cfg.chunk_particles // n)
