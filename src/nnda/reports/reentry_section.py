@@ -80,8 +80,9 @@ def _profile(setting: dict) -> TextTable | None:
                      tuple(rows))
 
 
-def _verdict(c: dict) -> str:
-    """One sentence on bootstrap (a) vs optimal (b) from the ratio's interval and the final-step difference."""
+def _verdict(c: dict, filters: dict) -> str:
+    """One sentence on bootstrap (a) vs optimal (b) from the ratio's interval, the final-step difference, the
+    runs won and the worst runs (``filters`` the setting's scores)."""
     r = c["ratio"]
     ratio = interval(r["mean"], r["ci_low"], r["ci_high"], "{:.3f}")
     final = c["final_difference"]
@@ -100,7 +101,9 @@ def _verdict(c: dict) -> str:
         head = f"**no difference shown** at {c['b'].split('@')[1]} particles: RMSE ratio {ratio} includes 1"
     runs = (f"by runs, the optimal filter wins {c['b_better']:.0%} (sign test p = {c['sign_test_p']:.2g}, median "
             f"per-run gain {c['median_difference']:.1f} m)")
-    return f"{head}; {final_text}; {runs}."
+    worst = (f"worst final-step error {filters[c['a']]['worst_final_position']:.0f} m (bootstrap) vs "
+             f"{filters[c['b']]['worst_final_position']:.0f} m (optimal)")
+    return f"{head}; {final_text}; {runs}; {worst}."
 
 
 def reentry_section(section, results: dict):
@@ -117,7 +120,7 @@ def reentry_section(section, results: dict):
         section.text(f"**{setting['name']}**: sigma_r {setting['sigma_r']:g} m, sigma_eps {setting['sigma_eps']:g} "
                      f"rad, {setting['runs']} runs of {setting['steps']} steps.")
         section.table(_accuracy(setting), f"reentry-{setting['name']}-accuracy")
-        verdicts = [_verdict(c) for c in setting["comparisons"]
+        verdicts = [_verdict(c, setting["filters"]) for c in setting["comparisons"]
                     if c["a"].startswith("bootstrap@") and c["b"].startswith("optimal@")]
         ranked = sorted(setting["filters"].items(), key=lambda item: item[1]["time_avg"]["position"])
         verdicts.append("lowest time-averaged position RMSE: " + ", ".join(
