@@ -3,7 +3,10 @@
 Modules: ``motion`` (CV and CT motion models), ``measurement`` (polar and
 Cartesian measurement models), ``kalman`` (the batched KF/EKF steps),
 ``two_point`` (a CV start from two fixes), ``imm`` (the interacting multiple
-model over the motion models) and ``batch`` (records of per-object arrays).
+model over the motion models), ``batch`` (records of per-object arrays),
+``particle`` (the particle engine: resampling, state-space models, SMC) and
+``reentry`` (the seed-004 re-entry model's particle-filter model and its
+EKF/UKF/converted-KF baselines).
 Nothing is imported here, so ``import nnda.filters.kalman`` loads neither
 pyarrow nor the trackers.
 """

@@ -316,8 +316,13 @@ def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
             lambda *made: _kept(Figure(*made), figures)))
 
     title = f"nnda study report: {manifest['study']['name']}"
+    return markdown_page(title, sections), html_page(title, sections), figures
+
+
+def markdown_page(title: str, sections: list[Section]) -> str:
+    """A whole Markdown page: the title and each section under its heading."""
     md = "\n".join([f"# {title}", ""] + [line for s in sections for line in [f"## {s.title}", "", *s.md]])
-    return md.rstrip() + "\n", _page(title, sections), figures
+    return md.rstrip() + "\n"
 
 
 _CSS = """
@@ -337,7 +342,8 @@ code { background: #f3f3f3; padding: 0 .2em; }
 """
 
 
-def _page(title: str, sections: list[Section]) -> str:
+def html_page(title: str, sections: list[Section]) -> str:
+    """A whole HTML page: the title, a navigation line and the sections (also the re-entry report's page)."""
     nav = " ".join(f'<a href="#{s.ident}">{html.escape(s.title)}</a>' for s in sections)
     body = "".join(f'<section id="{s.ident}"><h2>{html.escape(s.title)}</h2>{"".join(s.html)}</section>'
                    for s in sections)

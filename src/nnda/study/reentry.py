@@ -1,0 +1,219 @@
+"""The ballistic re-entry filter study of seed 004: every filter on the same Monte Carlo runs, with intervals.
+
+A study is a list of settings (a sensor, the particle counts, the filters);
+each setting simulates ``runs`` re-entry runs once (`nnda.data.reentry`,
+the same seed for every setting, so the truths are shared and only the
+sensor noise differs) and runs every filter on them, batched over runs
+(`nnda.filters.particle.smc.run_smc`, `nnda.filters.reentry`):
+
+    cfg = ReentryStudyConfig()              # the paper's setting, the particle sweep, the precise sensor
+    results = run_reentry_study(cfg)        # a JSON-ready dict (RESULTS_FORMAT, version 1)
+
+(`nnda reentry`, in `nnda.reports.reentry_section`, writes it and its report atomically.)
+
+Per filter: the RMSE of x, y, vx and vy over runs at every step, its time
+average (the mean of the per-step RMSE over k = 1..K, as spec B.5) and its
+final value; the per-run position error (root mean over steps of ex^2 +
+ey^2) and final position error, on which the paired comparisons rest;
+the mean ESS per step and the runtime. A comparison pairs two filters on
+the same runs: the mean per-run difference of position error with its
+t-interval, the share of runs the second filter wins, and the ratio of
+time-averaged position RMSE with a paired bootstrap interval over runs.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+from scipy.stats import binomtest
+
+from nnda.data.reentry import ReentryConfig, ReentryData, simulate
+from nnda.filters.particle.smc import SMCConfig, run_smc
+from nnda.filters.reentry import converted_kf, ekf, reentry_ssm, ukf
+from nnda.study.results import mean_ci
+
+RESULTS_FORMAT = "nnda-reentry-study"
+RESULTS_VERSION = 1
+RESULTS_FILE = "results.json"
+#: the particle filters and the Gaussian baselines a setting may run
+PARTICLE_FILTERS = ("bootstrap", "optimal", "auxiliary", "resample-move")
+BASELINES = ("ekf", "ukf", "converted-kf")
+#: the prior alone (m0, Sigma0 predicted, no measurement): the reference of spec B.6's "below 0.35 x prior only"
+PRIOR = "prior"
+FILTER_NAMES = PARTICLE_FILTERS + BASELINES + (PRIOR,)
+#: the state components scored, in state order
+COMPONENTS = ("x", "vx", "y", "vy")
+#: resamples of the paired bootstrap interval of an RMSE ratio
+BOOTSTRAP_RESAMPLES = 2000
+
+_STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+class ReentrySetting(BaseModel):
+    """One sensor and what runs on it: ``sigma_r`` (m), ``sigma_eps`` (rad), ``particles`` (each particle
+    filter runs at every count), ``filters`` (names of FILTER_NAMES)."""
+
+    model_config = _STRICT
+
+    name: str = Field(min_length=1)
+    sigma_r: float = Field(gt=0)
+    sigma_eps: float = Field(gt=0)
+    particles: tuple[int, ...] = (4000,)
+    filters: tuple[str, ...] = FILTER_NAMES
+
+    @model_validator(mode="after")
+    def _check(self) -> ReentrySetting:
+        unknown = [f for f in self.filters if f not in FILTER_NAMES]
+        if unknown:
+            raise ValueError(f"unknown filter(s) {unknown}; choose from {', '.join(FILTER_NAMES)}")
+        if any(n < 1 for n in self.particles):
+            raise ValueError(f"particles: every count must be >= 1, got {list(self.particles)}")
+        return self
+
+
+#: the paper's Monte Carlo setting (spec B.4), the particle sweep on the same data, the precise sensor (B.5)
+DEFAULT_SETTINGS = (
+    ReentrySetting(name="paper", sigma_r=200.0, sigma_eps=0.017, particles=(4000,)),
+    ReentrySetting(name="sweep", sigma_r=200.0, sigma_eps=0.017, particles=(1000, 20000),
+                   filters=("bootstrap", "optimal")),
+    ReentrySetting(name="precise", sigma_r=5.0, sigma_eps=0.0005, particles=(1000,)),
+)
+
+
+class ReentryStudyConfig(BaseModel):
+    """The study: ``runs`` Monte Carlo runs of ``steps`` steps (cut at ground impact), ``seed``, the data
+    ``mode``, the settings, the particle filters' ``resampling`` and ``ess_threshold`` (None: every step, the
+    paper), the converted KF's process noise ``converted_kf_sigma_w`` (m s^-3/2), ``chunk_particles`` (runs
+    x particles filtered at once; bounds memory) and the intervals' ``confidence``."""
+
+    model_config = _STRICT
+
+    runs: int = Field(100, ge=1)
+    steps: int = Field(55, ge=1)
+    seed: int = Field(0, ge=0)
+    mode: Literal["polar", "gaussian"] = "polar"
+    settings: tuple[ReentrySetting, ...] = DEFAULT_SETTINGS
+    resampling: str = "multinomial"
+    ess_threshold: float | None = Field(None, gt=0, le=1)
+    converted_kf_sigma_w: float = Field(30.0, ge=0)
+    chunk_particles: int = Field(1_000_000, ge=1)
+    confidence: float = Field(0.95, gt=0, lt=1)
+
+
+def _label(name: str, n: int | None) -> str:
+    return name if n is None else f"{name}@{n}"
+
+
+def _run_filter(name: str, n: int | None, data: ReentryData, cfg: ReentryStudyConfig,
+                seed: np.random.SeedSequence) -> tuple[np.ndarray, np.ndarray | None, float]:
+    """Estimates (R, K, 4), the mean ESS trace (R, K) or None, and the seconds taken."""
+    t0 = time.perf_counter()
+    if name in BASELINES + (PRIOR,):
+        est = {"ekf": ekf, "ukf": ukf, "converted-kf": lambda d: converted_kf(d, cfg.converted_kf_sigma_w),
+               PRIOR: lambda d: ekf(d, update=False)}[name](data)
+        return est.mean, None, time.perf_counter() - t0
+    smc = SMCConfig(name, n, resampling=cfg.resampling, ess_threshold=cfg.ess_threshold)
+    per_chunk = max(1, cfg.chunk_particles // n)
+    rng = np.random.default_rng(seed)
+    means, ess = [], []
+    for start in range(0, data.z.shape[0], per_chunk):
+        out = run_smc(reentry_ssm(data.take(slice(start, start + per_chunk))), smc, rng)
+        means.append(out.mean)
+        ess.append(out.ess)
+    return np.concatenate(means), np.concatenate(ess), time.perf_counter() - t0
+
+
+def _scores(mean: np.ndarray, truth: np.ndarray) -> dict:
+    """RMSE per step, time-averaged and final per component; per-run position errors (time-averaged and
+    final), their median and the worst final one (a diverged run shows there)."""
+    err = mean - truth[:, 1:]
+    rmse = np.sqrt((err**2).mean(axis=0))  # (K, 4)
+    pos2 = err[..., 0] ** 2 + err[..., 2] ** 2  # (R, K)
+    position = np.sqrt(pos2.mean(axis=0))
+    per_run, final = np.sqrt(pos2.mean(axis=1)), np.sqrt(pos2[:, -1])
+    return {
+        "rmse": {c: rmse[:, i].tolist() for i, c in enumerate(COMPONENTS)} | {"position": position.tolist()},
+        "time_avg": {c: float(rmse[:, i].mean()) for i, c in enumerate(COMPONENTS)} | {
+            "position": float(position.mean())},
+        "final": {c: float(rmse[-1, i]) for i, c in enumerate(COMPONENTS)} | {"position": float(position[-1])},
+        "per_run_position": per_run.tolist(),
+        "per_run_final_position": final.tolist(),
+        "median_run_position": float(np.median(per_run)),
+        "worst_final_position": float(final.max()),
+    }
+
+
+def _ratio_interval(num: np.ndarray, den: np.ndarray, confidence: float, seed: int) -> tuple[float, float]:
+    """Paired bootstrap interval over runs of the ratio of time-averaged position RMSE; num, den (R, K) the
+    squared position errors of the two filters."""
+    rng = np.random.default_rng(seed)
+    R = num.shape[0]
+    idx = rng.integers(0, R, size=(BOOTSTRAP_RESAMPLES, R))
+    ratio = np.sqrt(num[idx].mean(axis=1)).mean(axis=1) / np.sqrt(den[idx].mean(axis=1)).mean(axis=1)
+    tail = (1 - confidence) / 2
+    return float(np.quantile(ratio, tail)), float(np.quantile(ratio, 1 - tail))
+
+
+def compare(a: str, b: str, errors: dict[str, np.ndarray], scores: dict[str, dict], confidence: float,
+            seed: int) -> dict:
+    """Filter ``a`` against ``b`` on the same runs: per-run differences a - b of position error (time-averaged
+    and final) with t-intervals and their median, the share of runs b wins with the two-sided sign test's p
+    (robust to the few runs that dominate an RMSE), and the RMSE ratio a / b with a bootstrap interval."""
+    da = np.array(scores[a]["per_run_position"]) - np.array(scores[b]["per_run_position"])
+    df = np.array(scores[a]["per_run_final_position"]) - np.array(scores[b]["per_run_final_position"])
+    low, high = _ratio_interval(errors[a], errors[b], confidence, seed)
+    ratio = scores[a]["time_avg"]["position"] / scores[b]["time_avg"]["position"]
+    wins, ties = int((da > 0).sum()), int((da == 0).sum())
+    sign_p = float(binomtest(wins, da.size - ties).pvalue) if da.size > ties else 1.0
+    return {"a": a, "b": b, "difference": mean_ci(da, confidence), "final_difference": mean_ci(df, confidence),
+            "median_difference": float(np.median(da)), "b_better": float((da > 0).mean()), "sign_test_p": sign_p,
+            "ratio": {"mean": ratio, "ci_low": low, "ci_high": high}}
+
+
+def _pairs(labels: list[str]) -> list[tuple[str, str]]:
+    """The comparisons of a setting: at each particle count, bootstrap against each other particle filter;
+    the Gaussian baselines against the largest-count optimal filter (or bootstrap)."""
+    pairs = []
+    counts = sorted({int(label.split("@")[1]) for label in labels if "@" in label})
+    for n in counts:
+        pairs += [(f"bootstrap@{n}", f"{f}@{n}") for f in PARTICLE_FILTERS[1:]
+                  if f"bootstrap@{n}" in labels and f"{f}@{n}" in labels]
+    best = next((f"{f}@{counts[-1]}" for f in ("optimal", "bootstrap") if counts and f"{f}@{counts[-1]}" in labels),
+                None)
+    if best is not None:
+        pairs += [(best, b) for b in BASELINES if b in labels]
+    return pairs
+
+
+def run_setting(setting: ReentrySetting, cfg: ReentryStudyConfig, index: int) -> dict:
+    """Simulate the setting's runs and score every filter on them."""
+    data = simulate(ReentryConfig(sigma_r=setting.sigma_r, sigma_eps=setting.sigma_eps, steps=cfg.steps,
+                                  mode=cfg.mode), cfg.runs, cfg.seed)
+    filters, errors = {}, {}
+    for fi, name in enumerate(setting.filters):
+        for n in (setting.particles if name in PARTICLE_FILTERS else (None,)):
+            label = _label(name, n)
+            mean, ess, seconds = _run_filter(name, n, data, cfg, np.random.SeedSequence([cfg.seed, index, fi, n or 0]))
+            entry = {"filter": name, "particles": n, "runtime_s": seconds} | _scores(mean, data.truth)
+            if ess is not None:
+                entry["ess_mean"] = ess.mean(axis=0).tolist()
+                entry["ess"] = {"mean": float(ess.mean()), "min": float(ess.min())}
+            filters[label] = entry
+            err = mean - data.truth[:, 1:]
+            errors[label] = err[..., 0] ** 2 + err[..., 2] ** 2
+    comparisons = [compare(a, b, errors, filters, cfg.confidence, cfg.seed + i)
+                   for i, (a, b) in enumerate(_pairs(list(filters)))]
+    return {"name": setting.name, "sigma_r": setting.sigma_r, "sigma_eps": setting.sigma_eps,
+            "runs": cfg.runs, "steps": data.steps, "impact_steps": sorted(set(data.impact.tolist()) - {0}),
+            "filters": filters, "comparisons": comparisons}
+
+
+def run_reentry_study(cfg: ReentryStudyConfig) -> dict:
+    """Every setting of ``cfg``; the results document (format RESULTS_FORMAT)."""
+    t0 = time.perf_counter()
+    settings = [run_setting(s, cfg, i) for i, s in enumerate(cfg.settings)]
+    return {"format": RESULTS_FORMAT, "version": RESULTS_VERSION, "config": cfg.model_dump(mode="json"),
+            "settings": settings, "runtime_s": time.perf_counter() - t0}
