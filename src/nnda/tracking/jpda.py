@@ -74,7 +74,7 @@ from nnda.filters.imm import IMMPrediction, IMMState
 from nnda.filters.kalman import GATE_99
 from nnda.filters.measurement import MeasurementModel
 from nnda.tracking.clutter_density import local_density, measurement_volume
-from nnda.tracking.gating import gate
+from nnda.tracking.gating import gate_tracks
 from nnda.tracking.marginals import jpda_marginals, log_miss_weight, runs
 from nnda.tracking.output import NO_CONTACT, TrackStatus
 from nnda.tracking.tracker import (
@@ -203,7 +203,7 @@ class JPDATracker(SingleHypothesisTracker):
         imm, z = scan.filter, scan.z
         if not len(z):
             return Association(contact, state)
-        g = gate(imm, imm.combined_measurement(pred), z, scan.xy, cfg.gate)
+        g = gate_tracks(imm, pred, z, scan.xy, cfg.gate)[1]
         near = np.zeros(len(z), bool)
         near[g.cols] = True
         near = np.flatnonzero(near)  # the contacts in some gate

@@ -10,6 +10,14 @@
   life (§4.4): confirmed at the M-th detection, deleted at the (N-M+1)-th
   miss. Confirmed tracks are deleted when their consecutive misses exceed
   ``max_misses`` (§4.5 and A14: survive 3, delete at the 4th).
+* Sanity deletion (issue 21; every contact tracker, whatever its
+  confirmation rule): a live track is deleted when its reported state is
+  impossible: faster than ``max_speed_m_s``, outside every sensor's
+  coverage by more than its gate (`outside_coverage_m` against
+  `gate_radius_m`), or with a position standard deviation (the largest
+  axis of its position covariance) beyond ``max_position_sd_m``.
+  `sanity_reasons` gives each track's reason; the trackers count their
+  deletions by reason (`DELETION_REASONS`) in ``tracker.deletions``.
 """
 
 from __future__ import annotations
@@ -20,6 +28,8 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 from scipy.spatial import cKDTree
 
+from nnda.data.scenario import Sensor
+from nnda.data.sensor import cart_to_polar_at, wrap_angle
 from nnda.tracking.output import CONFIRMED, DELETED, PRELIMINARY
 
 #: beyond this many initiator-contact pairs in the x bands, k-d trees find the pairs faster
@@ -44,6 +54,13 @@ class LifecycleConfig(BaseModel):
         "it, a scan opens only as many new tracks as there is room for, those whose implied speed is "
         "nearest the window's middle, with a BoundWarning. Bounds memory and time when clutter is far "
         "denser than the window was made for")] = 10_000
+    max_speed_m_s: Annotated[float | None, Field(
+        gt=0, description="delete a track whose estimated speed exceeds this (m/s; None: no limit)")] = 1_000.0
+    max_position_sd_m: Annotated[float | None, Field(
+        gt=0, description="delete a track whose position standard deviation (largest axis of its position "
+        "covariance) exceeds this (m; None: no limit)")] = 2_000.0
+    coverage_deletion: bool = Field(True, description="delete a track outside every sensor's coverage by more "
+                                    "than its gate")
 
     @model_validator(mode="after")
     def _order(self) -> LifecycleConfig:
@@ -57,6 +74,61 @@ class LifecycleConfig(BaseModel):
         """(D_min, D_max) in m for the initiation annulus (§4.2)."""
         return (max(0.0, self.v_min * scan_period - 3 * sigma_range),
                 self.v_max * scan_period + 3 * sigma_range)
+
+
+#: why a track was deleted, the keys of ``tracker.deletions``: its confirmation test failed (a preliminary
+#: track), its misses (M/N) or its score (score rule) ended a confirmed track, or a sanity rule
+DELETION_REASONS = ("unconfirmed", "misses", "score", "speed", "coverage", "covariance")
+#: codes of `sanity_reasons`: 0 sane, else 1 + the index of the reason in SANITY_REASONS
+SANITY_REASONS = ("speed", "coverage", "covariance")
+
+
+def position_sd(P: np.ndarray) -> np.ndarray:
+    """Standard deviation (m) along the largest axis of the position covariance of states' covariances
+    P (K, 4, 4) ([x, vx, y, vy]). Returns (K,)."""
+    a, b, c = P[:, 0, 0], P[:, 0, 2], P[:, 2, 2]
+    return np.sqrt(np.maximum(0.5 * (a + c) + np.hypot(0.5 * (a - c), b), 0.0))
+
+
+def outside_coverage_m(sensor: Sensor, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """How far (m) positions (x, y) in m lie outside ``sensor``'s coverage (0 inside): the range beyond
+    its range limits and, for a sector, the cross-range distance beyond its edges, combined."""
+    r, azimuth = cart_to_polar_at(sensor.position, x, y)
+    along = np.maximum(np.maximum(sensor.min_range_m - r, r - sensor.max_range_m), 0.0)
+    if sensor.full_circle:
+        return along
+    beyond = np.maximum(np.abs(wrap_angle(azimuth - sensor.boresight_rad)) - sensor.half_fov_rad, 0.0)
+    return np.hypot(along, r * np.sin(np.minimum(beyond, 0.5 * np.pi)))
+
+
+def gate_radius_m(P: np.ndarray, noise_m: float, gate: float) -> np.ndarray:
+    """Radius (m) of a chi-square ``gate`` around states of covariance P (K, 4, 4): sqrt(gate) times the
+    largest position standard deviation combined with the measurement noise ``noise_m`` (m)."""
+    return np.sqrt(gate * (position_sd(P) ** 2 + noise_m**2))
+
+
+def sanity_reasons(x: np.ndarray, P: np.ndarray, sensors: tuple[Sensor, ...], gate: float,
+                   cfg: LifecycleConfig) -> np.ndarray:
+    """Which of K track states x (K, 4), P (K, 4, 4) are impossible, and why: (K,) int8 codes, 0 for a
+    sane track, else 1 + the index in SANITY_REASONS of the first rule it breaks (module docstring).
+    ``gate`` is the tracker's chi-square gate (2 dof) for the coverage rule."""
+    code = np.zeros(len(x), np.int8)
+    if not len(x):
+        return code
+    if cfg.coverage_deletion:
+        noise = min(sensor_noise_m(s) for s in sensors)
+        outside = np.min([outside_coverage_m(s, x[:, 0], x[:, 2]) for s in sensors], axis=0)
+        code[outside > gate_radius_m(P, noise, gate)] = 2
+    if cfg.max_position_sd_m is not None:
+        code[(code == 0) & (position_sd(P) > cfg.max_position_sd_m)] = 3
+    if cfg.max_speed_m_s is not None:
+        code[np.hypot(x[:, 1], x[:, 3]) > cfg.max_speed_m_s] = 1
+    return code
+
+
+def sensor_noise_m(sensor: Sensor) -> float:
+    """The sensor's noise along a distance (m): range noise (polar), or position noise."""
+    return sensor.sigma_range_m if sensor.kind == "polar" else sensor.sigma_position_m
 
 
 def window_pairs(initiators: np.ndarray, contacts: np.ndarray, d_min: float, d_max: float

@@ -56,10 +56,13 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from nnda.data.dataset import Scan
+from nnda.filters import kalman
 from nnda.filters.batch import Batch
 from nnda.filters.kalman import GATE_99
 from nnda.tracking.clutter_density import local_density
 from nnda.tracking.gating import gate
+from nnda.tracking.lifecycle import SANITY_REASONS, sanity_reasons
+from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts, TrackerConfig, Tracks
 
@@ -164,8 +167,8 @@ class MHTTracker(ContactTracker):
         contact = np.full(L, NO_CONTACT, np.int64)
         score = miss_score
         if len(z):
-            mp = imm.combined_measurement(pred)
-            gated = gate(imm, mp, z, xy, cfg.gate)
+            mp = kalman.predict_measurement(x_pred, P_pred, imm.measurement)  # the combined measurement
+            gated = gate(imm, mp, z, xy, cfg.gate, (x_pred, P_pred))
             pl, pj = gated.rows, gated.cols
             if pl.size:
                 ll = imm.pair_log_likelihood(pred, pl, z[pj])
@@ -184,7 +187,7 @@ class MHTTracker(ContactTracker):
         children = tr.take(parent)
         filt = children.filt
         if dp.size:
-            updated = imm.update(pred.take(dp), z[dc])
+            updated = linearised_update(imm, pred.take(dp), z[dc], np.ones(dp.size, bool))
             filt = type(filt).concat([filt.take(~detected), updated])  # misses come first
         tracks = children.after_scan(contact, filt, z, xy, time, cfg.lifecycle,
                                      None if observed is None else observed[parent])
@@ -198,8 +201,30 @@ class MHTTracker(ContactTracker):
         out = Leaves(tracks, score, max_score, hist)
         x_post, P_post = imm.estimate(filt)
         shown = _Shown(np.where(d1, x_post, x_pred[parent]), np.where(d1[:, :, None], P_post, P_pred[parent]))
-        alive = (status != TrackStatus.DELETED) & (score >= max_score - cfg.deletion_score_drop)
+        code = sanity_reasons(shown.x, shown.P, self.sensors, self.gate_threshold, cfg.lifecycle)
+        alive = (status != TrackStatus.DELETED) & (score >= max_score - cfg.deletion_score_drop) & (code == 0)
+        self._count_lost(tracks.track_id, tr.status[parent], status, score, code, alive)
         return out.take(alive), _Shown(shown.x[alive], shown.P[alive])
+
+    def _count_lost(self, family: np.ndarray, before: np.ndarray, status: np.ndarray, score: np.ndarray,
+                    code: np.ndarray, alive: np.ndarray) -> None:
+        """Count in ``deletions`` the families whose every child leaf dies in this scan's branching, each by
+        the fate of its best-scoring child: a sanity rule (its ``code``), else the life cycle (a preliminary
+        family: unconfirmed; a confirmed one: misses under M/N deletion, score when its score fell)."""
+        lost = ~np.isin(family, family[alive])
+        if not lost.any():
+            return
+        rows = np.flatnonzero(lost)
+        order = rows[np.lexsort((-score[rows], family[rows]))]
+        best = order[np.r_[True, np.diff(family[order]) != 0]]
+        for i, reason in enumerate(SANITY_REASONS, start=1):
+            self.deletions[reason] += int((code[best] == i).sum())
+        ended = code[best] == 0
+        confirmed = before[best] == TrackStatus.CONFIRMED
+        self.deletions["unconfirmed"] += int((ended & ~confirmed).sum())
+        by_misses = ended & confirmed & (status[best] == TrackStatus.DELETED)
+        self.deletions["misses"] += int(by_misses.sum())
+        self.deletions["score"] += int((ended & confirmed & ~by_misses).sum())
 
     def _clutter_density(self, x_pred: np.ndarray, xy: np.ndarray) -> np.ndarray:
         """Clutter spatial density (m^-2) at each leaf's predicted position, (L,)."""

@@ -23,7 +23,8 @@ only, `associate`; each scan:
    its last update (spec §7.1.8: a missed scan is not an update);
 3. **associate** (the method's part): decide which contact, if any, updates
    each track and return the states after the scan (`Association`);
-4. the M/N and deletion logic of `nnda.tracking.lifecycle`;
+4. the M/N and deletion logic of `nnda.tracking.lifecycle`, then its sanity rules on the reported
+   states (impossible speed, outside coverage, inflated covariance), deletions counted by reason;
 5. initiation: the initiators of the sensor's last scan pair with this
    scan's unused contacts inside their [D_min, D_max] window, each pair
    opening a preliminary track (two-point start); unused contacts outside
@@ -41,7 +42,7 @@ import math
 import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import ClassVar, Protocol, runtime_checkable
 
 import numpy as np
@@ -53,9 +54,21 @@ from nnda.data.sensor import in_coverage
 from nnda.errors import BoundWarning, ConfigError, TrackingError
 from nnda.filters.batch import Batch
 from nnda.filters.imm import IMM, IMMPrediction, IMMState
+from nnda.filters.kalman import GATE_99
 from nnda.filters.measurement import measurement_model
-from nnda.tracking.lifecycle import LifecycleConfig, advance, cap_pairs, cap_per_initiator, window_pairs
-from nnda.tracking.output import DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
+from nnda.tracking.lifecycle import (
+    DELETION_REASONS,
+    SANITY_REASONS,
+    LifecycleConfig,
+    advance,
+    cap_pairs,
+    cap_per_initiator,
+    sanity_reasons,
+    sensor_noise_m,
+    window_pairs,
+)
+from nnda.tracking.linearisation import update as linearised_update
+from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
 
 
 class TrackerConfig(BaseModel):
@@ -203,7 +216,7 @@ class TwoPointInitiation:
     def __init__(self, filters: Sequence[IMM], lifecycle: LifecycleConfig, sensors: Sequence[Sensor]) -> None:
         self.filters = tuple(filters)
         self.lifecycle = lifecycle
-        self.windows = tuple(lifecycle.window(s.scan_period_s, _sigma_m(s)) for s in sensors)
+        self.windows = tuple(lifecycle.window(s.scan_period_s, sensor_noise_m(s)) for s in sensors)
         self.reset()
 
     def reset(self) -> None:
@@ -263,11 +276,6 @@ class TwoPointInitiation:
         self.n_refused += n
 
 
-def _sigma_m(sensor: Sensor) -> float:
-    """The sensor's noise along a contact-to-contact distance (m): range noise, or position noise."""
-    return sensor.sigma_range_m if sensor.kind == "polar" else sensor.sigma_position_m
-
-
 class ContactTracker(ABC):
     """Base of the trackers that build tracks from contacts: the sensors, a per-track filter, initiation.
 
@@ -296,6 +304,34 @@ class ContactTracker(ABC):
         self.initiation.reset()
         self.last_time = -np.inf
         self._bounds_hit: set[str] = set()
+        #: tracks deleted since the last reset, by reason (`nnda.tracking.lifecycle.DELETION_REASONS`)
+        self.deletions: dict[str, int] = dict.fromkeys(DELETION_REASONS, 0)
+
+    @property
+    def gate_threshold(self) -> float:
+        """The chi-square gate (2 dof) of the tracker's config, or the spec's 9.21 for a tracker without one
+        (the coverage rule of the sanity deletion measures a track's distance outside coverage in gates)."""
+        return float(getattr(self.config, "gate", GATE_99))
+
+    def _judged(self, before: np.ndarray, status: np.ndarray, x: np.ndarray, P: np.ndarray) -> np.ndarray:
+        """``status`` (K,) after a scan's life cycle, with the sanity rules applied to the live tracks'
+        reported states x (K, 4), P (K, 4, 4) (`nnda.tracking.lifecycle.sanity_reasons`); the scan's
+        deletions are counted in ``deletions`` by reason (status ``before`` the scan tells them apart)."""
+        gone = (status == DELETED) & (before != DELETED)
+        self.deletions["unconfirmed"] += int((gone & (before == PRELIMINARY)).sum())
+        self.deletions[self._ended_reason] += int((gone & (before == CONFIRMED)).sum())
+        live = np.flatnonzero(status != DELETED)
+        code = sanity_reasons(x[live], P[live], self.sensors, self.gate_threshold, self.config.lifecycle)
+        if not code.any():
+            return status
+        for i, reason in enumerate(SANITY_REASONS, start=1):
+            self.deletions[reason] += int((code == i).sum())
+        status = status.copy()
+        status[live[code > 0]] = DELETED
+        return status
+
+    #: the deletion reason of a confirmed track its life cycle ended
+    _ended_reason: ClassVar[str] = "misses"
 
     def _bound_hit(self, field: str, what: str, time: float) -> None:
         """A BoundWarning the first time in a run that the bound of config ``field`` bites (``what`` it did);
@@ -345,12 +381,13 @@ class ScanContacts:
 
 def hard_update(track_filter: IMM, pred: IMMPrediction, z: np.ndarray, contact: np.ndarray) -> Association:
     """Update each track with its chosen contact: ``contact`` (K,) indexes the checked contacts z (N, 2)
-    (NO_CONTACT: the track keeps its prediction)."""
+    (NO_CONTACT: the track keeps its prediction); a poorly linearised track takes the
+    converted-measurement update (`nnda.tracking.linearisation.update`)."""
     detected = contact != NO_CONTACT
     if not detected.any():
         return Association(contact, pred.state)
     # rows without a contact are masked, whichever contact they hold
-    return Association(contact, track_filter.update(pred, z[np.maximum(contact, 0)], detected, check=False))
+    return Association(contact, linearised_update(track_filter, pred, z[np.maximum(contact, 0)], detected))
 
 
 class SingleHypothesisTracker(ContactTracker):
@@ -388,29 +425,27 @@ class SingleHypothesisTracker(ContactTracker):
             used[c[det]] = True
             observed = self._observed(sc, pred)
             # a missed track keeps its last posterior (§7.1.8) and reports its prediction
+            before = tracks.status
             tracks = tracks.after_scan(c, _pick(det, assoc.filt, tracks.filt), z, xy, time, self.config.lifecycle,
                                        observed)
-            shown.append((tracks, assoc.filt, c))
+            x, P = self.filter.estimate(assoc.filt)
+            tracks = replace(tracks, status=self._judged(before, tracks.status, x, P))
+            shown.append((tracks, x, P, c))
             alive = np.flatnonzero(tracks.status != DELETED)
             tracks = None if not alive.size else tracks if alive.size == len(tracks) else tracks.take(alive)
         born, born_contact = self.initiation(z, xy, used, time, 0 if tracks is None else len(tracks), sc.sensor)
         if born is not None:
-            shown.append((born, born.filt, born_contact))
+            shown.append((born, *self.filter.estimate(born.filt), born_contact))
             tracks = born if tracks is None else Tracks.concat([tracks, born])
         self.tracks = tracks
         self.last_time = time
         return self._shown(scan.index, time, shown)
 
-    def _shown(self, scan: int, time: float, blocks: list[tuple[Tracks, IMMState, np.ndarray]]) -> TrackerOutput:
-        """The scan's output from blocks of (tracks, the filter state to report, contact used): one
-        combined estimate for all of them."""
-        if not blocks:
-            return TrackerOutput.empty(scan, time)
-        tracks, states, contact = zip(*blocks)
-        x, P = self.filter.estimate(states[0] if len(states) == 1 else IMMState.concat(states))
-        return TrackerOutput(scan, time, np.concatenate([t.track_id for t in tracks]),
-                             np.concatenate([t.status for t in tracks]), x, P,
-                             np.concatenate(contact).astype(np.int64, copy=False))
+    def _shown(self, scan: int, time: float, blocks: list[tuple[Tracks, np.ndarray, np.ndarray, np.ndarray]]
+               ) -> TrackerOutput:
+        """The scan's output from blocks of (tracks, the combined estimate x (K, 4), P (K, 4, 4) to report,
+        contact used)."""
+        return TrackerOutput.from_blocks(scan, time, [(t.track_id, t.status, x, P, c) for t, x, P, c in blocks])
 
 
 def _pick(rows: np.ndarray, a: IMMState, b: IMMState) -> IMMState:
