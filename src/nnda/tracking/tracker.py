@@ -333,6 +333,15 @@ class ContactTracker(ABC):
     #: the deletion reason of a confirmed track its life cycle ended
     _ended_reason: ClassVar[str] = "misses"
 
+    @property
+    def confirmation_rule(self) -> str:
+        """The rule that confirms and deletes this tracker's tracks: "mn" (M/N counts) or "score" (SPRT)."""
+        return "mn"
+
+    def track_management(self) -> dict:
+        """What a study records of the run so far: the confirmation rule and the deletions by reason."""
+        return {"confirmation": self.confirmation_rule, "deletions": dict(self.deletions)}
+
     def _bound_hit(self, field: str, what: str, time: float) -> None:
         """A BoundWarning the first time in a run that the bound of config ``field`` bites (``what`` it did);
         the tracker's own counters say how often."""
