@@ -17,6 +17,7 @@ from nnda.tracking.registry import make_tracker
     ({"max_speed_m_s": -100.0}, ["lifecycle.max_speed_m_s", "greater than 0"]),
     ({"max_speed_m_s": 0.0}, ["lifecycle.max_speed_m_s", "greater than 0"]),
     ({"max_position_sd_m": -1.0}, ["lifecycle.max_position_sd_m", "greater than 0"]),
+    ({"max_speed_m_s": 150.0}, ["max_speed_m_s = 150.0 must exceed v_max = 200.0"]),
     ({"coverage_deletion": "sometimes"}, ["lifecycle.coverage_deletion", "boolean"]),
 ])
 def test_bad_sanity_limits_name_the_field(kind, lifecycle, fragments):

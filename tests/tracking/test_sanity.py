@@ -94,13 +94,14 @@ def test_update_position_is_the_kalman_update_with_a_linear_fix():
 def test_sanity_reasons_each_rule():
     cfg = LifecycleConfig()
     x = np.array([[10_000.0, 100.0, 0.0, 0.0],  # sane
-                  [10_000.0, 1_200.0, 0.0, 0.0],  # too fast
+                  [10_000.0, 600.0, 0.0, 0.0],  # too fast
                   [40_000.0, 100.0, 0.0, 0.0],  # 10 km beyond the maximum range
                   [10_000.0, 100.0, 0.0, 0.0]])  # position sd 2.5 km
     P = np.repeat(np.diag([50.0**2, 10.0**2, 50.0**2, 10.0**2])[None], 4, axis=0)
     P[3, 0, 0] = 2_500.0**2
     np.testing.assert_array_equal(sanity_reasons(x, P, (SENSOR,), GATE_99, cfg), [0, 1, 2, 3])
-    off = LifecycleConfig(max_speed_m_s=None, max_position_sd_m=None, coverage_deletion=False)
+    off = LifecycleConfig(max_speed_m_s=1e9, max_position_sd_m=None, coverage_deletion=False)
+    assert LifecycleConfig().speed_limit == 500.0 and LifecycleConfig(v_max=300.0).speed_limit == 750.0
     np.testing.assert_array_equal(sanity_reasons(x, P, (SENSOR,), GATE_99, off), [0, 0, 0, 0])
 
 
@@ -118,7 +119,8 @@ def test_coverage_distance_and_gate_radius():
 
 def test_bad_sanity_limits_are_refused():
     from pydantic import ValidationError
-    for bad in ({"max_speed_m_s": -1.0}, {"max_speed_m_s": 0.0}, {"max_position_sd_m": -5.0}):
+    for bad in ({"max_speed_m_s": -1.0}, {"max_speed_m_s": 0.0}, {"max_position_sd_m": -5.0},
+                {"max_speed_m_s": 150.0}):
         with pytest.raises(ValidationError):
             LifecycleConfig(**bad)
 

@@ -12,7 +12,7 @@
   ``max_misses`` (§4.5 and A14: survive 3, delete at the 4th).
 * Sanity deletion (issue 21; every contact tracker, whatever its
   confirmation rule): a live track is deleted when its reported state is
-  impossible: faster than ``max_speed_m_s``, outside every sensor's
+  impossible: faster than ``max_speed_m_s`` (2.5 v_max by default), outside every sensor's
   coverage by more than its gate (`outside_coverage_m` against
   `gate_radius_m`), or with a position standard deviation (the largest
   axis of its position covariance) beyond ``max_position_sd_m``.
@@ -55,7 +55,9 @@ class LifecycleConfig(BaseModel):
         "nearest the window's middle, with a BoundWarning. Bounds memory and time when clutter is far "
         "denser than the window was made for")] = 10_000
     max_speed_m_s: Annotated[float | None, Field(
-        gt=0, description="delete a track whose estimated speed exceeds this (m/s; None: no limit)")] = 1_000.0
+        gt=0, description="delete a track whose estimated speed exceeds this (m/s), above v_max; None: "
+        "2.5 v_max. A track of a real target is not that far off after a coast, while a coasting track "
+        "that takes clutter absorbs the jump into its velocity and speeds up with every such step")] = None
     max_position_sd_m: Annotated[float | None, Field(
         gt=0, description="delete a track whose position standard deviation (largest axis of its position "
         "covariance) exceeds this (m; None: no limit)")] = 2_000.0
@@ -68,7 +70,15 @@ class LifecycleConfig(BaseModel):
             raise ValueError("v_min must be below v_max")
         if self.m > self.n:
             raise ValueError("M/N needs m <= n")
+        if self.speed_limit <= self.v_max:
+            raise ValueError(f"max_speed_m_s = {self.max_speed_m_s} must exceed v_max = {self.v_max}: a track "
+                             f"of the fastest target would be deleted")
         return self
+
+    @property
+    def speed_limit(self) -> float:
+        """The speed (m/s) beyond which a track is deleted: ``max_speed_m_s``, or 2.5 v_max."""
+        return self.max_speed_m_s if self.max_speed_m_s is not None else 2.5 * self.v_max
 
     def window(self, scan_period: float, sigma_range: float) -> tuple[float, float]:
         """(D_min, D_max) in m for the initiation annulus (§4.2)."""
@@ -121,8 +131,7 @@ def sanity_reasons(x: np.ndarray, P: np.ndarray, sensors: tuple[Sensor, ...], ga
         code[outside > gate_radius_m(P, noise, gate)] = 2
     if cfg.max_position_sd_m is not None:
         code[(code == 0) & (position_sd(P) > cfg.max_position_sd_m)] = 3
-    if cfg.max_speed_m_s is not None:
-        code[np.hypot(x[:, 1], x[:, 3]) > cfg.max_speed_m_s] = 1
+    code[np.hypot(x[:, 1], x[:, 3]) > cfg.speed_limit] = 1
     return code
 
 
