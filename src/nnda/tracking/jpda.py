@@ -73,7 +73,7 @@ from nnda.filters import kalman
 from nnda.filters.imm import IMMPrediction, IMMState
 from nnda.filters.kalman import GATE_99
 from nnda.filters.measurement import MeasurementModel
-from nnda.tracking.clutter_density import local_density, measurement_volume
+from nnda.tracking.clutter_density import measurement_volume
 from nnda.tracking.gating import gate_tracks
 from nnda.tracking.marginals import jpda_marginals, log_miss_weight, runs
 from nnda.tracking.output import NO_CONTACT, TrackStatus
@@ -192,8 +192,7 @@ class JPDATracker(SingleHypothesisTracker):
         if cfg.clutter_density == "scan":
             return np.full(at.size, len(scan.z) / measurement_volume(self.sensors[scan.sensor]))
         if cfg.clutter_density == "local":
-            xy = scan.xy
-            return local_density(xy, xy[at], cfg.clutter_radius_m) * scan.filter.measurement.area_jacobian(scan.z[at])
+            return super().clutter_density(scan, at)
         return np.full(at.size, cfg.clutter_density)
 
     def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
@@ -201,15 +200,17 @@ class JPDATracker(SingleHypothesisTracker):
         contact = np.full(len(tracks), NO_CONTACT, np.int64)
         state = IMMState(pred.state.x.copy(), pred.state.P.copy(), pred.state.mu.copy())
         imm, z = scan.filter, scan.z
+        log_miss = log_miss_weight(cfg.pd, cfg.gate)
+        # the track score's increment: the PDA likelihood ratio ln(1 - P_D P_G + sum_j P_D l_j / lambda_j)
+        gain = np.full(len(tracks), log_miss)
         if not len(z):
-            return Association(contact, state)
+            return Association(contact, state, gain)
         g = gate_tracks(imm, pred, z, scan.xy, cfg.gate)[1]
         near = np.zeros(len(z), bool)
         near[g.cols] = True
         near = np.flatnonzero(near)  # the contacts in some gate
         log_density = np.zeros(len(z))
         log_density[near] = np.log(self.clutter_density(scan, near))
-        log_miss = log_miss_weight(cfg.pd, cfg.gate)
         taken = np.zeros(len(z), bool)
         confirmed = tracks.status == TrackStatus.CONFIRMED
         for stage in (confirmed, ~confirmed):  # confirmed tracks first, as in GNN
@@ -220,6 +221,8 @@ class JPDATracker(SingleHypothesisTracker):
             rows, cols = g.rows[sel[start]], g.cols[sel]
             log_ratio = (np.log(cfg.pd) + imm.pair_log_likelihood(pred, rows[track], z[cols])
                          - log_density[cols])
+            top = np.maximum.reduceat(log_ratio, start)
+            gain[rows] = np.logaddexp(log_miss, top + np.log(np.add.reduceat(np.exp(log_ratio - top[track]), start)))
             m = jpda_marginals(track, cols, log_ratio, rows.size, log_miss, cfg.max_joint_events)
             self.n_clusters += m.approximated.size
             self.n_approximated += int(m.approximated.sum())
@@ -237,4 +240,4 @@ class JPDATracker(SingleHypothesisTracker):
             nu, log_lik = pair_likelihoods(active, z, winner, cols[won], imm.measurement)
             updated = pda_update(active, winner, nu, log_lik, m.beta[won], m.beta0[wins])
             state.x[rows[wins]], state.P[rows[wins]], state.mu[rows[wins]] = updated.x, updated.P, updated.mu
-        return Association(contact, state)
+        return Association(contact, state, gain)

@@ -10,6 +10,24 @@
   life (§4.4): confirmed at the M-th detection, deleted at the (N-M+1)-th
   miss. Confirmed tracks are deleted when their consecutive misses exceed
   ``max_misses`` (§4.5 and A14: survive 3, delete at the 4th).
+* Track score (issue 21; ``confirmation = "score"``, Blackman & Popoli
+  1999, §6.2): instead of counting, a track carries the log-likelihood
+  ratio of "target" against "clutter" of the contacts it used. The two-point
+  start gives ln(P_D / (A_w rho)), A_w the initiation annulus' area and rho
+  the clutter's area density at the second contact (the target's second
+  contact falls anywhere in the annulus, clutter with density rho); each
+  later scan adds ln(P_D l / lambda) for a contact of likelihood l where the
+  clutter density is lambda (both in the sensor's measurement space), or
+  ln(1 - P_D P_G) for a miss (`log_miss_weight`); the clutter density is
+  estimated per scan around the contact (`nnda.tracking.clutter_density`).
+  Wald's sequential probability ratio test on it (`sprt_thresholds`): a
+  preliminary track is confirmed when its score reaches ln((1 - beta) /
+  alpha) and deleted when it falls to ln(beta / (1 - alpha)), alpha =
+  ``false_confirmation`` (the probability of confirming a track of clutter)
+  and beta = ``false_deletion`` (of deleting a target's track); a confirmed
+  track is deleted when its score falls that far below its maximum (the
+  score-drop rule). With P_D = 0.9 and beta = 1e-3 a confirmed track survives
+  three misses and is deleted at the fourth, as the M/N rule's max_misses = 3.
 * Sanity deletion (issue 21; every contact tracker, whatever its
   confirmation rule): a live track is deleted when its reported state is
   impossible: faster than ``max_speed_m_s`` (2.5 v_max by default), outside every sensor's
@@ -22,7 +40,8 @@
 
 from __future__ import annotations
 
-from typing import Annotated
+import math
+from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -54,6 +73,14 @@ class LifecycleConfig(BaseModel):
         "it, a scan opens only as many new tracks as there is room for, those whose implied speed is "
         "nearest the window's middle, with a BoundWarning. Bounds memory and time when clutter is far "
         "denser than the window was made for")] = 10_000
+    confirmation: Literal["mn", "score"] = Field(
+        "mn", description="how preliminary tracks are confirmed and tracks deleted: 'mn' (M/N counts, "
+        "max_misses) or 'score' (Wald's test on the track score, thresholds from false_confirmation and "
+        "false_deletion)")
+    false_confirmation: Annotated[float, Field(
+        gt=0, lt=1, description="score rule: alpha, the probability of confirming a track of clutter")] = 1e-5
+    false_deletion: Annotated[float, Field(
+        gt=0, lt=1, description="score rule: beta, the probability of deleting a target's track")] = 1e-3
     max_speed_m_s: Annotated[float | None, Field(
         gt=0, description="delete a track whose estimated speed exceeds this (m/s), above v_max; None: "
         "2.5 v_max. A track of a real target is not that far off after a coast, while a coasting track "
@@ -70,6 +97,9 @@ class LifecycleConfig(BaseModel):
             raise ValueError("v_min must be below v_max")
         if self.m > self.n:
             raise ValueError("M/N needs m <= n")
+        if self.false_confirmation + self.false_deletion >= 1:
+            raise ValueError(f"false_confirmation + false_deletion = {self.false_confirmation + self.false_deletion:g} "
+                             f"must be below 1 (else the score test's thresholds cross)")
         if self.speed_limit <= self.v_max:
             raise ValueError(f"max_speed_m_s = {self.max_speed_m_s} must exceed v_max = {self.v_max}: a track "
                              f"of the fastest target would be deleted")
@@ -79,6 +109,16 @@ class LifecycleConfig(BaseModel):
     def speed_limit(self) -> float:
         """The speed (m/s) beyond which a track is deleted: ``max_speed_m_s``, or 2.5 v_max."""
         return self.max_speed_m_s if self.max_speed_m_s is not None else 2.5 * self.v_max
+
+    @property
+    def score_thresholds(self) -> tuple[float, float]:
+        """(deletion, confirmation) thresholds of the score rule (`sprt_thresholds`)."""
+        return sprt_thresholds(self.false_confirmation, self.false_deletion)
+
+    def window_area(self, scan_period: float, sigma_range: float) -> float:
+        """Area (m^2) of the initiation annulus (`window`)."""
+        d_min, d_max = self.window(scan_period, sigma_range)
+        return math.pi * (d_max**2 - d_min**2)
 
     def window(self, scan_period: float, sigma_range: float) -> tuple[float, float]:
         """(D_min, D_max) in m for the initiation annulus (§4.2)."""
@@ -91,6 +131,31 @@ class LifecycleConfig(BaseModel):
 DELETION_REASONS = ("unconfirmed", "misses", "score", "speed", "coverage", "covariance")
 #: codes of `sanity_reasons`: 0 sane, else 1 + the index of the reason in SANITY_REASONS
 SANITY_REASONS = ("speed", "coverage", "covariance")
+
+
+def sprt_thresholds(alpha: float, beta: float) -> tuple[float, float]:
+    """Wald's thresholds (lower, upper) on a log-likelihood ratio for error probabilities alpha (accepting
+    "target" for clutter) and beta (rejecting it for a target): ln(beta / (1 - alpha)), ln((1 - beta) / alpha)."""
+    return math.log(beta / (1.0 - alpha)), math.log((1.0 - beta) / alpha)
+
+
+def start_score(pd: float, window_area: float, density: np.ndarray) -> np.ndarray:
+    """Score of a two-point start (module docstring): ln(P_D / (A_w rho)) for the area densities of clutter
+    ``density`` (m^-2, (K,)) at the second contacts and the initiation annulus' area A_w (m^2)."""
+    return math.log(pd) - np.log(window_area * density)
+
+
+def advance_score(status: np.ndarray, score: np.ndarray, max_score: np.ndarray, cfg: LifecycleConfig,
+                  observed: np.ndarray | None = None) -> np.ndarray:
+    """One scan of the score rule for K tracks whose ``score`` (K,) is already this scan's (and ``max_score``
+    its maximum so far): the new status (module docstring). A track not ``observed`` keeps its status."""
+    lower, upper = cfg.score_thresholds
+    new = status.copy()
+    prelim = status == PRELIMINARY
+    new[prelim & (score >= upper)] = CONFIRMED
+    new[prelim & (score <= lower)] = DELETED
+    new[(status == CONFIRMED) & (score - max_score <= lower)] = DELETED
+    return new if observed is None else np.where(observed, new, status)
 
 
 def position_sd(P: np.ndarray) -> np.ndarray:

@@ -38,16 +38,22 @@ half-side ``clutter_radius_m`` around the predicted position) times the predicte
 The chosen leaf of each family is what the tracker reports; new families are
 reported from their first scan, like the other trackers' preliminary tracks.
 A family that loses its last leaf is reported once as deleted if it was ever
-reported. Confirmation is
-M/N (3/4, A12) or, with ``confirmation = "score"``, the score passing
-ln((1 - beta) / alpha) with alpha = 1e-3, beta = 0.1 (Wald's test, §7.3).
+reported. Confirmation is M/N (3/4, A12; a new family's score starts at
+ln(beta_NT / beta_FT) = ln(``new_target_ratio``)) or, with
+``lifecycle.confirmation = "score"``, the track score of every contact
+tracker (`nnda.tracking.lifecycle`): a new family starts at the two-point
+start's ln(P_D / (A_w rho)) of the same clutter estimate, and Wald's test
+on each leaf's score alone confirms (ln((1 - beta) / alpha)) and deletes
+(a preliminary leaf at ln(beta / (1 - alpha)), a confirmed one that far
+below its best score), alpha and beta the lifecycle's
+``false_confirmation`` and ``false_deletion``; the M/N counts play no part.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Annotated, ClassVar, Literal
+from typing import Annotated, ClassVar
 
 import numpy as np
 from pydantic import Field
@@ -61,7 +67,7 @@ from nnda.filters.batch import Batch
 from nnda.filters.kalman import GATE_99
 from nnda.tracking.clutter_density import local_density
 from nnda.tracking.gating import gate
-from nnda.tracking.lifecycle import SANITY_REASONS, sanity_reasons
+from nnda.tracking.lifecycle import SANITY_REASONS, advance_score, sanity_reasons
 from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts, TrackerConfig, Tracks
@@ -87,8 +93,6 @@ class MHTConfig(ContactTrackerConfig):
                                            "hypothesis is solved exactly; larger ones greedily")] = 5_000
     min_branch_probability: Annotated[float, Field(ge=0, lt=1)] = 1e-3
     deletion_score_drop: Annotated[float, Field(gt=0, description="delete a leaf this far below its best score")] = 10.0
-    confirmation: Literal["mn", "score"] = "mn"
-    confirmation_score: float = math.log((1 - 0.1) / 1e-3)
 
 
 @dataclass(frozen=True)
@@ -140,7 +144,7 @@ class MHTTracker(ContactTracker):
         families = 0 if leaves is None else np.unique(leaves.tracks.track_id).size
         born, contact = self.initiation(z, xy, used, time, families, sc.sensor)
         if born is not None:
-            new = self._new_leaves(born, contact)
+            new = self._new_leaves(self._start_scores(born, sc, contact), contact)
             x, P = self.filter.estimate(born.filt)
             first = 0 if leaves is None else len(leaves)
             leaves = new if leaves is None else Leaves.concat([leaves, new])
@@ -192,9 +196,9 @@ class MHTTracker(ContactTracker):
         tracks = children.after_scan(contact, filt, z, xy, time, cfg.lifecycle,
                                      None if observed is None else observed[parent])
         max_score = np.maximum(leaves.max_score[parent], score)
-        if cfg.confirmation == "score":
-            confirm = (tracks.status == TrackStatus.PRELIMINARY) & (score > cfg.confirmation_score)
-            tracks = replace(tracks, status=np.where(confirm, TrackStatus.CONFIRMED, tracks.status).astype(np.int8))
+        if self.confirmation_rule == "score":  # Wald's test on the leaf's score, M/N counts ignored
+            tracks = replace(tracks, status=advance_score(tr.status[parent], score, max_score, cfg.lifecycle,
+                                                          None if observed is None else observed[parent]))
         status = tracks.status
         d1 = detected[:, None]
         hist = np.column_stack([leaves.hist[parent, 1:], contact])
@@ -222,7 +226,7 @@ class MHTTracker(ContactTracker):
         ended = code[best] == 0
         confirmed = before[best] == TrackStatus.CONFIRMED
         self.deletions["unconfirmed"] += int((ended & ~confirmed).sum())
-        by_misses = ended & confirmed & (status[best] == TrackStatus.DELETED)
+        by_misses = ended & confirmed & (status[best] == TrackStatus.DELETED) & (self.confirmation_rule == "mn")
         self.deletions["misses"] += int(by_misses.sum())
         self.deletions["score"] += int((ended & confirmed & ~by_misses).sum())
 
@@ -237,7 +241,10 @@ class MHTTracker(ContactTracker):
         k = len(born)
         hist = np.full((k, self.config.n_scan), UNKNOWN, np.int64)
         hist[:, -1] = contact
-        score = np.full(k, math.log(self.config.new_target_ratio))
+        if self.confirmation_rule == "score":  # the clutter model's two-point start, as every contact tracker's
+            score = born.score
+        else:
+            score = np.full(k, math.log(self.config.new_target_ratio))
         return Leaves(born, score, score.copy(), hist)
 
     # ---------------------------------------------------------------------- global hypothesis

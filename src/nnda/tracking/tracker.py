@@ -56,19 +56,28 @@ from nnda.filters.batch import Batch
 from nnda.filters.imm import IMM, IMMPrediction, IMMState
 from nnda.filters.kalman import GATE_99
 from nnda.filters.measurement import measurement_model
+from nnda.tracking.clutter_density import local_density
 from nnda.tracking.lifecycle import (
     DELETION_REASONS,
     SANITY_REASONS,
     LifecycleConfig,
     advance,
+    advance_score,
     cap_pairs,
     cap_per_initiator,
     sanity_reasons,
     sensor_noise_m,
+    start_score,
     window_pairs,
 )
 from nnda.tracking.linearisation import update as linearised_update
+from nnda.tracking.marginals import log_miss_weight
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
+
+#: detection probability of the track score for a tracker whose config has none (spec A4)
+SCORE_PD = 0.9
+#: half-side (m) of the local clutter density's square for a tracker whose config has none
+CLUTTER_RADIUS_M = 3_000.0
 
 
 class TrackerConfig(BaseModel):
@@ -152,7 +161,9 @@ class Tracks(Batch):
     ``filt`` is the IMM posterior at the track's last update, at time ``t2``
     (s), from the contact at ``p2`` (m, Cartesian) with azimuth ``az2`` (rad);
     ``p1``/``t1`` is the contact before it. ``hits``, ``misses`` and
-    ``consecutive`` are the M/N counters of `nnda.tracking.lifecycle`.
+    ``consecutive`` are the M/N counters of `nnda.tracking.lifecycle`, ``score`` the
+    track score (log-likelihood ratio of target against clutter; kept under the score rule,
+    0 otherwise) and ``max_score`` its maximum so far.
     """
 
     track_id: np.ndarray
@@ -166,24 +177,35 @@ class Tracks(Batch):
     hits: np.ndarray
     misses: np.ndarray
     consecutive: np.ndarray
+    score: np.ndarray
+    max_score: np.ndarray
 
     def after_scan(self, contact: np.ndarray, filt: IMMState, z: np.ndarray, xy: np.ndarray, time: float,
-                   lifecycle: LifecycleConfig, observed: np.ndarray | None = None) -> Tracks:
+                   lifecycle: LifecycleConfig, observed: np.ndarray | None = None,
+                   score_gain: np.ndarray | None = None) -> Tracks:
         """These tracks after a scan at ``time``: ``contact`` (K,) is the contact each used
         (NO_CONTACT: missed), ``filt`` their filter states from then on. The contact history moves on where
-        a contact was used, and the M/N counters and status advance (`lifecycle.advance`) where the scan
-        ``observed`` the track (default: everywhere)."""
+        a contact was used, and the M/N counters, the score (by ``score_gain`` (K,), the scan's
+        log-likelihood ratio; None: 0) and the status advance (`lifecycle.advance`, or
+        `lifecycle.advance_score` under the score rule) where the scan ``observed`` the track (default:
+        everywhere)."""
         det = contact != NO_CONTACT
         c = np.maximum(contact, 0)
         d1 = det[:, None]
         status, hits, misses, consecutive = advance(self.status, self.hits, self.misses, self.consecutive,
                                                     det, lifecycle, observed)
+        score, max_score = self.score, self.max_score
+        if score_gain is not None:
+            score = score + (score_gain if observed is None else np.where(observed, score_gain, 0.0))
+            max_score = np.maximum(max_score, score)
+        if lifecycle.confirmation == "score":
+            status = advance_score(self.status, score, max_score, lifecycle, observed)
         return Tracks(
             track_id=self.track_id, status=status, filt=filt,
             p1=np.where(d1, self.p2, self.p1), t1=np.where(det, self.t2, self.t1),
             p2=np.where(d1, xy[c] if len(xy) else 0.0, self.p2), t2=np.where(det, time, self.t2),
             az2=np.where(det, z[c, 1] if len(z) else 0.0, self.az2),
-            hits=hits, misses=misses, consecutive=consecutive,
+            hits=hits, misses=misses, consecutive=consecutive, score=score, max_score=max_score,
         )
 
 
@@ -193,11 +215,14 @@ class Association:
 
     ``contact`` (K,) is the index of the contact that updated each track (or
     NO_CONTACT: a miss); ``filt`` the filter states after the scan: the updated state of
-    a track with a contact, the prediction (``pred.state``) of one without.
+    a track with a contact, the prediction (``pred.state``) of one without. ``score_gain`` (K,)
+    is the scan's track-score increment when the method computes its own (JPDA: the PDA
+    likelihood ratio of all gated contacts); None: the framework's, from the chosen contact.
     """
 
     contact: np.ndarray
     filt: IMMState
+    score_gain: np.ndarray | None = None
 
 
 class TwoPointInitiation:
@@ -262,6 +287,7 @@ class TwoPointInitiation:
                     filt=self.filters[sensor].start(p1, p2, cov2, time - before),
                     p1=p1, t1=np.full(k, before), p2=p2, t2=np.full(k, time),
                     az2=z[contact, 1], hits=zeros, misses=zeros.copy(), consecutive=zeros.copy(),
+                    score=np.zeros(k), max_score=np.zeros(k),
                 )
                 self.next_id += k
         rest = free[~in_window]
@@ -330,13 +356,56 @@ class ContactTracker(ABC):
         status[live[code > 0]] = DELETED
         return status
 
-    #: the deletion reason of a confirmed track its life cycle ended
-    _ended_reason: ClassVar[str] = "misses"
+    @property
+    def _ended_reason(self) -> str:
+        """The deletion reason of a confirmed track its life cycle ended."""
+        return "score" if self.confirmation_rule == "score" else "misses"
 
     @property
     def confirmation_rule(self) -> str:
         """The rule that confirms and deletes this tracker's tracks: "mn" (M/N counts) or "score" (SPRT)."""
-        return "mn"
+        return self.config.lifecycle.confirmation
+
+    @property
+    def score_pd(self) -> float:
+        """The detection probability of the track score: the config's ``pd``, or the spec's 0.9 (A4)."""
+        return float(getattr(self.config, "pd", SCORE_PD))
+
+    def clutter_density(self, scan: ScanContacts, at: np.ndarray) -> np.ndarray:
+        """Clutter density in the measurement space of the scan's sensor (polar: (m rad)^-1) at its
+        contacts ``at`` (M,): the scan's contacts around each (`local_density`, half-side the config's
+        ``clutter_radius_m`` or 3 km) times the area Jacobian."""
+        return (local_density(scan.xy, scan.xy[at], self._clutter_radius)
+                * scan.filter.measurement.area_jacobian(scan.z[at]))
+
+    @property
+    def _clutter_radius(self) -> float:
+        return float(getattr(self.config, "clutter_radius_m", CLUTTER_RADIUS_M))
+
+    def _start_scores(self, born: Tracks, scan: ScanContacts, contact: np.ndarray) -> Tracks:
+        """``born`` with the score of its two-point start (`lifecycle.start_score`) under the score rule."""
+        if self.confirmation_rule != "score":
+            return born
+        sensor = self.sensors[scan.sensor]
+        area = self.config.lifecycle.window_area(sensor.scan_period_s, sensor_noise_m(sensor))
+        score = start_score(self.score_pd, area, local_density(scan.xy, scan.xy[contact], self._clutter_radius))
+        return replace(born, score=score, max_score=score.copy())
+
+    def _score_gain(self, pred: IMMPrediction, scan: ScanContacts, assoc: Association) -> np.ndarray | None:
+        """The scan's track-score increments (K,) under the score rule (None under M/N): the method's own,
+        else ln(P_D l / lambda) for the chosen contact and ln(1 - P_D P_G) for a miss."""
+        if self.confirmation_rule != "score":
+            return None
+        if assoc.score_gain is not None:
+            return assoc.score_gain
+        c = assoc.contact
+        gain = np.full(c.size, log_miss_weight(self.score_pd, self.gate_threshold))
+        rows = np.flatnonzero(c != NO_CONTACT)
+        if rows.size:
+            j = c[rows]
+            gain[rows] = (math.log(self.score_pd) + scan.filter.pair_log_likelihood(pred, rows, scan.z[j])
+                          - np.log(self.clutter_density(scan, j)))
+        return gain
 
     def track_management(self) -> dict:
         """What a study records of the run so far: the confirmation rule and the deletions by reason."""
@@ -436,7 +505,7 @@ class SingleHypothesisTracker(ContactTracker):
             # a missed track keeps its last posterior (§7.1.8) and reports its prediction
             before = tracks.status
             tracks = tracks.after_scan(c, _pick(det, assoc.filt, tracks.filt), z, xy, time, self.config.lifecycle,
-                                       observed)
+                                       observed, self._score_gain(pred, sc, assoc))
             x, P = self.filter.estimate(assoc.filt)
             tracks = replace(tracks, status=self._judged(before, tracks.status, x, P))
             shown.append((tracks, x, P, c))
@@ -444,6 +513,7 @@ class SingleHypothesisTracker(ContactTracker):
             tracks = None if not alive.size else tracks if alive.size == len(tracks) else tracks.take(alive)
         born, born_contact = self.initiation(z, xy, used, time, 0 if tracks is None else len(tracks), sc.sensor)
         if born is not None:
+            born = self._start_scores(born, sc, born_contact)
             shown.append((born, *self.filter.estimate(born.filt), born_contact))
             tracks = born if tracks is None else Tracks.concat([tracks, born])
         self.tracks = tracks
