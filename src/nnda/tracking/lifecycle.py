@@ -78,7 +78,7 @@ class LifecycleConfig(BaseModel):
         "max_misses) or 'score' (Wald's test on the track score, thresholds from false_confirmation and "
         "false_deletion)")
     false_confirmation: Annotated[float, Field(
-        gt=0, lt=1, description="score rule: alpha, the probability of confirming a track of clutter")] = 1e-5
+        gt=0, lt=1, description="score rule: alpha, the probability of confirming a track of clutter")] = 1e-6
     false_deletion: Annotated[float, Field(
         gt=0, lt=1, description="score rule: beta, the probability of deleting a target's track")] = 1e-3
     max_speed_m_s: Annotated[float | None, Field(
