@@ -146,3 +146,10 @@ def test_clutter_only_scene_confirms_nothing_at_1000(kind, model_file):
 @pytest.mark.parametrize("kind", KINDS)
 def test_clutter_only_scene_confirms_nothing(kind, count, model_file):
     assert _confirmed_in_clutter(kind, count, model_file)[0] == 0
+
+
+def test_the_rule_each_tracker_runs_is_named_for_the_study():
+    from nnda.tracking.registry import confirmation_rule
+    assert confirmation_rule("gnn") == "mn" and confirmation_rule("nn", {"model": "m.json"}) == "mn"
+    assert confirmation_rule("mht", {"lifecycle": {"confirmation": "score"}}) == "score"
+    assert confirmation_rule("gmphd") is None and confirmation_rule("stonesoup-gnn") is None

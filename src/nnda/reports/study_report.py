@@ -42,6 +42,7 @@ from nnda.study.classifier import FORMAT_VERSION as CLASSIFIER_VERSION
 from nnda.study.plan import STUDY_FORMAT, STUDY_FORMAT_VERSION
 from nnda.study.results import TIMING_FILE, TRAJECTORIES_FILE, read_summary
 from nnda.study.runner import MANIFEST
+from nnda.tracking.registry import confirmation_rule
 
 REPORT_MD = "report.md"
 REPORT_HTML = "report.html"
@@ -124,6 +125,10 @@ def _json_compact(value) -> str:
     return json.dumps(value, sort_keys=True, separators=(", ", ": "))
 
 
+#: how the report names a contact tracker's confirmation rule (`nnda.tracking.registry.confirmation_rule`)
+_RULES = {"mn": "M/N counts", "score": "track score (SPRT)"}
+
+
 def _setup(manifest: dict, summary: dict, timing: dict) -> Section:
     study = manifest["study"]
     sec = Section("setup", "Setup", [], [])
@@ -136,6 +141,12 @@ def _setup(manifest: dict, summary: dict, timing: dict) -> Section:
     sec.table(TextTable("Trackers", ("Label", "Kind", "Model", "Parameters"), tuple(
         (t["label"], t["kind"], t["model"] or DASH, _json_compact(t["params"]) if t["params"] else "defaults")
         for t in manifest["trackers"])))
+    rules = [(t["label"], confirmation_rule(t["kind"], t["params"])) for t in manifest["trackers"]]
+    if any(rule is not None for _, rule in rules):  # issue 21: which rule confirmed and deleted each one's tracks
+        sec.text("Track confirmation and deletion: " + "; ".join(
+            f"{label}: {_RULES[rule]}" for label, rule in rules if rule is not None)
+            + ". Every contact tracker also deletes impossible tracks (speed, coverage, covariance; "
+            "`nnda.tracking.lifecycle`) and records its deletions by reason in results.parquet.")
     sec.table(TextTable("Scenarios", ("Name", "Source", "Targets", "Scans", "Clutter per scan", "Runs"), tuple(
         (s["name"], s["source"], ", ".join(s["targets"]), str(s["n_scans"]), str(s["clutter_per_scan"]), str(s["runs"]))
         for s in manifest["scenarios"])))
