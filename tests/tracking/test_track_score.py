@@ -65,18 +65,21 @@ def test_start_score_and_advance_by_hand():
     np.testing.assert_allclose(start_score(0.9, area, np.array([1e-6])), [math.log(0.9 / (area * 1e-6))], rtol=RTOL)
     lower, upper = cfg.score_thresholds
     P, C = TrackStatus.PRELIMINARY, TrackStatus.CONFIRMED
-    status = np.array([P, P, P, C, C], np.int8)
-    score = np.array([upper, lower, 0.0, 20.0, 29.0 + lower])
-    max_score = np.array([upper, 1.0, 1.0, 20.0, 30.0])
+    early = math.log(0.1 / (1 - 1e-6))  # preliminary tracks: beta_p = 0.1
+    status = np.array([P, P, P, C, C, C], np.int8)
+    score = np.array([upper, early, early + 0.01, 20.0, 29.0 + lower, 31.0 + lower])
+    max_score = np.array([upper, 1.0, 1.0, 20.0, 30.0, 30.0])
     np.testing.assert_array_equal(advance_score(status, score, max_score, cfg),
-                                  [C, TrackStatus.DELETED, P, C, TrackStatus.DELETED])
-    np.testing.assert_array_equal(advance_score(status, score, max_score, cfg, np.zeros(5, bool)), status)
+                                  [C, TrackStatus.DELETED, P, C, TrackStatus.DELETED, C])
+    np.testing.assert_array_equal(advance_score(status, score, max_score, cfg, np.zeros(6, bool)), status)
 
 
 @pytest.mark.parametrize("bad, fragment", [
     ({"false_confirmation": 0.0}, "greater than 0"), ({"false_confirmation": 1.0}, "less than 1"),
     ({"false_deletion": -0.1}, "greater than 0"), ({"false_deletion": 1.5}, "less than 1"),
     ({"false_confirmation": 0.5, "false_deletion": 0.6}, "must be below 1"),
+    ({"preliminary_false_deletion": 0.0}, "greater than 0"),
+    ({"false_confirmation": 0.5, "preliminary_false_deletion": 0.5}, "preliminary_false_deletion = 1"),
     ({"confirmation": "sprt"}, "'mn' or 'score'"),
 ])
 def test_bad_score_settings_are_refused(bad, fragment):
@@ -153,3 +156,20 @@ def test_the_rule_each_tracker_runs_is_named_for_the_study():
     assert confirmation_rule("gnn") == "mn" and confirmation_rule("nn", {"model": "m.json"}) == "mn"
     assert confirmation_rule("mht", {"lifecycle": {"confirmation": "score"}}) == "score"
     assert confirmation_rule("gmphd") is None and confirmation_rule("stonesoup-gnn") is None
+
+
+def test_the_score_rules_cap_keeps_every_target():
+    """A cap of 300 live tracks at 1,000 clutter per scan (S1): the preliminary tracks of lowest score go,
+    thousands of them, and every target still gets its confirmed track, with no false one."""
+    sc = PRESETS["S1"]
+    ds = generate(sc.model_copy(update={"clutter": sc.clutter.model_copy(update={"count": 1_000})}), 0)
+    tracker = make_tracker("gnn", ds.scenario.sensors, {"lifecycle": {"confirmation": "score", "max_tracks": 300}})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        outputs = []
+        for scan in ds.scans():
+            outputs.append(tracker.step(scan))
+            assert tracker.tracks is None or len(tracker.tracks) <= 300
+    m = run_metrics(ds, outputs)
+    assert m.false_tracks == 0 and m.confirmed_tracks - m.track_breaks == len(sc.targets)
+    assert tracker.deletions["capped"] > 1_000

@@ -22,11 +22,14 @@
   estimated per scan around the contact (`nnda.tracking.clutter_density`).
   Wald's sequential probability ratio test on it (`sprt_thresholds`): a
   preliminary track is confirmed when its score reaches ln((1 - beta) /
-  alpha) and deleted when it falls to ln(beta / (1 - alpha)), alpha =
-  ``false_confirmation`` (the probability of confirming a track of clutter)
-  and beta = ``false_deletion`` (of deleting a target's track); a confirmed
-  track is deleted when its score falls that far below its maximum (the
-  score-drop rule). With P_D = 0.9 and beta = 1e-3 a confirmed track survives
+  alpha), alpha = ``false_confirmation`` (the probability of confirming a
+  track of clutter) and beta = ``false_deletion`` (of deleting a target's
+  track), and deleted early, when it falls to ln(beta_p / (1 - alpha)) with
+  beta_p = ``preliminary_false_deletion``; a confirmed track is deleted when
+  its score falls ln(beta / (1 - alpha)) below its maximum (the score-drop
+  rule). Under this rule ``max_tracks`` counts only confirmed tracks against
+  new ones and then keeps the preliminary tracks of best score (the
+  tracker's cap). With P_D = 0.9 and beta = 1e-3 a confirmed track survives
   three misses and is deleted at the fourth, as the M/N rule's max_misses = 3.
 * Sanity deletion (issue 21; every contact tracker, whatever its
   confirmation rule): a live track is deleted when its reported state is
@@ -81,6 +84,10 @@ class LifecycleConfig(BaseModel):
         gt=0, lt=1, description="score rule: alpha, the probability of confirming a track of clutter")] = 1e-6
     false_deletion: Annotated[float, Field(
         gt=0, lt=1, description="score rule: beta, the probability of deleting a target's track")] = 1e-3
+    preliminary_false_deletion: Annotated[float, Field(
+        gt=0, lt=1, description="score rule: beta for preliminary tracks, whose deletion threshold is "
+        "ln(beta / (1 - alpha)) with this beta: early deletion of the clutter-born ones, which rarely "
+        "outlive a miss")] = 0.1
     max_speed_m_s: Annotated[float | None, Field(
         gt=0, description="delete a track whose estimated speed exceeds this (m/s), above v_max; None: "
         "2.5 v_max. A track of a real target is not that far off after a coast, while a coasting track "
@@ -97,9 +104,10 @@ class LifecycleConfig(BaseModel):
             raise ValueError("v_min must be below v_max")
         if self.m > self.n:
             raise ValueError("M/N needs m <= n")
-        if self.false_confirmation + self.false_deletion >= 1:
-            raise ValueError(f"false_confirmation + false_deletion = {self.false_confirmation + self.false_deletion:g} "
-                             f"must be below 1 (else the score test's thresholds cross)")
+        for field in ("false_deletion", "preliminary_false_deletion"):
+            if self.false_confirmation + getattr(self, field) >= 1:
+                raise ValueError(f"false_confirmation + {field} = {self.false_confirmation + getattr(self, field):g} "
+                                 f"must be below 1 (else the score test's thresholds cross)")
         if self.speed_limit <= self.v_max:
             raise ValueError(f"max_speed_m_s = {self.max_speed_m_s} must exceed v_max = {self.v_max}: a track "
                              f"of the fastest target would be deleted")
@@ -127,8 +135,9 @@ class LifecycleConfig(BaseModel):
 
 
 #: why a track was deleted, the keys of ``tracker.deletions``: its confirmation test failed (a preliminary
-#: track), its misses (M/N) or its score (score rule) ended a confirmed track, or a sanity rule
-DELETION_REASONS = ("unconfirmed", "misses", "score", "speed", "coverage", "covariance")
+#: track), its misses (M/N) or its score (score rule) ended a confirmed track, a sanity rule
+#: (sanity), or the score rule's cap on live tracks dropped it for want of room
+DELETION_REASONS = ("unconfirmed", "misses", "score", "speed", "coverage", "covariance", "capped")
 #: codes of `sanity_reasons`: 0 sane, else 1 + the index of the reason in SANITY_REASONS
 SANITY_REASONS = ("speed", "coverage", "covariance")
 
@@ -150,10 +159,11 @@ def advance_score(status: np.ndarray, score: np.ndarray, max_score: np.ndarray, 
     """One scan of the score rule for K tracks whose ``score`` (K,) is already this scan's (and ``max_score``
     its maximum so far): the new status (module docstring). A track not ``observed`` keeps its status."""
     lower, upper = cfg.score_thresholds
+    early = sprt_thresholds(cfg.false_confirmation, cfg.preliminary_false_deletion)[0]
     new = status.copy()
     prelim = status == PRELIMINARY
     new[prelim & (score >= upper)] = CONFIRMED
-    new[prelim & (score <= lower)] = DELETED
+    new[prelim & (score <= early)] = DELETED
     new[(status == CONFIRMED) & (score - max_score <= lower)] = DELETED
     return new if observed is None else np.where(observed, new, status)
 

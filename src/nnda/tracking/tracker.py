@@ -511,14 +511,50 @@ class SingleHypothesisTracker(ContactTracker):
             shown.append((tracks, x, P, c))
             alive = np.flatnonzero(tracks.status != DELETED)
             tracks = None if not alive.size else tracks if alive.size == len(tracks) else tracks.take(alive)
-        born, born_contact = self.initiation(z, xy, used, time, 0 if tracks is None else len(tracks), sc.sensor)
+        score_rule = self.confirmation_rule == "score"
+        # under the score rule only confirmed tracks take room from new ones: the cap then keeps the best scores
+        held = 0 if tracks is None else int((tracks.status == CONFIRMED).sum()) if score_rule else len(tracks)
+        born, born_contact = self.initiation(z, xy, used, time, held, sc.sensor)
         if born is not None:
             born = self._start_scores(born, sc, born_contact)
+            if score_rule:
+                tracks, born, born_contact = self._capped(tracks, born, born_contact, shown, time)
+        if born is not None:
             shown.append((born, *self.filter.estimate(born.filt), born_contact))
             tracks = born if tracks is None else Tracks.concat([tracks, born])
         self.tracks = tracks
         self.last_time = time
         return self._shown(scan.index, time, shown)
+
+    def _capped(self, tracks: Tracks | None, born: Tracks, contact: np.ndarray, shown: list, time: float
+                ) -> tuple[Tracks | None, Tracks | None, np.ndarray]:
+        """The score rule's cap on live tracks (``lifecycle.max_tracks``): past it, the preliminary tracks of
+        lowest score (old or just born) go, so a target's track, whose score grows with every contact, is
+        not refused for clutter-born ones. A dropped old track is reported as deleted in this scan
+        (``shown``'s first block), a dropped new one never; both are counted as "capped"."""
+        old = 0 if tracks is None else len(tracks)
+        room = self.config.lifecycle.max_tracks
+        if old + len(born) <= room:
+            return tracks, born, contact
+        status = np.concatenate([np.empty(0, np.int8) if tracks is None else tracks.status, born.status])
+        score = np.concatenate([np.empty(0) if tracks is None else tracks.score, born.score])
+        prelim = np.flatnonzero(status == PRELIMINARY)
+        n_keep = max(room - (status.size - prelim.size), 0)
+        drop = prelim[np.argsort(-score[prelim], kind="stable")[n_keep:]]
+        keep = np.ones(status.size, bool)
+        keep[drop] = False
+        self.deletions["capped"] += int(drop.size)
+        self._bound_hit("max_tracks", f"{drop.size} preliminary track(s) of lowest score dropped, {room} live "
+                        f"at most", time)
+        if old and not keep[:old].all():
+            block, x, P, c = shown[0]
+            gone = np.flatnonzero(~keep[:old])
+            shown_status = block.status.copy()
+            shown_status[np.flatnonzero(block.status != DELETED)[gone]] = DELETED
+            shown[0] = (replace(block, status=shown_status), x, P, c)
+            tracks = tracks.take(np.flatnonzero(keep[:old])) if keep[:old].any() else None
+        new = np.flatnonzero(keep[old:])
+        return tracks, (born.take(new) if new.size else None), contact[new]
 
     def _shown(self, scan: int, time: float, blocks: list[tuple[Tracks, np.ndarray, np.ndarray, np.ndarray]]
                ) -> TrackerOutput:
