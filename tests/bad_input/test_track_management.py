@@ -25,3 +25,18 @@ def test_bad_sanity_limits_name_the_field(kind, lifecycle, fragments):
         make_tracker(kind, Sensor(), {"lifecycle": lifecycle})
     for fragment in fragments:
         assert re.search(re.escape(fragment), str(err.value)), str(err.value)
+
+
+@pytest.mark.parametrize("lifecycle, fragments", [
+    ({"confirmation": "sprt"}, ["lifecycle.confirmation", "'mn', 'score' or 'existence'"]),
+    ({"false_confirmation": 1.5}, ["lifecycle.false_confirmation", "less than 1"]),
+    ({"false_deletion": 0.0}, ["lifecycle.false_deletion", "greater than 0"]),
+    ({"preliminary_false_deletion": -0.2}, ["lifecycle.preliminary_false_deletion", "greater than 0"]),
+    ({"survival_probability": 1.2}, ["lifecycle.survival_probability", "less than or equal to 1"]),
+    ({"existence_confirmation": 0.05, "existence_deletion": 0.1}, ["existence_deletion must be below"]),
+])
+def test_bad_confirmation_settings_name_the_field(lifecycle, fragments):
+    with pytest.raises(ConfigError) as err:
+        make_tracker("gnn", Sensor(), {"lifecycle": lifecycle})
+    for fragment in fragments:
+        assert re.search(re.escape(fragment), str(err.value)), str(err.value)

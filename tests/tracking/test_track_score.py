@@ -80,7 +80,7 @@ def test_start_score_and_advance_by_hand():
     ({"false_confirmation": 0.5, "false_deletion": 0.6}, "must be below 1"),
     ({"preliminary_false_deletion": 0.0}, "greater than 0"),
     ({"false_confirmation": 0.5, "preliminary_false_deletion": 0.5}, "preliminary_false_deletion = 1"),
-    ({"confirmation": "sprt"}, "'mn' or 'score'"),
+    ({"confirmation": "sprt"}, "'mn', 'score' or 'existence'"),
 ])
 def test_bad_score_settings_are_refused(bad, fragment):
     from pydantic import ValidationError

@@ -31,6 +31,19 @@
   new ones and then keeps the preliminary tracks of best score (the
   tracker's cap). With P_D = 0.9 and beta = 1e-3 a confirmed track survives
   three misses and is deleted at the fourth, as the M/N rule's max_misses = 3.
+* Existence (``confirmation = "existence"``; IPDA, Musicki, Evans &
+  Stankovic 1994, and JIPDA, Musicki & Evans 2004): the track carries the
+  log-odds of its probability of existence rho, predicted each scan as
+  rho' = ``survival_probability`` rho (`predicted_log_odds`) and updated
+  by the same likelihood ratio as the score (rho / (1 - rho) = (1 - delta)
+  rho' / (1 - rho'), delta = P_D P_G - P_D sum_j l_j / lambda_j over the
+  gated contacts for JPDA, the chosen one for GNN and nn), so it starts
+  from the same two-point start. Since the survival caps the odds a scan
+  can carry over, Wald's thresholds do not apply: a preliminary track is
+  confirmed at rho >= ``existence_confirmation`` (0.9999) and any track is
+  deleted at rho <= ``existence_deletion`` (0.01). JPDA then weighs each
+  track's events by its existence (`jipda_log_ratio`) and updates its
+  state conditioned on existence.
 * Sanity deletion (issue 21; every contact tracker, whatever its
   confirmation rule): a live track is deleted when its reported state is
   impossible: faster than ``max_speed_m_s`` (2.5 v_max by default), outside every sensor's
@@ -76,10 +89,19 @@ class LifecycleConfig(BaseModel):
         "it, a scan opens only as many new tracks as there is room for, those whose implied speed is "
         "nearest the window's middle, with a BoundWarning. Bounds memory and time when clutter is far "
         "denser than the window was made for")] = 10_000
-    confirmation: Literal["mn", "score"] = Field(
+    confirmation: Literal["mn", "score", "existence"] = Field(
         "mn", description="how preliminary tracks are confirmed and tracks deleted: 'mn' (M/N counts, "
-        "max_misses) or 'score' (Wald's test on the track score, thresholds from false_confirmation and "
-        "false_deletion)")
+        "max_misses), 'score' (Wald's test on the track score, thresholds from false_confirmation and "
+        "false_deletion) or 'existence' (IPDA / JIPDA: the probability of target existence, its log-odds "
+        "against the same thresholds; not for MHT)")
+    survival_probability: Annotated[float, Field(
+        gt=0, le=1, description="existence rule: probability that a target exists still at the next scan "
+        "(the Markov chain of IPDA)")] = 0.995
+    existence_confirmation: Annotated[float, Field(
+        gt=0, lt=1, description="existence rule: a preliminary track is confirmed at this existence "
+        "probability")] = 0.9999
+    existence_deletion: Annotated[float, Field(
+        gt=0, lt=1, description="existence rule: a track is deleted at this existence probability")] = 0.01
     false_confirmation: Annotated[float, Field(
         gt=0, lt=1, description="score rule: alpha, the probability of confirming a track of clutter")] = 1e-6
     false_deletion: Annotated[float, Field(
@@ -108,6 +130,8 @@ class LifecycleConfig(BaseModel):
             if self.false_confirmation + getattr(self, field) >= 1:
                 raise ValueError(f"false_confirmation + {field} = {self.false_confirmation + getattr(self, field):g} "
                                  f"must be below 1 (else the score test's thresholds cross)")
+        if self.existence_deletion >= self.existence_confirmation:
+            raise ValueError("existence_deletion must be below existence_confirmation")
         if self.speed_limit <= self.v_max:
             raise ValueError(f"max_speed_m_s = {self.max_speed_m_s} must exceed v_max = {self.v_max}: a track "
                              f"of the fastest target would be deleted")
@@ -158,14 +182,43 @@ def advance_score(status: np.ndarray, score: np.ndarray, max_score: np.ndarray, 
                   observed: np.ndarray | None = None) -> np.ndarray:
     """One scan of the score rule for K tracks whose ``score`` (K,) is already this scan's (and ``max_score``
     its maximum so far): the new status (module docstring). A track not ``observed`` keeps its status."""
-    lower, upper = cfg.score_thresholds
-    early = sprt_thresholds(cfg.false_confirmation, cfg.preliminary_false_deletion)[0]
+    if cfg.confirmation == "existence":  # thresholds on the existence probability's log-odds
+        lower, upper = (math.log(p) - math.log1p(-p) for p in (cfg.existence_deletion, cfg.existence_confirmation))
+        early = lower
+    else:
+        lower, upper = cfg.score_thresholds
+        early = sprt_thresholds(cfg.false_confirmation, cfg.preliminary_false_deletion)[0]
     new = status.copy()
     prelim = status == PRELIMINARY
     new[prelim & (score >= upper)] = CONFIRMED
     new[prelim & (score <= early)] = DELETED
-    new[(status == CONFIRMED) & (score - max_score <= lower)] = DELETED
+    # the score falls from its maximum; an existence probability (log-odds) falls to the threshold itself
+    fallen = score if cfg.confirmation == "existence" else score - max_score
+    new[(status == CONFIRMED) & (fallen <= lower)] = DELETED
     return new if observed is None else np.where(observed, new, status)
+
+
+def predicted_log_odds(log_odds: np.ndarray, survival: float) -> np.ndarray:
+    """IPDA's prediction of the existence probability, rho' = survival rho, on log-odds ln(rho / (1 - rho)),
+    kept within +-700 (a certain track stays finite)."""
+    rho = survival * existence(log_odds)
+    with np.errstate(divide="ignore"):
+        return np.clip(np.log(rho) - np.log1p(-rho), -700.0, 700.0)
+
+
+def existence(log_odds: np.ndarray) -> np.ndarray:
+    """The probability rho of the log-odds ln(rho / (1 - rho))."""
+    return 0.5 * (1.0 + np.tanh(0.5 * np.asarray(log_odds, float)))
+
+
+def jipda_log_ratio(log_ratio: np.ndarray, log_miss: float, rho: np.ndarray) -> np.ndarray:
+    """JIPDA's event terms in JPDA's form (Musicki & Evans 2004): a track of predicted existence ``rho`` (P,)
+    (one per pair) weighs a contact rho P_D l / lambda and no contact 1 - P_D P_G rho; divided by
+    (1 - P_D P_G rho) / (1 - P_D P_G), which leaves every track's marginals as they are, its no-contact term
+    is JPDA's exp(``log_miss``) and its pairs' ``log_ratio`` (ln(P_D l / lambda)) move by ln rho -
+    ln(1 - P_D P_G rho) + log_miss: exactly 0 at rho = 1, where JIPDA is JPDA."""
+    miss = -np.expm1(log_miss)  # P_D P_G
+    return log_ratio + (np.log(rho) - np.log1p(-miss * rho) + log_miss)
 
 
 def position_sd(P: np.ndarray) -> np.ndarray:

@@ -56,7 +56,7 @@ from dataclasses import dataclass, replace
 from typing import Annotated, ClassVar
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, model_validator
 from scipy.optimize import Bounds, LinearConstraint, milp
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
@@ -78,6 +78,13 @@ UNKNOWN = -2
 
 class MHTConfig(ContactTrackerConfig):
     """TOMHT settings; defaults are the spec's §7.3 list and MATLAB trackerTOMHT's bounds."""
+
+    @model_validator(mode="after")
+    def _rule(self) -> MHTConfig:
+        if self.lifecycle.confirmation == "existence":
+            raise ValueError("lifecycle.confirmation = 'existence' (IPDA) is for the single-hypothesis trackers; "
+                             "MHT's hypotheses carry scores: use 'score' or 'mn'")
+        return self
 
     gate: Annotated[float, Field(gt=0, description="chi-square gate, 2 dof (9.21: P_G = 0.99)")] = GATE_99
     pd: Annotated[float, Field(gt=0, lt=1, description="detection probability used in the scores (A4)")] = 0.9
@@ -196,7 +203,7 @@ class MHTTracker(ContactTracker):
         tracks = children.after_scan(contact, filt, z, xy, time, cfg.lifecycle,
                                      None if observed is None else observed[parent])
         max_score = np.maximum(leaves.max_score[parent], score)
-        if self.confirmation_rule == "score":  # Wald's test on the leaf's score, M/N counts ignored
+        if self.confirmation_rule != "mn":  # Wald's test on the leaf's score, M/N counts ignored
             tracks = replace(tracks, status=advance_score(tr.status[parent], score, max_score, cfg.lifecycle,
                                                           None if observed is None else observed[parent]))
         status = tracks.status
@@ -241,7 +248,7 @@ class MHTTracker(ContactTracker):
         k = len(born)
         hist = np.full((k, self.config.n_scan), UNKNOWN, np.int64)
         hist[:, -1] = contact
-        if self.confirmation_rule == "score":  # the clutter model's two-point start, as every contact tracker's
+        if self.confirmation_rule != "mn":  # the clutter model's two-point start, as every contact tracker's
             score = born.score
         else:
             score = np.full(k, math.log(self.config.new_target_ratio))

@@ -65,6 +65,7 @@ from nnda.tracking.lifecycle import (
     advance_score,
     cap_pairs,
     cap_per_initiator,
+    predicted_log_odds,
     sanity_reasons,
     sensor_noise_m,
     start_score,
@@ -163,7 +164,8 @@ class Tracks(Batch):
     ``p1``/``t1`` is the contact before it. ``hits``, ``misses`` and
     ``consecutive`` are the M/N counters of `nnda.tracking.lifecycle`, ``score`` the
     track score (log-likelihood ratio of target against clutter; kept under the score rule,
-    0 otherwise) and ``max_score`` its maximum so far.
+    0 otherwise; under the existence rule the log-odds of the track's existence) and ``max_score`` its
+    maximum so far.
     """
 
     track_id: np.ndarray
@@ -198,7 +200,7 @@ class Tracks(Batch):
         if score_gain is not None:
             score = score + (score_gain if observed is None else np.where(observed, score_gain, 0.0))
             max_score = np.maximum(max_score, score)
-        if lifecycle.confirmation == "score":
+        if lifecycle.confirmation != "mn":
             status = advance_score(self.status, score, max_score, lifecycle, observed)
         return Tracks(
             track_id=self.track_id, status=status, filt=filt,
@@ -359,11 +361,12 @@ class ContactTracker(ABC):
     @property
     def _ended_reason(self) -> str:
         """The deletion reason of a confirmed track its life cycle ended."""
-        return "score" if self.confirmation_rule == "score" else "misses"
+        return "misses" if self.confirmation_rule == "mn" else "score"
 
     @property
     def confirmation_rule(self) -> str:
-        """The rule that confirms and deletes this tracker's tracks: "mn" (M/N counts) or "score" (SPRT)."""
+        """The rule that confirms and deletes this tracker's tracks: "mn" (M/N counts), "score" (SPRT) or
+        "existence" (IPDA / JIPDA)."""
         return self.config.lifecycle.confirmation
 
     @property
@@ -384,7 +387,7 @@ class ContactTracker(ABC):
 
     def _start_scores(self, born: Tracks, scan: ScanContacts, contact: np.ndarray) -> Tracks:
         """``born`` with the score of its two-point start (`lifecycle.start_score`) under the score rule."""
-        if self.confirmation_rule != "score":
+        if self.confirmation_rule == "mn":
             return born
         sensor = self.sensors[scan.sensor]
         area = self.config.lifecycle.window_area(sensor.scan_period_s, sensor_noise_m(sensor))
@@ -394,7 +397,7 @@ class ContactTracker(ABC):
     def _score_gain(self, pred: IMMPrediction, scan: ScanContacts, assoc: Association) -> np.ndarray | None:
         """The scan's track-score increments (K,) under the score rule (None under M/N): the method's own,
         else ln(P_D l / lambda) for the chosen contact and ln(1 - P_D P_G) for a miss."""
-        if self.confirmation_rule != "score":
+        if self.confirmation_rule == "mn":
             return None
         if assoc.score_gain is not None:
             return assoc.score_gain
@@ -496,6 +499,9 @@ class SingleHypothesisTracker(ContactTracker):
         shown = []  # (tracks, filter state to report, contact used) per block of the output
         tracks = self.tracks
         if tracks is not None:
+            if self.confirmation_rule == "existence":  # IPDA's Markov prediction of the existence probability
+                survival = self.config.lifecycle.survival_probability
+                tracks = replace(tracks, score=predicted_log_odds(tracks.score, survival))
             pred = sc.filter.predict(tracks.filt, time - tracks.t2, check=False)
             assoc = self.associate(tracks, pred, sc)
             c = assoc.contact
@@ -511,7 +517,7 @@ class SingleHypothesisTracker(ContactTracker):
             shown.append((tracks, x, P, c))
             alive = np.flatnonzero(tracks.status != DELETED)
             tracks = None if not alive.size else tracks if alive.size == len(tracks) else tracks.take(alive)
-        score_rule = self.confirmation_rule == "score"
+        score_rule = self.confirmation_rule != "mn"
         # under the score rule only confirmed tracks take room from new ones: the cap then keeps the best scores
         held = 0 if tracks is None else int((tracks.status == CONFIRMED).sum()) if score_rule else len(tracks)
         born, born_contact = self.initiation(z, xy, used, time, held, sc.sensor)
