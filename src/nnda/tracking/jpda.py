@@ -226,10 +226,10 @@ class JPDATracker(SingleHypothesisTracker):
         state = IMMState(pred.state.x.copy(), pred.state.P.copy(), pred.state.mu.copy())
         imm, z = scan.filter, scan.z
         log_miss = log_miss_weight(cfg.pd, cfg.gate)
-        # the track score's increment: the PDA likelihood ratio ln(1 - P_D P_G + sum_j P_D l_j / lambda_j)
+        # the existence update's single-track increment: ln(1 - P_D P_G + sum_j P_D l_j / lambda_j) (IPDA)
         gain = np.full(len(tracks), log_miss)
         if not len(z):
-            return Association(contact, state, gain)
+            return Association(contact, state, gain if self.confirmation_rule == "existence" else None)
         g = gate_tracks(imm, pred, z, scan.xy, cfg.gate)[1]
         near = np.zeros(len(z), bool)
         near[g.cols] = True
@@ -272,4 +272,6 @@ class JPDATracker(SingleHypothesisTracker):
             nu, log_lik = pair_likelihoods(active, z, winner, cols[won], imm.measurement)
             updated = pda_update(active, winner, nu, log_lik, beta[won], beta0[wins])
             state.x[rows[wins]], state.P[rows[wins]], state.mu[rows[wins]] = updated.x, updated.P, updated.mu
-        return Association(contact, state, gain)
+        # the score rule scores the reported contact sequence, as for GNN (the framework's increment): the PDA
+        # ratio's drift is ~0 for a vague clutter-born track, whose score then walks until it confirms
+        return Association(contact, state, gain if self.confirmation_rule == "existence" else None)

@@ -16,9 +16,9 @@
   start gives ln(P_D / (A_w rho)), A_w the initiation annulus' area and rho
   the clutter's area density at the second contact (the target's second
   contact falls anywhere in the annulus, clutter with density rho); each
-  later scan adds ln(P_D l / lambda) for a contact of likelihood l where the
-  clutter density is lambda (both in the sensor's measurement space), or
-  ln(1 - P_D P_G) for a miss (`log_miss_weight`); the clutter density is
+  later scan adds ln(P_D l / lambda) for the contact the track reports, of
+  likelihood l where the clutter density is lambda (both in the sensor's
+  measurement space), or ln(1 - P_D P_G) for a miss (`log_miss_weight`); the clutter density is
   estimated per scan around the contact (`nnda.tracking.clutter_density`).
   Wald's sequential probability ratio test on it (`sprt_thresholds`): a
   preliminary track is confirmed when its score reaches ln((1 - beta) /

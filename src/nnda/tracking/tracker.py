@@ -218,8 +218,8 @@ class Association:
     ``contact`` (K,) is the index of the contact that updated each track (or
     NO_CONTACT: a miss); ``filt`` the filter states after the scan: the updated state of
     a track with a contact, the prediction (``pred.state``) of one without. ``score_gain`` (K,)
-    is the scan's track-score increment when the method computes its own (JPDA: the PDA
-    likelihood ratio of all gated contacts); None: the framework's, from the chosen contact.
+    is the scan's track-score increment when the method computes its own (JPDA under the
+    existence rule: JIPDA's); None: the framework's, from the chosen contact.
     """
 
     contact: np.ndarray
