@@ -18,6 +18,7 @@ BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 #: each benchmark's arguments for its smallest size; "{seed}" and "{ext}" are model files of the two
 #: feature sets, for the benchmarks that time the neural tracker (`make bench` runs them without one)
 SMALLEST = {
+    "bench_clutter.py": ["--clutter", "200", "--scans", "3", "--model", "{ext}"],
     "bench_filters.py": ["2"],
     "bench_fusion.py": ["--scans", "4", "--ships", "5", "--repeat", "1"],
     "bench_generate.py": ["2"],

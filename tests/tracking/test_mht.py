@@ -11,6 +11,7 @@ import pytest
 from nnda.data.generator import generate
 from nnda.data.presets import PRESETS
 from nnda.study.metrics import run_metrics
+from nnda.tracking.lifecycle import LifecycleConfig
 from nnda.tracking.mht import MHTConfig, MHTTracker
 
 
@@ -59,7 +60,9 @@ def test_global_hypothesis_is_the_best_compatible_set(seed):
 
 
 def test_hypothesis_tree_stays_within_its_bounds():
-    cfg = MHTConfig(max_track_branches=2, max_hypotheses_per_track=4, n_scan=2)
+    # without the sanity rules, which would prune the branches to impossible speeds before the bound does
+    sane_off = LifecycleConfig(max_speed_m_s=1e9, max_position_sd_m=None, coverage_deletion=False)
+    cfg = MHTConfig(max_track_branches=2, max_hypotheses_per_track=4, n_scan=2, lifecycle=sane_off)
     ds = generate(PRESETS["train03"], seed=2)  # dense clutter: many branches to prune
     tracker = MHTTracker(ds.scenario.sensor, cfg)
     most = 0
@@ -79,7 +82,7 @@ def test_hypothesis_tree_stays_within_its_bounds():
 
 def test_score_confirmation_confirms_the_targets():
     ds = generate(PRESETS["S4"], seed=1)
-    tracker = MHTTracker(ds.scenario.sensor, MHTConfig(confirmation="score"))
+    tracker = MHTTracker(ds.scenario.sensor, MHTConfig(lifecycle=LifecycleConfig(confirmation="score")))
     m = run_metrics(ds, [tracker.step(s) for s in ds.scans()])
     assert m.confirmed_tracks - m.false_tracks == 4 and m.lost_targets == 0
 

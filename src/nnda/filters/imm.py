@@ -350,6 +350,26 @@ class IMM:
             mu = np.where(mask[:, None], mu, st.mu)
         return IMMState(x, P, mu)
 
+    def update_position(self, pred: IMMPrediction, xy: np.ndarray, R: np.ndarray) -> IMMState:
+        """Update every model of K tracks with a Cartesian position fix xy (K, 2) m of covariance R (K, 2, 2)
+        m^2, whatever this IMM's own measurement model: the converted-measurement Kalman update (linear in
+        the position, so valid however large the prediction's spread), mode probabilities from the fixes'
+        likelihoods. Unchecked (for the trackers, whose fixes are converted checked contacts).
+        """
+        st = pred.state
+        K, r, n = st.x.shape
+        H = np.zeros((K, r, 2, n))
+        H[..., 0, 0] = H[..., 1, 2] = 1.0
+        PHt = np.ascontiguousarray(st.P[..., :, 0:3:2])  # P H^T, (K, r, n, 2)
+        S = PHt[..., 0:3:2, :] + R[:, None]
+        mp = kalman.measurement_prediction(st.x[..., 0:3:2].copy(), S, H, PHt)
+        nu = xy[:, None, :] - mp.z
+        x, P = kalman.correct(st.x, st.P, nu, mp)
+        log_post = np.log(st.mu + _TINY) + kalman.gaussian_log_likelihood(
+            kalman.mahalanobis_2x2(nu, mp.S_inv), mp.log_det_S)
+        mu = np.exp(log_post - log_post.max(axis=1, keepdims=True))
+        return IMMState(x * self._own, P * self._own2, mu / mu.sum(axis=1, keepdims=True))
+
     # -------------------------------------------------------------- outputs
     def estimate(self, state: IMMState) -> tuple[np.ndarray, np.ndarray]:
         """Combined estimate (eqs. 4.54-4.55) on the shared dimensions: x (K, d), P (K, d, d).

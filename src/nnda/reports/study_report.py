@@ -45,6 +45,7 @@ from nnda.study.classifier import FORMAT_VERSION as CLASSIFIER_VERSION
 from nnda.study.plan import STUDY_FORMAT, STUDY_FORMAT_VERSION
 from nnda.study.results import TIMING_FILE, TRAJECTORIES_FILE, read_summary
 from nnda.study.runner import MANIFEST
+from nnda.tracking.registry import confirmation_rule
 
 REPORT_MD = "report.md"
 REPORT_HTML = "report.html"
@@ -132,6 +133,10 @@ def _per_sensor(value: int | list[int]) -> str:
     return " / ".join(map(str, value)) if isinstance(value, list) else str(value)
 
 
+#: how the report names a contact tracker's confirmation rule (`nnda.tracking.registry.confirmation_rule`)
+_RULES = {"mn": "M/N counts", "score": "track score (SPRT)", "existence": "probability of existence (IPDA/JIPDA)"}
+
+
 def _setup(manifest: dict, summary: dict, timing: dict) -> Section:
     study = manifest["study"]
     sec = Section("setup", "Setup", [], [])
@@ -145,6 +150,12 @@ def _setup(manifest: dict, summary: dict, timing: dict) -> Section:
     sec.table(TextTable("Trackers", ("Label", "Kind", "Model", "Parameters"), tuple(
         (t["label"], t["kind"], t["model"] or DASH, _json_compact(t["params"]) if t["params"] else "defaults")
         for t in manifest["trackers"])))
+    rules = [(t["label"], confirmation_rule(t["kind"], t["params"])) for t in manifest["trackers"]]
+    if any(rule is not None for _, rule in rules):  # issue 21: which rule confirmed and deleted each one's tracks
+        sec.text("Track confirmation and deletion: " + "; ".join(
+            f"{label}: {_RULES[rule]}" for label, rule in rules if rule is not None)
+            + ". Every contact tracker also deletes impossible tracks (speed, coverage, covariance; "
+            "`nnda.tracking.lifecycle`) and records its deletions by reason in results.parquet.")
     sec.table(TextTable("Scenarios", ("Name", "Source", "Targets", "Scans", "Clutter per scan", "Runs"), tuple(
         (s["name"], s["source"], ", ".join(s["targets"]), str(s["n_scans"]), _per_sensor(s["clutter_per_scan"]),
          str(s["runs"]))

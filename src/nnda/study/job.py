@@ -17,6 +17,10 @@ A "filter" job (`JobSpec.task`) runs a single-target filter
 generator's labels pick them: no association) and scores its estimates
 against the truth with `nnda.study.filter_measures`; its record has the
 same layout, with those measures.
+
+A contact tracker's record also holds ``track_management``: the confirmation
+rule it used and its deletions of the run by reason
+(`nnda.tracking.tracker.ContactTracker.track_management`).
 """
 
 from __future__ import annotations
@@ -105,6 +109,9 @@ def run_job(job: JobSpec) -> dict:
         "cardinality": count_record(*m.counts, counts),
         "timing": {"time_per_scan_s": seconds.tolist()},
     }
+    management = getattr(tracker, "track_management", None)  # the contact trackers' (issue 21)
+    if management is not None:
+        record["track_management"] = management()
     if job.keeps_tracks:
         record.update(_tracks(outputs, dataset))
     return record

@@ -6,7 +6,9 @@ Written next to the job files, always rebuilt from them in plan order
 * ``results.parquet``: one row per job: scenario, tracker, kind, run, seed,
   dataset digest, the track ownership used ("contacts" or "position"), the
   value of every run measure of `nnda.study.measures` (columns in key
-  order; counts as int64), and the per-scan series as list columns
+  order; counts as int64), the contact trackers' confirmation rule and
+  deletions by reason (``confirmation``, ``deleted_<reason>``; null for
+  other trackers), and the per-scan series as list columns
   (``<series name>_per_scan``). The series of
   ``false_tracks_per_scan`` is named ``false_tracks``, so its list column
   takes the name of the run value (its mean, which is left out): format
@@ -54,6 +56,7 @@ from nnda.study.filter_measures import FILTER_MEASURES, FILTER_SERIES
 from nnda.study.measures import RUN_MEASURES, SERIES_MEASURES, TIME
 from nnda.study.plan import StudyPlan
 from nnda.study.runner import Execution, read_job
+from nnda.tracking.lifecycle import DELETION_REASONS
 from nnda.tracking.output import TrackStatus
 
 SUMMARY_FORMAT = "nnda.study-summary"
@@ -138,6 +141,11 @@ def results_table(records: list[dict]) -> pa.Table:
     for m in sorted(RUN_MEASURES, key=lambda m: m.key):
         kind = "int" if m.integer and not m.per_scan else "float"
         cols[m.key] = _column([r["metrics"][m.key] for r in records], kind)
+    # the contact trackers' track management (issue 21): confirmation rule and deletions by reason; null otherwise
+    managed = [r.get("track_management") for r in records]
+    cols["confirmation"] = _column([None if m is None else m["confirmation"] for m in managed], "str")
+    for reason in DELETION_REASONS:
+        cols[f"deleted_{reason}"] = _column([None if m is None else m["deletions"][reason] for m in managed], "int")
     for m in SERIES_MEASURES:  # false_tracks -> false_tracks_per_scan replaces that run value (module docstring)
         kind = pa.int64() if m.integer else pa.float64()
         cols[f"{m.series_name}_per_scan"] = pa.array([r["series"][m.series_name] for r in records],

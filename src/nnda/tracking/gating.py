@@ -5,6 +5,11 @@ column, squared Mahalanobis distance), so association scales with the pairs
 that matter rather than with tracks x contacts. For small problems every pair
 is tested at once; for large ones a k-d tree over the contacts first keeps,
 per track, those within a circle that encloses its gate ellipse.
+
+A track whose polar linearisation does not hold (`nnda.tracking.linearisation`:
+a prediction whose spread is comparable to its range) gates a contact only
+if the contact also passes the chi-square test in Cartesian space, given the
+track's combined predicted ``estimate``.
 """
 
 from __future__ import annotations
@@ -15,8 +20,9 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from nnda.filters import kalman
-from nnda.filters.imm import IMM
+from nnda.filters.imm import IMM, IMMPrediction
 from nnda.filters.kalman import MeasurementPrediction
+from nnda.tracking.linearisation import cartesian_d2, poorly_linearised
 
 #: below this many track-contact pairs the dense test is faster than building a k-d tree
 DENSE_PAIRS = 60_000
@@ -31,13 +37,16 @@ class Gated:
     d2: np.ndarray
 
 
-def gate(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, xy: np.ndarray, threshold: float) -> Gated:
+def gate(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, xy: np.ndarray, threshold: float,
+         estimate: tuple[np.ndarray, np.ndarray] | None = None) -> Gated:
     """Pairs (track, contact) with squared Mahalanobis distance <= ``threshold``.
 
     ``mp`` is the combined measurement prediction of K tracks
     (`IMM.combined_measurement`), ``z`` (N, 2) the contacts in the
     measurement space of ``imm.measurement`` and ``xy`` (N, 2) their
-    Cartesian positions (m).
+    Cartesian positions (m). ``estimate`` is the combined prediction (x (K, 4), P (K, 4, 4),
+    `IMM.estimate` of ``pred.state``) the Cartesian test of poorly linearised tracks needs
+    (module docstring); without it every pair is judged by the linearised test alone.
     """
     K, N = len(mp.z), len(z)
     if K == 0 or N == 0:
@@ -46,7 +55,7 @@ def gate(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, xy: np.ndarray, thr
     if K * N <= DENSE_PAIRS:
         d2 = imm.mahalanobis(mp, z)
         rows, cols = np.nonzero(d2 <= threshold)
-        return Gated(rows, cols, d2[rows, cols])
+        return _cartesian_check(imm, mp, z, threshold, estimate, Gated(rows, cols, d2[rows, cols]))
     # radius of a circle holding the gate ellipse: sqrt(threshold * its largest spread in metres^2)
     measurement = imm.measurement
     radius = np.sqrt(threshold * measurement.spread(mp.z, mp.S)) + 1.0
@@ -58,4 +67,31 @@ def gate(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, xy: np.ndarray, thr
     nu = imm.measurement.residual(z[cols], mp.z[rows])
     d2 = kalman.mahalanobis_2x2(nu, mp.S_inv[rows])
     inside = d2 <= threshold
-    return Gated(rows[inside], cols[inside], d2[inside])
+    return _cartesian_check(imm, mp, z, threshold, estimate, Gated(rows[inside], cols[inside], d2[inside]))
+
+
+def _cartesian_check(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, threshold: float,
+                     estimate: tuple[np.ndarray, np.ndarray] | None, gated: Gated) -> Gated:
+    """``gated`` without the pairs of poorly linearised tracks that fail the Cartesian test."""
+    if estimate is None or not gated.rows.size:
+        return gated
+    poor = poorly_linearised(imm.measurement, mp.S)
+    check = np.flatnonzero(poor[gated.rows])
+    if not check.size:
+        return gated
+    x, P = estimate
+    r = gated.rows[check]
+    far = cartesian_d2(imm.measurement, z[gated.cols[check]], x[r][:, 0:3:2], P[r][:, 0:3:2, 0:3:2]) > threshold
+    keep = np.ones(gated.rows.size, bool)
+    keep[check[far]] = False
+    return Gated(gated.rows[keep], gated.cols[keep], gated.d2[keep])
+
+
+def gate_tracks(imm: IMM, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray, threshold: float
+                ) -> tuple[MeasurementPrediction, Gated]:
+    """The combined measurement prediction of K tracks' IMM prediction ``pred`` (the gating prediction,
+    `IMM.combined_measurement`) and the pairs inside their gates (`gate`, with the Cartesian test of the
+    poorly linearised tracks)."""
+    estimate = imm.estimate(pred.state)
+    mp = kalman.predict_measurement(*estimate, imm.measurement)
+    return mp, gate(imm, mp, z, xy, threshold, estimate)

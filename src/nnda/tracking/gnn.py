@@ -23,7 +23,7 @@ from pydantic import Field
 from nnda.filters.imm import IMMPrediction
 from nnda.filters.kalman import GATE_99
 from nnda.tracking.assignment import greedy_matching, least_cost_assignment
-from nnda.tracking.gating import gate
+from nnda.tracking.gating import gate_tracks
 from nnda.tracking.output import NO_CONTACT, TrackStatus
 from nnda.tracking.tracker import (
     Association,
@@ -57,8 +57,7 @@ class GNNTracker(SingleHypothesisTracker):
     def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
         contact = np.full(len(tracks), NO_CONTACT, np.int64)
         imm, z = scan.filter, scan.z
-        mp = imm.combined_measurement(pred)
-        g = gate(imm, mp, z, scan.xy, self.config.gate)
+        mp, g = gate_tracks(imm, pred, z, scan.xy, self.config.gate)
         confirmed = tracks.status == TrackStatus.CONFIRMED
         for stage in (confirmed, ~confirmed):  # confirmed tracks choose first
             taken = np.zeros(len(z), bool)

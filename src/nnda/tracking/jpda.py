@@ -48,6 +48,15 @@ Each scan:
    where no contact beats beta_t0 the framework counts a miss and keeps the
    track's last posterior, so that scan's soft update is dropped.
 
+Under ``lifecycle.confirmation = "existence"`` this is JIPDA (Musicki &
+Evans 2004): each track's event terms are weighed by its predicted
+probability of existence rho (`nnda.tracking.lifecycle.jipda_log_ratio`:
+rho P_D l / lambda for a contact, 1 - P_D P_G rho for none), the
+no-contact marginal then holds "no target" too, of which the existence
+update takes its share (`existence_update`), and the state update uses the
+association probabilities given that the target exists. At rho = 1 it is
+the JPDA above.
+
 Clutter density lambda, in contacts per m per rad of measurement space
 (``clutter_density``): a fixed value, ``"scan"`` (each scan's contact count
 over the coverage, (r_max - r_min) x 2 pi: the spec's §7.3 MHT figure of
@@ -73,8 +82,9 @@ from nnda.filters import kalman
 from nnda.filters.imm import IMMPrediction, IMMState
 from nnda.filters.kalman import GATE_99
 from nnda.filters.measurement import MeasurementModel
-from nnda.tracking.clutter_density import local_density, measurement_volume
-from nnda.tracking.gating import gate
+from nnda.tracking.clutter_density import measurement_volume
+from nnda.tracking.gating import gate_tracks
+from nnda.tracking.lifecycle import existence, jipda_log_ratio
 from nnda.tracking.marginals import jpda_marginals, log_miss_weight, runs
 from nnda.tracking.output import NO_CONTACT, TrackStatus
 from nnda.tracking.tracker import (
@@ -166,6 +176,21 @@ def _sum_by_track(track: np.ndarray, K: int) -> Callable[[np.ndarray], np.ndarra
     return total
 
 
+def existence_update(log_odds: np.ndarray, beta: np.ndarray, beta0: np.ndarray, track: np.ndarray, log_miss: float
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """JIPDA's existence update of K tracks whose predicted existence has log-odds ``log_odds`` (K,), from
+    their marginals (``beta`` (P,) per pair of track ``track`` (P,), ``beta0`` (K,) no contact, which holds
+    "no target" too): the probability of no target is beta0 (1 - rho) / (1 - P_D P_G rho). Returns the
+    log-odds increments (K,) and the association probabilities given that the target exists, (P,) and (K,),
+    for the state update."""
+    rho, not_rho = existence(log_odds), existence(-log_odds)
+    absent = np.maximum(beta0 * not_rho / (1.0 + np.expm1(log_miss) * rho), _TINY)
+    present = 1.0 - absent
+    gain = np.log(present) - np.log(absent) - log_odds
+    given = beta / present[track]
+    return gain, given, np.maximum(1.0 - np.bincount(track, given, minlength=rho.size), 0.0)
+
+
 def best_pairs(track: np.ndarray, beta: np.ndarray) -> np.ndarray:
     """Index of each track's most probable pair (ties: its first); ``track`` (P,) sorted, every track
     0..K-1 present. Returns (K,)."""
@@ -192,8 +217,7 @@ class JPDATracker(SingleHypothesisTracker):
         if cfg.clutter_density == "scan":
             return np.full(at.size, len(scan.z) / measurement_volume(self.sensors[scan.sensor]))
         if cfg.clutter_density == "local":
-            xy = scan.xy
-            return local_density(xy, xy[at], cfg.clutter_radius_m) * scan.filter.measurement.area_jacobian(scan.z[at])
+            return super().clutter_density(scan, at)
         return np.full(at.size, cfg.clutter_density)
 
     def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
@@ -201,15 +225,17 @@ class JPDATracker(SingleHypothesisTracker):
         contact = np.full(len(tracks), NO_CONTACT, np.int64)
         state = IMMState(pred.state.x.copy(), pred.state.P.copy(), pred.state.mu.copy())
         imm, z = scan.filter, scan.z
+        log_miss = log_miss_weight(cfg.pd, cfg.gate)
+        # the existence update's single-track increment: ln(1 - P_D P_G + sum_j P_D l_j / lambda_j) (IPDA)
+        gain = np.full(len(tracks), log_miss)
         if not len(z):
-            return Association(contact, state)
-        g = gate(imm, imm.combined_measurement(pred), z, scan.xy, cfg.gate)
+            return Association(contact, state, gain if self.confirmation_rule == "existence" else None)
+        g = gate_tracks(imm, pred, z, scan.xy, cfg.gate)[1]
         near = np.zeros(len(z), bool)
         near[g.cols] = True
         near = np.flatnonzero(near)  # the contacts in some gate
         log_density = np.zeros(len(z))
         log_density[near] = np.log(self.clutter_density(scan, near))
-        log_miss = log_miss_weight(cfg.pd, cfg.gate)
         taken = np.zeros(len(z), bool)
         confirmed = tracks.status == TrackStatus.CONFIRMED
         for stage in (confirmed, ~confirmed):  # confirmed tracks first, as in GNN
@@ -220,14 +246,23 @@ class JPDATracker(SingleHypothesisTracker):
             rows, cols = g.rows[sel[start]], g.cols[sel]
             log_ratio = (np.log(cfg.pd) + imm.pair_log_likelihood(pred, rows[track], z[cols])
                          - log_density[cols])
+            top = np.maximum.reduceat(log_ratio, start)
+            gain[rows] = np.logaddexp(log_miss, top + np.log(np.add.reduceat(np.exp(log_ratio - top[track]), start)))
+            jipda = self.confirmation_rule == "existence"
+            if jipda:  # JIPDA: each track's events weighed by its predicted existence
+                log_odds = tracks.score[rows]
+                log_ratio = jipda_log_ratio(log_ratio, log_miss, existence(log_odds)[track])
             m = jpda_marginals(track, cols, log_ratio, rows.size, log_miss, cfg.max_joint_events)
+            beta, beta0 = m.beta, m.beta0
+            if jipda:
+                gain[rows], beta, beta0 = existence_update(log_odds, beta, beta0, track, log_miss)
             self.n_clusters += m.approximated.size
             self.n_approximated += int(m.approximated.sum())
             if m.approximated.any():
                 self._bound_hit("max_joint_events", f"{int(m.approximated.sum())} cluster(s) past the joint-event "
                                 "cap solved by loopy belief propagation, not enumeration", scan.time)
             best = best_pairs(track, m.beta)
-            wins = m.beta[best] > m.beta0
+            wins = m.beta[best] > m.beta0  # the reported contact: against "no contact, or no target"
             contact[rows[wins]] = cols[best[wins]]
             taken[contact[rows[wins]]] = True
             # the soft update, for the tracks that report a contact (the framework keeps the others')
@@ -235,6 +270,8 @@ class JPDATracker(SingleHypothesisTracker):
             winner = (np.cumsum(wins) - 1)[track[won]]
             active = pred.take(rows[wins])
             nu, log_lik = pair_likelihoods(active, z, winner, cols[won], imm.measurement)
-            updated = pda_update(active, winner, nu, log_lik, m.beta[won], m.beta0[wins])
+            updated = pda_update(active, winner, nu, log_lik, beta[won], beta0[wins])
             state.x[rows[wins]], state.P[rows[wins]], state.mu[rows[wins]] = updated.x, updated.P, updated.mu
-        return Association(contact, state)
+        # the score rule scores the reported contact sequence, as for GNN (the framework's increment): the PDA
+        # ratio's drift is ~0 for a vague clutter-born track, whose score then walks until it confirms
+        return Association(contact, state, gain if self.confirmation_rule == "existence" else None)

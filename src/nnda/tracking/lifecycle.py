@@ -10,16 +10,61 @@
   life (§4.4): confirmed at the M-th detection, deleted at the (N-M+1)-th
   miss. Confirmed tracks are deleted when their consecutive misses exceed
   ``max_misses`` (§4.5 and A14: survive 3, delete at the 4th).
+* Track score (issue 21; ``confirmation = "score"``, Blackman & Popoli
+  1999, §6.2): instead of counting, a track carries the log-likelihood
+  ratio of "target" against "clutter" of the contacts it used. The two-point
+  start gives ln(P_D / (A_w rho)), A_w the initiation annulus' area and rho
+  the clutter's area density at the second contact (the target's second
+  contact falls anywhere in the annulus, clutter with density rho); each
+  later scan adds ln(P_D l / lambda) for the contact the track reports, of
+  likelihood l where the clutter density is lambda (both in the sensor's
+  measurement space), or ln(1 - P_D P_G) for a miss (`log_miss_weight`); the clutter density is
+  estimated per scan around the contact (`nnda.tracking.clutter_density`).
+  Wald's sequential probability ratio test on it (`sprt_thresholds`): a
+  preliminary track is confirmed when its score reaches ln((1 - beta) /
+  alpha), alpha = ``false_confirmation`` (the probability of confirming a
+  track of clutter) and beta = ``false_deletion`` (of deleting a target's
+  track), and deleted early, when it falls to ln(beta_p / (1 - alpha)) with
+  beta_p = ``preliminary_false_deletion``; a confirmed track is deleted when
+  its score falls ln(beta / (1 - alpha)) below its maximum (the score-drop
+  rule). Under this rule ``max_tracks`` counts only confirmed tracks against
+  new ones and then keeps the preliminary tracks of best score (the
+  tracker's cap). With P_D = 0.9 and beta = 1e-3 a confirmed track survives
+  three misses and is deleted at the fourth, as the M/N rule's max_misses = 3.
+* Existence (``confirmation = "existence"``; IPDA, Musicki, Evans &
+  Stankovic 1994, and JIPDA, Musicki & Evans 2004): the track carries the
+  log-odds of its probability of existence rho, predicted each scan as
+  rho' = ``survival_probability`` rho (`predicted_log_odds`) and updated
+  by the same likelihood ratio as the score (rho / (1 - rho) = (1 - delta)
+  rho' / (1 - rho'), delta = P_D P_G - P_D sum_j l_j / lambda_j over the
+  gated contacts for JPDA, the chosen one for GNN and nn), so it starts
+  from the same two-point start. Since the survival caps the odds a scan
+  can carry over, Wald's thresholds do not apply: a preliminary track is
+  confirmed at rho >= ``existence_confirmation`` (0.9999) and any track is
+  deleted at rho <= ``existence_deletion`` (0.01). JPDA then weighs each
+  track's events by its existence (`jipda_log_ratio`) and updates its
+  state conditioned on existence.
+* Sanity deletion (issue 21; every contact tracker, whatever its
+  confirmation rule): a live track is deleted when its reported state is
+  impossible: faster than ``max_speed_m_s`` (2.5 v_max by default), outside every sensor's
+  coverage by more than its gate (`outside_coverage_m` against
+  `gate_radius_m`), or with a position standard deviation (the largest
+  axis of its position covariance) beyond ``max_position_sd_m``.
+  `sanity_reasons` gives each track's reason; the trackers count their
+  deletions by reason (`DELETION_REASONS`) in ``tracker.deletions``.
 """
 
 from __future__ import annotations
 
-from typing import Annotated
+import math
+from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 from scipy.spatial import cKDTree
 
+from nnda.data.scenario import Sensor
+from nnda.data.sensor import cart_to_polar_at, wrap_angle
 from nnda.tracking.output import CONFIRMED, DELETED, PRELIMINARY
 
 #: beyond this many initiator-contact pairs in the x bands, k-d trees find the pairs faster
@@ -44,6 +89,36 @@ class LifecycleConfig(BaseModel):
         "it, a scan opens only as many new tracks as there is room for, those whose implied speed is "
         "nearest the window's middle, with a BoundWarning. Bounds memory and time when clutter is far "
         "denser than the window was made for")] = 10_000
+    confirmation: Literal["mn", "score", "existence"] = Field(
+        "mn", description="how preliminary tracks are confirmed and tracks deleted: 'mn' (M/N counts, "
+        "max_misses), 'score' (Wald's test on the track score, thresholds from false_confirmation and "
+        "false_deletion) or 'existence' (IPDA / JIPDA: the probability of target existence, its log-odds "
+        "against the same thresholds; not for MHT)")
+    survival_probability: Annotated[float, Field(
+        gt=0, le=1, description="existence rule: probability that a target exists still at the next scan "
+        "(the Markov chain of IPDA)")] = 0.995
+    existence_confirmation: Annotated[float, Field(
+        gt=0, lt=1, description="existence rule: a preliminary track is confirmed at this existence "
+        "probability")] = 0.9999
+    existence_deletion: Annotated[float, Field(
+        gt=0, lt=1, description="existence rule: a track is deleted at this existence probability")] = 0.01
+    false_confirmation: Annotated[float, Field(
+        gt=0, lt=1, description="score rule: alpha, the probability of confirming a track of clutter")] = 1e-6
+    false_deletion: Annotated[float, Field(
+        gt=0, lt=1, description="score rule: beta, the probability of deleting a target's track")] = 1e-3
+    preliminary_false_deletion: Annotated[float, Field(
+        gt=0, lt=1, description="score rule: beta for preliminary tracks, whose deletion threshold is "
+        "ln(beta / (1 - alpha)) with this beta: early deletion of the clutter-born ones, which rarely "
+        "outlive a miss")] = 0.1
+    max_speed_m_s: Annotated[float | None, Field(
+        gt=0, description="delete a track whose estimated speed exceeds this (m/s), above v_max; None: "
+        "2.5 v_max. A track of a real target is not that far off after a coast, while a coasting track "
+        "that takes clutter absorbs the jump into its velocity and speeds up with every such step")] = None
+    max_position_sd_m: Annotated[float | None, Field(
+        gt=0, description="delete a track whose position standard deviation (largest axis of its position "
+        "covariance) exceeds this (m; None: no limit)")] = 2_000.0
+    coverage_deletion: bool = Field(True, description="delete a track outside every sensor's coverage by more "
+                                    "than its gate")
 
     @model_validator(mode="after")
     def _order(self) -> LifecycleConfig:
@@ -51,12 +126,146 @@ class LifecycleConfig(BaseModel):
             raise ValueError("v_min must be below v_max")
         if self.m > self.n:
             raise ValueError("M/N needs m <= n")
+        for field in ("false_deletion", "preliminary_false_deletion"):
+            if self.false_confirmation + getattr(self, field) >= 1:
+                raise ValueError(f"false_confirmation + {field} = {self.false_confirmation + getattr(self, field):g} "
+                                 f"must be below 1 (else the score test's thresholds cross)")
+        if self.existence_deletion >= self.existence_confirmation:
+            raise ValueError("existence_deletion must be below existence_confirmation")
+        if self.speed_limit <= self.v_max:
+            raise ValueError(f"max_speed_m_s = {self.max_speed_m_s} must exceed v_max = {self.v_max}: a track "
+                             f"of the fastest target would be deleted")
         return self
+
+    @property
+    def speed_limit(self) -> float:
+        """The speed (m/s) beyond which a track is deleted: ``max_speed_m_s``, or 2.5 v_max."""
+        return self.max_speed_m_s if self.max_speed_m_s is not None else 2.5 * self.v_max
+
+    @property
+    def score_thresholds(self) -> tuple[float, float]:
+        """(deletion, confirmation) thresholds of the score rule (`sprt_thresholds`)."""
+        return sprt_thresholds(self.false_confirmation, self.false_deletion)
+
+    def window_area(self, scan_period: float, sigma_range: float) -> float:
+        """Area (m^2) of the initiation annulus (`window`)."""
+        d_min, d_max = self.window(scan_period, sigma_range)
+        return math.pi * (d_max**2 - d_min**2)
 
     def window(self, scan_period: float, sigma_range: float) -> tuple[float, float]:
         """(D_min, D_max) in m for the initiation annulus (§4.2)."""
         return (max(0.0, self.v_min * scan_period - 3 * sigma_range),
                 self.v_max * scan_period + 3 * sigma_range)
+
+
+#: why a track was deleted, the keys of ``tracker.deletions``: its confirmation test failed (a preliminary
+#: track), its misses (M/N) or its score (score rule) ended a confirmed track, a sanity rule
+#: (sanity), or the score rule's cap on live tracks dropped it for want of room
+DELETION_REASONS = ("unconfirmed", "misses", "score", "speed", "coverage", "covariance", "capped")
+#: codes of `sanity_reasons`: 0 sane, else 1 + the index of the reason in SANITY_REASONS
+SANITY_REASONS = ("speed", "coverage", "covariance")
+
+
+def sprt_thresholds(alpha: float, beta: float) -> tuple[float, float]:
+    """Wald's thresholds (lower, upper) on a log-likelihood ratio for error probabilities alpha (accepting
+    "target" for clutter) and beta (rejecting it for a target): ln(beta / (1 - alpha)), ln((1 - beta) / alpha)."""
+    return math.log(beta / (1.0 - alpha)), math.log((1.0 - beta) / alpha)
+
+
+def start_score(pd: float, window_area: float, density: np.ndarray) -> np.ndarray:
+    """Score of a two-point start (module docstring): ln(P_D / (A_w rho)) for the area densities of clutter
+    ``density`` (m^-2, (K,)) at the second contacts and the initiation annulus' area A_w (m^2)."""
+    return math.log(pd) - np.log(window_area * density)
+
+
+def advance_score(status: np.ndarray, score: np.ndarray, max_score: np.ndarray, cfg: LifecycleConfig,
+                  observed: np.ndarray | None = None) -> np.ndarray:
+    """One scan of the score rule for K tracks whose ``score`` (K,) is already this scan's (and ``max_score``
+    its maximum so far): the new status (module docstring). A track not ``observed`` keeps its status."""
+    if cfg.confirmation == "existence":  # thresholds on the existence probability's log-odds
+        lower, upper = (math.log(p) - math.log1p(-p) for p in (cfg.existence_deletion, cfg.existence_confirmation))
+        early = lower
+    else:
+        lower, upper = cfg.score_thresholds
+        early = sprt_thresholds(cfg.false_confirmation, cfg.preliminary_false_deletion)[0]
+    new = status.copy()
+    prelim = status == PRELIMINARY
+    new[prelim & (score >= upper)] = CONFIRMED
+    new[prelim & (score <= early)] = DELETED
+    # the score falls from its maximum; an existence probability (log-odds) falls to the threshold itself
+    fallen = score if cfg.confirmation == "existence" else score - max_score
+    new[(status == CONFIRMED) & (fallen <= lower)] = DELETED
+    return new if observed is None else np.where(observed, new, status)
+
+
+def predicted_log_odds(log_odds: np.ndarray, survival: float) -> np.ndarray:
+    """IPDA's prediction of the existence probability, rho' = survival rho, on log-odds ln(rho / (1 - rho)),
+    kept within +-700 (a certain track stays finite)."""
+    rho = survival * existence(log_odds)
+    with np.errstate(divide="ignore"):
+        return np.clip(np.log(rho) - np.log1p(-rho), -700.0, 700.0)
+
+
+def existence(log_odds: np.ndarray) -> np.ndarray:
+    """The probability rho of the log-odds ln(rho / (1 - rho))."""
+    return 0.5 * (1.0 + np.tanh(0.5 * np.asarray(log_odds, float)))
+
+
+def jipda_log_ratio(log_ratio: np.ndarray, log_miss: float, rho: np.ndarray) -> np.ndarray:
+    """JIPDA's event terms in JPDA's form (Musicki & Evans 2004): a track of predicted existence ``rho`` (P,)
+    (one per pair) weighs a contact rho P_D l / lambda and no contact 1 - P_D P_G rho; divided by
+    (1 - P_D P_G rho) / (1 - P_D P_G), which leaves every track's marginals as they are, its no-contact term
+    is JPDA's exp(``log_miss``) and its pairs' ``log_ratio`` (ln(P_D l / lambda)) move by ln rho -
+    ln(1 - P_D P_G rho) + log_miss: exactly 0 at rho = 1, where JIPDA is JPDA."""
+    miss = -np.expm1(log_miss)  # P_D P_G
+    return log_ratio + (np.log(rho) - np.log1p(-miss * rho) + log_miss)
+
+
+def position_sd(P: np.ndarray) -> np.ndarray:
+    """Standard deviation (m) along the largest axis of the position covariance of states' covariances
+    P (K, 4, 4) ([x, vx, y, vy]). Returns (K,)."""
+    a, b, c = P[:, 0, 0], P[:, 0, 2], P[:, 2, 2]
+    return np.sqrt(np.maximum(0.5 * (a + c) + np.hypot(0.5 * (a - c), b), 0.0))
+
+
+def outside_coverage_m(sensor: Sensor, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """How far (m) positions (x, y) in m lie outside ``sensor``'s coverage (0 inside): the range beyond
+    its range limits and, for a sector, the cross-range distance beyond its edges, combined."""
+    r, azimuth = cart_to_polar_at(sensor.position, x, y)
+    along = np.maximum(np.maximum(sensor.min_range_m - r, r - sensor.max_range_m), 0.0)
+    if sensor.full_circle:
+        return along
+    beyond = np.maximum(np.abs(wrap_angle(azimuth - sensor.boresight_rad)) - sensor.half_fov_rad, 0.0)
+    return np.hypot(along, r * np.sin(np.minimum(beyond, 0.5 * np.pi)))
+
+
+def gate_radius_m(P: np.ndarray, noise_m: float, gate: float) -> np.ndarray:
+    """Radius (m) of a chi-square ``gate`` around states of covariance P (K, 4, 4): sqrt(gate) times the
+    largest position standard deviation combined with the measurement noise ``noise_m`` (m)."""
+    return np.sqrt(gate * (position_sd(P) ** 2 + noise_m**2))
+
+
+def sanity_reasons(x: np.ndarray, P: np.ndarray, sensors: tuple[Sensor, ...], gate: float,
+                   cfg: LifecycleConfig) -> np.ndarray:
+    """Which of K track states x (K, 4), P (K, 4, 4) are impossible, and why: (K,) int8 codes, 0 for a
+    sane track, else 1 + the index in SANITY_REASONS of the first rule it breaks (module docstring).
+    ``gate`` is the tracker's chi-square gate (2 dof) for the coverage rule."""
+    code = np.zeros(len(x), np.int8)
+    if not len(x):
+        return code
+    if cfg.coverage_deletion:
+        noise = min(sensor_noise_m(s) for s in sensors)
+        outside = np.min([outside_coverage_m(s, x[:, 0], x[:, 2]) for s in sensors], axis=0)
+        code[outside > gate_radius_m(P, noise, gate)] = 2
+    if cfg.max_position_sd_m is not None:
+        code[(code == 0) & (position_sd(P) > cfg.max_position_sd_m)] = 3
+    code[np.hypot(x[:, 1], x[:, 3]) > cfg.speed_limit] = 1
+    return code
+
+
+def sensor_noise_m(sensor: Sensor) -> float:
+    """The sensor's noise along a distance (m): range noise (polar), or position noise."""
+    return sensor.sigma_range_m if sensor.kind == "polar" else sensor.sigma_position_m
 
 
 def window_pairs(initiators: np.ndarray, contacts: np.ndarray, d_min: float, d_max: float

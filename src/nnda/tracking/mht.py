@@ -38,28 +38,37 @@ half-side ``clutter_radius_m`` around the predicted position) times the predicte
 The chosen leaf of each family is what the tracker reports; new families are
 reported from their first scan, like the other trackers' preliminary tracks.
 A family that loses its last leaf is reported once as deleted if it was ever
-reported. Confirmation is
-M/N (3/4, A12) or, with ``confirmation = "score"``, the score passing
-ln((1 - beta) / alpha) with alpha = 1e-3, beta = 0.1 (Wald's test, §7.3).
+reported. Confirmation is M/N (3/4, A12; a new family's score starts at
+ln(beta_NT / beta_FT) = ln(``new_target_ratio``)) or, with
+``lifecycle.confirmation = "score"``, the track score of every contact
+tracker (`nnda.tracking.lifecycle`): a new family starts at the two-point
+start's ln(P_D / (A_w rho)) of the same clutter estimate, and Wald's test
+on each leaf's score alone confirms (ln((1 - beta) / alpha)) and deletes
+(a preliminary leaf at ln(beta / (1 - alpha)), a confirmed one that far
+below its best score), alpha and beta the lifecycle's
+``false_confirmation`` and ``false_deletion``; the M/N counts play no part.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Annotated, ClassVar, Literal
+from typing import Annotated, ClassVar
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, model_validator
 from scipy.optimize import Bounds, LinearConstraint, milp
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from nnda.data.dataset import Scan
+from nnda.filters import kalman
 from nnda.filters.batch import Batch
 from nnda.filters.kalman import GATE_99
 from nnda.tracking.clutter_density import local_density
 from nnda.tracking.gating import gate
+from nnda.tracking.lifecycle import SANITY_REASONS, advance_score, sanity_reasons
+from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts, TrackerConfig, Tracks
 
@@ -69,6 +78,13 @@ UNKNOWN = -2
 
 class MHTConfig(ContactTrackerConfig):
     """TOMHT settings; defaults are the spec's §7.3 list and MATLAB trackerTOMHT's bounds."""
+
+    @model_validator(mode="after")
+    def _rule(self) -> MHTConfig:
+        if self.lifecycle.confirmation == "existence":
+            raise ValueError("lifecycle.confirmation = 'existence' (IPDA) is for the single-hypothesis trackers; "
+                             "MHT's hypotheses carry scores: use 'score' or 'mn'")
+        return self
 
     gate: Annotated[float, Field(gt=0, description="chi-square gate, 2 dof (9.21: P_G = 0.99)")] = GATE_99
     pd: Annotated[float, Field(gt=0, lt=1, description="detection probability used in the scores (A4)")] = 0.9
@@ -84,8 +100,6 @@ class MHTConfig(ContactTrackerConfig):
                                            "hypothesis is solved exactly; larger ones greedily")] = 5_000
     min_branch_probability: Annotated[float, Field(ge=0, lt=1)] = 1e-3
     deletion_score_drop: Annotated[float, Field(gt=0, description="delete a leaf this far below its best score")] = 10.0
-    confirmation: Literal["mn", "score"] = "mn"
-    confirmation_score: float = math.log((1 - 0.1) / 1e-3)
 
 
 @dataclass(frozen=True)
@@ -137,7 +151,7 @@ class MHTTracker(ContactTracker):
         families = 0 if leaves is None else np.unique(leaves.tracks.track_id).size
         born, contact = self.initiation(z, xy, used, time, families, sc.sensor)
         if born is not None:
-            new = self._new_leaves(born, contact)
+            new = self._new_leaves(self._start_scores(born, sc, contact), contact)
             x, P = self.filter.estimate(born.filt)
             first = 0 if leaves is None else len(leaves)
             leaves = new if leaves is None else Leaves.concat([leaves, new])
@@ -164,8 +178,8 @@ class MHTTracker(ContactTracker):
         contact = np.full(L, NO_CONTACT, np.int64)
         score = miss_score
         if len(z):
-            mp = imm.combined_measurement(pred)
-            gated = gate(imm, mp, z, xy, cfg.gate)
+            mp = kalman.predict_measurement(x_pred, P_pred, imm.measurement)  # the combined measurement
+            gated = gate(imm, mp, z, xy, cfg.gate, (x_pred, P_pred))
             pl, pj = gated.rows, gated.cols
             if pl.size:
                 ll = imm.pair_log_likelihood(pred, pl, z[pj])
@@ -184,22 +198,44 @@ class MHTTracker(ContactTracker):
         children = tr.take(parent)
         filt = children.filt
         if dp.size:
-            updated = imm.update(pred.take(dp), z[dc])
+            updated = linearised_update(imm, pred.take(dp), z[dc], np.ones(dp.size, bool))
             filt = type(filt).concat([filt.take(~detected), updated])  # misses come first
         tracks = children.after_scan(contact, filt, z, xy, time, cfg.lifecycle,
                                      None if observed is None else observed[parent])
         max_score = np.maximum(leaves.max_score[parent], score)
-        if cfg.confirmation == "score":
-            confirm = (tracks.status == TrackStatus.PRELIMINARY) & (score > cfg.confirmation_score)
-            tracks = replace(tracks, status=np.where(confirm, TrackStatus.CONFIRMED, tracks.status).astype(np.int8))
+        if self.confirmation_rule != "mn":  # Wald's test on the leaf's score, M/N counts ignored
+            tracks = replace(tracks, status=advance_score(tr.status[parent], score, max_score, cfg.lifecycle,
+                                                          None if observed is None else observed[parent]))
         status = tracks.status
         d1 = detected[:, None]
         hist = np.column_stack([leaves.hist[parent, 1:], contact])
         out = Leaves(tracks, score, max_score, hist)
         x_post, P_post = imm.estimate(filt)
         shown = _Shown(np.where(d1, x_post, x_pred[parent]), np.where(d1[:, :, None], P_post, P_pred[parent]))
-        alive = (status != TrackStatus.DELETED) & (score >= max_score - cfg.deletion_score_drop)
+        code = sanity_reasons(shown.x, shown.P, self.sensors, self.gate_threshold, cfg.lifecycle)
+        alive = (status != TrackStatus.DELETED) & (score >= max_score - cfg.deletion_score_drop) & (code == 0)
+        self._count_lost(tracks.track_id, tr.status[parent], status, score, code, alive)
         return out.take(alive), _Shown(shown.x[alive], shown.P[alive])
+
+    def _count_lost(self, family: np.ndarray, before: np.ndarray, status: np.ndarray, score: np.ndarray,
+                    code: np.ndarray, alive: np.ndarray) -> None:
+        """Count in ``deletions`` the families whose every child leaf dies in this scan's branching, each by
+        the fate of its best-scoring child: a sanity rule (its ``code``), else the life cycle (a preliminary
+        family: unconfirmed; a confirmed one: misses under M/N deletion, score when its score fell)."""
+        lost = ~np.isin(family, family[alive])
+        if not lost.any():
+            return
+        rows = np.flatnonzero(lost)
+        order = rows[np.lexsort((-score[rows], family[rows]))]
+        best = order[np.r_[True, np.diff(family[order]) != 0]]
+        for i, reason in enumerate(SANITY_REASONS, start=1):
+            self.deletions[reason] += int((code[best] == i).sum())
+        ended = code[best] == 0
+        confirmed = before[best] == TrackStatus.CONFIRMED
+        self.deletions["unconfirmed"] += int((ended & ~confirmed).sum())
+        by_misses = ended & confirmed & (status[best] == TrackStatus.DELETED) & (self.confirmation_rule == "mn")
+        self.deletions["misses"] += int(by_misses.sum())
+        self.deletions["score"] += int((ended & confirmed & ~by_misses).sum())
 
     def _clutter_density(self, x_pred: np.ndarray, xy: np.ndarray) -> np.ndarray:
         """Clutter spatial density (m^-2) at each leaf's predicted position, (L,)."""
@@ -212,7 +248,10 @@ class MHTTracker(ContactTracker):
         k = len(born)
         hist = np.full((k, self.config.n_scan), UNKNOWN, np.int64)
         hist[:, -1] = contact
-        score = np.full(k, math.log(self.config.new_target_ratio))
+        if self.confirmation_rule != "mn":  # the clutter model's two-point start, as every contact tracker's
+            score = born.score
+        else:
+            score = np.full(k, math.log(self.config.new_target_ratio))
         return Leaves(born, score, score.copy(), hist)
 
     # ---------------------------------------------------------------------- global hypothesis

@@ -19,11 +19,12 @@ from nnda.data.scenario import Sensor
 from nnda.errors import ConfigError, validated
 from nnda.tracking.gnn import GNNTracker
 from nnda.tracking.jpda import JPDATracker
+from nnda.tracking.lifecycle import LifecycleConfig
 from nnda.tracking.mht import MHTTracker
 from nnda.tracking.neural import NeuralTracker
 from nnda.tracking.phd.fusion import AAFusionTracker, CentralPHDTracker, FusionTracker
 from nnda.tracking.phd.tracker import CPHDTracker, EKPHDTracker, GMPHDTracker, UKPHDTracker
-from nnda.tracking.tracker import Tracker
+from nnda.tracking.tracker import ContactTracker, Tracker
 
 #: Stone Soup peer trackers: name -> "module:class", imported on first lookup
 PEERS: dict[str, str] = {
@@ -74,3 +75,12 @@ def make_tracker(name: str, sensors: Sensor | Sequence[Sensor], params: Mapping[
         return cls(sensors, config)
     except ConfigError as exc:
         raise ConfigError(f"{where}: {exc}") from None
+
+
+def confirmation_rule(name: str, params: Mapping[str, Any] | None = None) -> str | None:
+    """The confirmation rule ("mn", "score" or "existence") a contact tracker of kind ``name`` runs with ``params``
+    (issue 21: a study states it), or None for a tracker without one (PHD filters, peers, unknown kinds)."""
+    if name in PEERS or name not in TRACKERS or not issubclass(TRACKERS[name], ContactTracker):
+        return None
+    lifecycle = dict(params or {}).get("lifecycle") or {}
+    return str(lifecycle.get("confirmation", LifecycleConfig().confirmation))

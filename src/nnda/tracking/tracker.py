@@ -23,7 +23,8 @@ only, `associate`; each scan:
    its last update (spec §7.1.8: a missed scan is not an update);
 3. **associate** (the method's part): decide which contact, if any, updates
    each track and return the states after the scan (`Association`);
-4. the M/N and deletion logic of `nnda.tracking.lifecycle`;
+4. the M/N and deletion logic of `nnda.tracking.lifecycle`, then its sanity rules on the reported
+   states (impossible speed, outside coverage, inflated covariance), deletions counted by reason;
 5. initiation: the initiators of the sensor's last scan pair with this
    scan's unused contacts inside their [D_min, D_max] window, each pair
    opening a preliminary track (two-point start); unused contacts outside
@@ -41,7 +42,7 @@ import math
 import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import ClassVar, Protocol, runtime_checkable
 
 import numpy as np
@@ -53,9 +54,31 @@ from nnda.data.sensor import in_coverage
 from nnda.errors import BoundWarning, ConfigError, TrackingError
 from nnda.filters.batch import Batch
 from nnda.filters.imm import IMM, IMMPrediction, IMMState
+from nnda.filters.kalman import GATE_99
 from nnda.filters.measurement import measurement_model
-from nnda.tracking.lifecycle import LifecycleConfig, advance, cap_pairs, cap_per_initiator, window_pairs
-from nnda.tracking.output import DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
+from nnda.tracking.clutter_density import local_density
+from nnda.tracking.lifecycle import (
+    DELETION_REASONS,
+    SANITY_REASONS,
+    LifecycleConfig,
+    advance,
+    advance_score,
+    cap_pairs,
+    cap_per_initiator,
+    predicted_log_odds,
+    sanity_reasons,
+    sensor_noise_m,
+    start_score,
+    window_pairs,
+)
+from nnda.tracking.linearisation import update as linearised_update
+from nnda.tracking.marginals import log_miss_weight
+from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
+
+#: detection probability of the track score for a tracker whose config has none (spec A4)
+SCORE_PD = 0.9
+#: half-side (m) of the local clutter density's square for a tracker whose config has none
+CLUTTER_RADIUS_M = 3_000.0
 
 
 class TrackerConfig(BaseModel):
@@ -139,7 +162,10 @@ class Tracks(Batch):
     ``filt`` is the IMM posterior at the track's last update, at time ``t2``
     (s), from the contact at ``p2`` (m, Cartesian) with azimuth ``az2`` (rad);
     ``p1``/``t1`` is the contact before it. ``hits``, ``misses`` and
-    ``consecutive`` are the M/N counters of `nnda.tracking.lifecycle`.
+    ``consecutive`` are the M/N counters of `nnda.tracking.lifecycle`, ``score`` the
+    track score (log-likelihood ratio of target against clutter; kept under the score rule,
+    0 otherwise; under the existence rule the log-odds of the track's existence) and ``max_score`` its
+    maximum so far.
     """
 
     track_id: np.ndarray
@@ -153,24 +179,35 @@ class Tracks(Batch):
     hits: np.ndarray
     misses: np.ndarray
     consecutive: np.ndarray
+    score: np.ndarray
+    max_score: np.ndarray
 
     def after_scan(self, contact: np.ndarray, filt: IMMState, z: np.ndarray, xy: np.ndarray, time: float,
-                   lifecycle: LifecycleConfig, observed: np.ndarray | None = None) -> Tracks:
+                   lifecycle: LifecycleConfig, observed: np.ndarray | None = None,
+                   score_gain: np.ndarray | None = None) -> Tracks:
         """These tracks after a scan at ``time``: ``contact`` (K,) is the contact each used
         (NO_CONTACT: missed), ``filt`` their filter states from then on. The contact history moves on where
-        a contact was used, and the M/N counters and status advance (`lifecycle.advance`) where the scan
-        ``observed`` the track (default: everywhere)."""
+        a contact was used, and the M/N counters, the score (by ``score_gain`` (K,), the scan's
+        log-likelihood ratio; None: 0) and the status advance (`lifecycle.advance`, or
+        `lifecycle.advance_score` under the score rule) where the scan ``observed`` the track (default:
+        everywhere)."""
         det = contact != NO_CONTACT
         c = np.maximum(contact, 0)
         d1 = det[:, None]
         status, hits, misses, consecutive = advance(self.status, self.hits, self.misses, self.consecutive,
                                                     det, lifecycle, observed)
+        score, max_score = self.score, self.max_score
+        if score_gain is not None:
+            score = score + (score_gain if observed is None else np.where(observed, score_gain, 0.0))
+            max_score = np.maximum(max_score, score)
+        if lifecycle.confirmation != "mn":
+            status = advance_score(self.status, score, max_score, lifecycle, observed)
         return Tracks(
             track_id=self.track_id, status=status, filt=filt,
             p1=np.where(d1, self.p2, self.p1), t1=np.where(det, self.t2, self.t1),
             p2=np.where(d1, xy[c] if len(xy) else 0.0, self.p2), t2=np.where(det, time, self.t2),
             az2=np.where(det, z[c, 1] if len(z) else 0.0, self.az2),
-            hits=hits, misses=misses, consecutive=consecutive,
+            hits=hits, misses=misses, consecutive=consecutive, score=score, max_score=max_score,
         )
 
 
@@ -180,11 +217,14 @@ class Association:
 
     ``contact`` (K,) is the index of the contact that updated each track (or
     NO_CONTACT: a miss); ``filt`` the filter states after the scan: the updated state of
-    a track with a contact, the prediction (``pred.state``) of one without.
+    a track with a contact, the prediction (``pred.state``) of one without. ``score_gain`` (K,)
+    is the scan's track-score increment when the method computes its own (JPDA under the
+    existence rule: JIPDA's); None: the framework's, from the chosen contact.
     """
 
     contact: np.ndarray
     filt: IMMState
+    score_gain: np.ndarray | None = None
 
 
 class TwoPointInitiation:
@@ -203,7 +243,7 @@ class TwoPointInitiation:
     def __init__(self, filters: Sequence[IMM], lifecycle: LifecycleConfig, sensors: Sequence[Sensor]) -> None:
         self.filters = tuple(filters)
         self.lifecycle = lifecycle
-        self.windows = tuple(lifecycle.window(s.scan_period_s, _sigma_m(s)) for s in sensors)
+        self.windows = tuple(lifecycle.window(s.scan_period_s, sensor_noise_m(s)) for s in sensors)
         self.reset()
 
     def reset(self) -> None:
@@ -249,6 +289,7 @@ class TwoPointInitiation:
                     filt=self.filters[sensor].start(p1, p2, cov2, time - before),
                     p1=p1, t1=np.full(k, before), p2=p2, t2=np.full(k, time),
                     az2=z[contact, 1], hits=zeros, misses=zeros.copy(), consecutive=zeros.copy(),
+                    score=np.zeros(k), max_score=np.zeros(k),
                 )
                 self.next_id += k
         rest = free[~in_window]
@@ -261,11 +302,6 @@ class TwoPointInitiation:
                           f"{self.lifecycle.max_tracks} allowed (lifecycle.max_tracks); later refusals of this "
                           f"run are only counted (n_refused)", BoundWarning, stacklevel=4)
         self.n_refused += n
-
-
-def _sigma_m(sensor: Sensor) -> float:
-    """The sensor's noise along a contact-to-contact distance (m): range noise, or position noise."""
-    return sensor.sigma_range_m if sensor.kind == "polar" else sensor.sigma_position_m
 
 
 class ContactTracker(ABC):
@@ -296,6 +332,87 @@ class ContactTracker(ABC):
         self.initiation.reset()
         self.last_time = -np.inf
         self._bounds_hit: set[str] = set()
+        #: tracks deleted since the last reset, by reason (`nnda.tracking.lifecycle.DELETION_REASONS`)
+        self.deletions: dict[str, int] = dict.fromkeys(DELETION_REASONS, 0)
+
+    @property
+    def gate_threshold(self) -> float:
+        """The chi-square gate (2 dof) of the tracker's config, or the spec's 9.21 for a tracker without one
+        (the coverage rule of the sanity deletion measures a track's distance outside coverage in gates)."""
+        return float(getattr(self.config, "gate", GATE_99))
+
+    def _judged(self, before: np.ndarray, status: np.ndarray, x: np.ndarray, P: np.ndarray) -> np.ndarray:
+        """``status`` (K,) after a scan's life cycle, with the sanity rules applied to the live tracks'
+        reported states x (K, 4), P (K, 4, 4) (`nnda.tracking.lifecycle.sanity_reasons`); the scan's
+        deletions are counted in ``deletions`` by reason (status ``before`` the scan tells them apart)."""
+        gone = (status == DELETED) & (before != DELETED)
+        self.deletions["unconfirmed"] += int((gone & (before == PRELIMINARY)).sum())
+        self.deletions[self._ended_reason] += int((gone & (before == CONFIRMED)).sum())
+        live = np.flatnonzero(status != DELETED)
+        code = sanity_reasons(x[live], P[live], self.sensors, self.gate_threshold, self.config.lifecycle)
+        if not code.any():
+            return status
+        for i, reason in enumerate(SANITY_REASONS, start=1):
+            self.deletions[reason] += int((code == i).sum())
+        status = status.copy()
+        status[live[code > 0]] = DELETED
+        return status
+
+    @property
+    def _ended_reason(self) -> str:
+        """The deletion reason of a confirmed track its life cycle ended."""
+        return "misses" if self.confirmation_rule == "mn" else "score"
+
+    @property
+    def confirmation_rule(self) -> str:
+        """The rule that confirms and deletes this tracker's tracks: "mn" (M/N counts), "score" (SPRT) or
+        "existence" (IPDA / JIPDA)."""
+        return self.config.lifecycle.confirmation
+
+    @property
+    def score_pd(self) -> float:
+        """The detection probability of the track score: the config's ``pd``, or the spec's 0.9 (A4)."""
+        return float(getattr(self.config, "pd", SCORE_PD))
+
+    def clutter_density(self, scan: ScanContacts, at: np.ndarray) -> np.ndarray:
+        """Clutter density in the measurement space of the scan's sensor (polar: (m rad)^-1) at its
+        contacts ``at`` (M,): the scan's contacts around each (`local_density`, half-side the config's
+        ``clutter_radius_m`` or 3 km) times the area Jacobian."""
+        return (local_density(scan.xy, scan.xy[at], self._clutter_radius)
+                * scan.filter.measurement.area_jacobian(scan.z[at]))
+
+    @property
+    def _clutter_radius(self) -> float:
+        return float(getattr(self.config, "clutter_radius_m", CLUTTER_RADIUS_M))
+
+    def _start_scores(self, born: Tracks, scan: ScanContacts, contact: np.ndarray) -> Tracks:
+        """``born`` with the score of its two-point start (`lifecycle.start_score`) under the score rule."""
+        if self.confirmation_rule == "mn":
+            return born
+        sensor = self.sensors[scan.sensor]
+        area = self.config.lifecycle.window_area(sensor.scan_period_s, sensor_noise_m(sensor))
+        score = start_score(self.score_pd, area, local_density(scan.xy, scan.xy[contact], self._clutter_radius))
+        return replace(born, score=score, max_score=score.copy())
+
+    def _score_gain(self, pred: IMMPrediction, scan: ScanContacts, assoc: Association) -> np.ndarray | None:
+        """The scan's track-score increments (K,) under the score rule (None under M/N): the method's own,
+        else ln(P_D l / lambda) for the chosen contact and ln(1 - P_D P_G) for a miss."""
+        if self.confirmation_rule == "mn":
+            return None
+        if assoc.score_gain is not None:
+            return assoc.score_gain
+        c = assoc.contact
+        gain = np.full(c.size, log_miss_weight(self.score_pd, self.gate_threshold))
+        rows = np.flatnonzero(c != NO_CONTACT)
+        if rows.size:
+            j = c[rows]
+            gain[rows] = (math.log(self.score_pd) + scan.filter.pair_log_likelihood(pred, rows, scan.z[j])
+                          - np.log(self.clutter_density(scan, j)))
+        return gain
+
+    def track_management(self) -> dict:
+        """What a study records of the run so far: the confirmation rule and the deletions by reason."""
+        return {"confirmation": self.confirmation_rule, "deletions": dict(self.deletions)}
 
     def _bound_hit(self, field: str, what: str, time: float) -> None:
         """A BoundWarning the first time in a run that the bound of config ``field`` bites (``what`` it did);
@@ -345,12 +462,13 @@ class ScanContacts:
 
 def hard_update(track_filter: IMM, pred: IMMPrediction, z: np.ndarray, contact: np.ndarray) -> Association:
     """Update each track with its chosen contact: ``contact`` (K,) indexes the checked contacts z (N, 2)
-    (NO_CONTACT: the track keeps its prediction)."""
+    (NO_CONTACT: the track keeps its prediction); a poorly linearised track takes the
+    converted-measurement update (`nnda.tracking.linearisation.update`)."""
     detected = contact != NO_CONTACT
     if not detected.any():
         return Association(contact, pred.state)
     # rows without a contact are masked, whichever contact they hold
-    return Association(contact, track_filter.update(pred, z[np.maximum(contact, 0)], detected, check=False))
+    return Association(contact, linearised_update(track_filter, pred, z[np.maximum(contact, 0)], detected))
 
 
 class SingleHypothesisTracker(ContactTracker):
@@ -381,6 +499,9 @@ class SingleHypothesisTracker(ContactTracker):
         shown = []  # (tracks, filter state to report, contact used) per block of the output
         tracks = self.tracks
         if tracks is not None:
+            if self.confirmation_rule == "existence":  # IPDA's Markov prediction of the existence probability
+                survival = self.config.lifecycle.survival_probability
+                tracks = replace(tracks, score=predicted_log_odds(tracks.score, survival))
             pred = sc.filter.predict(tracks.filt, time - tracks.t2, check=False)
             assoc = self.associate(tracks, pred, sc)
             c = assoc.contact
@@ -388,29 +509,64 @@ class SingleHypothesisTracker(ContactTracker):
             used[c[det]] = True
             observed = self._observed(sc, pred)
             # a missed track keeps its last posterior (§7.1.8) and reports its prediction
+            before = tracks.status
             tracks = tracks.after_scan(c, _pick(det, assoc.filt, tracks.filt), z, xy, time, self.config.lifecycle,
-                                       observed)
-            shown.append((tracks, assoc.filt, c))
+                                       observed, self._score_gain(pred, sc, assoc))
+            x, P = self.filter.estimate(assoc.filt)
+            tracks = replace(tracks, status=self._judged(before, tracks.status, x, P))
+            shown.append((tracks, x, P, c))
             alive = np.flatnonzero(tracks.status != DELETED)
             tracks = None if not alive.size else tracks if alive.size == len(tracks) else tracks.take(alive)
-        born, born_contact = self.initiation(z, xy, used, time, 0 if tracks is None else len(tracks), sc.sensor)
+        score_rule = self.confirmation_rule != "mn"
+        # under the score rule only confirmed tracks take room from new ones: the cap then keeps the best scores
+        held = 0 if tracks is None else int((tracks.status == CONFIRMED).sum()) if score_rule else len(tracks)
+        born, born_contact = self.initiation(z, xy, used, time, held, sc.sensor)
         if born is not None:
-            shown.append((born, born.filt, born_contact))
+            born = self._start_scores(born, sc, born_contact)
+            if score_rule:
+                tracks, born, born_contact = self._capped(tracks, born, born_contact, shown, time)
+        if born is not None:
+            shown.append((born, *self.filter.estimate(born.filt), born_contact))
             tracks = born if tracks is None else Tracks.concat([tracks, born])
         self.tracks = tracks
         self.last_time = time
         return self._shown(scan.index, time, shown)
 
-    def _shown(self, scan: int, time: float, blocks: list[tuple[Tracks, IMMState, np.ndarray]]) -> TrackerOutput:
-        """The scan's output from blocks of (tracks, the filter state to report, contact used): one
-        combined estimate for all of them."""
-        if not blocks:
-            return TrackerOutput.empty(scan, time)
-        tracks, states, contact = zip(*blocks)
-        x, P = self.filter.estimate(states[0] if len(states) == 1 else IMMState.concat(states))
-        return TrackerOutput(scan, time, np.concatenate([t.track_id for t in tracks]),
-                             np.concatenate([t.status for t in tracks]), x, P,
-                             np.concatenate(contact).astype(np.int64, copy=False))
+    def _capped(self, tracks: Tracks | None, born: Tracks, contact: np.ndarray, shown: list, time: float
+                ) -> tuple[Tracks | None, Tracks | None, np.ndarray]:
+        """The score rule's cap on live tracks (``lifecycle.max_tracks``): past it, the preliminary tracks of
+        lowest score (old or just born) go, so a target's track, whose score grows with every contact, is
+        not refused for clutter-born ones. A dropped old track is reported as deleted in this scan
+        (``shown``'s first block), a dropped new one never; both are counted as "capped"."""
+        old = 0 if tracks is None else len(tracks)
+        room = self.config.lifecycle.max_tracks
+        if old + len(born) <= room:
+            return tracks, born, contact
+        status = np.concatenate([np.empty(0, np.int8) if tracks is None else tracks.status, born.status])
+        score = np.concatenate([np.empty(0) if tracks is None else tracks.score, born.score])
+        prelim = np.flatnonzero(status == PRELIMINARY)
+        n_keep = max(room - (status.size - prelim.size), 0)
+        drop = prelim[np.argsort(-score[prelim], kind="stable")[n_keep:]]
+        keep = np.ones(status.size, bool)
+        keep[drop] = False
+        self.deletions["capped"] += int(drop.size)
+        self._bound_hit("max_tracks", f"{drop.size} preliminary track(s) of lowest score dropped, {room} live "
+                        f"at most", time)
+        if old and not keep[:old].all():
+            block, x, P, c = shown[0]
+            gone = np.flatnonzero(~keep[:old])
+            shown_status = block.status.copy()
+            shown_status[np.flatnonzero(block.status != DELETED)[gone]] = DELETED
+            shown[0] = (replace(block, status=shown_status), x, P, c)
+            tracks = tracks.take(np.flatnonzero(keep[:old])) if keep[:old].any() else None
+        new = np.flatnonzero(keep[old:])
+        return tracks, (born.take(new) if new.size else None), contact[new]
+
+    def _shown(self, scan: int, time: float, blocks: list[tuple[Tracks, np.ndarray, np.ndarray, np.ndarray]]
+               ) -> TrackerOutput:
+        """The scan's output from blocks of (tracks, the combined estimate x (K, 4), P (K, 4, 4) to report,
+        contact used)."""
+        return TrackerOutput.from_blocks(scan, time, [(t.track_id, t.status, x, P, c) for t, x, P, c in blocks])
 
 
 def _pick(rows: np.ndarray, a: IMMState, b: IMMState) -> IMMState:

@@ -1,0 +1,85 @@
+"""Issue 21, part 5: IPDA / JIPDA existence (lifecycle.confirmation = "existence")."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from nnda.data.generator import generate
+from nnda.data.presets import PRESETS
+from nnda.data.scenario import Sensor
+from nnda.errors import ConfigError
+from nnda.tracking.jpda import existence_update
+from nnda.tracking.lifecycle import existence, jipda_log_ratio, predicted_log_odds
+from nnda.tracking.marginals import jpda_marginals, log_miss_weight
+from nnda.tracking.registry import make_tracker
+from tolerances import RTOL
+
+PD, GATE = 0.9, 9.21
+PG = 1 - math.exp(-GATE / 2)
+LOG_MISS = log_miss_weight(PD, GATE)
+
+
+def _logit(p):
+    return math.log(p) - math.log1p(-p)
+
+
+def _one_track(rho_pred: float, ratios: list[float]):
+    """JIPDA of one track of predicted existence rho_pred with contacts of likelihood ratios l / lambda."""
+    log_ratio = np.log(PD * np.array(ratios))
+    track = np.zeros(len(ratios), np.int64)
+    m = jpda_marginals(track, np.arange(len(ratios)), jipda_log_ratio(log_ratio, LOG_MISS, np.full(len(ratios),
+                       rho_pred)), 1, LOG_MISS, 10_000)
+    return existence_update(np.array([_logit(rho_pred)]), m.beta, m.beta0, track, LOG_MISS), m
+
+
+def test_prediction_is_the_markov_chain():
+    np.testing.assert_allclose(existence(predicted_log_odds(np.array([_logit(0.7)]), 0.98)), [0.98 * 0.7], rtol=RTOL)
+
+
+def test_no_contact_in_the_gate_lowers_existence_by_the_known_factor():
+    rho = 0.6
+    after = existence(_logit(rho) + LOG_MISS)  # what the framework adds for a track without gated contacts
+    assert after == pytest.approx((1 - PD * PG) * rho / (1 - PD * PG * rho), rel=RTOL)
+    assert after < rho
+
+
+@pytest.mark.parametrize("ratios", [[3.0], [0.2, 5.0], [1e6]])
+def test_one_track_existence_is_ipda(ratios):
+    rho = 0.6
+    (gain, given, given0), _ = _one_track(rho, ratios)
+    delta = PD * PG - PD * sum(ratios)
+    expected = (1 - delta) * rho / (1 - delta * rho)
+    assert existence(_logit(rho) + gain[0]) == pytest.approx(expected, rel=RTOL)
+    assert given.sum() + given0[0] == pytest.approx(1.0, rel=RTOL)
+    if ratios == [1e6]:  # a perfect detection: existence all but certain
+        assert expected > 0.9999 and given[0] == pytest.approx(1.0, rel=1e-5)
+
+
+def test_at_existence_one_jipda_is_jpda():
+    rng = np.random.default_rng(3)
+    track = np.array([0, 0, 1, 1, 2], np.int64)
+    contact = np.array([0, 1, 1, 2, 2], np.int64)
+    log_ratio = rng.normal(1.0, 1.0, 5)
+    np.testing.assert_allclose(jipda_log_ratio(log_ratio, LOG_MISS, np.ones(5)), log_ratio, rtol=RTOL, atol=1e-12)
+    m = jpda_marginals(track, contact, log_ratio, 3, LOG_MISS, 10_000)
+    _, given, given0 = existence_update(np.full(3, 700.0), m.beta, m.beta0, track, LOG_MISS)
+    np.testing.assert_allclose(given, m.beta, rtol=RTOL)
+    np.testing.assert_allclose(given0, m.beta0, rtol=RTOL, atol=1e-12)
+
+
+@pytest.mark.parametrize("kind", ["gnn", "jpda"])
+def test_existence_rule_tracks_the_targets(kind):
+    ds = generate(PRESETS["S4"], 0)
+    tracker = make_tracker(kind, ds.scenario.sensors, {"lifecycle": {"confirmation": "existence"}})
+    from nnda.study.metrics import run_metrics
+    m = run_metrics(ds, [tracker.step(s) for s in ds.scans()])
+    assert tracker.confirmation_rule == "existence"
+    assert m.confirmed_tracks - m.false_tracks - m.track_breaks == 4 and m.false_tracks <= 1
+
+
+def test_mht_refuses_the_existence_rule():
+    with pytest.raises(ConfigError, match="existence"):
+        make_tracker("mht", Sensor(), {"lifecycle": {"confirmation": "existence"}})
