@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.lines import Line2D
-from matplotlib.ticker import LogFormatter
+from matplotlib.ticker import FuncFormatter, LogFormatter
 
 from nnda.reports.study_figures import _colours, _png
 from nnda.reports.study_summary import HEADLINES, stat, verdicts
@@ -49,7 +49,8 @@ def pareto_front(points, senses) -> np.ndarray:
     better on axis j, -1 when lower is. A row is dominated when another row is at least as good on every
     axis and better on one; equal rows (duplicates) do not dominate each other, so both stay on the front.
     Rows holding NaN are never on the front and dominate nothing."""
-    p = np.asarray(points, dtype=float).reshape(len(points), -1) * np.asarray(senses, dtype=float)
+    senses = np.asarray(senses, dtype=float)
+    p = np.asarray(points, dtype=float).reshape(len(points), senses.size) * senses
     ok = ~np.isnan(p).any(axis=1)
     mask = np.zeros(len(p), dtype=bool)
     for i in np.flatnonzero(ok):
@@ -122,8 +123,6 @@ def headline_points(summary: dict, timing: dict, key: str) -> dict[str, list[Poi
 
 def front(points: list[Point], m: Measure) -> np.ndarray:
     """`pareto_front` of the points: lower time better, ``m``'s own sense on the other axis."""
-    if not points:
-        return np.zeros(0, dtype=bool)
     return pareto_front([(p.time_ms, p.value) for p in points], (TIME.sense, m.sense))
 
 
@@ -155,11 +154,12 @@ def quality_cost(panels: dict[str, list[Point]], m: Measure, trackers: list[str]
                         mec=c, mew=1.5, elinewidth=1, capsize=2, zorder=3)
         best = sorted((p for p, f in zip(points, on) if f), key=lambda p: (p.time_ms, -m.sense * p.value))
         if len(best) > 1:
-            ax.plot([p.time_ms for p in best], [p.value for p in best], ls="--", color="0.35", lw=1, zorder=2)
+            ax.plot([p.time_ms for p in best], [p.value for p in best], ls="--", color="0.35", lw=1, zorder=2,
+                    drawstyle="steps-post")  # the front's attainment line: a step down (up) at each front point
         ax.set_xscale("log")
         if edge is not None:
             ax.set_xlim(left=edge)
-        ax.xaxis.set_major_formatter(LogFormatter())
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
         ax.xaxis.set_minor_formatter(LogFormatter(minor_thresholds=(1.2, 0.5)))
         ax.set_title(title, fontweight="bold" if title == OVERALL else "normal", fontsize=10)
         ax.grid(alpha=0.3, which="both")
@@ -170,7 +170,9 @@ def quality_cost(panels: dict[str, list[Point]], m: Measure, trackers: list[str]
         ax.set_xlabel(f"{TIME.label.lower()} ({TIME.unit}, log)", fontsize=9)
     for ax in axes[:, 0]:
         ax.set_ylabel(f"{m.label} ({m.unit}), {better} is better" if m.unit else m.label, fontsize=9)
-    handles = [Line2D([], [], marker="o", ls="", color=colours[t], label=t) for t in trackers]
+    drawn = {p.tracker for points in panels.values() for p in points}
+    handles = [Line2D([], [], marker="o", ls="", color=colours[t], label=t if t in drawn else f"{t} (undefined)")
+               for t in trackers]
     handles += [Line2D([], [], marker="o", ls="--", color="0.35", label="Pareto front"),
                 Line2D([], [], marker="o", ls="", color="0.35", mfc="white", label="dominated")]
     fig.legend(handles=handles, loc="outside right upper", fontsize=8, frameon=False)

@@ -51,8 +51,7 @@ class Verdict:
     best: str | None  # None: a tie for best
     second: str | None
     clear: bool
-    text: str
-    cell: str  # the short form of the verdict table (`verdict_table`)
+    text: str  # the cell of `verdict_table`
 
 
 def verdicts(summary: dict, timing: dict) -> list[Verdict]:
@@ -70,20 +69,17 @@ def verdicts(summary: dict, timing: dict) -> list[Verdict]:
             best, second = ranked[0], ranked[1]
             tied = [t for t in ranked if stats[t]["mean"] == stats[best]["mean"]]
             if len(tied) == len(ranked):
-                text = f"{h.label}: all trackers equal ({_fmt(h, stats[best])})"
-                out.append(Verdict(sc["name"], h, None, None, False, text, f"all equal ({_fmt(h, stats[best])})"))
+                out.append(Verdict(sc["name"], h, None, None, False, f"all equal ({_fmt(h, stats[best])})"))
                 continue
             if len(tied) > 1:
-                text = f"{h.label}: {', '.join(f'**{t}**' for t in tied)} tie for best at {_fmt(h, stats[best])}"
-                cell = f"tie: {', '.join(tied)} ({_fmt(h, stats[best])})"
-                out.append(Verdict(sc["name"], h, None, None, False, text, cell))
+                text = f"tie: {', '.join(tied)} ({_fmt(h, stats[best])})"
+                out.append(Verdict(sc["name"], h, None, None, False, text))
                 continue
             clear = apart(stats[best], stats[second])
-            relation = "clearly ahead of" if clear else f"not separable at {level} from"
-            text = (f"{h.label}: **{best}** {_fmt(h, stats[best])}, {relation} {second} "
-                    f"{_fmt(h, stats[second])}")
-            cell = f"{best} {_fmt(h, stats[best])}, {'clear of' if clear else 'not separable from'} {second}"
-            out.append(Verdict(sc["name"], h, best, second, clear, text, cell))
+            relation = "clear of" if clear else f"not separable at {level} from"
+            text = (f"{best} {_fmt(h, stats[best])}, {relation} {second} "
+                    f"({h.fmt.format(stats[second]['mean'] * h.scale)})")
+            out.append(Verdict(sc["name"], h, best, second, clear, text))
     return out
 
 
@@ -131,14 +127,14 @@ def verdict_table(summary: dict, timing: dict) -> TextTable:
     header = ("Scenario", *(h.title for h in HEADLINES)) + (("Time per scan, neural / MHT",) if ratios else ())
     rows = []
     for sc in summary["scenarios"]:
-        row = [sc["name"], *(vs[sc["name"], h.key].cell if (sc["name"], h.key) in vs else DASH for h in HEADLINES)]
+        row = [sc["name"], *(vs[sc["name"], h.key].text if (sc["name"], h.key) in vs else DASH for h in HEADLINES)]
         if ratios:
             row.append("; ".join(r for name, r in ratios if name == sc["name"]) or DASH)
         rows.append(tuple(row))
     level = f"{summary['confidence']:.0%}"
     note = (f"Per scenario and measure the tracker with the best mean over runs [{level} t-interval]; clear: its "
-            f"interval and the runner-up's do not overlap; not separable: they do (with one run there is no "
-            f"interval and no win is clear).")
+            f"interval and the runner-up's (its mean in brackets) do not overlap; not separable: they do (with one "
+            f"run there is no interval and no win is clear).")
     if ratios:
         note += (" Time ratios: each neural tracker's mean time per scan over each MHT tracker's (the thesis reports "
                  "under 0.1).")
