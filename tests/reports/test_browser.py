@@ -69,6 +69,14 @@ _PROBE = """<script>window.addEventListener("load", () => {
   const r = img.getBoundingClientRect();
   document.body.setAttribute("data-headline", [r.left, r.top, r.right, r.bottom, window.innerWidth,
                                                window.innerHeight, img.naturalWidth].join(","));
+  const links = [...document.querySelectorAll("nav.toc a")];
+  document.body.setAttribute("data-toc", [links.length,
+    links.filter(a => document.getElementById(a.getAttribute("href").slice(1))).length].join(","));
+  // a table taller than its box scrolls inside it, its header row staying at the box's top
+  const box = [...document.querySelectorAll("div.table")].find(d => d.scrollHeight > d.clientHeight + 100);
+  box.scrollTop = 100;
+  const head = box.querySelector("thead th").getBoundingClientRect().top - box.getBoundingClientRect().top;
+  document.body.setAttribute("data-sticky", [box.scrollTop, head].join(","));
 });</script>"""
 
 
@@ -86,6 +94,10 @@ def test_the_headline_figure_is_on_the_first_screen(study_dir, tmp_path):
     assert natural > 0  # the image decoded
     assert 0 <= left < right <= width and 0 <= top < bottom <= height  # wholly within the first screen
     assert right - left >= 0.6 * width  # and not shrunk to a thumbnail
+    links, resolved = map(int, re.search(r'data-toc="([^"]+)"', run.stdout).group(1).split(","))
+    assert links == resolved >= len(SECTIONS)  # the table of contents links every section
+    scrolled, head = map(float, re.search(r'data-sticky="([^"]+)"', run.stdout).group(1).split(","))
+    assert scrolled == 100 and abs(head) < 1  # the header row stuck to the top of its scrolled box
 
     shot = tmp_path / "first-screen.png"
     run = chromium(page.as_uri(), tmp_path / "profile2", size, "--force-device-scale-factor=1", "--hide-scrollbars",
