@@ -159,3 +159,17 @@ def test_the_verdicts_are_one_table_with_the_time_ratios():
     # S1 is a thesis scenario: its ratio stands beside the thesis's
     assert table.rows[0][-1].startswith("nn / mht = 0.250 (thesis: ")
     assert table.header[-1] == "Time per scan, neural / MHT"
+
+
+def test_a_tracker_missing_from_a_scenario_has_no_point_there_nor_over_all():
+    summary, timing = _study(
+        gospa={"a": [(100, 90, 110), (200, 190, 210)], "b": [(150, 140, 160), (180, 150, 230)]},
+        hit={"a": [(95, 94, 96)] * 2, "b": [(90, 89, 91)] * 2},
+        time={"a": [(2e-3, 1.9e-3, 2.1e-3)] * 2, "b": [(1e-3, 0.9e-3, 1.1e-3)] * 2},
+        kinds={"a": "gnn", "b": "gnn"})
+    del summary["scenarios"][1]["trackers"]["b"], timing["scenarios"][1]["trackers"]["b"]
+    panels = headline_points(summary, timing, "gospa")
+    assert [[p.tracker for p in panels[k]] for k in (OVERALL, "S1", "S2")] == [["a"], ["a", "b"], ["a"]]
+    table = compact_table(summary, timing)
+    column = table.header.index("GOSPA, mean over scans (m)")
+    assert {r[0]: r[column] for r in table.rows} == {"a": "150.0 (1)", "b": "—"}  # no best among one

@@ -17,7 +17,11 @@ Read only from ``summary.json`` and ``timing.json``:
   `nnda.reports.study_summary.HEADLINES` over all scenarios (the same mean of
   means), the best of each column in bold, with the number of scenarios in
   which the tracker has the best mean (ties count for none);
-* two or three sentences computed from those numbers.
+* two or three sentences computed from those numbers;
+
+then `nnda.reports.study_summary`'s tally and its table of the best tracker
+per scenario and headline measure. A tracker that did not run on a scenario
+has no point there and none over all scenarios.
 """
 
 from __future__ import annotations
@@ -34,7 +38,7 @@ from matplotlib.lines import Line2D
 from matplotlib.ticker import FuncFormatter, LogFormatter
 
 from nnda.reports.study_figures import _colours, _png
-from nnda.reports.study_summary import HEADLINES, stat, verdicts
+from nnda.reports.study_summary import HEADLINES, stat, tally, verdict_table, verdicts
 from nnda.reports.text_table import DASH, TextTable
 from nnda.study.measures import TIME, Measure, measure
 
@@ -82,6 +86,11 @@ def _scaled(v: float | None, scale: float) -> float | None:
     return None if v is None else v * scale
 
 
+def _ran(tracker: str, scenario: dict, timing: dict) -> bool:
+    """True when the tracker ran on the scenario (``summary.json`` and ``timing.json`` both hold it)."""
+    return tracker in scenario["trackers"] and tracker in timing["trackers"]
+
+
 def overall(summary: dict, timing: dict, key: str) -> dict[str, dict]:
     """Per tracker, the mean over scenarios of its per-scenario mean of ``key`` and the means of the
     per-scenario interval bounds (None where some scenario lacks one); trackers lacking a mean in some
@@ -89,7 +98,8 @@ def overall(summary: dict, timing: dict, key: str) -> dict[str, dict]:
     timing_by = {s["name"]: s for s in timing["scenarios"]}
     out = {}
     for t in (t["label"] for t in summary["trackers"]):
-        stats = [stat(sc, timing_by[sc["name"]], t, key) or {} for sc in summary["scenarios"]]
+        stats = [stat(sc, timing_by[sc["name"]], t, key) or {} if _ran(t, sc, timing_by[sc["name"]]) else {}
+                 for sc in summary["scenarios"]]
         mean = _mean([s.get("mean") for s in stats])
         if mean is not None:
             out[t] = {"mean": mean, "ci_low": _mean([s.get("ci_low") for s in stats]),
@@ -105,8 +115,8 @@ def headline_points(summary: dict, timing: dict, key: str) -> dict[str, list[Poi
     timing_by = {s["name"]: s for s in timing["scenarios"]}
     for sc in summary["scenarios"]:
         tsc = timing_by[sc["name"]]
-        panels[sc["name"]] = ({t: stat(sc, tsc, t, TIME.key) for t in sc["trackers"]},
-                              {t: stat(sc, tsc, t, key) for t in sc["trackers"]})
+        ran = [t for t in sc["trackers"] if _ran(t, sc, tsc)]
+        panels[sc["name"]] = ({t: stat(sc, tsc, t, TIME.key) for t in ran}, {t: stat(sc, tsc, t, key) for t in ran})
     out = {}
     for title, (times, values) in panels.items():
         points = []
@@ -255,9 +265,13 @@ def reading(summary: dict, timing: dict) -> str:
 
 
 def headline_section(section, summary: dict, timing: dict, figure: Callable[[str, str, bytes], object]):
-    """Fill ``section`` (a study_report Section) with the figures, the compact table and the reading, and
-    return it; ``figure`` (name, caption, PNG bytes) makes a report figure and registers it for writing."""
+    """Fill ``section`` (a study_report Section) with the figures, the compact table and the reading, then
+    the best tracker per scenario and measure (`nnda.reports.study_summary.verdict_table`), and return it;
+    ``figure`` (name, caption, PNG bytes) makes a report figure and registers it for writing."""
     trackers = [t["label"] for t in summary["trackers"]]
+    if not trackers:
+        section.text("No tracker ran in this study (single-target filters only: see their section).")
+        return section
     level = f"{summary['confidence']:.0%}"
     for m in QUALITY:
         panels = headline_points(summary, timing, m.key)
@@ -275,4 +289,6 @@ def headline_section(section, summary: dict, timing: dict, figure: Callable[[str
     section.md.append(table.markdown())  # the bold cells: ** in Markdown, <strong> in HTML
     section.html.append(re.sub(r"\*\*(.+?)\*\*", r"<strong>\1</strong>", table.html("headline-table")))
     section.text(reading(summary, timing))
+    section.text(tally(summary, timing))
+    section.table(verdict_table(summary, timing), "best-per-scenario")
     return section

@@ -41,7 +41,6 @@ from nnda.reports.classifier_tables import classifier_table, model_test_table
 from nnda.reports.filters_section import filters_section
 from nnda.reports.fusion_section import fusion_section
 from nnda.reports.peers_section import against_stonesoup, peer_labels
-from nnda.reports.study_summary import tally, verdict_table
 from nnda.reports.study_tables import is_thesis_scenario, scenario_table
 from nnda.reports.text_table import DASH, TextTable
 from nnda.reports.trajectory_plot import figure_div, plotly_js, trajectory_figure
@@ -299,8 +298,6 @@ def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
 
     top = headline.headline_section(Section("summary", "Summary", [], []), summary, timing,
                                     lambda *made: _kept(Figure(*made), figures))
-    top.text(tally(summary, timing))
-    top.table(verdict_table(summary, timing), "best-per-scenario")
     sections = [top, _setup(manifest, summary, timing), _classifier(classifier, figures)]
     if trackers:
         sections.append(_scenarios(manifest, summary, timing))
