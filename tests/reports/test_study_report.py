@@ -33,12 +33,13 @@ def test_markdown_and_html_hold_every_section_and_figure(study_dir):
         assert f"\n## {title}\n" in md
         assert f'<section id="{ident}"><h2>{title}</h2>' in page
     figures = re.findall(r"\]\((figures/[^)]+\.png)\)", md)
-    assert len(figures) == 1 + 1 + 2 + 2 + 2  # ROC, time per scan; over time, target count, tracks per scenario
+    # quality against cost (GOSPA, hit rate), ROC, time per scan; over time, target count, tracks per scenario
+    assert len(figures) == 2 + 1 + 1 + 2 + 2 + 2
     for f in figures:
         assert (study_dir / f).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # self-contained: images inline, plotly.js inline, nothing fetched
     body = page[page.index("<body>"):]  # (plotly.js itself mentions data URIs)
-    assert body.count('<img alt="') == body.count('src="data:image/png;base64,') == 1 + 1 + 2 + 2
+    assert body.count('<img alt="') == body.count('src="data:image/png;base64,') == 2 + 1 + 1 + 2 + 2
     assert page.count(plotly_js()) == 1
     ours = page.replace(plotly_js(), "")
     assert not re.search(r"<(script|link|img)[^>]*\b(src|href)=\"(http|//)", ours) and "cdn." not in ours.lower()
@@ -104,11 +105,12 @@ def _summary(stats: dict[str, tuple], confidence=0.95) -> tuple[dict, dict]:
 def test_summary_calls_a_win_clear_only_when_the_intervals_are_apart():
     clear = verdicts(*_summary({"a": (100.0, 90.0, 110.0), "b": (150.0, 120.0, 180.0)}))[0]
     assert (clear.best, clear.second, clear.clear) == ("a", "b", True)
-    assert "**a** 100.0 [90.0, 110.0] m, clearly ahead of b" in clear.text
+    assert clear.text == "a 100.0 [90.0, 110.0] m, clear of b (150.0)"
     close = verdicts(*_summary({"a": (130.0, 100.0, 160.0), "b": (120.0, 90.0, 150.0)}))[0]
-    assert (close.best, close.clear) == ("b", False) and "not separable at 95% from a" in close.text
+    assert (close.best, close.clear) == ("b", False)
+    assert close.text == "b 120.0 [90.0, 150.0] m, not separable at 95% from a (130.0)"
     tie = verdicts(*_summary({"a": (5.0, 5.0, 5.0), "b": (5.0, 5.0, 5.0), "c": (9.0, 9.0, 9.0)}))[0]
-    assert tie.best is None and "**a**, **b** tie for best" in tie.text
+    assert tie.best is None and tie.text == "tie: a, b (5.0 m)"
 
 
 def _ablation_doc(seed_measured: float, seed_true: float, extended: float, auc: float) -> dict:

@@ -3,7 +3,10 @@
 Built only from the files a study directory keeps (``study.json``,
 ``summary.json``, ``timing.json``, ``classifier.json``, ``timing.parquet``,
 ``trajectories.parquet``, ``cardinality.parquet``), so ``nnda report DIR`` rebuilds it at any time.
-Sections, in order (their HTML ids in brackets): summary [summary], setup
+Sections, in order (their HTML ids in brackets): summary [summary] (the
+answer first: quality against cost, a table over all scenarios and a reading,
+`nnda.reports.headline`; then the best tracker per scenario and measure,
+`nnda.reports.study_summary`), setup
 [setup], association network [classifier], results per scenario
 [scenarios], seed vs extended features in the tracker [features-in-tracker]
 (when neural trackers run on both feature sets), feature ablation [ablation]
@@ -12,7 +15,9 @@ Soup peer), time per scan [timing], false tracks and GOSPA over time
 [over-time], target count over time [cardinality] (from
 ``cardinality.parquet``, `nnda.reports.cardinality_section`), trajectories
 [trajectories]. The HTML embeds its images as
-base64 and plotly.js inline: it opens without network or sibling files.
+base64 and plotly.js inline: it opens without network or sibling files; a
+table of contents links the sections, wide tables keep their header row in
+view while scrolling (sticky), figures scale to the window.
 """
 
 from __future__ import annotations
@@ -31,12 +36,11 @@ from nnda.data.scenario import scenario_from_dict
 from nnda.errors import DatasetError
 from nnda.files import atomic_file, read_json
 from nnda.models.ablation import ABLATION_FILE
-from nnda.reports import ablation_section, cardinality_section, features_section, study_figures
+from nnda.reports import ablation_section, cardinality_section, features_section, headline, study_figures
 from nnda.reports.classifier_tables import classifier_table, model_test_table
 from nnda.reports.filters_section import filters_section
 from nnda.reports.fusion_section import fusion_section
 from nnda.reports.peers_section import against_stonesoup, peer_labels
-from nnda.reports.study_summary import summary_markdown
 from nnda.reports.study_tables import is_thesis_scenario, scenario_table
 from nnda.reports.text_table import DASH, TextTable
 from nnda.reports.trajectory_plot import figure_div, plotly_js, trajectory_figure
@@ -303,8 +307,8 @@ def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
     scan_times = {s["name"]: scenario_from_dict(s["scenario"]).scan_schedule()[0] for s in manifest["scenarios"]}
     figures: list[Figure] = []
 
-    top = Section("summary", "Summary", [], [])
-    top.text(summary_markdown(summary, timing))
+    top = headline.headline_section(Section("summary", "Summary", [], []), summary, timing,
+                                    lambda *made: _kept(Figure(*made), figures))
     sections = [top, _setup(manifest, summary, timing), _classifier(classifier, figures)]
     if trackers:
         sections.append(_scenarios(manifest, summary, timing))
@@ -337,31 +341,41 @@ def markdown_page(title: str, sections: list[Section]) -> str:
 
 
 _CSS = """
-body { font-family: system-ui, sans-serif; margin: 0 auto; max-width: 1400px; padding: 0 1.5em 3em; color: #222; }
-nav { position: sticky; top: 0; background: #fff; padding: .5em 0; border-bottom: 1px solid #ddd; z-index: 10; }
-nav a { margin-right: 1em; }
-div.table { overflow-x: auto; }
-table { border-collapse: collapse; margin: 1em 0 .3em; font-size: .85em; }
-caption { text-align: left; font-weight: 600; padding: .3em 0; }
-th, td { border: 1px solid #ccc; padding: .2em .5em; text-align: right; white-space: nowrap; }
-th:first-child, td:first-child { text-align: left; white-space: pre; }
+body { font: 16px/1.5 system-ui, -apple-system, "Segoe UI", sans-serif; margin: 0 auto; max-width: 1300px;
+       padding: 0 2em 3em; color: #222; }
+h1 { font-size: 1.6em; margin: .6em 0 .2em; } h2 { font-size: 1.3em; margin: 1.6em 0 .4em; }
+h2 { border-bottom: 1px solid #ddd; padding-bottom: .15em; }
+nav.toc { font-size: .85em; line-height: 1.8; padding: .2em 0 .4em; border-bottom: 1px solid #ddd; }
+nav.toc strong { margin-right: .6em; } nav.toc a { margin-right: 1em; white-space: nowrap; }
+a { color: #1f5fa8; text-decoration: none; } a:hover { text-decoration: underline; }
+div.table { overflow: auto; max-height: 85vh; margin: 1em 0 .3em; }
+table { border-collapse: separate; border-spacing: 0; font-size: .85em; }
+caption { text-align: left; font-weight: 600; padding: .3em 0; position: sticky; left: 0; }
+th, td { border-right: 1px solid #ccc; border-bottom: 1px solid #ccc; padding: .2em .5em; text-align: right;
+         white-space: nowrap; background: #fff; }
+tr > :first-child { border-left: 1px solid #ccc; } thead th { border-top: 1px solid #ccc; }
+th:first-child, td:first-child { text-align: left; white-space: pre; position: sticky; left: 0; z-index: 1; }
+thead th { background: #f3f3f3; position: sticky; top: 0; z-index: 2; }
+thead th:first-child { z-index: 3; }
 td.text { text-align: left; white-space: normal; min-width: 24em; max-width: 48em; }
-thead th { background: #f3f3f3; }
-p.note { font-size: .85em; color: #555; margin-top: 0; }
-figure { margin: 1em 0; } figure img { max-width: 100%; } figcaption { font-size: .85em; color: #555; }
+p.note { font-size: .85em; color: #555; margin-top: 0; max-width: 60em; }
+figure { margin: 1em 0; } figure img { max-width: 100%; height: auto; }
+figcaption { font-size: .85em; color: #555; max-width: 60em; }
 code { background: #f3f3f3; padding: 0 .2em; }
 """
 
 
 def html_page(title: str, sections: list[Section]) -> str:
-    """A whole HTML page: the title, a navigation line and the sections (also the re-entry report's page)."""
-    nav = " ".join(f'<a href="#{s.ident}">{html.escape(s.title)}</a>' for s in sections)
+    """A whole HTML page: the title, a table of contents (links to the section ids) and the sections (also the
+    re-entry report's page)."""
+    toc = " ".join(f'<a href="#{s.ident}">{html.escape(s.title)}</a>' for s in sections)
     body = "".join(f'<section id="{s.ident}"><h2>{html.escape(s.title)}</h2>{"".join(s.html)}</section>'
                    for s in sections)
     return (f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>'
             f'<meta name="viewport" content="width=device-width, initial-scale=1">'
             f"<style>{_CSS}</style><script>{plotly_js()}</script></head>"
-            f"<body><h1>{html.escape(title)}</h1><nav>{nav}</nav>{body}</body></html>\n")
+            f'<body><h1>{html.escape(title)}</h1><nav class="toc" aria-label="Contents"><strong>Contents</strong>'
+            f"{toc}</nav>{body}</body></html>\n")
 
 
 def write_report(out: str | Path) -> Path:

@@ -6,7 +6,9 @@ when the two intervals do not overlap; otherwise the text says the two are
 not separable at the study's confidence level (with a single run there is
 no interval and no win is called clear). Time per scan is compared as
 ratios, and against the thesis's ratio when the study holds both an ``nn``
-and an ``mht`` tracker on the thesis's scenarios.
+and an ``mht`` tracker on the thesis's scenarios. The report gives all of
+it as one table (`verdict_table`, a row per scenario) with the `tally`
+above, below its headline (`nnda.reports.headline`).
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from nnda.reports.spec_values import SPEC_TRACKING
-from nnda.reports.text_table import stat_cell
+from nnda.reports.text_table import DASH, TextTable, stat_cell
 from nnda.study.measures import TIME, Measure, measure
 
 #: the measures the summary ranks (keys of `nnda.study.measures`; each has a better direction)
@@ -49,7 +51,7 @@ class Verdict:
     best: str | None  # None: a tie for best
     second: str | None
     clear: bool
-    text: str
+    text: str  # the cell of `verdict_table`
 
 
 def verdicts(summary: dict, timing: dict) -> list[Verdict]:
@@ -67,23 +69,23 @@ def verdicts(summary: dict, timing: dict) -> list[Verdict]:
             best, second = ranked[0], ranked[1]
             tied = [t for t in ranked if stats[t]["mean"] == stats[best]["mean"]]
             if len(tied) == len(ranked):
-                text = f"{h.label}: all trackers equal ({_fmt(h, stats[best])})"
-                out.append(Verdict(sc["name"], h, None, None, False, text))
+                out.append(Verdict(sc["name"], h, None, None, False, f"all equal ({_fmt(h, stats[best])})"))
                 continue
             if len(tied) > 1:
-                text = f"{h.label}: {', '.join(f'**{t}**' for t in tied)} tie for best at {_fmt(h, stats[best])}"
+                text = f"tie: {', '.join(tied)} ({_fmt(h, stats[best])})"
                 out.append(Verdict(sc["name"], h, None, None, False, text))
                 continue
             clear = apart(stats[best], stats[second])
-            relation = "clearly ahead of" if clear else f"not separable at {level} from"
-            text = (f"{h.label}: **{best}** {_fmt(h, stats[best])}, {relation} {second} "
-                    f"{_fmt(h, stats[second])}")
+            relation = "clear of" if clear else f"not separable at {level} from"
+            text = (f"{best} {_fmt(h, stats[best])}, {relation} {second} "
+                    f"({h.fmt.format(stats[second]['mean'] * h.scale)})")
             out.append(Verdict(sc["name"], h, best, second, clear, text))
     return out
 
 
-def _time_ratios(summary: dict, timing: dict) -> list[str]:
-    """Per thesis scenario, each neural tracker's time per scan over each MHT tracker's, beside the thesis's."""
+def _time_ratios(summary: dict, timing: dict) -> list[tuple[str, str]]:
+    """(scenario, text) per scenario, neural tracker and MHT tracker: the first's time per scan over the second's,
+    beside the thesis's proposed / classical ratio on its own scenarios."""
     kinds = {t["label"]: t["kind"] for t in summary["trackers"]}
     nn = [t for t, k in kinds.items() if k == "nn"]
     mht = [t for t, k in kinds.items() if k == "mht"]
@@ -95,36 +97,45 @@ def _time_ratios(summary: dict, timing: dict) -> list[str]:
                 ta, tb = tsc["trackers"][a][TIME.key]["mean"], tsc["trackers"][b][TIME.key]["mean"]
                 if ta is None or not tb:
                     continue
-                line = f"{tsc['name']}: {a} / {b} time per scan = {ta / tb:.3f}"
+                line = f"{a} / {b} = {ta / tb:.3f}"
                 if spec:
                     ratio = spec["proposed"][TIME.key] / spec["classical"][TIME.key]
-                    line += f" (thesis, proposed / classical: {ratio:.3f})"
-                lines.append(line)
+                    line += f" (thesis: {ratio:.3f})"
+                lines.append((tsc["name"], line))
     return lines
 
 
-def summary_markdown(summary: dict, timing: dict) -> str:
-    """The summary as Markdown: an overall tally, then the verdicts per scenario."""
+def tally(summary: dict, timing: dict) -> str:
+    """One sentence: per tracker, the number of best means (and clear wins) over scenarios and headline measures."""
     vs = verdicts(summary, timing)
     trackers = [t["label"] for t in summary["trackers"]]
     clear = {t: sum(v.clear and v.best == t for v in vs) for t in trackers}
     best = {t: sum(v.best == t for v in vs) for t in trackers}
     level = f"{summary['confidence']:.0%}"
-    lines = [f"Across {len(summary['scenarios'])} scenario(s) and {len(HEADLINES)} headline measures "
-             f"({', '.join(h.label for h in HEADLINES)}), best means, ties left out (clear wins: "
-             f"{level} intervals apart): "
-             + ", ".join(f"{t} {best[t]} ({clear[t]})"
-                         for t in sorted(trackers, key=lambda t: (-clear[t], -best[t], t)))
-             + ".", ""]
+    return (f"Across {len(summary['scenarios'])} scenario(s) and {len(HEADLINES)} headline measures "
+            f"({', '.join(h.label for h in HEADLINES)}), best means, ties left out (clear wins: "
+            f"{level} intervals apart): "
+            + ", ".join(f"{t} {best[t]} ({clear[t]})" for t in sorted(trackers, key=lambda t: (-clear[t], -best[t], t)))
+            + ".")
+
+
+def verdict_table(summary: dict, timing: dict) -> TextTable:
+    """Scenario x headline measure: the best tracker, its mean [interval], and whether it is clear of the
+    runner-up; a last column of the neural over MHT time-per-scan ratios (`_time_ratios`) when there are any."""
+    vs = {(v.scenario, v.headline.key): v for v in verdicts(summary, timing)}
     ratios = _time_ratios(summary, timing)
-    if ratios:
-        lines += ["Time per scan, neural over MHT (the thesis reports under 0.1):", ""]
-        lines += [f"* {r}" for r in ratios] + [""]
+    header = ("Scenario", *(h.title for h in HEADLINES)) + (("Time per scan, neural / MHT",) if ratios else ())
+    rows = []
     for sc in summary["scenarios"]:
-        mine = [v for v in vs if v.scenario == sc["name"]]
-        if not mine:
-            continue
-        lines += [f"**{sc['name']}**", ""] + [f"* {v.text}" for v in mine] + [""]
-    if len(trackers) < 2:
-        lines.append("Only one tracker in this study: nothing to compare.")
-    return "\n".join(lines).rstrip() + "\n"
+        row = [sc["name"], *(vs[sc["name"], h.key].text if (sc["name"], h.key) in vs else DASH for h in HEADLINES)]
+        if ratios:
+            row.append("; ".join(r for name, r in ratios if name == sc["name"]) or DASH)
+        rows.append(tuple(row))
+    level = f"{summary['confidence']:.0%}"
+    note = (f"Per scenario and measure the tracker with the best mean over runs [{level} t-interval]; clear: its "
+            f"interval and the runner-up's (its mean in brackets) do not overlap; not separable: they do (with one "
+            f"run there is no interval and no win is clear).")
+    if ratios:
+        note += (" Time ratios: each neural tracker's mean time per scan over each MHT tracker's (the thesis reports "
+                 "under 0.1).")
+    return TextTable("Best per scenario", header, tuple(rows), note)
