@@ -38,6 +38,7 @@ from nnda.files import atomic_file, read_json
 from nnda.models.ablation import ABLATION_FILE
 from nnda.reports import ablation_section, cardinality_section, features_section, headline, study_figures
 from nnda.reports.classifier_tables import classifier_table, model_test_table
+from nnda.reports.clutter_section import clutter_section
 from nnda.reports.filters_section import filters_section
 from nnda.reports.fusion_section import fusion_section
 from nnda.reports.peers_section import against_stonesoup, peer_labels
@@ -322,6 +323,10 @@ def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
         fused = fusion_section(Section("fusion", "Fusion against single sensors", [], []), manifest, summary)
         if fused is not None:
             sections.append(fused)
+        swept = clutter_section(Section("clutter", "Against clutter density", [], []), manifest, summary, timing,
+                                lambda *made: _kept(Figure(*made), figures))
+        if swept is not None:
+            sections.append(swept)
     if summary.get("filters"):
         sections.append(filters_section(Section("filters", "Single-target filters", [], []), summary, timing))
     if trackers:
