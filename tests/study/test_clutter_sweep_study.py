@@ -18,7 +18,8 @@ def test_the_clutter_sweep_plans_every_preset_at_every_density_under_both_rules(
     names = {s.name for s in plan.scenarios}
     assert names == {f"S{i}-c{c}" for i in range(1, 7) for c in (10, 100, 1_000, 5_000)}
     rules = {label: confirmation_rule(t.kind, t.params) for label, t in study.trackers.items()}
-    assert sorted(rules.values()) == ["mn"] * 3 + ["score"] * 3
+    assert sorted(r for r in rules.values() if r) == ["mn"] * 3 + ["score"] * 3
+    assert {label for label, r in rules.items() if r is None} == {"ekphd", "cphd"}  # extraction, no rule
     for s in plan.scenarios:
         preset, count = s.name.split("-c")
         sc = s.scenario
