@@ -87,3 +87,14 @@ def test_radar_noise_detection_and_clutter_as_the_thesis():
 def test_a_scene_where_nobody_is_born_is_refused():
     with pytest.raises(ValueError, match="no walker is ever born"):
         WalkerScene(name="empty", map=LAWN, duration_s=10.0, initial=0)
+
+
+def test_nnda_generate_takes_a_walker_scene(tmp_path):
+    from typer.testing import CliRunner
+
+    from nnda.cli import app
+    result = CliRunner().invoke(app, ["generate", "--preset", "walk-test4", "--out", str(tmp_path / "w"),
+                                      "--seed", "7"])
+    assert result.exit_code == 0, result.output
+    ds = read_dataset(tmp_path / "w")
+    np.testing.assert_array_equal(ds.truth.x, generate_walkers(PEDESTRIAN_SCENES["walk-test4"], seed=7).truth.x)
