@@ -23,6 +23,7 @@ SMALLEST = {
     "bench_generate.py": ["2"],
     "bench_import.py": ["--rows", "2000", "--tracker", "gnn", "--scans", "3"],
     "bench_models.py": ["--quick"],
+    "bench_pedestrian.py": ["--walkers", "20", "--steps", "5", "--repeat", "1"],
     "bench_phd.py": ["--runs", "1", "--repeat", "1", "--scans", "2", "--peer-scans", "2"],
     "bench_scaling.py": ["--scans", "2", "--give-up", "1", "--hard-stop", "5", "--out", "scaling.png",
                          "--model", "{seed}"],
