@@ -60,7 +60,12 @@ def generate(
     if preset in PEDESTRIAN_SCENES:  # simulated walkers, not scripted targets
         _write_runs(out, preset, list(walker_runs(PEDESTRIAN_SCENES[preset], range(runs), seed)), overwrite)
         return
-    scenarios = resolve(preset) if preset is not None else [load_scenario(config)]
+    try:
+        scenarios = resolve(preset) if preset is not None else [load_scenario(config)]
+    except ConfigError as exc:
+        if preset is None:
+            raise
+        raise ConfigError(f"{exc}, or a walker scene ({', '.join(PEDESTRIAN_SCENES)})") from None
     warn = Console(stderr=True)
     for scenario in scenarios:
         try:

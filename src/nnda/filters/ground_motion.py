@@ -58,32 +58,24 @@ def _constant_basis(q_diag: tuple[float, ...]) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class ThesisCV:
-    """CV on nnda's state [x, vx, y, vy] with the thesis's diagonal Q (eq. 6.3 and spec §4.1), T^2-scaled."""
+class ThesisCV(ConstantVelocity):
+    """CV on nnda's state [x, vx, y, vy] with the thesis's diagonal Q (eq. 6.3 and spec §4.1), T^2-scaled;
+    the transition is `nnda.filters.motion.ConstantVelocity`'s (its ``sigma_q`` is unused here)."""
 
+    sigma_q: float = 0.0
     sigma_position_m: float = SIGMA_POSITION_M
     sigma_velocity_m_s: float = SIGMA_V_CV
-    dim: ClassVar[int] = 4
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         check_nonnegative("ThesisCV.sigma_position_m", self.sigma_position_m, error=FilterError)
         check_nonnegative("ThesisCV.sigma_velocity_m_s", self.sigma_velocity_m_s, error=FilterError)
 
     @cached_property
     def noise_basis(self) -> np.ndarray:
+        """Q(1 s) = diag(sigma_p^2, sigma_v^2, sigma_p^2, sigma_v^2) as the T^2 matrix, (3, 4, 4)."""
         p, v = self.sigma_position_m**2, self.sigma_velocity_m_s**2
         return _constant_basis((p, v, p, v))
-
-    def transition(self, x: np.ndarray, dt: np.ndarray, out: np.ndarray | None = None
-                   ) -> tuple[np.ndarray, np.ndarray]:
-        """F x and F of the CV model (`nnda.filters.motion.ConstantVelocity`)."""
-        return ConstantVelocity(0.0).transition(x, dt, out)
-
-    def noise(self, dt: np.ndarray) -> np.ndarray:
-        return process_noise(dt, self.noise_basis)
-
-    def from_cv(self, x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return x, P
 
 
 @dataclass(frozen=True)
