@@ -98,3 +98,22 @@ def test_nnda_generate_takes_a_walker_scene(tmp_path):
     assert result.exit_code == 0, result.output
     ds = read_dataset(tmp_path / "w")
     np.testing.assert_array_equal(ds.truth.x, generate_walkers(PEDESTRIAN_SCENES["walk-test4"], seed=7).truth.x)
+
+
+def test_a_thin_wall_is_crossed_only_at_its_gap():
+    from nnda.data.pedestrian.terrain import TerrainMap
+    wall = TerrainMap.model_validate({
+        "name": "thin-wall", "width_m": 20.0, "height_m": 10.0,
+        "regions": [{"kind": "obstacle", "box": [9.0, 0.0, 10.0, 7.0]},
+                    {"kind": "generator", "name": "gate", "box": [0.0, 0.0, 2.0, 10.0], "accessible": ["gap"]},
+                    {"kind": "sink", "name": "door", "box": [18.0, 0.0, 20.0, 10.0]}],
+        "waypoints": [{"name": "gap", "x_m": 9.5, "y_m": 8.5, "radius_m": 1.5, "accessible": ["door"]}]})
+    scene = WalkerScene(name="wall", map=wall, duration_s=60.0, initial=40,
+                        people=[{"mean_speed_m_s": 2.0, "speed_std_m_s": 1.0, "continuity": 1.0}])
+    walks = simulate(scene, build_terrain(wall), np.random.default_rng(0))
+    order = np.lexsort((walks.scan, walks.walker))
+    x, y, w = walks.x[order], walks.y[order], walks.walker[order]
+    step = (w[1:] == w[:-1]) & (x[:-1] < 9.0) & (x[1:] > 10.0)
+    assert step.sum() > 10  # walkers do get through
+    at_wall = y[:-1][step] + (9.5 - x[:-1][step]) / (x[1:][step] - x[:-1][step]) * (y[1:][step] - y[:-1][step])
+    assert (at_wall > 6.5).all()  # through the gap above y = 7 (half a cell of slack at its corner)

@@ -23,8 +23,9 @@ Per step, for each walker (spec §3.3; eqs. 4.1-4.7 of the thesis):
 4. speed s = mean + std N(0, 1), clipped to [`MIN_SPEED_M_S`, mean + 3 std];
    heading alpha = angle(u) + delta, delta from the scene's heading profile;
 5. position p + s T (cos alpha, sin alpha), velocity s (cos alpha, sin alpha),
-   unless that lands on an obstacle or off the map: then the walker stays
-   (velocity 0) and its heading is the blend's (`COLLISION`);
+   unless the step meets an obstacle or leaves the map (tested at points
+   every half cell along it): then the walker stays (velocity 0) and its
+   heading is the blend's (`COLLISION`);
 6. a walker standing in a sink cell after its step is reported at that scan
    and removed.
 
@@ -301,7 +302,10 @@ class _Crowd:
         alpha = blend + self.profile.quantile(u[2])
         vx, vy = speed * np.cos(alpha), speed * np.sin(alpha)
         nx, ny = x + vx * T, y + vy * T
-        blocked = t.kind_at(nx, ny) == OBSTACLE
+        # the step is checked at points every half cell along it, so a thin wall is not jumped over
+        n_sub = max(1, math.ceil(float(speed.max()) * T / (0.5 * t.cell_m)))
+        f = np.arange(1, n_sub + 1)[:, None] / n_sub
+        blocked = (t.kind_at(x + f * (nx - x), y + f * (ny - y)) == OBSTACLE).any(axis=0)
         go = moving & ~blocked
         self.x[idx], self.y[idx] = np.where(go, nx, x), np.where(go, ny, y)
         self.vx[idx], self.vy[idx] = np.where(go, vx, 0.0), np.where(go, vy, 0.0)
