@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from dataset_edits import snapshot
 from nnda.data.pedestrian.terrain import load_map
 from nnda.errors import ConfigError
 
@@ -89,3 +90,50 @@ def test_a_box_outside_the_map_and_an_unreadable_file(tmp_path):
         load_map(path)
     with pytest.raises(ConfigError, match="no such terrain map file"):
         load_map(tmp_path / "missing.toml")
+
+
+SCENE = 'name = "mine"\nmap = "map.toml"\nduration_s = 20.0\ninitial = 3\n'
+
+
+def _refused_listing(nnda, root, *args, fragments):
+    """A refusal listing its problems (a validation error may take a line per problem): exit 2, nothing
+    written, no traceback, every fragment."""
+    before = snapshot(root)
+    done = nnda(*args, cwd=root)
+    assert done.code == 2 and done.err.startswith("error: ") and "Traceback" not in done.err
+    assert all(f in done.err for f in fragments), done.err
+    assert snapshot(root) == before
+
+
+def test_nnda_generate_refuses_an_unknown_region_kind(tmp_path, nnda):
+    _write(tmp_path, gate_kind="lava")
+    (tmp_path / "scene.toml").write_text(SCENE)
+    _refused_listing(nnda, tmp_path, "generate", "--config", "scene.toml", "--out", "d",
+                     fragments=("map.toml: invalid terrain map", "regions.1.kind", "'generator' or 'sink'"))
+
+
+@pytest.mark.parametrize("changes, fragments", [
+    ({"wx": "10.0", "wall_top": "9.0"}, ("map.toml: map 'tiny': waypoints[0] 'gap'", "inside an obstacle")),
+    ({"wall_top": "10.0", "wx": "5.0"}, ("map.toml: map 'tiny': regions[1] (generator 'gate')", "no path")),
+])
+def test_nnda_generate_refuses_a_walker_scene_on_a_bad_map(tmp_path, refused, changes, fragments):
+    _write(tmp_path, **changes)
+    (tmp_path / "scene.toml").write_text(SCENE)
+    refused(tmp_path, "generate", "--config", "scene.toml", "--out", "d", fragments=fragments)
+
+
+def test_nnda_generate_refuses_a_bad_walker_scene(tmp_path, refused, nnda):
+    _write(tmp_path)
+    (tmp_path / "scene.toml").write_text(SCENE.replace("initial = 3", "initial = 0"))
+    _refused_listing(nnda, tmp_path, "generate", "--config", "scene.toml", "--out", "d",
+                     fragments=("scene.toml: invalid walker scene", "no walker is ever born"))
+    (tmp_path / "scene.toml").write_text(SCENE.replace("map.toml", "nowhere.toml"))
+    refused(tmp_path, "generate", "--config", "scene.toml", "--out", "d",
+            fragments=("nowhere.toml: no such terrain map file",))
+
+
+def test_nnda_generate_takes_a_walker_scene_file(tmp_path, nnda):
+    _write(tmp_path)
+    (tmp_path / "scene.toml").write_text(SCENE)
+    assert nnda("generate", "--config", "scene.toml", "--out", "d", cwd=tmp_path).code == 0
+    assert (tmp_path / "d" / "truth.parquet").is_file()

@@ -15,11 +15,11 @@ from nnda.data.checks import MAX_DETECTIONS
 from nnda.data.dataset import write_collection, write_dataset
 from nnda.data.generator import check_scenario, generate_runs
 from nnda.data.pedestrian.scenes import PEDESTRIAN_SCENES
-from nnda.data.pedestrian.walkers import walker_runs
+from nnda.data.pedestrian.walkers import is_walker_config, load_walker_scene, walker_runs
 from nnda.data.presets import GROUP_DESCRIPTIONS, GROUPS, PRESETS, resolve
 from nnda.data.scenario import load_scenario
 from nnda.errors import ConfigError
-from nnda.files import check_output_location
+from nnda.files import check_output_location, read_config
 
 
 def presets() -> None:
@@ -39,7 +39,8 @@ def presets() -> None:
 def generate(
     out: Annotated[Path, typer.Option(help="output directory (a dataset, or a collection of them)")],
     preset: Annotated[str | None, typer.Option(help="preset, group or walker scene (see `nnda presets`)")] = None,
-    config: Annotated[Path | None, typer.Option(help="scenario config file (.toml or .json)")] = None,
+    config: Annotated[Path | None, typer.Option(
+        help="scenario config file (.toml or .json), or a walker scene (one with a `map`)")] = None,
     seed: Annotated[int | None, typer.Option(min=0, help="seed; defaults to the scenario's own")] = None,
     runs: Annotated[int, typer.Option(min=1, help="independently seeded Monte Carlo runs")] = 1,
     max_detections: Annotated[int, typer.Option(
@@ -57,8 +58,9 @@ def generate(
     if (preset is None) == (config is None):
         raise ConfigError("give exactly one of --preset or --config")
     check_output_location(out, [config] if config is not None else [])
-    if preset in PEDESTRIAN_SCENES:  # simulated walkers, not scripted targets
-        _write_runs(out, preset, list(walker_runs(PEDESTRIAN_SCENES[preset], range(runs), seed)), overwrite)
+    if preset in PEDESTRIAN_SCENES or (config is not None and is_walker_config(read_config(config, "scenario"))):
+        scene = PEDESTRIAN_SCENES[preset] if preset is not None else load_walker_scene(config)  # walkers
+        _write_runs(out, preset or str(config), list(walker_runs(scene, range(runs), seed)), overwrite)
         return
     try:
         scenarios = resolve(preset) if preset is not None else [load_scenario(config)]

@@ -59,6 +59,7 @@ import math
 import zlib
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Annotated
 
 import numpy as np
@@ -70,7 +71,8 @@ from nnda.data.pedestrian.profiles import HeadingProfile, ProfileKind
 from nnda.data.pedestrian.terrain import OBSTACLE, SINK, Terrain, TerrainMap, build_terrain
 from nnda.data.scenario import Clutter, ProcessNoise, Scenario, Segment, Sensor, Target
 from nnda.data.sensor import cart_to_polar_at
-from nnda.errors import ConfigError
+from nnda.errors import ConfigError, validated
+from nnda.files import read_config
 
 _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
@@ -423,3 +425,24 @@ def walker_runs(scene: WalkerScene, runs: Iterable[int], seed: int | None = None
 def generate_walkers(scene: WalkerScene, seed: int | None = None, run: int = 0) -> Dataset:
     """One run of a walker scene as an nnda `Dataset` (truth per walker per scan, the ground radar's fixes)."""
     return next(walker_runs(scene, [run], seed))
+
+
+def is_walker_config(data: dict) -> bool:
+    """Does a config mapping describe a walker scene (it has a ``map``) rather than a scripted scenario?"""
+    return isinstance(data, dict) and "map" in data
+
+
+def load_walker_scene(path: str | Path) -> WalkerScene:
+    """Read a walker scene (``.toml`` or ``.json``: the fields of `WalkerScene`); its ``map`` is a table or
+    the path of a map file, relative to the scene's file. Errors name the file and the field or place."""
+    path = Path(path)
+    data = read_config(path, "walker scene")
+    where = str(path)
+    if isinstance(data.get("map"), str):
+        map_path = path.parent / data["map"]
+        data = {**data, "map": validated(TerrainMap, read_config(map_path, "terrain map"), str(map_path),
+                                         "terrain map")}
+        where = str(map_path)
+    scene = validated(WalkerScene, data, str(path), "walker scene")
+    build_terrain(scene.map, where)  # the map's checks, naming its file
+    return scene
