@@ -26,6 +26,7 @@ SMALLEST = {
     "bench_models.py": ["--quick"],
     "bench_particle.py": ["--sizes", "500", "--steps", "2", "--repeat", "1", "--resample-size", "1000",
                           "--memory-size", "500", "--study-runs", "1"],
+    "bench_pedestrian.py": ["--walkers", "20", "--steps", "5", "--repeat", "1"],
     "bench_phd.py": ["--runs", "1", "--repeat", "1", "--scans", "2", "--peer-scans", "2"],
     "bench_scaling.py": ["--scans", "2", "--give-up", "1", "--hard-stop", "5", "--out", "scaling.png",
                          "--model", "{seed}"],

@@ -4,7 +4,8 @@ Modules: ``scenario`` (the validated scenario config: sensors with their
 clutter, targets), ``trajectory`` (noise-free target paths), ``sensor``
 (coordinate transforms about a sensor, coverage and measurement noise), ``clutter``,
 ``generator`` (seeded datasets), ``presets`` (the reference scenarios),
-``dataset`` (records and their Parquet files) and ``commands`` (CLI).
+``dataset`` (records and their Parquet files), ``commands`` (CLI) and the
+``pedestrian`` package (seed-000's walkers).
 Nothing is imported here, so ``import nnda.data.sensor`` loads neither
 pyarrow nor scipy.
 """

@@ -14,10 +14,12 @@ from rich.text import Text
 from nnda.data.checks import MAX_DETECTIONS
 from nnda.data.dataset import write_collection, write_dataset
 from nnda.data.generator import check_scenario, generate_runs
+from nnda.data.pedestrian.scenes import PEDESTRIAN_SCENES
+from nnda.data.pedestrian.walkers import is_walker_config, load_walker_scene, walker_runs
 from nnda.data.presets import GROUP_DESCRIPTIONS, GROUPS, PRESETS, resolve
 from nnda.data.scenario import load_scenario
 from nnda.errors import ConfigError
-from nnda.files import check_output_location
+from nnda.files import check_output_location, read_config
 
 
 def presets() -> None:
@@ -29,13 +31,16 @@ def presets() -> None:
         table.add_row(name, str(len(s.targets)), str(s.n_scans), s.description)
     for name, members in GROUPS.items():
         table.add_row(f"[bold]{name}[/]", "", str(len(members)) + " sets", GROUP_DESCRIPTIONS[name])
+    for name, scene in PEDESTRIAN_SCENES.items():  # seed-000's walkers (nnda.data.pedestrian.scenes)
+        table.add_row(name, "walkers", str(scene.n_scans), scene.description)
     Console().print(table)
 
 
 def generate(
     out: Annotated[Path, typer.Option(help="output directory (a dataset, or a collection of them)")],
-    preset: Annotated[str | None, typer.Option(help="preset or group name (see `nnda presets`)")] = None,
-    config: Annotated[Path | None, typer.Option(help="scenario config file (.toml or .json)")] = None,
+    preset: Annotated[str | None, typer.Option(help="preset, group or walker scene (see `nnda presets`)")] = None,
+    config: Annotated[Path | None, typer.Option(
+        help="scenario config file (.toml or .json), or a walker scene (one with a `map`)")] = None,
     seed: Annotated[int | None, typer.Option(min=0, help="seed; defaults to the scenario's own")] = None,
     runs: Annotated[int, typer.Option(min=1, help="independently seeded Monte Carlo runs")] = 1,
     max_detections: Annotated[int, typer.Option(
@@ -53,7 +58,16 @@ def generate(
     if (preset is None) == (config is None):
         raise ConfigError("give exactly one of --preset or --config")
     check_output_location(out, [config] if config is not None else [])
-    scenarios = resolve(preset) if preset is not None else [load_scenario(config)]
+    if preset in PEDESTRIAN_SCENES or (config is not None and is_walker_config(read_config(config, "scenario"))):
+        scene = PEDESTRIAN_SCENES[preset] if preset is not None else load_walker_scene(config)  # walkers
+        _write_runs(out, preset or str(config), list(walker_runs(scene, range(runs), seed)), overwrite)
+        return
+    try:
+        scenarios = resolve(preset) if preset is not None else [load_scenario(config)]
+    except ConfigError as exc:
+        if preset is None:
+            raise
+        raise ConfigError(f"{exc}, or a walker scene ({', '.join(PEDESTRIAN_SCENES)})") from None
     warn = Console(stderr=True)
     for scenario in scenarios:
         try:
@@ -88,3 +102,13 @@ def generate(
         write_collection(members(), out, description, overwrite,
                          on_member=lambda _name: bar.advance(task))
     Console().print(f"wrote {out} ({len(scenarios) * runs} datasets)", markup=False, highlight=False)
+
+
+def _write_runs(out: Path, what: str, datasets: list, overwrite: bool) -> None:
+    """One dataset, or a collection of runs ``run-0000``, ...; prints what was written."""
+    if len(datasets) == 1:
+        write_dataset(datasets[0], out, overwrite)
+        Console().print(f"wrote {out} ({datasets[0].detections.scan.size} detections)", markup=False, highlight=False)
+        return
+    write_collection(((f"run-{d.run:04d}", d) for d in datasets), out, f"{what}: {len(datasets)} run(s)", overwrite)
+    Console().print(f"wrote {out} ({len(datasets)} datasets)", markup=False, highlight=False)

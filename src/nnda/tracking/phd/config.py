@@ -30,6 +30,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, model_validator
 
 from nnda.errors import ConfigError
+from nnda.filters.ground_motion import ThesisCV
 from nnda.filters.motion import ConstantVelocity, CoordinatedTurn, MotionModel
 from nnda.filters.unscented import UnscentedTransform
 from nnda.tracking.tracker import TrackerConfig
@@ -161,7 +162,9 @@ class PHDConfig(CommonConfig):
     linearisation: Literal["linear", "ekf", "ukf"] = Field(
         "ekf", description="linear: Cartesian fixes (a radar's contacts converted); ekf / ukf: polar radar")
     unscented: UnscentedConfig = UnscentedConfig()
-    motion: Literal["cv", "ct"] = "cv"
+    motion: Literal["cv", "ct", "cv-seed-000"] = Field(
+        "cv", description="cv / ct: nnda's CV and CT (sigma_q, sigma_omega); cv-seed-000: the pedestrian "
+        "thesis's CV with its diagonal Q (`nnda.filters.ground_motion.ThesisCV`; sigma_q unused)")
     sigma_omega: Annotated[float, Field(ge=0, description="turn-rate noise (rad/s) of the CT model")] = 0.044
     birth: Annotated[Annotated[MeasurementBirth, Tag("measurement")] | Annotated[StaticBirth, Tag("static")],
                      Discriminator(_birth_kind)] = MeasurementBirth()
@@ -189,11 +192,13 @@ class PHDConfig(CommonConfig):
     @property
     def state_dim(self) -> int:
         """Size of the filter's state: 4 (CV) or 5 (CT)."""
-        return 4 if self.motion == "cv" else 5
+        return 5 if self.motion == "ct" else 4
 
     def motion_model(self) -> MotionModel:
         if self.motion == "cv":
             return ConstantVelocity(self.sigma_q)
+        if self.motion == "cv-seed-000":
+            return ThesisCV()
         return CoordinatedTurn(sigma_q=self.sigma_q, sigma_omega=self.sigma_omega)
 
 
