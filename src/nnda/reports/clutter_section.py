@@ -151,9 +151,12 @@ def clutter_section(section, manifest: dict, summary: dict, timing: dict,
         if len(at) < 2:
             continue
         best = sorted(at, key=lambda t: -m.sense * at[t])[0]
+        tied = [t for t in at if at[t] == at[best]]
         low = {t: line[counts[0]]["mean"] for t, line in lines[m.key].items() if counts[0] in line}
-        growth = (f", {at[best] / low[best]:.1f}x its value at {counts[0]:,}" if low.get(best) else "")
-        said.append(f"{m.label}: **{best}** is best at {densest:,} clutter per scan "
+        growth = (f", {at[best] / low[best]:.1f}x its value at {counts[0]:,}"
+                  if len(tied) == 1 and low.get(best) else "")
+        who = f"**{best}** is" if len(tied) == 1 else ", ".join(f"**{t}**" for t in tied) + " tie for"
+        said.append(f"{m.label}: {who} best at {densest:,} clutter per scan "
                     f"({m.fmt.format(at[best] * m.scale)}{(' ' + m.unit) if m.unit else ''}{growth}).")
     if said:
         section.text(" ".join(said))
