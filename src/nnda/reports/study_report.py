@@ -39,6 +39,7 @@ from nnda.models.ablation import ABLATION_FILE
 from nnda.reports import ablation_section, cardinality_section, features_section, headline, study_figures
 from nnda.reports.classifier_tables import classifier_table, model_test_table
 from nnda.reports.clutter_section import clutter_section
+from nnda.reports.deletions_section import deletions_section
 from nnda.reports.filters_section import filters_section
 from nnda.reports.fusion_section import fusion_section
 from nnda.reports.peers_section import against_stonesoup, peer_labels
@@ -327,6 +328,9 @@ def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
                                 lambda *made: _kept(Figure(*made), figures))
         if swept is not None:
             sections.append(swept)
+        deleted = deletions_section(Section("deletions", "Track deletions", [], []), out)
+        if deleted is not None:
+            sections.append(deleted)
     if summary.get("filters"):
         sections.append(filters_section(Section("filters", "Single-target filters", [], []), summary, timing))
     if trackers:
