@@ -138,14 +138,15 @@ class NeuralTracker(SingleHypothesisTracker):
                     raise TrackingError(f"{self.name}: scan {scan.index}: the model {self.config.model} scored "
                                         f"{int((~np.isfinite(score)).sum())} of {score.size} pairs as NaN; its "
                                         f"weights or normaliser are broken: retrain it")
-                threshold, match = self.config.threshold, score > self.config.threshold
-                track, cand, score = track[match], cand[match], score[match]
-                first = tracks.status[track] == CONFIRMED
+                threshold = self.config.threshold
                 if self.config.association == "greedy":
-                    # scores lie in (-1, 1): +2 puts confirmed tracks first
-                    chosen_track, chosen_contact = greedy_matching(
-                        track, cand, score + 2.0 * first if self.config.confirmed_first else score)
-                elif self.config.confirmed_first:  # the confirmed tracks' assignment, then the rest's
+                    match = score > threshold
+                    rank = score[match]
+                    if self.config.confirmed_first:  # scores lie in (-1, 1): +2 puts confirmed tracks first
+                        rank = rank + 2.0 * (tracks.status[track[match]] == CONFIRMED)
+                    chosen_track, chosen_contact = greedy_matching(track[match], cand[match], rank)
+                elif self.config.confirmed_first:  # the confirmed tracks' assignment, then the others' on the rest
+                    first = tracks.status[track] == CONFIRMED
                     chosen_track, chosen_contact = global_matching(track[first], cand[first], score[first],
                                                                    threshold)
                     rest = ~first & ~np.isin(cand, chosen_contact)
@@ -177,10 +178,14 @@ def global_matching(rows: np.ndarray, cols: np.ndarray, score: np.ndarray, thres
     (P,) their scores in [-1, 1]. A pair costs -log-odds of its score
     (`score_log_odds`); a row may miss at -log-odds of ``threshold``, so a
     pair scoring at most ``threshold`` is never worth taking. Returns the
-    assigned (rows, cols) of `least_cost_assignment`.
+    assigned (rows, cols) of `least_cost_assignment`, or, when no contact is
+    any other row's candidate too, each row's best pair above ``threshold``
+    (the same optimum, found by `greedy_matching` without the solver).
     """
     rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
-    if rows.size == 0:
-        return rows, cols
+    keep = score > threshold
+    rows, cols, score = rows[keep], cols[keep], score[keep]
+    if rows.size == 0 or np.bincount(cols).max() == 1:
+        return greedy_matching(rows, cols, score)
     miss = np.full(int(rows.max()) + 1, -score_log_odds(threshold))
     return least_cost_assignment(rows, cols, -score_log_odds(score), miss)
