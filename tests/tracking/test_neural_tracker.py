@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 
 import numpy as np
 import pytest
+from scipy.optimize import linear_sum_assignment
 
 from nnda.data.dataset import Scan
 from nnda.data.generator import generate
@@ -15,10 +17,10 @@ from nnda.errors import ConfigError, TrackingError
 from nnda.models.features import KINEMATIC, candidate_pairs, pair_features
 from nnda.models.mlp import MLPWeights
 from nnda.models.preprocessing import Normaliser
-from nnda.models.scorer import Scorer, save_model
+from nnda.models.scorer import Scorer, save_model, score_log_odds
 from nnda.study.metrics import run_metrics
 from nnda.tracking.assignment import greedy_matching
-from nnda.tracking.neural import NeuralTracker
+from nnda.tracking.neural import NeuralTracker, global_matching
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
 
@@ -50,6 +52,73 @@ def test_conflict_goes_to_the_higher_score_and_the_loser_falls_back():
     assert (r.tolist(), c.tolist()) == ([0, 1], [6, 5])
 
 
+def total_cost(rows, cols, pairs: dict, threshold: float, n_rows: int) -> float:
+    """Cost of an assignment under the global rule: -log-odds of each chosen pair, the threshold's per miss."""
+    chosen = [float(-score_log_odds(pairs[r, c])) for r, c in zip(rows, cols)]
+    return sum(chosen) + (n_rows - len(chosen)) * float(-score_log_odds(threshold))
+
+
+def brute_force_cost(pairs: dict, threshold: float, n_rows: int) -> float:
+    """Least total cost over every assignment: each row takes one of its candidates or misses, columns distinct."""
+    options = [[None] + [c for (r, c) in pairs if r == row] for row in range(n_rows)]
+    best = np.inf
+    for pick in itertools.product(*options):
+        taken = [c for c in pick if c is not None]
+        if len(set(taken)) == len(taken):
+            rows = [r for r, c in enumerate(pick) if c is not None]
+            best = min(best, total_cost(rows, taken, pairs, threshold, n_rows))
+    return best
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_global_matching_has_the_least_total_cost_of_all_assignments(seed):
+    rng = np.random.default_rng(seed)
+    n_rows, n_cols = int(rng.integers(1, 5)), int(rng.integers(1, 6))
+    cells = [(r, c) for r in range(n_rows) for c in range(n_cols) if rng.random() < 0.6]
+    if seed % 4 == 0:  # some pairs saturated at +-1, as a tanh output is in floating point
+        rng.shuffle(cells)
+    pairs = {cell: float(rng.choice([-1.0, 1.0])) if seed % 4 == 0 and i < 2 else float(rng.uniform(-1, 1))
+             for i, cell in enumerate(cells)}
+    threshold = float(rng.uniform(-0.5, 0.5))
+    rows, cols = (np.array(v, np.int64) for v in zip(*pairs)) if pairs else (np.empty(0, np.int64),) * 2
+    r, c = global_matching(rows, cols, np.array(list(pairs.values())), threshold)
+    assert len(set(r.tolist())) == r.size and len(set(c.tolist())) == c.size
+    assert all((i, j) in pairs and pairs[i, j] > threshold for i, j in zip(r.tolist(), c.tolist()))
+    got = total_cost(r.tolist(), c.tolist(), pairs, threshold, n_rows)
+    assert got == pytest.approx(brute_force_cost(pairs, threshold, n_rows), rel=1e-9, abs=1e-9)
+
+
+def test_global_matching_yields_the_greedy_first_pick_for_a_better_total():
+    # track 0 scores contact 5 best (0.9) and contact 6 well (0.8); track 1 wants only contact 5 (0.85).
+    # Greedy gives contact 5 to track 0 and leaves track 1 without; the global rule moves track 0 to
+    # contact 6: log-odds 2.20 + 2.51 = 4.71 against 2.94 with a miss at log-odds 0
+    rows, cols, score = np.array([0, 0, 1]), np.array([5, 6, 5]), np.array([0.9, 0.8, 0.85])
+    r, c = greedy_matching(rows, cols, score)
+    assert (r.tolist(), c.tolist()) == ([0], [5])
+    r, c = global_matching(rows, cols, score, 0.0)
+    assert sorted(zip(r.tolist(), c.tolist())) == [(0, 6), (1, 5)]
+    # with no conflict, both rules take every pair
+    r, c = global_matching(np.array([0, 1]), np.array([3, 2]), np.array([0.2, 0.7]), 0.0)
+    assert sorted(zip(r.tolist(), c.tolist())) == [(0, 3), (1, 2)]
+
+
+def test_global_matching_misses_when_the_threshold_is_above_every_score():
+    rows, cols, score = np.array([0, 0, 1, 2]), np.array([0, 1, 0, 2]), np.array([0.9, 0.95, 0.97, 0.5])
+    r, c = global_matching(rows, cols, score, 0.98)
+    assert r.size == 0 and c.size == 0
+    r, c = global_matching(rows, cols, score, 0.6)  # track 2's pair (0.5) is below it: track 2 misses
+    assert sorted(zip(r.tolist(), c.tolist())) == [(0, 1), (1, 0)]
+    r, c = global_matching(rows[:0], cols[:0], score[:0], 0.0)
+    assert r.size == 0 and c.size == 0
+
+
+def test_score_log_odds_reads_scores_as_probabilities():
+    np.testing.assert_allclose(score_log_odds(np.array([0.0, 0.6, -0.6])), [0.0, np.log(4.0), -np.log(4.0)],
+                               rtol=1e-9, atol=1e-12)
+    saturated = score_log_odds(np.array([1.0, -1.0]))  # finite: clipped inside (-1, 1)
+    assert np.isfinite(saturated).all() and saturated[0] == -saturated[1] > 25.0
+
+
 class Recording(NeuralTracker):
     """A neural tracker that counts scorer calls and keeps what each scan's association saw and chose."""
 
@@ -70,10 +139,25 @@ class Recording(NeuralTracker):
         return assoc
 
 
+MISS = float(-score_log_odds(0.0))  # a track's miss under the global rule at the default threshold
+
+
+def least_cost_total(t, c, s, stage) -> float:
+    """Least total cost of the global rule for the tracks of mask ``stage`` over gated pairs (t, c, s), by a dense
+    assignment with a miss column per track (scipy's linear_sum_assignment: not the tracker's sparse solver)."""
+    tracks, contacts = np.flatnonzero(stage), np.unique(c)
+    cost = np.full((tracks.size, contacts.size + tracks.size), 1e6)
+    cost[np.searchsorted(tracks, t), np.searchsorted(contacts, c)] = -score_log_odds(s)
+    cost[:, contacts.size:][np.eye(tracks.size, dtype=bool)] = MISS
+    r, k = linear_sum_assignment(cost)
+    return float(cost[r, k].sum())
+
+
+@pytest.mark.parametrize("association", ["greedy", "global"])
 @pytest.mark.parametrize("confirmed_first", [False, True])
-def test_one_scorer_call_per_scan_and_choices_follow_the_rule(model_file, confirmed_first):
+def test_one_scorer_call_per_scan_and_choices_follow_the_rule(model_file, confirmed_first, association):
     ds = generate(PRESETS["S1"], seed=0)
-    config = NeuralTracker.config_type(model=model_file, confirmed_first=confirmed_first)
+    config = NeuralTracker.config_type(model=model_file, confirmed_first=confirmed_first, association=association)
     tracker = Recording(ds.scenario.sensor, config)
     for scan in ds.scans():
         tracker.step(scan)
@@ -85,10 +169,24 @@ def test_one_scorer_call_per_scan_and_choices_follow_the_rule(model_file, confir
         if t.size:
             s = tracker.loaded(pair_features(tracks.p1[t], tracks.t1[t], tracks.p2[t], tracks.t2[t], xy[c], time))
             ok = s > 0
+            conflicts += np.unique(c[ok]).size < ok.sum()
+            if association == "global":  # each stage's choice has the least total cost
+                score = dict(zip(zip(t[ok].tolist(), c[ok].tolist()), s[ok].tolist()))
+                chosen = np.flatnonzero(contact >= 0)
+                assert all((i, contact[i]) in score for i in chosen)  # gated pairs above the threshold only
+                assert np.unique(contact[chosen]).size == chosen.size
+                confirmed = tracks.status == TrackStatus.CONFIRMED
+                taken = np.zeros(len(z), bool)
+                for stage in [confirmed, ~confirmed] if confirmed_first else [np.ones(len(tracks), bool)]:
+                    mine = chosen[stage[chosen]]
+                    got = sum(-score_log_odds(score[i, contact[i]]) for i in mine) + (stage.sum() - mine.size) * MISS
+                    free = ok & stage[t] & ~taken[c]
+                    assert got == pytest.approx(least_cost_total(t[free], c[free], s[free], stage), rel=1e-9)
+                    taken[contact[mine]] = True
+                continue
             rank = s + 2.0 * (tracks.status[t] == TrackStatus.CONFIRMED) if confirmed_first else s
             for i, j in sequential_greedy(t[ok], c[ok], rank[ok]):
                 expected[i] = j
-            conflicts += np.unique(c[ok]).size < ok.sum()
         np.testing.assert_array_equal(contact, expected)
     assert conflicts > 0  # the run did exercise the conflict rule
 
@@ -224,8 +322,9 @@ def test_model_of_another_feature_version_is_refused(model_file, tmp_path):
         make_tracker("nn", Sensor(), {"model": str(tmp_path / "missing.json")})
 
 
-@pytest.mark.parametrize("params, field", [({}, "model"), ({"threshold": 1.0}, "threshold"),
-                                           ({"threshold": -1.5}, "threshold")])
+@pytest.mark.parametrize("params, field", [
+    ({}, "model"), ({"threshold": 1.0}, "threshold"), ({"threshold": -1.5}, "threshold"),
+    ({"association": "optimal"}, "association"), ({"association": 1}, "association")])
 def test_bad_config_is_refused(params, field, model_file):
     params = {"model": str(model_file), **params} if field != "model" else params
     with pytest.raises(ConfigError, match=rf"invalid nn config[\s\S]*(: | - ){field}\b"):

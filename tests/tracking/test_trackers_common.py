@@ -197,11 +197,12 @@ def test_gnn_greedy_fallback_agrees_on_easy_scans():
     assert abs(a.hits - b.hits) <= 3 and b.lost_targets == 0
 
 
-@pytest.mark.parametrize("name", [*TRACKERS, *PEERS])
-def test_every_registered_tracker_meets_the_protocol(name, model_file):
+@pytest.mark.parametrize("name, params", [*((name, {}) for name in [*TRACKERS, *PEERS]),
+                                          ("nn", {"association": "global"})])
+def test_every_registered_tracker_meets_the_protocol(name, params, model_file):
     if name in PEERS:
         pytest.importorskip("stonesoup", reason="Stone Soup is not installed: pip install 'nnda[peers]'")
-    tracker = make_tracker(name, Sensor(), {"model": str(model_file)} if name == "nn" else None)
+    tracker = make_tracker(name, Sensor(), {"model": str(model_file), **params} if name == "nn" else None)
     assert isinstance(tracker, Tracker) and tracker.name == name
     assert issubclass(tracker.config_type, TrackerConfig) and isinstance(tracker.config, tracker.config_type)
     short = crossing().model_copy(update={"duration_s": 40.0, "clutter": Clutter(count=20)})  # cheap for peers

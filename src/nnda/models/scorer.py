@@ -70,6 +70,23 @@ class Scorer:
         return self.weights(self.normaliser.transform(x))
 
 
+#: scores are clipped this far inside (-1, 1) before `score_log_odds`: a saturated tanh (|s| = 1 in floating
+#: point) then reads as log-odds of about +-28.3, not +-inf
+SCORE_CLIP = 1e-12
+
+
+def score_log_odds(score: np.ndarray | float) -> np.ndarray:
+    """Log-odds log(p / (1 - p)) that a pair is "this track's contact", read from scores s in [-1, 1].
+
+    The network is fitted to targets +1 / -1 by least squares, whose minimiser is the conditional
+    mean 2p - 1, so p = (1 + s) / 2 estimates the probability of "target" (as calibrated as the fit,
+    and at the class balance of the training pairs) and log(p / (1 - p)) = log((1 + s) / (1 - s)) =
+    2 artanh(s): twice the output unit's input. Score 0 is log-odds 0, p = 1/2.
+    """
+    s = np.clip(score, SCORE_CLIP - 1.0, 1.0 - SCORE_CLIP)
+    return 2.0 * np.arctanh(s)
+
+
 def model_document(scorer: Scorer) -> dict:
     """The JSON content of a model file, its ``sha256`` included."""
     w = scorer.weights

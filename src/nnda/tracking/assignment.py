@@ -1,6 +1,7 @@
 """One-to-one assignment of tracks to contacts over sparse candidate pairs.
 
-`least_cost_assignment` is exact (global nearest neighbour); `greedy_matching`
+`least_cost_assignment` is exact, with a miss option per track (global nearest
+neighbour; the neural tracker's ``association = "global"``); `greedy_matching`
 takes pairs by descending score (the neural method's conflict rule, spec A10).
 Both take pairs as flat (rows, cols) arrays, so their cost grows with the
 candidate pairs rather than with tracks x contacts.
@@ -13,20 +14,22 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import min_weight_full_bipartite_matching
 
 
-def least_cost_assignment(rows: np.ndarray, cols: np.ndarray, d2: np.ndarray, log_det: np.ndarray, miss_d2: float
-           ) -> tuple[np.ndarray, np.ndarray]:
-    """Least-cost one-to-one assignment over sparse gated pairs (P,); returns assigned (rows, cols).
+def least_cost_assignment(rows: np.ndarray, cols: np.ndarray, cost: np.ndarray, miss_cost: np.ndarray
+                          ) -> tuple[np.ndarray, np.ndarray]:
+    """Least-cost one-to-one assignment over sparse candidate pairs (P,); returns assigned (rows, cols).
 
-    The cost of a pair is d2 + log |S| of its track; each track may instead
-    stay unassigned at cost ``miss_d2`` + log |S|. Solved exactly on the
-    sparse graph (scipy's `min_weight_full_bipartite_matching`), so memory
-    grows with the pairs, not with tracks x contacts.
+    ``cost`` (P,) is the cost of each pair; row ``i`` may instead stay
+    unassigned at ``miss_cost[i]`` (``miss_cost`` is indexed by row, so it
+    covers every row that occurs). A column may stay unassigned for free.
+    Solved exactly on the sparse graph (scipy's
+    `min_weight_full_bipartite_matching`), so memory grows with the pairs,
+    not with rows x columns.
     """
     track, ti = np.unique(rows, return_inverse=True)
     cont, ci = np.unique(cols, return_inverse=True)
     R, C = track.size, cont.size
-    weight = np.concatenate([d2 + log_det[rows], miss_d2 + log_det[track]])
-    weight = weight - weight.min() + 1.0  # positive weights; a constant per row changes no optimum
+    weight = np.concatenate([cost, miss_cost[track]])
+    weight = weight - weight.min() + 1.0  # positive weights; every full matching has R edges, so no optimum moves
     graph = csr_matrix((weight, (np.concatenate([ti, np.arange(R)]), np.concatenate([ci, C + np.arange(R)]))),
                        shape=(R, C + R))
     r, c = min_weight_full_bipartite_matching(graph)

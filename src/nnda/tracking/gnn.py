@@ -65,11 +65,12 @@ class GNNTracker(SingleHypothesisTracker):
             sel = stage[g.rows] & ~taken[g.cols]
             if not sel.any():
                 continue
-            r, c, d2 = g.rows[sel], g.cols[sel], g.d2[sel]
+            r, c = g.rows[sel], g.cols[sel]
+            cost = g.d2[sel] + mp.log_det_S[r]
             if r.size <= self.config.max_exact_pairs:
-                rows, cols = least_cost_assignment(r, c, d2, mp.log_det_S, self.config.gate)
+                rows, cols = least_cost_assignment(r, c, cost, self.config.gate + mp.log_det_S)
             else:  # every gated pair costs less than a miss, so greedy takes cheapest first
-                rows, cols = greedy_matching(r, c, -(d2 + mp.log_det_S[r]))
+                rows, cols = greedy_matching(r, c, -cost)
                 self.n_greedy += 1
                 self._bound_hit("max_exact_pairs", f"{r.size} candidate pairs matched greedily, not exactly",
                                 scan.time)

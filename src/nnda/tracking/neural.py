@@ -24,7 +24,17 @@ Each scan, for all live tracks at once:
    the same contact the one that scores it higher wins and the other falls
    back to its next candidate above the threshold, if any (A10). With
    ``confirmed_first`` the confirmed tracks take their pick before the
-   preliminary ones, as GNN and JPDA do (off by default: the spec's rule);
+   preliminary ones, as GNN and JPDA do (off by default: the spec's rule).
+   With ``association = "global"`` (issue 20) the pairs above the threshold
+   are instead assigned in one least-cost assignment per scan
+   (`global_matching`): a pair costs the negative log-odds of its score
+   (`nnda.models.scorer.score_log_odds`, p = (1 + s) / 2), and a track may
+   miss at the cost of the threshold's log-odds (threshold 0: log-odds 0,
+   p = 1/2; log-odds L is threshold tanh(L / 2)). So the scan's choice
+   maximises the sum of the chosen pairs' log-odds above the threshold's,
+   and a track whose best pick would block a better total yields it.
+   ``confirmed_first`` then solves the confirmed tracks' assignment first and
+   the preliminary tracks' on the contacts left;
 4. *filter*: the chosen contact updates the track's IMM. With the seed's
    features the filter smooths the output only (spec §7.2); with the
    extended set its prediction is also what the network reads.
@@ -47,8 +57,8 @@ from nnda.filters.imm import IMMPrediction
 from nnda.models.feature_sets import FEATURE_SETS
 from nnda.models.features import candidate_pairs, pair_features
 from nnda.models.innovation import IMM_INNOVATION, innovation_features
-from nnda.models.scorer import Scorer, load_model
-from nnda.tracking.assignment import greedy_matching
+from nnda.models.scorer import Scorer, load_model, score_log_odds
+from nnda.tracking.assignment import greedy_matching, least_cost_assignment
 from nnda.tracking.output import CONFIRMED, NO_CONTACT
 from nnda.tracking.tracker import (
     Association,
@@ -63,15 +73,21 @@ from nnda.tracking.tracker import (
 
 
 class NeuralConfig(ContactTrackerConfig):
-    """Neural tracker settings: the model file, the feature set expected of it, the decision threshold."""
+    """Neural tracker settings: the model file, the feature set expected of it, the decision threshold and
+    the association rule."""
 
     model: Path = Field(description="trained model file (model.json) or a directory holding one")
     feature_set: Literal[tuple(FEATURE_SETS)] | None = Field(  # type: ignore[valid-type]
         None, description="the feature set the model must have been trained on; None: the model's own")
     threshold: Annotated[float, Field(ge=-1.0, lt=1.0, description="a pair is a match if its score "
-                                      "exceeds this (the scorer's outputs lie in (-1, 1))")] = 0.0
+                                      "exceeds this (the scorer's outputs lie in (-1, 1)); under "
+                                      "association 'global' also a track's miss option, at the cost of "
+                                      "this score's negative log-odds")] = 0.0
     confirmed_first: bool = Field(False, description="confirmed tracks choose before preliminary ones "
-                                  "(as in GNN and JPDA); False: one greedy pass by score (spec A10)")
+                                  "(as in GNN and JPDA); False: one pass over all tracks")
+    association: Literal["greedy", "global"] = Field(
+        "greedy", description="'greedy': pairs taken by descending score (spec A10); 'global': one least-cost "
+        "assignment per scan, a pair costing the negative log-odds of its score, a miss the threshold's")
 
 
 class NeuralTracker(SingleHypothesisTracker):
@@ -122,11 +138,23 @@ class NeuralTracker(SingleHypothesisTracker):
                     raise TrackingError(f"{self.name}: scan {scan.index}: the model {self.config.model} scored "
                                         f"{int((~np.isfinite(score)).sum())} of {score.size} pairs as NaN; its "
                                         f"weights or normaliser are broken: retrain it")
-                match = score > self.config.threshold
-                rank = score[match]
-                if self.config.confirmed_first:  # scores lie in (-1, 1): +2 puts confirmed tracks first
-                    rank = rank + 2.0 * (tracks.status[track[match]] == CONFIRMED)
-                chosen_track, chosen_contact = greedy_matching(track[match], cand[match], rank)
+                threshold = self.config.threshold
+                if self.config.association == "greedy":
+                    match = score > threshold
+                    rank = score[match]
+                    if self.config.confirmed_first:  # scores lie in (-1, 1): +2 puts confirmed tracks first
+                        rank = rank + 2.0 * (tracks.status[track[match]] == CONFIRMED)
+                    chosen_track, chosen_contact = greedy_matching(track[match], cand[match], rank)
+                elif self.config.confirmed_first:  # the confirmed tracks' assignment, then the others' on the rest
+                    first = tracks.status[track] == CONFIRMED
+                    chosen_track, chosen_contact = global_matching(track[first], cand[first], score[first],
+                                                                   threshold)
+                    rest = ~first & ~np.isin(cand, chosen_contact)
+                    rest_track, rest_contact = global_matching(track[rest], cand[rest], score[rest], threshold)
+                    chosen_track = np.concatenate([chosen_track, rest_track])
+                    chosen_contact = np.concatenate([chosen_contact, rest_contact])
+                else:
+                    chosen_track, chosen_contact = global_matching(track, cand, score, threshold)
                 contact[chosen_track] = chosen_contact
         return hard_update(scan.filter, pred, z, contact)
 
@@ -140,3 +168,24 @@ class NeuralTracker(SingleHypothesisTracker):
             grown[tracks.track_id[new]] = tracks.t1[new]
             self._first_time = grown
         return self._first_time[tracks.track_id]
+
+
+def global_matching(rows: np.ndarray, cols: np.ndarray, score: np.ndarray, threshold: float
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """One-to-one matching of candidate pairs of least total cost, with a miss option per row.
+
+    ``rows``, ``cols`` (P,) index the pairs' tracks and contacts, ``score``
+    (P,) their scores in [-1, 1]. A pair costs -log-odds of its score
+    (`score_log_odds`); a row may miss at -log-odds of ``threshold``, so a
+    pair scoring at most ``threshold`` is never worth taking. Returns the
+    assigned (rows, cols) of `least_cost_assignment`, or, when no contact is
+    any other row's candidate too, each row's best pair above ``threshold``
+    (the same optimum, found by `greedy_matching` without the solver).
+    """
+    rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
+    keep = score > threshold
+    rows, cols, score = rows[keep], cols[keep], score[keep]
+    if rows.size == 0 or np.bincount(cols).max() == 1:
+        return greedy_matching(rows, cols, score)
+    miss = np.full(int(rows.max()) + 1, -score_log_odds(threshold))
+    return least_cost_assignment(rows, cols, -score_log_odds(score), miss)
