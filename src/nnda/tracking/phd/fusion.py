@@ -54,7 +54,7 @@ from nnda.filters.motion import POS
 from nnda.tracking.output import CONFIRMED, NO_CONTACT, TrackerOutput
 from nnda.tracking.phd.config import AAFusionConfig, FusionConfig, HarbourConfig
 from nnda.tracking.phd.extraction import above
-from nnda.tracking.phd.tracker import Cardinality, GMPHDTracker
+from nnda.tracking.phd.tracker import Cardinality, GMPHDTracker, sensor_detection
 from nnda.tracking.tracker import TrackerConfig, checked_config, checked_scan
 
 
@@ -100,12 +100,9 @@ class FusionTracker:
         self.sensors = sensor_tuple(sensors)
         self.config = cfg = checked_config(self, config)
         local = cfg.model_dump(exclude={"fused_extraction_threshold", "sensor_pd"})
-        pds = cfg.sensor_pd if cfg.sensor_pd is not None else (cfg.pd,) * len(self.sensors)
-        if len(pds) != len(self.sensors):
-            # the same check and message as a multi-sensor PHD's
-            CentralPHDTracker(self.sensors, HarbourConfig(**local, sensor_pd=pds))
         self.local = tuple(CentralPHDTracker(s, HarbourConfig(**{**local, "pd": pd}))
-                           for s, pd in zip(self.sensors, pds, strict=True))
+                           for s, pd in zip(self.sensors, sensor_detection(self.name, cfg, self.sensors),
+                                            strict=True))
         self.reset()
 
     def reset(self) -> None:

@@ -115,6 +115,16 @@ def clutter(config: CommonConfig, z: np.ndarray, xy: np.ndarray, volume: float, 
     return rate, np.full(n, -np.log(volume))
 
 
+def sensor_detection(name: str, config: PHDConfig, sensors: tuple[Sensor, ...]) -> tuple[float, ...]:
+    """Each sensor's detection probability for tracker ``name``: ``config.sensor_pd``, else ``config.pd`` for
+    all; ConfigError when ``sensor_pd`` gives another number of them than there are ``sensors``."""
+    pds = config.sensor_pd if config.sensor_pd is not None else (config.pd,) * len(sensors)
+    if len(pds) != len(sensors):
+        raise ConfigError(f"{name}: sensor_pd gives {len(pds)} detection probabilities for "
+                          f"{len(sensors)} sensor(s) ({', '.join(s.name for s in sensors)})")
+    return pds
+
+
 def coverage_volume(sensor: Sensor, polar: bool) -> float:
     """The sensor's coverage in the update's measurement space: m rad for polar contacts, else m^2."""
     return measurement_volume(sensor) if polar else coverage_area(sensor)
@@ -146,11 +156,8 @@ class GMPHDTracker:
         self.config = cfg = checked_config(self, config)
         if measurement is not None and len(self.sensors) != 1:
             raise ConfigError(f"{self.name}: a measurement model replaces the one sensor's; this tracker has "
-                                f"{len(self.sensors)} sensors")
-        pds = cfg.sensor_pd if cfg.sensor_pd is not None else (cfg.pd,) * len(self.sensors)
-        if len(pds) != len(self.sensors):
-            raise ConfigError(f"{self.name}: sensor_pd gives {len(pds)} detection probabilities for "
-                                f"{len(self.sensors)} sensor(s) ({', '.join(s.name for s in self.sensors)})")
+                              f"{len(self.sensors)} sensors")
+        pds = sensor_detection(self.name, cfg, self.sensors)
         names = [s.name for s in self.sensors]
         unknown = sorted(set(cfg.use_sensors or ()) - set(names))
         if unknown:
@@ -173,8 +180,8 @@ class GMPHDTracker:
         cartesian = isinstance(measurement, PositionMeasurement)
         if cartesian and cfg.linearisation != "linear":
             raise ConfigError(f"{self.name}: linearisation {cfg.linearisation!r} linearises the polar radar "
-                                f"measurement, but the contacts of sensor {sensor.name!r} are Cartesian position "
-                                f"fixes (a PositionMeasurement); use linearisation 'linear'")
+                              f"measurement, but the contacts of sensor {sensor.name!r} are Cartesian position "
+                              f"fixes (a PositionMeasurement); use linearisation 'linear'")
         linearisation = (gmphd.Linear(measurement) if cfg.linearisation == "linear" else
                          gmphd.EKF(measurement) if cfg.linearisation == "ekf" else
                          gmphd.UKF(measurement, cfg.unscented.transform()))
