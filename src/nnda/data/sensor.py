@@ -13,6 +13,8 @@ do (no arithmetic is added).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from nnda.data.scenario import Sensor
@@ -63,6 +65,13 @@ def in_coverage_polar(sensor: Sensor, r: np.ndarray, azimuth: np.ndarray) -> np.
 def in_coverage(sensor: Sensor, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Boolean mask of positions (x, y in m, scenario frame) inside the sensor's coverage."""
     return in_coverage_polar(sensor, *cart_to_polar_at(sensor.position, x, y))
+
+
+def observable(sensors: Sequence[Sensor], sweeping: int, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Boolean mask of positions (x, y in m, shape (K,)) that a scan of ``sensors[sweeping]`` should be held
+    to: inside its coverage, or outside every one of ``sensors`` (an object nobody sees still misses)."""
+    inside = np.array([in_coverage(s, x, y) for s in sensors])  # (sensors, K)
+    return inside[sweeping] | ~inside.any(axis=0)
 
 
 def measure(

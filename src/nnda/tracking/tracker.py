@@ -50,7 +50,7 @@ from pydantic import BaseModel, ConfigDict
 
 from nnda.data.dataset import Scan
 from nnda.data.scenario import Sensor, sensor_tuple
-from nnda.data.sensor import in_coverage
+from nnda.data.sensor import observable
 from nnda.errors import BoundWarning, ConfigError, TrackingError
 from nnda.filters.batch import Batch
 from nnda.filters.imm import IMM, IMMPrediction, IMMState
@@ -437,9 +437,7 @@ class ContactTracker(ABC):
         if len(self.sensors) == 1:
             return None
         x = self.filter.estimate(pred.state)[0]
-        px, py = x[:, 0], x[:, 2]
-        inside = np.array([in_coverage(s, px, py) for s in self.sensors])  # (sensors, K)
-        return inside[scan.sensor] | ~inside.any(axis=0)
+        return observable(self.sensors, scan.sensor, x[:, 0], x[:, 2])
 
 
 @dataclass(frozen=True)

@@ -54,7 +54,7 @@ import numpy as np
 
 from nnda.data.dataset import Scan
 from nnda.data.scenario import Sensor, sensor_tuple
-from nnda.data.sensor import in_coverage
+from nnda.data.sensor import observable
 from nnda.errors import ConfigError, TrackingError
 from nnda.filters.measurement import MeasurementModel, PositionMeasurement, measurement_model
 from nnda.filters.mixture import Mixture, cap, merge
@@ -259,9 +259,9 @@ class GMPHDTracker:
         several, per component (J,): ``pd`` inside its coverage or outside every used sensor's, else 0."""
         if self.used.sum() == 1:
             return view.pd
-        px, py = pred.means[:, 0], pred.means[:, 2]
-        inside = np.array([in_coverage(s, px, py) & u for s, u in zip(self.sensors, self.used)])  # (sensors, J)
-        return np.where(inside[scan_sensor] | ~inside.any(axis=0), view.pd, 0.0)
+        used = [s for s, u in zip(self.sensors, self.used) if u]
+        seen = observable(used, int(self.used[:scan_sensor].sum()), pred.means[:, 0], pred.means[:, 2])
+        return np.where(seen, view.pd, 0.0)
 
     def _weights(self, pred: Mixture, pairs: gmphd.Pairs, rate: float, log_c: np.ndarray, born: float,
                  pd: float | np.ndarray, survival: float) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
