@@ -1,11 +1,12 @@
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from nnda.errors import ConfigError, ModelError
 from nnda.models.experiment import fit, repeat, sweep
-from nnda.models.pairs import PairSet
 from nnda.models.scorer import load_model, save_model
 from nnda.models.trainers import GDSettings
 from nnda.reports.classifier_tables import repeats_table, sweep_table
@@ -66,8 +67,7 @@ def test_bad_requests_are_refused(train_pairs):
     empty = train_pairs.subset(np.zeros(len(train_pairs), bool))
     with pytest.raises(ModelError, match="no training pairs"):
         fit(empty)
-    nan = PairSet(train_pairs.features.copy(), *(getattr(train_pairs, f) for f in
-                  ("labels", "dataset", "scan", "target_id", "contact_target", "names")))
+    nan = replace(train_pairs, features=train_pairs.features.copy())
     nan.features[10, 0] = np.nan
     with pytest.raises(ModelError, match="row 10"):
         fit(nan)

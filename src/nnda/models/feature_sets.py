@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 from nnda.errors import ConfigError
+from nnda.models.context import IMM_CONTEXT
 from nnda.models.features import KINEMATIC, FeatureSet
 from nnda.models.innovation import IMM_INNOVATION
 
-FEATURE_SETS: dict[str, FeatureSet] = {fs.name: fs for fs in (KINEMATIC, IMM_INNOVATION)}
+FEATURE_SETS: dict[str, FeatureSet] = {fs.name: fs for fs in (KINEMATIC, IMM_INNOVATION, IMM_CONTEXT)}
 
 
 def feature_set(name: str, where: str = "feature set") -> FeatureSet:

@@ -35,7 +35,10 @@ the target's own contact if it has one (a missed scan is not an update).
 After a gap longer than ``max_missed`` scans, when a tracker would have
 deleted the track, the filter restarts from the contacts on either side of
 the gap, as the seed features do. With ``history="true"`` the filter is fed
-the true positions.
+the true positions. The context set ``imm-context-14``
+(`nnda.models.context`) adds, per scan, each pair's standing among its
+target's candidates and among the other targets' oracle tracks that have
+the same contact as a candidate.
 """
 
 from __future__ import annotations
@@ -51,6 +54,7 @@ from nnda.data.dataset import Dataset, iter_datasets
 from nnda.data.sensor import cart_to_polar
 from nnda.errors import ConfigError, DatasetError
 from nnda.filters.imm import IMM
+from nnda.models.context import IMM_CONTEXT, with_context
 from nnda.models.feature_sets import feature_set
 from nnda.models.features import KINEMATIC, FeatureSet, pair_features, passes_gate, sector
 from nnda.models.innovation import IMM_INNOVATION, innovation_features
@@ -77,7 +81,8 @@ class PairSet:
     ``features`` (N, F), the columns of ``feature_set``; ``labels`` +1 (the
     track's own contact) or -1; ``dataset`` indexes ``names``; ``scan`` is
     the candidate's scan, ``target_id`` the track's target and
-    ``contact_target`` the candidate's origin (-1 clutter).
+    ``contact_target`` the candidate's origin (-1 clutter) and ``contact``
+    its row in its dataset's detections.
     """
 
     features: np.ndarray
@@ -86,6 +91,7 @@ class PairSet:
     scan: np.ndarray
     target_id: np.ndarray
     contact_target: np.ndarray
+    contact: np.ndarray
     names: tuple[str, ...]
     feature_set: FeatureSet = KINEMATIC
 
@@ -116,11 +122,13 @@ _PER_SET = ("names", "feature_set")
 
 def _empty(names: tuple[str, ...], features: FeatureSet = KINEMATIC) -> PairSet:
     i32 = np.zeros(0, dtype=np.int32)
-    return PairSet(np.zeros((0, features.size)), np.zeros(0, dtype=np.int8), i32, i32, i32, i32, names, features)
+    return PairSet(np.zeros((0, features.size)), np.zeros(0, dtype=np.int8), i32, i32, i32, i32, i32, names,
+                   features)
 
 
-def concatenate(parts: Iterable[PairSet]) -> PairSet:
-    """One pair set from several of the same feature set, renumbering the dataset indices."""
+def concatenate(parts: Iterable[PairSet], feature_set: FeatureSet = KINEMATIC) -> PairSet:
+    """One pair set from several of the same feature set, renumbering the dataset indices; no parts: an
+    empty set of ``feature_set``."""
     parts = list(parts)
     names: tuple[str, ...] = ()
     shifted = []
@@ -128,7 +136,7 @@ def concatenate(parts: Iterable[PairSet]) -> PairSet:
         shifted.append(p.dataset + len(names))
         names += p.names
     if not parts:
-        return _empty(())
+        return _empty((), feature_set)
     if len({p.feature_set for p in parts}) > 1:
         raise ConfigError(f"cannot concatenate pairs of feature sets {sorted({p.feature_set.name for p in parts})}")
     cat = {f.name: np.concatenate([getattr(p, f.name) for p in parts])
@@ -159,7 +167,7 @@ def extract_pairs(
     xy = np.column_stack([det.x, det.y])
     det_sector = sector(det.azimuth)
     det_z = np.column_stack([det.range, det.azimuth])
-    imm = IMM.for_sensor(dataset.scenario.sensor) if fs is IMM_INNOVATION else None
+    imm = IMM.for_sensor(dataset.scenario.sensor) if fs in (IMM_INNOVATION, IMM_CONTEXT) else None
     parts = []
     for tid in range(len(dataset.scenario.targets)):
         own = np.flatnonzero(det.target_id == tid)  # one per scan, in scan order
@@ -202,12 +210,16 @@ def extract_pairs(
             scan=det.scan[cand].astype(np.int32),
             target_id=np.full(cand.size, tid, dtype=np.int32),
             contact_target=origin.astype(np.int32),
+            contact=cand.astype(np.int32),
             names=(), feature_set=fs,
         ))
     name = (dataset_name(dataset),)
     if not parts:
         return _empty(name, fs)
     merged = concatenate(parts)
+    if fs is IMM_CONTEXT:  # every target's oracle track is a rival of the others at its scan
+        track = merged.scan.astype(np.int64) * len(dataset.scenario.targets) + merged.target_id
+        merged = replace(merged, features=with_context(merged.features, track, merged.contact))
     return replace(merged, dataset=np.zeros(len(merged), dtype=np.int32), names=name)
 
 

@@ -116,6 +116,12 @@ def train(
         min=1, help="initial-weight draws per fit, the lowest validation MSE kept (default 1; ablation 3)")] = None,
     ablation: Annotated[bool, typer.Option(
         help="feature ablation over --repeats seeds, both data models (ignores --features and --history)")] = False,
+    encounters: Annotated[int, typer.Option(
+        min=0, help="add this many seeded multi-target scenes (crossing, parallel, near-miss; "
+        "nnda.data.encounters, drawn from --seed) to the training data (one model only)")] = 0,
+    dagger: Annotated[int, typer.Option(
+        min=0, help="rounds of harvesting pairs from the nn tracker's own runs on the training data, "
+        "labelled by the truth, each followed by retraining (nnda.tracking.harvest; one model only)")] = 0,
     overwrite: Annotated[bool, typer.Option(help="replace an existing output directory")] = False,
 ) -> None:
     """Train the association network on the pairs of a dataset or collection."""
@@ -123,6 +129,9 @@ def train(
         raise ConfigError("give --sweep, --repeats or --ablation --repeats, not two of them")
     if method is MethodChoice.both and repeats == 1:
         raise ConfigError("--method both needs --repeats N (N >= 2); a sweep or a model takes gd or lm")
+    if (encounters or dagger) and (sweep_sizes is not None or repeats > 1 or ablation):
+        raise ConfigError("--encounters and --dagger train one model: give them without --sweep, --repeats "
+                          "or --ablation")
     if ablation and repeats < 2:
         raise ConfigError("--ablation needs --repeats N (N >= 2; the issue's protocol uses 10) for its intervals")
     check_output_location(out, [data])  # --out replaced with --overwrite must never be the training data
@@ -137,8 +146,14 @@ def train(
     options = {"history": history.value, "other_targets": "negative", "max_missed": 3, "features": features.value}
     pairs = load_pairs(data, **options)
     console.print(_describe(pairs, data), markup=False, highlight=False)
-    provenance = {"data": str(data), "pair_options": options, "dataset_names": list(pairs.names)}
+    provenance = {"data": str(data), "pair_options": options, "dataset_names": list(pairs.names),
+                  "recipe": {"encounters": encounters, "dagger": dagger}}
     with atomic_directory(out, overwrite) as tmp:
+        if encounters or dagger:
+            pairs, provenance["recipe"] = _recipe_pairs(pairs, data, options, encounters, dagger, seed,
+                                                        (method.value, hidden, seed, init.value, starts or 1),
+                                                        tmp, console)
+            console.print(_describe(pairs, data), markup=False, highlight=False)
         if sizes is not None:
             _train_sweep(pairs, method.value, sizes, restarts, seed, init.value, tmp, console)
         elif repeats > 1:
@@ -179,6 +194,33 @@ def _train_one(pairs: PairSet, method: str, hidden: int, seed: int, init: str, s
               "all pairs": (labels, result.scores)}, tmp / "roc.png", f"ROC, {method.upper()} {shape}")
     plot_losses(t, tmp / "loss.png")
     console.print(table.rich())
+
+
+def _recipe_pairs(pairs: PairSet, data: Path, options: dict, encounters: int, dagger: int, seed: int,
+                  fit_args: tuple, tmp: Path, console: Console) -> tuple[PairSet, dict]:
+    """The training pairs of ``--encounters`` and ``--dagger`` (added to the oracle ``pairs`` of ``data``) and
+    the recipe the model records: the counts asked for and, per DAgger round, the pairs harvested."""
+    from nnda.data.encounters import encounter_scenes
+    from nnda.data.generator import generate
+    from nnda.models.experiment import fit
+    from nnda.models.pairs import concatenate, pairs_from_datasets
+    from nnda.tracking.harvest import dagger_pairs
+
+    scenes = [generate(s, seed) for s in encounter_scenes(encounters, seed)]
+    if scenes:
+        pairs = concatenate([pairs, pairs_from_datasets(scenes, **options)])
+    recipe: dict = {"encounters": encounters, "encounter_seed": seed, "dagger": dagger}
+    if dagger:
+        method, hidden, fit_seed, init, starts = fit_args
+        datasets = [*iter_datasets(data), *scenes]
+        params = {"feature_set": options["features"]}
+        work = tmp / "dagger"
+        work.mkdir()
+        console.print(f"DAgger: {dagger} round(s) on {len(datasets)} datasets", markup=False, highlight=False)
+        pairs, recipe["dagger_rounds"] = dagger_pairs(
+            datasets, pairs, params, dagger, work,
+            lambda p: fit(p, method, hidden, fit_seed, init=init, starts=starts).scorer)
+    return pairs, recipe
 
 
 def _train_sweep(pairs: PairSet, method: str, sizes: list[int], restarts: int, seed: int, init: str,

@@ -15,7 +15,11 @@ Each scan, for all live tracks at once:
    candidate (`nnda.models.features.pair_features`), and for
    ``imm-innovation-9`` also the track's IMM prediction read against the
    candidate (`nnda.models.innovation.innovation_features`: normalised
-   innovation, Mahalanobis distance, log |S|, CT probability, track age);
+   innovation, Mahalanobis distance, log |S|, CT probability, track age),
+   and for ``imm-context-14`` also each pair's standing among the scan's
+   pairs (`nnda.models.context`: rank and d² margin among its track's
+   candidates, their count, the other tracks that have the contact as a
+   candidate and their least d²), from the same arrays in a few sorts;
 3. *select*: pairs scoring above ``threshold`` (default 0: the network says
    "target") are matched greedily by descending score (`greedy_matching`):
    the best pair of the scan is taken, its track and contact leave the
@@ -44,7 +48,7 @@ Contacts left over go to initiation, as for every tracker.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Annotated, ClassVar, Literal
 
@@ -54,6 +58,7 @@ from pydantic import Field
 from nnda.data.scenario import Sensor
 from nnda.errors import ConfigError, ModelError, TrackingError
 from nnda.filters.imm import IMMPrediction
+from nnda.models.context import IMM_CONTEXT, with_context
 from nnda.models.feature_sets import FEATURE_SETS
 from nnda.models.features import candidate_pairs, pair_features
 from nnda.models.innovation import IMM_INNOVATION, innovation_features
@@ -71,6 +76,9 @@ from nnda.tracking.tracker import (
     only_sensor,
 )
 
+#: the recipe of a model whose metadata records none: oracle pairs of the training data alone
+NO_RECIPE = {"encounters": 0, "dagger": 0}
+
 
 class NeuralConfig(ContactTrackerConfig):
     """Neural tracker settings: the model file, the feature set expected of it, the decision threshold and
@@ -85,6 +93,9 @@ class NeuralConfig(ContactTrackerConfig):
                                       "this score's negative log-odds")] = 0.0
     confirmed_first: bool = Field(False, description="confirmed tracks choose before preliminary ones "
                                   "(as in GNN and JPDA); False: one pass over all tracks")
+    recipe: dict[str, int] | None = Field(
+        None, description="training recipe the model must record (metadata 'recipe' of `nnda train`, e.g. "
+        "{ encounters = 60, dagger = 1 }; a model without one was trained with neither); None: any")
     association: Literal["greedy", "global"] = Field(
         "greedy", description="'greedy': pairs taken by descending score (spec A10); 'global': one least-cost "
         "assignment per scan, a pair costing the negative log-odds of its score, a miss the threshold's")
@@ -96,7 +107,8 @@ class NeuralTracker(SingleHypothesisTracker):
     The scorer is loaded once, at construction, from ``config.model``;
     a missing file, a foreign format, a model trained on a feature
     definition this nnda does not compute, or on another set than
-    ``config.feature_set``, is refused with a ConfigError naming the field.
+    ``config.feature_set``, or with another training recipe than
+    ``config.recipe``, is refused with a ConfigError naming the field.
     """
 
     name: ClassVar[str] = "nn"
@@ -114,7 +126,18 @@ class NeuralTracker(SingleHypothesisTracker):
             raise ConfigError(f"{self.name} tracker config, field 'model': {self.config.model} was trained on "
                               f"feature set {trained!r}, but this tracker is configured for {wanted!r} "
                               f"(field 'feature_set'); train a model on {wanted!r} or change the field")
-        self._extended = self.scorer.features is IMM_INNOVATION
+        if self.config.recipe is not None:
+            recorded = {**NO_RECIPE, **self.scorer.metadata.get("recipe", {})}
+            wrong = {k: recorded.get(k) for k, v in self.config.recipe.items() if recorded.get(k) != v}
+            if wrong:
+                raise ConfigError(f"{self.name} tracker config, field 'model': {self.config.model} was trained "
+                                  f"with recipe {wrong}, but field 'recipe' asks for "
+                                  f"{ {k: self.config.recipe[k] for k in wrong} }; retrain it or change the field")
+        self._extended = self.scorer.features in (IMM_INNOVATION, IMM_CONTEXT)
+        self._context = self.scorer.features is IMM_CONTEXT
+        #: if set, called each scan with (scan index, track id (P,), contact row (P,), features (P, F)) of
+        #: every pair scored (`nnda.tracking.harvest`)
+        self.harvest: Callable[[int, np.ndarray, np.ndarray, np.ndarray], None] | None = None
 
     def reset(self) -> None:
         super().reset()
@@ -133,6 +156,10 @@ class NeuralTracker(SingleHypothesisTracker):
                 if self._extended:
                     age = time - self._born(tracks)[track]
                     features = innovation_features(scan.filter, pred, track, z[cand], features, age)
+                if self._context:
+                    features = with_context(features, track, cand)
+                if self.harvest is not None:
+                    self.harvest(scan.index, tracks.track_id[track], cand, features)
                 score = self.scorer(features)
                 if not np.isfinite(score).all():  # NaN never beats the threshold: it would track nothing silently
                     raise TrackingError(f"{self.name}: scan {scan.index}: the model {self.config.model} scored "

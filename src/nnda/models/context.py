@@ -1,0 +1,93 @@
+"""Context features: a candidate judged against its rivals, not alone (issue 20, item 2).
+
+A pair seen alone cannot tell clutter inside the gate from the target. These
+five columns, appended to the IMM-extended nine
+(`nnda.models.innovation.IMM_INNOVATION`), describe the pair among the
+scan's other candidate pairs, from the squared Mahalanobis distances d² of
+every pair (column ``mahalanobis_d2``, capped at `D2_CAP`):
+
+* ``candidate_rank``: 0 for the track's candidate of least d², 1 for the
+  next, ...;
+* ``d2_margin``: d² minus the least d² of the track's *other* candidates
+  (negative for the best candidate; `D2_CAP` stands in for a missing rival);
+* ``n_candidates``: the track's candidate count this scan;
+* ``n_rival_tracks``: how many other tracks have this contact as a candidate;
+* ``rival_track_d2``: the least d² of those other tracks to this contact
+  (`D2_CAP` if none): how strongly a competing track claims it.
+
+The same function serves the neural tracker (all pairs of one scan) and the
+training pairs (every target's oracle track, or a harvested run's tracks, at
+one scan), in one sort per key and no Python loop over pairs::
+
+    d2 = features[:, 5]                             # (P,) from innovation_features
+    ctx = context_features(track, contact, d2)      # (P, 5), columns CONTEXT_NAMES
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nnda.errors import ModelError
+from nnda.models.features import FeatureSet
+from nnda.models.innovation import IMM_INNOVATION
+
+CONTEXT_NAMES = ("candidate_rank", "d2_margin", "n_candidates", "n_rival_tracks", "rival_track_d2")
+#: d² above this reads as "far" in every context column (a chi-square 2 value of 50 has p ~ 1e-11)
+D2_CAP = 50.0
+#: the column of the extended features holding d²
+D2_COLUMN = IMM_INNOVATION.names.index("mahalanobis_d2")
+
+IMM_CONTEXT = FeatureSet(
+    "imm-context-14", 1, IMM_INNOVATION.names + CONTEXT_NAMES,
+    "the IMM-extended nine plus the candidate's rank and d² margin among its track's candidates, the "
+    "candidate count, and the number and least d² of the other tracks that have the contact as a candidate",
+)
+
+
+def _ranked(key: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per pair, within the pairs of equal ``key``: rank by ``d2`` (0 best, ties by position), group size,
+    and the least d2 of the group's other pairs (`D2_CAP` if alone). All (P,)."""
+    order = np.lexsort((d2, key))
+    k, v = key[order], d2[order]
+    first = np.r_[True, k[1:] != k[:-1]]
+    start = np.flatnonzero(first)
+    size = np.diff(np.r_[start, len(k)])
+    group = np.cumsum(first) - 1
+    rank = np.arange(len(k)) - start[group]
+    best = v[start][group]
+    second = np.where(size > 1, v[np.minimum(start + 1, len(k) - 1)], D2_CAP)[group]
+    out_rank, out_size, out_other = np.empty_like(rank), np.empty_like(rank), np.empty_like(v)
+    out_rank[order], out_size[order] = rank, size[group]
+    out_other[order] = np.where(rank == 0, second, best)
+    return out_rank, out_size, out_other
+
+
+def context_features(track: np.ndarray, contact: np.ndarray, d2: np.ndarray) -> np.ndarray:
+    """Context columns (P, 5) of P pairs (module docstring).
+
+    ``track`` (P,) and ``contact`` (P,) are integer keys of each pair's
+    track and contact (pairs of one scan; equal keys, same track or
+    contact), ``d2`` (P,) the pairs' squared Mahalanobis distances (>= 0).
+    """
+    track, contact = np.asarray(track), np.asarray(contact)
+    d2 = np.minimum(np.asarray(d2, dtype=float), D2_CAP)
+    n = len(d2)
+    if track.shape != (n,) or contact.shape != (n,):
+        raise ModelError(f"context features: track, contact and d2 must have one shape (P,), got "
+                         f"{track.shape}, {contact.shape}, {d2.shape}")
+    out = np.empty((n, len(CONTEXT_NAMES)))
+    if n == 0:
+        return out
+    rank, size, other = _ranked(track, d2)
+    _, rivals, rival_d2 = _ranked(contact, d2)
+    out[:, 0] = rank
+    out[:, 1] = d2 - np.minimum(other, D2_CAP)
+    out[:, 2] = size
+    out[:, 3] = rivals - 1
+    out[:, 4] = rival_d2
+    return out
+
+
+def with_context(features: np.ndarray, track: np.ndarray, contact: np.ndarray) -> np.ndarray:
+    """The extended features (P, 9) of one scan's pairs with their context columns appended: (P, 14)."""
+    return np.hstack([features, context_features(track, contact, features[:, D2_COLUMN])])
