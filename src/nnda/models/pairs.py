@@ -81,8 +81,10 @@ class PairSet:
     ``features`` (N, F), the columns of ``feature_set``; ``labels`` +1 (the
     track's own contact) or -1; ``dataset`` indexes ``names``; ``scan`` is
     the candidate's scan, ``target_id`` the track's target and
-    ``contact_target`` the candidate's origin (-1 clutter) and ``contact``
-    its row in its dataset's detections.
+    ``contact_target`` the candidate's origin (-1 clutter), ``contact`` its
+    row in its dataset's detections and ``track`` the track's key (the
+    target id for oracle pairs, a tracker's track id for harvested ones,
+    `nnda.tracking.harvest`).
     """
 
     features: np.ndarray
@@ -92,6 +94,7 @@ class PairSet:
     target_id: np.ndarray
     contact_target: np.ndarray
     contact: np.ndarray
+    track: np.ndarray
     names: tuple[str, ...]
     feature_set: FeatureSet = KINEMATIC
 
@@ -122,7 +125,7 @@ _PER_SET = ("names", "feature_set")
 
 def _empty(names: tuple[str, ...], features: FeatureSet = KINEMATIC) -> PairSet:
     i32 = np.zeros(0, dtype=np.int32)
-    return PairSet(np.zeros((0, features.size)), np.zeros(0, dtype=np.int8), i32, i32, i32, i32, i32, names,
+    return PairSet(np.zeros((0, features.size)), np.zeros(0, dtype=np.int8), i32, i32, i32, i32, i32, i32, names,
                    features)
 
 
@@ -211,6 +214,7 @@ def extract_pairs(
             target_id=np.full(cand.size, tid, dtype=np.int32),
             contact_target=origin.astype(np.int32),
             contact=cand.astype(np.int32),
+            track=np.full(cand.size, tid, dtype=np.int32),
             names=(), feature_set=fs,
         ))
     name = (dataset_name(dataset),)
@@ -218,8 +222,8 @@ def extract_pairs(
         return _empty(name, fs)
     merged = concatenate(parts)
     if fs is IMM_CONTEXT:  # every target's oracle track is a rival of the others at its scan
-        track = merged.scan.astype(np.int64) * len(dataset.scenario.targets) + merged.target_id
-        merged = replace(merged, features=with_context(merged.features, track, merged.contact))
+        key = merged.scan.astype(np.int64) * len(dataset.scenario.targets) + merged.track
+        merged = replace(merged, features=with_context(merged.features, key, merged.contact))
     return replace(merged, dataset=np.zeros(len(merged), dtype=np.int32), names=name)
 
 

@@ -66,7 +66,8 @@ def harvest_pairs(dataset: Dataset, tracker: NeuralTracker) -> PairSet:
                     features=features, labels=np.where((origin[row] == target) & (target >= 0), 1, -1).astype(np.int8),
                     dataset=np.zeros(len(row), np.int32), scan=np.full(len(row), k, np.int32),
                     target_id=target.astype(np.int32), contact_target=origin[row].astype(np.int32),
-                    contact=row.astype(np.int32), names=(), feature_set=tracker.scorer.features))
+                    contact=row.astype(np.int32), track=track_id.astype(np.int32), names=(),
+                    feature_set=tracker.scorer.features))
             used = out.contact >= 0
             if used.any():
                 ids = out.track_id[used]
