@@ -15,7 +15,7 @@ from nnda.models.experiment import fit
 from nnda.models.innovation import IMM_INNOVATION
 from nnda.models.pairs import concatenate, pairs_from_datasets
 from nnda.models.scorer import save_model
-from nnda.tracking.harvest import dagger_pairs, harvest_pairs, track_targets
+from nnda.tracking.harvest import balanced, dagger_pairs, harvest_pairs, track_targets
 from nnda.tracking.neural import NeuralConfig, NeuralTracker
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
@@ -119,6 +119,18 @@ def test_tracker_computes_the_context_of_each_scan(ctx_model):
                                    context_features(pairs.track[at], pairs.contact[at],
                                                     pairs.features[at, D2_COLUMN]), rtol=RTOL)
     assert (pairs.features[:, IMM_INNOVATION.size + 3] > 0).any()  # contacts claimed by two tracks occur
+
+
+def test_balanced_keeps_every_followed_track_and_as_many_others(ext_model_file):
+    ds = _crossing(clutter=100)
+    pairs = harvest_pairs(ds, make_tracker("nn", ds.scenario.sensor, {"model": str(ext_model_file)}))
+    kept = balanced(pairs, np.random.default_rng(0))
+    followed = int((pairs.target_id >= 0).sum())
+    assert 0 < followed < (pairs.target_id < 0).sum()  # most harvested pairs belong to tracks on clutter
+    assert (kept.target_id >= 0).sum() == followed and (kept.target_id < 0).sum() == followed
+    assert kept.n_positive == pairs.n_positive
+    again = balanced(pairs, np.random.default_rng(0))
+    np.testing.assert_array_equal(kept.contact, again.contact)
 
 
 def test_dagger_adds_harvested_pairs(ext_model_file, tmp_path):

@@ -47,19 +47,23 @@ IMM_CONTEXT = FeatureSet(
 def _ranked(key: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per pair, within the pairs of equal ``key``: rank by ``d2`` (0 best, ties by position), group size,
     and the least d2 of the group's other pairs (`D2_CAP` if alone). All (P,)."""
+    n = len(key)
     order = np.lexsort((d2, key))
     k, v = key[order], d2[order]
-    first = np.r_[True, k[1:] != k[:-1]]
+    first = np.empty(n, bool)
+    first[0] = True
+    np.not_equal(k[1:], k[:-1], out=first[1:])
     start = np.flatnonzero(first)
-    size = np.diff(np.r_[start, len(k)])
     group = np.cumsum(first) - 1
-    rank = np.arange(len(k)) - start[group]
-    best = v[start][group]
-    second = np.where(size > 1, v[np.minimum(start + 1, len(k) - 1)], D2_CAP)[group]
-    out_rank, out_size, out_other = np.empty_like(rank), np.empty_like(rank), np.empty_like(v)
-    out_rank[order], out_size[order] = rank, size[group]
-    out_other[order] = np.where(rank == 0, second, best)
-    return out_rank, out_size, out_other
+    size = np.diff(start, append=n)
+    at = start[group]
+    rank = np.arange(n) - at
+    # the least d2 of the others: the group's best, or for the best itself the second (D2_CAP if alone)
+    nxt = np.minimum(at + 1, n - 1)
+    other = np.where(rank == 0, np.where(size[group] > 1, v[nxt], D2_CAP), v[at])
+    out = np.empty((3, n))
+    out[0, order], out[1, order], out[2, order] = rank, size[group], other
+    return out[0], out[1], out[2]
 
 
 def context_features(track: np.ndarray, contact: np.ndarray, d2: np.ndarray) -> np.ndarray:

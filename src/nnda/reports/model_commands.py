@@ -219,7 +219,7 @@ def _recipe_pairs(pairs: PairSet, data: Path, options: dict, encounters: int, da
         console.print(f"DAgger: {dagger} round(s) on {len(datasets)} datasets", markup=False, highlight=False)
         pairs, recipe["dagger_rounds"] = dagger_pairs(
             datasets, pairs, params, dagger, work,
-            lambda p: fit(p, method, hidden, fit_seed, init=init, starts=starts).scorer)
+            lambda p: fit(p, method, hidden, fit_seed, init=init, starts=starts).scorer, seed)
     return pairs, recipe
 
 

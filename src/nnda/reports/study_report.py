@@ -36,7 +36,14 @@ from nnda.data.scenario import scenario_from_dict
 from nnda.errors import DatasetError
 from nnda.files import atomic_file, read_json
 from nnda.models.ablation import ABLATION_FILE
-from nnda.reports import ablation_section, cardinality_section, features_section, headline, study_figures
+from nnda.reports import (
+    ablation_section,
+    association_section,
+    cardinality_section,
+    features_section,
+    headline,
+    study_figures,
+)
 from nnda.reports.classifier_tables import classifier_table, model_test_table
 from nnda.reports.clutter_section import clutter_section
 from nnda.reports.deletions_section import deletions_section
@@ -317,6 +324,15 @@ def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
         pairs = features_section.feature_pairs(manifest, classifier)
         if pairs:
             sections.append(_features_in_tracker(pairs, summary, timing))
+        association = association_section.tables(manifest, classifier, summary, timing)
+        if association:
+            sec = Section("association-ablation", "Neural association ablation", [], [])
+            sec.text("Issue 20's changes to the neural association, each on or off: the context features, "
+                     "multi-target encounter scenes and DAgger rounds in the training data, the global assignment; "
+                     "the classifier's figures first, then the tracking measures per scenario.")
+            for table in association:
+                sec.table(table)
+            sections.append(sec)
         if (out / ABLATION_FILE).is_file():
             sections.append(_ablation(read_ablation(out / ABLATION_FILE), figures))
         if peer_labels(summary):

@@ -100,7 +100,7 @@ def evaluate_models(models: tuple[ModelPlan, ...] | list[ModelPlan]) -> dict:
             "method": meta.get("method"), "features": scorer.features.name, "n_hidden": scorer.weights.n_hidden,
             "epochs": meta.get("epochs"), "best_epoch": meta.get("best_epoch"),
             "stop_reason": meta.get("stop_reason"), "seed": meta.get("seed"),
-            "split": meta.get("split"), "test_metrics": meta.get("test_metrics"),
+            "split": meta.get("split"), "test_metrics": meta.get("test_metrics"), "recipe": meta.get("recipe"),
             "evaluation": {"pairs_from": described, "pair_options": options, "n_pairs": len(pairs),
                            "n_positive": pairs.n_positive,
                            "metrics": {k: (finite_or_none(v) if isinstance(v, float) else v)
