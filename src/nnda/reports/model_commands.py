@@ -122,6 +122,8 @@ def train(
     dagger: Annotated[int, typer.Option(
         min=0, help="rounds of harvesting pairs from the nn tracker's own runs on the training data, "
         "labelled by the truth, each followed by retraining (nnda.tracking.harvest; one model only)")] = 0,
+    dagger_ratio: Annotated[float, typer.Option(
+        min=0.0, help="pairs kept of the harvest's tracks on clutter, per pair of its tracks with a target")] = 1.0,
     overwrite: Annotated[bool, typer.Option(help="replace an existing output directory")] = False,
 ) -> None:
     """Train the association network on the pairs of a dataset or collection."""
@@ -150,7 +152,7 @@ def train(
                   "recipe": {"encounters": encounters, "dagger": dagger}}
     with atomic_directory(out, overwrite) as tmp:
         if encounters or dagger:
-            pairs, provenance["recipe"] = _recipe_pairs(pairs, data, options, encounters, dagger, seed,
+            pairs, provenance["recipe"] = _recipe_pairs(pairs, data, options, encounters, dagger, dagger_ratio, seed,
                                                         (method.value, hidden, seed, init.value, starts or 1),
                                                         tmp, console)
             console.print(_describe(pairs, data), markup=False, highlight=False)
@@ -196,8 +198,8 @@ def _train_one(pairs: PairSet, method: str, hidden: int, seed: int, init: str, s
     console.print(table.rich())
 
 
-def _recipe_pairs(pairs: PairSet, data: Path, options: dict, encounters: int, dagger: int, seed: int,
-                  fit_args: tuple, tmp: Path, console: Console) -> tuple[PairSet, dict]:
+def _recipe_pairs(pairs: PairSet, data: Path, options: dict, encounters: int, dagger: int, ratio: float,
+                  seed: int, fit_args: tuple, tmp: Path, console: Console) -> tuple[PairSet, dict]:
     """The training pairs of ``--encounters`` and ``--dagger`` (added to the oracle ``pairs`` of ``data``) and
     the recipe the model records: the counts asked for and, per DAgger round, the pairs harvested."""
     from nnda.data.encounters import encounter_scenes
@@ -211,6 +213,8 @@ def _recipe_pairs(pairs: PairSet, data: Path, options: dict, encounters: int, da
         pairs = concatenate([pairs, pairs_from_datasets(scenes, **options)])
     recipe: dict = {"encounters": encounters, "encounter_seed": seed, "dagger": dagger}
     if dagger:
+        recipe["dagger_ratio"] = ratio
+    if dagger:
         method, hidden, fit_seed, init, starts = fit_args
         datasets = [*iter_datasets(data), *scenes]
         params = {"feature_set": options["features"]}
@@ -219,7 +223,7 @@ def _recipe_pairs(pairs: PairSet, data: Path, options: dict, encounters: int, da
         console.print(f"DAgger: {dagger} round(s) on {len(datasets)} datasets", markup=False, highlight=False)
         pairs, recipe["dagger_rounds"] = dagger_pairs(
             datasets, pairs, params, dagger, work,
-            lambda p: fit(p, method, hidden, fit_seed, init=init, starts=starts).scorer, seed)
+            lambda p: fit(p, method, hidden, fit_seed, init=init, starts=starts).scorer, seed, ratio)
     return pairs, recipe
 
 

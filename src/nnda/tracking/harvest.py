@@ -84,23 +84,25 @@ def harvest_pairs(dataset: Dataset, tracker: NeuralTracker) -> PairSet:
     return replace(merged, dataset=np.zeros(len(merged), np.int32), names=name)
 
 
-def balanced(pairs: PairSet, rng: np.random.Generator) -> PairSet:
-    """Every harvested pair of a track with a target, and as many of the others (tracks started on clutter,
-    all negatives) drawn without replacement, or all of them if fewer: in a tracker's run those are ~95 % of
-    the pairs, and a least-squares fit to that balance would score almost every pair below 0."""
+def balanced(pairs: PairSet, rng: np.random.Generator, ratio: float = 1.0) -> PairSet:
+    """Every harvested pair of a track with a target, and ``ratio`` times as many of the others (tracks
+    started on clutter, all negatives) drawn without replacement, or all of them if fewer: in a tracker's run
+    those are ~95 % of the pairs, and a least-squares fit to that balance scores almost every pair below 0."""
+    if not ratio >= 0:
+        raise ConfigError(f"the harvest's clutter-track ratio must be >= 0, got {ratio}")
     followed = pairs.target_id >= 0
     others = np.flatnonzero(~followed)
-    keep = rng.choice(others, min(others.size, int(followed.sum())), replace=False)
+    keep = rng.choice(others, min(others.size, int(ratio * followed.sum())), replace=False)
     return pairs.subset(np.sort(np.concatenate([np.flatnonzero(followed), keep])))
 
 
 def dagger_pairs(
     datasets: Sequence[Dataset], oracle: PairSet, params: dict, rounds: int, workdir: Path,
-    train: Callable[[PairSet], Scorer], seed: int = 0,
+    train: Callable[[PairSet], Scorer], seed: int = 0, ratio: float = 1.0,
 ) -> tuple[PairSet, list[dict]]:
     """``rounds`` times: train on the pairs so far (``oracle`` at first), run the ``nn`` tracker (config
     ``params`` plus that model, saved under ``workdir``) on ``datasets`` and add the pairs it harvests,
-    `balanced` (draws from ``SeedSequence([seed, round])``).
+    `balanced` by ``ratio`` (draws from ``SeedSequence([seed, round])``).
 
     ``train`` maps pairs to a scorer (seeded: same pairs, same scorer). Returns every pair (train the
     final model on them) and, per round, the counts of the pairs added.
@@ -112,7 +114,7 @@ def dagger_pairs(
         path = save_model(train(pairs), workdir / f"dagger-round-{r}.json")
         harvested = concatenate((harvest_pairs(d, make_tracker("nn", d.scenario.sensors, {**params, "model": path}))
                                  for d in datasets), oracle.feature_set)
-        harvested = balanced(harvested, np.random.default_rng(np.random.SeedSequence([seed, r])))
+        harvested = balanced(harvested, np.random.default_rng(np.random.SeedSequence([seed, r])), ratio)
         pairs = concatenate([pairs, harvested])
         summary.append({"round": r, "harvested": len(harvested), "own_contact": harvested.n_positive,
                         "other_target": harvested.n_other_target, "clutter": harvested.n_clutter})

@@ -93,7 +93,7 @@ class NeuralConfig(ContactTrackerConfig):
                                       "this score's negative log-odds")] = 0.0
     confirmed_first: bool = Field(False, description="confirmed tracks choose before preliminary ones "
                                   "(as in GNN and JPDA); False: one pass over all tracks")
-    recipe: dict[str, int] | None = Field(
+    recipe: dict[str, int | float] | None = Field(
         None, description="training recipe the model must record (metadata 'recipe' of `nnda train`, e.g. "
         "{ encounters = 60, dagger = 1 }; a model without one was trained with neither); None: any")
     association: Literal["greedy", "global"] = Field(
