@@ -44,9 +44,9 @@ IMM_CONTEXT = FeatureSet(
 )
 
 
-def _ranked(key: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _ranked(key: np.ndarray, d2: np.ndarray) -> np.ndarray:
     """Per pair, within the pairs of equal ``key``: rank by ``d2`` (0 best, ties by position), group size,
-    and the least d2 of the group's other pairs (`D2_CAP` if alone). All (P,)."""
+    and the least d2 of the group's other pairs (`D2_CAP` if alone), as rows of a (3, P) array."""
     n = len(key)
     order = np.lexsort((d2, key))
     k, v = key[order], d2[order]
@@ -54,26 +54,28 @@ def _ranked(key: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray, np
     first[0] = True
     np.not_equal(k[1:], k[:-1], out=first[1:])
     start = np.flatnonzero(first)
+    end = np.empty_like(start)
+    end[:-1], end[-1] = start[1:], n
     group = np.cumsum(first) - 1
-    size = np.diff(start, append=n)
     at = start[group]
-    rank = np.arange(n) - at
-    # the least d2 of the others: the group's best, or for the best itself the second (D2_CAP if alone)
-    nxt = np.minimum(at + 1, n - 1)
-    other = np.where(rank == 0, np.where(size[group] > 1, v[nxt], D2_CAP), v[at])
     out = np.empty((3, n))
-    out[0, order], out[1, order], out[2, order] = rank, size[group], other
-    return out[0], out[1], out[2]
+    out[0, order] = rank = np.arange(n) - at
+    out[1, order] = size = (end - start)[group]
+    # the least d2 of the others: the group's best, or for the best itself the second (D2_CAP if alone)
+    out[2, order] = np.where(rank > 0, v[at], np.where(size > 1, v[np.minimum(at + 1, n - 1)], D2_CAP))
+    return out
 
 
 def context_features(track: np.ndarray, contact: np.ndarray, d2: np.ndarray) -> np.ndarray:
     """Context columns (P, 5) of P pairs (module docstring).
 
-    ``track`` (P,) and ``contact`` (P,) are integer keys of each pair's
-    track and contact (pairs of one scan; equal keys, same track or
+    ``track`` (P,) and ``contact`` (P,) are integer keys (>= 0) of each
+    pair's track and contact (pairs of one scan; equal keys, same track or
     contact), ``d2`` (P,) the pairs' squared Mahalanobis distances (>= 0).
+    Both groupings go through one sort: the contact keys are shifted past
+    the track keys.
     """
-    track, contact = np.asarray(track), np.asarray(contact)
+    track, contact = np.asarray(track, np.int64), np.asarray(contact, np.int64)
     d2 = np.minimum(np.asarray(d2, dtype=float), D2_CAP)
     n = len(d2)
     if track.shape != (n,) or contact.shape != (n,):
@@ -82,13 +84,12 @@ def context_features(track: np.ndarray, contact: np.ndarray, d2: np.ndarray) -> 
     out = np.empty((n, len(CONTEXT_NAMES)))
     if n == 0:
         return out
-    rank, size, other = _ranked(track, d2)
-    _, rivals, rival_d2 = _ranked(contact, d2)
-    out[:, 0] = rank
-    out[:, 1] = d2 - np.minimum(other, D2_CAP)
-    out[:, 2] = size
-    out[:, 3] = rivals - 1
-    out[:, 4] = rival_d2
+    both = _ranked(np.concatenate([track, contact + (track.max() + 1)]), np.concatenate([d2, d2]))
+    out[:, 0] = both[0, :n]
+    out[:, 1] = d2 - both[2, :n]
+    out[:, 2] = both[1, :n]
+    out[:, 3] = both[1, n:] - 1
+    out[:, 4] = both[2, n:]
     return out
 
 
