@@ -14,6 +14,7 @@ from nnda.errors import ConfigError, ModelError
 from nnda.files import with_content_digest
 from nnda.filters.imm import IMM
 from nnda.filters.kalman import mahalanobis_2x2
+from nnda.models.context import IMM_CONTEXT
 from nnda.models.feature_sets import FEATURE_SETS, feature_set
 from nnda.models.features import KINEMATIC
 from nnda.models.innovation import IMM_INNOVATION, innovation_features
@@ -72,8 +73,9 @@ def test_azimuth_innovation_wraps_across_north(predicted):
 
 
 def test_feature_sets_are_registered_and_unknown_names_refused():
-    assert set(FEATURE_SETS) == {KINEMATIC.name, IMM_INNOVATION.name}
+    assert set(FEATURE_SETS) == {KINEMATIC.name, IMM_INNOVATION.name, IMM_CONTEXT.name}
     assert IMM_INNOVATION.names[:3] == KINEMATIC.names and IMM_INNOVATION.size == 9
+    assert IMM_CONTEXT.names[:9] == IMM_INNOVATION.names and IMM_CONTEXT.size == 14
     with pytest.raises(ConfigError, match="unknown feature set 'polar-2'.*kinematic-3"):
         feature_set("polar-2")
 

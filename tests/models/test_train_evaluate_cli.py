@@ -116,3 +116,20 @@ def test_extended_model_and_ablation_modes(train_dir, tmp_path):
     result = runner.invoke(app, ["train", "--data", str(train_dir), "--ablation", "--out", str(tmp_path / "x")])
     assert isinstance(result.exception, ConfigError) and "--repeats" in str(result.exception)
     assert not (tmp_path / "x").exists()
+
+
+def test_train_with_encounters_and_dagger_records_its_recipe(train_dir, tmp_path):
+    out = tmp_path / "ctx"
+    result = runner.invoke(app, ["train", "--data", str(train_dir), "--features", "imm-context-14", "--hidden", "3",
+                                 "--encounters", "3", "--dagger", "1", "--dagger-ratio", "0.5", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    meta = load_model(out).metadata
+    recipe = meta["recipe"]
+    assert (recipe["encounters"], recipe["dagger"], recipe["dagger_ratio"]) == (3, 1, 0.5)
+    (harvest,) = recipe["dagger_rounds"]
+    oracle = load_pairs(train_dir, features="imm-context-14")
+    assert meta["pairs"]["total"] > len(oracle) + harvest["harvested"] > len(oracle)  # encounters and harvest
+    assert (out / "dagger" / "dagger-round-1.json").is_file()  # the model each round harvested with
+    result = runner.invoke(app, ["train", "--data", str(train_dir), "--dagger", "1", "--repeats", "2",
+                                 "--out", str(tmp_path / "bad")])
+    assert result.exit_code != 0 and "one model" in str(result.exception or result.output)

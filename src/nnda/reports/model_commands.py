@@ -18,7 +18,12 @@ models/ sits below reports/ and may not import them.
   of spec §14.1); ``ablation.json``, ``ablation.md``, ``ablation_roc.png``.
 
 ``--features`` picks the pair-feature set of the first three modes
-(`nnda.models.feature_sets`; default the seed's ``kinematic-3``).
+(`nnda.models.feature_sets`; default the seed's ``kinematic-3``). One model
+can also be trained on seeded multi-target scenes besides the data
+(``--encounters N``, `nnda.data.encounters`) and on pairs harvested from the
+neural tracker's own runs (``--dagger R``, `nnda.tracking.harvest`; each
+round's model is kept as ``dagger/dagger-round-<r>.json``); the model's
+metadata records the recipe.
 """
 
 from __future__ import annotations
