@@ -45,5 +45,6 @@ def test_switches_classifier_figures_and_tracking_side_by_side():
         assert len(tracking.header) == 1 + len(COMPARED)
     first, _ = association_section.tables(*_records({"encounters": 60, "dagger": 1}))
     row = dict(zip(first.header, first.rows[1]))
-    assert (row["Encounter scenes"], row["DAgger rounds"], row["Association"]) == ("60", "1", "greedy")
+    assert (row["Encounter scenes"], row["DAgger rounds"], row["Association"], row["Threshold"]) == (
+        "60", "1", "greedy", "0")
     assert row["Presets accuracy (%)"] == "99.00" and row["Own test accuracy (%)"] == "95.00"

@@ -6,7 +6,7 @@ multi-target encounter scenes or DAgger rounds (its metadata ``recipe``),
 or the global association. Two tables, side by side:
 
 * per neural tracker, its switches (features, encounter scenes, DAgger
-  rounds, association) and its model's classifier figures: on its own
+  rounds and the share of tracks on clutter kept, association, threshold) and its model's classifier figures: on its own
   test split (what training saw) and on the oracle pairs of the 17 training
   presets, one common set for every model (``classifier.json``);
 * per scenario, every tracker (MHT and GNN as references) on the measures
@@ -30,8 +30,10 @@ FIGURES = ("accuracy", "sensitivity", "specificity")
 
 def _switches(tracker: dict, model: dict) -> dict:
     recipe = model.get("recipe") or {}
+    params = tracker["params"]
     return {"features": model.get("features", DASH), "encounters": recipe.get("encounters", 0),
-            "dagger": recipe.get("dagger", 0), "association": tracker["params"].get("association", "greedy")}
+            "dagger": recipe.get("dagger", 0), "ratio": recipe.get("dagger_ratio"),
+            "association": params.get("association", "greedy"), "threshold": params.get("threshold", 0.0)}
 
 
 def neural_trackers(manifest: dict, classifier: dict) -> list[tuple[dict, dict]]:
@@ -54,10 +56,11 @@ def classifier_table(nn: list[tuple[dict, dict]]) -> TextTable:
     for tracker, model in nn:
         s = _switches(tracker, model)
         common = (model.get("evaluation") or {}).get("metrics")
-        rows.append((tracker["label"], s["features"], str(s["encounters"]), str(s["dagger"]), s["association"],
+        rows.append((tracker["label"], s["features"], str(s["encounters"]), str(s["dagger"]),
+                     DASH if s["ratio"] is None else f"{s['ratio']:g}", s["association"], f"{s['threshold']:g}",
                      *(_figure(model.get("test_metrics"), k) for k in FIGURES),
                      *(_figure(common, k) for k in FIGURES)))
-    header = ("Tracker", "Features", "Encounter scenes", "DAgger rounds", "Association",
+    header = ("Tracker", "Features", "Encounter scenes", "DAgger rounds", "DAgger ratio", "Association", "Threshold",
               *(f"Own test {k} (%)" for k in FIGURES), *(f"Presets {k} (%)" for k in FIGURES))
     note = ("Own test: the model's test split (20 % of its own training pairs, harvested ones included). Presets: "
             "every oracle pair of the 17 training presets, the same set for every model.")
@@ -69,7 +72,7 @@ def tracking_table(scenario: dict, timing: dict, labels: list[str], confidence: 
     """One scenario: a row per tracker, a column per compared measure, ``mean [low, high]``."""
     rows = tuple((label, *(stat_cell(stat(scenario, timing, label, m.key), m.fmt, m.scale) for m in COMPARED))
                  for label in labels if label in scenario["trackers"])
-    header = ("Tracker", *(m.title + (f" ({m.unit})" if m.unit else "") for m in COMPARED))
+    header = ("Tracker", *(m.title for m in COMPARED))
     return TextTable(f"{scenario['name']}: tracking", header, rows,
                      f"Mean [{confidence:.0%} t-interval] over runs.")
 
