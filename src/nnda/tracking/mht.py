@@ -205,7 +205,8 @@ class MHTTracker(ContactTracker):
         max_score = np.maximum(leaves.max_score[parent], score)
         if self.confirmation_rule != "mn":  # Wald's test on the leaf's score, M/N counts ignored
             tracks = replace(tracks, status=advance_score(tr.status[parent], score, max_score, cfg.lifecycle,
-                                                          None if observed is None else observed[parent]))
+                                                          None if observed is None else observed[parent],
+                                                          tracks.confirm_at))
         status = tracks.status
         d1 = detected[:, None]
         hist = np.column_stack([leaves.hist[parent, 1:], contact])
