@@ -32,13 +32,12 @@
   tracker's cap). With P_D = 0.9 and beta = 1e-3 a confirmed track survives
   three misses and is deleted at the fourth, as the M/N rule's max_misses = 3.
 * False tracks at a rate (``false_tracks_per_scan`` = r; Blackman & Popoli 1999, §6.2, where the
-  false-confirmation probability comes from the wanted false-track rate): alpha is fixed per track, so
-  the false tracks of a run grow with the preliminary tracks born, as the square of the clutter density
-  (each initiator of clutter pairs with the clutter in its annulus). With r set, the N preliminary tracks
-  born from one scan's N initiators confirm at Wald's threshold for alpha = r / N (`rate_threshold`).
-  Each initiator is one trial of the test (the start score is its second contact's likelihood ratio, so
-  Wald's bound holds per initiator, not per pair), and a scan's births then confirm at most r false
-  tracks in expectation at any clutter density, while the threshold falls where clutter is sparse (fewer
+  false-confirmation probability comes from the wanted false-track rate): Wald's bound alpha holds per
+  initiator (each is one trial of the test: the start score is its second contact's likelihood ratio,
+  whichever pairs it opens), so with a fixed alpha the false tracks a run may confirm grow with the
+  initiators, that is with the clutter count. With r set, the tracks born from one scan's N initiators
+  confirm at Wald's threshold for alpha = r / N (`rate_threshold`): at most r false confirmations per
+  scan in expectation at any clutter density, and a lower threshold where clutter is sparse (fewer
   initiators: faster confirmation). Each track keeps the threshold of its birth (``Tracks.confirm_at``);
   the deletion thresholds are as above.
 * Existence (``confirmation = "existence"``; IPDA, Musicki, Evans &
