@@ -13,7 +13,7 @@ from nnda.data.generator import generate
 from nnda.data.presets import PRESETS
 from nnda.data.scenario import Clutter, Scenario, Segment, Target
 from nnda.study.metrics import run_metrics
-from nnda.tracking.lifecycle import LifecycleConfig, advance_score, sprt_thresholds, start_score
+from nnda.tracking.lifecycle import LifecycleConfig, advance_score, rate_threshold, sprt_thresholds, start_score
 from nnda.tracking.output import NO_CONTACT, TrackStatus
 from nnda.tracking.registry import make_tracker
 from tolerances import RTOL
@@ -127,9 +127,9 @@ def _clutter_only(count: int) -> Scenario:
                     clutter=Clutter(count=count, side_m=34_000.0, centre_m=(0.0, 15_000.0)))
 
 
-def _confirmed_in_clutter(kind, count, model_file) -> tuple[int, float]:
+def _confirmed_in_clutter(kind, count, model_file, params=SCORE) -> tuple[int, float]:
     ds = generate(_clutter_only(count), 7)
-    tracker = make_tracker(kind, ds.scenario.sensors, _params(kind, model_file, SCORE))
+    tracker = make_tracker(kind, ds.scenario.sensors, _params(kind, model_file, params))
     confirmed, start = set(), time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -173,3 +173,65 @@ def test_the_score_rules_cap_keeps_every_target():
     m = run_metrics(ds, outputs)
     assert m.false_tracks == 0 and m.confirmed_tracks - m.track_breaks == len(sc.targets)
     assert tracker.deletions["capped"] > 1_000
+
+
+# ----------------------------------------------------------------------------- false tracks at a rate
+
+@pytest.mark.parametrize("rate, beta, trials", [(0.005, 1e-3, 1), (0.005, 1e-3, 650), (0.1, 0.2, 37)])
+def test_rate_threshold_is_walds_at_the_rate_over_the_trials(rate, beta, trials):
+    upper = rate_threshold(rate, beta, trials)
+    assert math.exp(upper) == pytest.approx((1 - beta) * trials / rate, rel=RTOL)
+    assert upper == pytest.approx(sprt_thresholds(rate / trials, beta)[1], rel=RTOL)
+
+
+def test_each_track_confirms_at_its_own_threshold():
+    cfg = LifecycleConfig(confirmation="score", false_tracks_per_scan=0.005)
+    P, C = TrackStatus.PRELIMINARY, TrackStatus.CONFIRMED
+    status = np.full(3, P, np.int8)
+    score = np.array([8.0, 8.0, 20.0])
+    confirm_at = np.array([7.9, 8.1, 13.0])
+    np.testing.assert_array_equal(advance_score(status, score, score, cfg, confirm_at=confirm_at), [C, P, C])
+
+
+def _polar(x, y):
+    return np.column_stack([np.hypot(x, y), np.arctan2(x, y)])
+
+
+@pytest.mark.parametrize("kind", ["gnn", "jpda", "mht"])
+def test_tracks_born_from_a_scans_initiators_take_the_rate_threshold(kind):
+    """Three initiators 5 km apart, each met 300 m on by one contact of the next scan: three tracks, each to
+    confirm at ln((1 - beta) 3 / r); without the rate, at Wald's threshold of false_confirmation."""
+    from nnda.data.dataset import Scan
+    from nnda.data.scenario import Sensor
+    x0 = np.array([10_000.0, 15_000.0, 20_000.0])
+    y0 = np.full(3, 10_000.0)
+    scans = [Scan(1, 0.0, _polar(x0, y0)), Scan(2, 2.0, _polar(x0 + 300.0, y0))]
+    for extra, want in (({"false_tracks_per_scan": 0.005}, rate_threshold(0.005, 1e-3, 3)),
+                        ({}, LifecycleConfig().score_thresholds[1])):
+        tracker = make_tracker(kind, Sensor(), {"lifecycle": {"confirmation": "score", **extra}})
+        for scan in scans:
+            tracker.step(scan)
+        tracks = tracker.tracks if kind != "mht" else tracker.leaves.tracks
+        np.testing.assert_allclose(tracks.confirm_at, np.full(3, want), rtol=RTOL)
+
+
+def test_bad_rates_are_refused():
+    from pydantic import ValidationError
+    for bad, fragment in (({"false_tracks_per_scan": 0.0}, "greater than 0"),
+                          ({"false_tracks_per_scan": 0.95}, "false_tracks_per_scan \\+ preliminary_false_deletion")):
+        with pytest.raises(ValidationError, match=fragment):
+            LifecycleConfig(**bad)
+
+
+RATE = {"lifecycle": {"confirmation": "score", "false_tracks_per_scan": 0.005}}
+
+
+def test_clutter_only_scene_confirms_nothing_at_1000_with_the_rate(model_file):
+    assert _confirmed_in_clutter("gnn", 1_000, model_file, RATE)[0] == 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("count", [1_000, 5_000])
+@pytest.mark.parametrize("kind", ["gnn", "jpda", "mht"])
+def test_clutter_only_scene_confirms_nothing_with_the_rate(kind, count, model_file):
+    assert _confirmed_in_clutter(kind, count, model_file, RATE)[0] == 0

@@ -31,6 +31,15 @@
   new ones and then keeps the preliminary tracks of best score (the
   tracker's cap). With P_D = 0.9 and beta = 1e-3 a confirmed track survives
   three misses and is deleted at the fourth, as the M/N rule's max_misses = 3.
+* False tracks at a rate (``false_tracks_per_scan`` = r; Blackman & Popoli 1999, §6.2, where the
+  false-confirmation probability comes from the wanted false-track rate): Wald's bound alpha holds per
+  initiator (each is one trial of the test: the start score is its second contact's likelihood ratio,
+  whichever pairs it opens), so with a fixed alpha the false tracks a run may confirm grow with the
+  initiators, that is with the clutter count. With r set, the tracks born from one scan's N initiators
+  confirm at Wald's threshold for alpha = r / N (`rate_threshold`): at most r false confirmations per
+  scan in expectation at any clutter density, and a lower threshold where clutter is sparse (fewer
+  initiators: faster confirmation). Each track keeps the threshold of its birth (``Tracks.confirm_at``);
+  the deletion thresholds are as above.
 * Existence (``confirmation = "existence"``; IPDA, Musicki, Evans &
   Stankovic 1994, and JIPDA, Musicki & Evans 2004): the track carries the
   log-odds of its probability of existence rho, predicted each scan as
@@ -106,6 +115,10 @@ class LifecycleConfig(BaseModel):
         gt=0, lt=1, description="score rule: alpha, the probability of confirming a track of clutter")] = 1e-6
     false_deletion: Annotated[float, Field(
         gt=0, lt=1, description="score rule: beta, the probability of deleting a target's track")] = 1e-3
+    false_tracks_per_scan: Annotated[float | None, Field(
+        gt=0, lt=1, description="score rule: r, the false confirmations per scan allowed: the tracks born "
+        "from a scan's N initiators confirm at Wald's threshold for alpha = r / N instead of "
+        "false_confirmation (`rate_threshold`); None: alpha = false_confirmation for every track")] = None
     preliminary_false_deletion: Annotated[float, Field(
         gt=0, lt=1, description="score rule: beta for preliminary tracks, whose deletion threshold is "
         "ln(beta / (1 - alpha)) with this beta: early deletion of the clutter-born ones, which rarely "
@@ -126,10 +139,12 @@ class LifecycleConfig(BaseModel):
             raise ValueError("v_min must be below v_max")
         if self.m > self.n:
             raise ValueError("M/N needs m <= n")
-        for field in ("false_deletion", "preliminary_false_deletion"):
-            if self.false_confirmation + getattr(self, field) >= 1:
-                raise ValueError(f"false_confirmation + {field} = {self.false_confirmation + getattr(self, field):g} "
-                                 f"must be below 1 (else the score test's thresholds cross)")
+        for alpha in ("false_confirmation", "false_tracks_per_scan"):
+            for field in ("false_deletion", "preliminary_false_deletion"):
+                total = (getattr(self, alpha) or 0.0) + getattr(self, field)
+                if total >= 1:
+                    raise ValueError(f"{alpha} + {field} = {total:g} must be below 1 (else the score test's "
+                                     f"thresholds cross)")
         if self.existence_deletion >= self.existence_confirmation:
             raise ValueError("existence_deletion must be below existence_confirmation")
         if self.speed_limit <= self.v_max:
@@ -172,6 +187,13 @@ def sprt_thresholds(alpha: float, beta: float) -> tuple[float, float]:
     return math.log(beta / (1.0 - alpha)), math.log((1.0 - beta) / alpha)
 
 
+def rate_threshold(rate: float, beta: float, trials: int) -> float:
+    """Confirmation threshold of ``trials`` >= 1 independent starts of the test in one scan (its initiators)
+    when at most ``rate`` false confirmations per scan are allowed: Wald's ln((1 - beta) / alpha) at
+    alpha = rate / trials, that is ln((1 - beta) trials / rate)."""
+    return math.log((1.0 - beta) * trials / rate)
+
+
 def start_score(pd: float, window_area: float, density: np.ndarray) -> np.ndarray:
     """Score of a two-point start (module docstring): ln(P_D / (A_w rho)) for the area densities of clutter
     ``density`` (m^-2, (K,)) at the second contacts and the initiation annulus' area A_w (m^2)."""
@@ -179,14 +201,17 @@ def start_score(pd: float, window_area: float, density: np.ndarray) -> np.ndarra
 
 
 def advance_score(status: np.ndarray, score: np.ndarray, max_score: np.ndarray, cfg: LifecycleConfig,
-                  observed: np.ndarray | None = None) -> np.ndarray:
+                  observed: np.ndarray | None = None, confirm_at: np.ndarray | None = None) -> np.ndarray:
     """One scan of the score rule for K tracks whose ``score`` (K,) is already this scan's (and ``max_score``
-    its maximum so far): the new status (module docstring). A track not ``observed`` keeps its status."""
+    its maximum so far): the new status (module docstring). A track not ``observed`` keeps its status.
+    ``confirm_at`` (K,) is each track's confirmation threshold under ``false_tracks_per_scan`` (that of its
+    birth, `rate_threshold`); None: Wald's for ``false_confirmation``."""
     if cfg.confirmation == "existence":  # thresholds on the existence probability's log-odds
         lower, upper = (math.log(p) - math.log1p(-p) for p in (cfg.existence_deletion, cfg.existence_confirmation))
         early = lower
     else:
         lower, upper = cfg.score_thresholds
+        upper = upper if confirm_at is None else confirm_at
         early = sprt_thresholds(cfg.false_confirmation, cfg.preliminary_false_deletion)[0]
     new = status.copy()
     prelim = status == PRELIMINARY

@@ -43,7 +43,8 @@ ln(beta_NT / beta_FT) = ln(``new_target_ratio``)) or, with
 ``lifecycle.confirmation = "score"``, the track score of every contact
 tracker (`nnda.tracking.lifecycle`): a new family starts at the two-point
 start's ln(P_D / (A_w rho)) of the same clutter estimate, and Wald's test
-on each leaf's score alone confirms (ln((1 - beta) / alpha)) and deletes
+on each leaf's score alone confirms (ln((1 - beta) / alpha), or the threshold of its family's birth
+under ``false_tracks_per_scan``) and deletes
 (a preliminary leaf at ln(beta / (1 - alpha)), a confirmed one that far
 below its best score), alpha and beta the lifecycle's
 ``false_confirmation`` and ``false_deletion``; the M/N counts play no part.
@@ -205,7 +206,8 @@ class MHTTracker(ContactTracker):
         max_score = np.maximum(leaves.max_score[parent], score)
         if self.confirmation_rule != "mn":  # Wald's test on the leaf's score, M/N counts ignored
             tracks = replace(tracks, status=advance_score(tr.status[parent], score, max_score, cfg.lifecycle,
-                                                          None if observed is None else observed[parent]))
+                                                          None if observed is None else observed[parent],
+                                                          tracks.confirm_at))
         status = tracks.status
         d1 = detected[:, None]
         hist = np.column_stack([leaves.hist[parent, 1:], contact])

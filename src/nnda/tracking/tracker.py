@@ -66,6 +66,7 @@ from nnda.tracking.lifecycle import (
     cap_pairs,
     cap_per_initiator,
     predicted_log_odds,
+    rate_threshold,
     sanity_reasons,
     sensor_noise_m,
     start_score,
@@ -165,7 +166,8 @@ class Tracks(Batch):
     ``consecutive`` are the M/N counters of `nnda.tracking.lifecycle`, ``score`` the
     track score (log-likelihood ratio of target against clutter; kept under the score rule,
     0 otherwise; under the existence rule the log-odds of the track's existence) and ``max_score`` its
-    maximum so far.
+    maximum so far; ``confirm_at`` the score at which a preliminary track confirms under the score rule
+    (Wald's threshold, or `lifecycle.rate_threshold` of its birth scan; inf otherwise).
     """
 
     track_id: np.ndarray
@@ -181,6 +183,7 @@ class Tracks(Batch):
     consecutive: np.ndarray
     score: np.ndarray
     max_score: np.ndarray
+    confirm_at: np.ndarray
 
     def after_scan(self, contact: np.ndarray, filt: IMMState, z: np.ndarray, xy: np.ndarray, time: float,
                    lifecycle: LifecycleConfig, observed: np.ndarray | None = None,
@@ -201,13 +204,14 @@ class Tracks(Batch):
             score = score + (score_gain if observed is None else np.where(observed, score_gain, 0.0))
             max_score = np.maximum(max_score, score)
         if lifecycle.confirmation != "mn":
-            status = advance_score(self.status, score, max_score, lifecycle, observed)
+            status = advance_score(self.status, score, max_score, lifecycle, observed, self.confirm_at)
         return Tracks(
             track_id=self.track_id, status=status, filt=filt,
             p1=np.where(d1, self.p2, self.p1), t1=np.where(det, self.t2, self.t1),
             p2=np.where(d1, xy[c] if len(xy) else 0.0, self.p2), t2=np.where(det, time, self.t2),
             az2=np.where(det, z[c, 1] if len(z) else 0.0, self.az2),
             hits=hits, misses=misses, consecutive=consecutive, score=score, max_score=max_score,
+            confirm_at=self.confirm_at,
         )
 
 
@@ -290,11 +294,24 @@ class TwoPointInitiation:
                     p1=p1, t1=np.full(k, before), p2=p2, t2=np.full(k, time),
                     az2=z[contact, 1], hits=zeros, misses=zeros.copy(), consecutive=zeros.copy(),
                     score=np.zeros(k), max_score=np.zeros(k),
+                    confirm_at=np.full(k, self._confirmation_threshold(len(init_xy))),
                 )
                 self.next_id += k
         rest = free[~in_window]
         self.contacts[sensor], self.xy[sensor], self.time[sensor] = z[rest], xy[rest], time
         return born, contact
+
+    def _confirmation_threshold(self, initiators: int) -> float:
+        """The score at which the tracks born from a scan's ``initiators`` confirm under the score rule:
+        Wald's threshold, or with ``false_tracks_per_scan`` `lifecycle.rate_threshold` for that many
+        initiators (each one is an independent trial of the test: its pairs' start scores are its second
+        contact's likelihood ratio); inf under the other rules."""
+        cfg = self.lifecycle
+        if cfg.confirmation != "score":
+            return math.inf
+        if cfg.false_tracks_per_scan is None:
+            return cfg.score_thresholds[1]
+        return rate_threshold(cfg.false_tracks_per_scan, cfg.false_deletion, initiators)
 
     def _refuse(self, n: int, live: int, time: float) -> None:
         if not self.n_refused:
