@@ -74,8 +74,8 @@ DEFAULT_BETA = (0.22, 0.2)
 TEMPLATE_HALF = 3
 #: samples per pixel side when a template is rasterised
 SUPERSAMPLE = 4
-HULL_LEVEL = 0.55
-GUN_LEVEL = 0.75
+HULL_LEVEL = 0.6
+GUN_LEVEL = 0.8
 ASPECT_STAY = 0.8
 P_ENTRY = 0.1
 #: the paper's frame interval (time units) and acceleration-noise intensity (pixels^2 per time unit^3)
@@ -170,8 +170,8 @@ class FrameSet:
 
 def reference_target(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """The reference signature at points (u rows, v columns) in pixels from its centroid, peak 1: a hull
-    |u| <= 2.6, |v| <= 1.6 of level HULL_LEVEL, a turret of radius 1.3 (level 1) and a gun along -u."""
-    out = np.where((np.abs(u) <= 2.6) & (np.abs(v) <= 1.6), HULL_LEVEL, 0.0)
+    |u| <= 2.8, |v| <= 2.2 of level HULL_LEVEL, a turret of radius 1.3 (level 1) and a gun along -u."""
+    out = np.where((np.abs(u) <= 2.8) & (np.abs(v) <= 2.2), HULL_LEVEL, 0.0)
     out = np.where((u >= -3.4) & (u <= -1.0) & (np.abs(v) <= 0.35), GUN_LEVEL, out)
     return np.where(u**2 + v**2 <= 1.3**2, 1.0, out)
 
