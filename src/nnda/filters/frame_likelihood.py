@@ -21,7 +21,8 @@ do not depend on beta). An absent particle (z = 0) or one off the extended
 grid has llr 0. beta_h, beta_v and sigma_c are given per run (R,), known
 or estimated per frame.
 
-The kernel is numba-compiled and parallel over particles: numpy's gather of
+The kernel is numba-compiled, parallel over particles from `PARALLEL_FROM`
+particles a call (serial below: a filter of one run); numpy's gather of
 (R N, 2hr+1, 2hc+1) values and its reduction run several times slower (see
 `benchmarks/bench_tbd.py`, which keeps that numpy version as the reference).
 """
@@ -35,8 +36,7 @@ from nnda.errors import FilterError
 from nnda.validation import check_array, check_finite
 
 
-@numba.njit(parallel=True, cache=True, nogil=True, fastmath=True)
-def _llr(d, values, offsets, counts, half, rho0, rhoh, rhov, bh, bv, sigma_c, x, y, z, out):  # pragma: no cover
+def _llr_loop(d, values, offsets, counts, half, rho0, rhoh, rhov, bh, bv, sigma_c, x, y, z, out):
     """The compiled loop (module docstring): d (R, Lp, Mp) padded; aspect k's nonzero template pixels
     values[k, :counts[k]] at flat offsets offsets[k, :counts[k]] from the template's corner in d."""
     R, N = x.shape
@@ -60,6 +60,13 @@ def _llr(d, values, offsets, counts, half, rho0, rhoh, rhov, bh, bv, sigma_c, x,
             lam += values[k, p] * flat[base + offsets[k, p]]
         rho = rho0[k, row, col] - 2.0 * (bh[r] * rhoh[k, row, col] + bv[r] * rhov[k, row, col])
         out[r, n] = (lam - 0.5 * rho) / (sigma_c[r] * sigma_c[r])
+
+
+#: the loop compiled twice: parallel over particles, and on one thread for calls below PARALLEL_FROM particles
+#: (waking the other threads costs more than it saves there, and far more on a loaded machine)
+_llr_parallel = numba.njit(parallel=True, cache=True, nogil=True, fastmath=True)(_llr_loop)
+_llr_serial = numba.njit(cache=True, nogil=True, fastmath=True)(_llr_loop)
+PARALLEL_FROM = 100_000
 
 
 class FrameLikelihood:
@@ -126,6 +133,7 @@ class FrameLikelihood:
         0 absent) on the padded differential frames ``d_pad`` (R, ., .) with per-run beta_h, beta_v, sigma_c
         (R,). No checks: the caller holds the shapes (the inner loop of a filter)."""
         out = np.empty(x.shape)
-        _llr(d_pad, self.values, self.offsets, self.counts, np.array(self.half), self.rho0, self.rhoh, self.rhov,
+        kernel = _llr_parallel if x.size >= PARALLEL_FROM else _llr_serial
+        kernel(d_pad, self.values, self.offsets, self.counts, np.array(self.half), self.rho0, self.rhoh, self.rhov,
              beta_h, beta_v, sigma_c, x, y, z, out)
         return out
