@@ -51,6 +51,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -107,7 +108,9 @@ class FramesConfig(BaseModel):
     """Frames of one target (module docstring): ``rows`` L x ``cols`` M pixels, ``frames`` K per run, the
     GMRF ``beta_h``, ``beta_v``, ``sigma_c``, ``ptcr_db``, the ``aspects``, ``template_half``, G's
     ``aspect_stay``, ``p_entry``, motion ``dt`` and ``q``, ``birth_velocity_sd``, and the background:
-    ``background_blocks`` b (0: none; else a b x b grid of constant local means) of std ``background_sd``."""
+    ``background_blocks`` b (0: none; else a b x b grid of constant local means) of std ``background_sd``;
+    the ``scenario``: "random" (the model's own life cycle) or "exit-reentry" (`simulate_truth`) with its
+    ``exit_speed`` (pixels per time unit), ``exit_frames`` and ``reentry_frame`` (1-based)."""
 
     model_config = _STRICT
 
@@ -127,6 +130,10 @@ class FramesConfig(BaseModel):
     birth_velocity_sd: float = Field(BIRTH_VELOCITY_SD, ge=0)
     background_blocks: int = Field(0, ge=0)
     background_sd: float = Field(2.0, ge=0)
+    scenario: Literal["random", "exit-reentry"] = "random"
+    exit_speed: float = Field(40.0, gt=0)
+    exit_frames: int = Field(15, ge=1)
+    reentry_frame: int = Field(30, ge=2)
 
     @model_validator(mode="after")
     def _check(self) -> FramesConfig:
@@ -245,12 +252,20 @@ def sample_birth(cfg: FramesConfig, rng: np.random.Generator, size: tuple[int, .
 
 
 def simulate_truth(cfg: FramesConfig, rng: np.random.Generator) -> np.ndarray:
-    """One run's truth (K, 5) [x, vx, y, vy, z] (module docstring)."""
+    """One run's truth (K, 5) [x, vx, y, vy, z] (module docstring). The "exit-reentry" scenario (the paper's
+    50-frame demonstration) starts the target moving right at ``exit_speed`` from where it reaches the
+    extended grid's right edge after about ``exit_frames`` frames (its row and aspect drawn as at a birth),
+    keeps it absent once it has left, and brings a new target in from f_0 at ``reentry_frame``; its motion
+    and aspect follow the model throughout."""
     A = len(cfg.aspects)
     G = aspect_matrix(A, cfg.aspect_stay)
     F, LQ = ncv_matrices(cfg.dt, cfg.q)
     out = np.empty((cfg.frames, 5))
     s, z = sample_birth(cfg, rng, ()), int(rng.integers(1, A + 1))
+    scripted = cfg.scenario == "exit-reentry"
+    if scripted:
+        edge = cfg.cols - 1 + cfg.template_half + 0.5
+        s[2], s[3] = edge - cfg.exit_speed * cfg.dt * cfg.exit_frames, cfg.exit_speed
     for n in range(cfg.frames):
         if n:
             s = F @ s + LQ @ rng.standard_normal(4)
@@ -258,7 +273,7 @@ def simulate_truth(cfg: FramesConfig, rng: np.random.Generator) -> np.ndarray:
                 z = 0
             elif z:
                 z = int(rng.choice(A, p=G[:, z - 1])) + 1
-            elif rng.random() < cfg.p_entry:
+            elif n + 1 == cfg.reentry_frame if scripted else rng.random() < cfg.p_entry:
                 s, z = sample_birth(cfg, rng, ()), int(rng.integers(1, A + 1))
         out[n, :4], out[n, 4] = s, z
     return out

@@ -80,6 +80,30 @@ def _rmse_table(s: dict, key: str) -> TextTable:
                      tuple(rows))
 
 
+def _exit_reentry_tables(er: dict, conf: float) -> tuple[TextTable, TextTable]:
+    def frames(stat: dict) -> str:
+        never = f", never {stat['never']}/{stat['events']}" if stat["never"] else ""
+        return stat_cell(stat, "{:.1f}") + never
+
+    rows = tuple((label, DASH if f["detection_rate"] is None else f"{f['detection_rate']:.1%}",
+                  DASH if f["false_detection_rate"] is None else f"{f['false_detection_rate']:.1%}",
+                  frames(f["first_acquire"]), frames(f["reacquire"]), frames(f["exit_declared"]))
+                 for label, f in er["filters"].items())
+    summary = TextTable(f"Exit and re-entry: {er['runs']} runs of {er['frames']} frames at {er['ptcr_db']:g} dB "
+                        f"(the target leaves the frame, a new one enters at frame {er['reentry_frame']})",
+                        ("Filter", "present frames declared present", "absent frames declared present",
+                         "frames to acquire", "frames to reacquire", "frames to declare the exit"), rows,
+                        f"Frames counted from the entry (or the first target-free frame) as 1 [{conf:.0%} "
+                        "t-interval over runs]; acquired = declared present within the divergence distance.")
+    every = 5
+    idx = list(range(0, er["frames"], every))
+    first = next(iter(er["filters"].values()))
+    profile = [("truth present", *(f"{first['truth_present_by_frame'][n]:.0%}" for n in idx))]
+    profile += [(label, *(f"{f['present_by_frame'][n]:.0%}" for n in idx)) for label, f in er["filters"].items()]
+    return summary, TextTable("Exit and re-entry: share of runs declaring the target present, by frame",
+                              ("", *(f"n={n + 1}" for n in idx)), tuple(profile))
+
+
 def _verdict(s: dict) -> str:
     """The paper's claim at one PTCR (APF 5,000 diverges less than RS 8,000, at lower cost) from the counts."""
     f = s["filters"]
@@ -131,6 +155,9 @@ def tbd_section(section, results: dict):
             verdicts.append(f"{a['filter']}: divergence differs between {a['a']:g} and {a['b']:g} dB "
                             f"(Fisher p = {a['fisher_p']:.3f}).")
     section.text("\n".join(f"* {v}" for v in verdicts))
+    if results.get("exit_reentry"):
+        for i, table in enumerate(_exit_reentry_tables(results["exit_reentry"], conf)):
+            section.table(table, f"tbd-exit-reentry-{i}")
     return section
 
 

@@ -24,6 +24,17 @@ evaluations per frame (the cost axis) and the time. Comparisons: each
 pair of filters at a PTCR and each filter across the PTCRs by Fisher's
 exact test on the divergence counts, and each filter's count against the
 paper's.
+
+With ``exit_reentry`` set, the study also runs the paper's 50-frame
+demonstration (``scenario`` "exit-reentry" of `nnda.data.frames`: the
+target leaves the frame, frames without a target follow, a new one
+enters): per filter, the share of truth-present frames declared present,
+the share of target-free frames declared present (false detections), the
+frames taken to acquire after each entry (the first frame, counting the
+entry frame as 1, declared present within ``divergence_px`` of the truth)
+and to declare the exit (the first target-free frame declared absent,
+counting the first target-free frame as 1), and the per-frame share of
+runs declaring the target present.
 """
 
 from __future__ import annotations
@@ -71,11 +82,31 @@ DEFAULT_FILTERS = (TBDFilter(name="apf", particles=5000), TBDFilter(name="rs", p
                    TBDFilter(name="apf-standard", particles=5000), TBDFilter(name="sis", particles=5000))
 
 
+class ExitReentry(BaseModel):
+    """The exit and re-entry scenario of the study: ``runs`` runs of ``frames`` frames at ``ptcr_db``, the
+    target leaving after about ``exit_frames`` frames and a new one entering at ``reentry_frame``."""
+
+    model_config = _STRICT
+
+    runs: int = Field(20, ge=1)
+    frames: int = Field(50, ge=2)
+    ptcr_db: float = 8.1
+    exit_frames: int = Field(15, ge=1)
+    reentry_frame: int = Field(30, ge=2)
+
+    @model_validator(mode="after")
+    def _check(self) -> ExitReentry:
+        if self.reentry_frame > self.frames:
+            raise ValueError(f"reentry_frame: {self.reentry_frame} is after the last of {self.frames} frames")
+        return self
+
+
 class TBDStudyConfig(BaseModel):
     """The study (module docstring): ``runs``, ``seed``, the PTCRs ``ptcr_db``, the ``scene`` (frames config;
     its ``ptcr_db`` is replaced by each of them), the ``filters``, the filter side ``tbd``, the divergence
     rule (``divergence_px``, ``divergence_frames``), ``acquisition`` and ``steady_frames``, ``chunk_runs``
-    (runs filtered at once; bounds memory) and the intervals' ``confidence``."""
+    (runs filtered at once; bounds memory), the intervals' ``confidence`` and the ``exit_reentry`` scenario
+    (None: not run)."""
 
     model_config = _STRICT
 
@@ -91,6 +122,7 @@ class TBDStudyConfig(BaseModel):
     steady_frames: int = Field(10, ge=1)
     chunk_runs: int = Field(25, ge=1)
     confidence: float = Field(0.95, gt=0, lt=1)
+    exit_reentry: ExitReentry | None = ExitReentry()
 
     @model_validator(mode="after")
     def _check(self) -> TBDStudyConfig:
@@ -154,15 +186,15 @@ def score(truth: np.ndarray, position: np.ndarray, present: np.ndarray, cfg: TBD
     }
 
 
-def run_ptcr(ptcr: float, cfg: TBDStudyConfig, index: int) -> dict:
-    """Simulate the runs at ``ptcr`` chunk by chunk and score every filter on them."""
-    scene = cfg.scene.model_copy(update={"ptcr_db": ptcr})
+def _run_filters(scene: FramesConfig, runs: int, cfg: TBDStudyConfig, index: int) -> tuple[np.ndarray, dict]:
+    """Simulate ``runs`` runs of ``scene`` chunk by chunk and run every filter on them: the truth (R, K, 5) and
+    per filter label its position (R, K, 2), decisions (R, K), P(z = 0) (R, K) and cost."""
     parts: dict[str, dict[str, list]] = {f.label: {"position": [], "present": [], "p_absent": []}
                                          for f in cfg.filters}
     cost = {f.label: {"seconds": 0.0, "evaluations": 0.0} for f in cfg.filters}
     truths = []
-    for start in range(0, cfg.runs, cfg.chunk_runs):
-        fs = simulate(scene, min(cfg.chunk_runs, cfg.runs - start), cfg.seed, first_run=start)
+    for start in range(0, runs, cfg.chunk_runs):
+        fs = simulate(scene, min(cfg.chunk_runs, runs - start), cfg.seed, first_run=start)
         truths.append(fs.truth)
         for fi, f in enumerate(cfg.filters):
             seed = np.random.SeedSequence([cfg.seed, index, fi, start])
@@ -171,16 +203,25 @@ def run_ptcr(ptcr: float, cfg: TBDStudyConfig, index: int) -> dict:
                 parts[f.label][key].append(getattr(out, key))
             cost[f.label]["seconds"] += out.seconds
             cost[f.label]["evaluations"] += out.evaluations_per_frame * fs.runs
-    truth = np.concatenate(truths)
-    filters = {}
+    got = {}
     for f in cfg.filters:
-        got = {k: np.concatenate(v) for k, v in parts[f.label].items()}
-        entry = {"filter": f.name, "particles": f.particles,
-                 "evaluations_per_frame": cost[f.label]["evaluations"] / cfg.runs,
-                 "seconds": cost[f.label]["seconds"],
-                 "ms_per_frame": 1e3 * cost[f.label]["seconds"] / (cfg.runs * scene.frames),
-                 "p_absent_mean": got["p_absent"].mean(axis=0).tolist()}
-        filters[f.label] = entry | score(truth, got["position"], got["present"], cfg)
+        got[f.label] = {k: np.concatenate(v) for k, v in parts[f.label].items()} | {
+            "filter": f.name, "particles": f.particles,
+            "evaluations_per_frame": cost[f.label]["evaluations"] / runs, "seconds": cost[f.label]["seconds"],
+            "ms_per_frame": 1e3 * cost[f.label]["seconds"] / (runs * scene.frames)}
+    return np.concatenate(truths), got
+
+
+def _cost(g: dict) -> dict:
+    return {k: g[k] for k in ("filter", "particles", "evaluations_per_frame", "seconds", "ms_per_frame")} | {
+        "p_absent_mean": g["p_absent"].mean(axis=0).tolist()}
+
+
+def run_ptcr(ptcr: float, cfg: TBDStudyConfig, index: int) -> dict:
+    """Simulate the runs at ``ptcr`` and score every filter on them."""
+    scene = cfg.scene.model_copy(update={"ptcr_db": ptcr})
+    truth, got = _run_filters(scene, cfg.runs, cfg, index)
+    filters = {label: _cost(g) | score(truth, g["position"], g["present"], cfg) for label, g in got.items()}
     labels = list(filters)
     pairs = [{"a": a, "b": b, "fisher_p": fisher(filters[a]["divergence"], filters[b]["divergence"])}
              for i, a in enumerate(labels) for b in labels[i + 1:]]
@@ -195,6 +236,52 @@ def run_ptcr(ptcr: float, cfg: TBDStudyConfig, index: int) -> dict:
             "filters": filters, "pairs": pairs, "paper": paper}
 
 
+def _frames_until(done: np.ndarray, starts: np.ndarray) -> list[int | None]:
+    """For each start frame (0-based), the frames until ``done`` (K,) first holds from it on, counting the
+    start frame as 1; None where it never does."""
+    out = []
+    for n in starts:
+        hits = np.flatnonzero(done[n:])
+        out.append(int(hits[0]) + 1 if hits.size else None)
+    return out
+
+
+def score_exit_reentry(truth: np.ndarray, position: np.ndarray, present: np.ndarray, cfg: TBDStudyConfig) -> dict:
+    """The exit and re-entry measures of one filter (module docstring): truth (R, K, 5), position (R, K, 2),
+    decisions (R, K)."""
+    on = truth[..., 4] > 0
+    dist = np.hypot(*(position - truth[..., [0, 2]]).transpose(2, 0, 1))
+    hit = on & present & (dist <= cfg.divergence_px)
+    first, later, exits = [], [], []
+    for r in range(truth.shape[0]):
+        edges = np.flatnonzero(np.diff(on[r].astype(int), prepend=0) == 1)
+        acquire = _frames_until(hit[r], edges)
+        first += acquire[:1]
+        later += acquire[1:]
+        exits += _frames_until(~present[r], np.flatnonzero(np.diff(on[r].astype(int)) == -1) + 1)
+
+    def stat(values: list[int | None]) -> dict:
+        return mean_ci(values, cfg.confidence, low=1.0) | {"never": sum(v is None for v in values),
+                                                           "events": len(values)}
+
+    return {"detection_rate": float(present[on].mean()) if on.any() else None,
+            "false_detection_rate": float(present[~on].mean()) if (~on).any() else None,
+            "absent_frames": int((~on).sum()),
+            "first_acquire": stat(first), "reacquire": stat(later), "exit_declared": stat(exits),
+            "present_by_frame": present.mean(axis=0).tolist(), "truth_present_by_frame": on.mean(axis=0).tolist()}
+
+
+def run_exit_reentry(cfg: TBDStudyConfig) -> dict:
+    """The exit and re-entry scenario (``cfg.exit_reentry``) with every filter."""
+    er = cfg.exit_reentry
+    scene = cfg.scene.model_copy(update={"ptcr_db": er.ptcr_db, "frames": er.frames, "scenario": "exit-reentry",
+                                         "exit_frames": er.exit_frames, "reentry_frame": er.reentry_frame})
+    truth, got = _run_filters(scene, er.runs, cfg, len(cfg.ptcr_db))
+    return {"ptcr_db": er.ptcr_db, "runs": er.runs, "frames": er.frames, "reentry_frame": er.reentry_frame,
+            "filters": {label: _cost(g) | score_exit_reentry(truth, g["position"], g["present"], cfg)
+                        for label, g in got.items()}}
+
+
 def run_tbd_study(cfg: TBDStudyConfig) -> dict:
     """Every PTCR of ``cfg``; the results document (format RESULTS_FORMAT), with each filter's divergence
     compared across the PTCRs (Fisher)."""
@@ -206,5 +293,7 @@ def run_tbd_study(cfg: TBDStudyConfig) -> dict:
             for b in settings[i + 1:]:
                 da, db = a["filters"][f.label]["divergence"], b["filters"][f.label]["divergence"]
                 across.append({"filter": f.label, "a": a["ptcr_db"], "b": b["ptcr_db"], "fisher_p": fisher(da, db)})
+    exit_reentry = None if cfg.exit_reentry is None else run_exit_reentry(cfg)
     return {"format": RESULTS_FORMAT, "version": RESULTS_VERSION, "config": cfg.model_dump(mode="json"),
-            "settings": settings, "across_ptcr": across, "runtime_s": time.perf_counter() - t0}
+            "settings": settings, "across_ptcr": across, "exit_reentry": exit_reentry,
+            "runtime_s": time.perf_counter() - t0}
