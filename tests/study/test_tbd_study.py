@@ -115,7 +115,8 @@ def test_cli_writes_results_and_report_and_refuses_to_overwrite(tmp_path):
     assert results["config"]["seed"] == 3 and list(results["settings"][0]["filters"]) == ["apf@200", "rs@300"]
     md = (tmp_path / "t" / "report.md").read_text()
     assert "PTCR 8.1 dB: divergence, detection and cost" in md and "(paper: 2/100 vs 3/100)" in md
-    assert "Exit and re-entry: 2 runs of 12 frames" in md
+    assert "Exit and re-entry: 2 runs of 12 frames" in md and "](figures/tbd-frames.png)" in md
+    assert (tmp_path / "t" / "figures" / "tbd-frames.png").read_bytes()[:4] == b"\x89PNG"
     assert "<table" in (tmp_path / "t" / "report.html").read_text()
     with pytest.raises(FileExistsError, match="already exists"):
         tbd(out=tmp_path / "t", config=tmp_path / "tiny.toml")

@@ -8,7 +8,8 @@ likelihood evaluations and milliseconds per frame), the Fisher tests
 between filters, and the per-frame RMSE excluding and including divergent
 runs; then the verdict on the paper's claim (the APF with 5,000 particles
 diverges less than resample-move with 8,000) read from the tests, and the
-cost of each filter.
+cost of each filter; the exit and re-entry tables; and a figure of a few
+frames of one run with the first filter's particles, estimate and truth.
 """
 
 from __future__ import annotations
@@ -16,13 +17,16 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 from rich.console import Console
 
+from nnda.data.frames import simulate
 from nnda.errors import validated
 from nnda.files import atomic_directory, atomic_file, read_config, write_json
 from nnda.reports.text_table import DASH, TextTable, interval, stat_cell
 from nnda.study.tbd import PAPER_DIVERGENCES, RESULTS_FILE, TBDStudyConfig, run_tbd_study
+from nnda.tracking.tbd import run_tbd, tbd_model
 
 REPORT_MD = "report.md"
 REPORT_HTML = "report.html"
@@ -161,11 +165,57 @@ def tbd_section(section, results: dict):
     return section
 
 
-def write_report(out: Path, results: dict) -> None:
-    """``out``/report.md and report.html of ``results``."""
-    from nnda.reports.study_report import Section, html_page, markdown_page  # plotly only when reporting
+#: the frames of the figure (1-based; the last frame is added)
+FIGURE_FRAMES = (1, 2, 5)
+#: particles drawn per panel (the heaviest present ones)
+FIGURE_PARTICLES = 400
 
-    sections = [tbd_section(Section("tbd", "Track-before-detect filters", [], []), results)]
+
+def frames_figure(cfg: TBDStudyConfig):
+    """A `nnda.reports.study_report.Figure`: run 0 of the study at its first PTCR, a few frames with the first
+    filter's heaviest present particles, its estimate and the truth."""
+    import matplotlib.pyplot as plt
+
+    from nnda.reports.study_figures import _png
+    from nnda.reports.study_report import Figure
+
+    f = cfg.filters[0]
+    scene = cfg.scene.model_copy(update={"ptcr_db": cfg.ptcr_db[0]})
+    fs = simulate(scene, 1, cfg.seed)
+    model = tbd_model(fs, cfg.tbd)
+    model.snapshots = []
+    out = run_tbd(model, f.name, f.particles, np.random.default_rng(np.random.SeedSequence([cfg.seed, 0, 0, 0])))
+    frames = sorted({n for n in FIGURE_FRAMES if n <= scene.frames} | {scene.frames})
+    fig, axes = plt.subplots(1, len(frames), figsize=(3.2 * len(frames), 3.4), squeeze=False)
+    for ax, n in zip(axes[0], frames):
+        W, x = model.snapshots[n - 1]
+        ax.imshow(fs.frames[0, n - 1], cmap="gray", interpolation="nearest")
+        present = np.flatnonzero(x[0, :, 4] > 0)
+        top = present[np.argsort(W[0, present])[::-1][:FIGURE_PARTICLES]]
+        ax.scatter(x[0, top, 2], x[0, top, 0], s=4, c="tab:orange", alpha=0.6, linewidths=0, label="particles")
+        ax.plot(fs.truth[0, n - 1, 2], fs.truth[0, n - 1, 0], "c+", ms=12, mew=2, label="truth")
+        ax.plot(out.position[0, n - 1, 1], out.position[0, n - 1, 0], "o", mfc="none", mec="tab:red", ms=10,
+                mew=1.5, label="estimate")
+        ax.set_title(f"frame {n}: P(absent) {out.p_absent[0, n - 1]:.2f}", fontsize=9)
+        ax.set_xticks([])
+        ax.set_yticks([])
+    axes[0, 0].legend(loc="lower left", fontsize=7)
+    fig.tight_layout()
+    caption = (f"Run 0 at {scene.ptcr_db:g} dB: frames (gray), the {FIGURE_PARTICLES} heaviest present particles "
+               f"of {f.label}, its conditional-mean estimate and the truth")
+    return Figure("tbd-frames.png", caption, _png(fig))
+
+
+def write_report(out: Path, results: dict, figure=None) -> None:
+    """``out``/report.md and report.html of ``results`` (and ``figure``, a `Figure`, under figures/)."""
+    from nnda.reports.study_report import FIGURES, Section, html_page, markdown_page  # plotly only when reporting
+
+    section = tbd_section(Section("tbd", "Track-before-detect filters", [], []), results)
+    if figure is not None:
+        section.figure(figure)
+        with atomic_file(out / FIGURES / figure.name) as tmp:
+            tmp.write_bytes(figure.png)
+    sections = [section]
     with atomic_file(out / REPORT_MD) as tmp:
         tmp.write_text(markdown_page(TITLE, sections))
     with atomic_file(out / REPORT_HTML) as tmp:
@@ -187,7 +237,8 @@ def tbd(
     if out.exists() and not overwrite:
         raise FileExistsError(f"{out}: already exists (pass --overwrite to replace it)")
     results = run_tbd_study(cfg)
+    figure = frames_figure(cfg)
     with atomic_directory(out, overwrite=overwrite) as tmp:
         write_json(tmp / RESULTS_FILE, results)
-        write_report(tmp, results)
+        write_report(tmp, results, figure)
     Console().print(f"tbd study: {results['runtime_s']:.0f} s; report: {out / REPORT_HTML}")

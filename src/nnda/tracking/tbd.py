@@ -98,7 +98,8 @@ class TBDModel:
     p_entry, f_0, and the known GMRF parameters), ``background`` (L, M) the
     known local means (None: zero). FilterError for frames of mixed sizes
     or another size than the model's, NaN pixels, a template larger than
-    the frame. ``evaluations`` counts the particle likelihoods computed.
+    the frame. ``evaluations`` counts the particle likelihoods computed; a list in ``snapshots`` collects
+    (W, x) of every step's estimate (copies; for a figure of the particles).
     """
 
     dim = 5
@@ -128,6 +129,7 @@ class TBDModel:
         self._birth_log_area = float(np.log((model.rows - 1 - 2 * h) * (model.cols - 1 - 2 * h)))
         self._frame_k = 0
         self.evaluations = 0
+        self.snapshots: list[tuple[np.ndarray, np.ndarray]] | None = None
 
     @property
     def runs(self) -> int:
@@ -211,6 +213,8 @@ class TBDModel:
     def estimate(self, W: np.ndarray, x: np.ndarray) -> np.ndarray:
         """(R, 5): [P(z = 0), E[x, vx, y, vy | z != 0]] (the weighted mean of all particles where no
         present particle has weight)."""
+        if self.snapshots is not None:
+            self.snapshots.append((W.copy(), x.copy()))
         Wp = W * (x[..., 4] > 0)
         mass = Wp.sum(axis=1)
         none = mass <= 0
