@@ -131,7 +131,7 @@ class FramesConfig(BaseModel):
     background_blocks: int = Field(0, ge=0)
     background_sd: float = Field(2.0, ge=0)
     scenario: Literal["random", "exit-reentry"] = "random"
-    exit_speed: float = Field(40.0, gt=0)
+    exit_speed: float = Field(15.0, gt=0)
     exit_frames: int = Field(15, ge=1)
     reentry_frame: int = Field(30, ge=2)
 

@@ -94,7 +94,8 @@ def _exit_reentry_tables(er: dict, conf: float) -> tuple[TextTable, TextTable]:
                   frames(f["first_acquire"]), frames(f["reacquire"]), frames(f["exit_declared"]))
                  for label, f in er["filters"].items())
     summary = TextTable(f"Exit and re-entry: {er['runs']} runs of {er['frames']} frames at {er['ptcr_db']:g} dB "
-                        f"(the target leaves the frame, a new one enters at frame {er['reentry_frame']})",
+                        f"(the target leaves the frame at {er['speed']:g} px per time unit, a new one enters at "
+                        f"frame {er['reentry_frame']})",
                         ("Filter", "present frames declared present", "absent frames declared present",
                          "frames to acquire", "frames to reacquire", "frames to declare the exit"), rows,
                         f"Frames counted from the entry (or the first target-free frame) as 1 [{conf:.0%} "

@@ -84,13 +84,15 @@ DEFAULT_FILTERS = (TBDFilter(name="apf", particles=5000), TBDFilter(name="rs", p
 
 class ExitReentry(BaseModel):
     """The exit and re-entry scenario of the study: ``runs`` runs of ``frames`` frames at ``ptcr_db``, the
-    target leaving after about ``exit_frames`` frames and a new one entering at ``reentry_frame``."""
+    target leaving at ``speed`` (pixels per time unit, also the scene's birth velocity sd, so the filter's
+    prior covers it at one sd) after about ``exit_frames`` frames and a new one entering at ``reentry_frame``."""
 
     model_config = _STRICT
 
     runs: int = Field(20, ge=1)
     frames: int = Field(50, ge=2)
     ptcr_db: float = 8.1
+    speed: float = Field(15.0, gt=0)
     exit_frames: int = Field(15, ge=1)
     reentry_frame: int = Field(30, ge=2)
 
@@ -275,9 +277,11 @@ def run_exit_reentry(cfg: TBDStudyConfig) -> dict:
     """The exit and re-entry scenario (``cfg.exit_reentry``) with every filter."""
     er = cfg.exit_reentry
     scene = cfg.scene.model_copy(update={"ptcr_db": er.ptcr_db, "frames": er.frames, "scenario": "exit-reentry",
-                                         "exit_frames": er.exit_frames, "reentry_frame": er.reentry_frame})
+                                         "exit_frames": er.exit_frames, "reentry_frame": er.reentry_frame,
+                                         "exit_speed": er.speed, "birth_velocity_sd": er.speed})
     truth, got = _run_filters(scene, er.runs, cfg, len(cfg.ptcr_db))
     return {"ptcr_db": er.ptcr_db, "runs": er.runs, "frames": er.frames, "reentry_frame": er.reentry_frame,
+            "speed": er.speed,
             "filters": {label: _cost(g) | score_exit_reentry(truth, g["position"], g["present"], cfg)
                         for label, g in got.items()}}
 
