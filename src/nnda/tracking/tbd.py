@@ -130,14 +130,7 @@ class TBDModel:
         self._frame_k = 0
         self.evaluations = 0
         self.snapshots: list[tuple[np.ndarray, np.ndarray]] | None = None
-
-    @property
-    def runs(self) -> int:
-        return self.frames.shape[0]
-
-    @property
-    def steps(self) -> int:
-        return self.frames.shape[1]
+        self.runs, self.steps = frames.shape[:2]
 
     # -- what the engine calls -------------------------------------------------------------------------------
     def sample_initial(self, n: int, rng: np.random.Generator, dtype: type = np.float64) -> np.ndarray:
