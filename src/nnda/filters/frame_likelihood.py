@@ -36,7 +36,8 @@ from nnda.errors import FilterError
 from nnda.validation import check_array, check_finite
 
 
-def _llr_loop(d, values, offsets, counts, half, rho0, rhoh, rhov, bh, bv, sigma_c, x, y, z, out):
+@numba.njit(parallel=True, cache=True, nogil=True, fastmath=True)
+def _llr(d, values, offsets, counts, half, rho0, rhoh, rhov, bh, bv, sigma_c, x, y, z, out):
     """The compiled loop (module docstring): d (R, Lp, Mp) padded; aspect k's nonzero template pixels
     values[k, :counts[k]] at flat offsets offsets[k, :counts[k]] from the template's corner in d."""
     R, N = x.shape
@@ -62,10 +63,8 @@ def _llr_loop(d, values, offsets, counts, half, rho0, rhoh, rhov, bh, bv, sigma_
         out[r, n] = (lam - 0.5 * rho) / (sigma_c[r] * sigma_c[r])
 
 
-#: the loop compiled twice: parallel over particles, and on one thread for calls below PARALLEL_FROM particles
-#: (waking the other threads costs more than it saves there, and far more on a loaded machine)
-_llr_parallel = numba.njit(parallel=True, cache=True, nogil=True, fastmath=True)(_llr_loop)
-_llr_serial = numba.njit(cache=True, nogil=True, fastmath=True)(_llr_loop)
+#: calls with fewer particles run on one thread: waking the others costs more than it saves there (one run's
+#: 5,000 particles), and far more on a loaded machine
 PARALLEL_FROM = 100_000
 
 
@@ -133,7 +132,11 @@ class FrameLikelihood:
         0 absent) on the padded differential frames ``d_pad`` (R, ., .) with per-run beta_h, beta_v, sigma_c
         (R,). No checks: the caller holds the shapes (the inner loop of a filter)."""
         out = np.empty(x.shape)
-        kernel = _llr_parallel if x.size >= PARALLEL_FROM else _llr_serial
-        kernel(d_pad, self.values, self.offsets, self.counts, np.array(self.half), self.rho0, self.rhoh, self.rhov,
-             beta_h, beta_v, sigma_c, x, y, z, out)
+        threads = numba.get_num_threads()
+        numba.set_num_threads(threads if x.size >= PARALLEL_FROM else 1)
+        try:
+            _llr(d_pad, self.values, self.offsets, self.counts, np.array(self.half), self.rho0, self.rhoh,
+                 self.rhov, beta_h, beta_v, sigma_c, x, y, z, out)
+        finally:
+            numba.set_num_threads(threads)
         return out
