@@ -11,7 +11,7 @@ from tests.tolerances import RTOL
 from nnda.data import gmrf
 from nnda.data.frames import DEFAULT_ASPECTS, place, template_library
 from nnda.errors import FilterError
-from nnda.filters.frame_likelihood import FrameLikelihood
+from nnda.filters.frame_likelihood import FrameLikelihood, detections
 
 
 def dense_llr(Y, template, r, c, bh, bv, sigma_c):
@@ -66,3 +66,41 @@ def test_bad_templates_and_frames_are_refused():
         FrameLikelihood(np.full((1, 3, 3), np.nan), (9, 9))
     with pytest.raises(FilterError, match="frames of"):
         FrameLikelihood(np.ones((1, 3, 3)), (9, 9)).pad(np.zeros((2, 9, 8)))
+
+
+def test_matched_filter_is_lambda_over_its_sd_and_false_alarms_match_pfa():
+    """t = y^T A h / (sigma_c sqrt(h^T A h)) at every position (dense oracle on a small grid), N(0, 1) without a
+    target: the share of positions and aspects above Phi^-1(1 - pfa) is pfa."""
+    from scipy.special import ndtri
+
+    shape, bh, bv, sc = (9, 10), 0.22, 0.2, 1.3
+    templates = 2.0 * template_library(DEFAULT_ASPECTS[:2], half=1)
+    lik = FrameLikelihood(templates, shape)
+    Y = gmrf.sample(shape, bh, bv, sc, np.random.default_rng(1), (1,))
+    B = np.array([bh]), np.array([bv]), np.array([sc])
+    t = lik.matched_filter(lik.pad(gmrf.differential(Y, B[0], B[1])), *B)
+    A = dense_A(shape, bh, bv)
+    for k in range(2):
+        for i in range(-1, 10):
+            for j in range(-1, 11):
+                H = np.zeros(shape)
+                place(H, templates[k], i, j)
+                h = H.ravel()
+                want = Y[0].ravel() @ A @ h / (sc * np.sqrt(h @ A @ h))
+                assert t[0, k, i + 1, j + 1] == pytest.approx(want, rel=RTOL, abs=RTOL)
+    big = gmrf.sample((64, 64), bh, bv, sc, np.random.default_rng(2), (40,))
+    lik = FrameLikelihood(templates, (64, 64))
+    R = np.full(40, bh), np.full(40, bv), np.full(40, sc)
+    t = lik.matched_filter(lik.pad(gmrf.differential(big, R[0], R[1])), *R)
+    share = (t >= ndtri(1 - 0.01)).mean()
+    assert share == pytest.approx(0.01, abs=4 * np.sqrt(0.01 / t.size) * 3)  # positions are correlated: x3
+
+
+def test_detections_are_thresholded_local_maxima():
+    t = np.full((1, 2, 6, 7), -1.0)
+    t[0, 1, 2, 3], t[0, 0, 2, 4], t[0, 0, 5, 0] = 5.0, 4.0, 3.0  # a peak, its weaker neighbour, a corner peak
+    hits = detections(t, (1, 1), pfa=1e-3)  # threshold 3.09
+    np.testing.assert_array_equal(hits, [[0, 1, 2, 2, 5.0]])
+    assert detections(t, (1, 1), pfa=0.01).shape == (2, 5)  # threshold 2.33: the corner too
+    with pytest.raises(FilterError, match="pfa"):
+        detections(t, (1, 1), pfa=0.0)

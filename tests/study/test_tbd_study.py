@@ -86,6 +86,8 @@ def test_tiny_study_structure_and_seeds(tiny):
     assert len(apf["rmse"]["x"]) == 6 and apf["divergence"]["runs"] == 3
     assert set(s["paper"]) == {"apf@300", "rs@400"} and s["paper"]["apf@300"]["divergence"]["count"] == 3
     assert len(tiny["across_ptcr"]) == 2
+    det = s["detector"]
+    assert det["pfa"] == 1e-4 and 0 <= det["p_detection"] <= 1 and det["false_per_frame"] >= 0
     er = tiny["exit_reentry"]["filters"]["rs@400"]
     assert len(er["present_by_frame"]) == 16 and er["absent_frames"] > 0 and er["reacquire"]["events"] == 2
     again = run_tbd_study(validated(TBDStudyConfig, TINY, "test", "tbd study"))
@@ -115,7 +117,8 @@ def test_cli_writes_results_and_report_and_refuses_to_overwrite(tmp_path):
     assert results["config"]["seed"] == 3 and list(results["settings"][0]["filters"]) == ["apf@200", "rs@300"]
     md = (tmp_path / "t" / "report.md").read_text()
     assert "PTCR 8.1 dB: divergence, detection and cost" in md and "(paper: 2/100 vs 3/100)" in md
-    assert "Exit and re-entry: 2 runs of 12 frames" in md and "](figures/tbd-frames.png)" in md
+    assert "Exit and re-entry: 2 runs of 12 frames" in md and "per-frame detector (matched filter" in md
+    assert "](figures/tbd-frames.png)" in md
     assert (tmp_path / "t" / "figures" / "tbd-frames.png").read_bytes()[:4] == b"\x89PNG"
     assert "<table" in (tmp_path / "t" / "report.html").read_text()
     with pytest.raises(FileExistsError, match="already exists"):
@@ -164,3 +167,15 @@ def test_exit_reentry_scenario_leaves_and_reenters():
         z = simulate_truth(cfg, np.random.default_rng(seed))[:, 4]
         gone = np.flatnonzero(z == 0)
         assert 10 <= gone[0] <= 20 and gone[-1] == 28 and (z[:gone[0]] > 0).all() and (z[29:] > 0).all()
+
+
+def test_matched_filter_detector_finds_a_bright_target_and_not_a_missing_one():
+    from nnda.data.frames import FramesConfig, simulate
+    from nnda.study.tbd import _detect
+
+    cfg = TBDStudyConfig()
+    scene = FramesConfig(rows=40, cols=40, frames=5)
+    bright = _detect(simulate(scene.model_copy(update={"ptcr_db": 20.0}), 4, 0), cfg)
+    gone = _detect(simulate(scene.model_copy(update={"ptcr_db": -400.0}), 4, 0), cfg)
+    assert bright[1] == gone[1] == 20 and bright[0] >= 19 and gone[0] <= 1
+    assert gone[2] / 20 < 1.0  # false detections per frame at pfa 1e-4 over 46 x 46 x 4 tests

@@ -4,6 +4,8 @@ differential-filtered frame at the template's offsets, for every particle of R r
     lik = FrameLikelihood(templates, (L, M))           # templates (A, 2hr+1, 2hc+1), aspects 1..A
     dp = lik.pad(gmrf.differential(Y, bh, bv))         # (R, L + 4hr, M + 4hc) d = A y, zero padded
     llr = lik.llr(dp, bh, bv, sigma_c, x, y, z)        # (R, N) log p(y | s, z) - log p(y | absent)
+    t = lik.matched_filter(dp, bh, bv, sigma_c)        # (R, A, L + 2hr, M + 2hc) the detector's statistic
+    hits = detections(t, lik.half, pfa=1e-4)           # (n, 5) run, row, column, aspect, t: per-frame detections
 
 For a centroid (x row, y column; s* = round) and aspect z >= 1, with H the
 template placed at s* and clipped at the frame's borders and A the GMRF
@@ -21,6 +23,13 @@ do not depend on beta). An absent particle (z = 0) or one off the extended
 grid has llr 0. beta_h, beta_v and sigma_c are given per run (R,), known
 or estimated per frame.
 
+The conventional chain's detector (spec C: thresholding the d-filtered
+frame) is the matched filter of every aspect at every extended-grid
+position, t = lambda / (sigma_c sqrt(rho)), N(0, 1) without a target
+(Var lambda = sigma_c^2 rho); `detections` keeps the positions whose best
+aspect's t passes Phi^-1(1 - pfa) (pfa per position and aspect) and is the
+largest of its 3 x 3 neighbourhood.
+
 The kernel is numba-compiled, parallel over particles from `PARALLEL_FROM`
 particles a call (serial below: a filter of one run); numpy's gather of
 (R N, 2hr+1, 2hc+1) values and its reduction run several times slower (see
@@ -31,6 +40,7 @@ from __future__ import annotations
 
 import numba
 import numpy as np
+from scipy.special import ndtri
 
 from nnda.errors import FilterError
 from nnda.validation import check_array, check_finite
@@ -126,6 +136,20 @@ class FrameLikelihood:
         width = [(0, 0)] * (d.ndim - 2) + [(2 * hr, 2 * hr), (2 * hc, 2 * hc)]
         return np.ascontiguousarray(np.pad(np.asarray(d, dtype=np.float64), width))
 
+    def matched_filter(self, d_pad: np.ndarray, beta_h: np.ndarray, beta_v: np.ndarray,
+                       sigma_c: np.ndarray) -> np.ndarray:
+        """t (R, A, L + 2hr, M + 2hc) at every aspect and extended-grid position (module docstring)."""
+        (hr, hc), a = self.half, self.templates
+        Le, Me = self.rho0.shape[1:]
+        lam = np.zeros((d_pad.shape[0], a.shape[0], Le, Me))
+        for u in range(2 * hr + 1):
+            for v in range(2 * hc + 1):
+                lam += a[None, :, u, v, None, None] * d_pad[:, None, u:u + Le, v:v + Me]
+        rho = self.rho0 - 2.0 * (beta_h[:, None, None, None] * self.rhoh + beta_v[:, None, None, None] * self.rhov)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = lam / (sigma_c[:, None, None, None] * np.sqrt(rho))
+        return np.where(rho > 0, t, 0.0)
+
     def llr(self, d_pad: np.ndarray, beta_h: np.ndarray, beta_v: np.ndarray, sigma_c: np.ndarray,
             x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
         """(R, N) float64 LLR of particles at rows ``x``, columns ``y`` (R, N) with aspects ``z`` (R, N;
@@ -140,3 +164,18 @@ class FrameLikelihood:
         finally:
             numba.set_num_threads(threads)
         return out
+
+
+def detections(t: np.ndarray, half: tuple[int, int], pfa: float) -> np.ndarray:
+    """Per-frame detections (n, 5) [run, row, column, aspect, t] of matched-filter statistics t (R, A, Le,
+    Me): the positions (pixels; row = extended-grid index - hr) whose best aspect (1..A) passes Phi^-1(1 -
+    pfa) and is the largest t of its 3 x 3 neighbourhood; FilterError for pfa outside (0, 1)."""
+    if not 0 < pfa < 1:
+        raise FilterError(f"detections: pfa must be in (0, 1), got {pfa}")
+    best, aspect = t.max(axis=1), t.argmax(axis=1) + 1
+    padded = np.pad(best, ((0, 0), (1, 1), (1, 1)), constant_values=-np.inf)
+    Le, Me = best.shape[1:]
+    peak = np.max([padded[:, 1 + du:1 + du + Le, 1 + dv:1 + dv + Me] for du in (-1, 0, 1) for dv in (-1, 0, 1)],
+                  axis=0)
+    r, i, j = np.nonzero((best >= ndtri(1.0 - pfa)) & (best >= peak))
+    return np.column_stack([r, i - half[0], j - half[1], aspect[r, i, j], best[r, i, j]]).astype(float)

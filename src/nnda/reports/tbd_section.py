@@ -150,6 +150,11 @@ def tbd_section(section, results: dict):
     verdicts = []
     for s in results["settings"]:
         section.table(_divergence_table(s, conf), f"tbd-{s['ptcr_db']:g}-divergence")
+        det = s["detector"]
+        section.text(f"The conventional chain's per-frame detector (matched filter, pfa {det['pfa']:g} per position "
+                     f"and aspect) on the same frames: a detection within {cfg['divergence_px']:g} px of the "
+                     f"target in {det['p_detection']:.1%} of its frames, {det['false_per_frame']:.2f} false "
+                     "detections per frame (detect-then-track with GNN/MHT is not built yet).")
         if s["pairs"]:
             section.table(_pairs_table(s), f"tbd-{s['ptcr_db']:g}-pairs")
         section.table(_rmse_table(s, "rmse"), f"tbd-{s['ptcr_db']:g}-rmse")

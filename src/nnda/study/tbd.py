@@ -25,6 +25,14 @@ pair of filters at a PTCR and each filter across the PTCRs by Fisher's
 exact test on the divergence counts, and each filter's count against the
 paper's.
 
+The conventional chain's first half runs beside the filters on the same
+frames: the per-frame matched-filter detector
+(`nnda.filters.frame_likelihood.detections`) at ``detector_pfa`` per
+position and aspect, scored by its probability of a detection within
+``divergence_px`` of a present target and its other (false) detections
+per frame. (Feeding its detections to nnda's GNN and MHT trackers is not
+built yet.)
+
 With ``exit_reentry`` set, the study also runs the paper's 50-frame
 demonstration (``scenario`` "exit-reentry" of `nnda.data.frames`: the
 target leaves the frame, frames without a target follow, a new one
@@ -46,6 +54,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from scipy.stats import binomtest, fisher_exact
 
 from nnda.data.frames import FramesConfig, simulate
+from nnda.filters.frame_likelihood import detections
 from nnda.study.results import mean_ci
 from nnda.tracking.tbd import FILTERS, TBDConfig, run_tbd, tbd_model
 
@@ -107,8 +116,8 @@ class TBDStudyConfig(BaseModel):
     """The study (module docstring): ``runs``, ``seed``, the PTCRs ``ptcr_db``, the ``scene`` (frames config;
     its ``ptcr_db`` is replaced by each of them), the ``filters``, the filter side ``tbd``, the divergence
     rule (``divergence_px``, ``divergence_frames``), ``acquisition`` and ``steady_frames``, ``chunk_runs``
-    (runs filtered at once; bounds memory), the intervals' ``confidence`` and the ``exit_reentry`` scenario
-    (None: not run)."""
+    (runs filtered at once; bounds memory), the intervals' ``confidence``, the ``exit_reentry`` scenario
+    (None: not run) and the matched-filter detector's ``detector_pfa``."""
 
     model_config = _STRICT
 
@@ -125,6 +134,7 @@ class TBDStudyConfig(BaseModel):
     chunk_runs: int = Field(25, ge=1)
     confidence: float = Field(0.95, gt=0, lt=1)
     exit_reentry: ExitReentry | None = ExitReentry()
+    detector_pfa: float = Field(1e-4, gt=0, lt=1)
 
     @model_validator(mode="after")
     def _check(self) -> TBDStudyConfig:
@@ -194,10 +204,11 @@ def _run_filters(scene: FramesConfig, runs: int, cfg: TBDStudyConfig, index: int
     parts: dict[str, dict[str, list]] = {f.label: {"position": [], "present": [], "p_absent": []}
                                          for f in cfg.filters}
     cost = {f.label: {"seconds": 0.0, "evaluations": 0.0} for f in cfg.filters}
-    truths = []
+    truths, detector = [], np.zeros(3)
     for start in range(0, runs, cfg.chunk_runs):
         fs = simulate(scene, min(cfg.chunk_runs, runs - start), cfg.seed, first_run=start)
         truths.append(fs.truth)
+        detector += _detect(fs, cfg)
         for fi, f in enumerate(cfg.filters):
             seed = np.random.SeedSequence([cfg.seed, index, fi, start])
             out = run_tbd(tbd_model(fs, cfg.tbd), f.name, f.particles, np.random.default_rng(seed))
@@ -211,7 +222,25 @@ def _run_filters(scene: FramesConfig, runs: int, cfg: TBDStudyConfig, index: int
             "filter": f.name, "particles": f.particles,
             "evaluations_per_frame": cost[f.label]["evaluations"] / runs, "seconds": cost[f.label]["seconds"],
             "ms_per_frame": 1e3 * cost[f.label]["seconds"] / (runs * scene.frames)}
+    got["detector"] = {"pfa": cfg.detector_pfa, "p_detection": detector[0] / max(detector[1], 1),
+                       "false_per_frame": detector[2] / (runs * scene.frames)}
     return np.concatenate(truths), got
+
+
+def _detect(fs, cfg: TBDStudyConfig) -> np.ndarray:
+    """[frames with a detection within divergence_px of the present target, truth-present frames, other
+    detections] of the matched-filter detector on a frame set (the model's known GMRF parameters)."""
+    model = tbd_model(fs, cfg.tbd)
+    lik, out = model.likelihood, np.zeros(3)
+    for k in range(1, fs.steps + 1):
+        d_pad, bh, bv, sc = model.frame_data(k)
+        hits = detections(lik.matched_filter(d_pad, bh, bv, sc), lik.half, cfg.detector_pfa)
+        run = hits[:, 0].astype(np.int64)
+        truth = fs.truth[run, k - 1]
+        near = (truth[:, 4] > 0) & (np.hypot(hits[:, 1] - truth[:, 0], hits[:, 2] - truth[:, 2]) <= cfg.divergence_px)
+        present = fs.truth[:, k - 1, 4] > 0
+        out += [np.isin(np.flatnonzero(present), run[near]).sum(), present.sum(), (~near).sum()]
+    return out
 
 
 def _cost(g: dict) -> dict:
@@ -223,6 +252,7 @@ def run_ptcr(ptcr: float, cfg: TBDStudyConfig, index: int) -> dict:
     """Simulate the runs at ``ptcr`` and score every filter on them."""
     scene = cfg.scene.model_copy(update={"ptcr_db": ptcr})
     truth, got = _run_filters(scene, cfg.runs, cfg, index)
+    detector = got.pop("detector")
     filters = {label: _cost(g) | score(truth, g["position"], g["present"], cfg) for label, g in got.items()}
     labels = list(filters)
     pairs = [{"a": a, "b": b, "fisher_p": fisher(filters[a]["divergence"], filters[b]["divergence"])}
@@ -233,7 +263,7 @@ def run_ptcr(ptcr: float, cfg: TBDStudyConfig, index: int) -> dict:
         if count is not None:
             theirs = divergence(count, 100, cfg.confidence)
             paper[label] = {"divergence": theirs, "fisher_p": fisher(entry["divergence"], theirs)}
-    return {"ptcr_db": ptcr, "runs": cfg.runs, "frames": scene.frames,
+    return {"ptcr_db": ptcr, "runs": cfg.runs, "frames": scene.frames, "detector": detector,
             "truth_present_all_frames": int((truth[..., 4] > 0).all(axis=1).sum()),
             "filters": filters, "pairs": pairs, "paper": paper}
 
@@ -280,6 +310,7 @@ def run_exit_reentry(cfg: TBDStudyConfig) -> dict:
                                          "exit_frames": er.exit_frames, "reentry_frame": er.reentry_frame,
                                          "exit_speed": er.speed, "birth_velocity_sd": er.speed})
     truth, got = _run_filters(scene, er.runs, cfg, len(cfg.ptcr_db))
+    got.pop("detector")
     return {"ptcr_db": er.ptcr_db, "runs": er.runs, "frames": er.frames, "reentry_frame": er.reentry_frame,
             "speed": er.speed,
             "filters": {label: _cost(g) | score_exit_reentry(truth, g["position"], g["present"], cfg)

@@ -189,7 +189,7 @@ class TBDModel:
 
     def log_likelihood(self, k: int, x: np.ndarray) -> np.ndarray:
         """The frame LLR (R, N) of frame k at the particles."""
-        d_pad, bh, bv, sc = self._frame(k)
+        d_pad, bh, bv, sc = self.frame_data(k)
         self.evaluations += x.shape[0] * x.shape[1]
         return self.likelihood.llr(d_pad, bh, bv, sc, x[..., 0], x[..., 2], x[..., 4])
 
@@ -216,7 +216,7 @@ class TBDModel:
         return np.concatenate([1.0 - mass[:, None], mean], axis=1)
 
     # -- helpers -------------------------------------------------------------------------------------------
-    def _frame(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def frame_data(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(d padded (R, ., .), beta_h, beta_v, sigma_c (R,)) of frame k, kept for the step's repeated calls."""
         if self._frame_k != k:
             Y = np.asarray(self.frames[:, k - 1], dtype=np.float64)
