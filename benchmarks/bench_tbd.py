@@ -3,7 +3,8 @@
 1. Likelihood evaluations per second of `nnda.filters.frame_likelihood` (numba, parallel over particles),
    for nnda's 7 x 7 templates (the default aspects, their nonzero pixels read) and a full 7 x 7 block (all
    49 pixels), particles spread as in a filter (around the target, N(0, 3^2) pixels) and uniformly over the
-   frame, against a plain numpy gather of the same offsets written here (the reference: numba's gain).
+   frame, against a plain numpy gather of the same offsets written here (the reference: numba's gain);
+   and calls of one run's 5,000 particles (the filter's call size; one thread, best of 20 x repeat calls).
    Target: >= 20 M/s.
 2. ms per frame on a 128 x 128 frame, one run: APF (paper form) at 5,000 particles, resample-move at 8,000,
    and the APF's standard form and SIS at 5,000 for scale. Target: APF <= 5 ms per frame.
@@ -51,6 +52,10 @@ def numpy_llr(lik: FrameLikelihood, d_pad: np.ndarray, bh: float, bv: float, sc:
     return out
 
 
+#: particles of one run's filter (the APF's), timed a call at a time in part 1
+ONE_RUN = 5000
+
+
 def best(f, repeat: int) -> float:
     times = []
     for _ in range(repeat):
@@ -68,7 +73,7 @@ def part1(n: int, repeat: int) -> None:
     print(f"\n1. likelihood evaluations per second, {n:,} particles on a {cfg.rows} x {cfg.cols} frame, "
           f"{numba.get_num_threads()} numba threads (best of {repeat})")
     print(f"{'templates':>22s}{'particles':>11s}{'pixels read':>13s}{'numba M/s':>11s}{'numpy M/s':>11s}"
-          f"{'numba/numpy':>13s}")
+          f"{'numba/numpy':>13s}{'5k-call M/s':>13s}")
     libraries = {"default 7x7 aspects": cfg.amplitude * template_library(),
                  "full 7x7 block": np.full((4, 7, 7), cfg.amplitude)}
     for label, templates in libraries.items():
@@ -88,9 +93,12 @@ def part1(n: int, repeat: int) -> None:
             t_nb = best(lambda a=args, lk=lik: lk.llr(*a), repeat)
             t_np = best(lambda lk=lik, dp=d_pad, xx=x: numpy_llr(lk, dp[0], bh[0], bv[0], sc[0], xx[0, :, 0],
                                                                  xx[0, :, 2], xx[0, :, 4]), repeat)
+            few = min(n, ONE_RUN)  # one run's particles a call: the kernel's one-thread path
+            small = (d_pad, bh, bv, sc, x[:, :few, 0], x[:, :few, 2], x[:, :few, 4])
+            t_small = best(lambda a=small, lk=lik: lk.llr(*a), 20 * repeat)
             pixels = float(lik.counts.mean())
             print(f"{label:>22s}{spread:>11s}{pixels:>13.1f}{n / t_nb / 1e6:>11.1f}{n / t_np / 1e6:>11.1f}"
-                  f"{t_np / t_nb:>13.1f}")
+                  f"{t_np / t_nb:>13.1f}{few / t_small / 1e6:>13.1f}")
 
 
 def part2(frames: int, repeat: int) -> None:
