@@ -31,6 +31,7 @@ SMALLEST = {
     "bench_scaling.py": ["--scans", "2", "--give-up", "1", "--hard-stop", "5", "--out", "scaling.png",
                          "--model", "{seed}"],
     "bench_study.py": ["1"],
+    "bench_tbd.py": ["--particles", "2000", "--repeat", "1", "--frames", "2", "--study-runs", "1"],
     "bench_trackers.py": ["--runs", "1", "--scans", "2", "--model", "{seed}", "--model", "{ext}"],
 }
 

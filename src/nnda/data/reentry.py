@@ -92,13 +92,18 @@ def transition_matrices(dt: float) -> tuple[np.ndarray, np.ndarray]:
     return Phi, G
 
 
-def process_noise(cfg: ReentryConfig) -> np.ndarray:
-    """Q (4, 4) of eq. 4: sigma_w^2 blkdiag(Theta, Theta), Theta = [[dt^3/3, dt^2/2], [dt^2/2, dt]]."""
-    dt = cfg.dt
+def white_noise_acceleration(dt: float, q: float) -> np.ndarray:
+    """Q (4, 4) of nearly-constant velocity in [x, vx, y, vy]: q blkdiag(Theta, Theta), Theta = [[dt^3/3,
+    dt^2/2], [dt^2/2, dt]] (q the acceleration noise's power spectral density)."""
     theta = np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
     Q = np.zeros((4, 4))
-    Q[:2, :2] = Q[2:, 2:] = cfg.sigma_w**2 * theta
+    Q[:2, :2] = Q[2:, 2:] = q * theta
     return Q
+
+
+def process_noise(cfg: ReentryConfig) -> np.ndarray:
+    """Q (4, 4) of eq. 4: sigma_w^2 blkdiag(Theta, Theta)."""
+    return white_noise_acceleration(cfg.dt, cfg.sigma_w**2)
 
 
 def initial_distribution(cfg: ReentryConfig) -> tuple[np.ndarray, np.ndarray]:

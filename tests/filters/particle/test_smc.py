@@ -64,6 +64,17 @@ def test_ess_threshold_resamples_only_when_needed(linear):
     assert (some.ess[some.resampled] < 0.3 * 500).all() and (some.ess[~some.resampled] >= 0.3 * 500).all()
 
 
+def test_sis_is_the_bootstrap_step_without_resampling(linear):
+    """SIS never resamples; its first step (before any resampling) is the bootstrap filter's weighted mean with
+    the same draws, and over many steps its weights degenerate (lower ESS than the bootstrap filter's)."""
+    model, _ = linear
+    sis = run_smc(model, SMCConfig("sis", n_particles=500), 0)
+    boot = run_smc(model, SMCConfig("bootstrap", n_particles=500), 0)
+    assert not sis.resampled.any() and boot.resampled.all()
+    np.testing.assert_array_equal(sis.mean[:, 0], boot.mean[:, 0])
+    assert sis.ess[:, -1].mean() < boot.ess[:, -1].mean()
+
+
 def test_resample_move_records_its_acceptance(linear):
     model, _ = linear
     out = run_smc(model, SMCConfig("resample-move", n_particles=300, moves=2), 0)

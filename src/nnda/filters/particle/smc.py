@@ -3,14 +3,15 @@
 One call filters every run of a model (particles are arrays (R, N, d),
 log-weights (R, N); no Python loop over runs or particles, one over steps):
 
-    cfg = SMCConfig("optimal", n_particles=4000)      # or "bootstrap", "auxiliary", "resample-move"
+    cfg = SMCConfig("optimal", n_particles=4000)      # or "bootstrap", "sis", "auxiliary", "resample-move"
     out = run_smc(model, cfg, seed=1)                  # seed: int or numpy Generator
-    out.mean (R, K, d)   out.ess (R, K)   out.resampled (R, K)   out.log_evidence (R,)
+    out.mean (R, K, e)   out.ess (R, K)   out.resampled (R, K)   out.log_evidence (R,)
 
 Algorithms, step k (W the normalised weights of step k-1):
 
 - ``bootstrap`` (SIR, Gordon-Salmond-Smith; spec B.3 eq. 23): x_k ~ p(x_k |
-  x_k-1), w_k = W p(y_k | x_k).
+  x_k-1), w_k = W p(y_k | x_k). ``sis`` is the same step without any
+  resampling (spec A.3(a); ``ess_threshold`` does not apply).
 - ``optimal``: x_k ~ p(x_k | x_k-1, y_k), w_k = W p(y_k | x_k-1) (spec B.3
   eqs. 16-22; the model's ``optimal_proposal``). ``resample_first`` resamples
   on these weights (which do not depend on x_k) before sampling, the other
@@ -28,13 +29,17 @@ Algorithms, step k (W the normalised weights of step k-1):
   ``moves`` Metropolis-Hastings steps per particle on pi(x_k) ~ p(y_k |
   x_k) p(x_k | parent) with the parent kept, a Gaussian random walk whose
   covariance is ``move_scale``^2 times each run's empirical covariance of
-  x_k - E[x_k | parent]. Runs that did not resample at a step are not moved.
+  x_k - E[x_k | parent], or the model's own symmetric proposal ``move(k, x,
+  rng)`` when it has one (a model with a discrete component, e.g. an
+  aspect). Runs that did not resample at a step are not moved.
 
 Resampling (`nnda.filters.particle.resampling`, by name) runs after the
 weighting, at every step (``ess_threshold`` None, the paper) or in the runs
 whose ESS = 1 / sum W^2 fell below ``ess_threshold`` N. The estimate of a
 step is the weighted mean before resampling (``estimate`` "weighted") or the
-mean after it ("resampled", the paper's post-selection mean). ``ess``
+mean after it ("resampled", the paper's post-selection mean); a model with
+an ``estimate(W, x)`` method (R, e) gives its own summary in place of the
+weighted mean (e.g. a presence probability and a conditional mean). ``ess``
 records the ESS of each step's weights before resampling; ``log_evidence``
 sums log p-hat(y_k | y_1:k-1). Particles are float64 or, with ``dtype``
 "float32", float32 (log-weights stay float64). If every weight of a run is
@@ -54,7 +59,7 @@ from nnda.filters.particle.resampling import resampler
 from nnda.filters.particle.ssm import GaussianProposal, StateSpaceModel, right
 
 #: the algorithms of `SMCConfig.algorithm`
-ALGORITHMS = ("bootstrap", "optimal", "auxiliary", "resample-move")
+ALGORITHMS = ("bootstrap", "sis", "optimal", "auxiliary", "resample-move")
 #: added to the diagonal of the resample-move random walk's covariance (relative to its largest entry)
 _JITTER = 1e-9
 
@@ -100,7 +105,8 @@ class SMCConfig:
 
 @dataclass(frozen=True)
 class SMCResult:
-    """A filter's output over R runs and K steps: ``mean`` (R, K, d) the estimates, ``ess`` (R, K) the
+    """A filter's output over R runs and K steps: ``mean`` (R, K, e) the estimates (e = d, or the size of
+    the model's ``estimate``), ``ess`` (R, K) the
     effective sample size before resampling, ``resampled`` (R, K) whether a run resampled, ``log_evidence``
     (R,) log p-hat(y_1:K), ``acceptance`` (R, K) resample-move's MH acceptance rate (NaN where a run did not
     move; None for the other algorithms)."""
@@ -148,14 +154,15 @@ class _Filter:
         R, N, K = model.runs, cfg.n_particles, model.steps
         self.x = model.sample_initial(N, rng, np.dtype(cfg.dtype).type)
         self.logw = np.full((R, N), -np.log(N))
-        self.mean = np.empty((R, K, model.dim))
+        self.mean: np.ndarray | None = None  # (R, K, e), allocated at the first estimate
+        self.summary = getattr(model, "estimate", _mean)
         self.ess = np.empty((R, K))
         self.resampled = np.zeros((R, K), dtype=bool)
         self.log_evidence = np.zeros(R)
         self.acceptance = np.full((R, K), np.nan) if cfg.algorithm == "resample-move" else None
 
     def run(self) -> SMCResult:
-        step = {"bootstrap": self.bootstrap, "optimal": self.optimal, "auxiliary": self.auxiliary,
+        step = {"bootstrap": self.bootstrap, "sis": self.sis, "optimal": self.optimal, "auxiliary": self.auxiliary,
                 "resample-move": self.resample_move}[self.cfg.algorithm]
         for k in range(1, self.model.steps + 1):
             step(k)
@@ -191,12 +198,20 @@ class _Filter:
         return need, carried
 
     def estimate(self, k: int) -> None:
-        self.mean[:, k - 1] = _mean(np.exp(self.logw), self.x)
+        est = self.summary(np.exp(self.logw), self.x)
+        if self.mean is None:
+            self.mean = np.empty((self.model.runs, self.model.steps, est.shape[-1]))
+        self.mean[:, k - 1] = est
 
     def bootstrap(self, k: int) -> None:
         self.x = self.model.sample_transition(k, self.x, self.rng)
         self.weigh(k, self.model.log_likelihood(k, self.x))
         self._estimate_and_select(k)
+
+    def sis(self, k: int) -> None:
+        self.x = self.model.sample_transition(k, self.x, self.rng)
+        self.weigh(k, self.model.log_likelihood(k, self.x))
+        self.estimate(k)
 
     def _estimate_and_select(self, k: int) -> None:
         if self.cfg.estimate == "weighted":
@@ -254,19 +269,22 @@ class _Filter:
         model, cfg = self.model, self.cfg
         parent = self.x
         self.x = model.sample_transition(k, parent, self.rng)
-        self.weigh(k, model.log_likelihood(k, self.x))
+        ll = model.log_likelihood(k, self.x)
+        self.weigh(k, ll)
         if cfg.estimate == "weighted":
             self.estimate(k)
-        moved, (parent,) = self.select(k, parent)
-        # the random walk's covariance: each run's spread of x_k about E[x_k | parent], scaled
-        d = self.x - model.transition_mean(k, parent)
-        C = np.einsum("rni,rnj->rij", d, d, dtype=np.float64) / d.shape[1]
-        C += (_JITTER * np.abs(C).max(axis=(1, 2), keepdims=True) + np.finfo(float).tiny) * np.eye(C.shape[-1])
-        L = cfg.move_scale * np.linalg.cholesky(C)
-        log_pi = model.log_likelihood(k, self.x) + model.transition_log_density(k, parent, self.x)
+        moved, (parent, ll) = self.select(k, parent, ll)  # the likelihoods follow their particles
+        propose = getattr(model, "move", None)
+        if propose is None:
+            # the random walk's covariance: each run's spread of x_k about E[x_k | parent], scaled
+            d = self.x - model.transition_mean(k, parent)
+            C = np.einsum("rni,rnj->rij", d, d, dtype=np.float64) / d.shape[1]
+            C += (_JITTER * np.abs(C).max(axis=(1, 2), keepdims=True) + np.finfo(float).tiny) * np.eye(C.shape[-1])
+            L = cfg.move_scale * np.linalg.cholesky(C)
+        log_pi = ll + model.transition_log_density(k, parent, self.x)
         accepted = np.zeros(self.x.shape[:2])
         for _ in range(cfg.moves):
-            proposal = self._draw(self.x, L)
+            proposal = self._draw(self.x, L) if propose is None else propose(k, self.x, self.rng)
             log_pi_new = model.log_likelihood(k, proposal) + model.transition_log_density(k, parent, proposal)
             accept = (np.log(self.rng.random(log_pi.shape)) < log_pi_new - log_pi) & moved[:, None]
             self.x = np.where(accept[..., None], proposal, self.x)

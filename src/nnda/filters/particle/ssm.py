@@ -10,6 +10,8 @@ A model holds R runs' observations y_1..y_K and answers, for particles x
     model.transition_mean(k, x0)                     # (R, N, d) E[x_k | x_k-1] (auxiliary look-ahead, moves)
     prop = model.optimal_proposal(k, x0)             # optional: p(x_k | x_k-1, y_k) and log p(y_k | x_k-1)
     prop.mean (R, N, d), prop.chol (R, d, d), prop.log_predictive (R, N)
+    model.move(k, x1, rng)                           # optional: (R, N, d) a symmetric MH proposal (resample-move)
+    model.estimate(W, x1)                            # optional: (R, e) the summary of weights W (R, N)
 
 `AdditiveGaussianSSM` is the family of seed 004 (and of the linear-Gaussian
 check): x_k = g(x_k-1) + w_k, w_k ~ N(0, Q); y_k = H x_k + v_k, v_k ~ N(0,
@@ -50,8 +52,11 @@ class GaussianProposal:
 class StateSpaceModel(Protocol):
     """What the particle filters need of a model bound to R runs' observations of K steps (module docstring).
 
-    ``optimal_proposal`` is optional (the "optimal" algorithm needs it);
-    steps k run from 1 to ``steps``.
+    ``optimal_proposal`` is optional (the "optimal" algorithm needs it), and
+    so are ``move(k, x, rng) -> x'`` (resample-move's symmetric MH proposal
+    in place of the Gaussian random walk) and ``estimate(W, x) -> (R, e)``
+    (the filter's summary in place of the weighted mean); steps k run from 1
+    to ``steps``.
     """
 
     dim: int

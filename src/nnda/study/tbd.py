@@ -1,0 +1,334 @@
+"""The track-before-detect study of seed 003: every filter on the same Monte Carlo frames, with intervals.
+
+At each PTCR, ``runs`` runs of ``frames`` frames are simulated once
+(`nnda.data.frames`, the same seed at every PTCR, so the truths and the
+clutter are shared and only the amplitude differs) and every filter runs
+on them (`nnda.tracking.tbd.run_tbd`, batched over ``chunk_runs`` runs):
+
+    cfg = TBDStudyConfig()                  # 100 runs x 20 frames at 6.5 and 8.1 dB; APF 5,000, RS 8,000, ...
+    results = run_tbd_study(cfg)            # a JSON-ready dict (RESULTS_FORMAT, version 1)
+
+(`nnda tbd`, in `nnda.reports.tbd_section`, writes it and its report atomically.)
+
+Divergence rule: a frame is lost when the truth is present and the filter
+declares it absent or puts its conditional-mean position more than
+``divergence_px`` pixels from the truth, or the truth is absent and the
+filter declares it present; a run diverged when its last
+``divergence_frames`` frames are all lost. Per filter and PTCR: the
+divergent runs with their Clopper-Pearson interval, the per-frame RMSE of
+x, y and position over the truth-present frames of the runs that did not
+diverge and of all runs, the steady-state (last ``steady_frames`` frames)
+per-run position error with a t-interval, the share of truth-present
+frames declared present after ``acquisition`` frames, the likelihood
+evaluations per frame (the cost axis) and the time. Comparisons: each
+pair of filters at a PTCR and each filter across the PTCRs by Fisher's
+exact test on the divergence counts, and each filter's count against the
+paper's.
+
+The conventional chain's first half runs beside the filters on the same
+frames: the per-frame matched-filter detector
+(`nnda.filters.frame_likelihood.detections`) at ``detector_pfa`` per
+position and aspect, scored by its probability of a detection within
+``divergence_px`` of a present target and its other (false) detections
+per frame. (Feeding its detections to nnda's GNN and MHT trackers is not
+built yet.)
+
+With ``exit_reentry`` set, the study also runs the paper's 50-frame
+demonstration (``scenario`` "exit-reentry" of `nnda.data.frames`: the
+target leaves the frame, frames without a target follow, a new one
+enters): per filter, the share of truth-present frames declared present,
+the share of target-free frames declared present (false detections), the
+frames taken to acquire after each entry (the first frame, counting the
+entry frame as 1, declared present within ``divergence_px`` of the truth)
+and to declare the exit (the first target-free frame declared absent,
+counting the first target-free frame as 1), and the per-frame share of
+runs declaring the target present.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+from scipy.stats import binomtest, fisher_exact
+
+from nnda.data.frames import FramesConfig, simulate
+from nnda.filters.frame_likelihood import detections
+from nnda.study.results import mean_ci
+from nnda.tracking.tbd import FILTERS, TBDConfig, run_tbd, tbd_model
+
+RESULTS_FORMAT = "nnda-tbd-study"
+RESULTS_VERSION = 1
+RESULTS_FILE = "results.json"
+#: the paper's divergent runs out of 100 (spec A.4), by PTCR and filter
+PAPER_DIVERGENCES = {6.5: {"apf": 3, "rs": 5}, 8.1: {"apf": 2, "rs": 3}}
+
+_STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+class TBDFilter(BaseModel):
+    """A filter of the study: ``name`` (one of `nnda.tracking.tbd.FILTERS`) at ``particles`` per run."""
+
+    model_config = _STRICT
+
+    name: str
+    particles: int = Field(ge=1)
+
+    @model_validator(mode="after")
+    def _check(self) -> TBDFilter:
+        if self.name not in FILTERS:
+            raise ValueError(f"unknown filter {self.name!r}; choose from {', '.join(FILTERS)}")
+        return self
+
+    @property
+    def label(self) -> str:
+        return f"{self.name}@{self.particles}"
+
+
+#: the paper's pair (APF 5,000, RS 8,000) and, for reference, the APF's standard form and SIS at 5,000
+DEFAULT_FILTERS = (TBDFilter(name="apf", particles=5000), TBDFilter(name="rs", particles=8000),
+                   TBDFilter(name="apf-standard", particles=5000), TBDFilter(name="sis", particles=5000))
+
+
+class ExitReentry(BaseModel):
+    """The exit and re-entry scenario of the study: ``runs`` runs of ``frames`` frames at ``ptcr_db``, the
+    target leaving at ``speed`` (pixels per time unit, also the scene's birth velocity sd, so the filter's
+    prior covers it at one sd) after about ``exit_frames`` frames and a new one entering at ``reentry_frame``."""
+
+    model_config = _STRICT
+
+    runs: int = Field(20, ge=1)
+    frames: int = Field(50, ge=2)
+    ptcr_db: float = 8.1
+    speed: float = Field(15.0, gt=0)
+    exit_frames: int = Field(15, ge=1)
+    reentry_frame: int = Field(30, ge=2)
+
+    @model_validator(mode="after")
+    def _check(self) -> ExitReentry:
+        if self.reentry_frame > self.frames:
+            raise ValueError(f"reentry_frame: {self.reentry_frame} is after the last of {self.frames} frames")
+        return self
+
+
+class TBDStudyConfig(BaseModel):
+    """The study (module docstring): ``runs``, ``seed``, the PTCRs ``ptcr_db``, the ``scene`` (frames config;
+    its ``ptcr_db`` is replaced by each of them), the ``filters``, the filter side ``tbd``, the divergence
+    rule (``divergence_px``, ``divergence_frames``), ``acquisition`` and ``steady_frames``, ``chunk_runs``
+    (runs filtered at once; bounds memory), the intervals' ``confidence``, the ``exit_reentry`` scenario
+    (None: not run) and the matched-filter detector's ``detector_pfa``."""
+
+    model_config = _STRICT
+
+    runs: int = Field(100, ge=1)
+    seed: int = Field(0, ge=0)
+    ptcr_db: tuple[float, ...] = Field((6.5, 8.1), min_length=1)
+    scene: FramesConfig = FramesConfig()
+    filters: tuple[TBDFilter, ...] = Field(DEFAULT_FILTERS, min_length=1)
+    tbd: TBDConfig = TBDConfig()
+    divergence_px: float = Field(5.0, gt=0)
+    divergence_frames: int = Field(5, ge=1)
+    acquisition: int = Field(5, ge=0)
+    steady_frames: int = Field(10, ge=1)
+    chunk_runs: int = Field(25, ge=1)
+    confidence: float = Field(0.95, gt=0, lt=1)
+    exit_reentry: ExitReentry | None = ExitReentry()
+    detector_pfa: float = Field(1e-4, gt=0, lt=1)
+
+    @model_validator(mode="after")
+    def _check(self) -> TBDStudyConfig:
+        K = self.scene.frames
+        for field in ("divergence_frames", "steady_frames"):
+            if getattr(self, field) > K:
+                raise ValueError(f"{field}: {getattr(self, field)} is more than the scene's {K} frames")
+        if self.acquisition >= K:
+            raise ValueError(f"acquisition: {self.acquisition} leaves none of the scene's {K} frames")
+        labels = [f.label for f in self.filters]
+        if len(set(labels)) != len(labels):
+            raise ValueError(f"filters: {labels} names a filter twice")
+        return self
+
+
+def divergence(count: int, runs: int, confidence: float) -> dict:
+    """``count`` of ``runs`` with its Clopper-Pearson (exact binomial) interval."""
+    ci = binomtest(count, runs).proportion_ci(confidence, method="exact")
+    return {"count": count, "runs": runs, "rate": count / runs, "ci_low": float(ci.low), "ci_high": float(ci.high)}
+
+
+def fisher(a: dict, b: dict) -> float:
+    """Two-sided p of Fisher's exact test of two divergence records (count of runs)."""
+    table = [[a["count"], a["runs"] - a["count"]], [b["count"], b["runs"] - b["count"]]]
+    return float(fisher_exact(table).pvalue)
+
+
+def _rmse(err2: np.ndarray, mask: np.ndarray) -> list[float | None]:
+    """Per-frame RMSE (K,) over the runs where ``mask`` (R, K) holds; None for a frame with none."""
+    n = mask.sum(axis=0)
+    total = np.where(mask, err2, 0.0).sum(axis=0)
+    return [None if c == 0 else float(np.sqrt(t / c)) for t, c in zip(total, n)]
+
+
+def score(truth: np.ndarray, position: np.ndarray, present: np.ndarray, cfg: TBDStudyConfig) -> dict:
+    """The measures of one filter over R runs (module docstring): truth (R, K, 5), the filter's position
+    (R, K, 2) and its decisions (R, K)."""
+    on = truth[..., 4] > 0
+    e = position - truth[..., [0, 2]]
+    e = np.where(np.isfinite(e), e, np.inf)
+    dist = np.hypot(e[..., 0], e[..., 1])
+    lost = np.where(on, ~present | (dist > cfg.divergence_px), present)
+    diverged = lost[:, -cfg.divergence_frames:].all(axis=1)
+    kept = on & ~diverged[:, None]
+    steady = np.where(on, dist, np.nan)[:, -cfg.steady_frames:]
+    with np.errstate(invalid="ignore"):
+        per_run = np.nanmean(steady, axis=1)
+    after = on[:, cfg.acquisition:]
+    R = truth.shape[0]
+    return {
+        "divergence": divergence(int(diverged.sum()), R, cfg.confidence),
+        "diverged_runs": np.flatnonzero(diverged).tolist(),
+        "rmse": {"x": _rmse(e[..., 0] ** 2, kept), "y": _rmse(e[..., 1] ** 2, kept),
+                 "position": _rmse(dist**2, kept)},
+        "rmse_all": {"x": _rmse(e[..., 0] ** 2, on), "y": _rmse(e[..., 1] ** 2, on),
+                     "position": _rmse(dist**2, on)},
+        "steady_error": mean_ci(per_run[~diverged], cfg.confidence, low=0.0),
+        "steady_error_all": mean_ci(per_run, cfg.confidence, low=0.0),
+        "declared_present": float(present[:, cfg.acquisition:][after].mean()) if after.any() else None,
+        "false_present": float(present[~on].mean()) if (~on).any() else None,
+    }
+
+
+def _run_filters(scene: FramesConfig, runs: int, cfg: TBDStudyConfig, index: int) -> tuple[np.ndarray, dict]:
+    """Simulate ``runs`` runs of ``scene`` chunk by chunk and run every filter on them: the truth (R, K, 5) and
+    per filter label its position (R, K, 2), decisions (R, K), P(z = 0) (R, K) and cost."""
+    parts: dict[str, dict[str, list]] = {f.label: {"position": [], "present": [], "p_absent": []}
+                                         for f in cfg.filters}
+    cost = {f.label: {"seconds": 0.0, "evaluations": 0.0} for f in cfg.filters}
+    truths, detector = [], np.zeros(3)
+    for start in range(0, runs, cfg.chunk_runs):
+        fs = simulate(scene, min(cfg.chunk_runs, runs - start), cfg.seed, first_run=start)
+        truths.append(fs.truth)
+        detector += _detect(fs, cfg)
+        for fi, f in enumerate(cfg.filters):
+            seed = np.random.SeedSequence([cfg.seed, index, fi, start])
+            out = run_tbd(tbd_model(fs, cfg.tbd), f.name, f.particles, np.random.default_rng(seed))
+            for key in parts[f.label]:
+                parts[f.label][key].append(getattr(out, key))
+            cost[f.label]["seconds"] += out.seconds
+            cost[f.label]["evaluations"] += out.evaluations_per_frame * fs.runs
+    got = {}
+    for f in cfg.filters:
+        got[f.label] = {k: np.concatenate(v) for k, v in parts[f.label].items()} | {
+            "filter": f.name, "particles": f.particles,
+            "evaluations_per_frame": cost[f.label]["evaluations"] / runs, "seconds": cost[f.label]["seconds"],
+            "ms_per_frame": 1e3 * cost[f.label]["seconds"] / (runs * scene.frames)}
+    got["detector"] = {"pfa": cfg.detector_pfa, "p_detection": detector[0] / max(detector[1], 1),
+                       "false_per_frame": detector[2] / (runs * scene.frames)}
+    return np.concatenate(truths), got
+
+
+def _detect(fs, cfg: TBDStudyConfig) -> np.ndarray:
+    """[frames with a detection within divergence_px of the present target, truth-present frames, other
+    detections] of the matched-filter detector on a frame set (the model's known GMRF parameters)."""
+    model = tbd_model(fs, cfg.tbd)
+    lik, out = model.likelihood, np.zeros(3)
+    for k in range(1, fs.steps + 1):
+        d_pad, bh, bv, sc = model.frame_data(k)
+        hits = detections(lik.matched_filter(d_pad, bh, bv, sc), lik.half, cfg.detector_pfa)
+        run = hits[:, 0].astype(np.int64)
+        truth = fs.truth[run, k - 1]
+        near = (truth[:, 4] > 0) & (np.hypot(hits[:, 1] - truth[:, 0], hits[:, 2] - truth[:, 2]) <= cfg.divergence_px)
+        present = fs.truth[:, k - 1, 4] > 0
+        out += [np.isin(np.flatnonzero(present), run[near]).sum(), present.sum(), (~near).sum()]
+    return out
+
+
+def _cost(g: dict) -> dict:
+    return {k: g[k] for k in ("filter", "particles", "evaluations_per_frame", "seconds", "ms_per_frame")} | {
+        "p_absent_mean": g["p_absent"].mean(axis=0).tolist()}
+
+
+def run_ptcr(ptcr: float, cfg: TBDStudyConfig, index: int) -> dict:
+    """Simulate the runs at ``ptcr`` and score every filter on them."""
+    scene = cfg.scene.model_copy(update={"ptcr_db": ptcr})
+    truth, got = _run_filters(scene, cfg.runs, cfg, index)
+    detector = got.pop("detector")
+    filters = {label: _cost(g) | score(truth, g["position"], g["present"], cfg) for label, g in got.items()}
+    labels = list(filters)
+    pairs = [{"a": a, "b": b, "fisher_p": fisher(filters[a]["divergence"], filters[b]["divergence"])}
+             for i, a in enumerate(labels) for b in labels[i + 1:]]
+    paper = {}
+    for label, entry in filters.items():
+        count = PAPER_DIVERGENCES.get(ptcr, {}).get(entry["filter"])
+        if count is not None:
+            theirs = divergence(count, 100, cfg.confidence)
+            paper[label] = {"divergence": theirs, "fisher_p": fisher(entry["divergence"], theirs)}
+    return {"ptcr_db": ptcr, "runs": cfg.runs, "frames": scene.frames, "detector": detector,
+            "truth_present_all_frames": int((truth[..., 4] > 0).all(axis=1).sum()),
+            "filters": filters, "pairs": pairs, "paper": paper}
+
+
+def _frames_until(done: np.ndarray, starts: np.ndarray) -> list[int | None]:
+    """For each start frame (0-based), the frames until ``done`` (K,) first holds from it on, counting the
+    start frame as 1; None where it never does."""
+    out = []
+    for n in starts:
+        hits = np.flatnonzero(done[n:])
+        out.append(int(hits[0]) + 1 if hits.size else None)
+    return out
+
+
+def score_exit_reentry(truth: np.ndarray, position: np.ndarray, present: np.ndarray, cfg: TBDStudyConfig) -> dict:
+    """The exit and re-entry measures of one filter (module docstring): truth (R, K, 5), position (R, K, 2),
+    decisions (R, K)."""
+    on = truth[..., 4] > 0
+    dist = np.hypot(*(position - truth[..., [0, 2]]).transpose(2, 0, 1))
+    hit = on & present & (dist <= cfg.divergence_px)
+    first, later, exits = [], [], []
+    for r in range(truth.shape[0]):
+        edges = np.flatnonzero(np.diff(on[r].astype(int), prepend=0) == 1)
+        acquire = _frames_until(hit[r], edges)
+        first += acquire[:1]
+        later += acquire[1:]
+        exits += _frames_until(~present[r], np.flatnonzero(np.diff(on[r].astype(int)) == -1) + 1)
+
+    def stat(values: list[int | None]) -> dict:
+        return mean_ci(values, cfg.confidence, low=1.0) | {"never": sum(v is None for v in values),
+                                                           "events": len(values)}
+
+    return {"detection_rate": float(present[on].mean()) if on.any() else None,
+            "false_detection_rate": float(present[~on].mean()) if (~on).any() else None,
+            "absent_frames": int((~on).sum()),
+            "first_acquire": stat(first), "reacquire": stat(later), "exit_declared": stat(exits),
+            "present_by_frame": present.mean(axis=0).tolist(), "truth_present_by_frame": on.mean(axis=0).tolist()}
+
+
+def run_exit_reentry(cfg: TBDStudyConfig) -> dict:
+    """The exit and re-entry scenario (``cfg.exit_reentry``) with every filter."""
+    er = cfg.exit_reentry
+    scene = cfg.scene.model_copy(update={"ptcr_db": er.ptcr_db, "frames": er.frames, "scenario": "exit-reentry",
+                                         "exit_frames": er.exit_frames, "reentry_frame": er.reentry_frame,
+                                         "exit_speed": er.speed, "birth_velocity_sd": er.speed})
+    truth, got = _run_filters(scene, er.runs, cfg, len(cfg.ptcr_db))
+    got.pop("detector")
+    return {"ptcr_db": er.ptcr_db, "runs": er.runs, "frames": er.frames, "reentry_frame": er.reentry_frame,
+            "speed": er.speed,
+            "filters": {label: _cost(g) | score_exit_reentry(truth, g["position"], g["present"], cfg)
+                        for label, g in got.items()}}
+
+
+def run_tbd_study(cfg: TBDStudyConfig) -> dict:
+    """Every PTCR of ``cfg``; the results document (format RESULTS_FORMAT), with each filter's divergence
+    compared across the PTCRs (Fisher)."""
+    t0 = time.perf_counter()
+    settings = [run_ptcr(p, cfg, i) for i, p in enumerate(cfg.ptcr_db)]
+    across = []
+    for f in cfg.filters:
+        for i, a in enumerate(settings):
+            for b in settings[i + 1:]:
+                da, db = a["filters"][f.label]["divergence"], b["filters"][f.label]["divergence"]
+                across.append({"filter": f.label, "a": a["ptcr_db"], "b": b["ptcr_db"], "fisher_p": fisher(da, db)})
+    exit_reentry = None if cfg.exit_reentry is None else run_exit_reentry(cfg)
+    return {"format": RESULTS_FORMAT, "version": RESULTS_VERSION, "config": cfg.model_dump(mode="json"),
+            "settings": settings, "across_ptcr": across, "exit_reentry": exit_reentry,
+            "runtime_s": time.perf_counter() - t0}
