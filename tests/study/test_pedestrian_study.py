@@ -141,7 +141,7 @@ def test_the_thesis_values_name_the_studys_filters():
 
 def test_the_command_writes_results_and_a_report(tmp_path):
     out = tmp_path / "ped"
-    args = ["pedestrian", "test4", "--out", str(out), "--test4-runs", "2"]
+    args = ["pedestrian", "test4", "--out", str(out), "--test4-runs", "2", "--no-beyond"]
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 0, result.output
     results = json.loads((out / "results.json").read_text())
@@ -157,3 +157,17 @@ def test_the_command_refuses_an_unknown_test(tmp_path):
     result = CliRunner().invoke(app, ["pedestrian", "test9", "--out", str(tmp_path / "x")])
     assert result.exit_code != 0
     assert "test9" in str(result.exception) + result.output and not (tmp_path / "x").exists()
+
+
+def test_the_contact_trackers_follow_the_walkers_with_the_thesis_cv():
+    """Beyond the thesis: GNN, JPDA and MHT with the thesis's CV as a one-model IMM on the stress scene."""
+    cfg = P.PedestrianStudyConfig(stress_runs=2)
+    scene = P.PEDESTRIAN_SCENES[P.BEYOND_SCENE]
+    ds = next(P.walker_runs(scene, [0]))
+    for f in P.BEYOND[3:]:
+        tracker = P.contact_tracker(f, scene, ds.scenario.sensors)
+        assert tracker.filter.models[0].__class__.__name__ == "ThesisCV"
+    stress = P.score_stress(P.run_traces(P.BEYOND_SCENE, P.BEYOND[3:4], 1, cfg), scene.n_scans, cfg)
+    assert stress["filters"]["GNN"]["per_run"]["ospa"]["mean"] < 1.5
+    table = ps.beyond_table({"scene": P.BEYOND_SCENE, **stress})
+    assert [r[0] for r in table.rows] == ["GNN"]

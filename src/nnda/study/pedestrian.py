@@ -62,9 +62,15 @@ from threadpoolctl import threadpool_limits
 from nnda.data.dataset import Dataset
 from nnda.data.pedestrian.scenes import PEDESTRIAN_SCENES
 from nnda.data.pedestrian.walkers import WalkerScene, walker_runs
+from nnda.errors import validated
+from nnda.filters.ground_motion import ThesisCV
+from nnda.filters.imm import IMM
+from nnda.filters.measurement import measurement_model
 from nnda.study.gospa import gospa, ospa
 from nnda.study.results import mean_ci
+from nnda.tracking.output import CONFIRMED
 from nnda.tracking.registry import TRACKERS, make_tracker
+from nnda.tracking.tracker import Tracker
 
 RESULTS_FORMAT = "nnda-pedestrian-study"
 RESULTS_VERSION = 1
@@ -78,8 +84,12 @@ BIRTH_WEIGHT, SPAWN_WEIGHT = 0.1, 0.05
 BIRTH_RATE, BIRTH_SPEED_SIGMA = 0.1, 1.5
 #: seed-000's unscented central weight W0 = 2/3 is kappa = 2 n for n = 4 (`nnda.filters.unscented`)
 UKF_KAPPA = 8.0
-#: the thesis's motion names of each filter motion (report labels)
+#: the motions whose state is [x, y, v, alpha] (the oracle birth's layout)
 HEADING = ("ncsht-seed-000", "hm-map")
+#: the PHD trackers (the others are contact trackers: `contact_tracker`)
+PHD_KINDS = ("gmphd", "ekphd", "ukphd", "cphd")
+#: the contact trackers' initiation window tops at this speed (m/s; person set A's fastest: 2 + 2 x 1)
+WALKER_MAX_SPEED_M_S = 4.5
 
 _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
@@ -123,16 +133,22 @@ TEST_SPECS = {t.name: t for t in (
              (FilterSpec("EK-PHD, no HM map", "ekphd", "ncsht-seed-000"),
               FilterSpec("EK-PHD, HM map", "ekphd", "hm-map", (("hm_map", "corridor"),))), "test4_runs"),
 )}
+#: beyond the thesis: nnda's contact trackers and the CPHD on the stress scene's walkers, beside two of its PHDs
+BEYOND = (_GM_CV, _EK_NC, FilterSpec("CPHD + CV", "cphd", "cv-seed-000"), FilterSpec("GNN", "gnn", "cv-seed-000"),
+          FilterSpec("JPDA", "jpda", "cv-seed-000"), FilterSpec("MHT", "mht", "cv-seed-000"))
+BEYOND_SCENE = "walk-stress"
 
 
 class PedestrianStudyConfig(BaseModel):
-    """The study: which ``tests``, accuracy ``runs`` of Tests 2-3 and ``test4_runs`` of Test 4,
+    """The study: which ``tests`` and whether the comparison ``beyond`` the thesis, accuracy ``runs`` of Tests
+    2-3 and ``test4_runs`` of Test 4,
     ``stress_runs`` of the stress scenes (target count, runtime), ``seed``, ``birth``, the cut-off
     ``cutoff_m``, ``bootstrap`` resamples, the intervals' ``confidence`` and worker processes ``jobs``."""
 
     model_config = _STRICT
 
     tests: Annotated[tuple[Literal["test2", "test3", "test4"], ...], Field(min_length=1)] = TESTS
+    beyond: bool = True
     runs: Annotated[int, Field(ge=2)] = 300
     test4_runs: Annotated[int, Field(ge=2)] = 600
     stress_runs: Annotated[int, Field(ge=2)] = 25
@@ -167,8 +183,10 @@ def filter_params(f: FilterSpec, scene: WalkerScene, birth: str, dataset: Datase
     area = scene.map.width_m * scene.map.height_m
     params: dict = {"preset": "seed-000", "motion": f.motion, "pd": 0.99, "ps": 0.99,
                     "clutter": scene.radar.clutter_per_m2 * area, "clutter_area_m2": area, **dict(f.extra)}
-    motion = TRACKERS[f.kind].config_type(**params).motion_model()
-    params["spawn"] = {"weight": SPAWN_WEIGHT, "covariance": motion.noise(np.asarray(scene.scan_period_s)).tolist()}
+    if f.kind != "cphd":  # the CPHD has no spawning
+        motion = TRACKERS[f.kind].config_type(**params).motion_model()
+        params["spawn"] = {"weight": SPAWN_WEIGHT,
+                           "covariance": motion.noise(np.asarray(scene.scan_period_s)).tolist()}
     if birth == "measurement":
         params["birth"] = {"kind": "measurement", "rate": BIRTH_RATE, "speed_sigma_m_s": BIRTH_SPEED_SIGMA}
         return params
@@ -186,19 +204,36 @@ def filter_params(f: FilterSpec, scene: WalkerScene, birth: str, dataset: Datase
     return params
 
 
+def contact_tracker(f: FilterSpec, scene: WalkerScene, sensors: tuple) -> Tracker:
+    """A contact tracker for walkers (the comparison beyond the thesis): the thesis's CV as a one-model IMM,
+    the ground radar's p_D and clutter density, an initiation window of 0-``WALKER_MAX_SPEED_M_S``."""
+    params: dict = {"lifecycle": {"v_min": 0.0, "v_max": WALKER_MAX_SPEED_M_S}, **dict(f.extra)}
+    if f.kind in ("jpda", "mht"):
+        params |= {"pd": scene.radar.pd, "clutter_density": scene.radar.clutter_per_m2}
+    cls = TRACKERS[f.kind]
+    config = validated(cls.config_type, params, f.label, f"{f.kind} config")
+    imm = IMM(models=(ThesisCV(),), measurement=measurement_model(sensors[0]), tpm=((1.0,),), mu0=(1.0,))
+    return cls(sensors, config, track_filter=imm)
+
+
 def track(f: FilterSpec, scene: WalkerScene, dataset: Dataset, birth: str) -> Trace:
-    """Run filter ``f`` through one run's scans (one BLAS thread), timing each step."""
+    """Run filter ``f`` through one run's scans (one BLAS thread), timing each step; a contact tracker's
+    confirmed tracks are its estimates (its weight: their number)."""
     with threadpool_limits(1):
-        tracker = make_tracker(f.kind, dataset.scenario.sensors, filter_params(f, scene, birth, dataset))
+        sensors = dataset.scenario.sensors
+        phd = f.kind in PHD_KINDS
+        tracker = (make_tracker(f.kind, sensors, filter_params(f, scene, birth, dataset)) if phd else
+                   contact_tracker(f, scene, sensors))
         scans, xy, extracted, weight, seconds = [], [], [], [], 0.0
         for scan in dataset.scans():
             start = time.perf_counter()
             out = tracker.step(scan)
             seconds += time.perf_counter() - start
-            scans.append(np.full(len(out.state), scan.index))
-            xy.append(out.state[:, [0, 2]])
-            extracted.append(len(out.state))
-            weight.append(tracker.cardinality.mean)
+            state = out.state[out.status == CONFIRMED]
+            scans.append(np.full(len(state), scan.index))
+            xy.append(state[:, [0, 2]])
+            extracted.append(len(state))
+            weight.append(tracker.cardinality.mean if phd else len(state))
     t = dataset.truth
     return Trace(t.scan.astype(np.int64), np.column_stack([t.x, t.y]), np.concatenate(scans).astype(np.int64),
                  np.concatenate(xy).reshape(-1, 2), np.array(extracted), np.array(weight), seconds)
@@ -417,5 +452,9 @@ def run_pedestrian_study(cfg: PedestrianStudyConfig) -> dict:
     """Every test of ``cfg``; the results document (format RESULTS_FORMAT)."""
     t0 = time.perf_counter()
     tests = [run_test(TEST_SPECS[name], cfg, i) for i, name in enumerate(cfg.tests)]
-    return {"format": RESULTS_FORMAT, "version": RESULTS_VERSION, "config": cfg.model_dump(mode="json"),
-            "tests": tests, "runtime_s": time.perf_counter() - t0}
+    out = {"format": RESULTS_FORMAT, "version": RESULTS_VERSION, "config": cfg.model_dump(mode="json"),
+           "tests": tests}
+    if cfg.beyond:
+        out["beyond"] = {"scene": BEYOND_SCENE, **score_stress(run_traces(BEYOND_SCENE, BEYOND, cfg.stress_runs, cfg),
+                                                               PEDESTRIAN_SCENES[BEYOND_SCENE].n_scans, cfg)}
+    return out | {"runtime_s": time.perf_counter() - t0}
