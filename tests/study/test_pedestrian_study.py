@@ -171,3 +171,19 @@ def test_the_contact_trackers_follow_the_walkers_with_the_thesis_cv():
     assert stress["filters"]["GNN"]["per_run"]["ospa"]["mean"] < 1.5
     table = ps.beyond_table({"scene": P.BEYOND_SCENE, **stress})
     assert [r[0] for r in table.rows] == ["GNN"]
+
+
+def test_test1_draws_match_the_closed_form_variances_and_make_the_figures(tmp_path):
+    out = tmp_path / "t1"
+    result = CliRunner().invoke(app, ["pedestrian", "test1", "--out", str(out), "--no-beyond"])
+    assert result.exit_code == 0, result.output
+    results = json.loads((out / "results.json").read_text())
+    assert results["tests"] == [] and "beyond" not in results
+    leaf7 = next(e for e in results["test1"]["variance"]["leaf"] if e["parameter"] == 7.0)
+    assert leaf7["closed"] == pytest.approx(0.0408, abs=5e-5)
+    inside = [e["sampled"]["ci_low"] <= e["closed"] <= e["sampled"]["ci_high"]
+              for entries in results["test1"]["variance"].values() for e in entries]
+    assert sum(inside) >= len(inside) - 2  # 95% intervals: a miss or two among 24 is chance
+    assert [sum(h["counts"]) for h in results["test1"]["histograms"]] == [P.TEST1_DRAWS] * 3
+    assert (out / "figures" / "pedestrian-test1-profiles.png").stat().st_size > 10_000
+    assert "Test 1: variance of the heading deviation" in (out / "report.md").read_text()

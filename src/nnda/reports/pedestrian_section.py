@@ -1,9 +1,11 @@
 """The pedestrian study's report (seed 000, Tests 2-4) and the ``nnda pedestrian`` command that runs and writes it.
 
-``nnda pedestrian --out DIR [test2 test3 test4]`` runs
+``nnda pedestrian --out DIR [test1 test2 test3 test4]`` runs
 `nnda.study.pedestrian.run_pedestrian_study` and writes, atomically,
 ``DIR/results.json``, ``DIR/report.md``, ``DIR/report.html`` and
-``DIR/figures/*.png``. Per test: the thesis's mean RMS beside ours with 95%
+``DIR/figures/*.png``. Test 1: the profiles' variance against the
+objectivity parameter, closed form beside 10,000 draws, their polar
+histograms and pdf curves. Per later test: the thesis's mean RMS beside ours with 95%
 intervals, punished RMS, OSPA, GOSPA, count error and missed share (Tables
 6.1 / 6.3), the paired differences, RMS per time (Figs. 6.4-6.6), the
 stress scene's runtime and target count (Tables 6.2 / 6.4, Figs. 6.8 /
@@ -31,7 +33,7 @@ from nnda.study.pedestrian import RESULTS_FILE, TESTS, PedestrianStudyConfig, ru
 
 REPORT_MD = "report.md"
 REPORT_HTML = "report.html"
-TITLE = "nnda pedestrian study: PHD filters on seed-000's walkers (Frencl 2014, Tests 2-4)"
+TITLE = "nnda pedestrian study: PHD filters on seed-000's walkers (Frencl 2014, Tests 1-4)"
 #: every this many scans in the per-time tables
 EVERY = 5
 
@@ -277,6 +279,58 @@ def rms_figure(test: dict) -> bytes:
     return _png(fig)
 
 
+def variance_table(test1: dict) -> TextTable:
+    """Test 1: each profile's closed-form variance beside its draws', and whether the interval holds it."""
+    rows = []
+    for kind, entries in test1["variance"].items():
+        for e in entries:
+            s = e["sampled"]
+            inside = s["ci_low"] <= e["closed"] <= s["ci_high"]
+            rows.append((kind, f"{e['parameter']:g}", f"{e['closed']:.4f}", stat_cell(s, "{:.4f}"),
+                         "yes" if inside else "no"))
+    return TextTable(f"Test 1: variance of the heading deviation (rad^2) against the objectivity parameter, "
+                     f"{test1['draws']:,d} draws each", ("profile", "parameter", "closed form", "draws",
+                                                        "closed form in the interval"), tuple(rows),
+                     "Draws: the mean of delta^2 (the mean is 0) [95% t-interval]. Parameters: drop n, leaf lambda, "
+                     "balloon sigma (rad).")
+
+
+def test1_figure(test1: dict) -> bytes:
+    """Test 1's figures in one: polar histograms of the draws (top), pdf curves (middle), variance (bottom)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig = plt.figure(figsize=(12, 11))
+    grid = np.asarray(test1["grid"])
+    for i, h in enumerate(test1["histograms"]):
+        ax = fig.add_subplot(3, 3, 1 + i, projection="polar")
+        counts = np.asarray(h["counts"])
+        width = 2 * np.pi / len(counts)
+        ax.bar(-np.pi + width * (np.arange(len(counts)) + 0.5), counts, width=width, color="C0", edgecolor="white")
+        ax.set_title(f"{h['kind']} {h['parameter']:g}: {test1['draws']:,d} draws", fontsize=9)
+    for i, (kind, curves) in enumerate(test1["pdfs"].items()):
+        ax = fig.add_subplot(3, 3, 4 + i)
+        for c in curves:
+            ax.plot(grid, c["density"], label=f"{c['parameter']:.3g}")
+        ax.set_title(f"{kind} pdf", fontsize=9)
+        ax.set_xlabel("deviation (rad)")
+        ax.legend(fontsize=7)
+    for i, (kind, entries) in enumerate(test1["variance"].items()):
+        ax = fig.add_subplot(3, 3, 7 + i)
+        p = [e["parameter"] for e in entries]
+        ax.plot(p, [e["closed"] for e in entries], "-", color="C1", label="closed form")
+        ax.plot(p, [e["sampled"]["mean"] for e in entries], "o", color="C0", ms=3, label="draws")
+        if kind == "drop":
+            ax.set_xscale("log")
+        ax.set_title(f"{kind}: variance (rad^2)", fontsize=9)
+        ax.set_xlabel({"drop": "n", "leaf": "lambda", "balloon": "sigma (rad)"}[kind])
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    return _png(fig)
+
+
 def pedestrian_section(section, results: dict) -> tuple[object, list]:
     """Fill ``section`` (a `nnda.reports.study_report.Section`) from a pedestrian study's results; returns
     it and its figures (`nnda.reports.study_report.Figure`)."""
@@ -293,6 +347,13 @@ def pedestrian_section(section, results: dict) -> tuple[object, list]:
                  "runs.")
     figures = []
     claims = []
+    if "test1" in results:
+        section.text("**Test 1: the heading profiles' objectivity**")
+        section.table(variance_table(results["test1"]), "pedestrian-test1-variance")
+        fig = Figure("pedestrian-test1-profiles.png", "Test 1: polar histograms, pdfs and variance of the profiles",
+                     test1_figure(results["test1"]))
+        section.figure(fig)
+        figures.append(fig)
     for test in results["tests"]:
         section.text(f"**{test['title']}**")
         section.table(accuracy_table(test), f"pedestrian-{test['name']}-accuracy")
@@ -336,7 +397,7 @@ def write_report(out: Path, results: dict) -> None:
 
 def pedestrian(
     out: Annotated[Path, typer.Option(help="directory for results.json, report.md, report.html and figures/")],
-    tests: Annotated[list[str] | None, typer.Argument(help="test2, test3, test4 (default: all)")] = None,
+    tests: Annotated[list[str] | None, typer.Argument(help="test1, test2, test3, test4 (default: all)")] = None,
     config: Annotated[Path | None, typer.Option(help="study config (.toml or .json; fields of "
                                                      "nnda.study.pedestrian.PedestrianStudyConfig)")] = None,
     runs: Annotated[int | None, typer.Option(min=2, help="accuracy runs of Tests 2-3 (default 300)")] = None,

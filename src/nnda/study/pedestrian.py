@@ -1,9 +1,12 @@
 """seed-000's pedestrian study (Frencl 2014, Tests 2-4): PHD filters on simulated walkers, with intervals.
 
-Each test runs its filters on the same Monte Carlo runs of its scenes
+Test 1 (spec §4.2) draws the heading profiles (`run_test1`: their variance
+against the objectivity parameter, closed form beside 10,000 draws, polar
+histograms and pdf curves). Each later test runs its filters on the same
+Monte Carlo runs of its scenes
 (`nnda.data.pedestrian.scenes`; every filter sees the same contacts)::
 
-    cfg = PedestrianStudyConfig()             # Tests 2-4, 300 / 600 / 25 runs, measurement-driven birth
+    cfg = PedestrianStudyConfig()             # Tests 1-4, 300 / 600 / 25 runs, measurement-driven birth
     results = run_pedestrian_study(cfg)       # a JSON-ready dict (RESULTS_FORMAT, version 1)
 
 (`nnda pedestrian`, in `nnda.reports.pedestrian_section`, writes it and its report atomically.)
@@ -60,6 +63,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from threadpoolctl import threadpool_limits
 
 from nnda.data.dataset import Dataset
+from nnda.data.pedestrian.profiles import HeadingProfile
 from nnda.data.pedestrian.scenes import PEDESTRIAN_SCENES
 from nnda.data.pedestrian.walkers import WalkerScene, walker_runs
 from nnda.errors import validated
@@ -75,7 +79,7 @@ from nnda.tracking.tracker import Tracker
 RESULTS_FORMAT = "nnda-pedestrian-study"
 RESULTS_VERSION = 1
 RESULTS_FILE = "results.json"
-TESTS = ("test2", "test3", "test4")
+TESTS = ("test1", "test2", "test3", "test4")
 #: the thesis's birth covariance diag (spec §4.1) in its [x y vx vy] / [x y v alpha] order
 BIRTH_STD = (2.0, 2.0, 1.5, 1.36)
 #: the thesis's birth and spawn weights (spec §4.1)
@@ -147,7 +151,7 @@ class PedestrianStudyConfig(BaseModel):
 
     model_config = _STRICT
 
-    tests: Annotated[tuple[Literal["test2", "test3", "test4"], ...], Field(min_length=1)] = TESTS
+    tests: Annotated[tuple[Literal["test1", "test2", "test3", "test4"], ...], Field(min_length=1)] = TESTS
     beyond: bool = True
     runs: Annotated[int, Field(ge=2)] = 300
     test4_runs: Annotated[int, Field(ge=2)] = 600
@@ -448,12 +452,44 @@ def run_test(spec: TestSpec, cfg: PedestrianStudyConfig, salt: int) -> dict:
     return result
 
 
+#: Test 1 (spec §4.2): draws per profile, the polar histograms' profiles, the pdf curves' and the variance sweep's
+TEST1_DRAWS = 10_000
+TEST1_HISTOGRAMS = (("drop", 10.0), ("leaf", 3.0), ("balloon", 1.0))
+TEST1_PDFS = {"drop": (1.5, math.pi, 5.0, 10.0), "leaf": (0.9, 1.0, math.pi, 5.0), "balloon": (0.45, 0.55, 0.65, 0.75)}
+TEST1_VARIANCE = {"drop": (2.0, 10.0, 50.0, 100.0, 150.0, 200.0, 250.0, 300.0, 350.0, 400.0, 1000.0),
+                  "leaf": (0.5, 1.0, 2.0, 3.0, 4.0, 5.0, 7.0, 10.0), "balloon": (0.1, 0.25, 0.5, 0.75, 1.0)}
+#: bins of Test 1's polar histograms over [-pi, pi)
+TEST1_BINS = 36
+
+
+def run_test1(cfg: PedestrianStudyConfig) -> dict:
+    """Test 1, the profiles' objectivity: for each profile and parameter of `TEST1_VARIANCE`, the closed-form
+    variance beside that of TEST1_DRAWS draws (t-interval of the mean of delta^2; the mean is 0); the polar
+    histograms of TEST1_DRAWS draws (wrapped to [-pi, pi)) and the pdf curves of the thesis's figures."""
+    rng = np.random.default_rng([cfg.seed, 1])
+    grid = np.linspace(-np.pi, np.pi, 361)
+    variance = {kind: [{"parameter": p, "closed": HeadingProfile(kind, p).variance(),
+                        "sampled": mean_ci(HeadingProfile(kind, p).sample(rng, TEST1_DRAWS) ** 2, cfg.confidence)}
+                       for p in params] for kind, params in TEST1_VARIANCE.items()}
+    histograms = []
+    for kind, p in TEST1_HISTOGRAMS:
+        d = (HeadingProfile(kind, p).sample(rng, TEST1_DRAWS) + np.pi) % (2 * np.pi) - np.pi
+        counts, _ = np.histogram(d, bins=TEST1_BINS, range=(-np.pi, np.pi))
+        histograms.append({"kind": kind, "parameter": p, "counts": counts.tolist()})
+    pdfs = {kind: [{"parameter": p, "density": HeadingProfile(kind, p).density(grid).tolist()} for p in params]
+            for kind, params in TEST1_PDFS.items()}
+    return {"draws": TEST1_DRAWS, "variance": variance, "histograms": histograms, "grid": grid.tolist(),
+            "pdfs": pdfs}
+
+
 def run_pedestrian_study(cfg: PedestrianStudyConfig) -> dict:
     """Every test of ``cfg``; the results document (format RESULTS_FORMAT)."""
     t0 = time.perf_counter()
-    tests = [run_test(TEST_SPECS[name], cfg, i) for i, name in enumerate(cfg.tests)]
+    tests = [run_test(TEST_SPECS[name], cfg, i) for i, name in enumerate(cfg.tests) if name in TEST_SPECS]
     out = {"format": RESULTS_FORMAT, "version": RESULTS_VERSION, "config": cfg.model_dump(mode="json"),
            "tests": tests}
+    if "test1" in cfg.tests:
+        out["test1"] = run_test1(cfg)
     if cfg.beyond:
         out["beyond"] = {"scene": BEYOND_SCENE, **score_stress(run_traces(BEYOND_SCENE, BEYOND, cfg.stress_runs, cfg),
                                                                PEDESTRIAN_SCENES[BEYOND_SCENE].n_scans, cfg)}
