@@ -187,3 +187,12 @@ def test_test1_draws_match_the_closed_form_variances_and_make_the_figures(tmp_pa
     assert [sum(h["counts"]) for h in results["test1"]["histograms"]] == [P.TEST1_DRAWS] * 3
     assert (out / "figures" / "pedestrian-test1-profiles.png").stat().st_size > 10_000
     assert "Test 1: variance of the heading deviation" in (out / "report.md").read_text()
+
+
+def test_a_bad_study_config_is_refused_naming_the_file_and_field(tmp_path):
+    config = tmp_path / "ped.toml"
+    config.write_text('runs = 1\nbirth = "psychic"\n')
+    result = CliRunner().invoke(app, ["pedestrian", "--config", str(config), "--out", str(tmp_path / "o")])
+    message = str(result.exception)
+    assert result.exit_code != 0 and str(config) in message and "runs" in message and "birth" in message
+    assert not (tmp_path / "o").exists()

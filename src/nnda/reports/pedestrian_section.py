@@ -26,7 +26,7 @@ import typer
 from rich.console import Console
 
 from nnda.errors import ConfigError, validated
-from nnda.files import atomic_directory, atomic_file, read_config, write_json
+from nnda.files import atomic_file, read_config, refuse_existing, write_results_directory
 from nnda.reports.pedestrian_values import THESIS_EXCESS, THESIS_RMS, THESIS_RUNTIME_S, THESIS_STRESS_SCANS
 from nnda.reports.text_table import DASH, TextTable, stat_cell
 from nnda.study.pedestrian import RESULTS_FILE, TESTS, PedestrianStudyConfig, run_pedestrian_study
@@ -420,10 +420,7 @@ def pedestrian(
              "tests": None if not tests else (TESTS if tests == ["all"] else tuple(tests))}
     data |= {k: v for k, v in given.items() if v is not None}
     cfg = validated(PedestrianStudyConfig, data, str(config or "the command line"), "pedestrian study")
-    if out.exists() and not overwrite:
-        raise FileExistsError(f"{out}: already exists (pass --overwrite to replace it)")
+    refuse_existing(out, overwrite)
     results = run_pedestrian_study(cfg)
-    with atomic_directory(out, overwrite=overwrite) as tmp:
-        write_json(tmp / RESULTS_FILE, results)
-        write_report(tmp, results)
+    write_results_directory(out, overwrite, RESULTS_FILE, results, write_report)
     Console().print(f"pedestrian study: {results['runtime_s']:.0f} s; report: {out / REPORT_HTML}")
