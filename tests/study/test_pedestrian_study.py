@@ -151,6 +151,19 @@ def test_the_command_writes_results_and_a_report(tmp_path):
     assert (out / "figures" / "pedestrian-test4-density.png").stat().st_size > 1000
     again = CliRunner().invoke(app, args)
     assert again.exit_code != 0 and "already exists" in str(again.exception or again.output)
+    second = tmp_path / "again"
+    assert CliRunner().invoke(app, [*args[:3], str(second), *args[4:]]).exit_code == 0
+    assert (second / "results.json").read_bytes() == (out / "results.json").read_bytes()  # same seed, same bytes
+    assert "runtime_s" in json.loads((out / "timing.json").read_text()) and "runtime_s" not in results
+
+
+def test_the_wall_clock_entries_split_off_and_join_back():
+    doc = {"a": 1, "runtime_s": 2.0, "tests": [{"x": [1, 2], "per_run": {"time_per_scan_s": {"mean": 1.0}}},
+                                               {"y": 3}]}
+    kept, timing = P.split_timing(doc)
+    assert "runtime_s" not in json.dumps(kept) and "time_per_scan_s" not in json.dumps(kept)
+    assert timing == {"runtime_s": 2.0, "tests": [{"per_run": {"time_per_scan_s": {"mean": 1.0}}}, {}]}
+    assert P.join_timing(kept, timing) == doc
 
 
 def test_the_command_refuses_an_unknown_test(tmp_path):

@@ -2,8 +2,9 @@
 
 ``nnda pedestrian --out DIR [test1 test2 test3 test4]`` runs
 `nnda.study.pedestrian.run_pedestrian_study` and writes, atomically,
-``DIR/results.json``, ``DIR/report.md``, ``DIR/report.html`` and
-``DIR/figures/*.png``. Test 1: the profiles' variance against the
+``DIR/results.json`` (the same bytes for the same config and seed),
+``DIR/timing.json`` (its wall-clock entries), ``DIR/report.md``,
+``DIR/report.html`` and ``DIR/figures/*.png``. Test 1: the profiles' variance against the
 objectivity parameter, closed form beside 10,000 draws, their polar
 histograms and pdf curves. Per later test: the thesis's mean RMS beside ours with 95%
 intervals, punished RMS, OSPA, GOSPA, count error and missed share (Tables
@@ -26,10 +27,17 @@ import typer
 from rich.console import Console
 
 from nnda.errors import ConfigError, validated
-from nnda.files import atomic_file, read_config, refuse_existing, write_results_directory
+from nnda.files import atomic_file, read_config, refuse_existing, write_json, write_results_directory
 from nnda.reports.pedestrian_values import THESIS_EXCESS, THESIS_RMS, THESIS_RUNTIME_S, THESIS_STRESS_SCANS
 from nnda.reports.text_table import DASH, TextTable, stat_cell
-from nnda.study.pedestrian import RESULTS_FILE, TESTS, PedestrianStudyConfig, run_pedestrian_study
+from nnda.study.pedestrian import (
+    RESULTS_FILE,
+    TESTS,
+    TIMING_FILE,
+    PedestrianStudyConfig,
+    run_pedestrian_study,
+    split_timing,
+)
 
 REPORT_MD = "report.md"
 REPORT_HTML = "report.html"
@@ -422,5 +430,11 @@ def pedestrian(
     cfg = validated(PedestrianStudyConfig, data, str(config or "the command line"), "pedestrian study")
     refuse_existing(out, overwrite)
     results = run_pedestrian_study(cfg)
-    write_results_directory(out, overwrite, RESULTS_FILE, results, write_report)
+    kept, timing = split_timing(results)
+
+    def report(directory: Path, _: dict) -> None:
+        write_json(directory / TIMING_FILE, timing)
+        write_report(directory, results)
+
+    write_results_directory(out, overwrite, RESULTS_FILE, kept, report)
     Console().print(f"pedestrian study: {results['runtime_s']:.0f} s; report: {out / REPORT_HTML}")

@@ -9,7 +9,9 @@ Monte Carlo runs of its scenes
     cfg = PedestrianStudyConfig()             # Tests 1-4, 300 / 600 / 25 runs, measurement-driven birth
     results = run_pedestrian_study(cfg)       # a JSON-ready dict (RESULTS_FORMAT, version 1)
 
-(`nnda pedestrian`, in `nnda.reports.pedestrian_section`, writes it and its report atomically.)
+(`nnda pedestrian`, in `nnda.reports.pedestrian_section`, writes it and its report atomically; the
+wall-clock entries go to their own file, `split_timing`, so the results file is the same, byte for byte,
+for the same config and seed.)
 
 * Test 2 (Tables 6.1, 6.2, Fig. 6.8): GM-PHD + CV, EK-PHD and UK-PHD +
   modified NCSHT; accuracy on ``walk-test2`` (one walker, the same
@@ -79,6 +81,7 @@ from nnda.tracking.tracker import Tracker
 RESULTS_FORMAT = "nnda-pedestrian-study"
 RESULTS_VERSION = 1
 RESULTS_FILE = "results.json"
+TIMING_FILE = "timing.json"
 TESTS = ("test1", "test2", "test3", "test4")
 #: the thesis's birth covariance diag (spec §4.1) in its [x y vx vy] / [x y v alpha] order
 BIRTH_STD = (2.0, 2.0, 1.5, 1.36)
@@ -480,6 +483,41 @@ def run_test1(cfg: PedestrianStudyConfig) -> dict:
             for kind, params in TEST1_PDFS.items()}
     return {"draws": TEST1_DRAWS, "variance": variance, "histograms": histograms, "grid": grid.tolist(),
             "pdfs": pdfs}
+
+
+#: the wall-clock entries of a results document (they change between two runs of the same study)
+TIMING_KEYS = ("runtime_s", "time_per_scan_s")
+
+
+def split_timing(doc):
+    """``doc`` (nested dicts and lists) without its `TIMING_KEYS` entries, and those entries in the same
+    nesting (lists keep their positions, {} where nothing was timed): the first is the same for the same
+    config and seed, byte for byte."""
+    if isinstance(doc, dict):
+        kept, timing = {}, {}
+        for k, v in doc.items():
+            if k in TIMING_KEYS:
+                timing[k] = v
+                continue
+            kept[k], t = split_timing(v)
+            if t:
+                timing[k] = t
+        return kept, timing
+    if isinstance(doc, list):
+        parts = [split_timing(v) for v in doc]
+        timed = [t for _, t in parts]
+        return [k for k, _ in parts], (timed if any(timed) else {})
+    return doc, {}
+
+
+def join_timing(doc, timing):
+    """The inverse of `split_timing`: ``doc`` with ``timing``'s entries put back."""
+    if isinstance(doc, dict) and isinstance(timing, dict):
+        out = {k: join_timing(v, timing.get(k, {})) for k, v in doc.items()}
+        return out | {k: v for k, v in timing.items() if k in TIMING_KEYS}
+    if isinstance(doc, list) and isinstance(timing, list):
+        return [join_timing(d, t) for d, t in zip(doc, timing, strict=True)]
+    return doc
 
 
 def run_pedestrian_study(cfg: PedestrianStudyConfig) -> dict:
