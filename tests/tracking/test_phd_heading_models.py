@@ -119,3 +119,34 @@ def test_heading_models_are_refused_where_they_cannot_work():
     with pytest.raises(ConfigError, match=r"\[x, y, v, alpha\]"):
         make_tracker("ekphd", (radar_sensor(SCENE),), {"motion": "ncsht-seed-000", "birth": {
             "kind": "static", "components": [{"weight": 1.0, "mean": [0.0] * 5, "covariance": np.eye(5).tolist()}]}})
+
+
+def test_headings_either_side_of_pi_merge_on_the_circle():
+    """Two components heading west, one just below pi and one just above -pi: one heading, so they merge
+    (angles = (3,)) into the weighted mean on the circle; compared as plain numbers they are 2 pi apart."""
+    from nnda.filters.mixture import Mixture, merge
+
+    P = np.diag([0.1, 0.1, 0.1, 0.05])
+    mix = Mixture(np.array([0.6, 0.4]), np.array([[0.0, 0, 1.5, np.pi - 0.05], [0.1, 0, 1.5, -np.pi + 0.05]]),
+                  np.stack([P, P]), np.array([1, 2]))
+    assert len(merge(mix, 4.0, "candidate")) == 2
+    one = merge(mix, 4.0, "candidate", ModifiedNCSHT.angles)
+    assert len(one) == 1 and one.labels[0] == 1
+    heading = 0.6 * (np.pi - 0.05) + 0.4 * (np.pi + 0.05)
+    assert one.means[0, 3] == pytest.approx(heading, rel=1e-12)
+    assert one.covariances[0, 3, 3] == pytest.approx(0.05 + 0.6 * 0.4 * 0.1**2, rel=1e-9)
+
+
+@pytest.mark.parametrize("heading", [0.0, np.pi / 2, np.pi - 0.01, -np.pi + 0.01])
+def test_a_walker_is_reported_once_whatever_its_heading(heading):
+    """The newborn ring spans [-pi, pi): a walker heading west is seen by components on both sides of the
+    cut, which merge on the circle, so it gets one estimate, as one heading east does."""
+    rng = np.random.default_rng(0)
+    tracker = make_tracker("ekphd", (radar_sensor(SCENE),), {
+        "preset": "seed-000", "motion": "ncsht-seed-000", "pd": 0.99, "clutter": 1.0, "clutter_area_m2": 5000.0,
+        "birth": {"kind": "measurement", "rate": 0.1, "speed_sigma_m_s": 1.5}})
+    p, counts = np.array([50.0, 25.0]), []
+    for k in range(1, 26):
+        p = p + 1.4 * np.array([np.cos(heading), np.sin(heading)])
+        counts.append(len(tracker.step(Scan(k, float(k), (p + rng.normal(0, 0.25, 2))[None])).state))
+    assert counts[5:] == [1] * 20

@@ -90,6 +90,7 @@ class ModifiedNCSHT:
     sigma_heading_rad: float = SIGMA_HEADING_RAD
     dim: ClassVar[int] = 4
     position: ClassVar[np.ndarray] = np.array([0, 1])
+    angles: ClassVar[tuple[int, ...]] = (3,)
 
     def __post_init__(self) -> None:
         for name in ("sigma_position_m", "sigma_speed_m_s", "sigma_heading_rad"):

@@ -40,10 +40,13 @@ class MotionModel(Protocol):
     ``position`` (2,) gives the indices of x and y (m) in the state: [0, 2]
     for the CV layout [x, vx, y, vy, ...], [0, 1] for a heading state [x, y,
     v, alpha]; a Cartesian position fix is H x with H picking them.
+    ``angles`` are the indices of entries that are angles (rad: compared and
+    averaged on the circle when components merge), () for the CV layout.
     """
 
     dim: int
     position: np.ndarray
+    angles: tuple[int, ...]
 
     @property
     def noise_basis(self) -> np.ndarray:
@@ -138,6 +141,7 @@ class ConstantVelocity:
     sigma_q: float = 3.5
     dim: ClassVar[int] = 4
     position: ClassVar[np.ndarray] = POS
+    angles: ClassVar[tuple[int, ...]] = ()
 
     def __post_init__(self) -> None:
         check_nonnegative("ConstantVelocity.sigma_q", self.sigma_q, error=FilterError)
@@ -202,6 +206,7 @@ class CoordinatedTurn:
     noise_variant: Literal["derived", "printed"] = "derived"
     dim: ClassVar[int] = 5
     position: ClassVar[np.ndarray] = POS
+    angles: ClassVar[tuple[int, ...]] = ()
 
     def __post_init__(self) -> None:
         check_nonnegative("CoordinatedTurn.sigma_q", self.sigma_q, error=FilterError)

@@ -314,7 +314,7 @@ class GMPHDTracker:
         else:
             mean, map_count = float(np.arange(len(dist)) @ dist), int(np.argmax(dist))
         post = gmphd.posterior(pred, pairs, missed, det, cfg.prune_threshold)
-        post = cap(merge(post, cfg.merge_threshold, cfg.merge_covariance), cfg.max_components)
+        post = cap(merge(post, cfg.merge_threshold, cfg.merge_covariance, self.motion.angles), cfg.max_components)
         post, self.next_label = relabel_duplicates(post, self.next_label)
         self.mixture = post
         birth = cfg.birth
