@@ -1,5 +1,11 @@
 """Configs of the PHD trackers: strict pydantic models, checked once when a tracker is configured.
 
+Motion (``motion``): nnda's CV and CT, or seed-000's pedestrian models, its
+CV (``cv-seed-000``), its modified NCSHT [x, y, v, alpha]
+(``ncsht-seed-000``) and its HM-map composite (``hm-map``, with ``hm_map``
+naming the map of the scene: ``corridor`` for walk-test4, ``plus`` for the
+walk-test3 scenes; `HM_MAPS`); the heading models take Cartesian fixes only.
+
 Reduction and extraction come as named parameter sets (``preset``), any of
 whose four numbers an explicit field overrides:
 
@@ -13,10 +19,12 @@ Clutter (``clutter``) is a Poisson number of false contacts per scan, of
 mean lambda, spread uniformly over the radar's coverage in measurement
 space, so its intensity is kappa = lambda / V: per m per rad of (range,
 azimuth) for the polar linearisations (``ekf``, ``ukf``: V = (r_max -
-r_min) 2 pi), per m^2 for Cartesian fixes (``linear``: V = pi (r_max^2 -
-r_min^2)). ``clutter`` gives lambda as a number, or ``"scan"``: each scan's
-own estimate, its contact count less the expected target detections
-(p_D times the predicted target count), at least 0.001; or ``"local"``: each
+r_min) 2 pi), per m^2 for Cartesian fixes (``linear``, or any linearisation
+on a position sensor's fixes: V = pi (r_max^2 - r_min^2), or
+``clutter_area_m2`` when given: a walker scene's map, width x height).
+``clutter`` gives lambda as a number, or ``"scan"``: each scan's own
+estimate, its contact count less the expected target detections (p_D times
+the predicted target count), at least 0.001; or ``"local"``: each
 contact's local density (`nnda.tracking.clutter_density.local_density`, a
 square of half-side ``clutter_radius_m``), times its range for the polar
 space, with lambda the contact count.
