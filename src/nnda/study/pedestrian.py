@@ -246,28 +246,30 @@ def track(f: FilterSpec, scene: WalkerScene, dataset: Dataset, birth: str) -> Tr
                  np.concatenate(xy).reshape(-1, 2), np.array(extracted), np.array(weight), seconds)
 
 
-def _traces(work: tuple[str, int, tuple[int, ...], FilterSpec, str]) -> list[Trace]:
-    """A worker's share: filter ``f`` on runs ``runs`` of scene ``name`` (seed ``seed``)."""
-    name, seed, runs, f, birth = work
+def _traces(work: tuple[str, int, tuple[int, ...], tuple[FilterSpec, ...], str]) -> list[list[Trace]]:
+    """A worker's share: every filter on runs ``runs`` of scene ``name`` (seed ``seed``), each run simulated
+    once for all of them; per filter, its traces in run order."""
+    name, seed, runs, filters, birth = work
     scene = PEDESTRIAN_SCENES[name]
-    return [track(f, scene, ds, birth) for ds in walker_runs(scene, runs, seed)]
+    out: list[list[Trace]] = [[] for _ in filters]
+    for ds in walker_runs(scene, runs, seed):
+        for traces, f in zip(out, filters, strict=True):
+            traces.append(track(f, scene, ds, birth))
+    return out
 
 
 def run_traces(name: str, filters: tuple[FilterSpec, ...], runs: int, cfg: PedestrianStudyConfig
                ) -> dict[str, list[Trace]]:
-    """Every filter on runs 0..runs-1 of scene ``name``, split over ``cfg.jobs`` processes; by label, in run
-    order (the same for any number of processes)."""
-    chunks = np.array_split(np.arange(runs), cfg.jobs)
-    work = [(name, cfg.seed, tuple(int(r) for r in c), f, cfg.birth) for f in filters for c in chunks if len(c)]
+    """Every filter on runs 0..runs-1 of scene ``name``, the runs split over ``cfg.jobs`` processes; by
+    label, in run order (the same for any number of processes)."""
+    chunks = [c for c in np.array_split(np.arange(runs), cfg.jobs) if len(c)]
+    work = [(name, cfg.seed, tuple(int(r) for r in c), filters, cfg.birth) for c in chunks]
     if cfg.jobs == 1:
         done = [_traces(w) for w in work]
     else:
         with ProcessPoolExecutor(cfg.jobs) as pool:
             done = list(pool.map(_traces, work))
-    out: dict[str, list[Trace]] = {f.label: [] for f in filters}
-    for w, traces in zip(work, done, strict=True):
-        out[w[3].label] += traces
-    return out
+    return {f.label: [t for part in done for t in part[i]] for i, f in enumerate(filters)}
 
 
 # ----------------------------------------------------------------------------- scoring
