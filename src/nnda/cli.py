@@ -26,7 +26,7 @@ from nnda.errors import NndaError
 from nnda.models.innovation import IMM_INNOVATION
 from nnda.peers import commands as peer_commands
 from nnda.reports import commands as report_commands
-from nnda.reports import model_commands, reentry_section, tbd_section, track_commands
+from nnda.reports import model_commands, pedestrian_section, reentry_section, tbd_section, track_commands
 from nnda.study.config import default_study, study_to_toml
 
 app = typer.Typer(
@@ -48,6 +48,7 @@ app.command("import-stonesoup")(peer_commands.import_stonesoup)
 app.command("import-detections")(import_commands.import_detections_command)
 app.command("track")(track_commands.track)
 app.command("reentry")(reentry_section.reentry)
+app.command("pedestrian")(pedestrian_section.pedestrian)
 app.command("tbd")(tbd_section.tbd)
 
 

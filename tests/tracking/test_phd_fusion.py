@@ -9,7 +9,7 @@ import pytest
 from nnda.data.dataset import Scan
 from nnda.data.generator import generate
 from nnda.data.presets import PRESETS
-from nnda.data.scenario import Clutter, Sensor
+from nnda.data.scenario import Clutter
 from nnda.errors import ConfigError
 from nnda.filters.mixture import Mixture
 from nnda.study.metrics import run_metrics
@@ -107,8 +107,6 @@ def test_fusion_configs_are_checked():
         make_tracker("fusion-aa", HARBOUR.sensors, {"sensor_pd": [0.9, 0.9, 0.9]})
     with pytest.raises(ConfigError, match="fused_extraction_threshold"):
         make_tracker("fusion-merge", HARBOUR.sensors, {"fused_extraction_threshold": 0.0})
-    with pytest.raises(ConfigError, match="linearises the polar radar"):
-        make_tracker("fusion-merge", (Sensor(kind="position", name="fixes"),))
 
 
 @pytest.mark.parametrize("name", ["fusion-central", "cphd"])

@@ -20,6 +20,7 @@ from nnda.tracking.output import CONFIRMED, NO_CONTACT
 from nnda.tracking.phd.config import REDUCTION_PRESETS
 from nnda.tracking.phd.tracker import CPHDTracker, GMPHDTracker
 from nnda.tracking.registry import TRACKERS, make_tracker
+from tolerances import assert_state
 
 PHD = ["gmphd", "ekphd", "ukphd", "cphd"]
 
@@ -167,11 +168,19 @@ def test_cphd_specific_settings():
         make_tracker("cphd", Sensor(), {"max_cardinality": 0})
 
 
-@pytest.mark.parametrize("kind", ["ekphd", "ukphd", "cphd"])
-def test_a_polar_linearisation_refuses_cartesian_fixes(kind):
-    fixes = PositionMeasurement(((900.0, 0.0), (0.0, 900.0)))
-    with pytest.raises(ConfigError, match="linearises the polar radar measurement.*use linearisation 'linear'"):
-        TRACKERS[kind](Sensor(), measurement=fixes)
+@pytest.mark.parametrize("kind", ["ekphd", "ukphd"])
+def test_on_cartesian_fixes_the_ek_and_uk_phd_differ_from_the_gmphd_only_in_the_prediction(kind):
+    """On Cartesian fixes every linearisation's update is the linear one; with the (linear) CV motion the
+    EKF's and the unscented prediction are exact too, so the EK-PHD and UK-PHD report what the GM-PHD does."""
+    ds = generate(PRESETS["S1"], seed=3)
+    fixes = PositionMeasurement(((60.0**2, 0.0), (0.0, 60.0**2)))
+    a, b = GMPHDTracker(ds.scenario.sensor, measurement=fixes), TRACKERS[kind](ds.scenario.sensor, measurement=fixes)
+    assert b.views[0].volume == a.views[0].volume and not b.views[0].polar
+    for s in list(ds.scans())[:12]:
+        scan = Scan(s.index, s.time, np.column_stack(polar_to_cart(*s.measurements.T)))
+        oa, ob = a.step(scan), b.step(scan)
+        np.testing.assert_array_equal(oa.track_id, ob.track_id)
+        assert_state(ob.state, oa.state, oa.covariance)
 
 
 def test_cartesian_fixes():

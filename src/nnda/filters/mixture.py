@@ -26,6 +26,7 @@ from typing import Literal
 import numpy as np
 from scipy.spatial import cKDTree
 
+from nnda.data.sensor import wrap_angle
 from nnda.errors import FilterError
 from nnda.filters.batch import Batch
 from nnda.filters.kalman import symmetrise
@@ -101,10 +102,11 @@ def cap(mixture: Mixture, j_max: int) -> Mixture:
     return mixture.take(top[np.lexsort((top, -w[top]))])
 
 
-def merge_groups(mixture: Mixture, threshold: float, covariance: Literal["heaviest", "candidate"] = "heaviest"
-                 ) -> tuple[np.ndarray, np.ndarray]:
+def merge_groups(mixture: Mixture, threshold: float, covariance: Literal["heaviest", "candidate"] = "heaviest",
+                 angles: tuple[int, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
     """The groups `merge` forms: each component's group (J,), numbered 0..G-1 in greedy order, and the
-    heaviest component of each group (G,) (`merge`'s leaders, in that order)."""
+    heaviest component of each group (G,) (`merge`'s leaders, in that order); differences of the state
+    entries ``angles`` (rad) are wrapped to [-pi, pi)."""
     check_nonnegative("merge threshold", threshold, error=FilterError)
     if covariance not in ("heaviest", "candidate"):
         raise FilterError(f"merge: covariance must be 'heaviest' or 'candidate', got {covariance!r}")
@@ -119,13 +121,17 @@ def merge_groups(mixture: Mixture, threshold: float, covariance: Literal["heavie
     diag = P[:, k, k]  # (J, n)
     if J <= ALL_PAIRS:
         a, b = _all_pairs(J)
-    else:
-        a, b = cKDTree(m).query_pairs(np.sqrt(threshold * diag.sum(axis=1).max()), output_type="ndarray").T
+    else:  # the tree leaves the angles out: a distance over fewer entries is no larger
+        linear = np.setdiff1d(np.arange(m.shape[1]), angles)
+        a, b = cKDTree(m[:, linear]).query_pairs(np.sqrt(threshold * diag.sum(axis=1).max()),
+                                                 output_type="ndarray").T
     # orient each pair (heavier j, lighter i), then keep those within U
     swap = rank[a] > rank[b]
     j, i = np.where(swap, b, a), np.where(swap, a, b)
     c = i if covariance == "candidate" else j
     d = m[i] - m[j]
+    if angles:
+        d[:, angles] = wrap_angle(d[:, angles])
     maybe = np.flatnonzero((d * d <= threshold * diag[c]).all(axis=1))
     j, i, c, d = j[maybe], i[maybe], c[maybe], d[maybe]
     near = np.einsum("ki,ki->k", d, np.linalg.solve(P[c], d[..., None])[..., 0]) <= threshold
@@ -154,7 +160,8 @@ def merge_groups(mixture: Mixture, threshold: float, covariance: Literal["heavie
     return slot[group], leaders
 
 
-def merge(mixture: Mixture, threshold: float, covariance: Literal["heaviest", "candidate"] = "heaviest") -> Mixture:
+def merge(mixture: Mixture, threshold: float, covariance: Literal["heaviest", "candidate"] = "heaviest",
+          angles: tuple[int, ...] = ()) -> Mixture:
     """Greedy Mahalanobis merge in Vo & Ma's order (Table II, steps 2-4), with U = ``threshold``.
 
     Repeatedly take the heaviest remaining component j (ties: the earlier
@@ -180,22 +187,31 @@ def merge(mixture: Mixture, threshold: float, covariance: Literal["heaviest", "c
     components that have such a pair; each iteration is a vectorised step
     over the heaviest's candidates. The moments of all groups are summed
     at once.
+
+    State entries ``angles`` (rad, e.g. a heading) are compared and
+    averaged on the circle: their differences wrapped to [-pi, pi), each
+    member's angle taken within pi of its group's heaviest before the mean.
     """
-    g, leaders = merge_groups(mixture, threshold, covariance)
+    g, leaders = merge_groups(mixture, threshold, covariance, angles)
     if len(leaders) == len(mixture):
         return mixture.take(leaders)
-    return combine_groups(mixture, g, leaders)
+    return combine_groups(mixture, g, leaders, angles)
 
 
-def combine_groups(mixture: Mixture, g: np.ndarray, leaders: np.ndarray) -> Mixture:
+def combine_groups(mixture: Mixture, g: np.ndarray, leaders: np.ndarray, angles: tuple[int, ...] = ()) -> Mixture:
     """One moment-matched component per group: ``g`` (J,) each component's group 0..G-1, ``leaders`` (G,)
     the component whose label each group carries (and whose moments a group of zero weight keeps):
     w = sum_L w_i, m = sum_L w_i m_i / w, P = sum_L w_i (P_i + (m - m_i)(m - m_i)^T) / w (symmetrised);
-    a group of one member is that member unchanged."""
+    a group of one member is that member unchanged. Entries ``angles`` (rad) of each member are first
+    taken within pi of its leader's."""
     w, m, P = mixture.weights, mixture.means, mixture.covariances
     by_group = np.argsort(g, kind="stable")
     first = np.searchsorted(g[by_group], np.arange(len(leaders)))
     ws, ms, Ps = w[by_group], m[by_group], P[by_group]
+    if angles:
+        ms = ms.copy()
+        ref = m[leaders[g[by_group]]][:, angles]
+        ms[:, angles] = ref + wrap_angle(ms[:, angles] - ref)
     W = np.add.reduceat(ws, first)
     safe = np.where(W > 0, W, 1.0)  # a group of zero weight keeps its heaviest's moments (below)
     mean = np.add.reduceat(ws[:, None] * ms, first) / safe[:, None]

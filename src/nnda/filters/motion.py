@@ -35,9 +35,18 @@ VEL = np.array([1, 3])
 
 
 class MotionModel(Protocol):
-    """What the filters need from a motion model (batched over leading axes)."""
+    """What the filters need from a motion model (batched over leading axes).
+
+    ``position`` (2,) gives the indices of x and y (m) in the state: [0, 2]
+    for the CV layout [x, vx, y, vy, ...], [0, 1] for a heading state [x, y,
+    v, alpha]; a Cartesian position fix is H x with H picking them.
+    ``angles`` are the indices of entries that are angles (rad: compared and
+    averaged on the circle when components merge), () for the CV layout.
+    """
 
     dim: int
+    position: np.ndarray
+    angles: tuple[int, ...]
 
     @property
     def noise_basis(self) -> np.ndarray:
@@ -61,6 +70,31 @@ class MotionModel(Protocol):
     def from_cv(self, x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """This model's state (..., n) and covariance (..., n, n) from a CV estimate."""
         ...
+
+    def to_cv(self, x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The CV estimate [x, vx, y, vy] (..., 4), (..., 4, 4) of this model's states (what trackers report)."""
+        ...
+
+    def newborn(self, xy: np.ndarray, cov: np.ndarray, speed_sigma: float
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Components of a target first seen at fixes ``xy`` (k, 2) m with covariances ``cov`` (k, 2, 2),
+        its velocity unknown (0 +/- ``speed_sigma`` m/s per axis): means (c, n), covariances (c, n, n) and
+        the fix each comes from (c,) (a model may spread one fix over several components)."""
+        ...
+
+
+def standing_newborn(model: MotionModel, xy: np.ndarray, cov: np.ndarray, speed_sigma: float
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """`MotionModel.newborn` for a model with a CV part: one component per fix, CV [x, 0, y, 0] with the
+    fix's covariance and ``speed_sigma``^2 on each velocity, mapped by ``model.from_cv``."""
+    k = len(xy)
+    x = np.zeros((k, 4))
+    x[:, POS] = xy
+    P = np.zeros((k, 4, 4))
+    P[:, POS[:, None], POS] = cov
+    P[:, VEL, VEL] = speed_sigma**2
+    x, P = model.from_cv(x, P)
+    return x, P, np.arange(k)
 
 
 def process_noise(dt: np.ndarray, basis: np.ndarray) -> np.ndarray:
@@ -106,6 +140,8 @@ class ConstantVelocity:
 
     sigma_q: float = 3.5
     dim: ClassVar[int] = 4
+    position: ClassVar[np.ndarray] = POS
+    angles: ClassVar[tuple[int, ...]] = ()
 
     def __post_init__(self) -> None:
         check_nonnegative("ConstantVelocity.sigma_q", self.sigma_q, error=FilterError)
@@ -131,6 +167,15 @@ class ConstantVelocity:
     def from_cv(self, x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The CV estimate itself (eq. 5.30)."""
         return x, P
+
+    def to_cv(self, x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The state itself."""
+        return x, P
+
+    def newborn(self, xy: np.ndarray, cov: np.ndarray, speed_sigma: float
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """One standing component per fix (`standing_newborn`)."""
+        return standing_newborn(self, xy, cov, speed_sigma)
 
 
 @dataclass(frozen=True)
@@ -160,6 +205,8 @@ class CoordinatedTurn:
     omega_var0: float = 0.0076
     noise_variant: Literal["derived", "printed"] = "derived"
     dim: ClassVar[int] = 5
+    position: ClassVar[np.ndarray] = POS
+    angles: ClassVar[tuple[int, ...]] = ()
 
     def __post_init__(self) -> None:
         check_nonnegative("CoordinatedTurn.sigma_q", self.sigma_q, error=FilterError)
@@ -222,6 +269,15 @@ class CoordinatedTurn:
         P5[..., :4, :4] = P
         P5[..., 4, 4] = self.omega_var0
         return x5, P5
+
+    def to_cv(self, x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The CV part: the first four entries."""
+        return x[..., :4], P[..., :4, :4]
+
+    def newborn(self, xy: np.ndarray, cov: np.ndarray, speed_sigma: float
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """One standing component per fix (`standing_newborn`)."""
+        return standing_newborn(self, xy, cov, speed_sigma)
 
 
 _EYE4 = np.eye(4)

@@ -8,6 +8,7 @@ linearisations without changing anything else:
     X = ut.sigma_points(x, P)                  # (K, 2n+1, n) from x (K, n), P (K, n, n)
     mp = predict_measurement(x, P, radar, ut)  # mp.z (K, 2), mp.S (K, 2, 2), mp.PHt (K, n, 2)
     x_new, P_new = kalman.correct(x, P, nu, mp)  # the ordinary Kalman correction
+    x1, P1 = predict(x, P, motion, dt, ut)     # the unscented prediction through a motion model
 
 Sigma points X_0 = x, X_i = x +/- sqrt(n + lambda) L_i (L the Cholesky
 factor of P, columns L_i), lambda = alpha^2 (n + kappa) - n; mean weights
@@ -36,8 +37,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from nnda.errors import FilterError
-from nnda.filters.kalman import MeasurementPrediction, measurement_prediction
+from nnda.filters.kalman import MeasurementPrediction, measurement_prediction, symmetrise
 from nnda.filters.measurement import MeasurementModel
+from nnda.filters.motion import MotionModel
 from nnda.validation import check_finite, check_positive
 
 
@@ -107,3 +109,20 @@ def predict_measurement(x: np.ndarray, P: np.ndarray, measurement: MeasurementMo
     C = np.einsum("s,ksi,ksj->kij", wc, X - x[..., None, :], dZ)
     H = np.linalg.solve(P, C).swapaxes(-1, -2)  # P symmetric: (P^-1 C)^T = C^T P^-1
     return measurement_prediction(z, S, H, C)
+
+
+def predict(x: np.ndarray, P: np.ndarray, motion: MotionModel, dt: np.ndarray | float,
+            transform: UnscentedTransform = UnscentedTransform()) -> tuple[np.ndarray, np.ndarray]:
+    """Unscented prediction of K states x (K, n), P (K, n, n) over ``dt`` s (a number or (K,)): the sigma
+    points through ``motion.transition`` (its Jacobian unused), mean sum_i Wm_i f(X_i), covariance
+    sum_i Wc_i (f(X_i) - m)(f(X_i) - m)^T + Q (additive noise, symmetrised). Exact, as the EKF, for a
+    linear model."""
+    n = x.shape[-1]
+    _, wm, wc = transform.weights(n)
+    dt = np.asarray(dt, dtype=float)
+    X = transform.sigma_points(x, P)
+    fX, _ = motion.transition(X, dt[..., None] if dt.ndim else dt)
+    m = np.einsum("s,ksi->ki", wm, fX)
+    d = fX - m[..., None, :]
+    Q = motion.noise(dt)
+    return m, symmetrise(np.einsum("s,ksi,ksj->kij", wc, d, d) + Q)

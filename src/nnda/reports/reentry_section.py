@@ -19,7 +19,7 @@ import typer
 from rich.console import Console
 
 from nnda.errors import validated
-from nnda.files import atomic_directory, atomic_file, read_config, write_json
+from nnda.files import atomic_file, read_config, refuse_existing, write_results_directory
 from nnda.reports.text_table import DASH, TextTable, interval, stat_cell
 from nnda.study.reentry import PRIOR, RESULTS_FILE, ReentryStudyConfig, run_reentry_study
 
@@ -183,10 +183,7 @@ def reentry(
     data = read_config(config, "re-entry study") if config is not None else {}
     data |= {k: v for k, v in (("runs", runs), ("seed", seed)) if v is not None}
     cfg = validated(ReentryStudyConfig, data, str(config or "--runs/--seed"), "re-entry study")
-    if out.exists() and not overwrite:
-        raise FileExistsError(f"{out}: already exists (pass --overwrite to replace it)")
+    refuse_existing(out, overwrite)
     results = run_reentry_study(cfg)
-    with atomic_directory(out, overwrite=overwrite) as tmp:
-        write_json(tmp / RESULTS_FILE, results)
-        write_report(tmp, results)
+    write_results_directory(out, overwrite, RESULTS_FILE, results, write_report)
     Console().print(f"re-entry study: {results['runtime_s']:.0f} s; report: {out / REPORT_HTML}")

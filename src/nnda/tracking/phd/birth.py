@@ -11,7 +11,9 @@ each contact with weight
     nu_b (1 - e_i) / sum_l (1 - e_l)      (nu_b: expected births per scan),
 
 position from the contact (its Cartesian fix and covariance), velocity 0
-with standard deviation ``speed_sigma`` per axis, at the time of scan k; the
+with standard deviation ``speed_sigma`` per axis (in the motion model's
+state: `MotionModel.newborn`; a heading state [x, y, v, alpha] spreads it
+over a ring of headings), at the time of scan k; the
 tracker predicts it to scan k + 1 like every other component (without the
 survival factor) and drops its missed copy there (a newborn is taken to be
 detected at its first update, as Stone Soup's PHD updater does too). The
@@ -29,26 +31,22 @@ from __future__ import annotations
 import numpy as np
 
 from nnda.filters.mixture import Mixture
-from nnda.filters.motion import POS, VEL, MotionModel
+from nnda.filters.motion import MotionModel
 
 
 def measurement_births(xy: np.ndarray, cov: np.ndarray, explained: np.ndarray, rate: float, speed_sigma: float,
                        motion: MotionModel, first_label: int) -> Mixture:
     """Newborn components from contacts at Cartesian ``xy`` (N, 2) m with covariances ``cov`` (N, 2, 2),
     each explained to ``explained`` (N,) in [0, 1]: weights ``rate`` (1 - e_i) / sum (1 - e), velocity 0
-    +/- ``speed_sigma`` m/s, in ``motion``'s state (`MotionModel.from_cv`), labels from ``first_label`` on.
-    Contacts fully explained get no component."""
+    +/- ``speed_sigma`` m/s, in ``motion``'s state (`MotionModel.newborn`: a contact's weight is shared by
+    the components the model puts on it), labels from ``first_label`` on. Contacts fully explained get
+    no component."""
     free = np.clip(1.0 - explained, 0.0, 1.0)
     total = free.sum()
     keep = np.flatnonzero(free > 0)
     if total <= 0 or not len(keep):
         return Mixture.empty(motion.dim)
-    k = len(keep)
-    x = np.zeros((k, 4))
-    x[:, POS] = xy[keep]
-    P = np.zeros((k, 4, 4))
-    P[:, POS[:, None], POS] = cov[keep]
-    P[:, VEL, VEL] = speed_sigma**2
-    x, P = motion.from_cv(x, P)
-    return Mixture(rate * free[keep] / total, x, P, np.arange(first_label, first_label + k, dtype=np.int64))
-
+    x, P, of = motion.newborn(xy[keep], cov[keep], speed_sigma)
+    share = np.bincount(of, minlength=len(keep))[of]
+    w = rate * free[keep][of] / (total * share)
+    return Mixture(w, x, P, np.arange(first_label, first_label + len(w), dtype=np.int64))

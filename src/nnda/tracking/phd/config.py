@@ -1,5 +1,11 @@
 """Configs of the PHD trackers: strict pydantic models, checked once when a tracker is configured.
 
+Motion (``motion``): nnda's CV and CT, or seed-000's pedestrian models, its
+CV (``cv-seed-000``), its modified NCSHT [x, y, v, alpha]
+(``ncsht-seed-000``) and its HM-map composite (``hm-map``, with ``hm_map``
+naming the map of the scene: ``corridor`` for walk-test4, ``plus`` for the
+walk-test3 scenes; `HM_MAPS`); the heading models take Cartesian fixes only.
+
 Reduction and extraction come as named parameter sets (``preset``), any of
 whose four numbers an explicit field overrides:
 
@@ -13,10 +19,12 @@ Clutter (``clutter``) is a Poisson number of false contacts per scan, of
 mean lambda, spread uniformly over the radar's coverage in measurement
 space, so its intensity is kappa = lambda / V: per m per rad of (range,
 azimuth) for the polar linearisations (``ekf``, ``ukf``: V = (r_max -
-r_min) 2 pi), per m^2 for Cartesian fixes (``linear``: V = pi (r_max^2 -
-r_min^2)). ``clutter`` gives lambda as a number, or ``"scan"``: each scan's
-own estimate, its contact count less the expected target detections
-(p_D times the predicted target count), at least 0.001; or ``"local"``: each
+r_min) 2 pi), per m^2 for Cartesian fixes (``linear``, or any linearisation
+on a position sensor's fixes: V = pi (r_max^2 - r_min^2), or
+``clutter_area_m2`` when given: a walker scene's map, width x height).
+``clutter`` gives lambda as a number, or ``"scan"``: each scan's own
+estimate, its contact count less the expected target detections (p_D times
+the predicted target count), at least 0.001; or ``"local"``: each
 contact's local density (`nnda.tracking.clutter_density.local_density`, a
 square of half-side ``clutter_radius_m``), times its range for the polar
 space, with lambda the contact count.
@@ -24,19 +32,26 @@ space, with lambda the contact count.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Annotated, Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, model_validator
 
 from nnda.errors import ConfigError
-from nnda.filters.ground_motion import ThesisCV
+from nnda.filters.ground_motion import GroundVehicle, HMMap, ModifiedNCSHT, ThesisCV, corridor_hm_map, plus_hm_map
 from nnda.filters.motion import ConstantVelocity, CoordinatedTurn, MotionModel
 from nnda.filters.unscented import UnscentedTransform
 from nnda.tracking.tracker import TrackerConfig
 from nnda.validation import check_covariance
 
 _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+#: the motions whose state is [x, y, v, alpha] (seed-000's modified NCSHT and its HM-map composite)
+HEADING_MOTIONS = ("ncsht-seed-000", "hm-map")
+#: the HM maps of motion "hm-map" by name (`nnda.filters.ground_motion`): Test 4's corridor (scene
+#: walk-test4) and Fig. 5.1's "+" (scenes walk-test3 and walk-test3-stress)
+HM_MAPS: dict[str, Callable[[], HMMap]] = {"corridor": corridor_hm_map, "plus": plus_hm_map}
 
 #: a probability of these filters: in (0, 1]
 Probability = Annotated[float, Field(gt=0, le=1)]
@@ -162,9 +177,21 @@ class PHDConfig(CommonConfig):
     linearisation: Literal["linear", "ekf", "ukf"] = Field(
         "ekf", description="linear: Cartesian fixes (a radar's contacts converted); ekf / ukf: polar radar")
     unscented: UnscentedConfig = UnscentedConfig()
-    motion: Literal["cv", "ct", "cv-seed-000"] = Field(
+    motion: Literal["cv", "ct", "cv-seed-000", "ncsht-seed-000", "hm-map"] = Field(
         "cv", description="cv / ct: nnda's CV and CT (sigma_q, sigma_omega); cv-seed-000: the pedestrian "
-        "thesis's CV with its diagonal Q (`nnda.filters.ground_motion.ThesisCV`; sigma_q unused)")
+        "thesis's CV with its diagonal Q (`nnda.filters.ground_motion.ThesisCV`; sigma_q unused); "
+        "ncsht-seed-000: its modified NCSHT [x, y, v, alpha]; hm-map: its composite model on the HM map "
+        "``hm_map`` (`nnda.filters.ground_motion.GroundVehicle`)")
+    hm_map: Literal["corridor", "plus"] | None = Field(
+        None, description="the HM map of motion 'hm-map': 'corridor' (Test 4, scene walk-test4) or 'plus' "
+        "(Fig. 5.1, scenes walk-test3*)")
+    v0_m_s: Annotated[float, Field(ge=0, description="hm-map: preferred speed v0 (m/s)")] = 1.5
+    rho: Annotated[float, Field(ge=0, le=1, description="hm-map: speed relaxation T / tau_v per step")] = 0.2
+    hm_jacobian: Literal["complete", "printed"] = Field(
+        "complete", description="hm-map: the transition's own Jacobian or the thesis's as printed")
+    clutter_area_m2: Annotated[float, Field(gt=0)] | None = Field(
+        None, description="Cartesian fixes: the area (m^2) false fixes are spread over (a walker scene: its "
+        "map's); None: the sensor's coverage ring")
     sigma_omega: Annotated[float, Field(ge=0, description="turn-rate noise (rad/s) of the CT model")] = 0.044
     birth: Annotated[Annotated[MeasurementBirth, Tag("measurement")] | Annotated[StaticBirth, Tag("static")],
                      Discriminator(_birth_kind)] = MeasurementBirth()
@@ -178,11 +205,15 @@ class PHDConfig(CommonConfig):
     @model_validator(mode="after")
     def _state_sizes(self) -> PHDConfig:
         n = self.state_dim
+        if (self.motion == "hm-map") != (self.hm_map is not None):
+            raise ValueError("hm_map: give it with motion 'hm-map' (and only then): 'corridor' or 'plus'")
         if isinstance(self.birth, StaticBirth):
+            layout = ("[x, y, v, alpha]" if self.motion in HEADING_MOTIONS else
+                      f"[x, vx, y, vy{', omega' if n == 5 else ''}]")
             for i, c in enumerate(self.birth.components):
                 if len(c.mean) != n:
                     raise ValueError(f"birth.components.{i}.mean: the {self.motion} state has {n} entries "
-                                     f"([x, vx, y, vy{', omega' if n == 5 else ''}]), got {len(c.mean)}")
+                                     f"({layout}), got {len(c.mean)}")
         if self.spawn is not None:
             _spd("spawn.covariance", self.spawn.covariance, n)
         if self.linearisation == "ukf" and not n + self.unscented.kappa > 0:
@@ -191,7 +222,7 @@ class PHDConfig(CommonConfig):
 
     @property
     def state_dim(self) -> int:
-        """Size of the filter's state: 4 (CV) or 5 (CT)."""
+        """Size of the filter's state: 4 (CV, NCSHT, HM map) or 5 (CT)."""
         return 5 if self.motion == "ct" else 4
 
     def motion_model(self) -> MotionModel:
@@ -199,6 +230,11 @@ class PHDConfig(CommonConfig):
             return ConstantVelocity(self.sigma_q)
         if self.motion == "cv-seed-000":
             return ThesisCV()
+        if self.motion == "ncsht-seed-000":
+            return ModifiedNCSHT()
+        if self.motion == "hm-map":
+            return GroundVehicle(hm_map=HM_MAPS[self.hm_map](), v0=self.v0_m_s, rho=self.rho,
+                                 jacobian=self.hm_jacobian)
         return CoordinatedTurn(sigma_q=self.sigma_q, sigma_omega=self.sigma_omega)
 
 

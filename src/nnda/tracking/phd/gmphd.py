@@ -44,10 +44,15 @@ from nnda.filters.mixture import Mixture
 from nnda.filters.motion import POS, MotionModel
 
 
-def predict(mixture: Mixture, motion: MotionModel, dt: float, ps: float | np.ndarray) -> Mixture:
+def predict(mixture: Mixture, motion: MotionModel, dt: float, ps: float | np.ndarray,
+            transform: unscented.UnscentedTransform | None = None) -> Mixture:
     """Survivors of ``mixture`` after ``dt`` s (Proposition 1): weights ps w (``ps`` a number or one per
-    component (J,)), EKF-predicted moments, same labels."""
-    m, P = kalman.predict(mixture.means, mixture.covariances, motion, dt)
+    component (J,)), moments predicted by the EKF (``transform`` None) or the unscented transform, same
+    labels."""
+    if transform is None:
+        m, P = kalman.predict(mixture.means, mixture.covariances, motion, dt)
+    else:
+        m, P = unscented.predict(mixture.means, mixture.covariances, motion, dt, transform)
     return Mixture(ps * mixture.weights, m, P, mixture.labels)
 
 
@@ -172,10 +177,10 @@ class UKF(Linearisation):
         return unscented.predict_measurement(x, P, self.measurement, self.transform)
 
 
-def _position_h(n: int) -> np.ndarray:
-    """H (2, n) of a Cartesian position fix on [x, vx, y, vy, ...]: its rows pick x and y."""
+def _position_h(n: int, position: np.ndarray) -> np.ndarray:
+    """H (2, n) of a Cartesian position fix: its rows pick the state's x and y (indices ``position``)."""
     H = np.zeros((2, n))
-    H[0, POS[0]] = H[1, POS[1]] = 1.0
+    H[0, position[0]] = H[1, position[1]] = 1.0
     return H
 
 
@@ -185,17 +190,24 @@ class Linear(Linearisation):
     `contacts` takes them from the measurement model's ``position``: a
     `PositionMeasurement`'s fixes with its R, or a radar's contacts
     converted to Cartesian with their converted covariance (range- and
-    azimuth-dependent), so S_ji = H P_j H^T + R_i.
+    azimuth-dependent), so S_ji = H P_j H^T + R_i. ``position`` (2,) are the
+    indices of x and y in the state (the motion model's `position`; default
+    the CV layout [x, vx, y, vy]).
     """
+
+    def __init__(self, measurement: MeasurementModel, position: np.ndarray = POS) -> None:
+        super().__init__(measurement)
+        self.position = np.asarray(position)
 
     def contacts(self, z):
         return self.measurement.position(z)
 
     def predict_measurement(self, x, P):
         """The noise-free prediction: z = H x, S = H P H^T (the contacts' noise is added per pair)."""
-        H = _position_h(x.shape[-1])
-        PHt = np.ascontiguousarray(P[..., POS])
-        return kalman.measurement_prediction(x[..., POS], PHt[..., POS, :].copy(),
+        at = self.position
+        H = _position_h(x.shape[-1], at)
+        PHt = np.ascontiguousarray(P[..., at])
+        return kalman.measurement_prediction(x[..., at], PHt[..., at, :].copy(),
                                              np.broadcast_to(H, (*x.shape[:-1], *H.shape)), PHt)
 
     def pairs(self, mixture, z, contact_R=None, gate=None):

@@ -5,9 +5,14 @@ several (polar radars, each with its noise, position and coverage, or
 position sensors), a config (`nnda.tracking.phd.config`) and, with one
 sensor, optionally the measurement model of the scans' contacts as a
 component (default: each sensor's, `nnda.filters.measurement.measurement_model`;
-a `PositionMeasurement` makes the contacts Cartesian (x, y) fixes, which
-only the ``linear`` linearisation takes). One scan (J components, N
-contacts):
+a `PositionMeasurement` makes the contacts Cartesian (x, y) fixes, whose
+update is linear whatever the linearisation: there ``ekf`` and ``ukf`` name
+how the motion is predicted, and the clutter is spread over
+``clutter_area_m2`` when given). The motion model says where the position
+sits in its state (`MotionModel.position`): the seed-000 heading models
+[x, y, v, alpha] take Cartesian fixes only. The prediction is the EKF's
+(the motion's Jacobian), or the unscented transform's with ``ukf``. One
+scan (J components, N contacts):
 
 1. predict the posterior to the scan time (survival ps per shortest scan
    period of the sensors: ps^(dt / T); with one sensor dt = T), add spawned
@@ -25,7 +30,7 @@ contacts):
    by how little the filter explains them (measurement-driven birth);
 5. report the extracted components (weight >= the extraction threshold; or,
    ``cphd`` with ``extraction="map"``, its MAP count of heaviest ones) as
-   CONFIRMED tracks, id = label, state [x, vx, y, vy], no contact (a PHD
+   CONFIRMED tracks, id = label, state [x, vx, y, vy] (`MotionModel.to_cv`), no contact (a PHD
    associates none); the scan's target-count estimate is in
    ``tracker.cardinality``.
 
@@ -58,6 +63,7 @@ from nnda.data.sensor import observable
 from nnda.errors import ConfigError, TrackingError
 from nnda.filters.measurement import MeasurementModel, PositionMeasurement, measurement_model
 from nnda.filters.mixture import Mixture, cap, merge
+from nnda.filters.motion import POS
 from nnda.tracking.clutter_density import coverage_area, local_density, measurement_volume
 from nnda.tracking.output import CONFIRMED, NO_CONTACT, TrackerOutput
 from nnda.tracking.phd import cphd, gmphd
@@ -134,7 +140,9 @@ def coverage_volume(sensor: Sensor, polar: bool) -> float:
 class SensorView:
     """What the update takes from one of a tracker's sensors: its contacts' measurement model and how the
     components are linearised for it, its coverage ``volume`` in the update's measurement space
-    (`coverage_volume`), its detection probability ``pd`` and whether its contacts are Cartesian fixes."""
+    (`coverage_volume`, or the config's ``clutter_area_m2``), its detection probability ``pd``, whether its
+    contacts are Cartesian fixes and whether the update linearises the polar measurement (``polar``: false
+    for Cartesian fixes, whose update is linear whatever the linearisation)."""
 
     sensor: Sensor
     measurement: MeasurementModel
@@ -142,6 +150,7 @@ class SensorView:
     volume: float
     pd: float
     cartesian: bool
+    polar: bool
 
 
 class GMPHDTracker:
@@ -164,9 +173,10 @@ class GMPHDTracker:
             raise ConfigError(f"{self.name}: use_sensors names {', '.join(map(repr, unknown))}, which this scene "
                               f"does not have (its sensors: {', '.join(names)})")
         self.used = np.array([cfg.use_sensors is None or n in cfg.use_sensors for n in names])
+        self.motion = cfg.motion_model()
+        self.transform = cfg.unscented.transform() if cfg.linearisation == "ukf" else None  # UT prediction
         self.views = tuple(self._view(s, measurement, pd) for s, pd in zip(self.sensors, pds, strict=True))
         self.period = min(s.scan_period_s for s in self.sensors)
-        self.motion = cfg.motion_model()
         birth = cfg.birth
         self.static = None if not isinstance(birth, StaticBirth) else Mixture.make(
             [c.weight for c in birth.components], [c.mean for c in birth.components],
@@ -178,15 +188,18 @@ class GMPHDTracker:
         cfg = self.config
         measurement = measurement if measurement is not None else measurement_model(sensor)
         cartesian = isinstance(measurement, PositionMeasurement)
-        if cartesian and cfg.linearisation != "linear":
-            raise ConfigError(f"{self.name}: linearisation {cfg.linearisation!r} linearises the polar radar "
-                              f"measurement, but the contacts of sensor {sensor.name!r} are Cartesian position "
-                              f"fixes (a PositionMeasurement); use linearisation 'linear'")
-        linearisation = (gmphd.Linear(measurement) if cfg.linearisation == "linear" else
+        position = self.motion.position
+        if not cartesian and not np.array_equal(position, POS):
+            raise ConfigError(f"{self.name}: motion {cfg.motion!r} has the state [x, y, v, alpha], which the "
+                              f"polar radar measurement of sensor {sensor.name!r} does not take; it needs "
+                              f"Cartesian position fixes (a sensor of kind 'position')")
+        polar = not cartesian and cfg.linearisation != "linear"
+        linearisation = (gmphd.Linear(measurement, position) if not polar else
                          gmphd.EKF(measurement) if cfg.linearisation == "ekf" else
                          gmphd.UKF(measurement, cfg.unscented.transform()))
-        return SensorView(sensor, measurement, linearisation, coverage_volume(sensor, cfg.linearisation != "linear"),
-                          pd, cartesian)
+        volume = (cfg.clutter_area_m2 if not polar and cfg.clutter_area_m2 is not None
+                  else coverage_volume(sensor, polar))
+        return SensorView(sensor, measurement, linearisation, volume, pd, cartesian, polar)
 
     def reset(self) -> None:
         """Forget the intensity, the newborn components and the labels (the start of a run)."""
@@ -202,7 +215,7 @@ class GMPHDTracker:
         what a fusion centre takes from this filter between its scans; the posterior itself at its scan time."""
         if not np.isfinite(self.last_time) or time == self.last_time or not len(self.mixture):
             return self.mixture
-        return gmphd.predict(self.mixture, self.motion, time - self.last_time, self._survival(time))
+        return gmphd.predict(self.mixture, self.motion, time - self.last_time, self._survival(time), self.transform)
 
     # ------------------------------------------------------------------ steps
     def _fresh(self, k: int) -> np.ndarray:
@@ -242,7 +255,8 @@ class GMPHDTracker:
             old, nb = self.mixture, self.newborn
             # survivors (times p_S) and newborn (not: they are born now) predicted in one call
             ps = np.concatenate([np.full(len(old), survival), np.ones(len(nb))])
-            parts = [gmphd.predict(Mixture.concat([old, nb]) if len(nb) else old, self.motion, dt, ps)]
+            parts = [gmphd.predict(Mixture.concat([old, nb]) if len(nb) else old, self.motion, dt, ps,
+                                   self.transform)]
             born += float(nb.weights.sum())
             newborn = slice(len(old), len(old) + len(nb))
             if cfg.spawn is not None and len(old):
@@ -260,7 +274,8 @@ class GMPHDTracker:
         if self.used.sum() == 1:
             return view.pd
         used = [s for s, u in zip(self.sensors, self.used) if u]
-        seen = observable(used, int(self.used[:scan_sensor].sum()), pred.means[:, 0], pred.means[:, 2])
+        x, y = self.motion.position
+        seen = observable(used, int(self.used[:scan_sensor].sum()), pred.means[:, x], pred.means[:, y])
         return np.where(seen, view.pd, 0.0)
 
     def _weights(self, pred: Mixture, pairs: gmphd.Pairs, rate: float, log_c: np.ndarray, born: float,
@@ -290,7 +305,7 @@ class GMPHDTracker:
         pairs = view.linearisation.pairs(pred, zc, contact_R, cfg.gate)
         pd = self._detection(view, scan.sensor, pred)
         expected = pd * float(pred.weights.sum()) if np.ndim(pd) == 0 else float(pd @ pred.weights)
-        rate, log_c = clutter(cfg, z, xy, view.volume, cfg.linearisation != "linear", expected)
+        rate, log_c = clutter(cfg, z, xy, view.volume, view.polar, expected)
         det, missed, dist = self._weights(pred, pairs, rate, log_c, born, pd, survival)
         # a newborn its first update misses is dropped (measurement birth), unless that sensor cannot see it
         missed[newborn] = 0.0 if np.ndim(pd) == 0 else np.where(pd[newborn] > 0, 0.0, missed[newborn])
@@ -299,7 +314,7 @@ class GMPHDTracker:
         else:
             mean, map_count = float(np.arange(len(dist)) @ dist), int(np.argmax(dist))
         post = gmphd.posterior(pred, pairs, missed, det, cfg.prune_threshold)
-        post = cap(merge(post, cfg.merge_threshold, cfg.merge_covariance), cfg.max_components)
+        post = cap(merge(post, cfg.merge_threshold, cfg.merge_covariance, self.motion.angles), cfg.max_components)
         post, self.next_label = relabel_duplicates(post, self.next_label)
         self.mixture = post
         birth = cfg.birth
@@ -325,8 +340,8 @@ class GMPHDTracker:
         shown = shown[np.argsort(mixture.labels[shown], kind="stable")]
         self.cardinality = Cardinality(scan, time, mean, map_count, dist, len(shown))
         k = len(shown)
-        return TrackerOutput(scan, time, mixture.labels[shown], np.full(k, CONFIRMED, np.int8),
-                             mixture.means[shown, :4], mixture.covariances[shown, :4, :4],
+        x, P = self.motion.to_cv(mixture.means[shown], mixture.covariances[shown])
+        return TrackerOutput(scan, time, mixture.labels[shown], np.full(k, CONFIRMED, np.int8), x, P,
                              np.full(k, NO_CONTACT, np.int64))
 
 

@@ -1,0 +1,440 @@
+"""The pedestrian study's report (seed 000, Tests 2-4) and the ``nnda pedestrian`` command that runs and writes it.
+
+``nnda pedestrian --out DIR [test1 test2 test3 test4]`` runs
+`nnda.study.pedestrian.run_pedestrian_study` and writes, atomically,
+``DIR/results.json`` (the same bytes for the same config and seed),
+``DIR/timing.json`` (its wall-clock entries), ``DIR/report.md``,
+``DIR/report.html`` and ``DIR/figures/*.png``. Test 1: the profiles' variance against the
+objectivity parameter, closed form beside 10,000 draws, their polar
+histograms and pdf curves. Per later test: the thesis's mean RMS beside ours with 95%
+intervals, punished RMS, OSPA, GOSPA, count error and missed share (Tables
+6.1 / 6.3), the paired differences, RMS per time (Figs. 6.4-6.6), the
+stress scene's runtime and target count (Tables 6.2 / 6.4, Figs. 6.8 /
+6.16), Test 4's estimate counts and density plots (Table 6.5, Fig. 6.19),
+the verdict on each of the thesis's claims read from the intervals (spec
+§7), and beyond the thesis nnda's GNN, JPDA, MHT and CPHD on the stress
+scene's walkers (``--no-beyond`` leaves it out). ``--birth oracle`` runs the thesis's oracle birth instead (write
+it to its own directory: it is reported on its own).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+from rich.console import Console
+
+from nnda.errors import ConfigError, validated
+from nnda.files import atomic_file, read_config, refuse_existing, write_json, write_results_directory
+from nnda.reports.pedestrian_values import THESIS_EXCESS, THESIS_RMS, THESIS_RUNTIME_S, THESIS_STRESS_SCANS
+from nnda.reports.text_table import DASH, TextTable, stat_cell
+from nnda.study.pedestrian import (
+    RESULTS_FILE,
+    TESTS,
+    TIMING_FILE,
+    PedestrianStudyConfig,
+    run_pedestrian_study,
+    split_timing,
+)
+
+REPORT_MD = "report.md"
+REPORT_HTML = "report.html"
+TITLE = "nnda pedestrian study: PHD filters on seed-000's walkers (Frencl 2014, Tests 1-4)"
+#: every this many scans in the per-time tables
+EVERY = 5
+
+
+def _f(value: float | None, fmt: str = "{:.3f}") -> str:
+    return DASH if value is None else fmt.format(value)
+
+
+def _differs(stat: dict) -> int:
+    """+1 when the interval lies above 0, -1 below, 0 when it holds 0 (or is undefined)."""
+    low, high = stat.get("ci_low"), stat.get("ci_high")
+    if low is None or high is None:
+        return 0
+    return 1 if low > 0 else -1 if high < 0 else 0
+
+
+def accuracy_table(test: dict) -> TextTable:
+    """Tables 6.1 / 6.3 with ours beside the thesis's, and the set measures the thesis lacks."""
+    acc, thesis = test["accuracy"], THESIS_RMS.get(test["name"], {})
+    rows = []
+    for label, f in acc["filters"].items():
+        m, r = f["mean_rms"], f["per_run"]
+        tx, ty = thesis.get(label, (None, None))
+        rows.append((label, _f(tx), stat_cell(m["x"], "{:.3f}"), _f(ty), stat_cell(m["y"], "{:.3f}"),
+                     stat_cell(m["x_punished"], "{:.3f}"), stat_cell(m["y_punished"], "{:.3f}"),
+                     stat_cell(r["ospa"], "{:.3f}"), stat_cell(r["gospa"], "{:.3f}"),
+                     stat_cell(r["count_error"], "{:.3f}"), stat_cell(r["missed"], "{:.1f}", 100.0)))
+    return TextTable(f"{test['title']}: mean RMS over {acc['runs']} runs of {test['accuracy_scene']}",
+                     ("Filter", "thesis RMS_x (m)", "RMS_x (m)", "thesis RMS_y (m)", "RMS_y (m)", "punished x (m)",
+                      "punished y (m)", "OSPA (m)", "GOSPA (m)", "|count error|", "missed (%)"), tuple(rows),
+                     "Mean over time of RMS(k), the closest estimate within the cut-off of each true point (the "
+                     "thesis's min-distance method); punished: every estimate of the point counted. [95% "
+                     "percentile bootstrap over runs]; OSPA, GOSPA, |extracted - true count| and the share of true "
+                     "points without an estimate: means over scans, then runs [95% t-interval].")
+
+
+def differences_table(test: dict) -> TextTable:
+    rows = tuple((f"{d['a']} - {d['b']}", stat_cell(d["x"], "{:+.3f}"), stat_cell(d["y"], "{:+.3f}"),
+                  stat_cell(d["x_punished"], "{:+.3f}"), stat_cell(d["y_punished"], "{:+.3f}"),
+                  stat_cell(d["ospa"], "{:+.3f}"), stat_cell(d["duplicates"], "{:+.2f}"))
+                 for d in test["accuracy"]["differences"])
+    return TextTable(f"{test['name']}: paired differences (same runs)",
+                     ("a - b", "RMS_x (m)", "RMS_y (m)", "punished x (m)", "punished y (m)", "OSPA (m)",
+                      "points with >= 2 estimates per run"), rows,
+                     "Mean-RMS differences with paired bootstrap intervals over runs; OSPA and duplicate counts: "
+                     "per-run differences with t-intervals. An interval excluding 0 is a difference shown.")
+
+
+def profile_table(test: dict) -> TextTable:
+    acc = test["accuracy"]
+    ks = list(range(EVERY, acc["n_scans"] + 1, EVERY))
+    rows = []
+    for label, f in acc["filters"].items():
+        for key, name in (("x", "RMS_x"), ("y", "RMS_y"), ("x_punished", "punished x"), ("y_punished", "punished y")):
+            rows.append((f"{label} {name}", *(_f(f["rms"][key][k - 1], "{:.2f}") for k in ks)))
+    return TextTable(f"{test['name']}: RMS per time (m) over {acc['runs']} runs", ("", *(f"k={k}" for k in ks)),
+                     tuple(rows))
+
+
+def stress_table(test: dict) -> TextTable:
+    """Tables 6.2 / 6.4 and Fig. 6.8's count bias: the thesis's runtimes and ratios beside ours."""
+    st, thesis = test["stress"], THESIS_RUNTIME_S.get(test["name"], {})
+    labels = list(st["filters"])
+    ref_ours, ref_thesis = st["filters"][labels[0]]["runtime_s"]["mean"], thesis.get(labels[0])
+    rows = []
+    for label, f in st["filters"].items():
+        r, t = f["per_run"], thesis.get(label)
+        rows.append((label, _f(t, "{:.2f}"), _f(None if t is None else 1e3 * t / THESIS_STRESS_SCANS, "{:.0f}"),
+                     stat_cell(r["time_per_scan_s"], "{:.2f}", 1e3),
+                     _f(None if t is None or ref_thesis is None else t / ref_thesis, "{:.2f}"),
+                     f"{f['runtime_s']['mean'] / ref_ours:.2f}", stat_cell(r["count_bias"], "{:+.2f}"),
+                     stat_cell(r["weight_bias"], "{:+.2f}"), stat_cell(r["count_error"], "{:.2f}"),
+                     stat_cell(r["ospa"], "{:.3f}"), stat_cell(r["gospa"], "{:.3f}")))
+    return TextTable(f"{test['name']}: stress scene {test['stress_scene']} ({st['runs']} runs of {st['n_scans']} "
+                     "scans)", ("Filter", "thesis run (s)", "thesis ms/scan", "ms/scan", "thesis ratio", "ratio",
+                                "count bias", "weight bias", "|count error|", "OSPA (m)", "GOSPA (m)"), tuple(rows),
+                     f"Time per scan of the filter alone [95% t-interval over runs; one process]; ratio: runtime "
+                     f"over {labels[0]}'s. Count bias: extracted minus true count; weight bias: the intensity's "
+                     "total weight minus the true count; means over scans, then runs.")
+
+
+def count_table(test: dict) -> TextTable:
+    st = test["stress"]
+    ks = list(range(10, st["n_scans"] + 1, 10))
+    first = next(iter(st["filters"].values()))["count"]["truth"]
+    rows = [("true count", *(f"{first[k - 1]:.2f}" for k in ks))]
+    for label, f in st["filters"].items():
+        rows.append((f"{label} extracted", *(f"{f['count']['extracted'][k - 1]:.2f}" for k in ks)))
+    return TextTable(f"{test['name']}: target count per time, mean over {st['runs']} runs (Fig. 6.8 / 6.16)",
+                     ("", *(f"k={k}" for k in ks)), tuple(rows))
+
+
+def excess_table(test: dict) -> TextTable:
+    """Table 6.5: true points by their number of estimates, thesis beside ours."""
+    acc = test["accuracy"]
+    labels = list(acc["filters"])
+    rows = []
+    for n in ("2", "3", ">3"):
+        row = [n]
+        for label in labels:
+            e = acc["filters"][label]["estimates_per_point"][n]
+            total = {k: None if v is None else v * acc["runs"] for k, v in e["per_run"].items() if k != "n"}
+            row += [_f(THESIS_EXCESS.get(label, {}).get(n), "{:d}"), stat_cell(total, "{:.0f}")]
+        rows.append(tuple(row))
+    points = acc["filters"][labels[0]]["true_points"]
+    header = ["estimates of a true point"] + [h for label in labels for h in (f"thesis: {label}", label)]
+    return TextTable(f"{test['name']}: estimate counts over {acc['runs']} runs ({points} true points)", tuple(header),
+                     tuple(rows), "Our counts: totals over runs [runs x the 95% t-interval of the per-run count]. "
+                     "Estimates within the cut-off of the true point count as its own.")
+
+
+def beyond_table(beyond: dict) -> TextTable:
+    """Beyond the thesis: nnda's contact trackers and the CPHD on the stress scene, beside two of its PHDs."""
+    rows = tuple((label, stat_cell(r["ospa"], "{:.3f}"), stat_cell(r["gospa"], "{:.3f}"),
+                  stat_cell(r["count_error"], "{:.2f}"), stat_cell(r["count_bias"], "{:+.2f}"),
+                  stat_cell(r["time_per_scan_s"], "{:.2f}", 1e3))
+                 for label, r in ((label, f["per_run"]) for label, f in beyond["filters"].items()))
+    return TextTable(f"Beyond the thesis: every tracker on {beyond['scene']} ({beyond['runs']} runs of "
+                     f"{beyond['n_scans']} scans)", ("Tracker", "OSPA (m)", "GOSPA (m)", "|count error|",
+                                                    "count bias", "ms/scan"), rows,
+                     "GNN, JPDA and MHT run the thesis's CV as a one-model IMM on the same fixes, with nnda's "
+                     "two-point initiation (window 0-4.5 m/s) and M/N 3-of-4 life cycle; their confirmed tracks are "
+                     "the estimates. Means over scans, then runs [95% t-interval].")
+
+
+def _claim(text: str, stats: list[dict], sign: int) -> str:
+    """A claim that each difference in ``stats`` has sign ``sign``: holds (all shown), fails (one shown the
+    other way) or not shown."""
+    signs = [_differs(s) for s in stats]
+    if all(s == sign for s in signs):
+        return f"{text}: **holds**"
+    if any(s == -sign for s in signs):
+        return f"{text}: **fails** (a difference is shown the other way)"
+    return f"{text}: **not shown** (an interval includes 0)"
+
+
+def _diff(test: dict, a: str, b: str, key: str) -> dict:
+    """The difference a - b of ``key`` (sign flipped when the results hold b - a)."""
+    for d in test["accuracy"]["differences"]:
+        if (d["a"], d["b"]) == (a, b):
+            return d[key]
+        if (d["a"], d["b"]) == (b, a):
+            s = d[key]
+            return {"mean": None if s["mean"] is None else -s["mean"],
+                    "ci_low": None if s["ci_high"] is None else -s["ci_high"],
+                    "ci_high": None if s["ci_low"] is None else -s["ci_low"]}
+    raise KeyError(f"{test['name']}: no difference {a} - {b}")
+
+
+def _runtime_diff(test: dict, a: str, b: str) -> dict:
+    """a's runtime per stress run less b's, as an interval: disjoint t-intervals show a difference."""
+    ra, rb = (test["stress"]["filters"][x]["runtime_s"] for x in (a, b))
+    if None in (ra["ci_low"], rb["ci_low"]):
+        return {"mean": None, "ci_low": None, "ci_high": None}
+    return {"mean": ra["mean"] - rb["mean"], "ci_low": ra["ci_low"] - rb["ci_high"],
+            "ci_high": ra["ci_high"] - rb["ci_low"]}
+
+
+def verdicts(test: dict) -> list[str]:
+    """The thesis's claims for this test (spec §6's conclusions, §7's reading), each read from the intervals."""
+    labels = list(test["accuracy"]["filters"])
+    out = []
+    if test["name"] == "test2":
+        gm, ek, uk = labels
+        out.append(_claim("EK-PHD + NCSHT is the most accurate (lower RMS_x and RMS_y than GM-PHD and UK-PHD)",
+                          [_diff(test, ek, o, k) for o in (gm, uk) for k in ("x", "y")], -1))
+        out.append(_claim("UK-PHD is clearly worse than EK-PHD (higher RMS_x and RMS_y)",
+                          [_diff(test, uk, ek, k) for k in ("x", "y")], +1))
+    if test["name"] == "test3":
+        cv, nc, hm = labels
+        out.append(_claim("the HM-map model gives the most precise estimates (lower RMS_x and RMS_y than CV and "
+                          "NCSHT)", [_diff(test, hm, o, k) for o in (cv, nc) for k in ("x", "y")], -1))
+        out.append(_claim("modified NCSHT beats CV (lower RMS_x and RMS_y)", [_diff(test, nc, cv, k)
+                                                                              for k in ("x", "y")], -1))
+    if test["name"] == "test4":
+        no, hm = labels
+        out.append(_claim("the HM map gives fewer duplicate estimates (points with 2 or more per run)",
+                          [_diff(test, hm, no, "duplicates")], -1))
+        out.append(_claim("the HM map narrows the scatter (lower punished RMS_y across the corridor)",
+                          [_diff(test, hm, no, "y_punished")], -1))
+    if "stress" in test:
+        first, second = list(test["stress"]["filters"])[:2]
+        if test["name"] == "test2":
+            out.append(_claim(f"{first} runs faster than {second} (Table 6.2)", [_runtime_diff(test, first, second)],
+                              -1))
+            out.append(_claim("every filter overestimates the target count (Fig. 6.8)",
+                              [f["per_run"]["count_bias"] for f in test["stress"]["filters"].values()], +1))
+    return out
+
+
+def _png(fig) -> bytes:
+    import io
+
+    import matplotlib.pyplot as plt
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=90, bbox_inches="tight")
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def density_figure(test: dict) -> bytes:
+    """Fig. 6.19: the estimates of every run binned on the corridor, one panel per filter (log colour)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import LogNorm
+
+    items = list(test["density"].items())
+    fig, axes = plt.subplots(len(items), 1, figsize=(9, 2.6 * len(items)), squeeze=False)
+    for ax, (label, d) in zip(axes[:, 0], items, strict=True):
+        counts = np.asarray(d["counts"], dtype=float)
+        im = ax.imshow(np.where(counts > 0, counts, np.nan), origin="lower", norm=LogNorm(vmin=1),
+                       extent=(0, d["width_m"], 0, d["height_m"]), aspect="equal", cmap="viridis")
+        ax.set_ylim(15, 35)
+        ax.set_title(label)
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+        fig.colorbar(im, ax=ax, label="estimates per m^2")
+    return _png(fig)
+
+
+def rms_figure(test: dict) -> bytes:
+    """RMS_x(k) and RMS_y(k), plain and punished, of every filter (Figs. 6.4-6.6 / 6.12-6.14)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.4), sharey=True)
+    for ax, axis in zip(axes, ("x", "y"), strict=True):
+        for i, (label, f) in enumerate(test["accuracy"]["filters"].items()):
+            k = np.arange(1, len(f["rms"][axis]) + 1)
+            plain = np.array([np.nan if v is None else v for v in f["rms"][axis]])
+            punished = np.array([np.nan if v is None else v for v in f["rms"][f"{axis}_punished"]])
+            ax.plot(k, plain, color=f"C{i}", label=label)
+            ax.plot(k, punished, color=f"C{i}", ls=":", lw=1)
+        ax.set_title(f"RMS_{axis} (dotted: punished)")
+        ax.set_xlabel("scan k")
+    axes[0].set_ylabel("m")
+    axes[0].legend(fontsize=8)
+    return _png(fig)
+
+
+def variance_table(test1: dict) -> TextTable:
+    """Test 1: each profile's closed-form variance beside its draws', and whether the interval holds it."""
+    rows = []
+    for kind, entries in test1["variance"].items():
+        for e in entries:
+            s = e["sampled"]
+            inside = s["ci_low"] <= e["closed"] <= s["ci_high"]
+            rows.append((kind, f"{e['parameter']:g}", f"{e['closed']:.4f}", stat_cell(s, "{:.4f}"),
+                         "yes" if inside else "no"))
+    return TextTable(f"Test 1: variance of the heading deviation (rad^2) against the objectivity parameter, "
+                     f"{test1['draws']:,d} draws each", ("profile", "parameter", "closed form", "draws",
+                                                        "closed form in the interval"), tuple(rows),
+                     "Draws: the mean of delta^2 (the mean is 0) [95% t-interval]. Parameters: drop n, leaf lambda, "
+                     "balloon sigma (rad).")
+
+
+def test1_figure(test1: dict) -> bytes:
+    """Test 1's figures in one: polar histograms of the draws (top), pdf curves (middle), variance (bottom)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig = plt.figure(figsize=(12, 11))
+    grid = np.asarray(test1["grid"])
+    for i, h in enumerate(test1["histograms"]):
+        ax = fig.add_subplot(3, 3, 1 + i, projection="polar")
+        counts = np.asarray(h["counts"])
+        width = 2 * np.pi / len(counts)
+        ax.bar(-np.pi + width * (np.arange(len(counts)) + 0.5), counts, width=width, color="C0", edgecolor="white")
+        ax.set_title(f"{h['kind']} {h['parameter']:g}: {test1['draws']:,d} draws", fontsize=9)
+    for i, (kind, curves) in enumerate(test1["pdfs"].items()):
+        ax = fig.add_subplot(3, 3, 4 + i)
+        for c in curves:
+            ax.plot(grid, c["density"], label=f"{c['parameter']:.3g}")
+        ax.set_title(f"{kind} pdf", fontsize=9)
+        ax.set_xlabel("deviation (rad)")
+        ax.legend(fontsize=7)
+    for i, (kind, entries) in enumerate(test1["variance"].items()):
+        ax = fig.add_subplot(3, 3, 7 + i)
+        p = [e["parameter"] for e in entries]
+        ax.plot(p, [e["closed"] for e in entries], "-", color="C1", label="closed form")
+        ax.plot(p, [e["sampled"]["mean"] for e in entries], "o", color="C0", ms=3, label="draws")
+        if kind == "drop":
+            ax.set_xscale("log")
+        ax.set_title(f"{kind}: variance (rad^2)", fontsize=9)
+        ax.set_xlabel({"drop": "n", "leaf": "lambda", "balloon": "sigma (rad)"}[kind])
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    return _png(fig)
+
+
+def pedestrian_section(section, results: dict) -> tuple[object, list]:
+    """Fill ``section`` (a `nnda.reports.study_report.Section`) from a pedestrian study's results; returns
+    it and its figures (`nnda.reports.study_report.Figure`)."""
+    from nnda.reports.study_report import Figure
+
+    cfg = results["config"]
+    birth = ("measurement-driven (rate 0.1 per scan over the unexplained contacts)" if cfg["birth"] == "measurement"
+             else "the thesis's oracle birth (the walkers' true first states at the first scan only)")
+    section.text(f"The thesis's filters on our drawing of its scenes (`nnda.data.pedestrian.scenes`), every filter "
+                 f"on the same runs (seed {cfg['seed']}); birth {birth}; cut-off c = {cfg['cutoff_m']:g} m for the "
+                 f"estimate-to-truth assignment, OSPA and GOSPA (p = 2); {cfg['bootstrap']} bootstrap resamples. "
+                 f"The study took {results['runtime_s']:.0f} s. The thesis's maps and trajectories exist only as "
+                 "figures, so its numbers are a reference, not a target: the verdicts compare filters within our "
+                 "runs.")
+    figures = []
+    claims = []
+    if "test1" in results:
+        section.text("**Test 1: the heading profiles' objectivity**")
+        section.table(variance_table(results["test1"]), "pedestrian-test1-variance")
+        fig = Figure("pedestrian-test1-profiles.png", "Test 1: polar histograms, pdfs and variance of the profiles",
+                     test1_figure(results["test1"]))
+        section.figure(fig)
+        figures.append(fig)
+    for test in results["tests"]:
+        section.text(f"**{test['title']}**")
+        section.table(accuracy_table(test), f"pedestrian-{test['name']}-accuracy")
+        section.table(differences_table(test), f"pedestrian-{test['name']}-differences")
+        section.table(profile_table(test), f"pedestrian-{test['name']}-profile")
+        fig = Figure(f"pedestrian-{test['name']}-rms.png", f"{test['name']}: RMS per time", rms_figure(test))
+        section.figure(fig)
+        figures.append(fig)
+        if "stress" in test:
+            section.table(stress_table(test), f"pedestrian-{test['name']}-stress")
+            section.table(count_table(test), f"pedestrian-{test['name']}-count")
+        if test["name"] == "test4":
+            section.table(excess_table(test), "pedestrian-test4-excess")
+            fig = Figure("pedestrian-test4-density.png", "Test 4: density of the estimates (Fig. 6.19)",
+                         density_figure(test))
+            section.figure(fig)
+            figures.append(fig)
+        found = verdicts(test)
+        claims += found
+        section.text("\n".join(f"* {v}" for v in found))
+    if "beyond" in results:
+        section.table(beyond_table(results["beyond"]), "pedestrian-beyond")
+    if claims:
+        section.text("**The thesis's claims, read from the intervals:**\n\n" + "\n".join(f"* {c}" for c in claims))
+    return section, figures
+
+
+def write_report(out: Path, results: dict) -> None:
+    """``out``/report.md, report.html and figures/ of ``results``."""
+    from nnda.reports.study_report import FIGURES, Section, html_page, markdown_page
+
+    section, figures = pedestrian_section(Section("pedestrian", "Pedestrian study (seed 000)", [], []), results)
+    (out / FIGURES).mkdir(exist_ok=True)
+    for fig in figures:
+        (out / FIGURES / fig.name).write_bytes(fig.png)
+    with atomic_file(out / REPORT_MD) as tmp:
+        tmp.write_text(markdown_page(TITLE, [section]))
+    with atomic_file(out / REPORT_HTML) as tmp:
+        tmp.write_text(html_page(TITLE, [section]))
+
+
+def pedestrian(
+    out: Annotated[Path, typer.Option(help="directory for results.json, report.md, report.html and figures/")],
+    tests: Annotated[list[str] | None, typer.Argument(help="test1, test2, test3, test4 (default: all)")] = None,
+    config: Annotated[Path | None, typer.Option(help="study config (.toml or .json; fields of "
+                                                     "nnda.study.pedestrian.PedestrianStudyConfig)")] = None,
+    runs: Annotated[int | None, typer.Option(min=2, help="accuracy runs of Tests 2-3 (default 300)")] = None,
+    test4_runs: Annotated[int | None, typer.Option(min=2, help="runs of Test 4 (default 600)")] = None,
+    stress_runs: Annotated[int | None, typer.Option(min=2, help="runs of the stress scenes (default 25)")] = None,
+    birth: Annotated[str | None, typer.Option(help="measurement (default) or oracle (the thesis's)")] = None,
+    seed: Annotated[int | None, typer.Option(min=0, help="seed (overrides the config)")] = None,
+    jobs: Annotated[int | None, typer.Option(min=1, help="worker processes")] = None,
+    beyond: Annotated[bool | None, typer.Option(help="also GNN, JPDA, MHT and CPHD on the stress scene")] = None,
+    overwrite: Annotated[bool, typer.Option(help="replace an earlier directory at --out")] = False,
+) -> None:
+    """Run seed-000's pedestrian study (Tests 2-4: PHD filters and motion models on walkers) and write its report."""
+    unknown = [t for t in tests or () if t not in (*TESTS, "all")]
+    if unknown:
+        raise ConfigError(f"pedestrian: unknown test(s) {', '.join(map(repr, unknown))}; choose from "
+                          f"{', '.join(TESTS)} or all")
+    data = read_config(config, "pedestrian study") if config is not None else {}
+    given = {"runs": runs, "test4_runs": test4_runs, "stress_runs": stress_runs, "birth": birth, "seed": seed,
+             "jobs": jobs, "beyond": beyond,
+             "tests": None if not tests else (TESTS if tests == ["all"] else tuple(tests))}
+    data |= {k: v for k, v in given.items() if v is not None}
+    cfg = validated(PedestrianStudyConfig, data, str(config or "the command line"), "pedestrian study")
+    refuse_existing(out, overwrite)
+    results = run_pedestrian_study(cfg)
+    kept, timing = split_timing(results)
+
+    def report(directory: Path, _: dict) -> None:
+        write_json(directory / TIMING_FILE, timing)
+        write_report(directory, results)
+
+    write_results_directory(out, overwrite, RESULTS_FILE, kept, report)
+    Console().print(f"pedestrian study: {results['runtime_s']:.0f} s; report: {out / REPORT_HTML}")
