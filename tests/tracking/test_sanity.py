@@ -105,6 +105,21 @@ def test_sanity_reasons_each_rule():
     np.testing.assert_array_equal(sanity_reasons(x, P, (SENSOR,), GATE_99, off), [0, 0, 0, 0])
 
 
+def test_sanity_reasons_one_sensor_path_matches_the_many_sensor_one():
+    """The one-sensor shortcut (no minimum over a list) gives the codes of the general path: the same
+    sensor twice, and a sector radar whose coverage the full-circle one contains."""
+    rng = np.random.default_rng(5)
+    x = np.column_stack([rng.uniform(-45_000, 45_000, 200), rng.uniform(-600, 600, 200),
+                         rng.uniform(-45_000, 45_000, 200), rng.uniform(-600, 600, 200)])
+    P = np.diag([50.0**2, 10.0**2, 50.0**2, 10.0**2]) * rng.uniform(1.0, 4_000.0, (200, 1, 1))
+    cfg = LifecycleConfig()
+    one = sanity_reasons(x, P, (SENSOR,), GATE_99, cfg)
+    assert set(one.tolist()) == {0, 1, 2, 3}  # every rule bites somewhere, so the comparison can fail
+    np.testing.assert_array_equal(one, sanity_reasons(x, P, (SENSOR, SENSOR), GATE_99, cfg))
+    sector = Sensor(boresight_deg=90.0, fov_deg=90.0)
+    np.testing.assert_array_equal(one, sanity_reasons(x, P, (SENSOR, sector), GATE_99, cfg))
+
+
 def test_coverage_distance_and_gate_radius():
     sector = Sensor(boresight_deg=90.0, fov_deg=90.0)
     np.testing.assert_allclose(outside_coverage_m(SENSOR, np.array([0.0, 3_000.0, 31_000.0]), np.zeros(3)),

@@ -280,7 +280,8 @@ def sanity_reasons(x: np.ndarray, P: np.ndarray, sensors: tuple[Sensor, ...], ga
         return code
     if cfg.coverage_deletion:
         noise = min(sensor_noise_m(s) for s in sensors)
-        outside = np.min([outside_coverage_m(s, x[:, 0], x[:, 2]) for s in sensors], axis=0)
+        outside = (outside_coverage_m(sensors[0], x[:, 0], x[:, 2]) if len(sensors) == 1 else
+                   np.min([outside_coverage_m(s, x[:, 0], x[:, 2]) for s in sensors], axis=0))
         code[outside > gate_radius_m(P, noise, gate)] = 2
     if cfg.max_position_sd_m is not None:
         code[(code == 0) & (position_sd(P) > cfg.max_position_sd_m)] = 3

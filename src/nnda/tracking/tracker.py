@@ -363,10 +363,13 @@ class ContactTracker(ABC):
         reported states x (K, 4), P (K, 4, 4) (`nnda.tracking.lifecycle.sanity_reasons`); the scan's
         deletions are counted in ``deletions`` by reason (status ``before`` the scan tells them apart)."""
         gone = (status == DELETED) & (before != DELETED)
-        self.deletions["unconfirmed"] += int((gone & (before == PRELIMINARY)).sum())
-        self.deletions[self._ended_reason] += int((gone & (before == CONFIRMED)).sum())
+        if gone.any():  # most scans delete nothing: skip the counts' four reductions
+            self.deletions["unconfirmed"] += int((gone & (before == PRELIMINARY)).sum())
+            self.deletions[self._ended_reason] += int((gone & (before == CONFIRMED)).sum())
         live = np.flatnonzero(status != DELETED)
-        code = sanity_reasons(x[live], P[live], self.sensors, self.gate_threshold, self.config.lifecycle)
+        if live.size < status.size:
+            x, P = x[live], P[live]
+        code = sanity_reasons(x, P, self.sensors, self.gate_threshold, self.config.lifecycle)
         if not code.any():
             return status
         for i, reason in enumerate(SANITY_REASONS, start=1):
