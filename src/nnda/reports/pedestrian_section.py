@@ -27,7 +27,8 @@ import typer
 from rich.console import Console
 
 from nnda.errors import ConfigError, validated
-from nnda.files import atomic_file, read_config, refuse_existing, write_json, write_results_directory
+from nnda.files import read_config, refuse_existing, write_json, write_results_directory
+from nnda.reports.pages import REPORT_HTML, write_pages
 from nnda.reports.pedestrian_values import THESIS_EXCESS, THESIS_RMS, THESIS_RUNTIME_S, THESIS_STRESS_SCANS
 from nnda.reports.text_table import DASH, TextTable, stat_cell
 from nnda.study.pedestrian import (
@@ -39,8 +40,6 @@ from nnda.study.pedestrian import (
     split_timing,
 )
 
-REPORT_MD = "report.md"
-REPORT_HTML = "report.html"
 TITLE = "nnda pedestrian study: PHD filters on seed-000's walkers (Frencl 2014, Tests 1-4)"
 #: every this many scans in the per-time tables
 EVERY = 5
@@ -391,16 +390,10 @@ def pedestrian_section(section, results: dict) -> tuple[object, list]:
 
 def write_report(out: Path, results: dict) -> None:
     """``out``/report.md, report.html and figures/ of ``results``."""
-    from nnda.reports.study_report import FIGURES, Section, html_page, markdown_page
+    from nnda.reports.study_report import Section  # plotly only when reporting
 
     section, figures = pedestrian_section(Section("pedestrian", "Pedestrian study (seed 000)", [], []), results)
-    (out / FIGURES).mkdir(exist_ok=True)
-    for fig in figures:
-        (out / FIGURES / fig.name).write_bytes(fig.png)
-    with atomic_file(out / REPORT_MD) as tmp:
-        tmp.write_text(markdown_page(TITLE, [section]))
-    with atomic_file(out / REPORT_HTML) as tmp:
-        tmp.write_text(html_page(TITLE, [section]))
+    write_pages(out, TITLE, [section], figures)
 
 
 def pedestrian(

@@ -19,12 +19,11 @@ import typer
 from rich.console import Console
 
 from nnda.errors import validated
-from nnda.files import atomic_file, read_config, refuse_existing, write_results_directory
+from nnda.files import read_config, refuse_existing, write_results_directory
+from nnda.reports.pages import REPORT_HTML, write_pages
 from nnda.reports.text_table import DASH, TextTable, interval, stat_cell
 from nnda.study.reentry import PRIOR, RESULTS_FILE, ReentryStudyConfig, run_reentry_study
 
-REPORT_MD = "report.md"
-REPORT_HTML = "report.html"
 TITLE = "nnda re-entry study: optimal importance function vs bootstrap (seed 004)"
 #: the independent reproduction's time-averaged RMSE x / y (m) at the paper's setting, 4,000 particles (spec B.5)
 SPEC_B5 = {"bootstrap": (233.0, 424.0), "optimal": (217.0, 407.0)}
@@ -162,13 +161,9 @@ def _against_b5(results: dict) -> str:
 
 def write_report(out: Path, results: dict) -> None:
     """``out``/report.md and report.html of ``results``."""
-    from nnda.reports.study_report import Section, html_page, markdown_page  # plotly only when reporting
+    from nnda.reports.study_report import Section  # plotly only when reporting
 
-    sections = [reentry_section(Section("reentry", "Ballistic re-entry filters", [], []), results)]
-    with atomic_file(out / REPORT_MD) as tmp:
-        tmp.write_text(markdown_page(TITLE, sections))
-    with atomic_file(out / REPORT_HTML) as tmp:
-        tmp.write_text(html_page(TITLE, sections))
+    write_pages(out, TITLE, [reentry_section(Section("reentry", "Ballistic re-entry filters", [], []), results)])
 
 
 def reentry(

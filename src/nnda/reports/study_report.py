@@ -49,6 +49,7 @@ from nnda.reports.clutter_section import clutter_section
 from nnda.reports.deletions_section import deletions_section
 from nnda.reports.filters_section import filters_section
 from nnda.reports.fusion_section import fusion_section
+from nnda.reports.pages import FIGURES, REPORT_HTML, REPORT_MD
 from nnda.reports.peers_section import against_stonesoup, peer_labels
 from nnda.reports.study_tables import is_thesis_scenario, scenario_table
 from nnda.reports.text_table import DASH, TextTable
@@ -59,10 +60,6 @@ from nnda.study.plan import STUDY_FORMAT, STUDY_FORMAT_VERSION
 from nnda.study.results import TIMING_FILE, TRAJECTORIES_FILE, read_summary
 from nnda.study.runner import MANIFEST
 from nnda.tracking.registry import confirmation_rule
-
-REPORT_MD = "report.md"
-REPORT_HTML = "report.html"
-FIGURES = "figures"
 
 
 @dataclass(frozen=True)
