@@ -34,6 +34,8 @@ def test_bad_sanity_limits_name_the_field(kind, lifecycle, fragments):
     ({"preliminary_false_deletion": -0.2}, ["lifecycle.preliminary_false_deletion", "greater than 0"]),
     ({"survival_probability": 1.2}, ["lifecycle.survival_probability", "less than or equal to 1"]),
     ({"existence_confirmation": 0.05, "existence_deletion": 0.1}, ["existence_deletion must be below"]),
+    ({"existence_confirmation": 0.9999}, ["existence_confirmation = 0.9999 must be below survival_probability"]),
+    ({"new_targets_per_scan": 0.0}, ["lifecycle.new_targets_per_scan", "greater than 0"]),
 ])
 def test_bad_confirmation_settings_name_the_field(lifecycle, fragments):
     with pytest.raises(ConfigError) as err:

@@ -12,8 +12,16 @@ from nnda.data.presets import PRESETS
 from nnda.data.scenario import Sensor
 from nnda.errors import ConfigError
 from nnda.tracking.jpda import existence_update
-from nnda.tracking.lifecycle import existence, jipda_log_ratio, predicted_log_odds
+from nnda.tracking.lifecycle import (
+    LifecycleConfig,
+    advance_score,
+    birth_log_odds,
+    existence,
+    jipda_log_ratio,
+    predicted_log_odds,
+)
 from nnda.tracking.marginals import jpda_marginals, log_miss_weight
+from nnda.tracking.output import CONFIRMED, DELETED, PRELIMINARY
 from nnda.tracking.registry import make_tracker
 from tolerances import RTOL
 
@@ -56,6 +64,42 @@ def test_one_track_existence_is_ipda(ratios):
     assert given.sum() + given0[0] == pytest.approx(1.0, rel=RTOL)
     if ratios == [1e6]:  # a perfect detection: existence all but certain
         assert expected > 0.9999 and given[0] == pytest.approx(1.0, rel=1e-5)
+
+
+def test_birth_odds_are_new_targets_against_clutter():
+    """Prior odds of an initiator: P_D beta_NT / rho; ten times the clutter, a tenth of the odds."""
+    rho = np.array([1e-8, 1e-7])
+    odds = np.exp(birth_log_odds(PD, 2e-11, rho))
+    np.testing.assert_allclose(odds, PD * 2e-11 / rho, rtol=RTOL)
+    assert odds[1] == pytest.approx(odds[0] / 10, rel=RTOL)
+
+
+def test_confirmation_is_reachable_under_the_survival_cap():
+    """A certain track predicted by the survival s = 0.995 sits at odds 199; the default threshold c = 0.99
+    (odds 99) is then met after any detection of ratio >= 1, while the old 0.9999 needed one above 50."""
+    cfg = LifecycleConfig(confirmation="existence")
+    capped = predicted_log_odds(np.array([700.0]), cfg.survival_probability)
+    assert existence(capped)[0] == pytest.approx(cfg.survival_probability, rel=RTOL)
+    for ratio in (1.0, 2.0, 60.0):
+        after = capped + math.log(ratio)
+        status = advance_score(np.array([PRELIMINARY]), after, after, cfg)
+        assert status[0] == CONFIRMED, ratio
+    assert _logit(0.9999) - capped[0] > math.log(50)
+
+
+def test_preliminary_deletion_is_relative_to_the_best_existence():
+    """A newborn's existence is tiny (far below existence_deletion), so it goes only when it falls
+    ln(beta_p / (1 - alpha)) below its best: one miss is survived, two are not."""
+    cfg = LifecycleConfig(confirmation="existence")
+    birth = np.array([_logit(1e-4)])
+    after_one = predicted_log_odds(birth, cfg.survival_probability) + LOG_MISS
+    after_two = predicted_log_odds(after_one, cfg.survival_probability) + LOG_MISS
+    prelim = np.array([PRELIMINARY])
+    assert advance_score(prelim, after_one, birth, cfg)[0] == PRELIMINARY
+    assert advance_score(prelim, after_two, birth, cfg)[0] == DELETED
+    confirmed = np.array([CONFIRMED])  # a confirmed track goes at existence_deletion itself
+    assert advance_score(confirmed, np.array([_logit(0.011)]), np.array([9.0]), cfg)[0] == CONFIRMED
+    assert advance_score(confirmed, np.array([_logit(0.009)]), np.array([9.0]), cfg)[0] == DELETED
 
 
 def test_at_existence_one_jipda_is_jpda():

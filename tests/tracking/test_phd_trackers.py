@@ -241,3 +241,45 @@ def test_map_extraction_reports_the_map_count():
 
 def test_the_cphd_is_its_own_class():
     assert issubclass(CPHDTracker, GMPHDTracker) and CPHDTracker.name == "cphd"
+
+
+def test_streaks_against_a_loop_over_scans():
+    from nnda.tracking.phd.extraction import streaks
+    rng = np.random.default_rng(5)
+    history = [np.unique(rng.integers(0, 12, rng.integers(0, 8))) for _ in range(30)]
+    last = (np.empty(0, np.int64), np.empty(0, np.int64))
+    for t, labels in enumerate(history):
+        got = streaks(labels, *last)
+        for label, run in zip(labels, got, strict=True):  # the oracle: count back over the scans
+            expected = next((t - s for s in range(t, -1, -1) if label not in history[s]), t + 1)
+            assert run == expected
+        last = (labels, got)
+
+
+@pytest.mark.parametrize("name", ["ekphd", "cphd"])
+def test_extraction_over_scans_reports_labels_extracted_k_scans_in_a_row(name):
+    """extraction_scans = 3 leaves the filter as it is and reports, of the components a one-scan extraction
+    reports, the labels it reported in each of the last three scans."""
+    ds = generate(PRESETS["S1"], seed=3)
+    every, persistent = (make_tracker(name, ds.scenario.sensor, {"extraction_scans": k}) for k in (1, 3))
+    assert make_tracker(name, ds.scenario.sensor).config.extraction_scans == 1  # off by default
+    reported, fewer = [], 0
+    for scan in ds.scans():
+        out, kept = every.step(scan), persistent.step(scan)
+        reported.append(set(out.track_id.tolist()))
+        expected = set.intersection(*reported[-3:]) if len(reported) >= 3 else set()
+        assert set(kept.track_id.tolist()) == expected
+        fewer += len(out) - len(kept)
+    assert fewer > 0
+
+
+def test_the_component_cap_grows_with_the_contacts():
+    sc = PRESETS["S1"]
+    ds = generate(sc.model_copy(update={"clutter": sc.clutter.model_copy(update={"count": 400})}), 0)
+    tracker = make_tracker("ekphd", ds.scenario.sensor, {"max_components": 50, "components_per_contact": 0.5})
+    sizes = []
+    for scan in ds.scans():
+        tracker.step(scan)
+        sizes.append(len(tracker.mixture))
+        assert len(tracker.mixture) <= max(50, int(np.ceil(0.5 * len(scan.measurements))))
+    assert max(sizes) > 50

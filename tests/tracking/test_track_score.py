@@ -144,6 +144,13 @@ def test_clutter_only_scene_confirms_nothing_at_1000(kind, model_file):
     assert _confirmed_in_clutter(kind, 1_000, model_file)[0] == 0
 
 
+@pytest.mark.parametrize("kind", ["gnn", "jpda"])
+def test_existence_rule_confirms_no_clutter_at_1000(kind, model_file):
+    """IPDA / JIPDA with the new-target prior at birth: nothing of 100 scans of 1,000 clutter points confirms
+    (before the prior, clutter tracks started at the two-point ratio alone)."""
+    assert _confirmed_in_clutter(kind, 1_000, model_file, {"lifecycle": {"confirmation": "existence"}})[0] == 0
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("count", [1_000, 5_000])
 @pytest.mark.parametrize("kind", KINDS)

@@ -46,13 +46,27 @@
   rho' = ``survival_probability`` rho (`predicted_log_odds`) and updated
   by the same likelihood ratio as the score (rho / (1 - rho) = (1 - delta)
   rho' / (1 - rho'), delta = P_D P_G - P_D sum_j l_j / lambda_j over the
-  gated contacts for JPDA, the chosen one for GNN and nn), so it starts
-  from the same two-point start. Since the survival caps the odds a scan
-  can carry over, Wald's thresholds do not apply: a preliminary track is
-  confirmed at rho >= ``existence_confirmation`` (0.9999) and any track is
-  deleted at rho <= ``existence_deletion`` (0.01). JPDA then weighs each
-  track's events by its existence (`jipda_log_ratio`) and updates its
-  state conditioned on existence.
+  gated contacts for JPDA, the chosen one for GNN and nn). At birth it is
+  the prior odds that the initiator is a new target's detection rather than
+  clutter, P_D beta_NT / rho_1 (`birth_log_odds`: beta_NT =
+  ``new_targets_per_scan`` over the sensor's coverage area, rho_1 the clutter's
+  area density at the initiator), times the two-point start's ratio above.
+  Since the odds never exceed the prior odds times the likelihood ratio of
+  the contacts, whose mean under clutter is at most 1, a clutter initiator
+  reaches odds c / (1 - c) with probability at most (prior odds) (1 - c) / c
+  (Ville's inequality), and the clutter's initiators per scan cancel the
+  clutter density: at most nu P_D (1 - c) / c false confirmations per scan
+  at any clutter density (nu = ``new_targets_per_scan``, c =
+  ``existence_confirmation``). The survival caps the odds a scan carries over
+  at s / (1 - s) (199 at 0.995), so c must lie below s (checked): a
+  confirmed track's existence then stays above c on detections whose ratio
+  exceeds about 2, whatever the clutter density. A preliminary track is
+  confirmed at rho >= c and deleted once its log-odds falls ln(beta_p / (1
+  - alpha)) below its maximum (the score rule's early deletion, relative: a
+  newborn's existence is tiny); a confirmed track is deleted at rho <=
+  ``existence_deletion`` (0.01). JPDA then weighs each track's events by its
+  existence (`jipda_log_ratio`) and updates its state conditioned on
+  existence.
 * Sanity deletion (issue 21; every contact tracker, whatever its
   confirmation rule): a live track is deleted when its reported state is
   impossible: faster than ``max_speed_m_s`` (2.5 v_max by default), outside every sensor's
@@ -107,8 +121,12 @@ class LifecycleConfig(BaseModel):
         gt=0, le=1, description="existence rule: probability that a target exists still at the next scan "
         "(the Markov chain of IPDA)")] = 0.995
     existence_confirmation: Annotated[float, Field(
-        gt=0, lt=1, description="existence rule: a preliminary track is confirmed at this existence "
-        "probability")] = 0.9999
+        gt=0, lt=1, description="existence rule: c, a preliminary track is confirmed at this existence "
+        "probability; below survival_probability, the cap a scan carries over. At most new_targets_per_scan "
+        "P_D (1 - c) / c false confirmations per scan are expected")] = 0.99
+    new_targets_per_scan: Annotated[float, Field(
+        gt=0, description="existence rule: nu, targets expected to appear per scan in a sensor's coverage; "
+        "an initiator's prior existence odds are P_D nu / (coverage area x clutter density there)")] = 0.05
     existence_deletion: Annotated[float, Field(
         gt=0, lt=1, description="existence rule: a track is deleted at this existence probability")] = 0.01
     false_confirmation: Annotated[float, Field(
@@ -147,6 +165,10 @@ class LifecycleConfig(BaseModel):
                                      f"thresholds cross)")
         if self.existence_deletion >= self.existence_confirmation:
             raise ValueError("existence_deletion must be below existence_confirmation")
+        if self.survival_probability < 1 and self.existence_confirmation >= self.survival_probability:
+            raise ValueError(f"existence_confirmation = {self.existence_confirmation:g} must be below "
+                             f"survival_probability = {self.survival_probability:g}: the survival caps the "
+                             f"existence a scan carries over, and weak detections never reach the threshold")
         if self.speed_limit <= self.v_max:
             raise ValueError(f"max_speed_m_s = {self.max_speed_m_s} must exceed v_max = {self.v_max}: a track "
                              f"of the fastest target would be deleted")
@@ -200,26 +222,34 @@ def start_score(pd: float, window_area: float, density: np.ndarray) -> np.ndarra
     return math.log(pd) - np.log(window_area * density)
 
 
+def birth_log_odds(pd: float, new_density: float, density: np.ndarray) -> np.ndarray:
+    """Prior log-odds that initiators are new targets' detections, not clutter (existence rule, module
+    docstring): ln(P_D beta_NT / rho_1) for the new-target density ``new_density`` beta_NT (m^-2 per scan)
+    and the clutter's area densities ``density`` (m^-2, (K,)) at the initiators."""
+    return math.log(pd * new_density) - np.log(density)
+
+
 def advance_score(status: np.ndarray, score: np.ndarray, max_score: np.ndarray, cfg: LifecycleConfig,
                   observed: np.ndarray | None = None, confirm_at: np.ndarray | None = None) -> np.ndarray:
     """One scan of the score rule for K tracks whose ``score`` (K,) is already this scan's (and ``max_score``
     its maximum so far): the new status (module docstring). A track not ``observed`` keeps its status.
     ``confirm_at`` (K,) is each track's confirmation threshold under ``false_tracks_per_scan`` (that of its
     birth, `rate_threshold`); None: Wald's for ``false_confirmation``."""
-    if cfg.confirmation == "existence":  # thresholds on the existence probability's log-odds
+    exist = cfg.confirmation == "existence"
+    if exist:  # thresholds on the existence probability's log-odds
         lower, upper = (math.log(p) - math.log1p(-p) for p in (cfg.existence_deletion, cfg.existence_confirmation))
-        early = lower
     else:
         lower, upper = cfg.score_thresholds
         upper = upper if confirm_at is None else confirm_at
-        early = sprt_thresholds(cfg.false_confirmation, cfg.preliminary_false_deletion)[0]
+    early = sprt_thresholds(cfg.false_confirmation, cfg.preliminary_false_deletion)[0]
     new = status.copy()
     prelim = status == PRELIMINARY
     new[prelim & (score >= upper)] = CONFIRMED
-    new[prelim & (score <= early)] = DELETED
-    # the score falls from its maximum; an existence probability (log-odds) falls to the threshold itself
-    fallen = score if cfg.confirmation == "existence" else score - max_score
-    new[(status == CONFIRMED) & (fallen <= lower)] = DELETED
+    # a confirmed track's score falls from its maximum, its existence (log-odds) to the threshold itself;
+    # a preliminary track's score to the threshold itself, its existence from its maximum
+    fallen = score - max_score
+    new[prelim & ((fallen if exist else score) <= early)] = DELETED
+    new[(status == CONFIRMED) & ((score if exist else fallen) <= lower)] = DELETED
     return new if observed is None else np.where(observed, new, status)
 
 

@@ -56,13 +56,14 @@ from nnda.filters.batch import Batch
 from nnda.filters.imm import IMM, IMMPrediction, IMMState
 from nnda.filters.kalman import GATE_99
 from nnda.filters.measurement import measurement_model
-from nnda.tracking.clutter_density import local_density
+from nnda.tracking.clutter_density import coverage_area, local_density
 from nnda.tracking.lifecycle import (
     DELETION_REASONS,
     SANITY_REASONS,
     LifecycleConfig,
     advance,
     advance_score,
+    birth_log_odds,
     cap_pairs,
     cap_per_initiator,
     predicted_log_odds,
@@ -406,12 +407,18 @@ class ContactTracker(ABC):
         return float(getattr(self.config, "clutter_radius_m", CLUTTER_RADIUS_M))
 
     def _start_scores(self, born: Tracks, scan: ScanContacts, contact: np.ndarray) -> Tracks:
-        """``born`` with the score of its two-point start (`lifecycle.start_score`) under the score rule."""
+        """``born`` with the score of its two-point start (`lifecycle.start_score`) under the score rule, and
+        under the existence rule also the initiators' prior (`lifecycle.birth_log_odds`; the clutter around
+        each initiator counted in this scan's contacts)."""
         if self.confirmation_rule == "mn":
             return born
         sensor = self.sensors[scan.sensor]
-        area = self.config.lifecycle.window_area(sensor.scan_period_s, sensor_noise_m(sensor))
+        cfg = self.config.lifecycle
+        area = cfg.window_area(sensor.scan_period_s, sensor_noise_m(sensor))
         score = start_score(self.score_pd, area, local_density(scan.xy, scan.xy[contact], self._clutter_radius))
+        if self.confirmation_rule == "existence":
+            score += birth_log_odds(self.score_pd, cfg.new_targets_per_scan / coverage_area(sensor),
+                                    local_density(scan.xy, born.p1, self._clutter_radius))
         return replace(born, score=score, max_score=score.copy())
 
     def _score_gain(self, pred: IMMPrediction, scan: ScanContacts, assoc: Association) -> np.ndarray | None:

@@ -15,6 +15,11 @@ whose four numbers an explicit field overrides:
 | `seed-000` | 1e-5    | 4       | 15    | 0.25       | Frencl 2014, pedestrians (spec seed-000 4.1)|
 | `seed-002` | 1e-6    | 25      | 1000  | 0.8        | the harbour thesis (spec seed-002 Table 4.3)|
 
+Two more reduction settings are off by default (issue 21, measured in the
+README): ``components_per_contact`` grows J_max with the scan's contact
+count, and ``extraction_scans`` reports a label only after that many scans
+in a row above the extraction threshold.
+
 Clutter (``clutter``) is a Poisson number of false contacts per scan, of
 mean lambda, spread uniformly over the radar's coverage in measurement
 space, so its intensity is kappa = lambda / V: per m per rad of (range,
@@ -171,6 +176,12 @@ class CommonConfig(TrackerConfig):
 class PHDConfig(CommonConfig):
     """Settings of a GM-PHD tracker (see the module docstring for presets and clutter units)."""
 
+    components_per_contact: Annotated[float | None, Field(
+        gt=0, description="J_max grows with the scan: at most max(J_max, this x N) components are kept after "
+        "a scan of N contacts, so dense clutter's newborns do not crowd out a target's; None: J_max")] = None
+    extraction_scans: Annotated[int, Field(
+        ge=1, description="report a label once it has been extracted (weight >= the threshold) in this many "
+        "scans in a row, and while it stays extracted; 1: every extracted component")] = 1
     merge_covariance: Literal["candidate", "heaviest"] = Field(
         "candidate", description="the covariance of the merge distance: each candidate's (Vo & Ma's Table II) "
         "or the heaviest's (`nnda.filters.mixture.merge`)")

@@ -7,7 +7,10 @@ After reduction two components may still share a label (copies of one
 component updated by contacts too far apart to merge): `relabel_duplicates`
 keeps the label on the heaviest and gives the others fresh ones, so labels
 are unique and the extracted components are tracks with stable ids.
-Extraction reports each component once (no round(w) copies).
+Extraction reports each component once (no round(w) copies); with
+``extraction_scans`` = k > 1 only the labels extracted in each of their last
+k scans (`streaks`: a clutter component rarely stays heavy for long, a
+target's does).
 """
 
 from __future__ import annotations
@@ -46,3 +49,13 @@ def heaviest(mixture: Mixture, count: int) -> np.ndarray:
     extraction of its MAP cardinality (Vo, Vo & Cantoni 2007)."""
     order = np.lexsort((np.arange(len(mixture)), -mixture.weights))
     return np.sort(order[:count])
+
+
+def streaks(labels: np.ndarray, last_labels: np.ndarray, last_streaks: np.ndarray) -> np.ndarray:
+    """How many scans in a row each of this scan's extracted ``labels`` (E,) has been extracted: 1 + its streak
+    in the last scan, where ``last_labels`` (sorted, unique) were extracted with ``last_streaks``, else 1.
+    Returns (E,) int64."""
+    if not len(last_labels):
+        return np.ones(len(labels), np.int64)
+    at = np.minimum(np.searchsorted(last_labels, labels), len(last_labels) - 1)
+    return 1 + np.where(last_labels[at] == labels, last_streaks[at], 0)

@@ -24,12 +24,14 @@ scan (J components, N contacts):
    (`nnda.tracking.phd.cphd`); only copies heavier than the prune threshold
    are built, and a newborn component's missed copy is dropped (a target is
    born detected) unless the scan's sensor cannot see it;
-3. merge and cap (`nnda.filters.mixture`), make labels unique
+3. merge and cap (`nnda.filters.mixture`; J_max, or with
+   ``components_per_contact`` c at least c N for N contacts), make labels unique
    (`nnda.tracking.phd.extraction`);
 4. newborn components for the next scan from this scan's contacts, weighted
    by how little the filter explains them (measurement-driven birth);
 5. report the extracted components (weight >= the extraction threshold; or,
-   ``cphd`` with ``extraction="map"``, its MAP count of heaviest ones) as
+   ``cphd`` with ``extraction="map"``, its MAP count of heaviest ones; with
+   ``extraction_scans`` = k, only labels extracted in each of their last k scans) as
    CONFIRMED tracks, id = label, state [x, vx, y, vy] (`MotionModel.to_cv`), no contact (a PHD
    associates none); the scan's target-count estimate is in
    ``tracker.cardinality``.
@@ -77,7 +79,7 @@ from nnda.tracking.phd.config import (
     StaticBirth,
     UKPHDConfig,
 )
-from nnda.tracking.phd.extraction import above, heaviest, relabel_duplicates
+from nnda.tracking.phd.extraction import above, heaviest, relabel_duplicates, streaks
 from nnda.tracking.tracker import TrackerConfig, checked_config, checked_scan
 
 
@@ -209,6 +211,8 @@ class GMPHDTracker:
         self.next_label = 0
         self.last_time = -np.inf
         self.cardinality: Cardinality | None = None
+        # labels extracted in the last scan (sorted) and for how many scans in a row (`extraction.streaks`)
+        self.extraction_streaks = (np.empty(0, np.int64), np.empty(0, np.int64))
 
     def intensity_at(self, time: float) -> Mixture:
         """The posterior intensity predicted to ``time`` (s) without births (survivors, p_S per `_survival`):
@@ -314,7 +318,8 @@ class GMPHDTracker:
         else:
             mean, map_count = float(np.arange(len(dist)) @ dist), int(np.argmax(dist))
         post = gmphd.posterior(pred, pairs, missed, det, cfg.prune_threshold)
-        post = cap(merge(post, cfg.merge_threshold, cfg.merge_covariance, self.motion.angles), cfg.max_components)
+        post = cap(merge(post, cfg.merge_threshold, cfg.merge_covariance, self.motion.angles),
+                   self._component_cap(len(z)))
         post, self.next_label = relabel_duplicates(post, self.next_label)
         self.mixture = post
         birth = cfg.birth
@@ -328,6 +333,13 @@ class GMPHDTracker:
         self.last_time = time
         return self._report(scan.index, time, post, mean, map_count, dist)
 
+    def _component_cap(self, contacts: int) -> int:
+        """J_max after a scan of ``contacts`` contacts: ``max_components``, or with ``components_per_contact``
+        c at least ceil(c x contacts)."""
+        cfg = self.config
+        per = cfg.components_per_contact
+        return cfg.max_components if per is None else max(cfg.max_components, int(np.ceil(per * contacts)))
+
     def _predicted_count(self, pred: Mixture, survival: float) -> tuple[float, int | None, np.ndarray | None]:
         """(mean, MAP count, distribution) of the target count of the predicted intensity ``pred``."""
         return float(pred.weights.sum()), None, None
@@ -338,6 +350,9 @@ class GMPHDTracker:
         label order; records the scan's `Cardinality`."""
         shown = self._extracted(mixture, map_count)
         shown = shown[np.argsort(mixture.labels[shown], kind="stable")]
+        run = streaks(mixture.labels[shown], *self.extraction_streaks)
+        self.extraction_streaks = (mixture.labels[shown], run)
+        shown = shown[run >= self.config.extraction_scans]
         self.cardinality = Cardinality(scan, time, mean, map_count, dist, len(shown))
         k = len(shown)
         x, P = self.motion.to_cv(mixture.means[shown], mixture.covariances[shown])
