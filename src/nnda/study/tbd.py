@@ -35,7 +35,9 @@ then, with ``chain`` set, its detections tracked by nnda's GNN and MHT
 (`nnda.study.tbd_chain`: a confirmed track is a "present" decision, the
 best confirmed track's position the estimate), scored by the same
 measures as the filters, with each chain tracker's divergence compared to
-each filter's (Fisher).
+each filter's (Fisher) and its per-run share of truth-present frames
+declared present after ``acquisition`` less the filter's (paired over the
+same runs, with a t-interval).
 
 With ``exit_reentry`` set, the study also runs the paper's 50-frame
 demonstration (``scenario`` "exit-reentry" of `nnda.data.frames`: the
@@ -227,7 +229,7 @@ def _run_filters(scene: FramesConfig, runs: int, cfg: TBDStudyConfig, index: int
             chain[name]["position"].append(out.position)
             chain[name]["present"].append(out.present)
             chain[name]["seconds"] += out.seconds
-            chain[name]["params"] = out.params
+            chain[name]["settings"] = out.settings
         for fi, f in enumerate(cfg.filters):
             seed = np.random.SeedSequence([cfg.seed, index, fi, start])
             out = run_tbd(tbd_model(fs, cfg.tbd), f.name, f.particles, np.random.default_rng(seed))
@@ -245,7 +247,7 @@ def _run_filters(scene: FramesConfig, runs: int, cfg: TBDStudyConfig, index: int
     got["detector"] = {"pfa": cfg.detector_pfa, "p_detection": detector[0] / max(detector[1], 1),
                        "false_per_frame": detector[2] / frames, "correlations_per_frame": _correlations(scene),
                        "seconds": detector_s, "ms_per_frame": 1e3 * detector_s / frames}
-    got["chain"] = {name: {"tracker": name, "params": c["params"], "seconds": c["seconds"],
+    got["chain"] = {name: {"tracker": name, "settings": c["settings"], "seconds": c["seconds"],
                            "ms_per_frame": 1e3 * (c["seconds"] + detector_s) / frames,
                            "position": np.concatenate(c["position"]), "present": np.concatenate(c["present"])}
                     for name, c in chain.items()}
@@ -273,7 +275,7 @@ def detector_counts(truth: np.ndarray, hits: list[np.ndarray], near_px: float) -
 
 
 def _chain_entry(c: dict) -> dict:
-    return {k: c[k] for k in ("tracker", "params", "seconds", "ms_per_frame")}
+    return {k: c[k] for k in ("tracker", "settings", "seconds", "ms_per_frame")}
 
 
 def _cost(g: dict) -> dict:
@@ -285,9 +287,9 @@ def run_ptcr(ptcr: float, cfg: TBDStudyConfig, index: int) -> dict:
     """Simulate the runs at ``ptcr`` and score every filter on them."""
     scene = cfg.scene.model_copy(update={"ptcr_db": ptcr})
     truth, got = _run_filters(scene, cfg.runs, cfg, index)
-    detector, chain = got.pop("detector"), got.pop("chain")
+    detector, raw = got.pop("detector"), got.pop("chain")
     filters = {label: _cost(g) | score(truth, g["position"], g["present"], cfg) for label, g in got.items()}
-    chain = {name: _chain_entry(c) | score(truth, c["position"], c["present"], cfg) for name, c in chain.items()}
+    chain = {name: _chain_entry(c) | score(truth, c["position"], c["present"], cfg) for name, c in raw.items()}
     labels = list(filters)
     pairs = [{"a": a, "b": b, "fisher_p": fisher(filters[a]["divergence"], filters[b]["divergence"])}
              for i, a in enumerate(labels) for b in labels[i + 1:]]
@@ -297,11 +299,21 @@ def run_ptcr(ptcr: float, cfg: TBDStudyConfig, index: int) -> dict:
         if count is not None:
             theirs = divergence(count, 100, cfg.confidence)
             paper[label] = {"divergence": theirs, "fisher_p": fisher(entry["divergence"], theirs)}
-    chain_vs = [{"chain": name, "filter": label, "fisher_p": fisher(c["divergence"], f["divergence"])}
+    share = {key: _present_share(truth, g["present"], cfg.acquisition) for key, g in (*got.items(), *raw.items())}
+    chain_vs = [{"chain": name, "filter": label, "fisher_p": fisher(c["divergence"], f["divergence"]),
+                 "present_difference": mean_ci(share[name] - share[label], cfg.confidence, low=-1.0, high=1.0)}
                 for name, c in chain.items() for label, f in filters.items()]
     return {"ptcr_db": ptcr, "runs": cfg.runs, "frames": scene.frames, "detector": detector,
             "truth_present_all_frames": int((truth[..., 4] > 0).all(axis=1).sum()),
             "filters": filters, "pairs": pairs, "paper": paper, "chain": chain, "chain_vs_filters": chain_vs}
+
+
+def _present_share(truth: np.ndarray, present: np.ndarray, acquisition: int) -> np.ndarray:
+    """Per run (R,), the share of its truth-present frames after ``acquisition`` declared present (NaN for a
+    run with none): the runs' paired differences compare two estimators on the same frames."""
+    on = truth[:, acquisition:, 4] > 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return (present[:, acquisition:] & on).sum(axis=1) / on.sum(axis=1)
 
 
 def _frames_until(done: np.ndarray, starts: np.ndarray) -> list[int | None]:

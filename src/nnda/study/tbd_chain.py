@@ -131,13 +131,15 @@ class ChainConfig(BaseModel):
 class ChainResult:
     """A tracker's estimate over R runs of K frames: ``present`` (R, K) a confirmed track reported,
     ``position`` (R, K, 2) the best confirmed track's [row, column] (NaN where none), ``tracks`` (R, K)
-    the confirmed tracks reported, ``seconds`` the tracker's steps and the tracker's ``params``."""
+    the confirmed tracks reported, ``seconds`` the tracker's steps and the ``settings`` derived from the
+    frame model: the tracker's ``params``, the per-track filter's CV ``sigma_q`` and ``measurement_sd``
+    (pixels, time units), the ``detection_probability`` the life cycle assumed."""
 
     present: np.ndarray
     position: np.ndarray
     tracks: np.ndarray
     seconds: float
-    params: dict[str, Any]
+    settings: dict[str, Any]
 
 
 def frame_detections(model: TBDModel, pfa: float) -> list[np.ndarray]:
@@ -184,7 +186,7 @@ def tracker_params(name: str, scene: FramesConfig, cfg: ChainConfig, n_aspects: 
     pd = min(max(pd, PD_FLOOR), PD_CEILING)
     lifecycle = {"v_min": 0.0, "v_max": v_max, "max_speed_m_s": v_max + cfg.speed_sds * start_sd,
                  "max_position_sd_m": None, "m": CONFIRM_M, "n": CONFIRM_N,
-                 "max_misses": math.ceil(math.log(COAST_RISK) / math.log1p(-pd))}
+                 "max_misses": math.ceil(math.log(COAST_RISK) / math.log1p(-pd) - 1e-9)}  # not 2 for 1 + ulp
     params: dict[str, Any] = {}
     if name == "mht":
         params |= {"clutter_density": n_aspects * pfa, "pd": pd}
@@ -202,6 +204,7 @@ def run_chain(model: TBDModel, hits: list[np.ndarray], name: str, cfg: ChainConf
     params = tracker_params(name, scene, cfg, lik.n_aspects, pfa, pd)
     cls = TRACKERS[name]
     config = validated(cls.config_type, params, f"tbd chain {name}", f"{name} config")
+    track = track_filter(scene, cfg)
     R, K = model.runs, model.steps
     present = np.zeros((R, K), bool)
     position = np.full((R, K, 2), np.nan)
@@ -209,7 +212,7 @@ def run_chain(model: TBDModel, hits: list[np.ndarray], name: str, cfg: ChainConf
     by_run = [np.split(h[:, 1:3], np.searchsorted(h[:, 0], np.arange(1, R))) for h in hits]  # hits sorted by run
     seconds = 0.0
     with threadpool_limits(1):
-        tracker = cls((sensor,), config, track_filter=track_filter(scene, cfg))
+        tracker = cls((sensor,), config, track_filter=track)
         for r in range(R):
             tracker.reset()
             used: dict[int, int] = {}
@@ -224,5 +227,7 @@ def run_chain(model: TBDModel, hits: list[np.ndarray], name: str, cfg: ChainConf
                 if confirmed.size:
                     best = max(confirmed.tolist(), key=lambda i: (used[int(out.track_id[i])], -out.track_id[i]))
                     present[r, k], position[r, k] = True, out.state[best, [0, 2]]
-    return ChainResult(present, position, tracks, seconds, params)
+    settings = {"params": params, "sigma_q": track.models[0].sigma_q, "measurement_sd": cfg.measurement_sd,
+                "detection_probability": pd}
+    return ChainResult(present, position, tracks, seconds, settings)
 
