@@ -93,6 +93,30 @@ def test_chain_rarely_declares_a_target_in_target_free_frames(name):
     assert out.present[:, 3:].mean() <= 0.05
 
 
+def test_frames_without_an_estimate_are_lost_and_left_out_of_the_errors():
+    """A NaN position (the chain without a confirmed track) is a lost frame, and the RMSE and steady error are
+    over the frames with a position (brute force)."""
+    rng = np.random.default_rng(2)
+    R, K = 30, 8
+    cfg = TBDStudyConfig(scene={"frames": K}, divergence_frames=3, steady_frames=4, acquisition=2)
+    truth = np.zeros((R, K, 5))
+    truth[..., 0], truth[..., 2], truth[..., 4] = rng.uniform(10, 100, (R, K)), rng.uniform(10, 100, (R, K)), 1
+    position = truth[..., [0, 2]] + rng.normal(0, 2, (R, K, 2))
+    present = rng.random((R, K)) < 0.7
+    position[~present] = np.nan
+    s = score(truth, position, present, cfg)
+    err = np.hypot(*(position - truth[..., [0, 2]]).transpose(2, 0, 1))
+    lost = ~present | (err > 5.0)  # NaN > 5 is False: ~present covers it
+    diverged = lost[:, -3:].all(axis=1)
+    assert s["diverged_runs"] == np.flatnonzero(diverged).tolist()
+    for k in range(K):
+        keep = present[:, k] & ~diverged
+        want = np.sqrt(np.mean(err[keep, k] ** 2)) if keep.any() else None
+        assert s["rmse"]["position"][k] == (None if want is None else pytest.approx(want, rel=1e-9))
+    per_run = [np.mean(err[r, -4:][present[r, -4:]]) for r in range(R) if present[r, -4:].any()]
+    assert s["steady_error_all"]["mean"] == pytest.approx(np.mean(per_run), rel=1e-9)
+
+
 def test_bad_chain_config_is_a_config_error():
     with pytest.raises(ConfigError, match="unknown chain tracker 'jpda'"):
         validated(TBDStudyConfig, {"chain": {"trackers": ["gnn", "jpda"]}}, "test", "tbd study")

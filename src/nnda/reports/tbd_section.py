@@ -108,8 +108,9 @@ def _rmse_table(s: dict, key: str) -> TextTable:
             rows.append((f"{label} {axis}", *(DASH if (v := f[key][axis][n - 1]) is None else f"{v:.2f}"
                                              for n in frames)))
     which = "excluding divergent runs" if key == "rmse" else "all runs, divergent ones included"
+    note = "detect + gnn/mht: over the runs with a confirmed track in the frame." if s.get("chain") else ""
     return TextTable(f"PTCR {s['ptcr_db']:g} dB: RMSE (pixels) by frame, {which}", ("", *(f"n={n}" for n in frames)),
-                     tuple(rows))
+                     tuple(rows), note)
 
 
 def _exit_reentry_tables(er: dict, conf: float) -> tuple[TextTable, TextTable]:
@@ -317,10 +318,14 @@ def tbd(
     runs: Annotated[int | None, typer.Option(min=1, help="Monte Carlo runs (overrides the config)")] = None,
     seed: Annotated[int | None, typer.Option(min=0, help="seed (overrides the config)")] = None,
     overwrite: Annotated[bool, typer.Option(help="replace an earlier directory at --out")] = False,
+    chain: Annotated[bool, typer.Option(help="also track the detector's detections with GNN and MHT (the "
+                                             "config's `chain`; --no-chain: the detector alone)")] = True,
 ) -> None:
     """Run the seed-003 track-before-detect study (every filter on the same frames) and write its report."""
     data = read_config(config, "tbd study") if config is not None else {}
     data |= {k: v for k, v in (("runs", runs), ("seed", seed)) if v is not None}
+    if not chain:
+        data["chain"] = None
     cfg = validated(TBDStudyConfig, data, str(config or "--runs/--seed"), "tbd study")
     if out.exists() and not overwrite:
         raise FileExistsError(f"{out}: already exists (pass --overwrite to replace it)")

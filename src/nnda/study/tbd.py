@@ -18,7 +18,9 @@ filter declares it present; a run diverged when its last
 divergent runs with their Clopper-Pearson interval, the per-frame RMSE of
 x, y and position over the truth-present frames of the runs that did not
 diverge and of all runs, the steady-state (last ``steady_frames`` frames)
-per-run position error with a t-interval, the share of truth-present
+per-run position error with a t-interval (both over the frames with a
+position estimate: every frame of a filter, the frames with a confirmed
+track of the chain below), the share of truth-present
 frames declared present after ``acquisition`` frames, the likelihood
 evaluations per frame (the cost axis) and the time. Comparisons: each
 pair of filters at a PTCR and each filter across the PTCRs by Fisher's
@@ -182,14 +184,16 @@ def score(truth: np.ndarray, position: np.ndarray, present: np.ndarray, cfg: TBD
     (R, K, 2) and its decisions (R, K)."""
     on = truth[..., 4] > 0
     e = position - truth[..., [0, 2]]
-    e = np.where(np.isfinite(e), e, np.inf)
+    estimated = np.isfinite(e).all(axis=-1)  # a NaN position: no estimate (the chain without a track)
+    e = np.where(estimated[..., None], e, np.inf)
     dist = np.hypot(e[..., 0], e[..., 1])
     lost = np.where(on, ~present | (dist > cfg.divergence_px), present)
     diverged = lost[:, -cfg.divergence_frames:].all(axis=1)
-    kept = on & ~diverged[:, None]
-    steady = np.where(on, dist, np.nan)[:, -cfg.steady_frames:]
-    with np.errstate(invalid="ignore"):
-        per_run = np.nanmean(steady, axis=1)
+    on_est = on & estimated
+    kept = on_est & ~diverged[:, None]
+    steady = np.where(on_est, dist, 0.0)[:, -cfg.steady_frames:]
+    with np.errstate(invalid="ignore"):  # NaN for a run without an estimate of a present target there
+        per_run = steady.sum(axis=1) / on_est[:, -cfg.steady_frames:].sum(axis=1)
     after = on[:, cfg.acquisition:]
     R = truth.shape[0]
     return {
@@ -197,8 +201,8 @@ def score(truth: np.ndarray, position: np.ndarray, present: np.ndarray, cfg: TBD
         "diverged_runs": np.flatnonzero(diverged).tolist(),
         "rmse": {"x": _rmse(e[..., 0] ** 2, kept), "y": _rmse(e[..., 1] ** 2, kept),
                  "position": _rmse(dist**2, kept)},
-        "rmse_all": {"x": _rmse(e[..., 0] ** 2, on), "y": _rmse(e[..., 1] ** 2, on),
-                     "position": _rmse(dist**2, on)},
+        "rmse_all": {"x": _rmse(e[..., 0] ** 2, on_est), "y": _rmse(e[..., 1] ** 2, on_est),
+                     "position": _rmse(dist**2, on_est)},
         "steady_error": mean_ci(per_run[~diverged], cfg.confidence, low=0.0),
         "steady_error_all": mean_ci(per_run, cfg.confidence, low=0.0),
         "declared_present": float(present[:, cfg.acquisition:][after].mean()) if after.any() else None,
