@@ -186,7 +186,8 @@ def _chain_verdicts(settings: list[dict]) -> list[str]:
             differs = "a difference" if vs["fisher_p"] < ALPHA else "no significant difference"
             parts.append(f"at {s['ptcr_db']:g} dB {c['divergence']['count']}/{c['divergence']['runs']} against "
                          f"{f['divergence']['count']}/{f['divergence']['runs']} divergent runs ({differs}, Fisher "
-                         f"p = {vs['fisher_p']:.2f}), steady error {stat_cell(c['steady_error'], '{:.2f}')} against "
+                         f"p = {vs['fisher_p']:.2f}), steady error (its frames with a track) "
+                         f"{stat_cell(c['steady_error'], '{:.2f}')} against "
                          f"{stat_cell(f['steady_error'], '{:.2f}')} px")
         if parts:
             out.append(f"**{_chain_label(name)}** against {ref}: {'; '.join(parts)}. Of the present frames after "

@@ -61,8 +61,8 @@ any tracker field (its ``lifecycle`` merged field by field).
 
 The estimate of a frame: the target is declared present when the tracker
 reports a confirmed track, and its position is that of the confirmed track
-that has used the most detections so far (ties: the oldest); absent frames
-have NaN positions. The study (`nnda.study.tbd`) scores these as it scores
+that has used the most detections so far (ties: the oldest); a frame
+without a confirmed track has a NaN position. The study (`nnda.study.tbd`) scores these as it scores
 the particle filters' decisions and conditional means.
 """
 
