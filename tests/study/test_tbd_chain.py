@@ -175,3 +175,19 @@ def test_report_rows_and_verdict_move_with_the_numbers(small):
         text = _chain_verdicts(settings)[0]
         assert f"25.0 points {word} at 6.5 dB" in text and "significant" in text and "covers 0" not in text
     assert math.isfinite(small["runtime_s"])
+
+
+def test_no_chain_flag_runs_the_detector_alone(tmp_path):
+    import json
+
+    from nnda.reports.tbd_section import tbd
+
+    (tmp_path / "tiny.toml").write_text('runs = 2\nptcr_db = [8.1]\nscene = {rows = 32, cols = 32, frames = 5}\n'
+                                        'filters = [{name = "apf", particles = 200}]\nexit_reentry = {runs = 1, '
+                                        'frames = 12, exit_frames = 3, reentry_frame = 8}\ndivergence_frames = 2\n'
+                                        'steady_frames = 2\nacquisition = 2\n')
+    tbd(out=tmp_path / "t", config=tmp_path / "tiny.toml", chain=False)
+    results = json.loads((tmp_path / "t" / "results.json").read_text())
+    assert results["config"]["chain"] is None and results["settings"][0]["chain"] == {}
+    md = (tmp_path / "t" / "report.md").read_text()
+    assert "were not tracked" in md and "detect + gnn" not in md
