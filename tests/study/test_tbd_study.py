@@ -171,11 +171,15 @@ def test_exit_reentry_scenario_leaves_and_reenters():
 
 def test_matched_filter_detector_finds_a_bright_target_and_not_a_missing_one():
     from nnda.data.frames import FramesConfig, simulate
-    from nnda.study.tbd import _detect
+    from nnda.study.tbd import detector_counts
+    from nnda.study.tbd_chain import frame_detections
+    from nnda.tracking.tbd import TBDConfig, tbd_model
 
-    cfg = TBDStudyConfig()
+    def counts(fs):
+        return detector_counts(fs.truth, frame_detections(tbd_model(fs, TBDConfig()), 1e-4), 5.0)
+
     scene = FramesConfig(rows=40, cols=40, frames=5)
-    bright = _detect(simulate(scene.model_copy(update={"ptcr_db": 20.0}), 4, 0), cfg)
-    gone = _detect(simulate(scene.model_copy(update={"ptcr_db": -400.0}), 4, 0), cfg)
+    bright = counts(simulate(scene.model_copy(update={"ptcr_db": 20.0}), 4, 0))
+    gone = counts(simulate(scene.model_copy(update={"ptcr_db": -400.0}), 4, 0))
     assert bright[1] == gone[1] == 20 and bright[0] >= 19 and gone[0] <= 1
     assert gone[2] / 20 < 1.0  # false detections per frame at pfa 1e-4 over 46 x 46 x 4 tests

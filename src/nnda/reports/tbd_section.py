@@ -4,12 +4,15 @@
 atomically, ``DIR/results.json``, ``DIR/report.md`` and ``DIR/report.html``.
 Per PTCR: the divergence table (divergent runs with their Clopper-Pearson
 interval beside the paper's count, detection rate, steady-state error,
-likelihood evaluations and milliseconds per frame), the Fisher tests
-between filters, and the per-frame RMSE excluding and including divergent
-runs; then the verdict on the paper's claim (the APF with 5,000 particles
-diverges less than resample-move with 8,000) read from the tests, and the
-cost of each filter; the exit and re-entry tables; and a figure of a few
-frames of one run with the first filter's particles, estimate and truth.
+likelihood evaluations and milliseconds per frame), the detect-then-track
+chain's trackers in the same table, the Fisher tests between filters and
+between the chain and each filter, and the per-frame RMSE excluding and
+including divergent runs; then the verdict on the paper's claim (the APF
+with 5,000 particles diverges less than resample-move with 8,000) read from
+the tests, and the cost of each filter, and the chain's verdict (what
+detecting first loses against the APF at each PTCR); the exit and re-entry
+tables; and a figure of a few frames of one run with the first filter's
+particles, estimate and truth.
 """
 
 from __future__ import annotations
@@ -41,6 +44,15 @@ def _pct(d: dict) -> str:
     return interval(d["rate"], d["ci_low"], d["ci_high"], "{:.1f}", 100.0)
 
 
+def _chain_label(name: str) -> str:
+    return f"detect + {name}"
+
+
+def _estimators(s: dict) -> list[tuple[str, dict]]:
+    """(row label, scores) of every filter, then of every chain tracker (results of version 1 have none)."""
+    return [*s["filters"].items(), *((_chain_label(n), c) for n, c in s.get("chain", {}).items())]
+
+
 def _divergence_table(s: dict, conf: float) -> TextTable:
     rows = []
     for label, f in s["filters"].items():
@@ -52,6 +64,15 @@ def _divergence_table(s: dict, conf: float) -> TextTable:
                      DASH if f["declared_present"] is None else f"{f['declared_present']:.1%}",
                      stat_cell(f["steady_error"], "{:.2f}"), f"{f['evaluations_per_frame']:,.0f}",
                      f"{f['ms_per_frame']:.2f}"))
+    for name, c in s.get("chain", {}).items():
+        d = c["divergence"]
+        rows.append((_chain_label(name), f"{d['count']}/{d['runs']}", _pct(d), DASH, DASH,
+                     DASH if c["declared_present"] is None else f"{c['declared_present']:.1%}",
+                     stat_cell(c["steady_error"], "{:.2f}"),
+                     f"{s['detector']['correlations_per_frame']:,} (correlations)", f"{c['ms_per_frame']:.2f}"))
+    chain = ("; detect + gnn/mht = the matched-filter detector's detections tracked by nnda's GNN or MHT "
+             "(declared present = a confirmed track; its cost is the detector's template correlations, every "
+             "aspect at every position, and the detector's and the tracker's ms/frame)") if s.get("chain") else ""
     return TextTable(f"PTCR {s['ptcr_db']:g} dB: divergence, detection and cost over {s['runs']} runs of "
                      f"{s['frames']} frames",
                      ("Filter", "diverged", f"rate % [{conf:.0%} CP]", "paper", "Fisher p vs paper",
@@ -60,14 +81,21 @@ def _divergence_table(s: dict, conf: float) -> TextTable:
                      "CP = Clopper-Pearson exact interval; declared present = share of truth-present frames "
                      "after acquisition with P(z=0) < 0.5; steady error = per-run mean position error over the "
                      f"last frames, runs that did not diverge [{conf:.0%} t-interval]; ms/frame per run (the "
-                     "runs are filtered in batches).")
+                     f"runs are filtered in batches){chain}.")
 
 
-def _pairs_table(s: dict) -> TextTable:
-    rows = tuple((f"{p['a']} vs {p['b']}", f"{s['filters'][p['a']]['divergence']['count']} vs "
-                  f"{s['filters'][p['b']]['divergence']['count']}", f"{p['fisher_p']:.3f}") for p in s["pairs"])
+def _pairs_table(s: dict, conf: float) -> TextTable:
+    count = {label: e["divergence"]["count"] for label, e in _estimators(s)}
+    rows = [(f"{p['a']} vs {p['b']}", f"{count[p['a']]} vs {count[p['b']]}", f"{p['fisher_p']:.3f}", DASH)
+            for p in s["pairs"]]
+    for p in s.get("chain_vs_filters", []):
+        a = _chain_label(p["chain"])
+        rows.append((f"{a} vs {p['filter']}", f"{count[a]} vs {count[p['filter']]}", f"{p['fisher_p']:.3f}",
+                     stat_cell(p["present_difference"], "{:+.1f}", 100.0)))
     return TextTable(f"PTCR {s['ptcr_db']:g} dB: divergence counts compared (Fisher's exact test, two-sided)",
-                     ("Pair", "diverged", "p"), rows)
+                     ("Pair", "diverged", "p", f"declared present, points [{conf:.0%} paired t]"), tuple(rows),
+                     "declared present, points = the first's per-run share of truth-present frames after "
+                     "acquisition declared present less the second's, mean over runs (percentage points).")
 
 
 def _rmse_table(s: dict, key: str) -> TextTable:
@@ -75,13 +103,14 @@ def _rmse_table(s: dict, key: str) -> TextTable:
     if frames[-1] != s["frames"]:
         frames.append(s["frames"])
     rows = []
-    for label, f in s["filters"].items():
+    for label, f in _estimators(s):
         for axis in ("x", "y"):
             rows.append((f"{label} {axis}", *(DASH if (v := f[key][axis][n - 1]) is None else f"{v:.2f}"
                                              for n in frames)))
     which = "excluding divergent runs" if key == "rmse" else "all runs, divergent ones included"
+    note = "detect + gnn/mht: over the runs with a confirmed track in the frame." if s.get("chain") else ""
     return TextTable(f"PTCR {s['ptcr_db']:g} dB: RMSE (pixels) by frame, {which}", ("", *(f"n={n}" for n in frames)),
-                     tuple(rows))
+                     tuple(rows), note)
 
 
 def _exit_reentry_tables(er: dict, conf: float) -> tuple[TextTable, TextTable]:
@@ -89,10 +118,11 @@ def _exit_reentry_tables(er: dict, conf: float) -> tuple[TextTable, TextTable]:
         never = f", never {stat['never']}/{stat['events']}" if stat["never"] else ""
         return stat_cell(stat, "{:.1f}") + never
 
+    estimators = _estimators(er)
     rows = tuple((label, DASH if f["detection_rate"] is None else f"{f['detection_rate']:.1%}",
                   DASH if f["false_detection_rate"] is None else f"{f['false_detection_rate']:.1%}",
                   frames(f["first_acquire"]), frames(f["reacquire"]), frames(f["exit_declared"]))
-                 for label, f in er["filters"].items())
+                 for label, f in estimators)
     summary = TextTable(f"Exit and re-entry: {er['runs']} runs of {er['frames']} frames at {er['ptcr_db']:g} dB "
                         f"(the target leaves the frame at {er['speed']:g} px per time unit, a new one enters at "
                         f"frame {er['reentry_frame']})",
@@ -104,9 +134,66 @@ def _exit_reentry_tables(er: dict, conf: float) -> tuple[TextTable, TextTable]:
     idx = list(range(0, er["frames"], every))
     first = next(iter(er["filters"].values()))
     profile = [("truth present", *(f"{first['truth_present_by_frame'][n]:.0%}" for n in idx))]
-    profile += [(label, *(f"{f['present_by_frame'][n]:.0%}" for n in idx)) for label, f in er["filters"].items()]
+    profile += [(label, *(f"{f['present_by_frame'][n]:.0%}" for n in idx)) for label, f in estimators]
     return summary, TextTable("Exit and re-entry: share of runs declaring the target present, by frame",
                               ("", *(f"n={n + 1}" for n in idx)), tuple(profile))
+
+
+def _chain_text(s: dict, cfg: dict) -> str:
+    """The detector's figures at one PTCR and, when the chain ran, the trackers' settings."""
+    det = s["detector"]
+    text = (f"The conventional chain's per-frame detector (matched filter, pfa {det['pfa']:g} per position and "
+            f"aspect) on the same frames: a detection within {cfg['divergence_px']:g} px of the target in "
+            f"{det['p_detection']:.1%} of its frames, {det['false_per_frame']:.2f} false detections per frame, "
+            f"{det['ms_per_frame']:.2f} ms per frame.")
+    chain = s.get("chain")
+    if not chain:
+        return text + " Its detections were not tracked (the study's `chain` is off)."
+    first = next(iter(chain.values()))["settings"]
+    life = first["params"]["lifecycle"]
+    text += (f" Its detections are tracked as position fixes in pixels, one scan per frame: one CV model "
+             f"(sigma_q = sqrt(q / dt) = {first['sigma_q']:.1f} px per time unit^2), measurement sd "
+             f"{first['measurement_sd']:g} px, confirmation {life['m']}/{life['n']}, deletion after "
+             f"{life['max_misses']} misses in a row (from the detector's P_D {first['detection_probability']:.2f} "
+             f"at the target)")
+    mht = chain.get("mht")
+    if mht is not None:
+        p = mht["settings"]["params"]
+        text += f"; MHT with P_D {p['pd']:.2f} and clutter density {p['clutter_density']:.1e} per px^2"
+    return text + "."
+
+
+def _chain_verdicts(settings: list[dict]) -> list[str]:
+    """Per chain tracker, what detecting first loses against the APF (else the first filter) at each PTCR, read
+    from the divergence counts (Fisher) and the paired difference in present frames declared present."""
+    out = []
+    names = list(settings[0].get("chain", {})) if settings else []
+    for name in names:
+        parts, losses = [], []
+        for s in settings:
+            filters = s["filters"]
+            ref = next((k for k in filters if filters[k]["filter"] == "apf"), next(iter(filters)))
+            c, f = s["chain"][name], filters[ref]
+            vs = next(v for v in s["chain_vs_filters"] if v["chain"] == name and v["filter"] == ref)
+            diff = vs["present_difference"]
+            if diff["mean"] is None:
+                continue
+            covers = diff["ci_low"] is None or diff["ci_low"] <= 0 <= diff["ci_high"]
+            word = "fewer" if diff["mean"] < 0 else "more"
+            sig = "the interval covers 0" if covers else "significant"
+            losses.append(f"{abs(diff['mean']) * 100:.1f} points {word} at {s['ptcr_db']:g} dB "
+                          f"({stat_cell(diff, '{:+.1f}', 100.0)}, {sig})")
+            differs = "a difference" if vs["fisher_p"] < ALPHA else "no significant difference"
+            parts.append(f"at {s['ptcr_db']:g} dB {c['divergence']['count']}/{c['divergence']['runs']} against "
+                         f"{f['divergence']['count']}/{f['divergence']['runs']} divergent runs ({differs}, Fisher "
+                         f"p = {vs['fisher_p']:.2f}), steady error (its frames with a track) "
+                         f"{stat_cell(c['steady_error'], '{:.2f}')} against "
+                         f"{stat_cell(f['steady_error'], '{:.2f}')} px")
+        if parts:
+            out.append(f"**{_chain_label(name)}** against {ref}: {'; '.join(parts)}. Of the present frames after "
+                       f"acquisition, detecting first declares {' and '.join(losses)} present than {ref} "
+                       f"(percentage points, paired over the runs).")
+    return out
 
 
 def _verdict(s: dict) -> str:
@@ -150,13 +237,9 @@ def tbd_section(section, results: dict):
     verdicts = []
     for s in results["settings"]:
         section.table(_divergence_table(s, conf), f"tbd-{s['ptcr_db']:g}-divergence")
-        det = s["detector"]
-        section.text(f"The conventional chain's per-frame detector (matched filter, pfa {det['pfa']:g} per position "
-                     f"and aspect) on the same frames: a detection within {cfg['divergence_px']:g} px of the "
-                     f"target in {det['p_detection']:.1%} of its frames, {det['false_per_frame']:.2f} false "
-                     "detections per frame (detect-then-track with GNN/MHT is not built yet).")
-        if s["pairs"]:
-            section.table(_pairs_table(s), f"tbd-{s['ptcr_db']:g}-pairs")
+        section.text(_chain_text(s, cfg))
+        if s["pairs"] or s.get("chain_vs_filters"):
+            section.table(_pairs_table(s, conf), f"tbd-{s['ptcr_db']:g}-pairs")
         section.table(_rmse_table(s, "rmse"), f"tbd-{s['ptcr_db']:g}-rmse")
         section.table(_rmse_table(s, "rmse_all"), f"tbd-{s['ptcr_db']:g}-rmse-all")
         verdicts.append(_verdict(s))
@@ -164,6 +247,7 @@ def tbd_section(section, results: dict):
         if a["fisher_p"] < ALPHA:
             verdicts.append(f"{a['filter']}: divergence differs between {a['a']:g} and {a['b']:g} dB "
                             f"(Fisher p = {a['fisher_p']:.3f}).")
+    verdicts += _chain_verdicts(results["settings"])
     section.text("\n".join(f"* {v}" for v in verdicts))
     if results.get("exit_reentry"):
         for i, table in enumerate(_exit_reentry_tables(results["exit_reentry"], conf)):
@@ -235,10 +319,14 @@ def tbd(
     runs: Annotated[int | None, typer.Option(min=1, help="Monte Carlo runs (overrides the config)")] = None,
     seed: Annotated[int | None, typer.Option(min=0, help="seed (overrides the config)")] = None,
     overwrite: Annotated[bool, typer.Option(help="replace an earlier directory at --out")] = False,
+    chain: Annotated[bool, typer.Option(help="also track the detector's detections with GNN and MHT (the "
+                                             "config's `chain`; --no-chain: the detector alone)")] = True,
 ) -> None:
     """Run the seed-003 track-before-detect study (every filter on the same frames) and write its report."""
     data = read_config(config, "tbd study") if config is not None else {}
     data |= {k: v for k, v in (("runs", runs), ("seed", seed)) if v is not None}
+    if not chain:
+        data["chain"] = None
     cfg = validated(TBDStudyConfig, data, str(config or "--runs/--seed"), "tbd study")
     if out.exists() and not overwrite:
         raise FileExistsError(f"{out}: already exists (pass --overwrite to replace it)")

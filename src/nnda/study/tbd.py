@@ -18,20 +18,28 @@ filter declares it present; a run diverged when its last
 divergent runs with their Clopper-Pearson interval, the per-frame RMSE of
 x, y and position over the truth-present frames of the runs that did not
 diverge and of all runs, the steady-state (last ``steady_frames`` frames)
-per-run position error with a t-interval, the share of truth-present
+per-run position error with a t-interval (both over the frames with a
+position estimate: every frame of a filter, the frames with a confirmed
+track of the chain below), the share of truth-present
 frames declared present after ``acquisition`` frames, the likelihood
 evaluations per frame (the cost axis) and the time. Comparisons: each
 pair of filters at a PTCR and each filter across the PTCRs by Fisher's
 exact test on the divergence counts, and each filter's count against the
 paper's.
 
-The conventional chain's first half runs beside the filters on the same
-frames: the per-frame matched-filter detector
+The conventional chain runs beside the filters on the same frames: the
+per-frame matched-filter detector
 (`nnda.filters.frame_likelihood.detections`) at ``detector_pfa`` per
 position and aspect, scored by its probability of a detection within
-``divergence_px`` of a present target and its other (false) detections
-per frame. (Feeding its detections to nnda's GNN and MHT trackers is not
-built yet.)
+``divergence_px`` of a present target, its other (false) detections per
+frame and its cost (template correlations and milliseconds per frame);
+then, with ``chain`` set, its detections tracked by nnda's GNN and MHT
+(`nnda.study.tbd_chain`: a confirmed track is a "present" decision, the
+best confirmed track's position the estimate), scored by the same
+measures as the filters, with each chain tracker's divergence compared to
+each filter's (Fisher) and its per-run share of truth-present frames
+declared present after ``acquisition`` less the filter's (paired over the
+same runs, with a t-interval).
 
 With ``exit_reentry`` set, the study also runs the paper's 50-frame
 demonstration (``scenario`` "exit-reentry" of `nnda.data.frames`: the
@@ -54,12 +62,12 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from scipy.stats import binomtest, fisher_exact
 
 from nnda.data.frames import FramesConfig, simulate
-from nnda.filters.frame_likelihood import detections
 from nnda.study.results import mean_ci
+from nnda.study.tbd_chain import ChainConfig, frame_detections, run_chain
 from nnda.tracking.tbd import FILTERS, TBDConfig, run_tbd, tbd_model
 
 RESULTS_FORMAT = "nnda-tbd-study"
-RESULTS_VERSION = 1
+RESULTS_VERSION = 2
 RESULTS_FILE = "results.json"
 #: the paper's divergent runs out of 100 (spec A.4), by PTCR and filter
 PAPER_DIVERGENCES = {6.5: {"apf": 3, "rs": 5}, 8.1: {"apf": 2, "rs": 3}}
@@ -117,7 +125,8 @@ class TBDStudyConfig(BaseModel):
     its ``ptcr_db`` is replaced by each of them), the ``filters``, the filter side ``tbd``, the divergence
     rule (``divergence_px``, ``divergence_frames``), ``acquisition`` and ``steady_frames``, ``chunk_runs``
     (runs filtered at once; bounds memory), the intervals' ``confidence``, the ``exit_reentry`` scenario
-    (None: not run) and the matched-filter detector's ``detector_pfa``."""
+    (None: not run), the matched-filter detector's ``detector_pfa`` and the detect-then-track ``chain``
+    (None: the detector alone)."""
 
     model_config = _STRICT
 
@@ -135,6 +144,7 @@ class TBDStudyConfig(BaseModel):
     confidence: float = Field(0.95, gt=0, lt=1)
     exit_reentry: ExitReentry | None = ExitReentry()
     detector_pfa: float = Field(1e-4, gt=0, lt=1)
+    chain: ChainConfig | None = ChainConfig()
 
     @model_validator(mode="after")
     def _check(self) -> TBDStudyConfig:
@@ -174,14 +184,16 @@ def score(truth: np.ndarray, position: np.ndarray, present: np.ndarray, cfg: TBD
     (R, K, 2) and its decisions (R, K)."""
     on = truth[..., 4] > 0
     e = position - truth[..., [0, 2]]
-    e = np.where(np.isfinite(e), e, np.inf)
+    estimated = np.isfinite(e).all(axis=-1)  # a NaN position: no estimate (the chain without a track)
+    e = np.where(estimated[..., None], e, np.inf)
     dist = np.hypot(e[..., 0], e[..., 1])
     lost = np.where(on, ~present | (dist > cfg.divergence_px), present)
     diverged = lost[:, -cfg.divergence_frames:].all(axis=1)
-    kept = on & ~diverged[:, None]
-    steady = np.where(on, dist, np.nan)[:, -cfg.steady_frames:]
-    with np.errstate(invalid="ignore"):
-        per_run = np.nanmean(steady, axis=1)
+    on_est = on & estimated
+    kept = on_est & ~diverged[:, None]
+    steady = np.where(on_est, dist, 0.0)[:, -cfg.steady_frames:]
+    with np.errstate(invalid="ignore"):  # NaN for a run without an estimate of a present target there
+        per_run = steady.sum(axis=1) / on_est[:, -cfg.steady_frames:].sum(axis=1)
     after = on[:, cfg.acquisition:]
     R = truth.shape[0]
     return {
@@ -189,8 +201,8 @@ def score(truth: np.ndarray, position: np.ndarray, present: np.ndarray, cfg: TBD
         "diverged_runs": np.flatnonzero(diverged).tolist(),
         "rmse": {"x": _rmse(e[..., 0] ** 2, kept), "y": _rmse(e[..., 1] ** 2, kept),
                  "position": _rmse(dist**2, kept)},
-        "rmse_all": {"x": _rmse(e[..., 0] ** 2, on), "y": _rmse(e[..., 1] ** 2, on),
-                     "position": _rmse(dist**2, on)},
+        "rmse_all": {"x": _rmse(e[..., 0] ** 2, on_est), "y": _rmse(e[..., 1] ** 2, on_est),
+                     "position": _rmse(dist**2, on_est)},
         "steady_error": mean_ci(per_run[~diverged], cfg.confidence, low=0.0),
         "steady_error_all": mean_ci(per_run, cfg.confidence, low=0.0),
         "declared_present": float(present[:, cfg.acquisition:][after].mean()) if after.any() else None,
@@ -200,15 +212,28 @@ def score(truth: np.ndarray, position: np.ndarray, present: np.ndarray, cfg: TBD
 
 def _run_filters(scene: FramesConfig, runs: int, cfg: TBDStudyConfig, index: int) -> tuple[np.ndarray, dict]:
     """Simulate ``runs`` runs of ``scene`` chunk by chunk and run every filter on them: the truth (R, K, 5) and
-    per filter label its position (R, K, 2), decisions (R, K), P(z = 0) (R, K) and cost."""
+    per filter label its position (R, K, 2), decisions (R, K), P(z = 0) (R, K) and cost; under "detector"
+    the detector's counts and under "chain" each chain tracker's position, decisions and cost."""
     parts: dict[str, dict[str, list]] = {f.label: {"position": [], "present": [], "p_absent": []}
                                          for f in cfg.filters}
     cost = {f.label: {"seconds": 0.0, "evaluations": 0.0} for f in cfg.filters}
-    truths, detector = [], np.zeros(3)
+    trackers = cfg.chain.trackers if cfg.chain is not None else ()
+    chain: dict[str, dict] = {name: {"position": [], "present": [], "seconds": 0.0} for name in trackers}
+    truths, detector, detector_s = [], np.zeros(3), 0.0
     for start in range(0, runs, cfg.chunk_runs):
         fs = simulate(scene, min(cfg.chunk_runs, runs - start), cfg.seed, first_run=start)
         truths.append(fs.truth)
-        detector += _detect(fs, cfg)
+        model = tbd_model(fs, cfg.tbd)
+        t0 = time.perf_counter()
+        hits = frame_detections(model, cfg.detector_pfa)
+        detector_s += time.perf_counter() - t0
+        detector += detector_counts(fs.truth, hits, cfg.divergence_px)
+        for name in trackers:
+            out = run_chain(model, hits, name, cfg.chain, cfg.detector_pfa)
+            chain[name]["position"].append(out.position)
+            chain[name]["present"].append(out.present)
+            chain[name]["seconds"] += out.seconds
+            chain[name]["settings"] = out.settings
         for fi, f in enumerate(cfg.filters):
             seed = np.random.SeedSequence([cfg.seed, index, fi, start])
             out = run_tbd(tbd_model(fs, cfg.tbd), f.name, f.particles, np.random.default_rng(seed))
@@ -222,25 +247,39 @@ def _run_filters(scene: FramesConfig, runs: int, cfg: TBDStudyConfig, index: int
             "filter": f.name, "particles": f.particles,
             "evaluations_per_frame": cost[f.label]["evaluations"] / runs, "seconds": cost[f.label]["seconds"],
             "ms_per_frame": 1e3 * cost[f.label]["seconds"] / (runs * scene.frames)}
+    frames = runs * scene.frames
     got["detector"] = {"pfa": cfg.detector_pfa, "p_detection": detector[0] / max(detector[1], 1),
-                       "false_per_frame": detector[2] / (runs * scene.frames)}
+                       "false_per_frame": detector[2] / frames, "correlations_per_frame": _correlations(scene),
+                       "seconds": detector_s, "ms_per_frame": 1e3 * detector_s / frames}
+    got["chain"] = {name: {"tracker": name, "settings": c["settings"], "seconds": c["seconds"],
+                           "ms_per_frame": 1e3 * (c["seconds"] + detector_s) / frames,
+                           "position": np.concatenate(c["position"]), "present": np.concatenate(c["present"])}
+                    for name, c in chain.items()}
     return np.concatenate(truths), got
 
 
-def _detect(fs, cfg: TBDStudyConfig) -> np.ndarray:
-    """[frames with a detection within divergence_px of the present target, truth-present frames, other
-    detections] of the matched-filter detector on a frame set (the model's known GMRF parameters)."""
-    model = tbd_model(fs, cfg.tbd)
-    lik, out = model.likelihood, np.zeros(3)
-    for k in range(1, fs.steps + 1):
-        d_pad, bh, bv, sc = model.frame_data(k)
-        hits = detections(lik.matched_filter(d_pad, bh, bv, sc), lik.half, cfg.detector_pfa)
-        run = hits[:, 0].astype(np.int64)
-        truth = fs.truth[run, k - 1]
-        near = (truth[:, 4] > 0) & (np.hypot(hits[:, 1] - truth[:, 0], hits[:, 2] - truth[:, 2]) <= cfg.divergence_px)
-        present = fs.truth[:, k - 1, 4] > 0
+def _correlations(scene: FramesConfig) -> int:
+    """Template correlations of the matched filter per frame: every aspect at every extended-grid position."""
+    h = scene.template_half
+    return len(scene.aspects) * (scene.rows + 2 * h) * (scene.cols + 2 * h)
+
+
+def detector_counts(truth: np.ndarray, hits: list[np.ndarray], near_px: float) -> np.ndarray:
+    """[frames with a detection within ``near_px`` of the present target, truth-present frames, other
+    detections] of the per-frame detections ``hits`` (K arrays (n, 5) [run, row, column, ...]) of runs
+    with ``truth`` (R, K, 5)."""
+    out = np.zeros(3)
+    for k, h in enumerate(hits):
+        run = h[:, 0].astype(np.int64)
+        t = truth[run, k]
+        near = (t[:, 4] > 0) & (np.hypot(h[:, 1] - t[:, 0], h[:, 2] - t[:, 2]) <= near_px)
+        present = truth[:, k, 4] > 0
         out += [np.isin(np.flatnonzero(present), run[near]).sum(), present.sum(), (~near).sum()]
     return out
+
+
+def _chain_entry(c: dict) -> dict:
+    return {k: c[k] for k in ("tracker", "settings", "seconds", "ms_per_frame")}
 
 
 def _cost(g: dict) -> dict:
@@ -252,8 +291,9 @@ def run_ptcr(ptcr: float, cfg: TBDStudyConfig, index: int) -> dict:
     """Simulate the runs at ``ptcr`` and score every filter on them."""
     scene = cfg.scene.model_copy(update={"ptcr_db": ptcr})
     truth, got = _run_filters(scene, cfg.runs, cfg, index)
-    detector = got.pop("detector")
+    detector, raw = got.pop("detector"), got.pop("chain")
     filters = {label: _cost(g) | score(truth, g["position"], g["present"], cfg) for label, g in got.items()}
+    chain = {name: _chain_entry(c) | score(truth, c["position"], c["present"], cfg) for name, c in raw.items()}
     labels = list(filters)
     pairs = [{"a": a, "b": b, "fisher_p": fisher(filters[a]["divergence"], filters[b]["divergence"])}
              for i, a in enumerate(labels) for b in labels[i + 1:]]
@@ -263,9 +303,21 @@ def run_ptcr(ptcr: float, cfg: TBDStudyConfig, index: int) -> dict:
         if count is not None:
             theirs = divergence(count, 100, cfg.confidence)
             paper[label] = {"divergence": theirs, "fisher_p": fisher(entry["divergence"], theirs)}
+    share = {key: _present_share(truth, g["present"], cfg.acquisition) for key, g in (*got.items(), *raw.items())}
+    chain_vs = [{"chain": name, "filter": label, "fisher_p": fisher(c["divergence"], f["divergence"]),
+                 "present_difference": mean_ci(share[name] - share[label], cfg.confidence, low=-1.0, high=1.0)}
+                for name, c in chain.items() for label, f in filters.items()]
     return {"ptcr_db": ptcr, "runs": cfg.runs, "frames": scene.frames, "detector": detector,
             "truth_present_all_frames": int((truth[..., 4] > 0).all(axis=1).sum()),
-            "filters": filters, "pairs": pairs, "paper": paper}
+            "filters": filters, "pairs": pairs, "paper": paper, "chain": chain, "chain_vs_filters": chain_vs}
+
+
+def _present_share(truth: np.ndarray, present: np.ndarray, acquisition: int) -> np.ndarray:
+    """Per run (R,), the share of its truth-present frames after ``acquisition`` declared present (NaN for a
+    run with none): the runs' paired differences compare two estimators on the same frames."""
+    on = truth[:, acquisition:, 4] > 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return (present[:, acquisition:] & on).sum(axis=1) / on.sum(axis=1)
 
 
 def _frames_until(done: np.ndarray, starts: np.ndarray) -> list[int | None]:
@@ -311,10 +363,13 @@ def run_exit_reentry(cfg: TBDStudyConfig) -> dict:
                                          "exit_speed": er.speed, "birth_velocity_sd": er.speed})
     truth, got = _run_filters(scene, er.runs, cfg, len(cfg.ptcr_db))
     got.pop("detector")
+    chain = got.pop("chain")
     return {"ptcr_db": er.ptcr_db, "runs": er.runs, "frames": er.frames, "reentry_frame": er.reentry_frame,
             "speed": er.speed,
             "filters": {label: _cost(g) | score_exit_reentry(truth, g["position"], g["present"], cfg)
-                        for label, g in got.items()}}
+                        for label, g in got.items()},
+            "chain": {name: _chain_entry(c) | score_exit_reentry(truth, c["position"], c["present"], cfg)
+                      for name, c in chain.items()}}
 
 
 def run_tbd_study(cfg: TBDStudyConfig) -> dict:
