@@ -26,13 +26,12 @@ from rich.console import Console
 
 from nnda.data.frames import simulate
 from nnda.errors import validated
-from nnda.files import atomic_directory, atomic_file, read_config, write_json
+from nnda.files import read_config, refuse_existing, write_results_directory
+from nnda.reports.pages import REPORT_HTML, write_pages
 from nnda.reports.text_table import DASH, TextTable, interval, stat_cell
 from nnda.study.tbd import PAPER_DIVERGENCES, RESULTS_FILE, TBDStudyConfig, run_tbd_study
 from nnda.tracking.tbd import run_tbd, tbd_model
 
-REPORT_MD = "report.md"
-REPORT_HTML = "report.html"
 TITLE = "nnda track-before-detect study: auxiliary particle filter vs resample-move (seed 003)"
 #: every this many frames in the RMSE tables
 PROFILE_EVERY = 2
@@ -298,18 +297,13 @@ def frames_figure(cfg: TBDStudyConfig):
 
 def write_report(out: Path, results: dict, figure=None) -> None:
     """``out``/report.md and report.html of ``results`` (and ``figure``, a `Figure`, under figures/)."""
-    from nnda.reports.study_report import FIGURES, Section, html_page, markdown_page  # plotly only when reporting
+    from nnda.reports.study_report import Section  # plotly only when reporting
 
     section = tbd_section(Section("tbd", "Track-before-detect filters", [], []), results)
-    if figure is not None:
-        section.figure(figure)
-        with atomic_file(out / FIGURES / figure.name) as tmp:
-            tmp.write_bytes(figure.png)
-    sections = [section]
-    with atomic_file(out / REPORT_MD) as tmp:
-        tmp.write_text(markdown_page(TITLE, sections))
-    with atomic_file(out / REPORT_HTML) as tmp:
-        tmp.write_text(html_page(TITLE, sections))
+    figures = [] if figure is None else [figure]
+    for f in figures:
+        section.figure(f)
+    write_pages(out, TITLE, [section], figures)
 
 
 def tbd(
@@ -328,11 +322,8 @@ def tbd(
     if not chain:
         data["chain"] = None
     cfg = validated(TBDStudyConfig, data, str(config or "--runs/--seed"), "tbd study")
-    if out.exists() and not overwrite:
-        raise FileExistsError(f"{out}: already exists (pass --overwrite to replace it)")
+    refuse_existing(out, overwrite)
     results = run_tbd_study(cfg)
     figure = frames_figure(cfg)
-    with atomic_directory(out, overwrite=overwrite) as tmp:
-        write_json(tmp / RESULTS_FILE, results)
-        write_report(tmp, results, figure)
+    write_results_directory(out, overwrite, RESULTS_FILE, results, lambda d, r: write_report(d, r, figure))
     Console().print(f"tbd study: {results['runtime_s']:.0f} s; report: {out / REPORT_HTML}")
