@@ -39,11 +39,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from nnda.errors import FilterError
-from nnda.filters import kalman
+from nnda.filters import imm_kernels, kalman
 from nnda.filters.batch import Batch
 from nnda.filters.kalman import MeasurementPrediction
-from nnda.filters.measurement import MeasurementModel, PolarMeasurement, measurement_model
-from nnda.filters.motion import ConstantVelocity, CoordinatedTurn, MotionModel, process_noise
+from nnda.filters.measurement import MeasurementModel, PolarMeasurement, PositionMeasurement, measurement_model
+from nnda.filters.motion import ConstantVelocity, CoordinatedTurn, MotionModel
 from nnda.filters.two_point import two_point
 from nnda.validation import check_array, check_covariance, check_finite, check_nonnegative
 
@@ -114,6 +114,13 @@ class IMM:
             raise FilterError("IMM.models: at least one motion model is needed")
         if any(m.dim < 4 for m in self.models):
             raise FilterError("IMM.models: every model state must start with [x, vx, y, vy]")
+        other = [type(m).__name__ for m in self.models if not isinstance(m, ConstantVelocity | CoordinatedTurn)]
+        if other:
+            raise FilterError(f"IMM.models: the IMM's compiled cycle (`nnda.filters.imm_kernels`) runs "
+                              f"ConstantVelocity and CoordinatedTurn models, got {', '.join(other)}")
+        if not isinstance(self.measurement, PolarMeasurement | PositionMeasurement):
+            raise FilterError(f"IMM.measurement: a PolarMeasurement or a PositionMeasurement, got "
+                              f"{type(self.measurement).__name__}")
         tpm = check_array("IMM.tpm", self.tpm, (r, r), error=FilterError)
         mu0 = check_array("IMM.mu0", self.mu0, (r,), error=FilterError)
         check_finite("IMM.tpm", tpm, error=FilterError)
@@ -148,25 +155,12 @@ class IMM:
         return np.array(self.tpm)
 
     @cached_property
-    def _tpm_t(self) -> np.ndarray:
-        """The TPM transposed, (to j, from i)."""
-        return np.ascontiguousarray(self._tpm.T)
-
-    @cached_property
     def _noise_basis(self) -> np.ndarray:
         """(3, r, n, n) every model's process-noise basis in the padded layout."""
         basis = np.zeros((3, self.n_models, self.dim, self.dim))
         for j, m in enumerate(self.models):
             basis[:, j, : m.dim, : m.dim] = m.noise_basis
         return basis
-
-    @cached_property
-    def _tiny_eye(self) -> np.ndarray:
-        return _TINY * np.eye(self.n_models)
-
-    @cached_property
-    def _padded(self) -> bool:
-        return self.output_dim != self.dim
 
     @cached_property
     def _own(self) -> np.ndarray:
@@ -176,6 +170,30 @@ class IMM:
     @cached_property
     def _own2(self) -> np.ndarray:
         return self._own[:, :, None] * self._own[:, None, :]
+
+    @cached_property
+    def _kinds(self) -> np.ndarray:
+        """(r,) each model's transition in the compiled cycle (`imm_kernels.CV` or `CT`)."""
+        return np.array([imm_kernels.CT if isinstance(m, CoordinatedTurn) else imm_kernels.CV
+                         for m in self.models], dtype=np.int64)
+
+    @cached_property
+    def _dims(self) -> np.ndarray:
+        return np.array([m.dim for m in self.models], dtype=np.int64)
+
+    @cached_property
+    def _omega_max(self) -> np.ndarray:
+        """(r,) the turn-rate limit (rad/s) of each CT model (0 for CV)."""
+        return np.array([getattr(m, "omega_max", 0.0) for m in self.models])
+
+    @cached_property
+    def _polar(self) -> bool:
+        return isinstance(self.measurement, PolarMeasurement)
+
+    @cached_property
+    def _origin(self) -> np.ndarray:
+        """(2,) the radar's position (m) for a polar measurement, else unused zeros."""
+        return np.array(getattr(self.measurement, "origin", (0.0, 0.0)), dtype=float)
 
     @cached_property
     def _augment(self) -> np.ndarray:
@@ -276,32 +294,14 @@ class IMM:
         ``check=False`` skips the input checks (for callers whose states and
         intervals are known to be valid, such as the trackers' scan loop).
         """
-        K, r, n = len(state), self.n_models, self.dim
         dt = np.asarray(dt, dtype=float)
         if check:
             self._check_predict(state, dt)
         if not dt.ndim:
-            dt = np.full(K, float(dt))
-
-        mu, x = state.mu, state.x
-        mu_pred = mu @ self._tpm  # (K, j), eq. 4.47
-        # mu_{i|j} as (K, j, i), eq. 4.46
-        weights = (self._tpm_t * mu[:, None, :] + self._tiny_eye) / (mu_pred + _TINY)[:, :, None]
-        x0 = weights @ x  # eq. 4.48
-        P_aug = state.P + self._augment if self._padded and self.augment_variance else state.P
-        spread = x[:, None, :, :] - x0[:, :, None, :]  # (K, j, i, n)
-        P0 = (weights @ P_aug.reshape(K, r, n * n)).reshape(K, r, n, n)
-        P0 += (spread * weights[..., None]).swapaxes(-1, -2) @ spread  # eq. 4.49
-        # every model's Jacobian in one padded stack, so one product propagates all covariances; its
-        # zero padding drops what mixing put beyond a smaller model's own entries (§7.1.7)
-        F = np.zeros((K, r, n, n))
-        xp = np.zeros((K, r, n))
-        for j, m in enumerate(self.models):
-            d = m.dim
-            xp[:, j, :d] = m.transition(x0[:, j, :d], dt, out=F[:, j, :d, :d])[0]
-        Pp = kalman.propagate_covariance(F, P0, process_noise(dt, self._noise_basis))
-        mp = kalman.predict_measurement(xp, Pp, self.measurement)
-        return IMMPrediction(IMMState(xp, Pp, mu_pred), mp)
+            dt = np.full(len(state), float(dt))
+        xp, Pp, mu_pred = imm_kernels.mix_predict(state.x, state.P, state.mu, dt, self._tpm, self._kinds,
+                                                  self._dims, self._omega_max, self._noise_basis, self._augment)
+        return IMMPrediction(IMMState(xp, Pp, mu_pred), self.measurement_prediction(xp, Pp))
 
     def _check_predict(self, state: IMMState, dt: np.ndarray) -> None:
         K = len(state)
@@ -333,21 +333,14 @@ class IMM:
                 if mask.dtype != bool or mask.shape != (K,):
                     raise FilterError(f"mask: expected a boolean array of shape ({K},), got {mask.dtype} "
                                       f"{mask.shape}")
-        if mask is not None:
-            z = np.where(mask[:, None], z, mp.z[:, 0])
+        if mask is None:
+            mask = np.ones(K, bool)
+        elif check:
+            z = np.where(mask[:, None], z, mp.z[:, 0])  # rows without a measurement are ignored, NaN or not
         if check:
             self.measurement.validate("z", z)
-        nu = kalman.innovation(z[:, None, :], mp, self.measurement)  # (K, r, 2)
-        x, P = kalman.correct(st.x, st.P, nu, mp)
-        log_post = np.log(st.mu + _TINY) + kalman.gaussian_log_likelihood(
-            kalman.mahalanobis_2x2(nu, mp.S_inv), mp.log_det_S
-        )
-        mu = np.exp(log_post - log_post.max(axis=1, keepdims=True))
-        mu /= mu.sum(axis=1, keepdims=True)
-        if mask is not None:
-            x = np.where(mask[:, None, None], x, st.x)
-            P = np.where(mask[:, None, None, None], P, st.P)
-            mu = np.where(mask[:, None], mu, st.mu)
+        x, P, mu = imm_kernels.update(st.x, st.P, st.mu, np.asarray(z, dtype=float), mask, mp.z, mp.S_inv,
+                                      mp.log_det_S, mp.PHt, self._polar)
         return IMMState(x, P, mu)
 
     def update_position(self, pred: IMMPrediction, xy: np.ndarray, R: np.ndarray) -> IMMState:
@@ -377,13 +370,7 @@ class IMM:
         For CV + CT, d = 4 ([x, vx, y, vy], spec §7.1.7). Works on a posterior
         or on ``pred.state`` (the combined prediction).
         """
-        d, K = self.output_dim, len(state)
-        x, P, w = state.x[..., :d], state.P[..., :d, :d], state.mu[:, None, :]
-        xc = (w @ x)[:, 0]
-        dx = x - xc[:, None, :]
-        spread = dx[..., :, None] * dx[..., None, :]
-        spread += P
-        return xc, (w @ spread.reshape(K, self.n_models, d * d)).reshape(K, d, d)
+        return imm_kernels.estimate(state.x, state.P, state.mu, self.output_dim)
 
     def combined_measurement(self, pred: IMMPrediction) -> MeasurementPrediction:
         """Predicted measurement and innovation covariance of the combined predicted state (K leading).
@@ -392,7 +379,24 @@ class IMM:
         the combined prediction x (eq. 4.54 on the shared dimensions) with
         S = H P H^T + R.
         """
-        return kalman.predict_measurement(*self.estimate(pred.state), self.measurement)
+        return self.measurement_prediction(*self.estimate(pred.state))
+
+    def measurement_prediction(self, x: np.ndarray, P: np.ndarray) -> MeasurementPrediction:
+        """Predicted measurements, Jacobians and innovation covariances of states x (..., n), P (..., n, n)
+        (leading shape kept): `kalman.predict_measurement` for this IMM's measurement model, compiled.
+
+        Raises FilterError if an innovation covariance is not positive definite.
+        """
+        lead, n = x.shape[:-1], x.shape[-1]
+        z, S, S_inv, log_det, Ht, PHt, bad = imm_kernels.measure(x.reshape(-1, n), P.reshape(-1, n, n),
+                                                                 self._polar, self._origin, self.measurement.R)
+        if bad >= 0:
+            where = tuple(int(i) for i in np.unravel_index(bad, lead))
+            raise FilterError(f"innovation covariance at batch index {where} is not positive definite: "
+                              f"{S[bad].tolist()}")
+        return MeasurementPrediction(z.reshape(*lead, 2), S.reshape(*lead, 2, 2), S_inv.reshape(*lead, 2, 2),
+                                     log_det.reshape(lead), Ht.reshape(*lead, n, 2).swapaxes(-1, -2),
+                                     PHt.reshape(*lead, n, 2))
 
     def mahalanobis(self, mp: MeasurementPrediction, Z: np.ndarray) -> np.ndarray:
         """Squared Mahalanobis distances (*B, N) of N measurements Z (N, 2) from each prediction in ``mp``.
@@ -401,8 +405,9 @@ class IMM:
         for ``pred.measurement`` (one distance per model).
         """
         Z = self._checked_contacts(Z)
-        nu = self.measurement.residual(Z, mp.z[..., None, :])
-        return kalman.mahalanobis_2x2(nu, mp.S_inv[..., None, :, :])
+        lead = mp.z.shape[:-1]
+        d2 = imm_kernels.mahalanobis(mp.z.reshape(-1, 2), mp.S_inv.reshape(-1, 2, 2), Z, self._polar)
+        return d2.reshape(*lead, len(Z))
 
     def log_likelihood(self, pred: IMMPrediction, Z: np.ndarray) -> np.ndarray:
         """log p(z | track) (K, N) of N measurements Z (N, 2) under each track's IMM prediction.

@@ -93,5 +93,5 @@ def gate_tracks(imm: IMM, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray, th
     `IMM.combined_measurement`) and the pairs inside their gates (`gate`, with the Cartesian test of the
     poorly linearised tracks)."""
     estimate = imm.estimate(pred.state)
-    mp = kalman.predict_measurement(*estimate, imm.measurement)
+    mp = imm.measurement_prediction(*estimate)
     return mp, gate(imm, mp, z, xy, threshold, estimate)
