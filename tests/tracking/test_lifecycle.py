@@ -64,7 +64,7 @@ def test_window_matches_spec_values():
     assert LifecycleConfig(v_min=50, v_max=500).window(2.0, 30.0) == (10.0, 1090.0)
 
 
-@pytest.mark.parametrize("n_a, n_b", [(60, 80), (300, 250), (1500, 1500)])  # x bands; the last by k-d trees
+@pytest.mark.parametrize("n_a, n_b", [(60, 80), (300, 250), (1500, 1500)])
 def test_window_pairs_against_brute_force(n_a, n_b):
     rng = np.random.default_rng(1)
     a = rng.uniform(0, 5000, (n_a, 2))

@@ -82,16 +82,13 @@ from __future__ import annotations
 import math
 from typing import Annotated, Literal
 
+import numba
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
-from scipy.spatial import cKDTree
 
 from nnda.data.scenario import Sensor
 from nnda.data.sensor import cart_to_polar_at, wrap_angle
 from nnda.tracking.output import CONFIRMED, DELETED, PRELIMINARY
-
-#: beyond this many initiator-contact pairs in the x bands, k-d trees find the pairs faster
-_BAND_PAIRS = 40_000
 
 
 class LifecycleConfig(BaseModel):
@@ -331,40 +328,41 @@ def window_pairs(initiators: np.ndarray, contacts: np.ndarray, d_min: float, d_m
     ``initiators`` (I, 2) and ``contacts`` (J, 2) are Cartesian positions in m.
     Returns two int64 arrays of equal length, sorted by initiator then contact.
     With the contacts sorted by x, each initiator tests only those in the band
-    |dx| <= d_max (a binary search); when the bands hold many pairs (thousands
-    of contacts per scan), k-d trees keep this near-linear.
+    |dx| <= d_max (a binary search), in one compiled loop (`_band_pairs`): the
+    work grows with the pairs in the bands, near-linear in the contacts.
     """
-    n_init, n_contacts = len(initiators), len(contacts)
-    if n_init == 0 or n_contacts == 0:
+    if len(initiators) == 0 or len(contacts) == 0:
         return np.empty(0, np.int64), np.empty(0, np.int64)
-    order = contacts[:, 0].argsort()
-    # each initiator's band [x - reach, x + reach) in the sorted contacts; the margin over d_max keeps
-    # rounding at the band's edges from dropping a pair
+    # the margin over d_max keeps rounding at the bands' edges from dropping a pair
     reach = d_max + 1e-6 * (1.0 + d_max)
-    band = contacts[order, 0].searchsorted(initiators[:, :1] + np.array([-reach, reach]))
-    lo, count = band[:, 0], band[:, 1] - band[:, 0]
-    total = int(count.sum())
-    if total > _BAND_PAIRS:
-        return _tree_pairs(initiators, contacts, d_min, d_max)
-    i = np.arange(n_init).repeat(count)
-    j = order[np.arange(total) + (lo - (count.cumsum() - count)).repeat(count)]
-    d = initiators[i] - contacts[j]
-    d *= d
-    d2 = d[:, 0] + d[:, 1]
-    keep = np.flatnonzero((d2 >= d_min**2) & (d2 <= d_max**2))
-    i, j = i[keep], j[keep]
-    by_pair = (i * n_contacts + j).argsort()
-    return i[by_pair], j[by_pair]
+    return _band_pairs(np.ascontiguousarray(initiators, float), np.ascontiguousarray(contacts, float),
+                       float(d_min), float(d_max), reach)
 
 
-def _tree_pairs(initiators: np.ndarray, contacts: np.ndarray, d_min: float, d_max: float
-                ) -> tuple[np.ndarray, np.ndarray]:
-    """`window_pairs` by a k-d tree query (same result, sorted by initiator then contact)."""
-    pairs = cKDTree(initiators).sparse_distance_matrix(cKDTree(contacts), d_max, output_type="ndarray")
-    keep = pairs["v"] >= d_min
-    i, j = pairs["i"][keep].astype(np.int64), pairs["j"][keep].astype(np.int64)
-    order = np.lexsort((j, i))
-    return i[order], j[order]
+@numba.njit(cache=True, nogil=True)
+def _band_pairs(initiators, contacts, d_min, d_max, reach):
+    """`window_pairs`' loop: per initiator, the contacts of its x band [x - reach, x + reach) whose squared
+    distance lies in [d_min^2, d_max^2], in contact order."""
+    order = np.argsort(contacts[:, 0], kind="mergesort")
+    xs = contacts[order, 0]
+    lo = np.searchsorted(xs, initiators[:, 0] - reach)
+    hi = np.searchsorted(xs, initiators[:, 0] + reach)
+    i = np.empty((hi - lo).sum(), np.int64)
+    j = np.empty(i.size, np.int64)
+    lo2, hi2 = d_min * d_min, d_max * d_max
+    m = 0
+    for a in range(len(initiators)):
+        start = m
+        for t in range(lo[a], hi[a]):
+            b = order[t]
+            dx = initiators[a, 0] - contacts[b, 0]
+            dy = initiators[a, 1] - contacts[b, 1]
+            d2 = dx * dx + dy * dy
+            if lo2 <= d2 <= hi2:
+                i[m], j[m] = a, b
+                m += 1
+        j[start:m] = np.sort(j[start:m])
+    return i[:m], j[:m]
 
 
 def _off_middle(i: np.ndarray, j: np.ndarray, initiators: np.ndarray, contacts: np.ndarray,

@@ -43,6 +43,7 @@ import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from functools import cached_property
 from typing import ClassVar, Protocol, runtime_checkable
 
 import numpy as np
@@ -353,7 +354,7 @@ class ContactTracker(ABC):
         #: tracks deleted since the last reset, by reason (`nnda.tracking.lifecycle.DELETION_REASONS`)
         self.deletions: dict[str, int] = dict.fromkeys(DELETION_REASONS, 0)
 
-    @property
+    @cached_property
     def gate_threshold(self) -> float:
         """The chi-square gate (2 dof) of the tracker's config, or the spec's 9.21 for a tracker without one
         (the coverage rule of the sanity deletion measures a track's distance outside coverage in gates)."""
@@ -390,7 +391,7 @@ class ContactTracker(ABC):
         "existence" (IPDA / JIPDA)."""
         return self.config.lifecycle.confirmation
 
-    @property
+    @cached_property
     def score_pd(self) -> float:
         """The detection probability of the track score: the config's ``pd``, or the spec's 0.9 (A4)."""
         return float(getattr(self.config, "pd", SCORE_PD))
@@ -402,7 +403,7 @@ class ContactTracker(ABC):
         return (local_density(scan.xy, scan.xy[at], self._clutter_radius)
                 * scan.filter.measurement.area_jacobian(scan.z[at]))
 
-    @property
+    @cached_property
     def _clutter_radius(self) -> float:
         return float(getattr(self.config, "clutter_radius_m", CLUTTER_RADIUS_M))
 
