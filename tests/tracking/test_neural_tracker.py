@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import itertools
 import json
 
@@ -398,3 +399,17 @@ def test_a_model_scoring_nan_is_an_error_not_silence(model_file):
     with pytest.raises(TrackingError, match=r"nn: scan \d+: the model .* scored \d+ of \d+ pairs as NaN"):
         for scan in ds.scans():
             tracker.step(scan)
+
+
+def test_the_imm_feature_tracker_gives_the_same_bytes_for_the_same_seed(ext_model_file):
+    """Same scenario and seed -> the same bits in every output, the compiled IMM cycle included (issue 20)."""
+    def digest() -> str:
+        ds = generate(PRESETS["S1"], seed=3)
+        tracker = make_tracker("nn", ds.scenario.sensor, {"model": str(ext_model_file)})
+        h = hashlib.sha256()
+        for out in map(tracker.step, ds.scans()):
+            for a in (out.track_id, out.status, out.state, out.covariance, out.contact):
+                h.update(np.ascontiguousarray(a).tobytes())
+        return h.hexdigest()
+
+    assert digest() == digest()
