@@ -1,8 +1,14 @@
 """Tracker speed: ms per scan on S1-S6 and a scaling table (issue 6).
 
 Part 1: every registered tracker on S1-S6 (100 clutter points per scan),
-mean and 95th-percentile wall time per scan, with the GNN as the reference
-run in the same process (ratio column). Part 2: the same trackers as clutter
+mean and 95th-percentile wall time per scan, with the GNN and MHT as the
+references run in the same process (ratio columns); every tracker first runs
+one scenario untimed, so loading the compiled kernels is not timed.
+Part 0 (issue 20): what numba bought: the IMM cycle of the contact trackers
+(predict, gating prediction, update, estimate) compiled (`nnda.filters.imm_kernels`)
+against the batched numpy formulation it replaced (`numpy_cycle`, kept here as
+the reference), per call at tracking sizes, and the kernels' cold compile time
+(an empty numba cache, in a fresh process) against loading them from the cache. Part 2: the same trackers as clutter
 grows 100 -> 1,000 -> 10,000 per scan (S6's six targets) and as targets grow
 6 -> 50 -> 200 (100 clutter), over SCALING_SCANS scans each (``--scans``); a
 tracker is dropped from the bigger settings once it passes 10 s per scan.
@@ -18,6 +24,10 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
+import subprocess
+import sys
+import tempfile
 import time
 
 import numpy as np
@@ -25,6 +35,9 @@ import numpy as np
 from nnda.data.generator import generate
 from nnda.data.presets import PRESETS
 from nnda.data.scenario import Clutter, Scenario, Segment, Target
+from nnda.filters import kalman
+from nnda.filters.imm import _TINY, IMM, IMMPrediction, IMMState
+from nnda.filters.motion import process_noise
 from nnda.models.scorer import load_model
 from nnda.tracking.registry import TRACKERS, make_tracker
 
@@ -87,12 +100,107 @@ def entries(models: list[str]) -> list[tuple[str, str, dict]]:
     return rows
 
 
+def numpy_cycle(imm: IMM, state: IMMState, dt: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, ...]:
+    """One IMM cycle of K tracks in the batched numpy formulation the compiled kernels replaced (eqs.
+    4.46-4.55): mixing and model predictions, every model's measurement prediction, the combined (gating)
+    measurement prediction, the update with z (K, 2) and the combined estimate. Returns what it computed."""
+    K, r, n = state.x.shape
+    tpm = np.array(imm.tpm)
+    mu, x = state.mu, state.x
+    mu_pred = mu @ tpm
+    weights = (tpm.T * mu[:, None, :] + _TINY * np.eye(r)) / (mu_pred + _TINY)[:, :, None]
+    x0 = weights @ x
+    spread = x[:, None, :, :] - x0[:, :, None, :]
+    P0 = (weights @ state.P.reshape(K, r, n * n)).reshape(K, r, n, n)
+    P0 += (spread * weights[..., None]).swapaxes(-1, -2) @ spread
+    F = np.zeros((K, r, n, n))
+    xp = np.zeros((K, r, n))
+    for j, m in enumerate(imm.models):
+        xp[:, j, :m.dim] = m.transition(x0[:, j, :m.dim], dt, out=F[:, j, :m.dim, :m.dim])[0]
+    Pp = kalman.propagate_covariance(F, P0, process_noise(dt, imm._noise_basis))
+    mp = kalman.predict_measurement(xp, Pp, imm.measurement)
+    pred = IMMPrediction(IMMState(xp, Pp, mu_pred), mp)
+    gate = kalman.predict_measurement(*numpy_estimate(imm, pred.state), imm.measurement)
+    nu = kalman.innovation(z[:, None, :], mp, imm.measurement)
+    xu, Pu = kalman.correct(xp, Pp, nu, mp)
+    log_post = np.log(mu_pred + _TINY) + kalman.gaussian_log_likelihood(kalman.mahalanobis_2x2(nu, mp.S_inv),
+                                                                        mp.log_det_S)
+    mu_u = np.exp(log_post - log_post.max(axis=1, keepdims=True))
+    mu_u /= mu_u.sum(axis=1, keepdims=True)
+    return (*numpy_estimate(imm, IMMState(xu, Pu, mu_u)), gate.z, gate.S)
+
+
+def numpy_estimate(imm: IMM, state: IMMState) -> tuple[np.ndarray, np.ndarray]:
+    """The combined estimate (eqs. 4.54-4.55) in numpy, as `IMM.estimate` computed it before issue 20."""
+    d, K = imm.output_dim, len(state)
+    x, P, w = state.x[..., :d], state.P[..., :d, :d], state.mu[:, None, :]
+    xc = (w @ x)[:, 0]
+    dx = x - xc[:, None, :]
+    spread = dx[..., :, None] * dx[..., None, :] + P
+    return xc, (w @ spread.reshape(K, imm.n_models, d * d)).reshape(K, d, d)
+
+
+def compiled_cycle(imm: IMM, state: IMMState, dt: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, ...]:
+    """`numpy_cycle` through `IMM`'s compiled steps."""
+    pred = imm.predict(state, dt, check=False)
+    gate = imm.combined_measurement(pred)
+    return (*imm.estimate(imm.update(pred, z, check=False)), gate.z, gate.S)
+
+
+def cycle_inputs(K: int, seed: int = 0) -> tuple[IMMState, np.ndarray, np.ndarray]:
+    """K tracks two scans after their two-point start, 6-24 km out, and a contact near each."""
+    imm, rng = IMM(), np.random.default_rng(seed)
+    r, b, v, h = rng.uniform(6e3, 2.4e4, K), rng.uniform(0, 2 * np.pi, K), rng.uniform(70, 200, K), \
+        rng.uniform(0, 2 * np.pi, K)
+    xy = lambda t: np.stack([r * np.sin(b) + v * t * np.sin(h), r * np.cos(b) + v * t * np.cos(h)], -1)  # noqa: E731
+    polar = lambda p: np.stack([np.hypot(p[:, 0], p[:, 1]), np.arctan2(p[:, 0], p[:, 1]) % (2 * np.pi)], -1)  # noqa: E731
+    state = imm.initialise(polar(xy(0.0)), polar(xy(2.0)), 0.0, 2.0)
+    for t in (4.0, 6.0):
+        state = imm.update(imm.predict(state, 2.0), polar(xy(t)))
+    return state, np.full(K, 2.0), polar(xy(8.0)) + rng.normal(0, [30.0, 3e-3], (K, 2))
+
+
+def part0(sizes: tuple[int, ...] = (5, 15, 40, 200), calls: int = 300) -> None:
+    imm = IMM()
+    print("\nIMM cycle (predict, gating prediction, update, estimate), microseconds per call, best of 5 x "
+          f"{calls} calls")
+    print(f"{'tracks':>8s}{'numpy':>10s}{'compiled':>10s}{'speed-up':>10s}   max |diff| / |value|")
+    for K in sizes:
+        args = cycle_inputs(K)
+        a, b = numpy_cycle(imm, *args), compiled_cycle(imm, *args)
+        diff = max(float(np.max(np.abs(u - v) / np.maximum(np.abs(u), 1e-300))) for u, v in zip(a, b))
+        per = []
+        for f in (numpy_cycle, compiled_cycle):
+            best = math.inf
+            for _ in range(5):
+                t0 = time.perf_counter()
+                for _ in range(calls):
+                    f(imm, *args)
+                best = min(best, (time.perf_counter() - t0) / calls)
+            per.append(best * 1e6)
+        print(f"{K:8d}{per[0]:10.1f}{per[1]:10.1f}{per[0] / per[1]:9.1f}x   {diff:.1e}")
+    first = ("import time; t = time.perf_counter(); import nnda.filters.imm_kernels, nnda.tracking.lifecycle; "
+             "from nnda.filters.imm import IMM; import numpy as np; imm = IMM(); "
+             "s = imm.from_cv(np.array([[1e4, 1.0, 1e4, 1.0]]), np.eye(4)[None] * 100); "
+             "p = imm.predict(s, 2.0); imm.mahalanobis(imm.combined_measurement(p), p.measurement.z[:, 0]); "
+             "imm.estimate(imm.update(p, p.measurement.z[:, 0])); "
+             "nnda.tracking.lifecycle.window_pairs(np.zeros((1, 2)), np.ones((1, 2)), 0.0, 2.0); "
+             "print(time.perf_counter() - t)")
+    with tempfile.TemporaryDirectory() as cache:
+        cold, warm = (float(subprocess.run([sys.executable, "-c", first], capture_output=True, text=True, check=True,
+                                           env={**os.environ, "NUMBA_CACHE_DIR": cache}).stdout) for _ in range(2))
+    print(f"first IMM cycle in a fresh process: {cold:.1f} s with an empty numba cache (compiling), "
+          f"{warm:.2f} s from the cache")
+
+
 def part1(rows: list[tuple[str, str, dict]], runs: int, repeat: int = 1) -> None:
     best = f", each scan's best of {repeat} repeats" if repeat > 1 else ""
-    print(f"\nms per scan on S1-S6 ({runs} run(s) each{best}; ratio = tracker / gnn, same process)")
+    print(f"\nms per scan on S1-S6 ({runs} run(s) each{best}; ratios = tracker / gnn and / mht, same process)")
     print(f"{'tracker':<20s}" + "".join(f"{s:>16s}" for s in ("S1", "S2", "S3", "S4", "S5", "S6")) + f"{'all':>16s}")
-    ref = None
+    means = {}
+    warm_up = generate(PRESETS["S1"], seed=0)
     for label, kind, params in rows:
+        time_run(kind, params, warm_up)
         per, every = [], []
         for sc in ("S1", "S2", "S3", "S4", "S5", "S6"):
             t = np.concatenate([best_of(kind, params, generate(PRESETS[sc], seed=run), repeat)
@@ -100,9 +208,12 @@ def part1(rows: list[tuple[str, str, dict]], runs: int, repeat: int = 1) -> None
             per.append(f"{t.mean():7.2f} p95 {np.percentile(t, 95):5.2f}")
             every.append(t)
         allt = np.concatenate(every)
-        ref = allt.mean() if label == "gnn" else ref
-        ratio = f"  ({allt.mean() / ref:.2f}x gnn)" if ref else ""
-        print(f"{label:<20s}" + "".join(f"{p:>16s}" for p in per) + f"{allt.mean():9.2f}{ratio}")
+        means[label] = allt.mean()
+        print(f"{label:<20s}" + "".join(f"{p:>16s}" for p in per) + f"{allt.mean():9.2f}")
+    print(f"{'tracker':<20s}{'/ gnn':>8s}{'/ mht':>8s}   (all scans)")
+    for label, mean in means.items():
+        print(f"{label:<20s}" + "".join(f"{mean / means[r]:8.2f}" if r in means else f"{'-':>8s}"
+                                        for r in ("gnn", "mht")))
 
 
 def scaling_settings(scans: int = SCALING_SCANS) -> list[tuple[str, int, Scenario]]:
@@ -139,7 +250,11 @@ def main() -> None:
                         "each scan's fastest (for a busy machine)")
     parser.add_argument("--scans", type=int, default=SCALING_SCANS, help="scans per scaling setting")
     parser.add_argument("--no-scaling", action="store_true")
+    parser.add_argument("--no-kernels", action="store_true", help="skip part 0 (the IMM cycle, numpy against "
+                        "compiled)")
     args = parser.parse_args()
+    if not args.no_kernels:
+        part0(calls=30 if args.scans < SCALING_SCANS else 300)
     rows = entries(args.model)
     if not args.model:
         print("note: the neural tracker is skipped (give --model PATH, a file written by `nnda train`)")

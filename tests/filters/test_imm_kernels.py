@@ -11,10 +11,10 @@ from __future__ import annotations
 import hashlib
 
 import numpy as np
+import spec_reference as ref
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import spec_reference as ref
 from nnda.data.sensor import cart_to_polar
 from nnda.filters.imm import IMM
 from nnda.filters.measurement import PositionMeasurement
