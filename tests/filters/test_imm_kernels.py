@@ -11,13 +11,17 @@ from __future__ import annotations
 import hashlib
 
 import numpy as np
+import pytest
 import spec_reference as ref
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from nnda.data.sensor import cart_to_polar
+from nnda.errors import FilterError
+from nnda.filters.ground_motion import ModifiedNCSHT
 from nnda.filters.imm import IMM
 from nnda.filters.measurement import PositionMeasurement
+from nnda.filters.motion import ConstantVelocity
 from tolerances import RTOL, assert_cov, assert_state
 
 IMM_SPEC = IMM()
@@ -121,3 +125,10 @@ def test_a_missed_track_keeps_its_prediction_and_the_cycle_repeats_bit_for_bit()
         return hashlib.sha256(b"".join(np.ascontiguousarray(a).tobytes() for a in out)).digest()
 
     assert cycle() == cycle()
+
+
+def test_a_model_the_compiled_cycle_does_not_know_is_refused_by_name():
+    with pytest.raises(FilterError, match="IMM.models: .*ModifiedNCSHT"):
+        IMM(models=(ConstantVelocity(), ModifiedNCSHT()), tpm=((0.9, 0.1), (0.1, 0.9)))
+    with pytest.raises(FilterError, match="IMM.measurement"):
+        IMM(measurement=object())

@@ -23,6 +23,13 @@ alternative the spec names); mixing into a smaller model drops the extra rows
 and columns (§7.1.7). The combined output covers the dimensions all models
 share ([x, vx, y, vy] for CV + CT).
 
+The cycle's steps (mixing and prediction, measurement prediction, update,
+estimate, gate distances) run as compiled loops over tracks and models
+(`nnda.filters.imm_kernels`, numba), so the IMM takes the models those loops
+know: `ConstantVelocity` (and its subclasses) and `CoordinatedTurn`, with a
+`PolarMeasurement` or a `PositionMeasurement`; anything else is refused at
+construction.
+
 Missed scans (§7.1.8): `update` with ``mask`` False returns the prediction
 for that track, so the mode probabilities are the TPM-propagated ones. A
 tracker that follows the spec literally keeps the last posterior of a
@@ -280,11 +287,23 @@ class IMM:
 
     def _from_cv(self, x: np.ndarray, P: np.ndarray) -> IMMState:
         K, r, n = len(x), self.n_models, self.dim
-        xs = np.zeros((K, r, n))
-        Ps = np.zeros((K, r, n, n))
-        for j, m in enumerate(self.models):
-            xs[:, j, : m.dim], Ps[:, j, : m.dim, : m.dim] = m.from_cv(x, P)
+        xs = np.empty((K, r, n))
+        xs[:] = self._cv_extension[0]
+        xs[:, :, :4] = x[:, None]
+        Ps = np.empty((K, r, n, n))
+        Ps[:] = self._cv_extension[1]
+        Ps[:, :, :4, :4] = P[:, None]
         return IMMState(xs, Ps, np.repeat(self._mu0_array[None, :], K, axis=0))
+
+    @cached_property
+    def _cv_extension(self) -> tuple[np.ndarray, np.ndarray]:
+        """(r, n), (r, n, n): what each model's ``from_cv`` puts beyond the CV part, in the padded layout (CT:
+        omega 0 with variance P_omega). For CV and CT ``from_cv`` keeps the CV estimate and appends
+        constants, so a start is these with the CV estimate written over the first four entries."""
+        xs, Ps = np.zeros((self.n_models, self.dim)), np.zeros((self.n_models, self.dim, self.dim))
+        for j, m in enumerate(self.models):
+            xs[j, :m.dim], Ps[j, :m.dim, :m.dim] = (a[0] for a in m.from_cv(np.zeros((1, 4)), np.zeros((1, 4, 4))))
+        return xs, Ps
 
     # ----------------------------------------------------------------- steps
     def predict(self, state: IMMState, dt: np.ndarray | float, *, check: bool = True) -> IMMPrediction:
