@@ -50,6 +50,17 @@ def _wrap(a):
 
 
 @_jit
+def _product(A, B, d, transpose_b, out):
+    """out[:d, :d] = A[:d, :d] B[:d, :d] (B transposed if ``transpose_b``)."""
+    for a in range(d):
+        for b in range(d):
+            s = 0.0
+            for c in range(d):
+                s += A[a, c] * (B[b, c] if transpose_b else B[c, b])
+            out[a, b] = s
+
+
+@_jit
 def mix_predict(x, P, mu, dt, tpm, kinds, dims, omega_max, basis, augment):
     """Mixing (eqs. 4.46-4.49) and every model's EKF prediction over dt (K,): x (K, r, n), P (K, r, n, n),
     mu (K, r) -> predicted xp, Pp (symmetrised, padding zero) and mu_pred (K, r)."""
@@ -62,6 +73,7 @@ def mix_predict(x, P, mu, dt, tpm, kinds, dims, omega_max, basis, augment):
     P0 = np.empty((n, n))
     F = np.empty((n, n))
     FP = np.empty((n, n))
+    FPF = np.empty((n, n))
     for k in range(K):
         T = dt[k]
         T2 = T * T
@@ -118,18 +130,12 @@ def mix_predict(x, P, mu, dt, tpm, kinds, dims, omega_max, basis, augment):
                 F[1, 4] = -vy * T - vx * wT2
                 F[2, 4] = vx * half_T2
                 F[3, 4] = vx * T - vy * wT2
-            for a in range(d):  # F P0 F^T + Q, symmetrised (eq. 4.39)
-                for b in range(d):
-                    s = 0.0
-                    for c2 in range(d):
-                        s += F[a, c2] * P0[c2, b]
-                    FP[a, b] = s
+            _product(F, P0, d, False, FP)  # F P0 F^T + Q, symmetrised (eq. 4.39)
+            _product(FP, F, d, True, FPF)
             for a in range(d):
                 for b in range(d):
-                    s = 0.0
-                    for c2 in range(d):
-                        s += FP[a, c2] * F[b, c2]
-                    Pp[k, j, a, b] = s + (T2 * basis[0, j, a, b] + T3 * basis[1, j, a, b] + T4 * basis[2, j, a, b])
+                    Pp[k, j, a, b] = FPF[a, b] + (T2 * basis[0, j, a, b] + T3 * basis[1, j, a, b]
+                                                  + T4 * basis[2, j, a, b])
             for a in range(d):
                 for b in range(a + 1, d):
                     m = 0.5 * (Pp[k, j, a, b] + Pp[k, j, b, a])
