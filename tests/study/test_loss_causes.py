@@ -4,6 +4,7 @@ always add up to the hit rate's association losses."""
 from __future__ import annotations
 
 import pytest
+from tests.study.test_metrics import Builder
 
 from nnda.data.generator import generate
 from nnda.data.presets import PRESETS
@@ -12,8 +13,6 @@ from nnda.study.loss_causes import LOSS_CAUSES, loss_causes
 from nnda.study.metrics import ScoredRun, run_metrics
 from nnda.tracking.output import TrackStatus as S
 from nnda.tracking.registry import make_tracker
-
-from tests.study.test_metrics import Builder
 
 
 @pytest.fixture(scope="module")

@@ -39,6 +39,14 @@ Each scan, for all live tracks at once:
    and a track whose best pick would block a better total yields it.
    ``confirmed_first`` then solves the confirmed tracks' assignment first and
    the preliminary tracks' on the contacts left;
+   With ``coast_gate`` set (issue 20), a confirmed track that has missed
+   ``coast_after`` scans in a row or more and got no pair above the
+   threshold takes, of its candidates still free, the one of least
+   Mahalanobis d² within that chi-square gate (2 dof), as GNN would
+   (`reacquire`): after a detection gap the pair's ΔT and the track's
+   coasting lie where the training pairs are few and the network refuses
+   its own target, while the IMM's innovation, whose covariance grew over
+   the gap, still judges it (MHT keeps such tracks the same way);
 4. *filter*: the chosen contact updates the track's IMM. With the seed's
    features the filter smooths the output only (spec §7.2); with the
    extended set its prediction is also what the network reads.
@@ -58,7 +66,7 @@ from pydantic import Field
 from nnda.data.scenario import Sensor
 from nnda.errors import ConfigError, ModelError, TrackingError
 from nnda.filters.imm import IMMPrediction
-from nnda.models.context import IMM_CONTEXT, with_context
+from nnda.models.context import D2_COLUMN, IMM_CONTEXT, with_context
 from nnda.models.feature_sets import FEATURE_SETS
 from nnda.models.features import candidate_pairs, pair_features
 from nnda.models.innovation import IMM_INNOVATION, innovation_features
@@ -99,6 +107,13 @@ class NeuralConfig(ContactTrackerConfig):
     association: Literal["greedy", "global"] = Field(
         "greedy", description="'greedy': pairs taken by descending score (spec A10); 'global': one least-cost "
         "assignment per scan, a pair costing the negative log-odds of its score, a miss the threshold's")
+    coast_gate: Annotated[float | None, Field(
+        gt=0, description="chi-square gate (2 dof; 9.21: P_G = 0.99) within which a coasting confirmed track "
+        "with no pair above the threshold takes its free candidate of least Mahalanobis d²; needs a feature "
+        "set with the IMM's d² (imm-innovation-9, imm-context-14); None: off (the network decides alone)")] = None
+    coast_after: Annotated[int, Field(
+        ge=0, description="consecutive misses from which a confirmed track counts as coasting for "
+                          "coast_gate (0: every confirmed track without a pick)")] = 1
 
 
 class NeuralTracker(SingleHypothesisTracker):
@@ -135,6 +150,10 @@ class NeuralTracker(SingleHypothesisTracker):
                                   f"{ {k: self.config.recipe[k] for k in wrong} }; retrain it or change the field")
         self._extended = self.scorer.features in (IMM_INNOVATION, IMM_CONTEXT)
         self._context = self.scorer.features is IMM_CONTEXT
+        if self.config.coast_gate is not None and not self._extended:
+            raise ConfigError(f"{self.name} tracker config, field 'coast_gate': the model {self.config.model} "
+                              f"reads feature set {trained!r}, without the IMM's Mahalanobis d²; use a model "
+                              f"of {IMM_INNOVATION.name!r} or {IMM_CONTEXT.name!r}, or leave the field unset")
         #: if set, called each scan with (scan index, track id (P,), contact row (P,), features (P, F)) of
         #: every pair scored (`nnda.tracking.harvest`)
         self.harvest: Callable[[int, np.ndarray, np.ndarray, np.ndarray], None] | None = None
@@ -183,6 +202,11 @@ class NeuralTracker(SingleHypothesisTracker):
                 else:
                     chosen_track, chosen_contact = global_matching(track, cand, score, threshold)
                 contact[chosen_track] = chosen_contact
+                if self.config.coast_gate is not None:
+                    coasting = (tracks.status == CONFIRMED) & (tracks.consecutive >= self.config.coast_after)
+                    more_track, more_contact = reacquire(track, cand, features[:, D2_COLUMN], coasting & (
+                        contact == NO_CONTACT), chosen_contact, self.config.coast_gate)
+                    contact[more_track] = more_contact
         return hard_update(scan.filter, pred, z, contact)
 
     def _born(self, tracks: Tracks) -> np.ndarray:
@@ -216,3 +240,16 @@ def global_matching(rows: np.ndarray, cols: np.ndarray, score: np.ndarray, thres
         return greedy_matching(rows, cols, score)
     miss = np.full(int(rows.max()) + 1, -score_log_odds(threshold))
     return least_cost_assignment(rows, cols, -score_log_odds(score), miss)
+
+
+def reacquire(rows: np.ndarray, cols: np.ndarray, d2: np.ndarray, waiting: np.ndarray, taken: np.ndarray,
+              gate: float) -> tuple[np.ndarray, np.ndarray]:
+    """Nearest-neighbour picks of the rows still ``waiting`` for a contact, by the IMM's gate.
+
+    ``rows``, ``cols`` (P,) index the candidate pairs' tracks and contacts, ``d2`` (P,) their squared
+    Mahalanobis distances; ``waiting`` (K,) flags the tracks that may pick, ``taken`` the contacts
+    already given. Pairs of a waiting row with a free contact and d² <= ``gate`` are matched one-to-one
+    by ascending d² (`greedy_matching`). Returns the (rows, cols) picked.
+    """
+    free = waiting[rows] & (d2 <= gate) & ~np.isin(cols, taken)
+    return greedy_matching(rows[free], cols[free], -d2[free])
