@@ -43,7 +43,8 @@ Each scan, for all live tracks at once:
    ``coast_after`` scans in a row or more and got no pair above the
    threshold takes, of its candidates still free, the one of least
    Mahalanobis d² within that chi-square gate (2 dof), as GNN would
-   (`reacquire`): after a detection gap the pair's ΔT and the track's
+   (`reacquire`; with ``coast_test = "ratio"`` only a pick likelier the
+   track's target than clutter, by the track score's gain): after a detection gap the pair's ΔT and the track's
    coasting lie where the training pairs are few and the network refuses
    its own target, while the IMM's innovation, whose covariance grew over
    the gap, still judges it (MHT keeps such tracks the same way);
@@ -56,6 +57,7 @@ Contacts left over go to initiation, as for every tracker.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Annotated, ClassVar, Literal
@@ -114,6 +116,10 @@ class NeuralConfig(ContactTrackerConfig):
     coast_after: Annotated[int, Field(
         ge=0, description="consecutive misses from which a confirmed track counts as coasting for "
                           "coast_gate (0: every confirmed track without a pick)")] = 1
+    coast_test: Literal["gate", "ratio"] = Field(
+        "gate", description="coast_gate's test of a pick: 'gate' (d² within it) or 'ratio' (also likelier the "
+        "track's target than clutter: the track score's gain ln(P_D l / lambda) > 0, lambda estimated "
+        "around the contact as for the score rule)")
 
 
 class NeuralTracker(SingleHypothesisTracker):
@@ -203,11 +209,28 @@ class NeuralTracker(SingleHypothesisTracker):
                     chosen_track, chosen_contact = global_matching(track, cand, score, threshold)
                 contact[chosen_track] = chosen_contact
                 if self.config.coast_gate is not None:
-                    coasting = (tracks.status == CONFIRMED) & (tracks.consecutive >= self.config.coast_after)
-                    more_track, more_contact = reacquire(track, cand, features[:, D2_COLUMN], coasting & (
-                        contact == NO_CONTACT), chosen_contact, self.config.coast_gate)
+                    waiting = ((tracks.status == CONFIRMED) & (tracks.consecutive >= self.config.coast_after)
+                               & (contact == NO_CONTACT))
+                    d2 = features[:, D2_COLUMN]
+                    if self.config.coast_test == "ratio":
+                        d2 = self._beyond_clutter(pred, scan, track, cand, d2, waiting)
+                    more_track, more_contact = reacquire(track, cand, d2, waiting, chosen_contact,
+                                                         self.config.coast_gate)
                     contact[more_track] = more_contact
         return hard_update(scan.filter, pred, z, contact)
+
+    def _beyond_clutter(self, pred: IMMPrediction, scan: ScanContacts, track: np.ndarray, cand: np.ndarray,
+                        d2: np.ndarray, waiting: np.ndarray) -> np.ndarray:
+        """``d2`` (P,) with inf where a waiting track's gated pair is no likelier its target's than clutter:
+        the track score's gain ln(P_D l / lambda) <= 0 (`SingleHypothesisTracker.clutter_density`)."""
+        at = np.flatnonzero(waiting[track] & (d2 <= self.config.coast_gate))
+        if at.size == 0:
+            return d2
+        gain = (math.log(self.score_pd) + scan.filter.pair_log_likelihood(pred, track[at], scan.z[cand[at]])
+                - np.log(self.clutter_density(scan, cand[at])))
+        d2 = d2.copy()
+        d2[at[gain <= 0.0]] = np.inf
+        return d2
 
     def _born(self, tracks: Tracks) -> np.ndarray:
         """Time (s) of each track's first contact, (K,). Track ids count up from 0 and a track is first
