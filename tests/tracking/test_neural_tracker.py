@@ -442,11 +442,11 @@ def test_coast_gate_picks_a_track_up_after_a_gap_the_network_refuses(tmp_path, t
     assert m[9.21].hits > m[None].hits
 
 
-def test_coast_gate_needs_the_imm_features(model_file):
-    with pytest.raises(ConfigError, match=r"field 'coast_gate': .*'kinematic-3', without the IMM's Mahalanobis"):
-        make_tracker("nn", Sensor(), {"model": str(model_file), "coast_gate": 9.21})
+def test_bad_coast_gate_is_refused(model_file):
     with pytest.raises(ConfigError, match=r"invalid nn config[\s\S]*coast_gate"):
         make_tracker("nn", Sensor(), {"model": str(model_file), "coast_gate": 0.0})
+    with pytest.raises(ConfigError, match=r"invalid nn config[\s\S]*coast_test"):
+        make_tracker("nn", Sensor(), {"model": str(model_file), "coast_gate": 9.21, "coast_test": "nearest"})
 
 
 def test_coast_test_ratio_refuses_picks_no_likelier_than_clutter(tmp_path, monkeypatch):

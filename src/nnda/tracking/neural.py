@@ -41,13 +41,15 @@ Each scan, for all live tracks at once:
    the preliminary tracks' on the contacts left;
    With ``coast_gate`` set (issue 20), a confirmed track that has missed
    ``coast_after`` scans in a row or more and got no pair above the
-   threshold takes, of its candidates still free, the one of least
-   Mahalanobis d² within that chi-square gate (2 dof), as GNN would
-   (`reacquire`; with ``coast_test = "ratio"`` only a pick likelier the
-   track's target than clutter, by the track score's gain): after a detection gap the pair's ΔT and the track's
-   coasting lie where the training pairs are few and the network refuses
-   its own target, while the IMM's innovation, whose covariance grew over
-   the gap, still judges it (MHT keeps such tracks the same way);
+   threshold takes, of the contacts still free in its chi-square gate (2
+   dof) on the IMM's prediction, the one of least Mahalanobis d², as GNN
+   would (`reacquire`; with ``coast_test = "ratio"`` only a pick likelier
+   the track's target than clutter, by the track score's gain). The
+   network's domain ends where a coasting track's pairs leave the training
+   pairs' (ΔT after a detection gap) or the candidate gate (a slow target
+   far out, whose noisy step from its last contact looks slower than 30
+   m/s); the IMM's innovation, whose covariance grows while it coasts,
+   still judges there, as in MHT and GNN;
 4. *filter*: the chosen contact updates the track's IMM. With the seed's
    features the filter smooths the output only (spec §7.2); with the
    extended set its prediction is also what the network reads.
@@ -68,12 +70,13 @@ from pydantic import Field
 from nnda.data.scenario import Sensor
 from nnda.errors import ConfigError, ModelError, TrackingError
 from nnda.filters.imm import IMMPrediction
-from nnda.models.context import D2_COLUMN, IMM_CONTEXT, with_context
+from nnda.models.context import IMM_CONTEXT, with_context
 from nnda.models.feature_sets import FEATURE_SETS
 from nnda.models.features import candidate_pairs, pair_features
 from nnda.models.innovation import IMM_INNOVATION, innovation_features
 from nnda.models.scorer import Scorer, load_model, score_log_odds
 from nnda.tracking.assignment import greedy_matching, least_cost_assignment
+from nnda.tracking.gating import gate_tracks
 from nnda.tracking.output import CONFIRMED, NO_CONTACT
 from nnda.tracking.tracker import (
     Association,
@@ -110,9 +113,9 @@ class NeuralConfig(ContactTrackerConfig):
         "greedy", description="'greedy': pairs taken by descending score (spec A10); 'global': one least-cost "
         "assignment per scan, a pair costing the negative log-odds of its score, a miss the threshold's")
     coast_gate: Annotated[float | None, Field(
-        gt=0, description="chi-square gate (2 dof; 9.21: P_G = 0.99) within which a coasting confirmed track "
-        "with no pair above the threshold takes its free candidate of least Mahalanobis d²; needs a feature "
-        "set with the IMM's d² (imm-innovation-9, imm-context-14); None: off (the network decides alone)")] = None
+        gt=0, description="chi-square gate (2 dof; 9.21: P_G = 0.99) on the IMM's prediction within which a "
+        "coasting confirmed track with no pair above the threshold takes its free contact of least Mahalanobis "
+        "d²; None: off (the network decides alone)")] = None
     coast_after: Annotated[int, Field(
         ge=0, description="consecutive misses from which a confirmed track counts as coasting for "
                           "coast_gate (0: every confirmed track without a pick)")] = 1
@@ -156,10 +159,6 @@ class NeuralTracker(SingleHypothesisTracker):
                                   f"{ {k: self.config.recipe[k] for k in wrong} }; retrain it or change the field")
         self._extended = self.scorer.features in (IMM_INNOVATION, IMM_CONTEXT)
         self._context = self.scorer.features is IMM_CONTEXT
-        if self.config.coast_gate is not None and not self._extended:
-            raise ConfigError(f"{self.name} tracker config, field 'coast_gate': the model {self.config.model} "
-                              f"reads feature set {trained!r}, without the IMM's Mahalanobis d²; use a model "
-                              f"of {IMM_INNOVATION.name!r} or {IMM_CONTEXT.name!r}, or leave the field unset")
         #: if set, called each scan with (scan index, track id (P,), contact row (P,), features (P, F)) of
         #: every pair scored (`nnda.tracking.harvest`)
         self.harvest: Callable[[int, np.ndarray, np.ndarray, np.ndarray], None] | None = None
@@ -208,29 +207,32 @@ class NeuralTracker(SingleHypothesisTracker):
                 else:
                     chosen_track, chosen_contact = global_matching(track, cand, score, threshold)
                 contact[chosen_track] = chosen_contact
-                if self.config.coast_gate is not None:
-                    waiting = ((tracks.status == CONFIRMED) & (tracks.consecutive >= self.config.coast_after)
-                               & (contact == NO_CONTACT))
-                    d2 = features[:, D2_COLUMN]
-                    if self.config.coast_test == "ratio":
-                        d2 = self._beyond_clutter(pred, scan, track, cand, d2, waiting)
-                    more_track, more_contact = reacquire(track, cand, d2, waiting, chosen_contact,
-                                                         self.config.coast_gate)
-                    contact[more_track] = more_contact
+            if self.config.coast_gate is not None:
+                contact = self._reacquired(tracks, pred, scan, contact)
         return hard_update(scan.filter, pred, z, contact)
 
-    def _beyond_clutter(self, pred: IMMPrediction, scan: ScanContacts, track: np.ndarray, cand: np.ndarray,
-                        d2: np.ndarray, waiting: np.ndarray) -> np.ndarray:
-        """``d2`` (P,) with inf where a waiting track's gated pair is no likelier its target's than clutter:
-        the track score's gain ln(P_D l / lambda) <= 0 (`SingleHypothesisTracker.clutter_density`)."""
-        at = np.flatnonzero(waiting[track] & (d2 <= self.config.coast_gate))
-        if at.size == 0:
-            return d2
-        gain = (math.log(self.score_pd) + scan.filter.pair_log_likelihood(pred, track[at], scan.z[cand[at]])
-                - np.log(self.clutter_density(scan, cand[at])))
-        d2 = d2.copy()
-        d2[at[gain <= 0.0]] = np.inf
-        return d2
+    def _reacquired(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts, contact: np.ndarray
+                    ) -> np.ndarray:
+        """``contact`` (K,) with the picks (`reacquire`) of the coasting confirmed tracks left without one,
+        among the contacts in their IMM gate of ``coast_gate`` (`gate_tracks`); under ``coast_test``
+        'ratio' only of pairs likelier the track's target than clutter (the track score's gain
+        ln(P_D l / lambda) > 0, `SingleHypothesisTracker.clutter_density`)."""
+        cfg = self.config
+        waiting = (tracks.status == CONFIRMED) & (tracks.consecutive >= cfg.coast_after) & (contact == NO_CONTACT)
+        if not waiting.any():
+            return contact
+        _, g = gate_tracks(scan.filter, pred, scan.z, scan.xy, cfg.coast_gate)
+        d2 = g.d2
+        if cfg.coast_test == "ratio":
+            at = np.flatnonzero(waiting[g.rows])
+            gain = (math.log(self.score_pd) + scan.filter.pair_log_likelihood(pred, g.rows[at], scan.z[g.cols[at]])
+                    - np.log(self.clutter_density(scan, g.cols[at])))
+            d2 = d2.copy()
+            d2[at[gain <= 0.0]] = np.inf
+        rows, cols = reacquire(g.rows, g.cols, d2, waiting, contact[contact != NO_CONTACT], cfg.coast_gate)
+        contact = contact.copy()
+        contact[rows] = cols
+        return contact
 
     def _born(self, tracks: Tracks) -> np.ndarray:
         """Time (s) of each track's first contact, (K,). Track ids count up from 0 and a track is first
