@@ -427,15 +427,14 @@ def gap_shy_model(path):
     return save_model(scorer, path)
 
 
-@pytest.mark.parametrize("test", ["gate", "ratio"])
-def test_coast_gate_picks_a_track_up_after_a_gap_the_network_refuses(tmp_path, test):
+def test_coast_gate_picks_a_track_up_after_a_gap_the_network_refuses(tmp_path):
     target = Target(name="gap", x_m=-10_000.0, y_m=15_000.0, heading_deg=90.0, speed_m_s=150.0,
                     missed_scans=[20, 21, 22], segments=[Segment(duration_s=100.0)])
     ds = generate(Scenario(name="gap", duration_s=100.0, targets=[target], clutter=Clutter(count=10)), seed=4)
     model = str(gap_shy_model(tmp_path / "gap-shy.json"))
     m = {}
     for gate in (None, 9.21):
-        tracker = make_tracker("nn", ds.scenario.sensor, {"model": model, "coast_gate": gate, "coast_test": test})
+        tracker = make_tracker("nn", ds.scenario.sensor, {"model": model, "coast_gate": gate})
         m[gate] = run_metrics(ds, [tracker.step(scan) for scan in ds.scans()])
     assert m[None].lost_targets == 1 and m[None].track_breaks == 1  # deleted at scan 23, started again
     assert (m[9.21].lost_targets, m[9.21].track_breaks, m[9.21].false_tracks) == (0, 0, 0)
@@ -445,17 +444,5 @@ def test_coast_gate_picks_a_track_up_after_a_gap_the_network_refuses(tmp_path, t
 def test_bad_coast_gate_is_refused(model_file):
     with pytest.raises(ConfigError, match=r"invalid nn config[\s\S]*coast_gate"):
         make_tracker("nn", Sensor(), {"model": str(model_file), "coast_gate": 0.0})
-    with pytest.raises(ConfigError, match=r"invalid nn config[\s\S]*coast_test"):
-        make_tracker("nn", Sensor(), {"model": str(model_file), "coast_gate": 9.21, "coast_test": "nearest"})
-
-
-def test_coast_test_ratio_refuses_picks_no_likelier_than_clutter(tmp_path, monkeypatch):
-    # under a clutter density no pair beats, the ratio test takes nothing back: the target is lost again
-    target = Target(name="gap", x_m=-10_000.0, y_m=15_000.0, heading_deg=90.0, speed_m_s=150.0,
-                    missed_scans=[20, 21, 22], segments=[Segment(duration_s=100.0)])
-    ds = generate(Scenario(name="gap", duration_s=100.0, targets=[target], clutter=Clutter(count=10)), seed=4)
-    tracker = make_tracker("nn", ds.scenario.sensor, {"model": str(gap_shy_model(tmp_path / "gap-shy.json")),
-                                                      "coast_gate": 9.21, "coast_test": "ratio"})
-    monkeypatch.setattr(tracker, "clutter_density", lambda scan, at: np.full(len(at), 1e12))
-    m = run_metrics(ds, [tracker.step(scan) for scan in ds.scans()])
-    assert m.lost_targets == 1 and m.track_breaks == 1
+    with pytest.raises(ConfigError, match=r"invalid nn config[\s\S]*coast_after"):
+        make_tracker("nn", Sensor(), {"model": str(model_file), "coast_gate": 9.21, "coast_after": -1})

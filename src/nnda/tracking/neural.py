@@ -43,13 +43,13 @@ Each scan, for all live tracks at once:
    ``coast_after`` scans in a row or more and got no pair above the
    threshold takes, of the contacts still free in its chi-square gate (2
    dof) on the IMM's prediction, the one of least Mahalanobis d², as GNN
-   would (`reacquire`; with ``coast_test = "ratio"`` only a pick likelier
-   the track's target than clutter, by the track score's gain). The
-   network's domain ends where a coasting track's pairs leave the training
-   pairs' (ΔT after a detection gap) or the candidate gate (a slow target
-   far out, whose noisy step from its last contact looks slower than 30
-   m/s); the IMM's innovation, whose covariance grows while it coasts,
-   still judges there, as in MHT and GNN;
+   would (`reacquire`). The network's domain ends where a coasting track's
+   pairs leave the training pairs' (ΔT after a detection gap) or the
+   candidate gate (a slow target far out, whose noisy step from its last
+   contact looks slower than 30 m/s); the IMM's innovation, whose
+   covariance grows while it coasts, still judges there, as in MHT and GNN.
+   With it, the score rule (``lifecycle.confirmation = "score"``) deletes
+   the tracks kept alive on clutter once their target has gone;
 4. *filter*: the chosen contact updates the track's IMM. With the seed's
    features the filter smooths the output only (spec §7.2); with the
    extended set its prediction is also what the network reads.
@@ -59,7 +59,6 @@ Contacts left over go to initiation, as for every tracker.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Annotated, ClassVar, Literal
@@ -119,10 +118,6 @@ class NeuralConfig(ContactTrackerConfig):
     coast_after: Annotated[int, Field(
         ge=0, description="consecutive misses from which a confirmed track counts as coasting for "
                           "coast_gate (0: every confirmed track without a pick)")] = 1
-    coast_test: Literal["gate", "ratio"] = Field(
-        "gate", description="coast_gate's test of a pick: 'gate' (d² within it) or 'ratio' (also likelier the "
-        "track's target than clutter: the track score's gain ln(P_D l / lambda) > 0, lambda estimated "
-        "around the contact as for the score rule)")
 
 
 class NeuralTracker(SingleHypothesisTracker):
@@ -214,22 +209,13 @@ class NeuralTracker(SingleHypothesisTracker):
     def _reacquired(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts, contact: np.ndarray
                     ) -> np.ndarray:
         """``contact`` (K,) with the picks (`reacquire`) of the coasting confirmed tracks left without one,
-        among the contacts in their IMM gate of ``coast_gate`` (`gate_tracks`); under ``coast_test``
-        'ratio' only of pairs likelier the track's target than clutter (the track score's gain
-        ln(P_D l / lambda) > 0, `SingleHypothesisTracker.clutter_density`)."""
+        among the contacts in their IMM gate of ``coast_gate`` (`gate_tracks`)."""
         cfg = self.config
         waiting = (tracks.status == CONFIRMED) & (tracks.consecutive >= cfg.coast_after) & (contact == NO_CONTACT)
         if not waiting.any():
             return contact
         _, g = gate_tracks(scan.filter, pred, scan.z, scan.xy, cfg.coast_gate)
-        d2 = g.d2
-        if cfg.coast_test == "ratio":
-            at = np.flatnonzero(waiting[g.rows])
-            gain = (math.log(self.score_pd) + scan.filter.pair_log_likelihood(pred, g.rows[at], scan.z[g.cols[at]])
-                    - np.log(self.clutter_density(scan, g.cols[at])))
-            d2 = d2.copy()
-            d2[at[gain <= 0.0]] = np.inf
-        rows, cols = reacquire(g.rows, g.cols, d2, waiting, contact[contact != NO_CONTACT], cfg.coast_gate)
+        rows, cols = reacquire(g.rows, g.cols, g.d2, waiting, contact[contact != NO_CONTACT], cfg.coast_gate)
         contact = contact.copy()
         contact[rows] = cols
         return contact
