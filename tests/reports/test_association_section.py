@@ -11,11 +11,11 @@ def _stat(mean: float) -> dict:
     return {"mean": mean, "ci_low": mean - 1.0, "ci_high": mean + 1.0, "n": 10}
 
 
-def _records(second_recipe: dict | None, association: str = "greedy"):
+def _records(second_recipe: dict | None, association: str = "greedy", life: dict | None = None):
     manifest = {"trackers": [
         {"label": "mht", "kind": "mht", "model": None, "params": {}},
         {"label": "nn-a", "kind": "nn", "model": "a", "params": {}},
-        {"label": "nn-b", "kind": "nn", "model": "b", "params": {"association": association}},
+        {"label": "nn-b", "kind": "nn", "model": "b", "params": {"association": association, **(life or {})}},
     ]}
     metrics = {"accuracy": 0.95, "sensitivity": 0.9, "specificity": 0.97}
     classifier = {"models": [
@@ -48,3 +48,11 @@ def test_switches_classifier_figures_and_tracking_side_by_side():
     assert (row["Encounter scenes"], row["DAgger rounds"], row["Association"], row["Threshold"]) == (
         "60", "1", "greedy", "0")
     assert row["Presets accuracy (%)"] == "99.00" and row["Own test accuracy (%)"] == "95.00"
+
+
+def test_a_life_cycle_change_is_a_switch_of_its_own():
+    life = {"coast_gate": 9.21, "coast_after": 0, "lifecycle": {"confirmation": "score"}}
+    first, _ = association_section.tables(*_records(None, life=life))
+    assert [dict(zip(first.header, r))["Life cycle"] for r in first.rows] == ["mn", "score, gate 9.21 after 0"]
+    first, _ = association_section.tables(*_records(None, life={"lifecycle": {"confirmation": "score"}}))
+    assert dict(zip(first.header, first.rows[1]))["Life cycle"] == "score"

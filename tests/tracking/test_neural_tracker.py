@@ -16,12 +16,13 @@ from nnda.data.presets import PRESETS
 from nnda.data.scenario import Clutter, Scenario, Segment, Sensor, Target
 from nnda.errors import ConfigError, TrackingError
 from nnda.models.features import KINEMATIC, candidate_pairs, pair_features
+from nnda.models.innovation import IMM_INNOVATION
 from nnda.models.mlp import MLPWeights
 from nnda.models.preprocessing import Normaliser
 from nnda.models.scorer import Scorer, save_model, score_log_odds
 from nnda.study.metrics import run_metrics
 from nnda.tracking.assignment import greedy_matching
-from nnda.tracking.neural import NeuralTracker, global_matching
+from nnda.tracking.neural import NeuralTracker, global_matching, reacquire
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
 
@@ -298,6 +299,53 @@ def test_crossing_targets_keep_their_tracks(model_file):
         assert counts.max() >= 19, (target, ids)  # one track follows it through the crossing ...
         follower[target] = values[counts.argmax()]
     assert follower[0] != follower[1]  # ... and not the same one
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_reacquire_is_the_nearest_free_pick_of_the_waiting_tracks(seed):
+    rng = np.random.default_rng(seed)
+    P = int(rng.integers(0, 30))
+    rows, cols, d2 = rng.integers(0, 5, P), rng.integers(0, 7, P), rng.integers(0, 15, P).astype(float)
+    waiting, taken = rng.random(5) < 0.6, np.flatnonzero(rng.random(7) < 0.3)
+    r, c = reacquire(rows, cols, d2, waiting, taken, 9.21)
+    eligible = [i for i in range(P) if waiting[rows[i]] and cols[i] not in taken and d2[i] <= 9.21]
+    expected = sequential_greedy(rows[eligible], cols[eligible], -d2[eligible])
+    assert list(zip(r.tolist(), c.tolist())) == expected
+    left = [i for i in eligible if rows[i] not in r and cols[i] not in c]
+    assert not left  # no pair a waiting track could still take
+
+
+def gap_shy_model(path):
+    """A hand-set 9-2-1 scorer on the IMM-extended features: about +1 for a pair one scan after the track's
+    last contact (ΔT < 3 s) with d² < 9, about -1 otherwise: it never picks a track up after a miss."""
+    w1 = np.zeros((2, IMM_INNOVATION.size))
+    w1[0, IMM_INNOVATION.names.index("delta_t_s")] = -2.0
+    w1[1, IMM_INNOVATION.names.index("mahalanobis_d2")] = -1.0
+    weights = MLPWeights(w1, np.array([6.0, 9.0]), np.array([5.0, 5.0]), -5.0)
+    scorer = Scorer(weights, Normaliser(np.zeros(IMM_INNOVATION.size), np.ones(IMM_INNOVATION.size)),
+                    IMM_INNOVATION)
+    return save_model(scorer, path)
+
+
+def test_coast_gate_picks_a_track_up_after_a_gap_the_network_refuses(tmp_path):
+    target = Target(name="gap", x_m=-10_000.0, y_m=15_000.0, heading_deg=90.0, speed_m_s=150.0,
+                    missed_scans=[20, 21, 22], segments=[Segment(duration_s=100.0)])
+    ds = generate(Scenario(name="gap", duration_s=100.0, targets=[target], clutter=Clutter(count=10)), seed=4)
+    model = str(gap_shy_model(tmp_path / "gap-shy.json"))
+    m = {}
+    for gate in (None, 9.21):
+        tracker = make_tracker("nn", ds.scenario.sensor, {"model": model, "coast_gate": gate})
+        m[gate] = run_metrics(ds, [tracker.step(scan) for scan in ds.scans()])
+    assert m[None].lost_targets == 1 and m[None].track_breaks == 1  # deleted at scan 23, started again
+    assert (m[9.21].lost_targets, m[9.21].track_breaks, m[9.21].false_tracks) == (0, 0, 0)
+    assert m[9.21].hits > m[None].hits
+
+
+def test_bad_coast_gate_is_refused(model_file):
+    with pytest.raises(ConfigError, match=r"invalid nn config[\s\S]*coast_gate"):
+        make_tracker("nn", Sensor(), {"model": str(model_file), "coast_gate": 0.0})
+    with pytest.raises(ConfigError, match=r"invalid nn config[\s\S]*coast_after"):
+        make_tracker("nn", Sensor(), {"model": str(model_file), "coast_gate": 9.21, "coast_after": -1})
 
 
 def test_bad_scans_are_refused(model_file):

@@ -3,12 +3,14 @@
 Present when a neural tracker of the study uses a change of issue 20: a
 model on the context features (``imm-context-14``), one trained with
 multi-target encounter scenes or DAgger rounds (its metadata ``recipe``),
-or the global association. Two tables, side by side:
+the global association, or a life cycle other than M/N alone (the score
+rule, ``coast_gate``). Two tables, side by side:
 
 * per neural tracker, its switches (features, encounter scenes, DAgger
-  rounds and the share of tracks on clutter kept, association, threshold) and its model's classifier figures: on its own
-  test split (what training saw) and on the oracle pairs of the 17 training
-  presets, one common set for every model (``classifier.json``);
+  rounds and the share of tracks on clutter kept, association, threshold,
+  life cycle) and its model's classifier figures: on its own test split
+  (what training saw) and on the oracle pairs of the 17 training presets,
+  one common set for every model (``classifier.json``);
 * per scenario, every tracker (MHT and GNN as references) on the measures
   association changes (`nnda.reports.features_section.COMPARED`), each
   ``mean [low, high]`` over runs, so the classifier's gains can be read
@@ -33,7 +35,15 @@ def _switches(tracker: dict, model: dict) -> dict:
     params = tracker["params"]
     return {"features": model.get("features", DASH), "encounters": recipe.get("encounters", 0),
             "dagger": recipe.get("dagger", 0), "ratio": recipe.get("dagger_ratio"),
-            "association": params.get("association", "greedy"), "threshold": params.get("threshold", 0.0)}
+            "association": params.get("association", "greedy"), "threshold": params.get("threshold", 0.0),
+            "life": _life_cycle(params)}
+
+
+def _life_cycle(params: dict) -> str:
+    """The tracker's confirmation rule, and its coasting fallback if any: "mn", "score, gate 9.21 after 0"."""
+    rule = (params.get("lifecycle") or {}).get("confirmation", "mn")
+    gate = params.get("coast_gate")
+    return rule if gate is None else f"{rule}, gate {gate:g} after {params.get('coast_after', 1)}"
 
 
 def neural_trackers(manifest: dict, classifier: dict) -> list[tuple[dict, dict]]:
@@ -41,7 +51,7 @@ def neural_trackers(manifest: dict, classifier: dict) -> list[tuple[dict, dict]]
     models = {m["label"]: m for m in classifier["models"]}
     nn = [(t, models[t["model"]]) for t in manifest["trackers"] if t["kind"] == "nn" and t.get("model") in models]
     changed = any(s["features"] == IMM_CONTEXT.name or s["encounters"] or s["dagger"] or s["association"] != "greedy"
-                  for s in (_switches(t, m) for t, m in nn))
+                  or s["life"] != "mn" for s in (_switches(t, m) for t, m in nn))
     return nn if changed else []
 
 
@@ -58,12 +68,15 @@ def classifier_table(nn: list[tuple[dict, dict]]) -> TextTable:
         common = (model.get("evaluation") or {}).get("metrics")
         rows.append((tracker["label"], s["features"], str(s["encounters"]), str(s["dagger"]),
                      DASH if s["ratio"] is None else f"{s['ratio']:g}", s["association"], f"{s['threshold']:g}",
+                     s["life"],
                      *(_figure(model.get("test_metrics"), k) for k in FIGURES),
                      *(_figure(common, k) for k in FIGURES)))
     header = ("Tracker", "Features", "Encounter scenes", "DAgger rounds", "DAgger ratio", "Association", "Threshold",
-              *(f"Own test {k} (%)" for k in FIGURES), *(f"Presets {k} (%)" for k in FIGURES))
+              "Life cycle", *(f"Own test {k} (%)" for k in FIGURES), *(f"Presets {k} (%)" for k in FIGURES))
     note = ("Own test: the model's test split (20 % of its own training pairs, harvested ones included). Presets: "
-            "every oracle pair of the 17 training presets, the same set for every model.")
+            "every oracle pair of the 17 training presets, the same set for every model. Life cycle: the confirmation "
+            "rule (mn: M/N; score: the track score), and with coast_gate the IMM gate in which a confirmed track "
+            "left without a pick after that many misses takes its nearest free contact.")
     return TextTable("Neural trackers: what each model was trained on and how it classifies", header,
                      tuple(rows), note)
 

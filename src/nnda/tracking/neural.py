@@ -39,6 +39,17 @@ Each scan, for all live tracks at once:
    and a track whose best pick would block a better total yields it.
    ``confirmed_first`` then solves the confirmed tracks' assignment first and
    the preliminary tracks' on the contacts left;
+   With ``coast_gate`` set (issue 20), a confirmed track that has missed
+   ``coast_after`` scans in a row or more and got no pair above the
+   threshold takes, of the contacts still free in its chi-square gate (2
+   dof) on the IMM's prediction, the one of least Mahalanobis d², as GNN
+   would (`reacquire`). The network's domain ends where a coasting track's
+   pairs leave the training pairs' (ΔT after a detection gap) or the
+   candidate gate (a slow target far out, whose noisy step from its last
+   contact looks slower than 30 m/s); the IMM's innovation, whose
+   covariance grows while it coasts, still judges there, as in MHT and GNN.
+   With it, the score rule (``lifecycle.confirmation = "score"``) deletes
+   the tracks kept alive on clutter once their target has gone;
 4. *filter*: the chosen contact updates the track's IMM. With the seed's
    features the filter smooths the output only (spec §7.2); with the
    extended set its prediction is also what the network reads.
@@ -64,6 +75,7 @@ from nnda.models.features import candidate_pairs, pair_features
 from nnda.models.innovation import IMM_INNOVATION, innovation_features
 from nnda.models.scorer import Scorer, load_model, score_log_odds
 from nnda.tracking.assignment import greedy_matching, least_cost_assignment
+from nnda.tracking.gating import gate_tracks
 from nnda.tracking.output import CONFIRMED, NO_CONTACT
 from nnda.tracking.tracker import (
     Association,
@@ -99,6 +111,13 @@ class NeuralConfig(ContactTrackerConfig):
     association: Literal["greedy", "global"] = Field(
         "greedy", description="'greedy': pairs taken by descending score (spec A10); 'global': one least-cost "
         "assignment per scan, a pair costing the negative log-odds of its score, a miss the threshold's")
+    coast_gate: Annotated[float | None, Field(
+        gt=0, description="chi-square gate (2 dof; 9.21: P_G = 0.99) on the IMM's prediction within which a "
+        "coasting confirmed track with no pair above the threshold takes its free contact of least Mahalanobis "
+        "d²; None: off (the network decides alone)")] = None
+    coast_after: Annotated[int, Field(
+        ge=0, description="consecutive misses from which a confirmed track counts as coasting for "
+                          "coast_gate (0: every confirmed track without a pick)")] = 1
 
 
 class NeuralTracker(SingleHypothesisTracker):
@@ -183,7 +202,23 @@ class NeuralTracker(SingleHypothesisTracker):
                 else:
                     chosen_track, chosen_contact = global_matching(track, cand, score, threshold)
                 contact[chosen_track] = chosen_contact
+            if self.config.coast_gate is not None:
+                contact = self._reacquired(tracks, pred, scan, contact)
         return hard_update(scan.filter, pred, z, contact)
+
+    def _reacquired(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts, contact: np.ndarray
+                    ) -> np.ndarray:
+        """``contact`` (K,) with the picks (`reacquire`) of the coasting confirmed tracks left without one,
+        among the contacts in their IMM gate of ``coast_gate`` (`gate_tracks`)."""
+        cfg = self.config
+        waiting = (tracks.status == CONFIRMED) & (tracks.consecutive >= cfg.coast_after) & (contact == NO_CONTACT)
+        if not waiting.any():
+            return contact
+        _, g = gate_tracks(scan.filter, pred, scan.z, scan.xy, cfg.coast_gate)
+        rows, cols = reacquire(g.rows, g.cols, g.d2, waiting, contact[contact != NO_CONTACT], cfg.coast_gate)
+        contact = contact.copy()
+        contact[rows] = cols
+        return contact
 
     def _born(self, tracks: Tracks) -> np.ndarray:
         """Time (s) of each track's first contact, (K,). Track ids count up from 0 and a track is first
@@ -216,3 +251,16 @@ def global_matching(rows: np.ndarray, cols: np.ndarray, score: np.ndarray, thres
         return greedy_matching(rows, cols, score)
     miss = np.full(int(rows.max()) + 1, -score_log_odds(threshold))
     return least_cost_assignment(rows, cols, -score_log_odds(score), miss)
+
+
+def reacquire(rows: np.ndarray, cols: np.ndarray, d2: np.ndarray, waiting: np.ndarray, taken: np.ndarray,
+              gate: float) -> tuple[np.ndarray, np.ndarray]:
+    """Nearest-neighbour picks of the rows still ``waiting`` for a contact, by the IMM's gate.
+
+    ``rows``, ``cols`` (P,) index the candidate pairs' tracks and contacts, ``d2`` (P,) their squared
+    Mahalanobis distances; ``waiting`` (K,) flags the tracks that may pick, ``taken`` the contacts
+    already given. Pairs of a waiting row with a free contact and d² <= ``gate`` are matched one-to-one
+    by ascending d² (`greedy_matching`). Returns the (rows, cols) picked.
+    """
+    free = waiting[rows] & (d2 <= gate) & ~np.isin(cols, taken)
+    return greedy_matching(rows[free], cols[free], -d2[free])
