@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from nnda.tracking.clutter_density import local_density
+from nnda.data.scenario import Sensor
+from nnda.tracking.clutter_density import covered_fraction, local_density
 
 
 def test_matches_direct_count_up_to_the_grid_edge():
@@ -25,3 +26,20 @@ def test_never_zero():
     d = local_density(np.array([[0.0, 0.0]]), np.array([[50_000.0, 0.0], [0.0, 0.0]]), 1_000.0)
     assert d[0] == d[1] == 1 / 2_000.0**2
     assert local_density(np.empty((0, 2)), np.zeros((3, 2)), 1_000.0).tolist() == [1 / 2_000.0**2] * 3
+
+
+def test_the_area_is_the_squares_part_inside_the_coverage():
+    """Uniform contacts over a radar's ring: at the maximum range about half the square sees clutter, and the
+    density there, counted over that part only, matches the ring's (over the whole square: about half)."""
+    sensor = Sensor()  # 5-30 km ring at the origin
+    rng = np.random.default_rng(4)
+    n = 200_000
+    r = np.sqrt(rng.uniform(sensor.min_range_m**2, sensor.max_range_m**2, n))
+    az = rng.uniform(-np.pi, np.pi, n)
+    xy = np.column_stack([r * np.cos(az), r * np.sin(az)])
+    true = n / (np.pi * (sensor.max_range_m**2 - sensor.min_range_m**2))
+    at = np.array([[0.0, 30_000.0], [30_000.0, 0.0], [0.0, 17_000.0]])
+    covered = local_density(xy, at, 1_000.0, sensor)
+    np.testing.assert_allclose(covered, true, rtol=0.1)  # ~650 contacts per square: 4% noise
+    assert (local_density(xy, at[:2], 1_000.0) < 0.6 * true).all()
+    np.testing.assert_allclose(covered_fraction(sensor, at, 1_000.0), [0.5, 0.5, 1.0], atol=1 / 16)

@@ -7,7 +7,12 @@ The density at a point is the number of the scan's contacts in the square of
 half-side ``radius`` around it, over the square's area (at least one
 contact, so a density is never zero). Counting uses a summed-area table on a
 grid of radius/4 cells, so any number of query points costs O(1) each; the
-square's edges are exact to an eighth of ``radius``, without bias.
+square's edges are exact to an eighth of ``radius``, without bias. Given the
+sensor, the area is only the square's part inside its coverage (found on a
+grid of `_EDGE_POINTS`^2 points of the square): near the maximum range half
+the square sees no clutter, and counting over the whole square halves the
+density there, doubles every contact's likelihood ratio and lets a track
+that follows the coverage edge on clutter alone confirm.
 """
 
 from __future__ import annotations
@@ -15,10 +20,12 @@ from __future__ import annotations
 import numpy as np
 
 from nnda.data.scenario import Sensor
-from nnda.data.sensor import TWO_PI
+from nnda.data.sensor import TWO_PI, in_coverage
 
 #: grid cells per ``radius``
 _CELLS = 4
+#: points per side of the grid on which the part of a square inside the coverage is measured
+_EDGE_POINTS = 8
 
 
 def coverage_area(sensor: Sensor) -> float:
@@ -34,11 +41,13 @@ def measurement_volume(sensor: Sensor) -> float:
     return coverage_area(sensor)
 
 
-def local_density(contacts: np.ndarray, at: np.ndarray, radius: float) -> np.ndarray:
-    """Contacts per m^2 around each point of ``at`` (Q, 2); ``contacts`` (N, 2) in m. Returns (Q,)."""
-    floor = 1.0 / (2.0 * radius) ** 2
+def local_density(contacts: np.ndarray, at: np.ndarray, radius: float, sensor: Sensor | None = None
+                  ) -> np.ndarray:
+    """Contacts per m^2 around each point of ``at`` (Q, 2); ``contacts`` (N, 2) in m, all of one scan of
+    ``sensor`` when given (the area is then the square's part inside its coverage). Returns (Q,)."""
+    area = (2.0 * radius) ** 2 * (np.ones(len(at)) if sensor is None else covered_fraction(sensor, at, radius))
     if len(contacts) == 0 or len(at) == 0:
-        return np.full(len(at), floor)
+        return 1.0 / area
     cell = radius / _CELLS
     lo = np.minimum(contacts.min(axis=0), at.min(axis=0)) - radius - cell
     hi = np.maximum(contacts.max(axis=0), at.max(axis=0)) + radius + cell
@@ -51,4 +60,14 @@ def local_density(contacts: np.ndarray, at: np.ndarray, radius: float) -> np.nda
     a = np.rint((at - radius - lo) / cell).astype(np.int64)  # cells [a, b) cover the square
     b = np.rint((at + radius - lo) / cell).astype(np.int64)  # to half a cell at each edge
     n = table[b[:, 0], b[:, 1]] - table[a[:, 0], b[:, 1]] - table[b[:, 0], a[:, 1]] + table[a[:, 0], a[:, 1]]
-    return np.maximum(n, 1.0) / (2.0 * radius) ** 2
+    return np.maximum(n, 1.0) / area
+
+
+def covered_fraction(sensor: Sensor, at: np.ndarray, radius: float) -> np.ndarray:
+    """The part (0, 1] of the square of half-side ``radius`` (m) around each point of ``at`` (Q, 2) inside
+    ``sensor``'s coverage, on a grid of `_EDGE_POINTS`^2 points (at least one point's share). Returns (Q,)."""
+    u = radius * ((np.arange(_EDGE_POINTS) + 0.5) * (2.0 / _EDGE_POINTS) - 1.0)
+    x = at[:, :1, None] + u[None, :, None]  # (Q, E, 1)
+    y = at[:, 1:, None] + u[None, None, :]  # (Q, 1, E)
+    inside = in_coverage(sensor, *np.broadcast_arrays(x, y))
+    return np.maximum(inside.mean(axis=(1, 2)), 1.0 / _EDGE_POINTS**2)

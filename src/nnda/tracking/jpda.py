@@ -43,7 +43,9 @@ Each scan:
    Bar-Shalom: the combined innovation, the covariance mixture of the
    updated and not-updated cases and the spread-of-innovations term.
 5. **Reported contact**: the contact with the highest beta_tj when it beats
-   beta_t0, else none (NO_CONTACT). It drives the M/N counters and the output; two
+   beta_t0, else none (NO_CONTACT); under JIPDA both given that the target
+   exists (a newborn of existence 1e-5 would otherwise never report, nor
+   update on, its own target's contacts). It drives the M/N counters and the output; two
    tracks may report the same contact if it is the best of both. On a scan
    where no contact beats beta_t0 the framework counts a miss and keeps the
    track's last posterior, so that scan's soft update is dropped.
@@ -261,8 +263,11 @@ class JPDATracker(SingleHypothesisTracker):
             if m.approximated.any():
                 self._bound_hit("max_joint_events", f"{int(m.approximated.sum())} cluster(s) past the joint-event "
                                 "cap solved by loopy belief propagation, not enumeration", scan.time)
-            best = best_pairs(track, m.beta)
-            wins = m.beta[best] > m.beta0  # the reported contact: against "no contact, or no target"
+            # the reported contact: the most probable given that the target exists (JIPDA's state update), as
+            # JPDA's at rho = 1; against the unconditional beta0, which holds "no target", a newborn of tiny
+            # existence never reports its target's contacts nor updates on them, and its gate only grows
+            best = best_pairs(track, beta)
+            wins = beta[best] > beta0
             contact[rows[wins]] = cols[best[wins]]
             taken[contact[rows[wins]]] = True
             # the soft update, for the tracks that report a contact (the framework keeps the others')

@@ -399,7 +399,7 @@ class ContactTracker(ABC):
         """Clutter density in the measurement space of the scan's sensor (polar: (m rad)^-1) at its
         contacts ``at`` (M,): the scan's contacts around each (`local_density`, half-side the config's
         ``clutter_radius_m`` or 3 km) times the area Jacobian."""
-        return (local_density(scan.xy, scan.xy[at], self._clutter_radius)
+        return (local_density(scan.xy, scan.xy[at], self._clutter_radius, self.sensors[scan.sensor])
                 * scan.filter.measurement.area_jacobian(scan.z[at]))
 
     @property
@@ -415,10 +415,11 @@ class ContactTracker(ABC):
         sensor = self.sensors[scan.sensor]
         cfg = self.config.lifecycle
         area = cfg.window_area(sensor.scan_period_s, sensor_noise_m(sensor))
-        score = start_score(self.score_pd, area, local_density(scan.xy, scan.xy[contact], self._clutter_radius))
+        score = start_score(self.score_pd, area, local_density(scan.xy, scan.xy[contact], self._clutter_radius,
+                                                                 sensor))
         if self.confirmation_rule == "existence":
             score += birth_log_odds(self.score_pd, cfg.new_targets_per_scan / coverage_area(sensor),
-                                    local_density(scan.xy, born.p1, self._clutter_radius))
+                                    local_density(scan.xy, born.p1, self._clutter_radius, sensor))
         return replace(born, score=score, max_score=score.copy())
 
     def _score_gain(self, pred: IMMPrediction, scan: ScanContacts, assoc: Association) -> np.ndarray | None:
