@@ -9,13 +9,14 @@ import numpy as np
 import pytest
 
 from nnda.tracking.confirmation_bound import (
+    clairvoyant_delay_s,
     contact_log_ratio_mean,
     delay_bound_s,
     expected_tests,
     gated_mean_square,
     scan_drift,
 )
-from nnda.tracking.lifecycle import sprt_thresholds
+from nnda.tracking.lifecycle import LifecycleConfig, sprt_thresholds
 from nnda.tracking.marginals import log_miss_weight
 
 PD, GATE = 0.9, 9.21
@@ -81,3 +82,22 @@ def test_denser_clutter_costs_drift_and_delay():
     assert delays[1] > delays[0] > 2.0 * 2.0
     with pytest.raises(ValueError, match="drift"):
         expected_tests(0.0, lower, upper, -0.1, 1e-3)
+
+
+def test_clairvoyant_delay_composes_the_steps_with_the_rules_thresholds():
+    cfg = LifecycleConfig()
+    density, r = 8.7e-7, 17_500.0
+    lds = 2 * math.log(30.0 * 3e-3 * r)
+    start = math.log(PD / (cfg.window_area(2.0, 30.0) * density))
+    mu = scan_drift(1.0, PD, GATE, lds, density)
+    lower, upper = sprt_thresholds(cfg.false_confirmation, cfg.false_deletion)
+    want = delay_bound_s(expected_tests(start, lower, upper, mu, cfg.false_deletion), 2.0)
+    assert clairvoyant_delay_s("score", cfg, density, r, 30.0, 3e-3, 2.0) == pytest.approx(want, rel=1e-9)
+    # the existence rule: a lower start (the birth prior) and threshold, and the survival's loss per scan
+    area = math.pi * (30e3**2 - 5e3**2)
+    birth = math.log(PD * cfg.new_targets_per_scan / area / density)
+    n = ((1 - 1e-3) * (math.log(99.0) - start - birth) + 1e-3 * math.log(0.1 / (1 - 1e-6))) / (mu + math.log(0.995))
+    assert clairvoyant_delay_s("existence", cfg, density, r, 30.0, 3e-3, 2.0, coverage_m2=area) == pytest.approx(
+        (1 + n) * 2.0, rel=1e-9)
+    with pytest.raises(ValueError, match="rule"):
+        clairvoyant_delay_s("mn", cfg, density, r, 30.0, 3e-3, 2.0)

@@ -28,6 +28,13 @@ confirmation is at least (1 + E[N]) scan periods (`delay_bound_s`). Usage::
     mu = scan_drift(pd_true=1.0, pd=0.9, gate=9.21, log_det_s=2 * log(30 * 45), density=8.7e-7)  # per scan
     n = expected_tests(start, lower, upper, mu, beta)                 # tests, >= 1 in practice
     delay = delay_bound_s(n, scan_period=2.0)                         # s
+    clairvoyant_delay_s("score", lifecycle, 8.7e-7, 17_500.0, 30.0, 3e-3, 2.0)   # the three steps, in s
+
+The start and thresholds are the rule's (`clairvoyant_delay_s`): the score
+rule starts at the two-point ratio ln(P_D / (A_w rho)) and tests against
+Wald's thresholds; the existence rule adds the birth prior, loses ln s per
+scan to the survival (its exact loss at small existence, an upper bound
+on the drift) and confirms at ``existence_confirmation``.
 
 Units: ``density`` lambda and ``log_det_s`` ln|S| in one measurement space
 (Cartesian m^-2 and ln m^4 here; a polar radar's (m rad) gives the same z,
@@ -38,6 +45,7 @@ from __future__ import annotations
 
 import math
 
+from nnda.tracking.lifecycle import LifecycleConfig, birth_log_odds, sprt_thresholds
 from nnda.tracking.marginals import log_miss_weight
 
 
@@ -74,3 +82,26 @@ def delay_bound_s(tests: float, scan_period: float) -> float:
     """Seconds from a target's first detection to its confirmation after ``tests`` tests: the initiator's
     scan, the two-point start's, then one test per scan: (1 + tests) scan periods."""
     return (1.0 + tests) * scan_period
+
+
+def clairvoyant_delay_s(rule: str, lifecycle: LifecycleConfig, density: float, range_m: float,
+                        sigma_range_m: float, sigma_azimuth_rad: float, scan_period: float, pd: float = 0.9,
+                        gate: float = 9.21, pd_true: float = 1.0, coverage_m2: float = 1.0) -> float:
+    """Least mean delay (s) from first detection to confirmation of a target at ``range_m`` from a polar
+    radar of noise ``sigma_range_m``, ``sigma_azimuth_rad`` and ``scan_period`` (s) in clutter of area
+    density ``density`` (m^-2) under ``rule`` "score" or "existence" of ``lifecycle`` (module docstring);
+    ``coverage_m2`` is the sensor's coverage area, for the existence rule's birth prior."""
+    log_det_s = 2.0 * math.log(sigma_range_m * sigma_azimuth_rad * range_m)  # S = R, as a Cartesian area
+    drift = scan_drift(pd_true, pd, gate, log_det_s, density)
+    start = math.log(pd / (lifecycle.window_area(scan_period, sigma_range_m) * density))
+    if rule == "score":
+        lower, upper = lifecycle.score_thresholds
+    elif rule == "existence":
+        start += float(birth_log_odds(pd, lifecycle.new_targets_per_scan / coverage_m2, density))
+        lower = start + sprt_thresholds(lifecycle.false_confirmation, lifecycle.preliminary_false_deletion)[0]
+        c = lifecycle.existence_confirmation
+        upper = math.log(c) - math.log1p(-c)
+        drift += math.log(lifecycle.survival_probability)
+    else:
+        raise ValueError(f"rule must be 'score' or 'existence', got {rule!r}")
+    return delay_bound_s(expected_tests(start, lower, upper, drift, lifecycle.false_deletion), scan_period)
