@@ -6,6 +6,7 @@ import numpy as np
 
 from nnda.data.scenario import Sensor
 from nnda.tracking.clutter_density import covered_fraction, local_density
+from tolerances import RTOL
 
 
 def test_matches_direct_count_up_to_the_grid_edge():
@@ -43,3 +44,21 @@ def test_the_area_is_the_squares_part_inside_the_coverage():
     np.testing.assert_allclose(covered, true, rtol=0.1)  # ~650 contacts per square: 4% noise
     assert (local_density(xy, at[:2], 1_000.0) < 0.6 * true).all()
     np.testing.assert_allclose(covered_fraction(sensor, at, 1_000.0), [0.5, 0.5, 1.0], atol=1 / 16)
+
+
+def test_the_covered_part_is_tabulated_on_the_counting_cells():
+    """The table holds the exact grid value at each cell's centre, and a point between two centres takes
+    their mean (bilinear interpolation); a sector's edges count as the ring's do."""
+    from nnda.tracking.clutter_density import _covered_lookup, _covered_table
+    for sensor in (Sensor(), Sensor(fov_deg=90.0, boresight_deg=45.0)):
+        table, lo, cell = _covered_table(sensor, 3_000.0)
+        rng = np.random.default_rng(5)
+        idx = rng.integers(0, len(table), (500, 2))
+        centres = lo + (idx + 0.5) * cell
+        np.testing.assert_array_equal(_covered_lookup(sensor, centres, 3_000.0), covered_fraction(sensor, centres,
+                                                                                                   3_000.0))
+        idx = np.minimum(idx, len(table) - 2)
+        np.testing.assert_allclose(_covered_lookup(sensor, lo + (idx + [1.0, 0.5]) * cell, 3_000.0),
+                                   0.5 * (table[idx[:, 0], idx[:, 1]] + table[idx[:, 0] + 1, idx[:, 1]]), rtol=RTOL)
+    edge = np.array([[0.0, 29_500.0], [29_500.0, 0.0]])  # beyond the 90-degree sector's edge at 0 degrees
+    assert (covered_fraction(Sensor(fov_deg=90.0, boresight_deg=45.0), edge, 3_000.0) < 0.6).all()
