@@ -397,8 +397,9 @@ class ContactTracker(ABC):
 
     def clutter_density(self, scan: ScanContacts, at: np.ndarray) -> np.ndarray:
         """Clutter density in the measurement space of the scan's sensor (polar: (m rad)^-1) at its
-        contacts ``at`` (M,): the scan's contacts around each (`local_density`, half-side the config's
-        ``clutter_radius_m`` or 3 km) times the area Jacobian."""
+        contacts ``at`` (M,): the scan's contacts around each over the part of the square (half-side the
+        config's ``clutter_radius_m`` or 3 km) inside the sensor's coverage (`local_density`), times the area
+        Jacobian."""
         return (local_density(scan.xy, scan.xy[at], self._clutter_radius, self.sensors[scan.sensor])
                 * scan.filter.measurement.area_jacobian(scan.z[at]))
 
