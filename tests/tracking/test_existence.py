@@ -14,7 +14,7 @@ from nnda.data.presets import PRESETS
 from nnda.data.scenario import Sensor
 from nnda.data.sensor import cart_to_polar
 from nnda.errors import ConfigError
-from nnda.tracking.jpda import existence_update
+from nnda.tracking.jpda import given_existence
 from nnda.tracking.lifecycle import (
     LifecycleConfig,
     advance_score,
@@ -39,12 +39,13 @@ def _logit(p):
 
 
 def _one_track(rho_pred: float, ratios: list[float]):
-    """JIPDA of one track of predicted existence rho_pred with contacts of likelihood ratios l / lambda."""
+    """JIPDA of one track of predicted existence rho_pred with contacts of likelihood ratios l / lambda:
+    the association probabilities given existence, and the marginals."""
     log_ratio = np.log(PD * np.array(ratios))
     track = np.zeros(len(ratios), np.int64)
     m = jpda_marginals(track, np.arange(len(ratios)), jipda_log_ratio(log_ratio, LOG_MISS, np.full(len(ratios),
                        rho_pred)), 1, LOG_MISS, 10_000)
-    return existence_update(np.array([_logit(rho_pred)]), m.beta, m.beta0, track, LOG_MISS), m
+    return given_existence(np.array([_logit(rho_pred)]), m.beta, m.beta0, track, LOG_MISS), m
 
 
 def test_prediction_is_the_markov_chain():
@@ -59,15 +60,12 @@ def test_no_contact_in_the_gate_lowers_existence_by_the_known_factor():
 
 
 @pytest.mark.parametrize("ratios", [[3.0], [0.2, 5.0], [1e6]])
-def test_one_track_existence_is_ipda(ratios):
-    rho = 0.6
-    (gain, given, given0), _ = _one_track(rho, ratios)
-    delta = PD * PG - PD * sum(ratios)
-    expected = (1 - delta) * rho / (1 - delta * rho)
-    assert existence(_logit(rho) + gain[0]) == pytest.approx(expected, rel=RTOL)
-    assert given.sum() + given0[0] == pytest.approx(1.0, rel=RTOL)
-    if ratios == [1e6]:  # a perfect detection: existence all but certain
-        assert expected > 0.9999 and given[0] == pytest.approx(1.0, rel=1e-5)
+def test_one_track_given_existence_is_pda(ratios):
+    """Given that the target exists, one track's association probabilities are PDA's, whatever rho."""
+    (given, given0), _ = _one_track(0.6, ratios)
+    r = PD * np.array(ratios)
+    np.testing.assert_allclose(given, r / (1 - PD * PG + r.sum()), rtol=RTOL)
+    assert given0[0] == pytest.approx((1 - PD * PG) / (1 - PD * PG + r.sum()), rel=RTOL)
 
 
 def test_birth_odds_are_new_targets_against_clutter():
@@ -113,7 +111,7 @@ def test_at_existence_one_jipda_is_jpda():
     log_ratio = rng.normal(1.0, 1.0, 5)
     np.testing.assert_allclose(jipda_log_ratio(log_ratio, LOG_MISS, np.ones(5)), log_ratio, rtol=RTOL, atol=1e-12)
     m = jpda_marginals(track, contact, log_ratio, 3, LOG_MISS, 10_000)
-    _, given, given0 = existence_update(np.full(3, 700.0), m.beta, m.beta0, track, LOG_MISS)
+    given, given0 = given_existence(np.full(3, 700.0), m.beta, m.beta0, track, LOG_MISS)
     np.testing.assert_allclose(given, m.beta, rtol=RTOL)
     np.testing.assert_allclose(given0, m.beta0, rtol=RTOL, atol=1e-12)
 
@@ -191,3 +189,22 @@ def test_tentatives_sharing_the_contact_leave_the_confirmed_tracks_existence_as_
     assert shared.track_id[0] == one.track_id[0] and shared.status[0] == CONFIRMED
     assert existence(shared.score[0]) == pytest.approx(existence(alone.score[0]), rel=RTOL)
     assert (shared.t2[1:] < 14.0).all()  # the confirmed track reported the contact: no tentative used it
+
+
+def test_the_existence_takes_ipdas_ratio_of_the_reported_contact():
+    """A preliminary track with its target's contact at its prediction and clutter around it in its gate: its
+    existence moves by ln(1 - P_D P_G + P_D l / lambda) of the contact it reports, not the soft sum over the
+    gate (which walks up on vague clutter-born tracks at 5,000 per scan)."""
+    tracker, z = _jipda_with_confirmed_track()
+    rho0 = 1e-4
+    tent = replace(tracker.tracks, status=np.array([PRELIMINARY], np.int8), score=np.array([_logit(rho0)]),
+                   max_score=np.array([_logit(rho0)]))
+    pred = tracker.filter.predict(tent.filt, 14.0 - tent.t2)
+    mp = tracker.filter.combined_measurement(pred)
+    step = np.linalg.cholesky(mp.S[0]) @ [np.sqrt(5.0), 0.0]
+    contacts = np.vstack([z, z + step, z - step])
+    before = predicted_log_odds(tent.score, tracker.config.lifecycle.survival_probability)[0]
+    after = _step(tracker, tent, contacts)
+    reported = tracker.filter.log_likelihood(pred, z)[0, 0]
+    want = np.logaddexp(LOG_MISS, np.log(PD) + reported - np.log(1e-3))
+    assert after.score[0] - before == pytest.approx(want, rel=RTOL)
