@@ -4,14 +4,18 @@ plotted numbers are the summary's, and a study without a sweep has no such secti
 from __future__ import annotations
 
 import json
+import math
 
 import pytest
 
 from nnda.data.presets import PRESETS
-from nnda.reports.clutter_section import curves, sweeps
+from nnda.data.scenario import Clutter, Scenario, Segment, Target
+from nnda.reports.clutter_section import curves, scene_delay_bound, sweeps
 from nnda.reports.study_report import build_report
 from nnda.study.compare import compare
 from nnda.study.config import load_study
+from nnda.tracking.confirmation_bound import clairvoyant_delay_s
+from nnda.tracking.lifecycle import LifecycleConfig
 
 
 def _scene(name: str, count: int, duration: float = 40.0) -> dict:
@@ -69,3 +73,24 @@ def test_no_section_without_a_sweep(tmp_path):
                                          '[[scenarios]]\nconfig = "a.json"\n')
     compare(load_study(tmp_path / "study.toml"), tmp_path / "out", workers=1)
     assert "## Against clutter density" not in build_report(tmp_path / "out")[0]
+
+
+@pytest.mark.parametrize("rule", ["score", "existence"])
+def test_the_delay_bound_of_a_scene_is_its_targets(rule):
+    """One target 17.5 km north moving east inside a 4 km clutter square wholly in the coverage: the density
+    there is the count over the square, and the scene's bound that target's at its first scan (t = 2 s, 200 m
+    east); M/N and false tracks at a rate have none."""
+    target = Target(name="t", x_m=0.0, y_m=17_500.0, heading_deg=90.0, speed_m_s=100.0,
+                    segments=[Segment(duration_s=20.0)])
+    sc = Scenario(name="one", duration_s=20.0, targets=[target], seed=3,
+                  clutter=Clutter(count=40, side_m=4_000.0, centre_m=(0.0, 17_500.0)))
+    dump = sc.model_dump(mode="json")
+    params = {"lifecycle": {"confirmation": rule}}
+    sensor = sc.sensors[0]
+    area = math.pi * (sensor.max_range_m**2 - sensor.min_range_m**2)
+    want = clairvoyant_delay_s(rule, LifecycleConfig(confirmation=rule), 40 / 4_000.0**2, math.hypot(200.0, 17_500.0),
+                               sensor.sigma_range_m, sensor.sigma_azimuth_rad, sensor.scan_period_s,
+                               coverage_m2=area)
+    assert scene_delay_bound(dump, params) == pytest.approx(want, rel=1e-9)
+    assert scene_delay_bound(dump, {}) is None
+    assert scene_delay_bound(dump, {"lifecycle": {"confirmation": "score", "false_tracks_per_scan": 0.01}}) is None

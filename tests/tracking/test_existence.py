@@ -3,15 +3,18 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
+from nnda.data.dataset import Scan
 from nnda.data.generator import generate
 from nnda.data.presets import PRESETS
 from nnda.data.scenario import Sensor
+from nnda.data.sensor import cart_to_polar
 from nnda.errors import ConfigError
-from nnda.tracking.jpda import existence_update
+from nnda.tracking.jpda import given_existence
 from nnda.tracking.lifecycle import (
     LifecycleConfig,
     advance_score,
@@ -23,6 +26,7 @@ from nnda.tracking.lifecycle import (
 from nnda.tracking.marginals import jpda_marginals, log_miss_weight
 from nnda.tracking.output import CONFIRMED, DELETED, PRELIMINARY
 from nnda.tracking.registry import make_tracker
+from nnda.tracking.tracker import Tracks
 from tolerances import RTOL
 
 PD, GATE = 0.9, 9.21
@@ -35,12 +39,13 @@ def _logit(p):
 
 
 def _one_track(rho_pred: float, ratios: list[float]):
-    """JIPDA of one track of predicted existence rho_pred with contacts of likelihood ratios l / lambda."""
+    """JIPDA of one track of predicted existence rho_pred with contacts of likelihood ratios l / lambda:
+    the association probabilities given existence, and the marginals."""
     log_ratio = np.log(PD * np.array(ratios))
     track = np.zeros(len(ratios), np.int64)
     m = jpda_marginals(track, np.arange(len(ratios)), jipda_log_ratio(log_ratio, LOG_MISS, np.full(len(ratios),
                        rho_pred)), 1, LOG_MISS, 10_000)
-    return existence_update(np.array([_logit(rho_pred)]), m.beta, m.beta0, track, LOG_MISS), m
+    return given_existence(np.array([_logit(rho_pred)]), m.beta, m.beta0, track, LOG_MISS), m
 
 
 def test_prediction_is_the_markov_chain():
@@ -55,15 +60,12 @@ def test_no_contact_in_the_gate_lowers_existence_by_the_known_factor():
 
 
 @pytest.mark.parametrize("ratios", [[3.0], [0.2, 5.0], [1e6]])
-def test_one_track_existence_is_ipda(ratios):
-    rho = 0.6
-    (gain, given, given0), _ = _one_track(rho, ratios)
-    delta = PD * PG - PD * sum(ratios)
-    expected = (1 - delta) * rho / (1 - delta * rho)
-    assert existence(_logit(rho) + gain[0]) == pytest.approx(expected, rel=RTOL)
-    assert given.sum() + given0[0] == pytest.approx(1.0, rel=RTOL)
-    if ratios == [1e6]:  # a perfect detection: existence all but certain
-        assert expected > 0.9999 and given[0] == pytest.approx(1.0, rel=1e-5)
+def test_one_track_given_existence_is_pda(ratios):
+    """Given that the target exists, one track's association probabilities are PDA's, whatever rho."""
+    (given, given0), _ = _one_track(0.6, ratios)
+    r = PD * np.array(ratios)
+    np.testing.assert_allclose(given, r / (1 - PD * PG + r.sum()), rtol=RTOL)
+    assert given0[0] == pytest.approx((1 - PD * PG) / (1 - PD * PG + r.sum()), rel=RTOL)
 
 
 def test_birth_odds_are_new_targets_against_clutter():
@@ -109,7 +111,7 @@ def test_at_existence_one_jipda_is_jpda():
     log_ratio = rng.normal(1.0, 1.0, 5)
     np.testing.assert_allclose(jipda_log_ratio(log_ratio, LOG_MISS, np.ones(5)), log_ratio, rtol=RTOL, atol=1e-12)
     m = jpda_marginals(track, contact, log_ratio, 3, LOG_MISS, 10_000)
-    _, given, given0 = existence_update(np.full(3, 700.0), m.beta, m.beta0, track, LOG_MISS)
+    given, given0 = given_existence(np.full(3, 700.0), m.beta, m.beta0, track, LOG_MISS)
     np.testing.assert_allclose(given, m.beta, rtol=RTOL)
     np.testing.assert_allclose(given0, m.beta0, rtol=RTOL, atol=1e-12)
 
@@ -127,3 +129,82 @@ def test_existence_rule_tracks_the_targets(kind):
 def test_mht_refuses_the_existence_rule():
     with pytest.raises(ConfigError, match="existence"):
         make_tracker("mht", Sensor(), {"lifecycle": {"confirmation": "existence"}})
+
+
+# ------------------------------------------------------------------ JIPDA with tentatives (issue 21, tm3)
+
+def _jipda_with_confirmed_track():
+    """A JIPDA tracker (fixed clutter density) holding one confirmed track of a target moving east at
+    100 m/s, and the target's next contact (polar) at the track's prediction."""
+    tracker = make_tracker("jpda", Sensor(), {"clutter_density": 1e-3, "lifecycle": {"confirmation": "existence"}})
+    for k in range(1, 7):
+        r, az = cart_to_polar(np.array([-5_000.0 + 200.0 * k]), np.array([12_000.0]))
+        out = tracker.step(Scan(k, 2.0 * k, np.column_stack([r, az])))
+    assert out.status.tolist() == [CONFIRMED]
+    pred = tracker.filter.predict(tracker.tracks.filt, 14.0 - tracker.tracks.t2)
+    return tracker, tracker.filter.combined_measurement(pred).z
+
+
+def _step(tracker, tracks, z):
+    tracker.tracks = replace(tracks)
+    tracker.initiation.reset()  # no new tracks: the scan's contacts feed the tracks given
+    tracker.step(Scan(7, 14.0, z))
+    return tracker.tracks
+
+
+def test_a_newborn_of_tiny_existence_updates_on_its_targets_contact():
+    """JIPDA reports (and updates on) a contact against "no contact" given that the target exists: a
+    preliminary track of existence 1e-6 whose target's contact lies at its prediction takes it. (Against the
+    unconditional no-contact marginal, which holds "no target", it took nothing until its odds times the
+    contact's ratio passed 1, and at 1,000 clutter per scan its gate grew for ~50 scans: GOSPA 1,009 m.)"""
+    tracker, z = _jipda_with_confirmed_track()
+    newborn = replace(tracker.tracks, status=np.array([PRELIMINARY], np.int8), score=np.array([_logit(1e-6)]),
+                      max_score=np.array([_logit(1e-6)]))
+    pred_var = tracker.filter.predict(newborn.filt, 2.0).state.P[0, :, 0, 0]
+    after = _step(tracker, newborn, z)
+    assert after.t2[0] == 14.0  # the contact was used
+    assert (after.filt.P[0, :, 0, 0] < 0.5 * pred_var).all()
+    assert after.score[0] > _logit(1e-6)
+
+
+def test_tentatives_sharing_the_contact_leave_the_confirmed_tracks_existence_as_ipda_alone():
+    """A confirmed track and clutter-born tentatives (tiny existence, states about it) gate the same contact.
+    The confirmed tracks' joint events are solved before the tentatives see the contacts (and the contacts
+    they report are taken), so the tentatives cannot enter the confirmed track's events: its existence
+    after the scan is what IPDA alone gives it, X = 0 up to rounding. A contact claimed by the confirmed
+    track feeds no tentative."""
+    tracker, z = _jipda_with_confirmed_track()
+    alone = _step(tracker, tracker.tracks, z)
+    tracker, z = _jipda_with_confirmed_track()
+    one = tracker.tracks
+    k = 5
+    rng = np.random.default_rng(0)
+    shift = np.zeros((k, one.filt.x.shape[1], one.filt.x.shape[2]))
+    shift[:, :, 0] = rng.normal(0.0, 20.0, (k, 1))
+    tentative = Tracks.concat([one] * k)
+    tentative = replace(tentative, track_id=np.arange(100, 100 + k), status=np.full(k, PRELIMINARY, np.int8),
+                        score=np.full(k, _logit(1e-3)), max_score=np.full(k, _logit(1e-3)),
+                        filt=type(one.filt)(tentative.filt.x + shift, tentative.filt.P, tentative.filt.mu))
+    shared = _step(tracker, Tracks.concat([one, tentative]), z)
+    assert shared.track_id[0] == one.track_id[0] and shared.status[0] == CONFIRMED
+    assert existence(shared.score[0]) == pytest.approx(existence(alone.score[0]), rel=RTOL)
+    assert (shared.t2[1:] < 14.0).all()  # the confirmed track reported the contact: no tentative used it
+
+
+def test_the_existence_takes_ipdas_ratio_of_the_reported_contact():
+    """A preliminary track with its target's contact at its prediction and clutter around it in its gate: its
+    existence moves by ln(1 - P_D P_G + P_D l / lambda) of the contact it reports, not the soft sum over the
+    gate (which walks up on vague clutter-born tracks at 5,000 per scan)."""
+    tracker, z = _jipda_with_confirmed_track()
+    rho0 = 1e-4
+    tent = replace(tracker.tracks, status=np.array([PRELIMINARY], np.int8), score=np.array([_logit(rho0)]),
+                   max_score=np.array([_logit(rho0)]))
+    pred = tracker.filter.predict(tent.filt, 14.0 - tent.t2)
+    mp = tracker.filter.combined_measurement(pred)
+    step = np.linalg.cholesky(mp.S[0]) @ [np.sqrt(5.0), 0.0]
+    contacts = np.vstack([z, z + step, z - step])
+    before = predicted_log_odds(tent.score, tracker.config.lifecycle.survival_probability)[0]
+    after = _step(tracker, tent, contacts)
+    reported = tracker.filter.log_likelihood(pred, z)[0, 0]
+    want = np.logaddexp(LOG_MISS, np.log(PD) + reported - np.log(1e-3))
+    assert after.score[0] - before == pytest.approx(want, rel=RTOL)

@@ -152,6 +152,13 @@ def test_existence_rule_confirms_no_clutter_at_1000(kind, model_file):
 
 
 @pytest.mark.slow
+def test_jipda_confirms_no_clutter_at_5000(model_file):
+    """JIPDA's existence on the reported contact's ratio (its soft ratio over a vague track's ~100 gated
+    contacts confirmed 15 clutter tracks here)."""
+    assert _confirmed_in_clutter("jpda", 5_000, model_file, {"lifecycle": {"confirmation": "existence"}})[0] == 0
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("count", [1_000, 5_000])
 @pytest.mark.parametrize("kind", KINDS)
 def test_clutter_only_scene_confirms_nothing(kind, count, model_file):

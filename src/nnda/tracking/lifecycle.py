@@ -45,8 +45,9 @@
   log-odds of its probability of existence rho, predicted each scan as
   rho' = ``survival_probability`` rho (`predicted_log_odds`) and updated
   by the same likelihood ratio as the score (rho / (1 - rho) = (1 - delta)
-  rho' / (1 - rho'), delta = P_D P_G - P_D sum_j l_j / lambda_j over the
-  gated contacts for JPDA, the chosen one for GNN and nn). At birth it is
+  rho' / (1 - rho'), delta = P_D P_G - P_D l / lambda for the contact the
+  track reports, P_D P_G without one; JPDA's reported contact comes from
+  JIPDA's joint events). At birth it is
   the prior odds that the initiator is a new target's detection rather than
   clutter, P_D beta_NT / rho_1 (`birth_log_odds`: beta_NT =
   ``new_targets_per_scan`` over the sensor's coverage area, rho_1 the clutter's

@@ -398,9 +398,10 @@ class ContactTracker(ABC):
 
     def clutter_density(self, scan: ScanContacts, at: np.ndarray) -> np.ndarray:
         """Clutter density in the measurement space of the scan's sensor (polar: (m rad)^-1) at its
-        contacts ``at`` (M,): the scan's contacts around each (`local_density`, half-side the config's
-        ``clutter_radius_m`` or 3 km) times the area Jacobian."""
-        return (local_density(scan.xy, scan.xy[at], self._clutter_radius)
+        contacts ``at`` (M,): the scan's contacts around each over the part of the square (half-side the
+        config's ``clutter_radius_m`` or 3 km) inside the sensor's coverage (`local_density`), times the area
+        Jacobian."""
+        return (local_density(scan.xy, scan.xy[at], self._clutter_radius, self.sensors[scan.sensor])
                 * scan.filter.measurement.area_jacobian(scan.z[at]))
 
     @cached_property
@@ -416,10 +417,11 @@ class ContactTracker(ABC):
         sensor = self.sensors[scan.sensor]
         cfg = self.config.lifecycle
         area = cfg.window_area(sensor.scan_period_s, sensor_noise_m(sensor))
-        score = start_score(self.score_pd, area, local_density(scan.xy, scan.xy[contact], self._clutter_radius))
+        score = start_score(self.score_pd, area, local_density(scan.xy, scan.xy[contact], self._clutter_radius,
+                                                                 sensor))
         if self.confirmation_rule == "existence":
             score += birth_log_odds(self.score_pd, cfg.new_targets_per_scan / coverage_area(sensor),
-                                    local_density(scan.xy, born.p1, self._clutter_radius))
+                                    local_density(scan.xy, born.p1, self._clutter_radius, sensor))
         return replace(born, score=score, max_score=score.copy())
 
     def _score_gain(self, pred: IMMPrediction, scan: ScanContacts, assoc: Association) -> np.ndarray | None:
