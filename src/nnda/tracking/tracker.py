@@ -351,6 +351,7 @@ class ContactTracker(ABC):
         self.initiation.reset()
         self.last_time = -np.inf
         self._bounds_hit: set[str] = set()
+        self._density_of: tuple[ScanContacts, np.ndarray] | None = None  # (scan, `_contact_density`)
         #: tracks deleted since the last reset, by reason (`nnda.tracking.lifecycle.DELETION_REASONS`)
         self.deletions: dict[str, int] = dict.fromkeys(DELETION_REASONS, 0)
 
@@ -401,8 +402,15 @@ class ContactTracker(ABC):
         contacts ``at`` (M,): the scan's contacts around each over the part of the square (half-side the
         config's ``clutter_radius_m`` or 3 km) inside the sensor's coverage (`local_density`), times the area
         Jacobian."""
-        return (local_density(scan.xy, scan.xy[at], self._clutter_radius, self.sensors[scan.sensor])
-                * scan.filter.measurement.area_jacobian(scan.z[at]))
+        return self._contact_density(scan)[at] * scan.filter.measurement.area_jacobian(scan.z[at])
+
+    def _contact_density(self, scan: ScanContacts) -> np.ndarray:
+        """`local_density` (m^-2) at every contact of ``scan`` (N,), counted once per scan: the score rule
+        asks for it at the initiators and at the updating contacts, JPDA at the gated ones."""
+        if self._density_of is None or self._density_of[0] is not scan:
+            self._density_of = (scan, local_density(scan.xy, scan.xy, self._clutter_radius,
+                                                    self.sensors[scan.sensor]))
+        return self._density_of[1]
 
     @cached_property
     def _clutter_radius(self) -> float:
@@ -417,8 +425,7 @@ class ContactTracker(ABC):
         sensor = self.sensors[scan.sensor]
         cfg = self.config.lifecycle
         area = cfg.window_area(sensor.scan_period_s, sensor_noise_m(sensor))
-        score = start_score(self.score_pd, area, local_density(scan.xy, scan.xy[contact], self._clutter_radius,
-                                                                 sensor))
+        score = start_score(self.score_pd, area, self._contact_density(scan)[contact])
         if self.confirmation_rule == "existence":
             score += birth_log_odds(self.score_pd, cfg.new_targets_per_scan / coverage_area(sensor),
                                     local_density(scan.xy, born.p1, self._clutter_radius, sensor))
