@@ -112,7 +112,7 @@ def test_state_conversions_invert_each_other():
     P = A @ np.swapaxes(A, -1, -2) + 0.01 * np.eye(4)
     cv, Pcv = ncsht_to_cv(m, P)
     back, Pb = cv_to_ncsht(cv, Pcv)
-    np.testing.assert_allclose(back, m, rtol=RTOL, atol=1e-12)
+    np.testing.assert_allclose(back, m, rtol=RTOL, atol=RTOL)
     assert_cov(Pb, P)
 
 

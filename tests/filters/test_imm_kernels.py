@@ -85,7 +85,7 @@ def test_predict_measure_update_estimate_equal_the_spec_loop(seed, K, dt):
             np.testing.assert_allclose(pred.measurement.log_det_S[k, j], np.log(np.linalg.det(Sj)), rtol=RTOL)
         loop.update(z[k])
         assert_models(post.x[k], post.P[k], loop)
-        np.testing.assert_allclose(post.mu[k], loop.mu, rtol=RTOL, atol=1e-12)
+        np.testing.assert_allclose(post.mu[k], loop.mu, rtol=RTOL, atol=RTOL)
         x_ref, P_ref = loop.combined()
         assert_state(xc[k], x_ref, P_ref)
         assert_cov(Pc[k], P_ref)
@@ -108,7 +108,7 @@ def test_gate_distances_equal_brute_force(seed, K, N, polar):
             for n in range(N):
                 nu = ref.polar_residual(Z[n], zb) if polar else Z[n] - zb
                 want = nu @ np.linalg.solve(Sb, nu)
-                np.testing.assert_allclose(d2.reshape(-1, N)[b, n], want, rtol=RTOL, atol=1e-12)
+                np.testing.assert_allclose(d2.reshape(-1, N)[b, n], want, rtol=RTOL, atol=RTOL)
 
 
 def test_a_missed_track_keeps_its_prediction_and_the_cycle_repeats_bit_for_bit():
