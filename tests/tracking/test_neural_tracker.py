@@ -22,6 +22,7 @@ from nnda.models.preprocessing import Normaliser
 from nnda.models.scorer import Scorer, save_model, score_log_odds
 from nnda.study.metrics import run_metrics
 from nnda.tracking.assignment import greedy_matching
+from nnda.tracking.gating import gate_tracks
 from nnda.tracking.neural import NeuralTracker, global_matching, reacquire
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
@@ -313,6 +314,45 @@ def test_reacquire_is_the_nearest_free_pick_of_the_waiting_tracks(seed):
     assert list(zip(r.tolist(), c.tolist())) == expected
     left = [i for i in eligible if rows[i] not in r and cols[i] not in c]
     assert not left  # no pair a waiting track could still take
+
+
+class RecordingPredictions(Recording):
+    """A `Recording` that keeps each scan's tracks, prediction, checked scan and chosen contacts."""
+
+    def associate(self, tracks, pred, scan):
+        assoc = NeuralTracker.associate(self, tracks, pred, scan)
+        self.seen.append((tracks, pred, scan, assoc.contact.copy()))
+        return assoc
+
+
+def test_confirmed_tracks_pick_and_reacquire_before_the_preliminary_ones(model_file):
+    ds = generate(PRESETS["S2"], seed=0)
+    gate = 9.21
+    config = NeuralTracker.config_type(model=model_file, confirmed_first=True, coast_gate=gate, coast_after=0)
+    tracker = RecordingPredictions(ds.scenario.sensor, config)
+    for scan in ds.scans():
+        tracker.step(scan)
+    contested = 0  # scans where a re-acquired contact was also a preliminary track's pick above the threshold
+    for tracks, pred, scan, contact in tracker.seen:
+        z, xy = scan.z, scan.xy
+        t, c = candidate_pairs(tracks.p2, tracks.t2, tracks.az2, xy, z[:, 1], scan.time)
+        s = tracker.loaded(pair_features(tracks.p1[t], tracks.t1[t], tracks.p2[t], tracks.t2[t], xy[c], scan.time))
+        confirmed = tracks.status == TrackStatus.CONFIRMED
+        expected = np.full(len(tracks), -1)
+        first = (s > 0) & confirmed[t]
+        for i, j in sequential_greedy(t[first], c[first], s[first]):
+            expected[i] = j
+        _, g = gate_tracks(scan.filter, pred, z, xy, gate)
+        free = confirmed[g.rows] & (expected[g.rows] == -1) & (g.d2 <= gate) & ~np.isin(g.cols, expected)
+        reacquired = sequential_greedy(g.rows[free], g.cols[free], -g.d2[free])
+        for i, j in reacquired:
+            expected[i] = j
+        rest = (s > 0) & ~confirmed[t] & ~np.isin(c, expected)
+        contested += bool(np.isin([j for _, j in reacquired], c[(s > 0) & ~confirmed[t]]).any())
+        for i, j in sequential_greedy(t[rest], c[rest], s[rest]):
+            expected[i] = j
+        np.testing.assert_array_equal(contact, expected)
+    assert contested > 0  # the order mattered in some scan (S2 seed 0: two)
 
 
 def gap_shy_model(path):

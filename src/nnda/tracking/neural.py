@@ -49,7 +49,10 @@ Each scan, for all live tracks at once:
    contact looks slower than 30 m/s); the IMM's innovation, whose
    covariance grows while it coasts, still judges there, as in MHT and GNN.
    With it, the score rule (``lifecycle.confirmation = "score"``) deletes
-   the tracks kept alive on clutter once their target has gone;
+   the tracks kept alive on clutter once their target has gone. Under
+   ``confirmed_first`` the confirmed tracks pick and re-acquire before the
+   preliminary ones choose among the contacts left, so a track just opened
+   on a coasting track's target cannot take its contacts from it;
 4. *filter*: the chosen contact updates the track's IMM. With the seed's
    features the filter smooths the output only (spec §7.2); with the
    extended set its prediction is also what the network reads.
@@ -164,53 +167,63 @@ class NeuralTracker(SingleHypothesisTracker):
 
     def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
         contact = np.full(len(tracks), NO_CONTACT, np.int64)
-        z, xy, time = scan.z, scan.xy, scan.time
-        if len(z):
-            # the framework's arrays are checked already (scan checks, filter outputs): no second check here;
-            # the scorer still refuses a non-finite feature
-            track, cand = candidate_pairs(tracks.p2, tracks.t2, tracks.az2, xy, z[:, 1], time, check=False)
-            if track.size:
-                features = pair_features(tracks.p1[track], tracks.t1[track], tracks.p2[track],
-                                         tracks.t2[track], xy[cand], time, check=False)
-                if self._extended:
-                    age = time - self._born(tracks)[track]
-                    features = innovation_features(scan.filter, pred, track, z[cand], features, age)
-                if self._context:
-                    features = with_context(features, track, cand)
-                if self.harvest is not None:
-                    self.harvest(scan.index, tracks.track_id[track], cand, features)
-                score = self.scorer(features)
-                if not np.isfinite(score).all():  # NaN never beats the threshold: it would track nothing silently
-                    raise TrackingError(f"{self.name}: scan {scan.index}: the model {self.config.model} scored "
-                                        f"{int((~np.isfinite(score)).sum())} of {score.size} pairs as NaN; its "
-                                        f"weights or normaliser are broken: retrain it")
-                threshold = self.config.threshold
-                if self.config.association == "greedy":
-                    match = score > threshold
-                    rank = score[match]
-                    if self.config.confirmed_first:  # scores lie in (-1, 1): +2 puts confirmed tracks first
-                        rank = rank + 2.0 * (tracks.status[track[match]] == CONFIRMED)
-                    chosen_track, chosen_contact = greedy_matching(track[match], cand[match], rank)
-                elif self.config.confirmed_first:  # the confirmed tracks' assignment, then the others' on the rest
-                    first = tracks.status[track] == CONFIRMED
-                    chosen_track, chosen_contact = global_matching(track[first], cand[first], score[first],
-                                                                   threshold)
-                    rest = ~first & ~np.isin(cand, chosen_contact)
-                    rest_track, rest_contact = global_matching(track[rest], cand[rest], score[rest], threshold)
-                    chosen_track = np.concatenate([chosen_track, rest_track])
-                    chosen_contact = np.concatenate([chosen_contact, rest_contact])
-                else:
-                    chosen_track, chosen_contact = global_matching(track, cand, score, threshold)
-                contact[chosen_track] = chosen_contact
-            if self.config.coast_gate is not None:
-                contact = self._reacquired(tracks, pred, scan, contact)
-        return hard_update(scan.filter, pred, z, contact)
+        if not len(scan.z):
+            return hard_update(scan.filter, pred, scan.z, contact)
+        # the framework's arrays are checked already (scan checks, filter outputs): no second check here;
+        # the scorer still refuses a non-finite feature
+        track, cand = candidate_pairs(tracks.p2, tracks.t2, tracks.az2, scan.xy, scan.z[:, 1], scan.time, check=False)
+        score = self._scores(tracks, pred, scan, track, cand)
+        if self.config.confirmed_first:  # the confirmed tracks pick, and re-acquire, before the others
+            first = tracks.status[track] == CONFIRMED
+            self._pick(contact, track[first], cand[first], score[first])
+            contact = self._reacquired(tracks, pred, scan, contact)
+            rest = ~first & ~np.isin(cand, contact[contact != NO_CONTACT])
+            self._pick(contact, track[rest], cand[rest], score[rest])
+        else:
+            self._pick(contact, track, cand, score)
+            contact = self._reacquired(tracks, pred, scan, contact)
+        return hard_update(scan.filter, pred, scan.z, contact)
+
+    def _scores(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts, track: np.ndarray, cand: np.ndarray
+                ) -> np.ndarray:
+        """The scorer's output (P,) for the candidate pairs (track, cand) (P,), on the model's feature set."""
+        if not track.size:
+            return np.empty(0)
+        z, time = scan.z, scan.time
+        features = pair_features(tracks.p1[track], tracks.t1[track], tracks.p2[track], tracks.t2[track],
+                                 scan.xy[cand], time, check=False)
+        if self._extended:
+            features = innovation_features(scan.filter, pred, track, z[cand], features,
+                                           time - self._born(tracks)[track])
+        if self._context:
+            features = with_context(features, track, cand)
+        if self.harvest is not None:
+            self.harvest(scan.index, tracks.track_id[track], cand, features)
+        score = self.scorer(features)
+        if not np.isfinite(score).all():  # NaN never beats the threshold: it would track nothing silently
+            raise TrackingError(f"{self.name}: scan {scan.index}: the model {self.config.model} scored "
+                                f"{int((~np.isfinite(score)).sum())} of {score.size} pairs as NaN; its "
+                                f"weights or normaliser are broken: retrain it")
+        return score
+
+    def _pick(self, contact: np.ndarray, track: np.ndarray, cand: np.ndarray, score: np.ndarray) -> None:
+        """Write into ``contact`` (K,) the picks of the association rule (greedy or global) among the pairs
+        (track, cand, score) (P,) above the threshold."""
+        if self.config.association == "greedy":
+            match = score > self.config.threshold
+            chosen_track, chosen_contact = greedy_matching(track[match], cand[match], score[match])
+        else:
+            chosen_track, chosen_contact = global_matching(track, cand, score, self.config.threshold)
+        contact[chosen_track] = chosen_contact
 
     def _reacquired(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts, contact: np.ndarray
                     ) -> np.ndarray:
         """``contact`` (K,) with the picks (`reacquire`) of the coasting confirmed tracks left without one,
-        among the contacts in their IMM gate of ``coast_gate`` (`gate_tracks`)."""
+        among the free contacts in their IMM gate of ``coast_gate`` (`gate_tracks`); unchanged when the
+        gate is off."""
         cfg = self.config
+        if cfg.coast_gate is None or not len(scan.z):
+            return contact
         waiting = (tracks.status == CONFIRMED) & (tracks.consecutive >= cfg.coast_after) & (contact == NO_CONTACT)
         if not waiting.any():
             return contact
