@@ -355,6 +355,30 @@ def test_confirmed_tracks_pick_and_reacquire_before_the_preliminary_ones(model_f
     assert contested > 0  # the order mattered in some scan (S2 seed 0: two)
 
 
+def _picks_outside_the_gate_after_a_miss(model_file, ds, gate_after_miss: bool) -> tuple[int, int]:
+    """(picks of confirmed tracks that missed their last scan, those outside the IMM gate) over a run."""
+    gate = 9.21
+    config = NeuralTracker.config_type(model=model_file, coast_gate=gate, gate_after_miss=gate_after_miss)
+    tracker = RecordingPredictions(ds.scenario.sensor, config)
+    for scan in ds.scans():
+        tracker.step(scan)
+    picks = outside = 0
+    for tracks, pred, scan, contact in tracker.seen:
+        mine = np.flatnonzero((tracks.status == TrackStatus.CONFIRMED) & (tracks.consecutive >= 1) & (contact >= 0))
+        _, g = gate_tracks(scan.filter, pred, scan.z, scan.xy, gate)
+        inside = set(zip(g.rows.tolist(), g.cols.tolist()))
+        picks += mine.size
+        outside += sum((int(i), int(contact[i])) not in inside for i in mine)
+    return picks, outside
+
+
+def test_gate_after_miss_keeps_a_coasting_tracks_picks_inside_the_imm_gate(model_file):
+    ds = generate(PRESETS["S3"], seed=0)  # detection gaps
+    picks, outside = _picks_outside_the_gate_after_a_miss(model_file, ds, True)
+    assert picks > 0 and outside == 0
+    assert _picks_outside_the_gate_after_a_miss(model_file, ds, False)[1] > 0  # the network alone does pick there
+
+
 def gap_shy_model(path):
     """A hand-set 9-2-1 scorer on the IMM-extended features: about +1 for a pair one scan after the track's
     last contact (ΔT < 3 s) with d² < 9, about -1 otherwise: it never picks a track up after a miss."""
@@ -382,6 +406,8 @@ def test_coast_gate_picks_a_track_up_after_a_gap_the_network_refuses(tmp_path):
 
 
 def test_bad_coast_gate_is_refused(model_file):
+    with pytest.raises(ConfigError, match=r"invalid nn config[\s\S]*gate_after_miss needs coast_gate"):
+        make_tracker("nn", Sensor(), {"model": str(model_file), "gate_after_miss": True})
     with pytest.raises(ConfigError, match=r"invalid nn config[\s\S]*coast_gate"):
         make_tracker("nn", Sensor(), {"model": str(model_file), "coast_gate": 0.0})
     with pytest.raises(ConfigError, match=r"invalid nn config[\s\S]*coast_after"):

@@ -52,7 +52,10 @@ Each scan, for all live tracks at once:
    the tracks kept alive on clutter once their target has gone. Under
    ``confirmed_first`` the confirmed tracks pick and re-acquire before the
    preliminary ones choose among the contacts left, so a track just opened
-   on a coasting track's target cannot take its contacts from it;
+   on a coasting track's target cannot take its contacts from it. With
+   ``gate_after_miss`` a confirmed track that missed its last scan takes a
+   network pick only inside that gate, so a clutter contact the network
+   accepts after a gap cannot drag the track off its target;
 4. *filter*: the chosen contact updates the track's IMM. With the seed's
    features the filter smooths the output only (spec §7.2); with the
    extended set its prediction is also what the network reads.
@@ -67,7 +70,7 @@ from pathlib import Path
 from typing import Annotated, ClassVar, Literal
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from nnda.data.scenario import Sensor
 from nnda.errors import ConfigError, ModelError, TrackingError
@@ -78,7 +81,7 @@ from nnda.models.features import candidate_pairs, pair_features
 from nnda.models.innovation import IMM_INNOVATION, innovation_features
 from nnda.models.scorer import Scorer, load_model, score_log_odds
 from nnda.tracking.assignment import greedy_matching, least_cost_assignment
-from nnda.tracking.gating import gate_tracks
+from nnda.tracking.gating import Gated, gate_tracks
 from nnda.tracking.output import CONFIRMED, NO_CONTACT
 from nnda.tracking.tracker import (
     Association,
@@ -121,6 +124,16 @@ class NeuralConfig(ContactTrackerConfig):
     coast_after: Annotated[int, Field(
         ge=0, description="consecutive misses from which a confirmed track counts as coasting for "
                           "coast_gate (0: every confirmed track without a pick)")] = 1
+    gate_after_miss: bool = Field(
+        False, description="a confirmed track that missed its last scan takes a network pick only inside "
+        "coast_gate (the IMM's gate, as MHT and GNN gate every pick): after a gap the network's candidates "
+        "are pairs it rarely saw in training; needs coast_gate")
+
+    @model_validator(mode="after")
+    def _needs_gate(self) -> NeuralConfig:
+        if self.gate_after_miss and self.coast_gate is None:
+            raise ValueError("gate_after_miss needs coast_gate (the gate it applies)")
+        return self
 
 
 class NeuralTracker(SingleHypothesisTracker):
@@ -164,6 +177,7 @@ class NeuralTracker(SingleHypothesisTracker):
     def reset(self) -> None:
         super().reset()
         self._first_time = np.empty(0)  # time (s) of each track's first contact, by track id
+        self._gated_of: Gated | None = None  # the scan's IMM gate (`_gated`)
 
     def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
         contact = np.full(len(tracks), NO_CONTACT, np.int64)
@@ -173,6 +187,14 @@ class NeuralTracker(SingleHypothesisTracker):
         # the scorer still refuses a non-finite feature
         track, cand = candidate_pairs(tracks.p2, tracks.t2, tracks.az2, scan.xy, scan.z[:, 1], scan.time, check=False)
         score = self._scores(tracks, pred, scan, track, cand)
+        self._gated_of = None  # this scan's IMM gate (`_gated`), computed once if needed
+        if self.config.gate_after_miss:
+            after_miss = (tracks.status[track] == CONFIRMED) & (tracks.consecutive[track] >= 1)
+            if after_miss.any():
+                g = self._gated(pred, scan)
+                inside = np.isin(track * len(scan.z) + cand, g.rows * len(scan.z) + g.cols)
+                keep = ~after_miss | inside
+                track, cand, score = track[keep], cand[keep], score[keep]
         if self.config.confirmed_first:  # the confirmed tracks pick, and re-acquire, before the others
             first = tracks.status[track] == CONFIRMED
             self._pick(contact, track[first], cand[first], score[first])
@@ -227,11 +249,17 @@ class NeuralTracker(SingleHypothesisTracker):
         waiting = (tracks.status == CONFIRMED) & (tracks.consecutive >= cfg.coast_after) & (contact == NO_CONTACT)
         if not waiting.any():
             return contact
-        _, g = gate_tracks(scan.filter, pred, scan.z, scan.xy, cfg.coast_gate)
+        g = self._gated(pred, scan)
         rows, cols = reacquire(g.rows, g.cols, g.d2, waiting, contact[contact != NO_CONTACT], cfg.coast_gate)
         contact = contact.copy()
         contact[rows] = cols
         return contact
+
+    def _gated(self, pred: IMMPrediction, scan: ScanContacts) -> Gated:
+        """The pairs inside the tracks' IMM gate of ``coast_gate`` this scan (`gate_tracks`), computed once."""
+        if self._gated_of is None:
+            self._gated_of = gate_tracks(scan.filter, pred, scan.z, scan.xy, self.config.coast_gate)[1]
+        return self._gated_of
 
     def _born(self, tracks: Tracks) -> np.ndarray:
         """Time (s) of each track's first contact, (K,). Track ids count up from 0 and a track is first
