@@ -8,15 +8,21 @@ Part 0 (issue 20): what numba bought: the IMM cycle of the contact trackers
 (predict, gating prediction, update, estimate) compiled (`nnda.filters.imm_kernels`)
 against the batched numpy formulation it replaced (`numpy_cycle`, kept here as
 the reference), per call at tracking sizes, and the kernels' cold compile time
-(an empty numba cache, in a fresh process) against loading them from the cache. Part 2: the same trackers as clutter
+(an empty numba cache, in a fresh process) against loading them from the cache;
+then the score rule's local clutter density (`nnda.tracking.clutter_density.local_density`,
+a compiled summed-area table) against the numpy formulation it replaced
+(`numpy_density`) and a compiled direct count per query over binned contacts
+(`direct_density`), for N contacts over S1-S6's radar ring and Q = N query
+points (the contacts: what a scan asks), with the covered part of each square. Part 2: the same trackers as clutter
 grows 100 -> 1,000 -> 10,000 per scan (S6's six targets) and as targets grow
 6 -> 50 -> 200 (100 clutter), over SCALING_SCANS scans each (``--scans``); a
 tracker is dropped from the bigger settings once it passes 10 s per scan.
 
 The neural tracker needs a model: pass ``--model PATH`` (a file written by
 ``nnda train``), once per model to time (e.g. the seed-feature and the
-IMM-extended one: rows ``nn:kinematic-3``, ``nn:imm-innovation-9``); without
-it the neural tracker is skipped with a note.
+IMM-extended one: rows ``nn:kinematic-3``, ``nn:imm-innovation-9``), each
+also with the life-cycle options of issue 20 (`LIFE`; rows ``nn:kinematic-3+life``
+...); without it the neural tracker is skipped with a note.
 Usage: python benchmarks/bench_trackers.py [--model PATH]... [--runs N] [--repeat R] [--scans N] [--no-scaling]
 """
 
@@ -30,19 +36,24 @@ import sys
 import tempfile
 import time
 
+import numba
 import numpy as np
 
 from nnda.data.generator import generate
 from nnda.data.presets import PRESETS
-from nnda.data.scenario import Clutter, Scenario, Segment, Target
+from nnda.data.scenario import Clutter, Scenario, Segment, Sensor, Target
 from nnda.filters import kalman
 from nnda.filters.imm import _TINY, IMM, IMMPrediction, IMMState
 from nnda.filters.motion import process_noise
 from nnda.models.scorer import load_model
+from nnda.tracking.clutter_density import _covered, _covered_table, local_density
 from nnda.tracking.registry import TRACKERS, make_tracker
 
 SCALING_SCANS = 15
 GIVE_UP_S = 10.0
+#: the neural tracker's life-cycle options of issue 20 (coasting confirmed tracks re-acquire within the IMM
+#: gate, confirmed tracks choose first, the score rule): its "+life" rows
+LIFE = {"coast_gate": 9.21, "coast_after": 0, "confirmed_first": True, "lifecycle": {"confirmation": "score"}}
 
 
 def params_for(name: str, model: str | None) -> dict | None:
@@ -90,11 +101,14 @@ def best_of(name: str, params: dict, dataset, repeat: int) -> np.ndarray:
 
 def entries(models: list[str]) -> list[tuple[str, str, dict]]:
     """(row label, tracker kind, params) of every tracker to time: gnn first (the reference), then the
-    other registered kinds, the neural one once per model (labelled with the model's feature set)."""
+    other registered kinds, the neural one twice per model (labelled with the model's feature set): with
+    its defaults, and with the life options (`LIFE`, row "nn:<features>+life")."""
     rows = [("gnn", "gnn", {})]
     for kind in TRACKERS:
         if kind == "nn":
-            rows += [(f"nn:{load_model(m).features.name}", "nn", params_for("nn", m)) for m in models]
+            for m in models:
+                label = f"nn:{load_model(m).features.name}"
+                rows += [(label, "nn", params_for("nn", m)), (f"{label}+life", "nn", {**params_for("nn", m), **LIFE})]
         elif kind != "gnn":
             rows.append((kind, kind, params_for(kind, None)))
     return rows
@@ -193,10 +207,99 @@ def part0(sizes: tuple[int, ...] = (5, 15, 40, 200), calls: int = 300) -> None:
           f"{warm:.2f} s from the cache")
 
 
+def numpy_density(contacts: np.ndarray, at: np.ndarray, radius: float, sensor: Sensor) -> np.ndarray:
+    """`local_density` in the numpy formulation the compiled kernel replaced (the summed-area table by
+    cumulative sums, the covered part's bilinear interpolation by fancy indexing). Returns (Q,) m^-2."""
+    table, corner = _covered_table(sensor, radius)
+    cell = radius / 4
+    p = (at - corner) / cell - 0.5
+    i = np.clip(np.floor(p).astype(np.int64), 0, len(table) - 2)
+    w = np.clip(p - i, 0.0, 1.0)
+    (a, b), (wa, wb) = i.T, w.T
+    area = (2.0 * radius) ** 2 * ((1 - wa) * ((1 - wb) * table[a, b] + wb * table[a, b + 1])
+                                  + wa * ((1 - wb) * table[a + 1, b] + wb * table[a + 1, b + 1]))
+    lo = np.minimum(contacts.min(axis=0), at.min(axis=0)) - radius - cell
+    hi = np.maximum(contacts.max(axis=0), at.max(axis=0)) + radius + cell
+    shape = np.ceil((hi - lo) / cell).astype(np.int64) + 1
+    idx = ((contacts - lo) // cell).astype(np.int64)
+    counts = np.zeros(shape)
+    np.add.at(counts, (idx[:, 0], idx[:, 1]), 1.0)
+    sums = np.zeros(shape + 1)
+    sums[1:, 1:] = counts.cumsum(axis=0).cumsum(axis=1)
+    a, b = np.rint((at - radius - lo) / cell).astype(np.int64), np.rint((at + radius - lo) / cell).astype(np.int64)
+    n = sums[b[:, 0], b[:, 1]] - sums[a[:, 0], b[:, 1]] - sums[b[:, 0], a[:, 1]] + sums[a[:, 0], a[:, 1]]
+    return np.maximum(n, 1.0) / area
+
+
+@numba.njit(cache=True, nogil=True)
+def direct_density(contacts, at, radius, table, corner):
+    """`local_density` (non-empty contacts and points) by a direct count per query: the contacts sorted
+    into bins of one radius (4 cells), and each point's cells [a, b) tested against the contacts of the
+    bins they touch. Returns (Q,) m^-2."""
+    N, Q, cell, bins = contacts.shape[0], at.shape[0], radius / 4, 4
+    lo0 = min(contacts[:, 0].min(), at[:, 0].min()) - radius - cell
+    lo1 = min(contacts[:, 1].min(), at[:, 1].min()) - radius - cell
+    ix, iy = np.empty(N, np.int64), np.empty(N, np.int64)
+    for i in range(N):
+        ix[i], iy[i] = int((contacts[i, 0] - lo0) // cell), int((contacts[i, 1] - lo1) // cell)
+    n0, n1 = ix.max() // bins + 1, iy.max() // bins + 1
+    start = np.zeros(n0 * n1 + 1, np.int64)
+    for i in range(N):
+        start[(ix[i] // bins) * n1 + iy[i] // bins + 1] += 1
+    for k in range(n0 * n1):
+        start[k + 1] += start[k]
+    fill, cx, cy = start[:-1].copy(), np.empty(N, np.int64), np.empty(N, np.int64)
+    for i in range(N):
+        k = (ix[i] // bins) * n1 + iy[i] // bins
+        cx[fill[k]], cy[fill[k]] = ix[i], iy[i]
+        fill[k] += 1
+    out = np.empty(Q)
+    for q in range(Q):
+        x, y = at[q, 0], at[q, 1]
+        a0, b0 = int(np.rint((x - radius - lo0) / cell)), int(np.rint((x + radius - lo0) / cell))
+        a1, b1 = int(np.rint((y - radius - lo1) / cell)), int(np.rint((y + radius - lo1) / cell))
+        n = 0
+        for u in range(max(a0, 0) // bins, min((b0 - 1) // bins, n0 - 1) + 1):
+            for v in range(max(a1, 0) // bins, min((b1 - 1) // bins, n1 - 1) + 1):
+                for p in range(start[u * n1 + v], start[u * n1 + v + 1]):
+                    n += a0 <= cx[p] < b0 and a1 <= cy[p] < b1
+        out[q] = max(float(n), 1.0) / ((2.0 * radius) ** 2 * _covered(x, y, table, corner, cell))
+    return out
+
+
+def part0_density(sizes: tuple[int, ...] = (100, 1_000, 5_000), calls: int = 300, radius: float = 3_000.0) -> None:
+    sensor = Sensor()  # S1-S6's radar: a 5-30 km ring
+    table, corner = _covered_table(sensor, radius)
+    print(f"\nlocal clutter density, Q = N points, microseconds per call, best of 5 x {calls} calls (radius "
+          f"{radius:.0f} m)")
+    print(f"{'contacts':>8s}{'numpy':>10s}{'direct':>10s}{'table':>10s}{'numpy/table':>13s}{'direct/table':>14s}"
+          "   bits differ (numpy, direct)")
+    rng = np.random.default_rng(0)
+    for N in sizes:
+        r = np.sqrt(rng.uniform(sensor.min_range_m**2, sensor.max_range_m**2, N))
+        az = rng.uniform(-np.pi, np.pi, N)
+        xy = np.column_stack([r * np.sin(az), r * np.cos(az)])
+        ways = (lambda: numpy_density(xy, xy, radius, sensor), lambda: direct_density(xy, xy, radius, table, corner),
+                lambda: local_density(xy, xy, radius, sensor))
+        got = [f() for f in ways]
+        differ = [int((g != got[2]).sum()) for g in got[:2]]
+        per = []
+        for f in ways:
+            best = math.inf
+            for _ in range(5):
+                t0 = time.perf_counter()
+                for _ in range(calls):
+                    f()
+                best = min(best, (time.perf_counter() - t0) / calls)
+            per.append(best * 1e6)
+        print(f"{N:8d}{per[0]:10.1f}{per[1]:10.1f}{per[2]:10.1f}{per[0] / per[2]:12.1f}x{per[1] / per[2]:13.1f}x"
+              f"   {differ[0]}, {differ[1]} of {N}")
+
+
 def part1(rows: list[tuple[str, str, dict]], runs: int, repeat: int = 1) -> None:
     best = f", each scan's best of {repeat} repeats" if repeat > 1 else ""
     print(f"\nms per scan on S1-S6 ({runs} run(s) each{best}; ratios = tracker / gnn and / mht, same process)")
-    print(f"{'tracker':<20s}" + "".join(f"{s:>16s}" for s in ("S1", "S2", "S3", "S4", "S5", "S6")) + f"{'all':>16s}")
+    print(f"{'tracker':<24s}" + "".join(f"{s:>16s}" for s in ("S1", "S2", "S3", "S4", "S5", "S6")) + f"{'all':>16s}")
     means = {}
     warm_up = generate(PRESETS["S1"], seed=0)
     for label, kind, params in rows:
@@ -209,10 +312,10 @@ def part1(rows: list[tuple[str, str, dict]], runs: int, repeat: int = 1) -> None
             every.append(t)
         allt = np.concatenate(every)
         means[label] = allt.mean()
-        print(f"{label:<20s}" + "".join(f"{p:>16s}" for p in per) + f"{allt.mean():9.2f}")
-    print(f"{'tracker':<20s}{'/ gnn':>8s}{'/ mht':>8s}   (all scans)")
+        print(f"{label:<24s}" + "".join(f"{p:>16s}" for p in per) + f"{allt.mean():9.2f}")
+    print(f"{'tracker':<24s}{'/ gnn':>8s}{'/ mht':>8s}   (all scans)")
     for label, mean in means.items():
-        print(f"{label:<20s}" + "".join(f"{mean / means[r]:8.2f}" if r in means else f"{'-':>8s}"
+        print(f"{label:<24s}" + "".join(f"{mean / means[r]:8.2f}" if r in means else f"{'-':>8s}"
                                         for r in ("gnn", "mht")))
 
 
@@ -228,7 +331,7 @@ def scaling_settings(scans: int = SCALING_SCANS) -> list[tuple[str, int, Scenari
 def part2(rows: list[tuple[str, str, dict]], scans: int = SCALING_SCANS) -> None:
     settings = scaling_settings(scans)
     print(f"\nscaling: mean ms per scan over {scans} scans (x = stopped: over {GIVE_UP_S:.0f} s/scan before)")
-    print(f"{'tracker':<20s}" + "".join(f"{k}={v:<9d}" for k, v, _ in settings))
+    print(f"{'tracker':<24s}" + "".join(f"{k}={v:<9d}" for k, v, _ in settings))
     for label, kind, params in rows:
         row, stopped = [], {"clutter": False, "targets": False}
         for axis, _, scenario in settings:
@@ -238,7 +341,7 @@ def part2(rows: list[tuple[str, str, dict]], scans: int = SCALING_SCANS) -> None
             t = time_run(kind, params, generate(scenario, seed=1), GIVE_UP_S)
             stopped[axis] = t.max() > GIVE_UP_S
             row.append(f"{t.mean() * 1e3:>17.2f}")
-        print(f"{label:<20s}" + "".join(row))
+        print(f"{label:<24s}" + "".join(row))
 
 
 def main() -> None:
@@ -250,11 +353,12 @@ def main() -> None:
                         "each scan's fastest (for a busy machine)")
     parser.add_argument("--scans", type=int, default=SCALING_SCANS, help="scans per scaling setting")
     parser.add_argument("--no-scaling", action="store_true")
-    parser.add_argument("--no-kernels", action="store_true", help="skip part 0 (the IMM cycle, numpy against "
-                        "compiled)")
+    parser.add_argument("--no-kernels", action="store_true", help="skip part 0 (the IMM cycle and the local "
+                        "clutter density, numpy against compiled)")
     args = parser.parse_args()
     if not args.no_kernels:
         part0(calls=30 if args.scans < SCALING_SCANS else 300)
+        part0_density(calls=30 if args.scans < SCALING_SCANS else 300)
     rows = entries(args.model)
     if not args.model:
         print("note: the neural tracker is skipped (give --model PATH, a file written by `nnda train`)")

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from scipy.special import logsumexp
 
-from nnda.data.sensor import cart_to_polar
+from nnda.data.sensor import cart_to_polar, polar_to_cart
 from nnda.errors import FilterError
 from nnda.filters.imm import IMM, IMMPrediction, IMMState
-from nnda.filters.measurement import PositionMeasurement
+from nnda.filters.measurement import PolarMeasurement, PositionMeasurement
 from nnda.filters.motion import ConstantVelocity, CoordinatedTurn
 from tolerances import RTOL, assert_cov, assert_state
 
@@ -123,6 +123,48 @@ def test_gating_distances_and_log_likelihoods_against_every_contact():
     np.testing.assert_allclose(ll, manual, rtol=RTOL)
     # far-away contacts do not underflow to -inf
     assert np.isfinite(imm.log_likelihood(pred, np.array([[29_000.0, 3.0]]))).all()
+
+
+def _mixture_by_hand(imm: IMM, pred: IMMPrediction, k: int, z: np.ndarray) -> float:
+    """log sum_j mu_j N(z; z_j, S_j) of one track and measurement, each model's Gaussian by numpy's solve
+    and determinant (azimuth residual wrapped for a polar measurement)."""
+    mp = pred.measurement
+    terms = []
+    for j in range(len(imm.models)):
+        nu = z - mp.z[k, j]
+        if isinstance(imm.measurement, PolarMeasurement):
+            nu[1] = (nu[1] + math.pi) % (2 * math.pi) - math.pi
+        S = mp.S[k, j]
+        terms.append(-0.5 * nu @ np.linalg.solve(S, nu) - math.log(2 * math.pi * math.sqrt(np.linalg.det(S))))
+    return float(logsumexp(terms, b=pred.state.mu[k]))
+
+
+@pytest.mark.parametrize("linear", [False, True])
+def test_pair_log_likelihoods_by_hand(linear):
+    """Sparse pairs (repeated tracks, azimuths across +-pi, a contact far from every model) against the
+    mixture by hand, and against the dense (K, N) form's entries."""
+    Z = tracks(3)
+    if linear:
+        imm = IMM(models=(ConstantVelocity(), ConstantVelocity(0.5)),
+                  measurement=PositionMeasurement(((900.0, 0.0), (0.0, 900.0))))
+        Z = np.stack(polar_to_cart(Z[..., 0], Z[..., 1]), axis=-1)
+    else:
+        imm = IMM()
+    pred = imm.predict(imm.initialise(Z[:, 0], Z[:, 1], 0.0, 2.0), 2.0)
+    rng = np.random.default_rng(8)
+    rows = np.concatenate([rng.integers(0, K, 40), [0, 0, 3]])
+    z = pred.measurement.z[rows, 0] + rng.normal(0.0, [60.0, 0.01] if not linear else [60.0, 60.0], (len(rows), 2))
+    if linear:
+        z[-1] = [2e5, -2e5]
+    else:
+        z[-3:, 1] = [math.pi - 1e-4, -math.pi + 1e-4, 2.0]
+        z[-1, 0] = 29_000.0
+    ll = imm.pair_log_likelihood(pred, rows, z)
+    assert ll.shape == rows.shape and np.isfinite(ll).all()
+    np.testing.assert_allclose(ll, [_mixture_by_hand(imm, pred, k, zk) for k, zk in zip(rows, z)], rtol=RTOL)
+    dense = imm.log_likelihood(pred, z)
+    np.testing.assert_array_equal(ll, dense[rows, np.arange(len(rows))])
+    assert imm.pair_log_likelihood(pred, np.empty(0, np.int64), np.empty((0, 2))).shape == (0,)
 
 
 def test_no_tracks_and_no_contacts():

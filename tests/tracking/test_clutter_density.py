@@ -3,21 +3,72 @@
 from __future__ import annotations
 
 import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.interpolate import RegularGridInterpolator
 
 from nnda.data.scenario import Sensor
-from nnda.tracking.clutter_density import covered_fraction, local_density
+from nnda.tracking.clutter_density import _covered_table, covered_fraction, local_density
 from tolerances import RTOL
 
 
-def test_matches_direct_count_up_to_the_grid_edge():
+def direct_count(contacts: np.ndarray, at: np.ndarray, radius: float) -> np.ndarray:
+    """The contacts in each point's square, counted one by one (Q,): a contact counts when its cell of the
+    radius/4 grid from the points' lower corner less radius and a cell lies in the square's cells [a, b),
+    its edges rounded to the nearest grid line (the contract of `local_density`)."""
+    cell = radius / 4
+    lo = np.minimum(contacts.min(axis=0), at.min(axis=0)) - radius - cell
+    index = np.floor_divide(contacts - lo, cell)  # (N, 2)
+    a, b = np.rint((at - radius - lo) / cell), np.rint((at + radius - lo) / cell)  # (Q, 2)
+    inside = (index[None] >= a[:, None]) & (index[None] < b[:, None])  # (Q, N, 2)
+    return inside.all(axis=2).sum(axis=1)
+
+
+def covered_oracle(sensor: Sensor, at: np.ndarray, radius: float) -> np.ndarray:
+    """The covered part at each point: bilinear interpolation of `_covered_table` between its cells'
+    centres, a point beyond the outer centres taking the nearest edge's value."""
+    table, lo = _covered_table(sensor, radius)
+    centres = [lo[d] + (np.arange(len(table)) + 0.5) * (radius / 4) for d in range(2)]
+    inside = np.clip(at, [c[0] for c in centres], [c[-1] for c in centres])
+    return RegularGridInterpolator(centres, table)(inside)
+
+
+points = st.integers(1, 60).flatmap(lambda n: st.lists(
+    st.tuples(st.floats(-35_000, 35_000), st.floats(-35_000, 35_000)), min_size=n, max_size=n))
+
+
+@settings(max_examples=200, deadline=None)
+@given(contacts=points, at=points, radius=st.floats(50.0, 8_000.0), grid_points=st.booleans())
+def test_counts_every_contact_in_the_cell_rounded_square(contacts, at, radius, grid_points):
+    """The count is the direct one, to the bit: max(n, 1) over the square's area (points on grid lines and
+    exactly on the squares' edges included, when ``grid_points``: coordinates rounded to radius/4)."""
+    contacts, at = np.array(contacts), np.array(at)
+    if grid_points:
+        contacts, at = (np.round(p / (radius / 4)) * (radius / 4) for p in (contacts, at))
+    got = local_density(contacts, at, radius)
+    np.testing.assert_array_equal(got, np.maximum(direct_count(contacts, at, radius), 1) / (2 * radius) ** 2)
+
+
+@settings(max_examples=100, deadline=None)
+@given(contacts=points, at=points, radius=st.sampled_from([1_000.0, 3_000.0]),
+       sector=st.sampled_from([(360.0, 0.0), (90.0, 45.0), (120.0, -100.0)]))
+def test_the_area_is_the_interpolated_covered_part(contacts, at, radius, sector):
+    sensor = Sensor(fov_deg=sector[0], boresight_deg=sector[1])
+    contacts, at = np.array(contacts), np.array(at)
+    got = local_density(contacts, at, radius, sensor)
+    n = np.maximum(direct_count(contacts, at, radius), 1)
+    np.testing.assert_allclose(got, n / ((2 * radius) ** 2 * covered_oracle(sensor, at, radius)), rtol=RTOL)
+
+
+def test_the_squares_edges_are_exact_to_an_eighth_of_the_radius():
     rng = np.random.default_rng(0)
     contacts = rng.uniform(-20_000, 20_000, (3_000, 2))
     at = rng.uniform(-15_000, 15_000, (200, 2))
     r = 3_000.0
     got = local_density(contacts, at, r) * (2 * r) ** 2
-    inner = (np.abs(contacts[None] - at[:, None]) <= r - r / 4).all(axis=2).sum(axis=1)
-    outer = (np.abs(contacts[None] - at[:, None]) <= r + r / 4).all(axis=2).sum(axis=1)
-    assert np.all(got >= np.maximum(inner, 1)) and np.all(got <= np.maximum(outer, 1))
+    inner = (np.abs(contacts[None] - at[:, None]) < r - r / 8 - 1e-6).all(axis=2).sum(axis=1)
+    outer = (np.abs(contacts[None] - at[:, None]) <= r + r / 8 + 1e-6).all(axis=2).sum(axis=1)
+    assert np.all(got >= np.maximum(inner, 1) * (1 - RTOL)) and np.all(got <= np.maximum(outer, 1) * (1 + RTOL))
     # uniform density: the estimate is close to the truth on average
     truth = 3_000 / 40_000.0**2
     assert abs(np.mean(got / (2 * r) ** 2) / truth - 1) < 0.05
@@ -27,6 +78,7 @@ def test_never_zero():
     d = local_density(np.array([[0.0, 0.0]]), np.array([[50_000.0, 0.0], [0.0, 0.0]]), 1_000.0)
     assert d[0] == d[1] == 1 / 2_000.0**2
     assert local_density(np.empty((0, 2)), np.zeros((3, 2)), 1_000.0).tolist() == [1 / 2_000.0**2] * 3
+    assert local_density(np.zeros((3, 2)), np.empty((0, 2)), 1_000.0).shape == (0,)
 
 
 def test_the_area_is_the_squares_part_inside_the_coverage():
@@ -48,17 +100,20 @@ def test_the_area_is_the_squares_part_inside_the_coverage():
 
 def test_the_covered_part_is_tabulated_on_the_counting_cells():
     """The table holds the exact grid value at each cell's centre, and a point between two centres takes
-    their mean (bilinear interpolation); a sector's edges count as the ring's do."""
-    from nnda.tracking.clutter_density import _covered_lookup, _covered_table
+    their mean (bilinear interpolation); a sector's edges count as the ring's do. Read through the density
+    of a point without contacts: one contact over the covered part of the square."""
+    r = 3_000.0
+    none = np.empty((0, 2))
     for sensor in (Sensor(), Sensor(fov_deg=90.0, boresight_deg=45.0)):
-        table, lo, cell = _covered_table(sensor, 3_000.0)
+        table, lo = _covered_table(sensor, r)
+        cell = r / 4
         rng = np.random.default_rng(5)
         idx = rng.integers(0, len(table), (500, 2))
         centres = lo + (idx + 0.5) * cell
-        np.testing.assert_array_equal(_covered_lookup(sensor, centres, 3_000.0), covered_fraction(sensor, centres,
-                                                                                                   3_000.0))
+        np.testing.assert_allclose(1 / ((2 * r) ** 2 * local_density(none, centres, r, sensor)),
+                                   covered_fraction(sensor, centres, r), rtol=RTOL)
         idx = np.minimum(idx, len(table) - 2)
-        np.testing.assert_allclose(_covered_lookup(sensor, lo + (idx + [1.0, 0.5]) * cell, 3_000.0),
+        np.testing.assert_allclose(1 / ((2 * r) ** 2 * local_density(none, lo + (idx + [1.0, 0.5]) * cell, r, sensor)),
                                    0.5 * (table[idx[:, 0], idx[:, 1]] + table[idx[:, 0] + 1, idx[:, 1]]), rtol=RTOL)
     edge = np.array([[0.0, 29_500.0], [29_500.0, 0.0]])  # beyond the 90-degree sector's edge at 0 degrees
     assert (covered_fraction(Sensor(fov_deg=90.0, boresight_deg=45.0), edge, 3_000.0) < 0.6).all()

@@ -249,3 +249,40 @@ def test_clutter_only_scene_confirms_nothing_at_1000_with_the_rate(model_file):
 @pytest.mark.parametrize("kind", ["gnn", "jpda", "mht"])
 def test_clutter_only_scene_confirms_nothing_with_the_rate(kind, count, model_file):
     assert _confirmed_in_clutter(kind, count, model_file, RATE)[0] == 0
+
+
+def test_score_gain_by_hand():
+    """One scan of the score rule's increments: ln(P_D l / lambda) for a chosen contact (l the IMM mixture
+    likelihood, lambda the contacts counted in the 6 km square around it over its area, times the range,
+    the polar area Jacobian) and ln(1 - P_D P_G) for a miss."""
+    from scipy.special import logsumexp
+    from scipy.stats import multivariate_normal
+
+    from nnda.data.scenario import Sensor
+    from nnda.filters.imm import IMM
+    from nnda.tracking.marginals import log_miss_weight
+    from nnda.tracking.tracker import Association, ScanContacts
+    # contacts well inside the 5-30 km ring (every square wholly covered): a tight cluster of three, a pair
+    # 2 km apart, and one alone; no contact within an eighth of the radius of another's square edge
+    xy = np.array([[0.0, 12_000.0], [400.0, 12_300.0], [-300.0, 11_800.0], [9_000.0, 9_000.0],
+                   [11_000.0, 9_000.0], [-10_000.0, -12_000.0]])
+    counts = np.array([3, 3, 3, 2, 2, 1])
+    z = _polar(*xy.T)
+    tracker = make_tracker("gnn", Sensor(), SCORE)
+    imm = IMM.for_sensor(Sensor())
+    start = xy[[0, 3, 5, 4]] + [[-300.0, 0.0], [0.0, 250.0], [200.0, 200.0], [0.0, -300.0]]
+    pred = imm.predict(imm.initialise(_polar(*(start - [0.0, 300.0]).T), _polar(*start.T), 0.0, 2.0), 2.0)
+    contact = np.array([0, NO_CONTACT, 5, 4])
+    scan = ScanContacts(3, 4.0, 0, imm, z, xy)
+    gain = tracker._score_gain(pred, scan, Association(contact, pred.state))
+    pd, mp = tracker.score_pd, pred.measurement
+    for k, c in enumerate(contact):
+        if c == NO_CONTACT:
+            assert gain[k] == pytest.approx(log_miss_weight(pd, 9.21), rel=RTOL)
+            continue
+        nu = z[c] - mp.z[k]  # (r, 2)
+        nu[:, 1] = (nu[:, 1] + math.pi) % (2 * math.pi) - math.pi  # predicted azimuths lie in [0, 2 pi)
+        log_lik = logsumexp([multivariate_normal(np.zeros(2), mp.S[k, j]).logpdf(nu[j]) for j in range(2)],
+                           b=pred.state.mu[k])
+        density = counts[c] / 6_000.0**2 * z[c, 0]
+        assert gain[k] == pytest.approx(math.log(pd) + log_lik - math.log(density), rel=RTOL)

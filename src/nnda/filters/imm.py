@@ -24,7 +24,7 @@ and columns (§7.1.7). The combined output covers the dimensions all models
 share ([x, vx, y, vy] for CV + CT).
 
 The cycle's steps (mixing and prediction, measurement prediction, update,
-estimate, gate distances) run as compiled loops over tracks and models
+estimate, gate distances, mixture log-likelihoods) run as compiled loops over tracks and models
 (`nnda.filters.imm_kernels`, numba), so the IMM takes the models those loops
 know: `ConstantVelocity` (and its subclasses) and `CoordinatedTurn`, with a
 `PolarMeasurement` or a `PositionMeasurement`; anything else is refused at
@@ -432,30 +432,25 @@ class IMM:
         """log p(z | track) (K, N) of N measurements Z (N, 2) under each track's IMM prediction.
 
         The IMM mixture likelihood log sum_j mu_j(k+1|k) N(z; z_j, S_j)
-        (eqs. 4.50 and 4.53, summed over models), for MHT track scores.
+        (eqs. 4.50 and 4.53, summed over models), for MHT track scores:
+        `pair_log_likelihood` of every (track, measurement) pair.
         """
         Z = self._checked_contacts(Z)
-        mp = pred.measurement
-        nu = self.measurement.residual(Z[:, None, :], mp.z[:, None, :, :])  # (K, N, r, 2)
-        log_lik = kalman.gaussian_log_likelihood(
-            kalman.mahalanobis_2x2(nu, mp.S_inv[:, None]), mp.log_det_S[:, None]
-        )
-        log_terms = log_lik + np.log(pred.state.mu + _TINY)[:, None, :]
-        top = log_terms.max(axis=-1)
-        return top + np.log(np.exp(log_terms - top[..., None]).sum(axis=-1))
+        K, N = len(pred.state), len(Z)
+        return self._pairs(pred, np.repeat(np.arange(K), N), np.tile(Z, (K, 1))).reshape(K, N)
 
     def pair_log_likelihood(self, pred: IMMPrediction, rows: np.ndarray, Z: np.ndarray) -> np.ndarray:
         """`log_likelihood` for P (track, measurement) pairs only: track ``rows`` (P,), Z (P, 2).
 
-        Returns (P,); the sparse form gating uses when K x N is large.
+        Returns (P,); the sparse form gating uses when K x N is large (compiled:
+        `imm_kernels.pair_log_likelihood`).
         """
-        Z = self._checked_contacts(Z)
+        return self._pairs(pred, np.asarray(rows, np.int64), self._checked_contacts(Z))
+
+    def _pairs(self, pred: IMMPrediction, rows: np.ndarray, Z: np.ndarray) -> np.ndarray:
         mp = pred.measurement
-        nu = self.measurement.residual(Z[:, None, :], mp.z[rows])  # (P, r, 2)
-        log_lik = kalman.gaussian_log_likelihood(kalman.mahalanobis_2x2(nu, mp.S_inv[rows]), mp.log_det_S[rows])
-        log_terms = log_lik + np.log(pred.state.mu[rows] + _TINY)
-        top = log_terms.max(axis=-1)
-        return top + np.log(np.exp(log_terms - top[:, None]).sum(axis=-1))
+        return imm_kernels.pair_log_likelihood(mp.z, mp.S_inv, mp.log_det_S, pred.state.mu, rows,
+                                               np.ascontiguousarray(Z, np.float64), self._polar)
 
     def _checked_contacts(self, Z: np.ndarray) -> np.ndarray:
         Z = check_array("Z", Z, (None, 2), error=FilterError)

@@ -5,6 +5,7 @@
     x, P, mu = update(xp, Pp, mu_p, z, mask, z_pred, S_inv, log_det, PHt, polar)        # eqs. 4.50-4.53
     xc, Pc = estimate(x, P, mu, d)                                                     # eqs. 4.54-4.55
     d2 = mahalanobis(z_pred, S_inv, Z, polar)                                           # (B, N) gate distances
+    ll = pair_log_likelihood(z_pred, S_inv, log_det, mu, rows, Z, polar)               # (P,) eqs. 4.50, 4.53
 
 Shapes: x (K, r, n), P (K, r, n, n) in the IMM's padded layout (model j's
 state in its first ``dims[j]`` entries, zeros beyond), mu (K, r), dt (K,) s;
@@ -267,3 +268,32 @@ def mahalanobis(z_pred, S_inv, Z, polar):
                 n1 = _wrap(n1)
             d2[b, m] = s00 * n0 * n0 + s01 * n0 * n1 + s11 * n1 * n1
     return d2
+
+
+@_jit
+def pair_log_likelihood(z_pred, S_inv, log_det, mu, rows, Z, polar):
+    """The IMM mixture likelihood log sum_j mu_j N(z; z_j, S_j) (eqs. 4.50 and 4.53) of P (track,
+    measurement) pairs: track ``rows`` (P,) of the model predictions z_pred (K, r, 2), S_inv (K, r, 2, 2),
+    log |S| log_det (K, r) and predicted mode probabilities mu (K, r); measurements Z (P, 2). The sum is
+    taken about its largest term (no underflow to -inf far from every model). Its exp and log are libm's,
+    which differ from numpy's vectorised ones in the last bit of a few per cent of values. Returns (P,)."""
+    P, r = rows.shape[0], mu.shape[1]
+    out = np.empty(P)
+    terms = np.empty(r)
+    for p in range(P):
+        k = rows[p]
+        top = -np.inf
+        for j in range(r):
+            n0 = Z[p, 0] - z_pred[k, j, 0]
+            n1 = Z[p, 1] - z_pred[k, j, 1]
+            if polar:
+                n1 = _wrap(n1)
+            d2 = (S_inv[k, j, 0, 0] * n0 * n0 + (S_inv[k, j, 0, 1] + S_inv[k, j, 1, 0]) * n0 * n1
+                  + S_inv[k, j, 1, 1] * n1 * n1)
+            terms[j] = (-0.5 * (d2 + log_det[k, j]) - LOG_2PI) + math.log(mu[k, j] + TINY)
+            top = max(top, terms[j])
+        s = 0.0
+        for j in range(r):
+            s += math.exp(terms[j] - top)
+        out[p] = top + math.log(s)
+    return out
