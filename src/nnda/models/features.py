@@ -129,6 +129,8 @@ def pair_features(
 
 def _per_pair(t: np.ndarray | float, n: int) -> np.ndarray:
     """Times (n,) from a scalar or an (n,) array (float)."""
+    if isinstance(t, np.ndarray) and t.ndim == 1 and t.dtype == np.float64:  # the tracker's, every scan
+        return t
     return np.full(n, t, dtype=float) if np.ndim(t) == 0 else np.asarray(t, dtype=float)
 
 
@@ -145,9 +147,10 @@ def _check_pairs(p1: np.ndarray, t1: np.ndarray, p2: np.ndarray, t2: np.ndarray,
 
 
 def _flat(*arrays: np.ndarray) -> tuple[tuple[int, ...], list[np.ndarray]]:
-    """The broadcast shape of ``arrays`` and each broadcast to it, flattened (contiguous)."""
-    full = np.broadcast_arrays(*arrays)
-    return full[0].shape, [np.ascontiguousarray(a).ravel() for a in full]
+    """The broadcast shape of ``arrays`` and each broadcast to it, flattened (contiguous; a broadcast one
+    copied, so the kernels never see numpy's read-only broadcast views)."""
+    shape = np.broadcast_shapes(*(a.shape for a in arrays))
+    return shape, [a.ravel() if a.shape == shape else np.broadcast_to(a, shape).flatten() for a in arrays]
 
 
 def sector(azimuth: np.ndarray) -> np.ndarray:
