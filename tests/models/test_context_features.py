@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 from nnda.data.encounters import encounter_scenes
 from nnda.data.generator import generate
 from nnda.errors import ModelError
-from nnda.models.context import CONTEXT_NAMES, D2_CAP, D2_COLUMN, IMM_CONTEXT, context_features
+from nnda.models.context import CONTEXT_NAMES, D2_CAP, D2_COLUMN, IMM_CONTEXT, context_features, with_context
 from nnda.models.innovation import IMM_INNOVATION
 from nnda.models.pairs import extract_pairs
 from tolerances import RTOL
@@ -55,6 +55,33 @@ def test_context_against_brute_force(rows):
     # ties in d² broken by position in both (a stable sort), so the ranks agree exactly
     track, contact, d2 = (np.array(c) for c in zip(*rows))
     np.testing.assert_allclose(context_features(track, contact, d2), brute_force(track, contact, d2), rtol=RTOL)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_context_of_many_pairs_with_ties_against_brute_force(seed):
+    # hundreds of pairs over large, sparse keys (training's scan x target keys), d² tied in a few values
+    rng = np.random.default_rng(seed)
+    P = 300
+    track, contact = rng.choice(10**6, 40)[rng.integers(0, 40, P)], rng.integers(0, 120, P)
+    d2 = rng.choice([0.5, 3.0, 3.0, 49.0, 50.0, 50.5, 70.0], P) if seed else rng.exponential(10.0, P)
+    got = context_features(track, contact, d2)
+    np.testing.assert_allclose(got, brute_force(track, contact, d2), rtol=RTOL)
+    assert got[:, 0].max() > 5 and got[:, 3].max() > 3  # long ranks and many rivals
+
+
+def test_with_context_appends_the_context_of_the_d2_column():
+    rng = np.random.default_rng(4)
+    features = rng.normal(0, 1, (30, IMM_INNOVATION.size))
+    features[:, D2_COLUMN] = rng.exponential(8.0, 30)
+    track, contact = rng.integers(0, 5, 30), rng.integers(0, 12, 30)
+    out = with_context(features, track, contact)
+    assert out.shape == (30, IMM_CONTEXT.size)
+    np.testing.assert_array_equal(out[:, :IMM_INNOVATION.size], features)
+    np.testing.assert_array_equal(out[:, IMM_INNOVATION.size:],
+                                  context_features(track, contact, features[:, D2_COLUMN]))
+    assert with_context(features[:0], track[:0], contact[:0]).shape == (0, IMM_CONTEXT.size)
+    with pytest.raises(ModelError, match="one shape"):
+        with_context(features, track[:4], contact)
 
 
 def test_training_pairs_see_the_other_targets_tracks():

@@ -14,6 +14,7 @@ from nnda.errors import ConfigError, ModelError
 from nnda.files import with_content_digest
 from nnda.filters.imm import IMM
 from nnda.filters.kalman import mahalanobis_2x2
+from nnda.filters.measurement import PositionMeasurement
 from nnda.models.context import IMM_CONTEXT
 from nnda.models.feature_sets import FEATURE_SETS, feature_set
 from nnda.models.features import KINEMATIC
@@ -22,6 +23,7 @@ from nnda.models.mlp import MLPWeights
 from nnda.models.pairs import extract_pairs, pairs_from_datasets
 from nnda.models.preprocessing import Normaliser
 from nnda.models.scorer import Scorer, load_model, save_model
+from tolerances import RTOL
 
 
 @pytest.fixture(scope="module")
@@ -70,6 +72,43 @@ def test_azimuth_innovation_wraps_across_north(predicted):
     f = _features(imm, pred, just_west)
     expected = (2 * np.pi - 0.0005 - gate.z[0, 1] - 2 * np.pi) / np.sqrt(gate.S[0, 1, 1])  # a small step, not 2 pi
     assert f[0, 4] == pytest.approx(expected) and abs(f[0, 4]) < 10
+
+
+def oracle_innovation(imm, pred, track, contacts, kinematic, age):
+    """One pair at a time: the IMM's combined prediction, its residual, d² by solving S x = nu."""
+    gate = imm.combined_measurement(pred)
+    rows = []
+    for k, z, kin, a in zip(track, contacts, kinematic, age):
+        nu = imm.measurement.residual(z[None], gate.z[k][None])[0]
+        S = gate.S[k]
+        rows.append([*kin, nu[0] / np.sqrt(S[0, 0]), nu[1] / np.sqrt(S[1, 1]), nu @ np.linalg.solve(S, nu),
+                     np.log(np.linalg.det(S)), pred.state.mu[k, 1], a])
+    return np.array(rows).reshape(len(track), IMM_INNOVATION.size)
+
+
+@pytest.mark.parametrize("polar", [True, False])
+@pytest.mark.parametrize("seed", range(4))
+def test_innovation_features_against_one_pair_at_a_time(polar, seed):
+    # K tracks 6-24 km out, each with its own age; pairs drawn at random over them, azimuths across north
+    rng = np.random.default_rng(seed)
+    imm = IMM.for_sensor(PRESETS["S1"].sensor) if polar else IMM(
+        measurement=PositionMeasurement(((900.0, 50.0), (50.0, 400.0))))
+    K, P = int(rng.integers(1, 12)), int(rng.integers(0, 40))
+    r, b = rng.uniform(6e3, 2.4e4, K), rng.uniform(-0.3, 0.3, K) % (2 * np.pi)
+    v, h = rng.uniform(50, 300, K), rng.uniform(0, 2 * np.pi, K)
+    xy = lambda t: np.stack([r * np.sin(b) + v * t * np.sin(h), r * np.cos(b) + v * t * np.cos(h)], -1)  # noqa: E731
+    to_z = (lambda p: np.stack([np.hypot(*p.T), np.arctan2(*p.T) % (2 * np.pi)], -1)) if polar else (lambda p: p)
+    state = imm.initialise(to_z(xy(0.0)), to_z(xy(2.0)), 0.0, 2.0)
+    state = imm.update(imm.predict(state, 2.0), to_z(xy(4.0) + rng.normal(0, 200.0, (K, 2))))  # mu differ
+    pred = imm.predict(state, rng.choice([2.0, 4.0, 6.0], K))
+    assert K == 1 or np.ptp(pred.state.mu[:, 1]) > 0
+    track = rng.integers(0, K, P)
+    contacts = to_z(xy(6.0)[track] + rng.normal(0, 300.0, (P, 2)))
+    kinematic, age = rng.normal(0, 10, (P, 3)), rng.uniform(4, 100, P)
+    got = innovation_features(imm, pred, track, contacts, kinematic, age)
+    expected = oracle_innovation(imm, pred, track, contacts, kinematic, age)
+    assert got.shape == (P, IMM_INNOVATION.size)
+    np.testing.assert_allclose(got, expected, rtol=RTOL, atol=RTOL)  # the terms are of order one (or exact)
 
 
 def test_feature_sets_are_registered_and_unknown_names_refused():

@@ -1,7 +1,11 @@
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from nnda.errors import ModelError
 from nnda.models.features import (
@@ -14,6 +18,7 @@ from nnda.models.features import (
     passes_gate,
     sector,
 )
+from tolerances import RTOL
 
 
 def feats(p1, t1, p2, t2, c, tc):
@@ -75,8 +80,11 @@ def test_bad_input_is_refused():
     ok = dict(p1=np.zeros((1, 2)), t1=[0.0], p2=np.ones((1, 2)), t2=[2.0], c=np.full((1, 2), 3.0), tc=[4.0])
     with pytest.raises(ModelError, match=r"pair features: c: non-finite value nan at index \(0, "):
         pair_features(**{**ok, "c": np.array([[np.nan, 0.0]])})
+    for tc in (2.0, 1.0):  # a zero gap (infinite features) and a negative one (finite features)
+        with pytest.raises(ModelError, match="t1 < t2 < tc"):
+            pair_features(**{**ok, "tc": [tc]})
     with pytest.raises(ModelError, match="t1 < t2 < tc"):
-        pair_features(**{**ok, "tc": [2.0]})
+        pair_features(**{**ok, "t1": [3.0]})
     with pytest.raises(ModelError, match="shape"):
         pair_features(**{**ok, "p2": np.ones(2)})
 
@@ -125,32 +133,137 @@ def _gating_problem(rng, M, N):
             contacts, np.arctan2(contacts[:, 0], contacts[:, 1]), 10.0)
 
 
-@pytest.mark.parametrize("seed", range(5))
-def test_candidate_pairs_k_d_tree_path_equals_dense_path(seed, monkeypatch):
-    from nnda.models import features
+# ---- brute-force oracles: the gate and the features in plain Python floats, one pair at a time
+
+
+def oracle_sector(azimuth):
+    return int(math.floor((azimuth % (2 * math.pi)) / (2 * math.pi / 16))) % 16
+
+
+def oracle_gate(p2, t2, az2, c, tc, azc):
+    """Sector gate (the track's sector or a neighbour, wrapping) and speed gate 30..400 m/s, bounds in."""
+    if (oracle_sector(azc) - oracle_sector(az2)) % 16 not in (0, 1, 15):
+        return False
+    v = math.hypot(c[0] - p2[0], c[1] - p2[1]) / (tc - t2)
+    return 30.0 <= v <= 400.0
+
+
+def oracle_pairs(last, t_last, az_last, contacts, az_c, time):
+    return [(i, j) for i in range(len(last)) for j in range(len(contacts))
+            if oracle_gate(last[i], t_last[i], az_last[i], contacts[j], time, az_c[j])]
+
+
+def oracle_features(p1, t1, p2, t2, c, tc):
+    lx, ly, sx, sy = p2[0] - p1[0], p2[1] - p1[1], c[0] - p2[0], c[1] - p2[1]
+    dv = math.hypot(sx, sy) / (tc - t2) - math.hypot(lx, ly) / (t2 - t1)
+    change = math.atan2(lx, ly) - math.atan2(sx, sy)  # course: bearing clockwise from north
+    turn = -((change + math.pi) % (2 * math.pi) - math.pi)  # to (-pi, pi]
+    return [dv, math.degrees(turn) / (tc - t2), tc - t2]
+
+
+def numpy_pairs(last, t_last, az_last, contacts, az_c, time):
+    """Every track-contact pair through the gate in numpy: the formulation the compiled search replaced."""
+    sec = lambda a: np.floor(a % (2 * np.pi) / (2 * np.pi / 16)).astype(np.int64) % 16  # noqa: E731
+    near = (sec(az_c)[None, :] - sec(az_last)[:, None] + 1) % 16 <= 2
+    v = np.hypot(contacts[:, 0] - last[:, 0, None], contacts[:, 1] - last[:, 1, None]) / (time - t_last)[:, None]
+    return np.nonzero(near & (v >= 30.0) & (v <= 400.0))
+
+
+def _positions_near(draw, n, scale):
+    return np.array([[draw(st.floats(-scale, scale)), draw(st.floats(-scale, scale))] for _ in range(n)]).reshape(n, 2)
+
+
+@st.composite
+def gating_problems(draw):
+    """Tracks and contacts over a box of 1 m to 100 km (around the radar: every sector; or far out), some
+    contacts exactly on a track's speed bounds or beside a sector edge, times since the last contact from
+    a millisecond to 10 s."""
+    M, N = draw(st.integers(0, 8)), draw(st.integers(0, 30))
+    scale = draw(st.sampled_from([1.0, 2_000.0, 20_000.0, 100_000.0]))
+    offset = draw(st.sampled_from([0.0, 30_000.0]))
+    last = _positions_near(draw, M, scale) + [0.0, offset]
+    contacts = _positions_near(draw, N, scale) + [0.0, offset]
+    time = 10.0
+    t_last = np.array([time - draw(st.sampled_from([2.0, 4.0, 8.0]) | st.floats(1e-3, 10.0)) for _ in range(M)])
+    for j in range(min(M, N) if draw(st.booleans()) else 0):  # contact j on track j's bound, due north
+        speed = draw(st.sampled_from([MIN_SPEED_M_S, MAX_SPEED_M_S]))
+        contacts[j] = last[j] + [0.0, speed * (time - t_last[j])]
+    az = lambda p: np.arctan2(p[:, 0], p[:, 1]) if len(p) else np.empty(0)  # noqa: E731
+    az_last, az_c = az(last), az(contacts)
+    if N and draw(st.booleans()):  # a contact on a sector edge: 22.5 deg x k, exactly, and just below
+        az_c[0] = np.radians(22.5) * draw(st.integers(-16, 32)) - draw(st.sampled_from([0.0, 1e-12]))
+    return last, t_last, az_last, contacts, az_c, time
+
+
+@settings(max_examples=300, deadline=None)
+@given(gating_problems())
+def test_candidate_pairs_against_brute_force(problem):
+    track, contact = candidate_pairs(*problem)
+    assert track.dtype == contact.dtype == np.int64
+    assert list(zip(track.tolist(), contact.tolist())) == oracle_pairs(*problem)  # same pairs, same order
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_candidate_pairs_of_big_scans_equal_every_pair_through_the_gate(seed):
+    # hundreds of tracks, thousands of contacts (a grid of many cells), some on the speed bounds
     rng = np.random.default_rng(seed)
-    problem = _gating_problem(rng, int(rng.integers(50, 200)), int(rng.integers(100, 400)))
-    monkeypatch.setattr(features, "DENSE_PAIRS", 10**9)
-    dense = candidate_pairs(*problem)
-    monkeypatch.setattr(features, "DENSE_PAIRS", 0)
-    tree = candidate_pairs(*problem)
-    assert len(dense[0]) > 100
-    for a, b in zip(dense, tree):
-        assert a.dtype == b.dtype == np.int64
-        np.testing.assert_array_equal(a, b)
-    # the problem does test the bounds: pairs found at exactly 400 m/s (and at 30 m/s)
-    last, t_last, _, contacts, _, time = problem
-    v = needed_speed(last[dense[0]], t_last[dense[0]], contacts[dense[1]], time)
+    problem = _gating_problem(rng, int(rng.integers(100, 400)), int(rng.integers(1_000, 4_000)))
+    track, contact = candidate_pairs(*problem)
+    expected = numpy_pairs(*problem)
+    assert len(track) > 500
+    np.testing.assert_array_equal(track, expected[0])
+    np.testing.assert_array_equal(contact, expected[1])
+    last, t_last, _, contacts, _, time = problem  # the bounds are met: pairs at exactly 400 and 30 m/s
+    v = needed_speed(last[track], t_last[track], contacts[contact], time)
     assert (v == MAX_SPEED_M_S).any() and (v == MIN_SPEED_M_S).any()
 
 
-def test_candidate_pairs_above_the_switch_use_the_tree_and_agree(monkeypatch):
-    from nnda.models import features
-    problem = _gating_problem(np.random.default_rng(9), 60, features.DENSE_PAIRS // 60 + 10)
-    tree = candidate_pairs(*problem)
-    monkeypatch.setattr(features, "DENSE_PAIRS", 10**9)
-    for a, b in zip(candidate_pairs(*problem), tree):
-        np.testing.assert_array_equal(a, b)
+def test_candidate_pairs_with_contacts_far_apart_or_all_in_one_place():
+    # a 10,000 km spread (the grid's cells grow to keep their number near 2 per contact) and a zero spread
+    rng = np.random.default_rng(5)
+    last = rng.uniform(-1e3, 1e3, (20, 2))
+    t_last = np.full(20, 8.0)
+    for contacts in (np.concatenate([last + [0.0, 500.0], rng.uniform(-5e6, 5e6, (200, 2))]),
+                     np.repeat(last[:1] + [300.0, 0.0], 50, axis=0)):
+        problem = (last, t_last, np.arctan2(last[:, 0], last[:, 1]), contacts,
+                   np.arctan2(contacts[:, 0], contacts[:, 1]), 10.0)
+        track, contact = candidate_pairs(*problem)
+        assert list(zip(track.tolist(), contact.tolist())) == oracle_pairs(*problem)
+        assert len(track) > 0
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(1, 20), st.data())
+def test_pair_features_against_brute_force(n, data):
+    rows = []
+    for _ in range(n):
+        p1, p2, c = (data.draw(st.tuples(st.floats(-5e4, 5e4), st.floats(-5e4, 5e4))) for _ in range(3))
+        t1 = data.draw(st.floats(0.0, 100.0))
+        t2 = t1 + data.draw(st.sampled_from([2.0, 4.0]) | st.floats(1e-3, 20.0))
+        tc = t2 + data.draw(st.sampled_from([2.0, 4.0, 8.0]) | st.floats(1e-3, 20.0))
+        rows.append((p1, t1, p2, t2, c, tc))
+    p1, t1, p2, t2, c, tc = (np.array(a, float) for a in zip(*rows))
+    got = pair_features(p1, t1, p2, t2, c, tc)
+    expected = np.array([oracle_features(*r) for r in rows])
+    # ΔV and Δα are differences of speeds and courses: equal to rounding, RTOL of their terms' size
+    scale = np.column_stack([np.hypot(*(c - p2).T) / (tc - t2) + np.hypot(*(p2 - p1).T) / (t2 - t1),
+                             360.0 / (tc - t2), tc - t2])
+    np.testing.assert_array_less(np.abs(got - expected), RTOL * scale + 1e-300)
+
+
+def test_gate_helpers_against_brute_force():
+    rng = np.random.default_rng(8)
+    az = np.concatenate([rng.uniform(-10, 20, 500), np.radians(22.5) * np.arange(-32, 33), [np.nextafter(0, -1)]])
+    assert sector(az).tolist() == [oracle_sector(a) for a in az]
+    s2, sc = rng.integers(0, 16, 300), rng.integers(0, 16, 300)
+    assert neighbour_sectors(s2, sc).tolist() == [(b - a) % 16 in (0, 1, 15) for a, b in zip(s2, sc)]
+    p2, c = rng.uniform(-3e3, 3e3, (300, 2)), rng.uniform(-3e3, 3e3, (300, 2))
+    t2, tc = rng.uniform(0, 5, 300), rng.uniform(6, 20, 300)
+    assert passes_gate(p2, t2, sector(az[:300]), c, tc, sector(az[200:500])).tolist() == [
+        oracle_gate(p2[i], t2[i], az[i], c[i], tc[i], az[200 + i]) for i in range(300)]
+    assert passes_gate(p2[:, None], t2[:, None], 0, c[None], tc[None], 0).shape == (300, 300)  # broadcasts
+    np.testing.assert_array_equal(needed_speed(p2, t2, c, tc), [math.hypot(*(c[i] - p2[i])) / (tc[i] - t2[i])
+                                                                for i in range(300)])
 
 
 def test_candidate_pairs_bad_input_is_refused():

@@ -457,29 +457,6 @@ def test_directory_holding_a_model_is_accepted_and_same_data_gives_same_output(m
         np.testing.assert_array_equal(a.state, b.state)
 
 
-def test_k_d_tree_candidate_search_gives_the_dense_searchs_tracks(model_file, monkeypatch):
-    # S6 with 150 clutter points: tracks x contacts passes the candidate search's switch from the 4th scan
-    from nnda.models import features
-    sc = PRESETS["S6"].model_copy(update={"duration_s": 16.0, "clutter": PRESETS["S6"].clutter.model_copy(
-        update={"count": 150})})
-    ds = generate(sc, seed=3)
-    sizes, runs, switch = [], [], features.DENSE_PAIRS
-
-    class Sizes(NeuralTracker):
-        def associate(self, tracks, pred, scan):
-            sizes.append(len(tracks) * len(scan.z))
-            return super().associate(tracks, pred, scan)
-
-    for dense_pairs in (switch, 10**12):
-        monkeypatch.setattr(features, "DENSE_PAIRS", dense_pairs)
-        tracker = Sizes(ds.scenario.sensor, NeuralTracker.config_type(model=model_file))
-        runs.append([tracker.step(scan) for scan in ds.scans()])
-    assert max(sizes) > switch > min(sizes)  # both searches ran in the default run
-    for a, b in zip(*runs):
-        for field in ("track_id", "status", "contact", "state", "covariance"):
-            np.testing.assert_array_equal(getattr(a, field), getattr(b, field))
-
-
 def test_a_model_of_the_other_feature_set_is_refused(model_file, ext_model_file):
     sensor = PRESETS["S1"].sensor
     with pytest.raises(ConfigError, match="trained on feature set 'imm-innovation-9', but this tracker is "

@@ -17,7 +17,7 @@ every pair (column ``mahalanobis_d2``, capped at `D2_CAP`):
 
 The same function serves the neural tracker (all pairs of one scan) and the
 training pairs (every target's oracle track, or a harvested run's tracks, at
-one scan), in one sort per key and no Python loop over pairs::
+one scan), in one compiled call (a few stable sorts)::
 
     d2 = features[:, 5]                             # (P,) from innovation_features
     ctx = context_features(track, contact, d2)      # (P, 5), columns CONTEXT_NAMES
@@ -28,6 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from nnda.errors import ModelError
+from nnda.models import feature_kernels
 from nnda.models.features import FeatureSet
 from nnda.models.innovation import IMM_INNOVATION
 
@@ -44,55 +45,33 @@ IMM_CONTEXT = FeatureSet(
 )
 
 
-def _ranked(key: np.ndarray, d2: np.ndarray) -> np.ndarray:
-    """Per pair, within the pairs of equal ``key``: rank by ``d2`` (0 best, ties by position), group size,
-    and the least d2 of the group's other pairs (`D2_CAP` if alone), as rows of a (3, P) array."""
-    n = len(key)
-    order = np.lexsort((d2, key))
-    k, v = key[order], d2[order]
-    first = np.empty(n, bool)
-    first[0] = True
-    np.not_equal(k[1:], k[:-1], out=first[1:])
-    start = np.flatnonzero(first)
-    end = np.empty_like(start)
-    end[:-1], end[-1] = start[1:], n
-    group = np.cumsum(first) - 1
-    at = start[group]
-    out = np.empty((3, n))
-    out[0, order] = rank = np.arange(n) - at
-    out[1, order] = size = (end - start)[group]
-    # the least d2 of the others: the group's best, or for the best itself the second (D2_CAP if alone)
-    out[2, order] = np.where(rank > 0, v[at], np.where(size > 1, v[np.minimum(at + 1, n - 1)], D2_CAP))
-    return out
-
-
 def context_features(track: np.ndarray, contact: np.ndarray, d2: np.ndarray) -> np.ndarray:
     """Context columns (P, 5) of P pairs (module docstring).
 
     ``track`` (P,) and ``contact`` (P,) are integer keys (>= 0) of each
     pair's track and contact (pairs of one scan; equal keys, same track or
     contact), ``d2`` (P,) the pairs' squared Mahalanobis distances (>= 0).
-    Both groupings go through one sort: the contact keys are shifted past
-    the track keys.
+    Compiled (`feature_kernels.context`): one stable sort by d², then one
+    per grouping.
     """
-    track, contact = np.asarray(track, np.int64), np.asarray(contact, np.int64)
-    d2 = np.minimum(np.asarray(d2, dtype=float), D2_CAP)
-    n = len(d2)
-    if track.shape != (n,) or contact.shape != (n,):
-        raise ModelError(f"context features: track, contact and d2 must have one shape (P,), got "
-                         f"{track.shape}, {contact.shape}, {d2.shape}")
-    out = np.empty((n, len(CONTEXT_NAMES)))
-    if n == 0:
-        return out
-    both = _ranked(np.concatenate([track, contact + (track.max() + 1)]), np.concatenate([d2, d2]))
-    out[:, 0] = both[0, :n]
-    out[:, 1] = d2 - both[2, :n]
-    out[:, 2] = both[1, :n]
-    out[:, 3] = both[1, n:] - 1
-    out[:, 4] = both[2, n:]
-    return out
+    d2 = np.asarray(d2, dtype=float)
+    return _into(np.empty((len(d2), len(CONTEXT_NAMES))), track, contact, d2)
 
 
 def with_context(features: np.ndarray, track: np.ndarray, contact: np.ndarray) -> np.ndarray:
     """The extended features (P, 9) of one scan's pairs with their context columns appended: (P, 14)."""
-    return np.hstack([features, context_features(track, contact, features[:, D2_COLUMN])])
+    out = np.empty((len(features), IMM_CONTEXT.size))
+    out[:, :IMM_INNOVATION.size] = features
+    _into(out[:, IMM_INNOVATION.size:], track, contact, features[:, D2_COLUMN])
+    return out
+
+
+def _into(out: np.ndarray, track: np.ndarray, contact: np.ndarray, d2: np.ndarray) -> np.ndarray:
+    """``out`` (P, 5) with the context columns of the pairs written in (shapes checked)."""
+    track, contact = np.asarray(track, np.int64), np.asarray(contact, np.int64)
+    n = len(d2)
+    if track.shape != (n,) or contact.shape != (n,):
+        raise ModelError(f"context features: track, contact and d2 must have one shape (P,), got "
+                         f"{track.shape}, {contact.shape}, {d2.shape}")
+    feature_kernels.context(track, contact, d2, D2_CAP, out)
+    return out

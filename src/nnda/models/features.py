@@ -32,10 +32,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
-from nnda.data.sensor import TWO_PI, wrap_angle
 from nnda.errors import ModelError
+from nnda.models import feature_kernels
+from nnda.models.feature_kernels import MAX_SPEED_M_S as MAX_SPEED_M_S
+from nnda.models.feature_kernels import MIN_SPEED_M_S as MIN_SPEED_M_S
+from nnda.models.feature_kernels import N_SECTORS as N_SECTORS
 from nnda.validation import check_finite
 
 
@@ -64,23 +66,6 @@ KINEMATIC = FeatureSet(
     "kinematic-3", 1, ("delta_speed_m_s", "course_rate_deg_s", "delta_t_s"),
     "the seed's speed change, course-change rate and time gap, from the track's last two contacts",
 )
-
-N_SECTORS = 16
-MIN_SPEED_M_S = 30.0
-MAX_SPEED_M_S = 400.0
-
-#: up to this many track-contact pairs `candidate_pairs` tests every pair at once; beyond, k-d trees
-#: are faster (measured crossover near 4,000-4,500 pairs, e.g. 40 tracks x 110 contacts)
-DENSE_PAIRS = 4_000
-#: the coarse searches (squared distances, k-d trees) widen the speed gate by this fraction, so that
-#: rounding in their distances cannot drop a pair the exact gate keeps
-_REACH_MARGIN = 1e-9
-
-
-def course(dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
-    """Bearing (rad, clockwise from north, in (-pi, pi]) of displacements (dx east, dy north) in m."""
-    return np.arctan2(dx, dy)
-
 
 def _positions(name: str, p: np.ndarray, what: str = "pair features") -> np.ndarray:
     p = np.asarray(p, dtype=float)
@@ -122,8 +107,9 @@ def pair_features(
     t1 < t2 < tc. Raises ModelError on wrong shapes, non-finite values or
     times out of order.
 
-    The checks cost a few reductions when the input is good: features that
-    come out finite from times in order can only come from finite input;
+    The features are computed in one compiled loop
+    (`feature_kernels.kinematic`), which also flags whether they all came
+    out finite from times in order; only from finite input can they, and
     anything else is examined field by field for the error message.
     ``check=False`` skips them, for callers whose arrays are already checked
     float arrays of the right shapes (the neural tracker, every scan).
@@ -134,18 +120,18 @@ def pair_features(
         if len(p2) != n or len(c) != n:
             raise ModelError(f"pair features: p1, p2 and c differ in length ({n}, {len(p2)}, {len(c)})")
         t1, t2, tc = _values("t1", t1, n), _values("t2", t2, n), _values("tc", tc, n)
-    before, gap = t2 - t1, tc - t2
-    last = p2 - p1
-    step = c - p2
-    features = np.empty((n, 3))
-    with np.errstate(all="ignore"):  # bad input is reported below, by name and row
-        features[:, 0] = np.hypot(step[:, 0], step[:, 1]) / gap - np.hypot(last[:, 0], last[:, 1]) / before
-        turn = -wrap_angle(course(last[:, 0], last[:, 1]) - course(step[:, 0], step[:, 1]))  # (-pi, pi]
-        features[:, 1] = np.degrees(turn) / gap
-    features[:, 2] = gap
-    if check and n and not (before.min() > 0 and gap.min() > 0 and _all_finite(features, before)):
-        _check_pairs(*(np.broadcast_to(a, (n, *a.shape[1:])) for a in (p1, t1, p2, t2, c, tc)))
+    t1, t2, tc = _per_pair(t1, n), _per_pair(t2, n), _per_pair(tc, n)
+    features, good = feature_kernels.kinematic(p1, t1, p2, t2, c, tc)
+    if check and not good:
+        _check_pairs(p1, t1, p2, t2, c, tc)
     return features
+
+
+def _per_pair(t: np.ndarray | float, n: int) -> np.ndarray:
+    """Times (n,) from a scalar or an (n,) array (float)."""
+    if isinstance(t, np.ndarray) and t.ndim == 1 and t.dtype == np.float64:  # the tracker's, every scan
+        return t
+    return np.full(n, t, dtype=float) if np.ndim(t) == 0 else np.asarray(t, dtype=float)
 
 
 def _check_pairs(p1: np.ndarray, t1: np.ndarray, p2: np.ndarray, t2: np.ndarray, c: np.ndarray,
@@ -160,20 +146,30 @@ def _check_pairs(p1: np.ndarray, t1: np.ndarray, p2: np.ndarray, t2: np.ndarray,
                          f"t1={t1[bad]}, t2={t2[bad]}, tc={tc[bad]}")
 
 
+def _flat(*arrays: np.ndarray) -> tuple[tuple[int, ...], list[np.ndarray]]:
+    """The broadcast shape of ``arrays`` and each broadcast to it, flattened (contiguous; a broadcast one
+    copied, so the kernels never see numpy's read-only broadcast views)."""
+    shape = np.broadcast_shapes(*(a.shape for a in arrays))
+    return shape, [a.ravel() if a.shape == shape else np.broadcast_to(a, shape).flatten() for a in arrays]
+
+
 def sector(azimuth: np.ndarray) -> np.ndarray:
     """Azimuth sector 0..15 of azimuths (rad, clockwise from north), wedges of 22.5 deg from north."""
-    return (np.floor(np.asarray(azimuth) % TWO_PI / (TWO_PI / N_SECTORS)).astype(np.int64)) % N_SECTORS
+    azimuth = np.asarray(azimuth, dtype=float)
+    return feature_kernels.sectors(np.ascontiguousarray(azimuth).ravel()).reshape(azimuth.shape)
 
 
 def neighbour_sectors(track_sector: np.ndarray, contact_sector: np.ndarray) -> np.ndarray:
     """True where the contact's sector is the track's or one of its two neighbours (wrapping)."""
-    return (np.asarray(contact_sector) - np.asarray(track_sector) + 1) % N_SECTORS <= 2
+    shape, (s2, sc) = _flat(np.asarray(track_sector, np.int64), np.asarray(contact_sector, np.int64))
+    return feature_kernels.neighbours(s2, sc).reshape(shape)
 
 
 def needed_speed(p2: np.ndarray, t2: np.ndarray, c: np.ndarray, tc: np.ndarray) -> np.ndarray:
     """Speed (m/s) needed to go from P2 at t2 to C at tc; positions (..., 2) in m, times (...) in s."""
     c, p2 = np.asarray(c, dtype=float), np.asarray(p2, dtype=float)
-    return np.hypot(c[..., 0] - p2[..., 0], c[..., 1] - p2[..., 1]) / (np.asarray(tc) - np.asarray(t2))
+    shape, flat = _flat(p2[..., 0], p2[..., 1], np.asarray(t2, float), c[..., 0], c[..., 1], np.asarray(tc, float))
+    return feature_kernels.speeds(*flat).reshape(shape)
 
 
 def passes_gate(
@@ -184,30 +180,11 @@ def passes_gate(
 
     Positions (..., 2) in m, times (...) in s (tc > t2), sectors from `sector`.
     """
-    v = needed_speed(p2, t2, c, tc)
-    return neighbour_sectors(p2_sector, c_sector) & (v >= MIN_SPEED_M_S) & (v <= MAX_SPEED_M_S)
-
-
-def _within_reach(points: np.ndarray, reach: np.ndarray, contacts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(point, contact) index pairs, sorted, with the contact within ``reach`` (M,) m (> 0) of the point
-    (or a little further: callers apply the exact test). Points (M, 2) and contacts (N, 2) in m.
-
-    Points are grouped by reach within a factor 2^(1/4) (one group per time
-    since the last contact, in a tracker) and each group is searched at its
-    largest reach with a pair of k-d trees, all in compiled code.
-    """
-    level = np.ceil(4.0 * np.log2(reach))
-    tree = cKDTree(contacts)
-    point, contact = [np.empty(0, np.int64)], [np.empty(0, np.int64)]
-    for lv in np.unique(level):
-        group = np.flatnonzero(level == lv)
-        found = cKDTree(points[group]).sparse_distance_matrix(
-            tree, reach[group].max() * (1.0 + _REACH_MARGIN), output_type="ndarray")
-        point.append(group[found["i"]])
-        contact.append(found["j"].astype(np.int64))
-    point, contact = np.concatenate(point), np.concatenate(contact)
-    order = np.argsort(point * len(contacts) + contact)
-    return point[order], contact[order]
+    c, p2 = np.asarray(c, dtype=float), np.asarray(p2, dtype=float)
+    shape, (px, py, t2, s2, cx, cy, tc, sc) = _flat(
+        p2[..., 0], p2[..., 1], np.asarray(t2, float), np.asarray(p2_sector, np.int64),
+        c[..., 0], c[..., 1], np.asarray(tc, float), np.asarray(c_sector, np.int64))
+    return feature_kernels.in_gate(px, py, t2, s2, cx, cy, tc, sc).reshape(shape)
 
 
 def candidate_pairs(
@@ -223,15 +200,13 @@ def candidate_pairs(
     gates, ordered by track then contact. Raises ModelError on wrong shapes,
     non-finite values or a last contact not before ``time``.
 
-    Up to `DENSE_PAIRS` track-contact pairs every pair's squared distance
-    is compared with the squares of the speed gate's bounds (x the time
-    since the track's last contact), with a relative margin of 1e-9 so that
-    no pair the exact gate keeps is lost to rounding. Beyond that k-d trees
-    list, per track, the contacts within the gate's reach, so memory grows
-    with the candidates rather than with M x N. Either way only the pairs
-    found get the exact `passes_gate` test, so both ways give the same
-    pairs. ``check=False`` skips the input checks (for the neural tracker,
-    whose arrays are already checked).
+    The search is compiled (`feature_kernels.candidates`): the contacts are
+    binned on a grid of about the speed gate's reach, and each track tests
+    only the contacts of the cells its reach overlaps, with the exact gate of
+    `passes_gate`; so the work and memory grow with the candidates rather
+    than with M x N, and the pairs are those of the exact gate over every
+    track-contact pair. ``check=False`` skips the input checks (for the
+    neural tracker, whose arrays are already checked).
     """
     what = "candidate pairs"
     time = float(time)
@@ -248,18 +223,4 @@ def candidate_pairs(
         if M and last_time.max() >= time:
             bad = int(np.argmax(last_time >= time))
             raise ModelError(f"{what}: last_time must come before time = {time} s; row {bad} has {last_time[bad]} s")
-    M, N = len(last), len(contacts)
-    if M == 0 or N == 0:
-        return np.empty(0, np.int64), np.empty(0, np.int64)
-    gap = time - last_time
-    if M * N <= DENSE_PAIRS:
-        dx = contacts[:, 0] - last[:, 0, None]
-        dy = contacts[:, 1] - last[:, 1, None]
-        d2 = dx * dx + dy * dy
-        lo, hi = (MIN_SPEED_M_S * (1.0 - _REACH_MARGIN)) * gap, (MAX_SPEED_M_S * (1.0 + _REACH_MARGIN)) * gap
-        track, contact = np.nonzero((d2 >= (lo * lo)[:, None]) & (d2 <= (hi * hi)[:, None]))
-    else:
-        track, contact = _within_reach(last, MAX_SPEED_M_S * gap, contacts)
-    ok = passes_gate(last[track], last_time[track], sector(last_azimuth[track]),
-                     contacts[contact], time, sector(contact_azimuth[contact]))
-    return track[ok], contact[ok]
+    return feature_kernels.candidates(last, last_time, last_azimuth, contacts, contact_azimuth, time)

@@ -34,8 +34,9 @@ import numpy as np
 
 from nnda.errors import ModelError
 from nnda.filters.imm import IMM, IMMPrediction
-from nnda.filters.kalman import mahalanobis_2x2
+from nnda.filters.measurement import PolarMeasurement
 from nnda.filters.motion import CoordinatedTurn
+from nnda.models import feature_kernels
 from nnda.models.features import KINEMATIC, FeatureSet
 
 ADDED_NAMES = ("innovation_range_sigma", "innovation_azimuth_sigma", "mahalanobis_d2", "log_det_s",
@@ -66,21 +67,16 @@ def innovation_features(
     (P,) the pair's row in it; ``contacts`` (P, 2) the candidates' polar
     measurements [range m, azimuth rad]; ``kinematic`` (P, 3) the seed's
     features of the same pairs (`pair_features`); ``age`` (P,) the time (s)
-    from each pair's track's first contact to the scan.
+    from each pair's track's first contact to the scan. The azimuth
+    residual of a polar measurement is wrapped, as
+    `PolarMeasurement.residual`; the columns are computed in one compiled
+    loop (`feature_kernels.innovation`).
     """
     n = len(track)
     if contacts.shape != (n, 2) or kinematic.shape != (n, KINEMATIC.size) or np.shape(age) != (n,):
         raise ModelError(f"innovation features: expected contacts ({n}, 2), kinematic ({n}, 3) and age ({n},), "
                          f"got {contacts.shape}, {kinematic.shape}, {np.shape(age)}")
     gate = imm.combined_measurement(pred)
-    nu = imm.measurement.residual(contacts, gate.z[track])
-    S = gate.S[track]
-    out = np.empty((n, IMM_INNOVATION.size))
-    out[:, :3] = kinematic
-    out[:, 3] = nu[:, 0] / np.sqrt(S[:, 0, 0])
-    out[:, 4] = nu[:, 1] / np.sqrt(S[:, 1, 1])
-    out[:, 5] = mahalanobis_2x2(nu, gate.S_inv[track])
-    out[:, 6] = gate.log_det_S[track]
-    out[:, 7] = pred.state.mu[track, _ct_index(imm)]
-    out[:, 8] = age
-    return out
+    return feature_kernels.innovation(kinematic, np.asarray(track, np.int64), np.asarray(contacts, float), gate.z,
+                                      gate.S, gate.S_inv, gate.log_det_S, pred.state.mu, _ct_index(imm),
+                                      np.asarray(age, float), isinstance(imm.measurement, PolarMeasurement))
