@@ -45,7 +45,7 @@ _jit = numba.njit(cache=True, nogil=True, error_model="numpy")  # x / 0 gives in
 
 
 @_jit
-def _wrap(a):
+def wrap_angle_kernel(a):
     """An angle (rad) wrapped to [-pi, pi), as `nnda.data.sensor.wrap_angle`."""
     return (a + math.pi) % TWO_PI - math.pi
 
@@ -207,7 +207,7 @@ def update(x, P, mu, z, mask, z_pred, S_inv, log_det, PHt, polar):
             nu0 = z[k, 0] - z_pred[k, j, 0]
             nu1 = z[k, 1] - z_pred[k, j, 1]
             if polar:
-                nu1 = _wrap(nu1)
+                nu1 = wrap_angle_kernel(nu1)
             Si = S_inv[k, j]
             for a in range(n):
                 gain[a, 0] = PHt[k, j, a, 0] * Si[0, 0] + PHt[k, j, a, 1] * Si[1, 0]
@@ -265,7 +265,7 @@ def mahalanobis(z_pred, S_inv, Z, polar):
             n0 = Z[m, 0] - z_pred[b, 0]
             n1 = Z[m, 1] - z_pred[b, 1]
             if polar:
-                n1 = _wrap(n1)
+                n1 = wrap_angle_kernel(n1)
             d2[b, m] = s00 * n0 * n0 + s01 * n0 * n1 + s11 * n1 * n1
     return d2
 
@@ -287,7 +287,7 @@ def pair_log_likelihood(z_pred, S_inv, log_det, mu, rows, Z, polar):
             n0 = Z[p, 0] - z_pred[k, j, 0]
             n1 = Z[p, 1] - z_pred[k, j, 1]
             if polar:
-                n1 = _wrap(n1)
+                n1 = wrap_angle_kernel(n1)
             d2 = (S_inv[k, j, 0, 0] * n0 * n0 + (S_inv[k, j, 0, 1] + S_inv[k, j, 1, 0]) * n0 * n1
                   + S_inv[k, j, 1, 1] * n1 * n1)
             terms[j] = (-0.5 * (d2 + log_det[k, j]) - LOG_2PI) + math.log(mu[k, j] + TINY)

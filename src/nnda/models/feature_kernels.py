@@ -27,7 +27,7 @@ import math
 import numba
 import numpy as np
 
-from nnda.filters.imm_kernels import _wrap
+from nnda.filters.imm_kernels import wrap_angle_kernel
 
 N_SECTORS = 16
 MIN_SPEED_M_S = 30.0
@@ -241,7 +241,7 @@ def kinematic(p1, t1, p2, t2, c, tc):
         lx, ly = p2[i, 0] - p1[i, 0], p2[i, 1] - p1[i, 1]
         sx, sy = c[i, 0] - p2[i, 0], c[i, 1] - p2[i, 1]
         out[i, 0] = math.hypot(sx, sy) / gap - math.hypot(lx, ly) / before
-        turn = -_wrap(math.atan2(lx, ly) - math.atan2(sx, sy))  # course: bearing clockwise from north
+        turn = -wrap_angle_kernel(math.atan2(lx, ly) - math.atan2(sx, sy))  # course: bearing clockwise from north
         out[i, 1] = turn * RAD_TO_DEG / gap
         out[i, 2] = gap
         if not (before > 0.0 and gap > 0.0 and math.isfinite(before) and math.isfinite(out[i, 0])
@@ -269,7 +269,7 @@ def innovation(kin, track, z, z_pred, S, S_inv, log_det, mu, ct, age, polar):
         n0 = z[i, 0] - z_pred[k, 0]
         n1 = z[i, 1] - z_pred[k, 1]
         if polar:
-            n1 = _wrap(n1)
+            n1 = wrap_angle_kernel(n1)
         out[i, 3] = n0 / math.sqrt(S[k, 0, 0])
         out[i, 4] = n1 / math.sqrt(S[k, 1, 1])
         out[i, 5] = S_inv[k, 0, 0] * n0 * n0 + (S_inv[k, 0, 1] + S_inv[k, 1, 0]) * n0 * n1 + S_inv[k, 1, 1] * n1 * n1

@@ -5,9 +5,9 @@ Each scan, for all live tracks at once:
 1. *gate*: a contact is a candidate for a track if it lies in the azimuth
    sector of the track's last contact or one of its two neighbours, and if
    reaching it from that contact needs a speed of 30..400 m/s
-   (`nnda.models.features.candidate_pairs`, the gating used for training;
-   on large scans it searches k-d trees within the speed gate's reach, so
-   the work grows with the candidate pairs, not with tracks x contacts);
+   (`nnda.models.features.candidate_pairs`, the gating used for training:
+   a compiled search of the contacts on a grid of the speed gate's reach,
+   so the work grows with the candidate pairs, not with tracks x contacts);
 2. *score*: the pair features of every candidate pair go through the numpy
    scorer in one call per scan. The features are those of the set the model
    was trained on (`nnda.models.feature_sets`), computed by the training
