@@ -307,9 +307,9 @@ def test_reacquire_is_the_nearest_free_pick_of_the_waiting_tracks(seed):
     rng = np.random.default_rng(seed)
     P = int(rng.integers(0, 30))
     rows, cols, d2 = rng.integers(0, 5, P), rng.integers(0, 7, P), rng.integers(0, 15, P).astype(float)
-    waiting, taken = rng.random(5) < 0.6, np.flatnonzero(rng.random(7) < 0.3)
+    waiting, taken = rng.random(5) < 0.6, rng.random(7) < 0.3
     r, c = reacquire(rows, cols, d2, waiting, taken, 9.21)
-    eligible = [i for i in range(P) if waiting[rows[i]] and cols[i] not in taken and d2[i] <= 9.21]
+    eligible = [i for i in range(P) if waiting[rows[i]] and not taken[cols[i]] and d2[i] <= 9.21]
     expected = sequential_greedy(rows[eligible], cols[eligible], -d2[eligible])
     assert list(zip(r.tolist(), c.tolist())) == expected
     left = [i for i in eligible if rows[i] not in r and cols[i] not in c]

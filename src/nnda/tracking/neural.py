@@ -192,14 +192,14 @@ class NeuralTracker(SingleHypothesisTracker):
             after_miss = (tracks.status[track] == CONFIRMED) & (tracks.consecutive[track] >= 1)
             if after_miss.any():
                 g = self._gated(pred, scan)
-                inside = np.isin(track * len(scan.z) + cand, g.rows * len(scan.z) + g.cols)
+                inside = _among(track * len(scan.z) + cand, g.rows * len(scan.z) + g.cols)
                 keep = ~after_miss | inside
                 track, cand, score = track[keep], cand[keep], score[keep]
         if self.config.confirmed_first:  # the confirmed tracks pick, and re-acquire, before the others
             first = tracks.status[track] == CONFIRMED
             self._pick(contact, track[first], cand[first], score[first])
             contact = self._reacquired(tracks, pred, scan, contact)
-            rest = ~first & ~np.isin(cand, contact[contact != NO_CONTACT])
+            rest = ~first & ~_given(contact, len(scan.z))[cand]
             self._pick(contact, track[rest], cand[rest], score[rest])
         else:
             self._pick(contact, track, cand, score)
@@ -250,7 +250,7 @@ class NeuralTracker(SingleHypothesisTracker):
         if not waiting.any():
             return contact
         g = self._gated(pred, scan)
-        rows, cols = reacquire(g.rows, g.cols, g.d2, waiting, contact[contact != NO_CONTACT], cfg.coast_gate)
+        rows, cols = reacquire(g.rows, g.cols, g.d2, waiting, _given(contact, len(scan.z)), cfg.coast_gate)
         contact = contact.copy()
         contact[rows] = cols
         return contact
@@ -299,9 +299,24 @@ def reacquire(rows: np.ndarray, cols: np.ndarray, d2: np.ndarray, waiting: np.nd
     """Nearest-neighbour picks of the rows still ``waiting`` for a contact, by the IMM's gate.
 
     ``rows``, ``cols`` (P,) index the candidate pairs' tracks and contacts, ``d2`` (P,) their squared
-    Mahalanobis distances; ``waiting`` (K,) flags the tracks that may pick, ``taken`` the contacts
+    Mahalanobis distances; ``waiting`` (K,) flags the tracks that may pick, ``taken`` (N,) the contacts
     already given. Pairs of a waiting row with a free contact and d² <= ``gate`` are matched one-to-one
     by ascending d² (`greedy_matching`). Returns the (rows, cols) picked.
     """
-    free = waiting[rows] & (d2 <= gate) & ~np.isin(cols, taken)
+    free = waiting[rows] & (d2 <= gate) & ~taken[cols]
     return greedy_matching(rows[free], cols[free], -d2[free])
+
+
+def _given(contact: np.ndarray, n: int) -> np.ndarray:
+    """(n,) True for the contacts some track of ``contact`` (K,) took (np.isin costs tens of µs a call)."""
+    given = np.zeros(n, bool)
+    given[contact[contact != NO_CONTACT]] = True
+    return given
+
+
+def _among(keys: np.ndarray, sorted_keys: np.ndarray) -> np.ndarray:
+    """(P,) True for the ``keys`` found in ``sorted_keys`` (ascending), by binary search."""
+    if not sorted_keys.size:
+        return np.zeros(keys.size, bool)
+    pos = np.minimum(np.searchsorted(sorted_keys, keys), sorted_keys.size - 1)
+    return sorted_keys[pos] == keys
