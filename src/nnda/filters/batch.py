@@ -53,6 +53,15 @@ class Batch:
         cls = type(self)
         return cls(*[v._rows(index) if isinstance(v, Batch) else v[index] for v in _values(cls)(self)])
 
+    def replaced(self, **changes: object) -> Self:
+        """This batch with the fields named in ``changes`` replaced (``dataclasses.replace`` without its
+        per-call field inspection: the trackers replace a field or two every scan)."""
+        cls = type(self)
+        unknown = changes.keys() - set(_names(cls))
+        if unknown:
+            raise FilterError(f"{cls.__name__}.replaced: no field(s) {', '.join(sorted(unknown))}")
+        return cls(*[changes.get(name, value) for name, value in zip(_names(cls), _values(cls)(self))])
+
     @classmethod
     def concat(cls, batches: Sequence[Self]) -> Self:
         """One batch holding the tracks of ``batches`` in order."""

@@ -318,9 +318,10 @@ class IMM:
             self._check_predict(state, dt)
         if not dt.ndim:
             dt = np.full(len(state), float(dt))
-        xp, Pp, mu_pred = imm_kernels.mix_predict(state.x, state.P, state.mu, dt, self._tpm, self._kinds,
-                                                  self._dims, self._omega_max, self._noise_basis, self._augment)
-        return IMMPrediction(IMMState(xp, Pp, mu_pred), self.measurement_prediction(xp, Pp))
+        xp, Pp, mu_pred, *measured = imm_kernels.predict(
+            state.x, state.P, state.mu, dt, self._tpm, self._kinds, self._dims, self._omega_max, self._noise_basis,
+            self._augment, self._polar, self._origin, self.measurement.R)
+        return IMMPrediction(IMMState(xp, Pp, mu_pred), _measured(xp.shape[:-1], *measured))
 
     def _check_predict(self, state: IMMState, dt: np.ndarray) -> None:
         K = len(state)
@@ -406,16 +407,9 @@ class IMM:
 
         Raises FilterError if an innovation covariance is not positive definite.
         """
-        lead, n = x.shape[:-1], x.shape[-1]
-        z, S, S_inv, log_det, Ht, PHt, bad = imm_kernels.measure(x.reshape(-1, n), P.reshape(-1, n, n),
-                                                                 self._polar, self._origin, self.measurement.R)
-        if bad >= 0:
-            where = tuple(int(i) for i in np.unravel_index(bad, lead))
-            raise FilterError(f"innovation covariance at batch index {where} is not positive definite: "
-                              f"{S[bad].tolist()}")
-        return MeasurementPrediction(z.reshape(*lead, 2), S.reshape(*lead, 2, 2), S_inv.reshape(*lead, 2, 2),
-                                     log_det.reshape(lead), Ht.reshape(*lead, n, 2).swapaxes(-1, -2),
-                                     PHt.reshape(*lead, n, 2))
+        n = x.shape[-1]
+        return _measured(x.shape[:-1], *imm_kernels.measure(x.reshape(-1, n), P.reshape(-1, n, n), self._polar,
+                                                            self._origin, self.measurement.R))
 
     def mahalanobis(self, mp: MeasurementPrediction, Z: np.ndarray) -> np.ndarray:
         """Squared Mahalanobis distances (*B, N) of N measurements Z (N, 2) from each prediction in ``mp``.
@@ -439,13 +433,15 @@ class IMM:
         K, N = len(pred.state), len(Z)
         return self._pairs(pred, np.repeat(np.arange(K), N), np.tile(Z, (K, 1))).reshape(K, N)
 
-    def pair_log_likelihood(self, pred: IMMPrediction, rows: np.ndarray, Z: np.ndarray) -> np.ndarray:
+    def pair_log_likelihood(self, pred: IMMPrediction, rows: np.ndarray, Z: np.ndarray, *,
+                            check: bool = True) -> np.ndarray:
         """`log_likelihood` for P (track, measurement) pairs only: track ``rows`` (P,), Z (P, 2).
 
         Returns (P,); the sparse form gating uses when K x N is large (compiled:
-        `imm_kernels.pair_log_likelihood`).
+        `imm_kernels.pair_log_likelihood`). ``check=False`` skips the check of Z (for callers whose
+        contacts are checked already, such as the trackers' scan loop).
         """
-        return self._pairs(pred, np.asarray(rows, np.int64), self._checked_contacts(Z))
+        return self._pairs(pred, np.asarray(rows, np.int64), self._checked_contacts(Z) if check else Z)
 
     def _pairs(self, pred: IMMPrediction, rows: np.ndarray, Z: np.ndarray) -> np.ndarray:
         mp = pred.measurement
@@ -456,3 +452,18 @@ class IMM:
         Z = check_array("Z", Z, (None, 2), error=FilterError)
         self.measurement.validate("Z", Z)
         return Z
+
+
+def _measured(lead: tuple[int, ...], z: np.ndarray, S: np.ndarray, S_inv: np.ndarray, log_det: np.ndarray,
+              Ht: np.ndarray, PHt: np.ndarray, bad: int) -> MeasurementPrediction:
+    """`imm_kernels.measure`'s outputs over B = prod(lead) states (z (B, 2), S, S_inv (B, 2, 2), log_det
+    (B,), Ht, PHt (B, n, 2), the first bad index) as a `MeasurementPrediction` of leading shape ``lead``;
+    raises FilterError if an innovation covariance is not positive definite."""
+    if bad >= 0:
+        where = tuple(int(i) for i in np.unravel_index(bad, lead))
+        raise FilterError(f"innovation covariance at batch index {where} is not positive definite: "
+                          f"{S[bad].tolist()}")
+    n = Ht.shape[1]
+    return MeasurementPrediction(z.reshape(*lead, 2), S.reshape(*lead, 2, 2), S_inv.reshape(*lead, 2, 2),
+                                 log_det.reshape(lead), Ht.reshape(*lead, n, 2).swapaxes(-1, -2),
+                                 PHt.reshape(*lead, n, 2))

@@ -2,6 +2,7 @@
 
     xp, Pp, mu_p = mix_predict(x, P, mu, dt, tpm, kinds, dims, omega_max, basis, augment)   # eqs. 4.46-4.49
     z, S, S_inv, log_det, Ht, PHt, bad = measure(xp2, Pp2, polar, origin, R)             # (B, n) states
+    xp, Pp, mu_p, z, S, S_inv, log_det, Ht, PHt, bad = predict(x, P, mu, dt, ..., R)    # both, one call
     x, P, mu = update(xp, Pp, mu_p, z, mask, z_pred, S_inv, log_det, PHt, polar)        # eqs. 4.50-4.53
     xc, Pc = estimate(x, P, mu, d)                                                     # eqs. 4.54-4.55
     d2 = mahalanobis(z_pred, S_inv, Z, polar)                                           # (B, N) gate distances
@@ -187,6 +188,17 @@ def measure(x, P, polar, origin, R):
         else:
             log_det[b] = math.log(det)
     return z, S, S_inv, log_det, Ht, PHt, bad
+
+
+@_jit
+def predict(x, P, mu, dt, tpm, kinds, dims, omega_max, basis, augment, polar, origin, R):
+    """`mix_predict`, then `measure` of every model's prediction, in one call (a scan's prediction): xp
+    (K, r, n), Pp (K, r, n, n), mu_pred (K, r), then `measure`'s outputs over the K r predictions (K r
+    leading, track-major)."""
+    xp, Pp, mu_pred = mix_predict(x, P, mu, dt, tpm, kinds, dims, omega_max, basis, augment)
+    K, r, n = xp.shape
+    z, S, S_inv, log_det, Ht, PHt, bad = measure(xp.reshape(K * r, n), Pp.reshape(K * r, n, n), polar, origin, R)
+    return xp, Pp, mu_pred, z, S, S_inv, log_det, Ht, PHt, bad
 
 
 @_jit

@@ -232,23 +232,47 @@ def advance_score(status: np.ndarray, score: np.ndarray, max_score: np.ndarray, 
     """One scan of the score rule for K tracks whose ``score`` (K,) is already this scan's (and ``max_score``
     its maximum so far): the new status (module docstring). A track not ``observed`` keeps its status.
     ``confirm_at`` (K,) is each track's confirmation threshold under ``false_tracks_per_scan`` (that of its
-    birth, `rate_threshold`); None: Wald's for ``false_confirmation``."""
+    birth, `rate_threshold`); None: Wald's for ``false_confirmation``. One compiled loop over the tracks
+    (`_advance_score`)."""
     exist = cfg.confirmation == "existence"
     if exist:  # thresholds on the existence probability's log-odds
         lower, upper = (math.log(p) - math.log1p(-p) for p in (cfg.existence_deletion, cfg.existence_confirmation))
     else:
         lower, upper = cfg.score_thresholds
-        upper = upper if confirm_at is None else confirm_at
     early = sprt_thresholds(cfg.false_confirmation, cfg.preliminary_false_deletion)[0]
+    status = np.asarray(status)
+    upper = (np.asarray(confirm_at, float) if confirm_at is not None and not exist
+             else np.full(status.size, float(upper)))
+    return _advance_score(status, np.asarray(score, float), np.asarray(max_score, float),
+                          _everywhere(observed, status.size), upper, lower, early, exist)
+
+
+@numba.njit(cache=True, nogil=True)
+def _advance_score(status, score, max_score, observed, upper, lower, early, exist):
+    """`advance_score`'s loop over K tracks, all arrays (K,): a preliminary track is confirmed at ``upper``
+    and then deleted where its score (existence: its log-odds' fall from the maximum) is at most ``early``; a
+    confirmed track is deleted where its score's fall from the maximum (existence: its log-odds) is at most
+    ``lower``; a track not ``observed`` keeps its status."""
     new = status.copy()
-    prelim = status == PRELIMINARY
-    new[prelim & (score >= upper)] = CONFIRMED
-    # a confirmed track's score falls from its maximum, its existence (log-odds) to the threshold itself;
-    # a preliminary track's score to the threshold itself, its existence from its maximum
-    fallen = score - max_score
-    new[prelim & ((fallen if exist else score) <= early)] = DELETED
-    new[(status == CONFIRMED) & ((score if exist else fallen) <= lower)] = DELETED
-    return new if observed is None else np.where(observed, new, status)
+    for k in range(status.size):
+        if not observed[k]:
+            continue
+        # a confirmed track's score falls from its maximum, its existence (log-odds) to the threshold itself;
+        # a preliminary track's score to the threshold itself, its existence from its maximum
+        fallen = score[k] - max_score[k]
+        if status[k] == PRELIMINARY:
+            if score[k] >= upper[k]:
+                new[k] = CONFIRMED
+            if (fallen if exist else score[k]) <= early:
+                new[k] = DELETED
+        elif status[k] == CONFIRMED and (score[k] if exist else fallen) <= lower:
+            new[k] = DELETED
+    return new
+
+
+def _everywhere(observed: np.ndarray | None, K: int) -> np.ndarray:
+    """``observed`` (K,) as a boolean array; None: every track observed."""
+    return np.ones(K, np.bool_) if observed is None else np.asarray(observed, np.bool_)
 
 
 def predicted_log_odds(log_odds: np.ndarray, survival: float) -> np.ndarray:
@@ -405,19 +429,35 @@ def advance(status: np.ndarray, hits: np.ndarray, misses: np.ndarray, consecutiv
     consecutive misses. Call once per scan for each existing preliminary or
     confirmed track. A track not ``observed`` (K,) by the scan (outside the
     coverage of the sensor that swept it; default: all observed) keeps its
-    counters and status. Returns new (status, hits, misses, consecutive).
+    counters and status. Returns new (status, hits, misses, consecutive),
+    from one compiled loop over the tracks (`_advance`).
     """
-    detected = np.asarray(detected, bool)
-    status_before, hits_before, misses_before, consecutive_before = status, hits, misses, consecutive
-    hits = hits + detected
-    misses = misses + ~detected
-    consecutive = np.where(detected, 0, consecutive + 1)
-    status = status.copy()
-    prelim = status == PRELIMINARY
-    status[prelim & (hits >= cfg.m)] = CONFIRMED
-    status[prelim & (misses >= cfg.n - cfg.m + 1)] = DELETED
-    status[(status == CONFIRMED) & (consecutive > cfg.max_misses)] = DELETED
-    if observed is None:
-        return status, hits, misses, consecutive
-    return tuple(np.where(observed, new, old) for new, old in (
-        (status, status_before), (hits, hits_before), (misses, misses_before), (consecutive, consecutive_before)))
+    status = np.asarray(status)
+    return _advance(status, np.asarray(hits, np.int64), np.asarray(misses, np.int64),
+                    np.asarray(consecutive, np.int64), np.asarray(detected, np.bool_),
+                    _everywhere(observed, status.size), cfg.m, cfg.n - cfg.m + 1, cfg.max_misses)
+
+
+@numba.njit(cache=True, nogil=True)
+def _advance(status, hits, misses, consecutive, detected, observed, m, misses_to_delete, max_misses):
+    """`advance`'s loop over K tracks, all arrays (K,): a preliminary track is confirmed at ``m`` hits and
+    then deleted at ``misses_to_delete`` misses, a confirmed one (also one just confirmed) at more than
+    ``max_misses`` consecutive misses; a track not ``observed`` keeps its status and counters."""
+    status, hits, misses, consecutive = status.copy(), hits.copy(), misses.copy(), consecutive.copy()
+    for k in range(status.size):
+        if not observed[k]:
+            continue
+        if detected[k]:
+            hits[k] += 1
+            consecutive[k] = 0
+        else:
+            misses[k] += 1
+            consecutive[k] += 1
+        if status[k] == PRELIMINARY:
+            if hits[k] >= m:
+                status[k] = CONFIRMED
+            if misses[k] >= misses_to_delete:
+                status[k] = DELETED
+        if status[k] == CONFIRMED and consecutive[k] > max_misses:
+            status[k] = DELETED
+    return status, hits, misses, consecutive

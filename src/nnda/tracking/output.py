@@ -58,7 +58,8 @@ class TrackerOutput:
         if not blocks:
             return cls.empty(scan, time)
         ids, status, x, P, contact = (np.concatenate(parts) for parts in zip(*blocks))
-        return cls(scan, time, ids.astype(np.int64), status.astype(np.int8), x, P, contact.astype(np.int64))
+        return cls(scan, time, ids.astype(np.int64, copy=False), status.astype(np.int8, copy=False), x, P,
+                   contact.astype(np.int64, copy=False))
 
     @property
     def confirmed(self) -> np.ndarray:

@@ -42,7 +42,7 @@ import math
 import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from functools import cached_property
 from typing import ClassVar, Protocol, runtime_checkable
 
@@ -429,7 +429,7 @@ class ContactTracker(ABC):
         if self.confirmation_rule == "existence":
             score += birth_log_odds(self.score_pd, cfg.new_targets_per_scan / coverage_area(sensor),
                                     local_density(scan.xy, born.p1, self._clutter_radius, sensor))
-        return replace(born, score=score, max_score=score.copy())
+        return born.replaced(score=score, max_score=score.copy())
 
     def _score_gain(self, pred: IMMPrediction, scan: ScanContacts, assoc: Association) -> np.ndarray | None:
         """The scan's track-score increments (K,) under the score rule (None under M/N): the method's own,
@@ -443,7 +443,7 @@ class ContactTracker(ABC):
         rows = np.flatnonzero(c != NO_CONTACT)
         if rows.size:
             j = c[rows]
-            gain[rows] = (math.log(self.score_pd) + scan.filter.pair_log_likelihood(pred, rows, scan.z[j])
+            gain[rows] = (math.log(self.score_pd) + scan.filter.pair_log_likelihood(pred, rows, scan.z[j], check=False)
                           - np.log(self.clutter_density(scan, j)))
         return gain
 
@@ -536,7 +536,7 @@ class SingleHypothesisTracker(ContactTracker):
         if tracks is not None:
             if self.confirmation_rule == "existence":  # IPDA's Markov prediction of the existence probability
                 survival = self.config.lifecycle.survival_probability
-                tracks = replace(tracks, score=predicted_log_odds(tracks.score, survival))
+                tracks = tracks.replaced(score=predicted_log_odds(tracks.score, survival))
             pred = sc.filter.predict(tracks.filt, time - tracks.t2, check=False)
             assoc = self.associate(tracks, pred, sc)
             c = assoc.contact
@@ -548,7 +548,9 @@ class SingleHypothesisTracker(ContactTracker):
             tracks = tracks.after_scan(c, _pick(det, assoc.filt, tracks.filt), z, xy, time, self.config.lifecycle,
                                        observed, self._score_gain(pred, sc, assoc))
             x, P = self.filter.estimate(assoc.filt)
-            tracks = replace(tracks, status=self._judged(before, tracks.status, x, P))
+            judged = self._judged(before, tracks.status, x, P)
+            if judged is not tracks.status:  # a sanity rule deleted a track (most scans: none)
+                tracks = tracks.replaced(status=judged)
             shown.append((tracks, x, P, c))
             alive = np.flatnonzero(tracks.status != DELETED)
             tracks = None if not alive.size else tracks if alive.size == len(tracks) else tracks.take(alive)
@@ -592,7 +594,7 @@ class SingleHypothesisTracker(ContactTracker):
             gone = np.flatnonzero(~keep[:old])
             shown_status = block.status.copy()
             shown_status[np.flatnonzero(block.status != DELETED)[gone]] = DELETED
-            shown[0] = (replace(block, status=shown_status), x, P, c)
+            shown[0] = (block.replaced(status=shown_status), x, P, c)
             tracks = tracks.take(np.flatnonzero(keep[:old])) if keep[:old].any() else None
         new = np.flatnonzero(keep[old:])
         return tracks, (born.take(new) if new.size else None), contact[new]
