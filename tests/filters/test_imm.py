@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -98,6 +99,17 @@ def test_take_and_concat():
     with pytest.raises(FilterError, match="nothing"):
         IMMState.concat([])
 
+
+
+def test_replaced_is_dataclasses_replace():
+    state = IMM().initialise(*(tracks(4)[:, i] for i in (0, 1)), 0.0, 2.0)
+    mu = np.full_like(state.mu, 0.5)
+    got, want = state.replaced(mu=mu), dataclasses.replace(state, mu=mu)
+    assert type(got) is IMMState and got.x is state.x and got.P is state.P and got.mu is mu
+    for name in ("x", "P", "mu"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
+    with pytest.raises(FilterError, match="no field"):
+        state.replaced(sigma=mu)
 
 def test_gating_distances_and_log_likelihoods_against_every_contact():
     imm = IMM()

@@ -2,11 +2,22 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from pydantic import ValidationError
 
-from nnda.tracking.lifecycle import LifecycleConfig, advance, cap_per_initiator, window_pairs
+from nnda.tracking.lifecycle import (
+    LifecycleConfig,
+    advance,
+    advance_score,
+    cap_per_initiator,
+    sprt_thresholds,
+    window_pairs,
+)
 from nnda.tracking.output import TrackStatus as S
 
 # Spec Table 2.1 (M = 2, N = 3): detection history from scan 3 on -> class
@@ -94,3 +105,75 @@ def test_cap_per_initiator_keeps_the_pairs_nearest_the_window_middle():
     assert ci.tolist() == [0, 0, 1] and cj.tolist() == [1, 2, 4]  # 260 and 300 m are nearest 270 m
     same = cap_per_initiator(i, j, init, contacts, 50.0, 490.0, None)
     assert same[0].tolist() == i.tolist() and same[1].tolist() == j.tolist()
+
+
+def _one_track(status, hits, misses, consecutive, detected, cfg):
+    """The M/N rule for one track, written out (the oracle of `advance`)."""
+    hits, misses = hits + detected, misses + (not detected)
+    consecutive = 0 if detected else consecutive + 1
+    if status == S.PRELIMINARY and misses >= cfg.n - cfg.m + 1:
+        status = S.DELETED
+    elif status == S.PRELIMINARY and hits >= cfg.m:
+        status = S.CONFIRMED
+    if status == S.CONFIRMED and consecutive > cfg.max_misses:
+        status = S.DELETED
+    return status, hits, misses, consecutive
+
+
+def _one_score(status, score, max_score, confirm_at, cfg):
+    """The score and existence rules for one track, written out (the oracle of `advance_score`)."""
+    early = sprt_thresholds(cfg.false_confirmation, cfg.preliminary_false_deletion)[0]
+    if cfg.confirmation == "existence":
+        logit = [math.log(p / (1 - p)) for p in (cfg.existence_deletion, cfg.existence_confirmation)]
+        if status == S.PRELIMINARY:
+            return S.DELETED if score - max_score <= early else S.CONFIRMED if score >= logit[1] else status
+        return S.DELETED if status == S.CONFIRMED and score <= logit[0] else status
+    lower, upper = cfg.score_thresholds
+    if status == S.PRELIMINARY:
+        upper = upper if confirm_at is None else confirm_at
+        return S.DELETED if score <= early else S.CONFIRMED if score >= upper else status
+    return S.DELETED if status == S.CONFIRMED and score - max_score <= lower else status
+
+
+tracks = st.integers(0, 30)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), K=tracks, m=st.integers(1, 4), extra=st.integers(0, 3),
+       max_misses=st.integers(0, 4), some_unobserved=st.booleans())
+def test_advance_equals_the_rule_track_by_track(seed, K, m, extra, max_misses, some_unobserved):
+    rng = np.random.default_rng(seed)
+    cfg = LifecycleConfig(m=m, n=m + extra, max_misses=max_misses)
+    status = rng.choice([S.PRELIMINARY, S.CONFIRMED], K).astype(np.int8)
+    hits, misses, consecutive = (rng.integers(0, 6, K) for _ in range(3))
+    detected = rng.random(K) < 0.5
+    observed = rng.random(K) < 0.7 if some_unobserved else None
+    before = [a.copy() for a in (status, hits, misses, consecutive)]
+    got = advance(status, hits, misses, consecutive, detected, cfg, observed)
+    for a, b in zip((status, hits, misses, consecutive), before):
+        np.testing.assert_array_equal(a, b)  # the inputs are not written
+    assert got[0].dtype == np.int8 and all(a.dtype == np.int64 for a in got[1:])
+    for k in range(K):
+        want = ((status[k], hits[k], misses[k], consecutive[k]) if observed is not None and not observed[k] else
+                _one_track(status[k], hits[k], misses[k], consecutive[k], detected[k], cfg))
+        assert tuple(int(a[k]) for a in got) == tuple(int(w) for w in want), k
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), K=tracks, rule=st.sampled_from(["score", "existence"]),
+       per_track=st.booleans(), some_unobserved=st.booleans())
+def test_advance_score_equals_the_rule_track_by_track(seed, K, rule, per_track, some_unobserved):
+    rng = np.random.default_rng(seed)
+    cfg = LifecycleConfig(confirmation=rule)
+    status = rng.choice([S.PRELIMINARY, S.CONFIRMED, S.DELETED], K).astype(np.int8)
+    max_score = rng.uniform(-5.0, 20.0, K)
+    score = max_score - rng.choice([0.0, 1.0, 3.0, 8.0], K) * rng.random(K)
+    score[rng.random(K) < 0.2] = -2.0  # some scores at the thresholds' scale
+    confirm_at = rng.uniform(5.0, 15.0, K) if per_track else None
+    observed = rng.random(K) < 0.7 if some_unobserved else None
+    got = advance_score(status, score, max_score, cfg, observed, confirm_at)
+    assert got.dtype == np.int8
+    for k in range(K):
+        want = (status[k] if observed is not None and not observed[k] else
+                _one_score(status[k], score[k], max_score[k], None if confirm_at is None else confirm_at[k], cfg))
+        assert int(got[k]) == int(want), k
