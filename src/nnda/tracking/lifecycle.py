@@ -80,6 +80,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Annotated, Literal
 
@@ -88,7 +89,8 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from nnda.data.scenario import Sensor
-from nnda.data.sensor import cart_to_polar_at, wrap_angle
+from nnda.data.sensor import TWO_PI
+from nnda.filters.imm_kernels import wrap_angle_kernel
 from nnda.tracking.output import CONFIRMED, DELETED, PRELIMINARY
 
 
@@ -301,43 +303,106 @@ def jipda_log_ratio(log_ratio: np.ndarray, log_miss: float, rho: np.ndarray) -> 
 def position_sd(P: np.ndarray) -> np.ndarray:
     """Standard deviation (m) along the largest axis of the position covariance of states' covariances
     P (K, 4, 4) ([x, vx, y, vy]). Returns (K,)."""
-    a, b, c = P[:, 0, 0], P[:, 0, 2], P[:, 2, 2]
-    return np.sqrt(np.maximum(0.5 * (a + c) + np.hypot(0.5 * (a - c), b), 0.0))
+    P = np.asarray(P, float)
+    return _each(_position_sd, P, np.empty((0, 0)), 0.0, 0.0)
 
 
 def outside_coverage_m(sensor: Sensor, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """How far (m) positions (x, y) in m lie outside ``sensor``'s coverage (0 inside): the range beyond
-    its range limits and, for a sector, the cross-range distance beyond its edges, combined."""
-    r, azimuth = cart_to_polar_at(sensor.position, x, y)
-    along = np.maximum(np.maximum(sensor.min_range_m - r, r - sensor.max_range_m), 0.0)
-    if sensor.full_circle:
-        return along
-    beyond = np.maximum(np.abs(wrap_angle(azimuth - sensor.boresight_rad)) - sensor.half_fov_rad, 0.0)
-    return np.hypot(along, r * np.sin(np.minimum(beyond, 0.5 * np.pi)))
+    """How far (m) positions (x, y) in m (arrays of one shape) lie outside ``sensor``'s coverage (0 inside):
+    the range beyond its range limits and, for a sector, the cross-range distance beyond its edges,
+    combined."""
+    x, y = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float))
+    xy = np.stack([x.ravel(), y.ravel()], axis=-1)
+    return _each(_outside_m, xy, _coverage((sensor,)), 0.0, 0.0).reshape(x.shape)
 
 
 def gate_radius_m(P: np.ndarray, noise_m: float, gate: float) -> np.ndarray:
     """Radius (m) of a chi-square ``gate`` around states of covariance P (K, 4, 4): sqrt(gate) times the
     largest position standard deviation combined with the measurement noise ``noise_m`` (m)."""
-    return np.sqrt(gate * (position_sd(P) ** 2 + noise_m**2))
+    return _each(_gate_radius_m, np.asarray(P, float), np.empty((0, 0)), float(noise_m), float(gate))
 
 
 def sanity_reasons(x: np.ndarray, P: np.ndarray, sensors: tuple[Sensor, ...], gate: float,
                    cfg: LifecycleConfig) -> np.ndarray:
     """Which of K track states x (K, 4), P (K, 4, 4) are impossible, and why: (K,) int8 codes, 0 for a
     sane track, else 1 + the index in SANITY_REASONS of the first rule it breaks (module docstring).
-    ``gate`` is the tracker's chi-square gate (2 dof) for the coverage rule."""
-    code = np.zeros(len(x), np.int8)
-    if not len(x):
-        return code
-    if cfg.coverage_deletion:
-        noise = min(sensor_noise_m(s) for s in sensors)
-        outside = (outside_coverage_m(sensors[0], x[:, 0], x[:, 2]) if len(sensors) == 1 else
-                   np.min([outside_coverage_m(s, x[:, 0], x[:, 2]) for s in sensors], axis=0))
-        code[outside > gate_radius_m(P, noise, gate)] = 2
-    if cfg.max_position_sd_m is not None:
-        code[(code == 0) & (position_sd(P) > cfg.max_position_sd_m)] = 3
-    code[np.hypot(x[:, 1], x[:, 3]) > cfg.speed_limit] = 1
+    ``gate`` is the tracker's chi-square gate (2 dof) for the coverage rule. One compiled loop over the
+    tracks (`_sanity`)."""
+    max_sd = math.inf if cfg.max_position_sd_m is None else cfg.max_position_sd_m
+    return _sanity(np.asarray(x, float), np.asarray(P, float), _coverage(tuple(sensors)),
+                   min(sensor_noise_m(s) for s in sensors), float(gate), cfg.coverage_deletion, max_sd,
+                   cfg.speed_limit)
+
+
+@functools.cache
+def _coverage(sensors: tuple[Sensor, ...]) -> np.ndarray:
+    """(S, 7) the coverage of each sensor as `_outside_m` reads it: position x, y (m), range limits (m), 1 for
+    a full circle (else 0), boresight and half field of view (rad)."""
+    return np.array([[*s.position, s.min_range_m, s.max_range_m, float(s.full_circle), s.boresight_rad,
+                      s.half_fov_rad] for s in sensors])
+
+
+_kernel = numba.njit(cache=True, nogil=True)
+
+
+@_kernel
+def _position_sd(P, k, coverage, noise_m, gate):
+    """`position_sd` of track k of P (K, 4, 4)."""
+    a, b, c = P[k, 0, 0], P[k, 0, 2], P[k, 2, 2]
+    v = 0.5 * (a + c) + math.hypot(0.5 * (a - c), b)
+    return math.sqrt(0.0 if v < 0.0 else v)
+
+
+@_kernel
+def _gate_radius_m(P, k, coverage, noise_m, gate):
+    """`gate_radius_m` of track k of P (K, 4, 4)."""
+    sd = _position_sd(P, k, coverage, noise_m, gate)
+    return math.sqrt(gate * (sd * sd + noise_m * noise_m))
+
+
+@_kernel
+def _outside_m(xy, k, coverage, noise_m, gate):
+    """`outside_coverage_m` of position k of xy (K, 2) m: the least over the sensors' ``coverage`` (S, 7)
+    (`_coverage`)."""
+    least = math.inf
+    for s in range(coverage.shape[0]):
+        ox, oy, min_r, max_r, full, boresight, half_fov = coverage[s]
+        px, py = xy[k, 0] - ox, xy[k, 1] - oy
+        r = math.hypot(px, py)
+        along = max(min_r - r, r - max_r)
+        along = 0.0 if along < 0.0 else along
+        if full == 0.0:
+            beyond = abs(wrap_angle_kernel(math.atan2(px, py) % TWO_PI - boresight)) - half_fov
+            beyond = 0.0 if beyond < 0.0 else min(beyond, 0.5 * math.pi)
+            along = math.hypot(along, r * math.sin(beyond))
+        least = min(least, along)
+    return least
+
+
+@_kernel
+def _each(one, a, coverage, noise_m, gate):
+    """``one(a, k, coverage, noise_m, gate)`` for every k of a's first axis, (K,)."""
+    out = np.empty(a.shape[0])
+    for k in range(a.shape[0]):
+        out[k] = one(a, k, coverage, noise_m, gate)
+    return out
+
+
+@_kernel
+def _sanity(x, P, coverage, noise_m, gate, coverage_deletion, max_sd, speed_limit):
+    """`sanity_reasons`' loop over K tracks x (K, 4), P (K, 4, 4): the coverage rule against the sensors'
+    ``coverage`` (S, 7) (`_coverage`), then the position standard deviation against ``max_sd`` (m; inf: no
+    limit), then the speed against ``speed_limit`` (m/s), which overrides the other two."""
+    K = x.shape[0]
+    code = np.zeros(K, np.int8)
+    xy = x[:, 0:3:2]
+    for k in range(K):
+        if coverage_deletion and _outside_m(xy, k, coverage, 0.0, 0.0) > _gate_radius_m(P, k, coverage, noise_m, gate):
+            code[k] = 2
+        if code[k] == 0 and _position_sd(P, k, coverage, noise_m, gate) > max_sd:
+            code[k] = 3
+        if math.hypot(x[k, 1], x[k, 3]) > speed_limit:
+            code[k] = 1
     return code
 
 

@@ -46,6 +46,7 @@ from dataclasses import dataclass
 from functools import cached_property
 from typing import ClassVar, Protocol, runtime_checkable
 
+import numba
 import numpy as np
 from pydantic import BaseModel, ConfigDict
 
@@ -197,8 +198,6 @@ class Tracks(Batch):
         `lifecycle.advance_score` under the score rule) where the scan ``observed`` the track (default:
         everywhere)."""
         det = contact != NO_CONTACT
-        c = np.maximum(contact, 0)
-        d1 = det[:, None]
         status, hits, misses, consecutive = advance(self.status, self.hits, self.misses, self.consecutive,
                                                     det, lifecycle, observed)
         score, max_score = self.score, self.max_score
@@ -207,14 +206,26 @@ class Tracks(Batch):
             max_score = np.maximum(max_score, score)
         if lifecycle.confirmation != "mn":
             status = advance_score(self.status, score, max_score, lifecycle, observed, self.confirm_at)
+        p1, t1, p2, t2, az2 = _moved_history(contact, self.p1, self.t1, self.p2, self.t2, self.az2, xy, z[:, 1], time)
         return Tracks(
-            track_id=self.track_id, status=status, filt=filt,
-            p1=np.where(d1, self.p2, self.p1), t1=np.where(det, self.t2, self.t1),
-            p2=np.where(d1, xy[c] if len(xy) else 0.0, self.p2), t2=np.where(det, time, self.t2),
-            az2=np.where(det, z[c, 1] if len(z) else 0.0, self.az2),
+            track_id=self.track_id, status=status, filt=filt, p1=p1, t1=t1, p2=p2, t2=t2, az2=az2,
             hits=hits, misses=misses, consecutive=consecutive, score=score, max_score=max_score,
             confirm_at=self.confirm_at,
         )
+
+
+@numba.njit(cache=True, nogil=True)
+def _moved_history(contact, p1, t1, p2, t2, az2, xy, azimuth, time):
+    """`Tracks.after_scan`'s contact history of K tracks: where ``contact`` (K,) names a contact (not
+    NO_CONTACT), the last contact p2 (K, 2) m, t2 (K,) s becomes the one before (p1, t1) and the contact's
+    position xy (N, 2), ``azimuth`` (N,) rad and the scan ``time`` (s) the last (p2, t2, az2); copies."""
+    p1, t1, p2, t2, az2 = p1.copy(), t1.copy(), p2.copy(), t2.copy(), az2.copy()
+    for k in range(contact.size):
+        c = contact[k]
+        if c != NO_CONTACT:
+            p1[k, 0], p1[k, 1], t1[k] = p2[k, 0], p2[k, 1], t2[k]
+            p2[k, 0], p2[k, 1], t2[k], az2[k] = xy[c, 0], xy[c, 1], time, azimuth[c]
+    return p1, t1, p2, t2, az2
 
 
 @dataclass(frozen=True)
@@ -369,16 +380,14 @@ class ContactTracker(ABC):
         if gone.any():  # most scans delete nothing: skip the counts' four reductions
             self.deletions["unconfirmed"] += int((gone & (before == PRELIMINARY)).sum())
             self.deletions[self._ended_reason] += int((gone & (before == CONFIRMED)).sum())
-        live = np.flatnonzero(status != DELETED)
-        if live.size < status.size:
-            x, P = x[live], P[live]
         code = sanity_reasons(x, P, self.sensors, self.gate_threshold, self.config.lifecycle)
-        if not code.any():
+        if not code.any():  # most scans: every track sane
             return status
-        for i, reason in enumerate(SANITY_REASONS, start=1):
-            self.deletions[reason] += int((code == i).sum())
+        code[status == DELETED] = 0  # the life cycle deleted these already
+        for reason, n in zip(SANITY_REASONS, np.bincount(code, minlength=len(SANITY_REASONS) + 1)[1:]):
+            self.deletions[reason] += int(n)
         status = status.copy()
-        status[live[code > 0]] = DELETED
+        status[code > 0] = DELETED
         return status
 
     @property
