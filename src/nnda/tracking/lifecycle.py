@@ -451,7 +451,8 @@ def _band_pairs(initiators, contacts, d_min, d_max, reach):
             if lo2 <= d2 <= hi2:
                 i[m], j[m] = a, b
                 m += 1
-        j[start:m] = np.sort(j[start:m])
+        if m - start > 1:  # most initiators have no pair or one
+            j[start:m] = np.sort(j[start:m])
     return i[:m], j[:m]
 
 

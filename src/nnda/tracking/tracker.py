@@ -448,13 +448,18 @@ class ContactTracker(ABC):
         if assoc.score_gain is not None:
             return assoc.score_gain
         c = assoc.contact
-        gain = np.full(c.size, log_miss_weight(self.score_pd, self.gate_threshold))
+        gain = np.full(c.size, self._log_miss)
         rows = np.flatnonzero(c != NO_CONTACT)
         if rows.size:
             j = c[rows]
             gain[rows] = (math.log(self.score_pd) + scan.filter.pair_log_likelihood(pred, rows, scan.z[j], check=False)
                           - np.log(self.clutter_density(scan, j)))
         return gain
+
+    @cached_property
+    def _log_miss(self) -> float:
+        """ln(1 - P_D P_G), a miss's score increment (`log_miss_weight`)."""
+        return log_miss_weight(self.score_pd, self.gate_threshold)
 
     def track_management(self) -> dict:
         """What a study records of the run so far: the confirmation rule and the deletions by reason."""
@@ -616,6 +621,16 @@ class SingleHypothesisTracker(ContactTracker):
 
 
 def _pick(rows: np.ndarray, a: IMMState, b: IMMState) -> IMMState:
-    """Per track, the state of ``a`` where ``rows`` (K,) is true, else that of ``b``."""
-    return IMMState(*(np.where(rows.reshape(-1, *[1] * (u.ndim - 1)), u, v)
-                      for u, v in ((a.x, b.x), (a.P, b.P), (a.mu, b.mu))))
+    """Per track, the state of ``a`` where ``rows`` (K,) is true, else that of ``b`` (one compiled loop)."""
+    return IMMState(*_picked(rows, a.x, a.P, a.mu, b.x, b.P, b.mu))
+
+
+@numba.njit(cache=True, nogil=True)
+def _picked(rows, ax, aP, amu, bx, bP, bmu):
+    """`_pick` on the arrays of two IMM states of K tracks (x (K, r, n), P (K, r, n, n), mu (K, r)): new
+    arrays holding track k of ``a`` where rows[k], else of ``b``."""
+    x, P, mu = bx.copy(), bP.copy(), bmu.copy()
+    for k in range(rows.size):
+        if rows[k]:
+            x[k], P[k], mu[k] = ax[k], aP[k], amu[k]
+    return x, P, mu
