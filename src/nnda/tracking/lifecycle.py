@@ -235,22 +235,30 @@ def advance_score(status: np.ndarray, score: np.ndarray, max_score: np.ndarray, 
     its maximum so far): the new status (module docstring). A track not ``observed`` keeps its status.
     ``confirm_at`` (K,) is each track's confirmation threshold under ``false_tracks_per_scan`` (that of its
     birth, `rate_threshold`); None: Wald's for ``false_confirmation``. One compiled loop over the tracks
-    (`_advance_score`)."""
-    exist = cfg.confirmation == "existence"
-    if exist:  # thresholds on the existence probability's log-odds
+    (`advance_score_kernel`)."""
+    status = np.asarray(status)
+    lower, upper, early = score_bounds(cfg, status.size, confirm_at)
+    return advance_score_kernel(status, np.asarray(score, float), np.asarray(max_score, float),
+                          everywhere(observed, status.size), upper, lower, early, cfg.confirmation == "existence")
+
+
+def score_bounds(cfg: LifecycleConfig, K: int, confirm_at: np.ndarray | None = None
+                 ) -> tuple[float, np.ndarray, float]:
+    """The thresholds of `advance_score` for K tracks: (lower, upper (K,), early), on the score (Wald's,
+    ``confirm_at`` (K,) the upper one per track when given) or under the existence rule on the existence's
+    log-odds; early is the preliminary tracks' deletion threshold."""
+    if cfg.confirmation == "existence":  # thresholds on the existence probability's log-odds
         lower, upper = (math.log(p) - math.log1p(-p) for p in (cfg.existence_deletion, cfg.existence_confirmation))
     else:
         lower, upper = cfg.score_thresholds
+        if confirm_at is not None:
+            upper = confirm_at
     early = sprt_thresholds(cfg.false_confirmation, cfg.preliminary_false_deletion)[0]
-    status = np.asarray(status)
-    upper = (np.asarray(confirm_at, float) if confirm_at is not None and not exist
-             else np.full(status.size, float(upper)))
-    return _advance_score(status, np.asarray(score, float), np.asarray(max_score, float),
-                          _everywhere(observed, status.size), upper, lower, early, exist)
+    return lower, np.asarray(upper, float) if np.ndim(upper) else np.full(K, float(upper)), early
 
 
 @numba.njit(cache=True, nogil=True)
-def _advance_score(status, score, max_score, observed, upper, lower, early, exist):
+def advance_score_kernel(status, score, max_score, observed, upper, lower, early, exist):
     """`advance_score`'s loop over K tracks, all arrays (K,): a preliminary track is confirmed at ``upper``
     and then deleted where its score (existence: its log-odds' fall from the maximum) is at most ``early``; a
     confirmed track is deleted where its score's fall from the maximum (existence: its log-odds) is at most
@@ -272,7 +280,7 @@ def _advance_score(status, score, max_score, observed, upper, lower, early, exis
     return new
 
 
-def _everywhere(observed: np.ndarray | None, K: int) -> np.ndarray:
+def everywhere(observed: np.ndarray | None, K: int) -> np.ndarray:
     """``observed`` (K,) as a boolean array; None: every track observed."""
     return np.ones(K, np.bool_) if observed is None else np.asarray(observed, np.bool_)
 
@@ -496,16 +504,16 @@ def advance(status: np.ndarray, hits: np.ndarray, misses: np.ndarray, consecutiv
     confirmed track. A track not ``observed`` (K,) by the scan (outside the
     coverage of the sensor that swept it; default: all observed) keeps its
     counters and status. Returns new (status, hits, misses, consecutive),
-    from one compiled loop over the tracks (`_advance`).
+    from one compiled loop over the tracks (`advance_kernel`).
     """
     status = np.asarray(status)
-    return _advance(status, np.asarray(hits, np.int64), np.asarray(misses, np.int64),
+    return advance_kernel(status, np.asarray(hits, np.int64), np.asarray(misses, np.int64),
                     np.asarray(consecutive, np.int64), np.asarray(detected, np.bool_),
-                    _everywhere(observed, status.size), cfg.m, cfg.n - cfg.m + 1, cfg.max_misses)
+                    everywhere(observed, status.size), cfg.m, cfg.n - cfg.m + 1, cfg.max_misses)
 
 
 @numba.njit(cache=True, nogil=True)
-def _advance(status, hits, misses, consecutive, detected, observed, m, misses_to_delete, max_misses):
+def advance_kernel(status, hits, misses, consecutive, detected, observed, m, misses_to_delete, max_misses):
     """`advance`'s loop over K tracks, all arrays (K,): a preliminary track is confirmed at ``m`` hits and
     then deleted at ``misses_to_delete`` misses, a confirmed one (also one just confirmed) at more than
     ``max_misses`` consecutive misses; a track not ``observed`` keeps its status and counters."""

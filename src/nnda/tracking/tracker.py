@@ -63,14 +63,16 @@ from nnda.tracking.lifecycle import (
     DELETION_REASONS,
     SANITY_REASONS,
     LifecycleConfig,
-    advance,
-    advance_score,
+    advance_kernel,
+    advance_score_kernel,
     birth_log_odds,
     cap_pairs,
     cap_per_initiator,
+    everywhere,
     predicted_log_odds,
     rate_threshold,
     sanity_reasons,
+    score_bounds,
     sensor_noise_m,
     start_score,
     window_pairs,
@@ -196,22 +198,42 @@ class Tracks(Batch):
         a contact was used, and the M/N counters, the score (by ``score_gain`` (K,), the scan's
         log-likelihood ratio; None: 0) and the status advance (`lifecycle.advance`, or
         `lifecycle.advance_score` under the score rule) where the scan ``observed`` the track (default:
-        everywhere)."""
-        det = contact != NO_CONTACT
-        status, hits, misses, consecutive = advance(self.status, self.hits, self.misses, self.consecutive,
-                                                    det, lifecycle, observed)
-        score, max_score = self.score, self.max_score
-        if score_gain is not None:
-            score = score + (score_gain if observed is None else np.where(observed, score_gain, 0.0))
-            max_score = np.maximum(max_score, score)
-        if lifecycle.confirmation != "mn":
-            status = advance_score(self.status, score, max_score, lifecycle, observed, self.confirm_at)
+        everywhere), in two compiled calls (`_scanned`, `_moved_history`)."""
+        K, cfg = len(contact), lifecycle
+        score_rule = cfg.confirmation != "mn"
+        lower, upper, early = score_bounds(cfg, K, self.confirm_at) if score_rule else (0.0, self.confirm_at, 0.0)
+        status, hits, misses, consecutive, score, max_score = _scanned(
+            contact, everywhere(observed, K), self.status, self.hits, self.misses, self.consecutive, cfg.m,
+            cfg.n - cfg.m + 1, cfg.max_misses, self.score, self.max_score,
+            np.zeros(K) if score_gain is None else score_gain, score_gain is not None, score_rule,
+            cfg.confirmation == "existence", lower, upper, early)
         p1, t1, p2, t2, az2 = _moved_history(contact, self.p1, self.t1, self.p2, self.t2, self.az2, xy, z[:, 1], time)
         return Tracks(
             track_id=self.track_id, status=status, filt=filt, p1=p1, t1=t1, p2=p2, t2=t2, az2=az2,
             hits=hits, misses=misses, consecutive=consecutive, score=score, max_score=max_score,
             confirm_at=self.confirm_at,
         )
+
+
+@numba.njit(cache=True, nogil=True)
+def _scanned(contact, observed, status, hits, misses, consecutive, m, misses_to_delete, max_misses, score,
+             max_score, gain, scored, score_rule, exist, lower, upper, early):
+    """`Tracks.after_scan`'s life cycle of K tracks, arrays (K,), in one call: the M/N counters and status
+    (`lifecycle.advance`, from ``m``, ``misses_to_delete`` = n - m + 1 and ``max_misses``); if ``scored``, the
+    score moved by ``gain`` where ``observed`` and its maximum; under the ``score_rule`` (or the existence rule,
+    ``exist``) the status of `lifecycle.advance_score` instead, with its thresholds ``lower``, ``upper`` (K,)
+    and ``early`` (`lifecycle.score_bounds`). Returns (status, hits, misses, consecutive, score, max_score)."""
+    new, hits, misses, consecutive = advance_kernel(status, hits, misses, consecutive, contact != NO_CONTACT, observed,
+                                              m, misses_to_delete, max_misses)
+    if scored:
+        score, max_score = score.copy(), max_score.copy()
+        for k in range(score.size):
+            score[k] += gain[k] if observed[k] else 0.0
+            a, b = max_score[k], score[k]
+            max_score[k] = a if (a >= b or a != a) else b  # np.maximum, NaN and ties included
+    if score_rule:
+        new = advance_score_kernel(status, score, max_score, observed, upper, lower, early, exist)
+    return new, hits, misses, consecutive, score, max_score
 
 
 @numba.njit(cache=True, nogil=True)
