@@ -239,7 +239,8 @@ def advance_score(status: np.ndarray, score: np.ndarray, max_score: np.ndarray, 
     status = np.asarray(status)
     lower, upper, early = score_bounds(cfg, status.size, confirm_at)
     return advance_score_kernel(status, np.asarray(score, float), np.asarray(max_score, float),
-                          everywhere(observed, status.size), upper, lower, early, cfg.confirmation == "existence")
+                                everywhere(observed, status.size), upper, lower, early,
+                                cfg.confirmation == "existence")
 
 
 def score_bounds(cfg: LifecycleConfig, K: int, confirm_at: np.ndarray | None = None
@@ -508,8 +509,8 @@ def advance(status: np.ndarray, hits: np.ndarray, misses: np.ndarray, consecutiv
     """
     status = np.asarray(status)
     return advance_kernel(status, np.asarray(hits, np.int64), np.asarray(misses, np.int64),
-                    np.asarray(consecutive, np.int64), np.asarray(detected, np.bool_),
-                    everywhere(observed, status.size), cfg.m, cfg.n - cfg.m + 1, cfg.max_misses)
+                          np.asarray(consecutive, np.int64), np.asarray(detected, np.bool_),
+                          everywhere(observed, status.size), cfg.m, cfg.n - cfg.m + 1, cfg.max_misses)
 
 
 @numba.njit(cache=True, nogil=True)

@@ -223,8 +223,8 @@ def _scanned(contact, observed, status, hits, misses, consecutive, m, misses_to_
     score moved by ``gain`` where ``observed`` and its maximum; under the ``score_rule`` (or the existence rule,
     ``exist``) the status of `lifecycle.advance_score` instead, with its thresholds ``lower``, ``upper`` (K,)
     and ``early`` (`lifecycle.score_bounds`). Returns (status, hits, misses, consecutive, score, max_score)."""
-    new, hits, misses, consecutive = advance_kernel(status, hits, misses, consecutive, contact != NO_CONTACT, observed,
-                                              m, misses_to_delete, max_misses)
+    new, hits, misses, consecutive = advance_kernel(status, hits, misses, consecutive, contact != NO_CONTACT,
+                                                    observed, m, misses_to_delete, max_misses)
     if scored:
         score, max_score = score.copy(), max_score.copy()
         for k in range(score.size):
