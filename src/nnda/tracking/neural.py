@@ -75,15 +75,13 @@ from pydantic import Field, model_validator
 from nnda.data.scenario import Sensor
 from nnda.errors import ConfigError, ModelError, TrackingError
 from nnda.filters.imm import IMMPrediction
-from nnda.filters.kalman import MeasurementPrediction
 from nnda.models.context import IMM_CONTEXT, with_context
 from nnda.models.feature_sets import FEATURE_SETS
 from nnda.models.features import candidate_pairs, pair_features
 from nnda.models.innovation import IMM_INNOVATION, innovation_features
 from nnda.models.scorer import Scorer, load_model, score_log_odds
-from nnda.tracking import gating
 from nnda.tracking.assignment import greedy_matching, least_cost_assignment
-from nnda.tracking.gating import Gated
+from nnda.tracking.gating import Gated, gate_tracks
 from nnda.tracking.output import CONFIRMED, NO_CONTACT
 from nnda.tracking.tracker import (
     Association,
@@ -179,7 +177,6 @@ class NeuralTracker(SingleHypothesisTracker):
     def reset(self) -> None:
         super().reset()
         self._first_time = np.empty(0)  # time (s) of each track's first contact, by track id
-        self._gating_of: tuple[tuple[np.ndarray, np.ndarray], MeasurementPrediction] | None = None  # `_gating`
         self._gated_of: Gated | None = None  # the scan's IMM gate (`_gated`)
 
     def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
@@ -189,8 +186,8 @@ class NeuralTracker(SingleHypothesisTracker):
         # the framework's arrays are checked already (scan checks, filter outputs): no second check here;
         # the scorer still refuses a non-finite feature
         track, cand = candidate_pairs(tracks.p2, tracks.t2, tracks.az2, scan.xy, scan.z[:, 1], scan.time, check=False)
-        self._gating_of = self._gated_of = None  # this scan's gating prediction and IMM gate, once if needed
         score = self._scores(tracks, pred, scan, track, cand)
+        self._gated_of = None  # this scan's IMM gate (`_gated`), computed once if needed
         if self.config.gate_after_miss:
             after_miss = (tracks.status[track] == CONFIRMED) & (tracks.consecutive[track] >= 1)
             if after_miss.any():
@@ -219,7 +216,7 @@ class NeuralTracker(SingleHypothesisTracker):
                                  scan.xy[cand], time, check=False)
         if self._extended:
             features = innovation_features(scan.filter, pred, track, z[cand], features,
-                                           time - self._born(tracks)[track], self._gating(pred, scan)[1])
+                                           time - self._born(tracks)[track])
         if self._context:
             features = with_context(features, track, cand)
         if self.harvest is not None:
@@ -244,7 +241,7 @@ class NeuralTracker(SingleHypothesisTracker):
     def _reacquired(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts, contact: np.ndarray
                     ) -> np.ndarray:
         """``contact`` (K,) with the picks (`reacquire`) of the coasting confirmed tracks left without one,
-        among the free contacts in their IMM gate of ``coast_gate`` (`_gated`); unchanged when the
+        among the free contacts in their IMM gate of ``coast_gate`` (`gate_tracks`); unchanged when the
         gate is off."""
         cfg = self.config
         if cfg.coast_gate is None or not len(scan.z):
@@ -258,21 +255,10 @@ class NeuralTracker(SingleHypothesisTracker):
         contact[rows] = cols
         return contact
 
-    def _gating(self, pred: IMMPrediction, scan: ScanContacts) -> tuple[tuple[np.ndarray, np.ndarray],
-                                                                         MeasurementPrediction]:
-        """The scan's combined prediction (x (K, 4), P (K, 4, 4)) and its measurement prediction (the gating
-        prediction, `IMM.combined_measurement`), computed once for the features and the gate."""
-        if self._gating_of is None:
-            estimate = scan.filter.estimate(pred.state)
-            self._gating_of = (estimate, scan.filter.measurement_prediction(*estimate))
-        return self._gating_of
-
     def _gated(self, pred: IMMPrediction, scan: ScanContacts) -> Gated:
-        """The pairs inside the tracks' IMM gate of ``coast_gate`` this scan (`gating.gate` on `_gating`, as
-        `gate_tracks`), computed once."""
+        """The pairs inside the tracks' IMM gate of ``coast_gate`` this scan (`gate_tracks`), computed once."""
         if self._gated_of is None:
-            estimate, mp = self._gating(pred, scan)
-            self._gated_of = gating.gate(scan.filter, mp, scan.z, scan.xy, self.config.coast_gate, estimate)
+            self._gated_of = gate_tracks(scan.filter, pred, scan.z, scan.xy, self.config.coast_gate)[1]
         return self._gated_of
 
     def _born(self, tracks: Tracks) -> np.ndarray:
