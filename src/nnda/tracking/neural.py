@@ -244,7 +244,7 @@ class NeuralTracker(SingleHypothesisTracker):
         among the free contacts in their IMM gate of ``coast_gate`` (`gate_tracks`); unchanged when the
         gate is off."""
         cfg = self.config
-        if cfg.coast_gate is None or not len(scan.z):
+        if cfg.coast_gate is None:
             return contact
         waiting = (tracks.status == CONFIRMED) & (tracks.consecutive >= cfg.coast_after) & (contact == NO_CONTACT)
         if not waiting.any():
