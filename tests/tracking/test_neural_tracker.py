@@ -14,6 +14,7 @@ from nnda.data.dataset import Scan
 from nnda.data.generator import generate
 from nnda.data.presets import PRESETS
 from nnda.data.scenario import Clutter, Scenario, Segment, Sensor, Target
+from nnda.data.sensor import cart_to_polar
 from nnda.errors import ConfigError, TrackingError
 from nnda.models.features import KINEMATIC, candidate_pairs, pair_features
 from nnda.models.innovation import IMM_INNOVATION
@@ -406,8 +407,9 @@ def test_coast_gate_picks_a_track_up_after_a_gap_the_network_refuses(tmp_path):
 
 
 def test_bad_coast_gate_is_refused(model_file):
-    with pytest.raises(ConfigError, match=r"invalid nn config[\s\S]*gate_after_miss needs coast_gate"):
-        make_tracker("nn", Sensor(), {"model": str(model_file), "gate_after_miss": True})
+    for field in ("gate_after_miss", "retrodiction"):
+        with pytest.raises(ConfigError, match=rf"invalid nn config[\s\S]*{field} needs coast_gate"):
+            make_tracker("nn", Sensor(), {"model": str(model_file), field: True})
     with pytest.raises(ConfigError, match=r"invalid nn config[\s\S]*coast_gate"):
         make_tracker("nn", Sensor(), {"model": str(model_file), "coast_gate": 0.0})
     with pytest.raises(ConfigError, match=r"invalid nn config[\s\S]*coast_after"):
@@ -504,3 +506,44 @@ def test_the_imm_feature_tracker_gives_the_same_bytes_for_the_same_seed(ext_mode
         return h.hexdigest()
 
     assert digest() == digest()
+
+
+def _lured_run(model: str, retrodiction: bool, lure_scan: int = 12, n_scans: int = 20):
+    """One target east at 150 m/s, y = 12 km, no clutter, but unseen at ``lure_scan``, where a lone contact
+    250 m to its left passes for it (the band model accepts the bend). Returns the tracker's outputs."""
+    tracker = make_tracker("nn", Sensor(), {"model": model, "coast_gate": 9.21, "retrodiction": retrodiction})
+    outputs = []
+    for k in range(1, n_scans + 1):
+        x, y = -5_000.0 + 300.0 * k, 12_000.0 + (250.0 if k == lure_scan else 0.0)
+        r, az = cart_to_polar(np.array([x]), np.array([y]))
+        outputs.append(tracker.step(Scan(k, 2.0 * k, np.column_stack([r, az]))))
+    return tracker, outputs
+
+
+def test_retrodiction_puts_a_lured_track_back_on_its_target(tmp_path):
+    model = str(band_model(tmp_path / "band.json"))
+    lure = 12
+    for retrodiction in (False, True):
+        tracker, out = _lured_run(model, retrodiction, lure)
+        before, lured, after = out[lure - 2], out[lure - 1], out[lure]
+        assert before.status.tolist() == [TrackStatus.CONFIRMED] and lured.contact.tolist() == [0]  # it bit
+        first = int(before.track_id[0])
+        ids = after.track_id.tolist()
+        if not retrodiction:  # the lured track misses the target; the target opens a new track
+            assert after.contact[ids.index(first)] == -1
+            continue
+        # the track went back to its branch without the lure: the target's contact, one track throughout
+        assert after.contact.tolist() == [0] and all(o.track_id.tolist() == [first] for o in out[lure:])
+        tracker, _ = _lured_run(model, True, lure, n_scans=lure + 1)
+        tracks = tracker.tracks  # the contact history skips the lure; its scan counts as a miss
+        assert (tracks.t1[0], tracks.t2[0]) == (2.0 * (lure - 1), 2.0 * (lure + 1))
+        assert tracks.p1[0, 1] == pytest.approx(12_000.0, abs=100) and tracks.misses[0] >= 1
+
+
+def test_retrodiction_changes_nothing_without_a_lure(tmp_path):
+    model = str(band_model(tmp_path / "band.json"))
+    _, plain = _lured_run(model, False, lure_scan=0)
+    _, retro = _lured_run(model, True, lure_scan=0)
+    for a, b in zip(plain, retro):
+        np.testing.assert_array_equal(a.contact, b.contact)
+        np.testing.assert_array_equal(a.state, b.state)

@@ -82,7 +82,7 @@ from nnda.models.innovation import IMM_INNOVATION, innovation_features
 from nnda.models.scorer import Scorer, load_model, score_log_odds
 from nnda.tracking.assignment import greedy_matching, least_cost_assignment
 from nnda.tracking.gating import Gated, gate_tracks
-from nnda.tracking.output import CONFIRMED, NO_CONTACT
+from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT
 from nnda.tracking.tracker import (
     Association,
     ContactTrackerConfig,
@@ -128,11 +128,17 @@ class NeuralConfig(ContactTrackerConfig):
         False, description="a confirmed track that missed its last scan takes a network pick only inside "
         "coast_gate (the IMM's gate, as MHT and GNN gate every pick): after a gap the network's candidates "
         "are pairs it rarely saw in training; needs coast_gate")
+    retrodiction: bool = Field(
+        False, description="a confirmed track left without a contact in the scan after one it took goes back "
+        "one scan: if the track as it would be had it missed that scan has a free contact in its coast_gate "
+        "now, it takes that branch and the nearest such contact (MHT's choice deferred by one scan, for one "
+        "hypothesis); needs coast_gate")
 
     @model_validator(mode="after")
     def _needs_gate(self) -> NeuralConfig:
-        if self.gate_after_miss and self.coast_gate is None:
-            raise ValueError("gate_after_miss needs coast_gate (the gate it applies)")
+        for field in ("gate_after_miss", "retrodiction"):
+            if getattr(self, field) and self.coast_gate is None:
+                raise ValueError(f"{field} needs coast_gate (the gate it applies)")
         return self
 
 
@@ -178,10 +184,12 @@ class NeuralTracker(SingleHypothesisTracker):
         super().reset()
         self._first_time = np.empty(0)  # time (s) of each track's first contact, by track id
         self._gated_of: Gated | None = None  # the scan's IMM gate (`_gated`)
+        self._skipped: Tracks | None = None  # last scan's confirmed tracks had they missed it (`_skipping`)
 
     def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
         contact = np.full(len(tracks), NO_CONTACT, np.int64)
         if not len(scan.z):
+            self._skipped = None
             return hard_update(scan.filter, pred, scan.z, contact)
         # the framework's arrays are checked already (scan checks, filter outputs): no second check here;
         # the scorer still refuses a non-finite feature
@@ -199,12 +207,21 @@ class NeuralTracker(SingleHypothesisTracker):
             first = tracks.status[track] == CONFIRMED
             self._pick(contact, track[first], cand[first], score[first])
             contact = self._reacquired(tracks, pred, scan, contact)
+            revised = self._retrodicted(tracks, pred, scan, contact)
+            if revised is not None:
+                tracks, pred, contact = revised
             rest = ~first & ~_given(contact, len(scan.z))[cand]
             self._pick(contact, track[rest], cand[rest], score[rest])
         else:
             self._pick(contact, track, cand, score)
             contact = self._reacquired(tracks, pred, scan, contact)
-        return hard_update(scan.filter, pred, scan.z, contact)
+            revised = self._retrodicted(tracks, pred, scan, contact)
+            if revised is not None:
+                tracks, pred, contact = revised
+        if self.config.retrodiction:
+            self._skipped = self._skipping(tracks, scan, contact)
+        assoc = hard_update(scan.filter, pred, scan.z, contact)
+        return assoc if revised is None else Association(assoc.contact, assoc.filt, revised=(tracks, pred))
 
     def _scores(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts, track: np.ndarray, cand: np.ndarray
                 ) -> np.ndarray:
@@ -254,6 +271,53 @@ class NeuralTracker(SingleHypothesisTracker):
         contact = contact.copy()
         contact[rows] = cols
         return contact
+
+    def _retrodicted(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts, contact: np.ndarray
+                     ) -> tuple[Tracks, IMMPrediction, np.ndarray] | None:
+        """The retrodiction (``retrodiction``): the confirmed tracks that took a contact last scan and have
+        none in ``contact`` (K,) now, replaced by their branch without that contact (`_skipping`) where the
+        branch's prediction has free contacts in its gate of ``coast_gate``, each with the nearest of them
+        (`reacquire`). Returns the revised (tracks, prediction, contact), or None when no track goes back."""
+        skipped = self._skipped
+        if skipped is None or not len(skipped):
+            return None
+        lost = np.flatnonzero((contact == NO_CONTACT) & (tracks.status == CONFIRMED) & (tracks.consecutive == 0))
+        if not lost.size:
+            return None
+        # track ids ascend in both (tracks keep their order; new ones come last, with higher ids)
+        at = np.minimum(np.searchsorted(skipped.track_id, tracks.track_id[lost]), len(skipped) - 1)
+        known = skipped.track_id[at] == tracks.track_id[lost]
+        lost, at = lost[known], at[known]
+        if not lost.size:
+            return None
+        branch = skipped.take(at)
+        branch_pred = scan.filter.predict(branch.filt, scan.time - branch.t2, check=False)
+        g = gate_tracks(scan.filter, branch_pred, scan.z, scan.xy, self.config.coast_gate)[1]
+        rows, cols = reacquire(g.rows, g.cols, g.d2, np.ones(lost.size, bool), _given(contact, len(scan.z)),
+                               self.config.coast_gate)
+        if not rows.size:
+            return None
+        index = np.arange(len(tracks))
+        index[lost[rows]] = len(tracks) + rows
+        contact = contact.copy()
+        contact[lost[rows]] = cols
+        self._gated_of = None  # the revised tracks' gate differs
+        return (Tracks.concat([tracks, branch]).take(index), IMMPrediction.concat([pred, branch_pred]).take(index),
+                contact)
+
+    def _skipping(self, tracks: Tracks, scan: ScanContacts, contact: np.ndarray) -> Tracks | None:
+        """The confirmed tracks that take a contact in ``contact`` (K,) this scan, as they would be had they
+        missed it instead (their last posterior kept, the miss counted in their life cycle and score), for
+        the next scan's retrodiction; the ones such a miss would delete left out."""
+        rows = np.flatnonzero((contact != NO_CONTACT) & (tracks.status == CONFIRMED))
+        if not rows.size:
+            return None
+        kept = tracks.take(rows)
+        gain = None if self.confirmation_rule == "mn" else np.full(rows.size, self._log_miss)
+        missed = kept.after_scan(np.full(rows.size, NO_CONTACT), kept.filt, scan.z, scan.xy, scan.time,
+                                 self.config.lifecycle, None, gain)
+        alive = missed.status != DELETED
+        return missed if alive.all() else missed.take(alive)
 
     def _gated(self, pred: IMMPrediction, scan: ScanContacts) -> Gated:
         """The pairs inside the tracks' IMM gate of ``coast_gate`` this scan (`gate_tracks`), computed once."""

@@ -258,12 +258,16 @@ class Association:
     NO_CONTACT: a miss); ``filt`` the filter states after the scan: the updated state of
     a track with a contact, the prediction (``pred.state``) of one without. ``score_gain`` (K,)
     is the scan's track-score increment when the method computes its own (JPDA under the
-    existence rule: JIPDA's); None: the framework's, from the chosen contact.
+    existence rule: JIPDA's); None: the framework's, from the chosen contact. ``revised`` holds the
+    tracks and their prediction as the method revised them before deciding (same tracks, same order;
+    the neural tracker's retrodiction puts some tracks back on the branch that skipped their last
+    contact), which the life cycle then moves on from; None: as handed to the method.
     """
 
     contact: np.ndarray
     filt: IMMState
     score_gain: np.ndarray | None = None
+    revised: tuple[Tracks, IMMPrediction] | None = None
 
 
 class TwoPointInitiation:
@@ -575,6 +579,8 @@ class SingleHypothesisTracker(ContactTracker):
                 tracks = tracks.replaced(score=predicted_log_odds(tracks.score, survival))
             pred = sc.filter.predict(tracks.filt, time - tracks.t2, check=False)
             assoc = self.associate(tracks, pred, sc)
+            if assoc.revised is not None:
+                tracks, pred = assoc.revised
             c = assoc.contact
             det = c != NO_CONTACT
             used[c[det]] = True
