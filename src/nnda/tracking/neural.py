@@ -184,12 +184,12 @@ class NeuralTracker(SingleHypothesisTracker):
         super().reset()
         self._first_time = np.empty(0)  # time (s) of each track's first contact, by track id
         self._gated_of: Gated | None = None  # the scan's IMM gate (`_gated`)
-        self._skipped: Tracks | None = None  # last scan's confirmed tracks had they missed it (`_skipping`)
+        self._last_scan: tuple[Tracks, np.ndarray] | None = None  # its tracks and contacts, for `_retrodicted`
 
     def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
         contact = np.full(len(tracks), NO_CONTACT, np.int64)
         if not len(scan.z):
-            self._skipped = None
+            self._last_scan = None
             return hard_update(scan.filter, pred, scan.z, contact)
         # the framework's arrays are checked already (scan checks, filter outputs): no second check here;
         # the scorer still refuses a non-finite feature
@@ -218,8 +218,8 @@ class NeuralTracker(SingleHypothesisTracker):
             revised = self._retrodicted(tracks, pred, scan, contact)
             if revised is not None:
                 tracks, pred, contact = revised
-        if self.config.retrodiction:
-            self._skipped = self._skipping(tracks, scan, contact)
+        if self.config.retrodiction:  # kept as they are; the branches are made only when the next scan asks
+            self._last_scan = (tracks, contact)
         assoc = hard_update(scan.filter, pred, scan.z, contact)
         return assoc if revised is None else Association(assoc.contact, assoc.filt, revised=(tracks, pred))
 
@@ -278,11 +278,13 @@ class NeuralTracker(SingleHypothesisTracker):
         none in ``contact`` (K,) now, replaced by their branch without that contact (`_skipping`) where the
         branch's prediction has free contacts in its gate of ``coast_gate``, each with the nearest of them
         (`reacquire`). Returns the revised (tracks, prediction, contact), or None when no track goes back."""
-        skipped = self._skipped
-        if skipped is None or not len(skipped):
+        if self._last_scan is None:
             return None
         lost = np.flatnonzero((contact == NO_CONTACT) & (tracks.status == CONFIRMED) & (tracks.consecutive == 0))
         if not lost.size:
+            return None
+        skipped = self._skipping(*self._last_scan)
+        if skipped is None or not len(skipped):
             return None
         # track ids ascend in both (tracks keep their order; new ones come last, with higher ids)
         at = np.minimum(np.searchsorted(skipped.track_id, tracks.track_id[lost]), len(skipped) - 1)
@@ -305,16 +307,17 @@ class NeuralTracker(SingleHypothesisTracker):
         return (Tracks.concat([tracks, branch]).take(index), IMMPrediction.concat([pred, branch_pred]).take(index),
                 contact)
 
-    def _skipping(self, tracks: Tracks, scan: ScanContacts, contact: np.ndarray) -> Tracks | None:
-        """The confirmed tracks that take a contact in ``contact`` (K,) this scan, as they would be had they
-        missed it instead (their last posterior kept, the miss counted in their life cycle and score), for
-        the next scan's retrodiction; the ones such a miss would delete left out."""
+    def _skipping(self, tracks: Tracks, contact: np.ndarray) -> Tracks | None:
+        """The confirmed tracks of last scan's ``tracks`` (K,) that took a contact in its ``contact`` (K,), as
+        they would be had they missed it instead (the branches of `_retrodicted`): their last posterior kept,
+        the miss counted in their life cycle and score; the ones such a miss deletes left out."""
         rows = np.flatnonzero((contact != NO_CONTACT) & (tracks.status == CONFIRMED))
         if not rows.size:
             return None
         kept = tracks.take(rows)
         gain = None if self.confirmation_rule == "mn" else np.full(rows.size, self._log_miss)
-        missed = kept.after_scan(np.full(rows.size, NO_CONTACT), kept.filt, scan.z, scan.xy, scan.time,
+        none = np.empty((0, 2))  # a miss reads no contact
+        missed = kept.after_scan(np.full(rows.size, NO_CONTACT), kept.filt, none, none, np.nan,
                                  self.config.lifecycle, None, gain)
         alive = missed.status != DELETED
         return missed if alive.all() else missed.take(alive)
