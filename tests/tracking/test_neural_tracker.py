@@ -24,7 +24,7 @@ from nnda.models.scorer import Scorer, save_model, score_log_odds
 from nnda.study.metrics import run_metrics
 from nnda.tracking.assignment import greedy_matching
 from nnda.tracking.gating import gate_tracks
-from nnda.tracking.neural import NeuralTracker, global_matching, reacquire
+from nnda.tracking.neural import NeuralTracker, global_matching, reacquire, served_matching
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
 
@@ -410,6 +410,8 @@ def test_bad_coast_gate_is_refused(model_file):
     for field in ("gate_after_miss", "retrodiction"):
         with pytest.raises(ConfigError, match=rf"invalid nn config[\s\S]*{field} needs coast_gate"):
             make_tracker("nn", Sensor(), {"model": str(model_file), field: True})
+    with pytest.raises(ConfigError, match=r"invalid nn config[\s\S]*'served' needs coast_gate"):
+        make_tracker("nn", Sensor(), {"model": str(model_file), "coast_gate": 9.21, "association": "served"})
     with pytest.raises(ConfigError, match=r"invalid nn config[\s\S]*coast_gate"):
         make_tracker("nn", Sensor(), {"model": str(model_file), "coast_gate": 0.0})
     with pytest.raises(ConfigError, match=r"invalid nn config[\s\S]*coast_after"):
@@ -547,3 +549,49 @@ def test_retrodiction_changes_nothing_without_a_lure(tmp_path):
     for a, b in zip(plain, retro):
         np.testing.assert_array_equal(a.contact, b.contact)
         np.testing.assert_array_equal(a.state, b.state)
+
+
+def brute_force_served(pairs: dict, gate: dict, threshold: float, n_rows: int) -> tuple[int, float]:
+    """(most pairs, then greatest total log-odds above the threshold's) over every one-to-one matching of
+    the network pairs above the threshold and the gate pairs (worth 0 unless also a network pair)."""
+    worth = {k: float(score_log_odds(v) - score_log_odds(threshold)) for k, v in pairs.items() if v > threshold}
+    worth.update({k: 0.0 for k in gate if k not in worth})
+    best = (0, 0.0)
+    cols = sorted({c for _, c in worth})
+    for choice in itertools.product([None, *cols], repeat=n_rows):
+        picked = [(r, c) for r, c in enumerate(choice) if c is not None]
+        if len({c for _, c in picked}) < len(picked) or any(p not in worth for p in picked):
+            continue
+        value = (len(picked), sum(worth[p] for p in picked))
+        if value[0] > best[0] or (value[0] == best[0] and value[1] > best[1] + 1e-9):
+            best = value
+    return best
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_served_matching_serves_the_most_rows_then_the_greatest_log_odds(seed):
+    rng = np.random.default_rng(seed)
+    n_rows, n_cols = int(rng.integers(1, 5)), int(rng.integers(1, 5))
+    pairs = {(int(r), int(c)): float(rng.uniform(-1, 1)) for r, c in rng.integers(0, [n_rows, n_cols], (6, 2))}
+    gate = {(int(r), int(c)): float(rng.uniform(0, 9)) for r, c in rng.integers(0, [n_rows, n_cols], (4, 2))}
+    threshold = float(rng.choice([0.0, 0.3]))
+    rows, cols = np.array([k[0] for k in pairs], np.int64), np.array([k[1] for k in pairs], np.int64)
+    g_rows, g_cols = np.array([k[0] for k in gate], np.int64), np.array([k[1] for k in gate], np.int64)
+    r, c = served_matching(rows, cols, np.array(list(pairs.values())), threshold, g_rows, g_cols,
+                           np.array(list(gate.values())))
+    assert len(set(r.tolist())) == r.size and len(set(c.tolist())) == c.size
+    worth = {k: float(score_log_odds(v) - score_log_odds(threshold)) for k, v in pairs.items() if v > threshold}
+    assert all((i, j) in worth or (i, j) in gate for i, j in zip(r.tolist(), c.tolist()))
+    got = (r.size, sum(worth.get((i, j), 0.0) for i, j in zip(r.tolist(), c.tolist())))
+    want = brute_force_served(pairs, gate, threshold, n_rows)
+    assert got[0] == want[0] and got[1] == pytest.approx(want[1], rel=1e-9, abs=1e-9)
+
+
+def test_served_matching_yields_a_contact_to_the_track_that_has_no_other():
+    # track 0 scores contact 1 a little above contact 0; track 1 (coasting) has contact 1 in its gate alone
+    r, c = served_matching(np.array([0, 0]), np.array([0, 1]), np.array([0.83, 0.88]), 0.0,
+                           np.array([1]), np.array([1]), np.array([6.6]))
+    assert dict(zip(r.tolist(), c.tolist())) == {0: 0, 1: 1}
+    r, c = served_matching(np.array([0, 0]), np.array([0, 1]), np.array([0.83, 0.88]), 0.0,
+                           np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0))
+    assert dict(zip(r.tolist(), c.tolist())) == {0: 1}  # alone, it takes its best

@@ -55,7 +55,20 @@ Each scan, for all live tracks at once:
    on a coasting track's target cannot take its contacts from it. With
    ``gate_after_miss`` a confirmed track that missed its last scan takes a
    network pick only inside that gate, so a clutter contact the network
-   accepts after a gap cannot drag the track off its target;
+   accepts after a gap cannot drag the track off its target. With
+   ``association = "served"`` (needs ``coast_gate`` and ``confirmed_first``)
+   the confirmed tracks' network pairs and their re-acquisition pairs go
+   into one assignment (`served_matching`) that serves as many tracks as it
+   can, as GNN does, and of those assignments takes the one of greatest
+   log-odds: a track does not take, for a slightly better score, the only
+   contact in a coasting neighbour's gate when it has another it accepts.
+   With ``retrodiction`` a confirmed track that took a contact last scan
+   and is left with none now goes back one scan: the track as it would be
+   had it missed that scan, predicted to now, takes the nearest free
+   contact in its gate, if there is one (`_retrodicted`). This is MHT's
+   deferred decision kept to one scan and one alternative: one clutter
+   contact inside the gate at a manoeuvre or in a detection gap pulls the
+   filter so far that the target falls outside the gate a scan later;
 4. *filter*: the chosen contact updates the track's IMM. With the seed's
    features the filter smooths the output only (spec §7.2); with the
    extended set its prediction is also what the network reads.
@@ -114,9 +127,12 @@ class NeuralConfig(ContactTrackerConfig):
     recipe: dict[str, int | float] | None = Field(
         None, description="training recipe the model must record (metadata 'recipe' of `nnda train`, e.g. "
         "{ encounters = 60, dagger = 1 }; a model without one was trained with neither); None: any")
-    association: Literal["greedy", "global"] = Field(
+    association: Literal["greedy", "global", "served"] = Field(
         "greedy", description="'greedy': pairs taken by descending score (spec A10); 'global': one least-cost "
-        "assignment per scan, a pair costing the negative log-odds of its score, a miss the threshold's")
+        "assignment per scan, a pair costing the negative log-odds of its score, a miss the threshold's; "
+        "'served': one assignment serving the most tracks, the confirmed ones also through the free contacts "
+        "in their coast_gate, then of greatest log-odds (`served_matching`; needs coast_gate and "
+        "confirmed_first)")
     coast_gate: Annotated[float | None, Field(
         gt=0, description="chi-square gate (2 dof; 9.21: P_G = 0.99) on the IMM's prediction within which a "
         "coasting confirmed track with no pair above the threshold takes its free contact of least Mahalanobis "
@@ -139,6 +155,9 @@ class NeuralConfig(ContactTrackerConfig):
         for field in ("gate_after_miss", "retrodiction"):
             if getattr(self, field) and self.coast_gate is None:
                 raise ValueError(f"{field} needs coast_gate (the gate it applies)")
+        if self.association == "served" and (self.coast_gate is None or not self.confirmed_first):
+            raise ValueError("association 'served' needs coast_gate (the confirmed tracks' gate) and "
+                             "confirmed_first")
         return self
 
 
@@ -205,7 +224,10 @@ class NeuralTracker(SingleHypothesisTracker):
                 track, cand, score = track[keep], cand[keep], score[keep]
         if self.config.confirmed_first:  # the confirmed tracks pick, and re-acquire, before the others
             first = tracks.status[track] == CONFIRMED
-            self._pick(contact, track[first], cand[first], score[first])
+            if self.config.association == "served":
+                self._served(contact, tracks, pred, scan, track[first], cand[first], score[first])
+            else:
+                self._pick(contact, track[first], cand[first], score[first])
             contact = self._reacquired(tracks, pred, scan, contact)
             revised = self._retrodicted(tracks, pred, scan, contact)
             if revised is not None:
@@ -251,9 +273,25 @@ class NeuralTracker(SingleHypothesisTracker):
         if self.config.association == "greedy":
             match = score > self.config.threshold
             chosen_track, chosen_contact = greedy_matching(track[match], cand[match], score[match])
-        else:
+        elif self.config.association == "global":
             chosen_track, chosen_contact = global_matching(track, cand, score, self.config.threshold)
+        else:
+            none = np.empty(0, np.int64)
+            chosen_track, chosen_contact = served_matching(track, cand, score, self.config.threshold, none, none,
+                                                           np.empty(0))
         contact[chosen_track] = chosen_contact
+
+    def _served(self, contact: np.ndarray, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts,
+                track: np.ndarray, cand: np.ndarray, score: np.ndarray) -> None:
+        """Write into ``contact`` (K,) the confirmed tracks' picks under association 'served': their pairs
+        (track, cand, score) (P,) and, for those that count as coasting (``coast_after``), the contacts in
+        their IMM gate of ``coast_gate`` (`_gated`), in one `served_matching`."""
+        cfg = self.config
+        waiting = (tracks.status == CONFIRMED) & (tracks.consecutive >= cfg.coast_after)
+        g = self._gated(pred, scan)
+        near = waiting[g.rows]
+        rows, cols = served_matching(track, cand, score, cfg.threshold, g.rows[near], g.cols[near], g.d2[near])
+        contact[rows] = cols
 
     def _reacquired(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts, contact: np.ndarray
                     ) -> np.ndarray:
@@ -359,6 +397,38 @@ def global_matching(rows: np.ndarray, cols: np.ndarray, score: np.ndarray, thres
         return greedy_matching(rows, cols, score)
     miss = np.full(int(rows.max()) + 1, -score_log_odds(threshold))
     return least_cost_assignment(rows, cols, -score_log_odds(score), miss)
+
+
+def served_matching(rows: np.ndarray, cols: np.ndarray, score: np.ndarray, threshold: float,
+                    gate_rows: np.ndarray, gate_cols: np.ndarray, gate_d2: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """One-to-one matching that serves the most rows, and of those the one the network likes best.
+
+    ``rows``, ``cols`` (P,) index the network's candidate pairs, ``score`` (P,)
+    their scores in [-1, 1]; a pair above ``threshold`` is worth its log-odds
+    above the threshold's (`score_log_odds`). ``gate_rows``, ``gate_cols``,
+    ``gate_d2`` (Q,) are pairs a row may take on the IMM's word alone (inside
+    its gate), worth nothing beyond a tie-break towards the least d² (a pair
+    in both lists is worth its score). A row may miss. The matching has the
+    most pairs (GNN's aim: each pair is worth more than any sum of log-odds)
+    and, among those, the greatest total log-odds, then the least total d²
+    of its gate-only pairs. Returns the assigned (rows, cols).
+    """
+    keep = score > threshold
+    rows, cols = np.asarray(rows, np.int64)[keep], np.asarray(cols, np.int64)[keep]
+    worth = score_log_odds(score[keep]) - score_log_odds(threshold)
+    gate_rows, gate_cols = np.asarray(gate_rows, np.int64), np.asarray(gate_cols, np.int64)
+    if rows.size and gate_rows.size:  # a pair the network accepts keeps its own worth
+        n = int(max(cols.max(), gate_cols.max())) + 1
+        alone = ~_among(gate_rows * n + gate_cols, np.sort(rows * n + cols))
+        gate_rows, gate_cols, gate_d2 = gate_rows[alone], gate_cols[alone], gate_d2[alone]
+    rows, cols = np.concatenate([rows, gate_rows]), np.concatenate([cols, gate_cols])
+    if not rows.size:
+        return rows, cols
+    tie = 1e-6 * np.concatenate([np.zeros(worth.size), gate_d2])
+    worth = np.concatenate([worth, np.zeros(gate_rows.size)])
+    unit = 1.0 + 2.0 * float(worth.sum())  # a pair more outweighs every sum of log-odds
+    return least_cost_assignment(rows, cols, tie - worth - unit, np.zeros(int(rows.max()) + 1))
 
 
 def reacquire(rows: np.ndarray, cols: np.ndarray, d2: np.ndarray, waiting: np.ndarray, taken: np.ndarray,
