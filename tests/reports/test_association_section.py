@@ -54,5 +54,8 @@ def test_a_life_cycle_change_is_a_switch_of_its_own():
     life = {"coast_gate": 9.21, "coast_after": 0, "lifecycle": {"confirmation": "score"}}
     first, _ = association_section.tables(*_records(None, life=life))
     assert [dict(zip(first.header, r))["Life cycle"] for r in first.rows] == ["mn", "score, gate 9.21 after 0"]
+    life3 = {**life, "confirmed_first": True, "gate_after_miss": False, "retrodiction": True}
+    first, _ = association_section.tables(*_records(None, life=life3))
+    assert dict(zip(first.header, first.rows[1]))["Life cycle"] == "score, gate 9.21 after 0, confirmed first, retrodiction"
     first, _ = association_section.tables(*_records(None, life={"lifecycle": {"confirmation": "score"}}))
     assert dict(zip(first.header, first.rows[1]))["Life cycle"] == "score"

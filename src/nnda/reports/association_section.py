@@ -39,11 +39,19 @@ def _switches(tracker: dict, model: dict) -> dict:
             "life": _life_cycle(params)}
 
 
+#: the neural tracker's switches of its coasting tracks (`nnda.tracking.neural.NeuralConfig`), as the column names them
+_COASTING = {"confirmed_first": "confirmed first", "gate_after_miss": "gate after miss", "retrodiction": "retrodiction"}
+
+
 def _life_cycle(params: dict) -> str:
-    """The tracker's confirmation rule, and its coasting fallback if any: "mn", "score, gate 9.21 after 0"."""
+    """The tracker's confirmation rule, its coasting fallback and the switches on: "mn", "score, gate 9.21 after 0,
+    confirmed first, retrodiction"."""
     rule = (params.get("lifecycle") or {}).get("confirmation", "mn")
     gate = params.get("coast_gate")
-    return rule if gate is None else f"{rule}, gate {gate:g} after {params.get('coast_after', 1)}"
+    if gate is None:
+        return rule
+    on = [name for key, name in _COASTING.items() if params.get(key)]
+    return ", ".join([rule, f"gate {gate:g} after {params.get('coast_after', 1)}", *on])
 
 
 def neural_trackers(manifest: dict, classifier: dict) -> list[tuple[dict, dict]]:
@@ -76,7 +84,8 @@ def classifier_table(nn: list[tuple[dict, dict]]) -> TextTable:
     note = ("Own test: the model's test split (20 % of its own training pairs, harvested ones included). Presets: "
             "every oracle pair of the 17 training presets, the same set for every model. Life cycle: the confirmation "
             "rule (mn: M/N; score: the track score), and with coast_gate the IMM gate in which a confirmed track "
-            "left without a pick after that many misses takes its nearest free contact.")
+            "left without a pick after that many misses takes its nearest free contact, then the switches on "
+            "(confirmed tracks first, the gate on a pick after a miss, the one-scan retrodiction).")
     return TextTable("Neural trackers: what each model was trained on and how it classifies", header,
                      tuple(rows), note)
 

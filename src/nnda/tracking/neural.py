@@ -412,7 +412,9 @@ def served_matching(rows: np.ndarray, cols: np.ndarray, score: np.ndarray, thres
     in both lists is worth its score). A row may miss. The matching has the
     most pairs (GNN's aim: each pair is worth more than any sum of log-odds)
     and, among those, the greatest total log-odds, then the least total d²
-    of its gate-only pairs. Returns the assigned (rows, cols).
+    of its gate-only pairs. Returns the assigned (rows, cols) of
+    `least_cost_assignment`, or, when no contact is in two rows' pairs, each
+    row's best pair (`greedy_matching`: the same optimum without the solver).
     """
     keep = score > threshold
     rows, cols = np.asarray(rows, np.int64)[keep], np.asarray(cols, np.int64)[keep]
@@ -427,6 +429,8 @@ def served_matching(rows: np.ndarray, cols: np.ndarray, score: np.ndarray, thres
         return rows, cols
     tie = 1e-6 * np.concatenate([np.zeros(worth.size), gate_d2])
     worth = np.concatenate([worth, np.zeros(gate_rows.size)])
+    if np.bincount(cols).max() == 1:  # no contact wanted twice: each row's best pair (most scans; no solver)
+        return greedy_matching(rows, cols, worth - tie)
     unit = 1.0 + 2.0 * float(worth.sum())  # a pair more outweighs every sum of log-odds
     return least_cost_assignment(rows, cols, tie - worth - unit, np.zeros(int(rows.max()) + 1))
 
