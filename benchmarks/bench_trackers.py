@@ -54,9 +54,10 @@ GIVE_UP_S = 10.0
 #: the neural tracker's life-cycle options of issue 20, "life3" of studies/neural-ablation.toml (coasting
 #: confirmed tracks take their nearest free contact in the IMM's 99 % gate, and only inside it after a miss;
 #: confirmed tracks first, in one assignment with their re-acquisitions serving the most tracks; the one-scan
-#: retrodiction; the score rule with false_confirmation 1e-5): its "+life" rows
+#: retrodiction; the score rule with false_confirmation 1e-5 and false_deletion 5e-4): its "+life" rows
 LIFE = {"coast_gate": 9.21, "coast_after": 0, "confirmed_first": True, "gate_after_miss": True, "retrodiction": True,
-        "association": "served", "lifecycle": {"confirmation": "score", "false_confirmation": 1e-5}}
+        "association": "served",
+        "lifecycle": {"confirmation": "score", "false_confirmation": 1e-5, "false_deletion": 5e-4}}
 
 
 def params_for(name: str, model: str | None) -> dict | None:

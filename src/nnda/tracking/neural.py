@@ -218,7 +218,7 @@ class NeuralTracker(SingleHypothesisTracker):
         if self.config.gate_after_miss:
             after_miss = (tracks.status[track] == CONFIRMED) & (tracks.consecutive[track] >= 1)
             if after_miss.any():
-                g = self._gated(pred, scan)
+                g = self._gated(tracks, pred, scan)
                 inside = _among(track * len(scan.z) + cand, g.rows * len(scan.z) + g.cols)
                 keep = ~after_miss | inside
                 track, cand, score = track[keep], cand[keep], score[keep]
@@ -288,7 +288,7 @@ class NeuralTracker(SingleHypothesisTracker):
         their IMM gate of ``coast_gate`` (`_gated`), in one `served_matching`."""
         cfg = self.config
         waiting = (tracks.status == CONFIRMED) & (tracks.consecutive >= cfg.coast_after)
-        g = self._gated(pred, scan)
+        g = self._gated(tracks, pred, scan)
         near = waiting[g.rows]
         rows, cols = served_matching(track, cand, score, cfg.threshold, g.rows[near], g.cols[near], g.d2[near])
         contact[rows] = cols
@@ -304,7 +304,7 @@ class NeuralTracker(SingleHypothesisTracker):
         waiting = (tracks.status == CONFIRMED) & (tracks.consecutive >= cfg.coast_after) & (contact == NO_CONTACT)
         if not waiting.any():
             return contact
-        g = self._gated(pred, scan)
+        g = self._gated(tracks, pred, scan)
         rows, cols = reacquire(g.rows, g.cols, g.d2, waiting, _given(contact, len(scan.z)), cfg.coast_gate)
         contact = contact.copy()
         contact[rows] = cols
@@ -360,10 +360,14 @@ class NeuralTracker(SingleHypothesisTracker):
         alive = missed.status != DELETED
         return missed if alive.all() else missed.take(alive)
 
-    def _gated(self, pred: IMMPrediction, scan: ScanContacts) -> Gated:
-        """The pairs inside the tracks' IMM gate of ``coast_gate`` this scan (`gate_tracks`), computed once."""
+    def _gated(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Gated:
+        """The pairs inside the confirmed tracks' IMM gate of ``coast_gate`` this scan (`gate_tracks`; rows
+        index ``tracks``), computed once: every use of the gate is a confirmed track's, and the clutter's
+        preliminary tracks outnumber them."""
         if self._gated_of is None:
-            self._gated_of = gate_tracks(scan.filter, pred, scan.z, scan.xy, self.config.coast_gate)[1]
+            sure = np.flatnonzero(tracks.status == CONFIRMED)
+            g = gate_tracks(scan.filter, pred.take(sure), scan.z, scan.xy, self.config.coast_gate)[1]
+            self._gated_of = Gated(sure[g.rows], g.cols, g.d2)
         return self._gated_of
 
     def _born(self, tracks: Tracks) -> np.ndarray:
@@ -419,16 +423,18 @@ def served_matching(rows: np.ndarray, cols: np.ndarray, score: np.ndarray, thres
     keep = score > threshold
     rows, cols = np.asarray(rows, np.int64)[keep], np.asarray(cols, np.int64)[keep]
     worth = score_log_odds(score[keep]) - score_log_odds(threshold)
-    gate_rows, gate_cols = np.asarray(gate_rows, np.int64), np.asarray(gate_cols, np.int64)
-    if rows.size and gate_rows.size:  # a pair the network accepts keeps its own worth
-        n = int(max(cols.max(), gate_cols.max())) + 1
-        alone = ~_among(gate_rows * n + gate_cols, np.sort(rows * n + cols))
-        gate_rows, gate_cols, gate_d2 = gate_rows[alone], gate_cols[alone], gate_d2[alone]
-    rows, cols = np.concatenate([rows, gate_rows]), np.concatenate([cols, gate_cols])
+    tie = np.zeros(worth.size)
+    if len(gate_rows):
+        gate_rows, gate_cols = np.asarray(gate_rows, np.int64), np.asarray(gate_cols, np.int64)
+        if rows.size:  # a pair the network accepts keeps its own worth
+            n = int(max(cols.max(), gate_cols.max())) + 1
+            alone = ~_among(gate_rows * n + gate_cols, np.sort(rows * n + cols))
+            gate_rows, gate_cols, gate_d2 = gate_rows[alone], gate_cols[alone], gate_d2[alone]
+        rows, cols = np.concatenate([rows, gate_rows]), np.concatenate([cols, gate_cols])
+        tie = np.concatenate([tie, 1e-6 * gate_d2])
+        worth = np.concatenate([worth, np.zeros(gate_rows.size)])
     if not rows.size:
         return rows, cols
-    tie = 1e-6 * np.concatenate([np.zeros(worth.size), gate_d2])
-    worth = np.concatenate([worth, np.zeros(gate_rows.size)])
     if np.bincount(cols).max() == 1:  # no contact wanted twice: each row's best pair (most scans; no solver)
         return greedy_matching(rows, cols, worth - tie)
     unit = 1.0 + 2.0 * float(worth.sum())  # a pair more outweighs every sum of log-odds
