@@ -56,6 +56,7 @@ def test_a_life_cycle_change_is_a_switch_of_its_own():
     assert [dict(zip(first.header, r))["Life cycle"] for r in first.rows] == ["mn", "score, gate 9.21 after 0"]
     life3 = {**life, "confirmed_first": True, "gate_after_miss": False, "retrodiction": True}
     first, _ = association_section.tables(*_records(None, life=life3))
-    assert dict(zip(first.header, first.rows[1]))["Life cycle"] == "score, gate 9.21 after 0, confirmed first, retrodiction"
+    want = "score, gate 9.21 after 0, confirmed first, retrodiction"
+    assert dict(zip(first.header, first.rows[1]))["Life cycle"] == want
     first, _ = association_section.tables(*_records(None, life={"lifecycle": {"confirmation": "score"}}))
     assert dict(zip(first.header, first.rows[1]))["Life cycle"] == "score"
