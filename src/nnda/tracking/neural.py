@@ -206,6 +206,7 @@ class NeuralTracker(SingleHypothesisTracker):
         self._last_scan: tuple[Tracks, np.ndarray] | None = None  # its tracks and contacts, for `_retrodicted`
 
     def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
+        given = tracks  # the retrodiction may revise them (`_retrodicted`)
         contact = np.full(len(tracks), NO_CONTACT, np.int64)
         if not len(scan.z):
             self._last_scan = None
@@ -229,21 +230,17 @@ class NeuralTracker(SingleHypothesisTracker):
             else:
                 self._pick(contact, track[first], cand[first], score[first])
             contact = self._reacquired(tracks, pred, scan, contact)
-            revised = self._retrodicted(tracks, pred, scan, contact)
-            if revised is not None:
-                tracks, pred, contact = revised
+            tracks, pred, contact = self._retrodicted(tracks, pred, scan, contact)
             rest = ~first & ~_given(contact, len(scan.z))[cand]
             self._pick(contact, track[rest], cand[rest], score[rest])
         else:
             self._pick(contact, track, cand, score)
             contact = self._reacquired(tracks, pred, scan, contact)
-            revised = self._retrodicted(tracks, pred, scan, contact)
-            if revised is not None:
-                tracks, pred, contact = revised
+            tracks, pred, contact = self._retrodicted(tracks, pred, scan, contact)
         if self.config.retrodiction:  # kept as they are; the branches are made only when the next scan asks
             self._last_scan = (tracks, contact)
         assoc = hard_update(scan.filter, pred, scan.z, contact)
-        return assoc if revised is None else Association(assoc.contact, assoc.filt, revised=(tracks, pred))
+        return assoc if tracks is given else Association(assoc.contact, assoc.filt, revised=(tracks, pred))
 
     def _scores(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts, track: np.ndarray, cand: np.ndarray
                 ) -> np.ndarray:
@@ -286,11 +283,10 @@ class NeuralTracker(SingleHypothesisTracker):
         """Write into ``contact`` (K,) the confirmed tracks' picks under association 'served': their pairs
         (track, cand, score) (P,) and, for those that count as coasting (``coast_after``), the contacts in
         their IMM gate of ``coast_gate`` (`_gated`), in one `served_matching`."""
-        cfg = self.config
-        waiting = (tracks.status == CONFIRMED) & (tracks.consecutive >= cfg.coast_after)
         g = self._gated(tracks, pred, scan)
-        near = waiting[g.rows]
-        rows, cols = served_matching(track, cand, score, cfg.threshold, g.rows[near], g.cols[near], g.d2[near])
+        near = self._coasting(tracks)[g.rows]
+        rows, cols = served_matching(track, cand, score, self.config.threshold, g.rows[near], g.cols[near],
+                                     g.d2[near])
         contact[rows] = cols
 
     def _reacquired(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts, contact: np.ndarray
@@ -301,7 +297,7 @@ class NeuralTracker(SingleHypothesisTracker):
         cfg = self.config
         if cfg.coast_gate is None:
             return contact
-        waiting = (tracks.status == CONFIRMED) & (tracks.consecutive >= cfg.coast_after) & (contact == NO_CONTACT)
+        waiting = self._coasting(tracks) & (contact == NO_CONTACT)
         if not waiting.any():
             return contact
         g = self._gated(tracks, pred, scan)
@@ -310,33 +306,39 @@ class NeuralTracker(SingleHypothesisTracker):
         contact[rows] = cols
         return contact
 
+    def _coasting(self, tracks: Tracks) -> np.ndarray:
+        """(K,) True for the confirmed tracks that count as coasting for ``coast_gate`` (``coast_after``)."""
+        return (tracks.status == CONFIRMED) & (tracks.consecutive >= self.config.coast_after)
+
     def _retrodicted(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts, contact: np.ndarray
-                     ) -> tuple[Tracks, IMMPrediction, np.ndarray] | None:
+                     ) -> tuple[Tracks, IMMPrediction, np.ndarray]:
         """The retrodiction (``retrodiction``): the confirmed tracks that took a contact last scan and have
         none in ``contact`` (K,) now, replaced by their branch without that contact (`_skipping`) where the
         branch's prediction has free contacts in its gate of ``coast_gate``, each with the nearest of them
-        (`reacquire`). Returns the revised (tracks, prediction, contact), or None when no track goes back."""
+        (`reacquire`). Returns the revised (tracks, prediction, contact): the same objects when no track goes
+        back."""
+        unchanged = tracks, pred, contact
         if self._last_scan is None:
-            return None
+            return unchanged
         lost = np.flatnonzero((contact == NO_CONTACT) & (tracks.status == CONFIRMED) & (tracks.consecutive == 0))
         if not lost.size:
-            return None
+            return unchanged
         skipped = self._skipping(*self._last_scan)
-        if skipped is None or not len(skipped):
-            return None
+        if skipped is None:
+            return unchanged
         # track ids ascend in both (tracks keep their order; new ones come last, with higher ids)
         at = np.minimum(np.searchsorted(skipped.track_id, tracks.track_id[lost]), len(skipped) - 1)
         known = skipped.track_id[at] == tracks.track_id[lost]
         lost, at = lost[known], at[known]
         if not lost.size:
-            return None
+            return unchanged
         branch = skipped.take(at)
         branch_pred = scan.filter.predict(branch.filt, scan.time - branch.t2, check=False)
         g = gate_tracks(scan.filter, branch_pred, scan.z, scan.xy, self.config.coast_gate)[1]
         rows, cols = reacquire(g.rows, g.cols, g.d2, np.ones(lost.size, bool), _given(contact, len(scan.z)),
                                self.config.coast_gate)
         if not rows.size:
-            return None
+            return unchanged
         index = np.arange(len(tracks))
         index[lost[rows]] = len(tracks) + rows
         contact = contact.copy()
@@ -348,7 +350,8 @@ class NeuralTracker(SingleHypothesisTracker):
     def _skipping(self, tracks: Tracks, contact: np.ndarray) -> Tracks | None:
         """The confirmed tracks of last scan's ``tracks`` (K,) that took a contact in its ``contact`` (K,), as
         they would be had they missed it instead (the branches of `_retrodicted`): their last posterior kept,
-        the miss counted in their life cycle and score; the ones such a miss deletes left out."""
+        the miss counted in their life cycle and score; the ones such a miss deletes left out (None: no
+        track left)."""
         rows = np.flatnonzero((contact != NO_CONTACT) & (tracks.status == CONFIRMED))
         if not rows.size:
             return None
@@ -358,7 +361,7 @@ class NeuralTracker(SingleHypothesisTracker):
         missed = kept.after_scan(np.full(rows.size, NO_CONTACT), kept.filt, none, none, np.nan,
                                  self.config.lifecycle, None, gain)
         alive = missed.status != DELETED
-        return missed if alive.all() else missed.take(alive)
+        return None if not alive.any() else missed if alive.all() else missed.take(alive)
 
     def _gated(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Gated:
         """The pairs inside the confirmed tracks' IMM gate of ``coast_gate`` this scan (`gate_tracks`; rows
