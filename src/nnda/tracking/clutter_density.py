@@ -13,7 +13,7 @@ grid of `_EDGE_POINTS`^2 points of the square): near the maximum range half
 the square sees no clutter, and counting over the whole square halves the
 density there, doubles every contact's likelihood ratio and lets a track
 that follows the coverage edge on clutter alone confirm. That part is
-tabulated once per sensor and radius on the counting grid's cells
+tabulated once per coverage and radius on the counting grid's cells
 (`_covered_table`, interpolated), so it too costs O(1) per query point.
 
 Why compiled (issue 20): every tracker under the score rule counts once
@@ -152,10 +152,21 @@ def covered_fraction(sensor: Sensor, at: np.ndarray, radius: float) -> np.ndarra
     return fraction
 
 
-@lru_cache(maxsize=32)
+#: the sensor fields its coverage depends on (`in_coverage`)
+_COVERAGE_FIELDS = ("x_m", "y_m", "boresight_deg", "fov_deg", "min_range_m", "max_range_m")
+
+
 def _covered_table(sensor: Sensor, radius: float) -> tuple[np.ndarray, np.ndarray]:
     """`covered_fraction` at the centres of the radius/_CELLS cells over the sensor's coverage and a radius
-    around it: (the table (n, n), its lower corner (2,) m)."""
+    around it: (the table (n, n), its lower corner (2,) m). Cached by the coverage alone: sensors that differ
+    only in noise, clutter or timing (S1-S6's radars) share one table, which costs ~0.1 s to build."""
+    return _coverage_table(tuple(getattr(sensor, f) for f in _COVERAGE_FIELDS), float(radius))
+
+
+@lru_cache(maxsize=32)
+def _coverage_table(coverage: tuple[float, ...], radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """`_covered_table` of the sensor with the coverage ``coverage`` (the values of `_COVERAGE_FIELDS`)."""
+    sensor = Sensor(**dict(zip(_COVERAGE_FIELDS, coverage, strict=True)))
     cell = radius / _CELLS
     lo = np.asarray(sensor.position, float) - sensor.max_range_m - radius
     n = int(np.ceil(2.0 * (sensor.max_range_m + radius) / cell))
