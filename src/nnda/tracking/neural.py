@@ -448,11 +448,7 @@ def _served_pairs(rows, cols, score, threshold, gate_rows, gate_cols, gate_d2):
     for c in gate_cols:
         n = max(n, c + 1)
     taken = np.sort(rows[keep] * n + cols[keep])
-    alone = np.ones(gate_rows.size, np.bool_)
-    if taken.size:  # a pair the network accepts keeps its own worth
-        at = np.minimum(np.searchsorted(taken, gate_rows * n + gate_cols), taken.size - 1)
-        alone = taken[at] != gate_rows * n + gate_cols
-    extra = np.flatnonzero(alone)
+    extra = np.flatnonzero(~_among(gate_rows * n + gate_cols, taken))  # a network pair keeps its own worth
     m = keep.size + extra.size
     out_rows, out_cols = np.empty(m, np.int64), np.empty(m, np.int64)
     worth, tie = np.zeros(m), np.zeros(m)
@@ -490,9 +486,11 @@ def _given(contact: np.ndarray, n: int) -> np.ndarray:
     return given
 
 
+@numba.njit(cache=True, nogil=True)
 def _among(keys: np.ndarray, sorted_keys: np.ndarray) -> np.ndarray:
-    """(P,) True for the ``keys`` found in ``sorted_keys`` (ascending), by binary search."""
+    """(P,) True for the ``keys`` found in ``sorted_keys`` (ascending), by binary search (compiled: also
+    called from `_served_pairs`)."""
     if not sorted_keys.size:
-        return np.zeros(keys.size, bool)
+        return np.zeros(keys.size, np.bool_)
     pos = np.minimum(np.searchsorted(sorted_keys, keys), sorted_keys.size - 1)
     return sorted_keys[pos] == keys
