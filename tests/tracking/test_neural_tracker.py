@@ -551,6 +551,41 @@ def test_retrodiction_changes_nothing_without_a_lure(tmp_path):
         np.testing.assert_array_equal(a.state, b.state)
 
 
+def _ended_run(model: str, release: bool, end: int = 10, lure: int = 14):
+    """One target east at 150 m/s, y = 12 km, no clutter, seen up to scan ``end`` and gone after; at scan
+    ``lure`` (its track's fourth scan without a contact) a lone contact 1.2 km to the left of its path lies in
+    the coasting track's gate, too far to be worth taking (the score rule deletes the track that takes it),
+    and the next scan has a contact 300 m east of that one (a start at 150 m/s). Returns the outputs."""
+    tracker = make_tracker("nn", Sensor(), {"model": model, "coast_gate": 9.21, "coast_after": 0,
+                                            "release_on_deletion": release,
+                                            "lifecycle": {"confirmation": "score", "false_deletion": 5e-4}})
+    outputs = []
+    for k in range(1, lure + 2):
+        xy = [(-5_000.0 + 300.0 * k, 12_000.0)] if k <= end else []
+        xy += [(-5_000.0 + 300.0 * lure + 300.0 * (k - lure), 13_200.0)] if k >= lure else []
+        r, az = cart_to_polar(*np.array(xy).reshape(-1, 2).T)
+        outputs.append(tracker.step(Scan(k, 2.0 * k, np.column_stack([r, az]))))
+    return outputs
+
+
+def test_release_on_deletion_gives_the_contact_of_a_deleted_track_back(tmp_path):
+    model = str(band_model(tmp_path / "band.json"))
+    lure = 14
+    kept, released = _ended_run(model, False, lure=lure), _ended_run(model, True, lure=lure)
+    for out in (kept, released):  # the same track up to the lure, which deletes it
+        assert out[lure - 2].status.tolist() == [TrackStatus.CONFIRMED]
+        assert out[lure - 1].track_id.tolist() == [0] and out[lure - 1].status.tolist() == [TrackStatus.DELETED]
+    assert kept[lure - 1].contact.tolist() == [0] and kept[lure - 1].state[0, 2] > 13_000.0  # it took the lure
+    assert len(kept[lure]) == 0  # the lure was used: the next contact only initiates
+    # released: the track ends on a miss at its prediction, and the lure starts a track with the next contact
+    assert released[lure - 1].contact.tolist() == [-1]
+    assert released[lure - 1].state[0, 2] == pytest.approx(12_000.0, abs=50.0)
+    assert released[lure - 1].state[0, 0] == pytest.approx(kept[lure - 1].state[0, 0], abs=50.0)
+    assert released[lure].status.tolist() == [TrackStatus.PRELIMINARY] and released[lure].contact.tolist() == [0]
+    for a, b in zip(kept[:lure - 1], released[:lure - 1]):  # nothing else changes
+        np.testing.assert_array_equal(a.state, b.state)
+
+
 def brute_force_served(pairs: dict, gate: dict, threshold: float, n_rows: int) -> tuple[int, float]:
     """(most pairs, then greatest total log-odds above the threshold's) over every one-to-one matching of
     the network pairs above the threshold and the gate pairs (worth 0 unless also a network pair)."""

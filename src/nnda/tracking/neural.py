@@ -150,6 +150,10 @@ class NeuralConfig(ContactTrackerConfig):
         "one scan: if the track as it would be had it missed that scan has a free contact in its coast_gate "
         "now, it takes that branch and the nearest such contact (MHT's choice deferred by one scan, for one "
         "hypothesis); needs coast_gate")
+    release_on_deletion: bool = Field(
+        False, description="a track its life cycle or a sanity rule deletes in the scan it took a contact gives "
+        "the contact back: it ends on a miss at its prediction, and the contact is free to start a track (a "
+        "coasting track of a target that has gone takes clutter, and the score rule then ends it)")
 
     @model_validator(mode="after")
     def _needs_gate(self) -> NeuralConfig:

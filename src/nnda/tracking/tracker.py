@@ -583,7 +583,6 @@ class SingleHypothesisTracker(ContactTracker):
                 tracks, pred = assoc.revised
             c = assoc.contact
             det = c != NO_CONTACT
-            used[c[det]] = True
             observed = self._observed(sc, pred)
             # a missed track keeps its last posterior (§7.1.8) and reports its prediction
             before = tracks.status
@@ -593,6 +592,9 @@ class SingleHypothesisTracker(ContactTracker):
             judged = self._judged(before, tracks.status, x, P)
             if judged is not tracks.status:  # a sanity rule deleted a track (most scans: none)
                 tracks = tracks.replaced(status=judged)
+            if getattr(self.config, "release_on_deletion", False):
+                c, x, P = self._released(before, tracks.status, c, pred, x, P)
+            used[c[c != NO_CONTACT]] = True
             shown.append((tracks, x, P, c))
             alive = np.flatnonzero(tracks.status != DELETED)
             tracks = None if not alive.size else tracks if alive.size == len(tracks) else tracks.take(alive)
@@ -610,6 +612,22 @@ class SingleHypothesisTracker(ContactTracker):
         self.tracks = tracks
         self.last_time = time
         return self._shown(scan.index, time, shown)
+
+    def _released(self, before: np.ndarray, status: np.ndarray, contact: np.ndarray, pred: IMMPrediction,
+                  x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The config's ``release_on_deletion``: a track the scan deleted (``status`` DELETED, ``before`` not)
+        after it took a contact gives the contact back, reported as a miss with its predicted estimate
+        (``pred``) instead of the updated x (K, 4), P (K, 4, 4); the contact stays free for initiation.
+        Returns the scan's contacts (K,) and the estimates to report."""
+        gone = (status == DELETED) & (before != DELETED) & (contact != NO_CONTACT)
+        if not gone.any():
+            return contact, x, P
+        rows = np.flatnonzero(gone)
+        x, P = x.copy(), P.copy()
+        x[rows], P[rows] = self.filter.estimate(pred.state.take(rows))
+        contact = contact.copy()
+        contact[rows] = NO_CONTACT
+        return contact, x, P
 
     def _capped(self, tracks: Tracks | None, born: Tracks, contact: np.ndarray, shown: list, time: float
                 ) -> tuple[Tracks | None, Tracks | None, np.ndarray]:
