@@ -411,13 +411,14 @@ class IMM:
         return _measured(x.shape[:-1], *imm_kernels.measure(x.reshape(-1, n), P.reshape(-1, n, n), self._polar,
                                                             self._origin, self.measurement.R))
 
-    def mahalanobis(self, mp: MeasurementPrediction, Z: np.ndarray) -> np.ndarray:
+    def mahalanobis(self, mp: MeasurementPrediction, Z: np.ndarray, *, check: bool = True) -> np.ndarray:
         """Squared Mahalanobis distances (*B, N) of N measurements Z (N, 2) from each prediction in ``mp``.
 
         ``mp`` has leading shape B: (K,) from `combined_measurement`, or (K, r)
-        for ``pred.measurement`` (one distance per model).
+        for ``pred.measurement`` (one distance per model). ``check=False`` skips the check of Z (as
+        `pair_log_likelihood`'s).
         """
-        Z = self._checked_contacts(Z)
+        Z = self._checked_contacts(Z) if check else Z
         lead = mp.z.shape[:-1]
         d2 = imm_kernels.mahalanobis(mp.z.reshape(-1, 2), mp.S_inv.reshape(-1, 2, 2), Z, self._polar)
         return d2.reshape(*lead, len(Z))

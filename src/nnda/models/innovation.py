@@ -34,6 +34,7 @@ import numpy as np
 
 from nnda.errors import ModelError
 from nnda.filters.imm import IMM, IMMPrediction
+from nnda.filters.kalman import MeasurementPrediction
 from nnda.filters.measurement import PolarMeasurement
 from nnda.filters.motion import CoordinatedTurn
 from nnda.models import feature_kernels
@@ -59,7 +60,7 @@ def _ct_index(imm: IMM) -> int:
 
 def innovation_features(
     imm: IMM, pred: IMMPrediction, track: np.ndarray, contacts: np.ndarray, kinematic: np.ndarray,
-    age: np.ndarray,
+    age: np.ndarray, gate: MeasurementPrediction | None = None,
 ) -> np.ndarray:
     """Extended features (P, 9) of P pairs, columns as `IMM_INNOVATION.names`.
 
@@ -67,7 +68,8 @@ def innovation_features(
     (P,) the pair's row in it; ``contacts`` (P, 2) the candidates' polar
     measurements [range m, azimuth rad]; ``kinematic`` (P, 3) the seed's
     features of the same pairs (`pair_features`); ``age`` (P,) the time (s)
-    from each pair's track's first contact to the scan. The azimuth
+    from each pair's track's first contact to the scan; ``gate`` the tracks' combined measurement
+    prediction (`IMM.combined_measurement` of ``pred``) when the caller has it. The azimuth
     residual of a polar measurement is wrapped, as
     `PolarMeasurement.residual`; the columns are computed in one compiled
     loop (`feature_kernels.innovation`).
@@ -76,7 +78,7 @@ def innovation_features(
     if contacts.shape != (n, 2) or kinematic.shape != (n, KINEMATIC.size) or np.shape(age) != (n,):
         raise ModelError(f"innovation features: expected contacts ({n}, 2), kinematic ({n}, 3) and age ({n},), "
                          f"got {contacts.shape}, {kinematic.shape}, {np.shape(age)}")
-    gate = imm.combined_measurement(pred)
+    gate = imm.combined_measurement(pred) if gate is None else gate
     return feature_kernels.innovation(kinematic, np.asarray(track, np.int64), np.asarray(contacts, float), gate.z,
                                       gate.S, gate.S_inv, gate.log_det_S, pred.state.mu, _ct_index(imm),
                                       np.asarray(age, float), isinstance(imm.measurement, PolarMeasurement))

@@ -38,7 +38,7 @@ class Gated:
 
 
 def gate(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, xy: np.ndarray, threshold: float,
-         estimate: tuple[np.ndarray, np.ndarray] | None = None) -> Gated:
+         estimate: tuple[np.ndarray, np.ndarray] | None = None, *, check: bool = True) -> Gated:
     """Pairs (track, contact) with squared Mahalanobis distance <= ``threshold``.
 
     ``mp`` is the combined measurement prediction of K tracks
@@ -46,14 +46,15 @@ def gate(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, xy: np.ndarray, thr
     measurement space of ``imm.measurement`` and ``xy`` (N, 2) their
     Cartesian positions (m). ``estimate`` is the combined prediction (x (K, 4), P (K, 4, 4),
     `IMM.estimate` of ``pred.state``) the Cartesian test of poorly linearised tracks needs
-    (module docstring); without it every pair is judged by the linearised test alone.
+    (module docstring); without it every pair is judged by the linearised test alone. ``check=False``
+    skips the check of z (for the trackers, whose scan loop checks every scan's contacts).
     """
     K, N = len(mp.z), len(z)
     if K == 0 or N == 0:
         empty = np.empty(0, np.int64)
         return Gated(empty, empty, np.empty(0))
     if K * N <= DENSE_PAIRS:
-        d2 = imm.mahalanobis(mp, z)
+        d2 = imm.mahalanobis(mp, z, check=check)
         rows, cols = np.nonzero(d2 <= threshold)
         return _cartesian_check(imm, mp, z, threshold, estimate, Gated(rows, cols, d2[rows, cols]))
     # radius of a circle holding the gate ellipse: sqrt(threshold * its largest spread in metres^2)
@@ -87,11 +88,11 @@ def _cartesian_check(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, thresho
     return Gated(gated.rows[keep], gated.cols[keep], gated.d2[keep])
 
 
-def gate_tracks(imm: IMM, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray, threshold: float
-                ) -> tuple[MeasurementPrediction, Gated]:
+def gate_tracks(imm: IMM, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray, threshold: float, *,
+                check: bool = True) -> tuple[MeasurementPrediction, Gated]:
     """The combined measurement prediction of K tracks' IMM prediction ``pred`` (the gating prediction,
     `IMM.combined_measurement`) and the pairs inside their gates (`gate`, with the Cartesian test of the
-    poorly linearised tracks)."""
+    poorly linearised tracks; ``check`` as there)."""
     estimate = imm.estimate(pred.state)
     mp = imm.measurement_prediction(*estimate)
-    return mp, gate(imm, mp, z, xy, threshold, estimate)
+    return mp, gate(imm, mp, z, xy, threshold, estimate, check=check)

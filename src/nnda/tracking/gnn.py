@@ -57,7 +57,7 @@ class GNNTracker(SingleHypothesisTracker):
     def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
         contact = np.full(len(tracks), NO_CONTACT, np.int64)
         imm, z = scan.filter, scan.z
-        mp, g = gate_tracks(imm, pred, z, scan.xy, self.config.gate)
+        mp, g = gate_tracks(imm, pred, z, scan.xy, self.config.gate, check=False)
         confirmed = tracks.status == TrackStatus.CONFIRMED
         for stage in (confirmed, ~confirmed):  # confirmed tracks choose first
             taken = np.zeros(len(z), bool)

@@ -232,7 +232,7 @@ class JPDATracker(SingleHypothesisTracker):
         gain = np.full(len(tracks), log_miss)  # the existence increments (JIPDA); a miss's without contacts
         if not len(z):
             return Association(contact, state, gain if self.confirmation_rule == "existence" else None)
-        g = gate_tracks(imm, pred, z, scan.xy, cfg.gate)[1]
+        g = gate_tracks(imm, pred, z, scan.xy, cfg.gate, check=False)[1]
         near = np.zeros(len(z), bool)
         near[g.cols] = True
         near = np.flatnonzero(near)  # the contacts in some gate

@@ -180,10 +180,10 @@ class MHTTracker(ContactTracker):
         score = miss_score
         if len(z):
             mp = kalman.predict_measurement(x_pred, P_pred, imm.measurement)  # the combined measurement
-            gated = gate(imm, mp, z, xy, cfg.gate, (x_pred, P_pred))
+            gated = gate(imm, mp, z, xy, cfg.gate, (x_pred, P_pred), check=False)
             pl, pj = gated.rows, gated.cols
             if pl.size:
-                ll = imm.pair_log_likelihood(pred, pl, z[pj])
+                ll = imm.pair_log_likelihood(pred, pl, z[pj], check=False)
                 beta_ft = self._clutter_density(x_pred, xy) * imm.measurement.area_jacobian(mp.z)
                 det = leaves.score[pl] + math.log(cfg.pd) + ll - np.log(beta_ft[pl])
                 order = np.lexsort((-det, pl))

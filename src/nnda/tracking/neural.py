@@ -88,14 +88,15 @@ from pydantic import Field, model_validator
 
 from nnda.data.scenario import Sensor
 from nnda.errors import ConfigError, ModelError, TrackingError
-from nnda.filters.imm import IMMPrediction
+from nnda.filters.imm import IMM, IMMPrediction
+from nnda.filters.kalman import MeasurementPrediction
 from nnda.models.context import IMM_CONTEXT, with_context
 from nnda.models.feature_sets import FEATURE_SETS
 from nnda.models.features import candidate_pairs, pair_features
 from nnda.models.innovation import IMM_INNOVATION, innovation_features
 from nnda.models.scorer import Scorer, load_model, score_log_odds
 from nnda.tracking.assignment import greedy_matching, least_cost_assignment
-from nnda.tracking.gating import Gated, gate_tracks
+from nnda.tracking.gating import Gated, gate, gate_tracks
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT
 from nnda.tracking.tracker import (
     Association,
@@ -208,6 +209,7 @@ class NeuralTracker(SingleHypothesisTracker):
         super().reset()
         self._first_time = np.empty(0)  # time (s) of each track's first contact, by track id
         self._gated_of: Gated | None = None  # the scan's IMM gate (`_gated`)
+        self._combined_of: tuple | None = None  # a prediction and its gating prediction (`_combined`)
         self._last_scan: tuple[Tracks, np.ndarray] | None = None  # its tracks and contacts, for `_retrodicted`
 
     def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
@@ -257,7 +259,7 @@ class NeuralTracker(SingleHypothesisTracker):
                                  scan.xy[cand], time, check=False)
         if self._extended:
             features = innovation_features(scan.filter, pred, track, z[cand], features,
-                                           time - self._born(tracks)[track])
+                                           time - self._born(tracks)[track], self._combined(scan.filter, pred)[1])
         if self._context:
             features = with_context(features, track, cand)
         if self.harvest is not None:
@@ -339,7 +341,7 @@ class NeuralTracker(SingleHypothesisTracker):
             return unchanged
         branch = skipped.take(at)
         branch_pred = scan.filter.predict(branch.filt, scan.time - branch.t2, check=False)
-        g = gate_tracks(scan.filter, branch_pred, scan.z, scan.xy, self.config.coast_gate)[1]
+        g = gate_tracks(scan.filter, branch_pred, scan.z, scan.xy, self.config.coast_gate, check=False)[1]
         rows, cols = reacquire(g.rows, g.cols, g.d2, np.ones(lost.size, bool), _given(contact, len(scan.z)),
                                self.config.coast_gate)
         if not rows.size:
@@ -374,9 +376,21 @@ class NeuralTracker(SingleHypothesisTracker):
         preliminary tracks outnumber them."""
         if self._gated_of is None:
             sure = np.flatnonzero(tracks.status == CONFIRMED)
-            g = gate_tracks(scan.filter, pred.take(sure), scan.z, scan.xy, self.config.coast_gate)[1]
+            (x, P), mp = self._combined(scan.filter, pred)
+            g = gate(scan.filter, mp.take(sure), scan.z, scan.xy, self.config.coast_gate, (x[sure], P[sure]),
+                     check=False)
             self._gated_of = Gated(sure[g.rows], g.cols, g.d2)
         return self._gated_of
+
+    def _combined(self, imm: IMM, pred: IMMPrediction
+                  ) -> tuple[tuple[np.ndarray, np.ndarray], MeasurementPrediction]:
+        """The combined prediction (x (K, 4), P (K, 4, 4)) of ``pred``'s K tracks and its measurement
+        prediction (the IMM's gating prediction, `IMM.combined_measurement`), computed once per prediction:
+        the innovation features and the gate both need it."""
+        if self._combined_of is None or self._combined_of[0] is not pred:
+            estimate = imm.estimate(pred.state)
+            self._combined_of = (pred, estimate, imm.measurement_prediction(*estimate))
+        return self._combined_of[1], self._combined_of[2]
 
     def _born(self, tracks: Tracks) -> np.ndarray:
         """Time (s) of each track's first contact, (K,). Track ids count up from 0 and a track is first
