@@ -58,5 +58,9 @@ def test_a_life_cycle_change_is_a_switch_of_its_own():
     first, _ = association_section.tables(*_records(None, life=life3))
     want = "score, gate 9.21 after 0, confirmed first, retrodiction"
     assert dict(zip(first.header, first.rows[1]))["Life cycle"] == want
+    first, _ = association_section.tables(*_records(None, life={**life3, "release_on_deletion": True}))
+    assert dict(zip(first.header, first.rows[1]))["Life cycle"] == f"{want}, release on deletion"
+    first, _ = association_section.tables(*_records(None, life={"release_on_deletion": True}))
+    assert [dict(zip(first.header, r))["Life cycle"] for r in first.rows] == ["mn", "mn, release on deletion"]
     first, _ = association_section.tables(*_records(None, life={"lifecycle": {"confirmation": "score"}}))
     assert dict(zip(first.header, first.rows[1]))["Life cycle"] == "score"

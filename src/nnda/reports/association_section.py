@@ -44,14 +44,16 @@ _COASTING = {"confirmed_first": "confirmed first", "gate_after_miss": "gate afte
 
 
 def _life_cycle(params: dict) -> str:
-    """The tracker's confirmation rule, its coasting fallback and the switches on: "mn", "score, gate 9.21 after 0,
-    confirmed first, retrodiction"."""
-    rule = (params.get("lifecycle") or {}).get("confirmation", "mn")
+    """The tracker's confirmation rule, its coasting fallback and the switches on, then the release of a deleted
+    track's contact: "mn", "score, gate 9.21 after 0, confirmed first, retrodiction, release on deletion"."""
+    parts = [(params.get("lifecycle") or {}).get("confirmation", "mn")]
     gate = params.get("coast_gate")
-    if gate is None:
-        return rule
-    on = [name for key, name in _COASTING.items() if params.get(key)]
-    return ", ".join([rule, f"gate {gate:g} after {params.get('coast_after', 1)}", *on])
+    if gate is not None:
+        parts += [f"gate {gate:g} after {params.get('coast_after', 1)}",
+                  *(name for key, name in _COASTING.items() if params.get(key))]
+    if params.get("release_on_deletion"):
+        parts.append("release on deletion")
+    return ", ".join(parts)
 
 
 def neural_trackers(manifest: dict, classifier: dict) -> list[tuple[dict, dict]]:
@@ -85,7 +87,8 @@ def classifier_table(nn: list[tuple[dict, dict]]) -> TextTable:
             "every oracle pair of the 17 training presets, the same set for every model. Life cycle: the confirmation "
             "rule (mn: M/N; score: the track score), and with coast_gate the IMM gate in which a confirmed track "
             "left without a pick after that many misses takes its nearest free contact, then the switches on "
-            "(confirmed tracks first, the gate on a pick after a miss, the one-scan retrodiction).")
+            "(confirmed tracks first, the gate on a pick after a miss, the one-scan retrodiction); release on "
+            "deletion: a track deleted in the scan it took a contact gives the contact back.")
     return TextTable("Neural trackers: what each model was trained on and how it classifies", header,
                      tuple(rows), note)
 
