@@ -14,6 +14,7 @@ from nnda.errors import FilterError
 from nnda.filters.imm import IMM, IMMPrediction, IMMState
 from nnda.filters.measurement import PolarMeasurement, PositionMeasurement
 from nnda.filters.motion import ConstantVelocity, CoordinatedTurn
+from nnda.filters.two_point import two_point
 from tolerances import RTOL, assert_cov, assert_state
 
 K = 7
@@ -233,6 +234,23 @@ def test_a_mode_with_probability_zero_stays_finite():
     for k in range(2, 8):
         alone = ct.update(ct.predict(alone, 2.0), Z[:, k])
     assert_state(state.x[:, 1], alone.x[:, 0], alone.P[:, 0])  # another model stack: equal to rounding
+
+
+@pytest.mark.parametrize("dt", [2.0, "per track"])
+def test_start_is_the_two_point_state_in_every_model(dt):
+    """`IMM.start` (one compiled call) against `two_point` then `from_cv`, with one interval or one per track."""
+    imm = IMM()
+    rng = np.random.default_rng(3)
+    K = 6
+    p1, p2 = rng.uniform(-2e4, 2e4, (K, 2)), rng.uniform(-2e4, 2e4, (K, 2))
+    a = rng.normal(size=(K, 2, 2))
+    cov2 = a @ a.swapaxes(1, 2) * 400.0 + np.eye(2) * 100.0
+    T = rng.uniform(1.0, 8.0, K) if dt == "per track" else dt
+    got, want = imm.start(p1, p2, cov2, T), imm.from_cv(*two_point(p1, p2, cov2, T))
+    assert_state(got.x, want.x, want.P)
+    assert_cov(got.P, want.P)
+    np.testing.assert_array_equal(got.mu, want.mu)
+    assert len(imm.start(p1[:0], p2[:0], cov2[:0], T if np.ndim(T) == 0 else T[:0])) == 0
 
 
 def test_make_state_and_from_cv():

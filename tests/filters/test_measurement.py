@@ -9,7 +9,7 @@ import pytest
 import spec_reference as ref
 
 from nnda.data.scenario import Sensor
-from nnda.data.sensor import cart_to_polar, measure, polar_to_cart
+from nnda.data.sensor import cart_to_polar, measure, polar_to_cart, polar_to_cart_at
 from nnda.errors import FilterError
 from nnda.filters.measurement import PolarMeasurement, PositionMeasurement, converted_covariance, measurement_model
 from nnda.filters.two_point import two_point
@@ -115,7 +115,9 @@ def test_polar_measurement_checks():
 
 
 def test_origin_model_computes_exactly_the_origin_formulas():
-    """At (0, 0) no shift is computed: h, H and the converted positions are the pre-sensor expressions bit for bit."""
+    """At (0, 0) no shift is computed: h and H are the pre-sensor expressions bit for bit, and the converted
+    positions those expressions to RTOL (the compiled conversion takes libm's sine and cosine, numpy may take
+    its SIMD ones on other CPUs)."""
     pm = PolarMeasurement(origin=(0.0, 0.0))
     assert pm == PolarMeasurement() and pm._shift is None
     z, H = pm.predict(X)
@@ -124,7 +126,27 @@ def test_origin_model_computes_exactly_the_origin_formulas():
     np.testing.assert_array_equal(H[:, 0, [0, 2]], X[:, [0, 2]] / r[:, None])
     np.testing.assert_array_equal(H[:, 1, [0, 2]], X[:, [2, 0]] * [1.0, -1.0] / (r * r)[:, None])
     xy, _ = pm.position(z)
-    np.testing.assert_array_equal(xy, np.column_stack(polar_to_cart(z[:, 0], z[:, 1])))
+    np.testing.assert_allclose(xy, np.column_stack(polar_to_cart(z[:, 0], z[:, 1])), rtol=RTOL)
+
+
+@pytest.mark.parametrize("origin", [(0.0, 0.0), ORIGIN])
+def test_compiled_position_is_the_numpy_conversion(origin):
+    """`PolarMeasurement.position` (one compiled loop) against `polar_to_cart_at` and `converted_covariance`,
+    for measurements of any leading shape."""
+    pm = PolarMeasurement(sigma_range=25.0, sigma_azimuth=2e-3, origin=origin)
+    rng = np.random.default_rng(7)
+    z = np.stack([rng.uniform(100.0, 40_000.0, (3, 5)), rng.uniform(0.0, 2 * np.pi, (3, 5))], axis=-1)
+    xy, cov = pm.position(z)
+    assert xy.shape == (3, 5, 2) and cov.shape == (3, 5, 2, 2)
+    np.testing.assert_allclose(xy, np.stack(polar_to_cart_at(origin, z[..., 0], z[..., 1]), axis=-1), rtol=RTOL,
+                               atol=RTOL * 40_000.0)
+    want = converted_covariance(z[..., 0], z[..., 1], 25.0, 2e-3)
+    np.testing.assert_allclose(cov, want, rtol=RTOL, atol=RTOL * np.abs(want).max())
+    one_xy, one_cov = pm.position(z[1, 2])  # a single measurement (2,)
+    np.testing.assert_array_equal(one_xy, xy[1, 2])
+    np.testing.assert_array_equal(one_cov, cov[1, 2])
+    empty_xy, empty_cov = pm.position(np.empty((0, 2)))
+    assert empty_xy.shape == (0, 2) and empty_cov.shape == (0, 2, 2)
 
 
 def test_shifted_polar_model_is_the_origin_model_on_shifted_states():

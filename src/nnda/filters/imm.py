@@ -51,7 +51,6 @@ from nnda.filters.batch import Batch
 from nnda.filters.kalman import MeasurementPrediction
 from nnda.filters.measurement import MeasurementModel, PolarMeasurement, PositionMeasurement, measurement_model
 from nnda.filters.motion import ConstantVelocity, CoordinatedTurn, MotionModel
-from nnda.filters.two_point import two_point
 from nnda.validation import check_array, check_covariance, check_finite, check_nonnegative
 
 if TYPE_CHECKING:
@@ -248,9 +247,13 @@ class IMM:
         """`initialise` from Cartesian fixes, unchecked: p1, p2 (K, 2) m, cov2 (K, 2, 2) the second
         fix's covariance (m^2), dt = t2 - t1 > 0 (s, scalar or (K,)).
 
-        For callers that hold the fixes' positions already and have checked them (the trackers).
+        For callers that hold the fixes' positions already and have checked them (the trackers): one
+        compiled call (`imm_kernels.start`, the arithmetic of `two_point` and `from_cv`).
         """
-        return self._from_cv(*two_point(p1, p2, cov2, dt))
+        K = len(p1)
+        dt = np.broadcast_to(np.asarray(dt, dtype=float), (K,))
+        return IMMState(*imm_kernels.start(np.asarray(p1, float), np.asarray(p2, float), np.asarray(cov2, float),
+                                           np.ascontiguousarray(dt), *self._cv_extension, self._mu0_array))
 
     def from_cv(self, x: np.ndarray, P: np.ndarray, mu: np.ndarray | None = None) -> IMMState:
         """IMM state of K tracks from CV estimates x (K, 4), P (K, 4, 4); every model starts there."""

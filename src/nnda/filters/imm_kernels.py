@@ -7,6 +7,7 @@
     xc, Pc = estimate(x, P, mu, d)                                                     # eqs. 4.54-4.55
     d2 = mahalanobis(z_pred, S_inv, Z, polar)                                           # (B, N) gate distances
     ll = pair_log_likelihood(z_pred, S_inv, log_det, mu, rows, Z, polar)               # (P,) eqs. 4.50, 4.53
+    x, P, mu = start(p1, p2, cov2, dt, x_rest, P_rest, mu0)                            # two-point starts
 
 Shapes: x (K, r, n), P (K, r, n, n) in the IMM's padded layout (model j's
 state in its first ``dims[j]`` entries, zeros beyond), mu (K, r), dt (K,) s;
@@ -242,6 +243,38 @@ def update(x, P, mu, z, mask, z_pred, S_inv, log_det, PHt, polar):
         for j in range(r):
             mu_u[k, j] = log_post[j] / total
     return xu, Pu, mu_u
+
+
+@_jit
+def start(p1, p2, cov2, dt, x_rest, P_rest, mu0):
+    """IMM states of K tracks started from two fixes p1, p2 (K, 2) m, dt (K,) s apart, cov2 (K, 2, 2) the
+    second one's covariance: `nnda.filters.two_point.two_point`'s CV state and covariance (the same
+    arithmetic) in every model's first four entries, the rest from ``x_rest`` (r, n), ``P_rest`` (r, n, n)
+    (what each model appends to a CV estimate), and the mode probabilities ``mu0`` (r,)."""
+    K = p1.shape[0]
+    r, n = x_rest.shape
+    x = np.empty((K, r, n))
+    P = np.empty((K, r, n, n))
+    mu = np.empty((K, r))
+    cv_x = np.empty(4)
+    cv_P = np.empty((4, 4))
+    for k in range(K):
+        T = dt[k]
+        for a in range(2):  # positions at the even entries of [x, vx, y, vy], velocities at the odd ones
+            cv_x[2 * a] = p2[k, a]
+            cv_x[2 * a + 1] = (p2[k, a] - p1[k, a]) / T
+            for b in range(2):
+                c = cov2[k, a, b]
+                cv_P[2 * a, 2 * b] = c
+                cv_P[2 * a, 2 * b + 1] = cv_P[2 * a + 1, 2 * b] = c / T
+                cv_P[2 * a + 1, 2 * b + 1] = 2.0 * c / (T * T)
+        for j in range(r):
+            x[k, j] = x_rest[j]
+            P[k, j] = P_rest[j]
+            x[k, j, :4] = cv_x
+            P[k, j, :4, :4] = cv_P
+            mu[k, j] = mu0[j]
+    return x, P, mu
 
 
 @_jit
