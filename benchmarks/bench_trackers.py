@@ -47,18 +47,13 @@ from nnda.filters.imm import _TINY, IMM, IMMPrediction, IMMState
 from nnda.filters.motion import process_noise
 from nnda.models.scorer import load_model
 from nnda.tracking.clutter_density import _covered, _covered_table, local_density
+from nnda.tracking.neural import life4
 from nnda.tracking.registry import TRACKERS, make_tracker
 
 SCALING_SCANS = 15
 GIVE_UP_S = 10.0
-#: the neural tracker's life-cycle options of issue 20, "life4" of studies/neural-ablation.toml (coasting
-#: confirmed tracks take their nearest free contact in the IMM's 99 % gate, and only inside it after a miss;
-#: confirmed tracks first, in one assignment with their re-acquisitions serving the most tracks; the one-scan
-#: retrodiction; the score rule with false_confirmation 1e-5 and false_deletion 5e-4; a track deleted in the
-#: scan it took a contact gives the contact back): its "+life" rows
-LIFE = {"coast_gate": 9.21, "coast_after": 0, "confirmed_first": True, "gate_after_miss": True, "retrodiction": True,
-        "association": "served", "release_on_deletion": True,
-        "lifecycle": {"confirmation": "score", "false_confirmation": 1e-5, "false_deletion": 5e-4}}
+#: the neural tracker's life-cycle options of issue 20 (`nnda.tracking.neural.life4`): its "+life" rows
+LIFE = life4()
 
 
 def params_for(name: str, model: str | None) -> dict | None:

@@ -55,6 +55,7 @@ from nnda.files import read_config
 from nnda.models.features import KINEMATIC
 from nnda.models.innovation import IMM_INNOVATION
 from nnda.study.metrics import DEFAULT_CUTOFF_M, Ownership
+from nnda.tracking.neural import life4
 
 _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 #: labels become file and directory names, so they are kept to a safe alphabet (and start with no dot)
@@ -193,8 +194,9 @@ def default_study(gd_model: str | Path, lm_model: str | Path, ext_model: str | P
                   seed: int = 0, ablation: str | Path | None = None) -> Study:
     """The specification's comparison (seed-001 §10.2) and issue 9's: IMM/TOMHT against the neural
     tracker with the seed's features (gradient-descent and Levenberg-Marquardt models: ``nn-gd``,
-    ``nn-seed``) and with the IMM-extended features (``nn-ext``), plus the GNN and JPDA baselines and
-    the association-free EK-PHD and CPHD filters (``ekphd``, ``cphd``, issue 14), on S1-S6.
+    ``nn-seed``) and with the IMM-extended features (``nn-ext``; ``nn-life`` with issue 20's settings
+    for coasting tracks, `nnda.tracking.neural.life4`), plus the GNN and JPDA baselines and the
+    association-free EK-PHD and CPHD filters (``ekphd``, ``cphd``, issue 14), on S1-S6.
 
     Model paths are kept as given (relative ones are resolved when the study is written and read).
     """
@@ -202,8 +204,8 @@ def default_study(gd_model: str | Path, lm_model: str | Path, ext_model: str | P
     return Study(
         name="thesis-comparison",
         description="IMM + track-oriented MHT against neural association (seed features with GD and LM "
-                    "models, IMM-extended features with LM), with GNN and JPDA baselines and the EK-PHD and "
-                    "CPHD filters, on S1-S6",
+                    "models, IMM-extended features with LM, alone and with issue 20's life cycle for coasting "
+                    "tracks), with GNN and JPDA baselines and the EK-PHD and CPHD filters, on S1-S6",
         seed=seed, runs=runs,
         models={"gd": Path(gd_model), "lm": Path(lm_model), "ext": Path(ext_model)},
         ablation=None if ablation is None else Path(ablation),
@@ -211,6 +213,7 @@ def default_study(gd_model: str | Path, lm_model: str | Path, ext_model: str | P
                   "nn-gd": TrackerSpec(kind="nn", model="gd", params=seed_set),
                   "nn-seed": TrackerSpec(kind="nn", model="lm", params=seed_set),
                   "nn-ext": TrackerSpec(kind="nn", model="ext", params=ext_set),
+                  "nn-life": TrackerSpec(kind="nn", model="ext", params={**ext_set, **life4()}),
                   "gnn": TrackerSpec(kind="gnn"), "jpda": TrackerSpec(kind="jpda"),
                   "ekphd": TrackerSpec(kind="ekphd"), "cphd": TrackerSpec(kind="cphd")},
         scenarios=[ScenarioSpec(preset="validation")],

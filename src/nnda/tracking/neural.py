@@ -113,6 +113,18 @@ from nnda.tracking.tracker import (
 NO_RECIPE = {"encounters": 0, "dagger": 0}
 
 
+def life4() -> dict:
+    """The neural tracker's settings for coasting tracks that issue 20 kept ("life4" in the README and
+    studies/neural-ablation.toml; the demo's ``nn-life``), as `NeuralConfig` fields (a new dict each call):
+    a coasting confirmed track takes its nearest free contact in the IMM's 99 % gate, and after a miss a
+    network pick only inside it; the confirmed tracks pick first, in one assignment with their
+    re-acquisitions (``served``); the one-scan retrodiction; a track deleted in the scan it took a contact
+    gives the contact back; the score rule with false_confirmation 1e-5 and false_deletion 5e-4."""
+    return {"coast_gate": 9.21, "coast_after": 0, "confirmed_first": True, "gate_after_miss": True,
+            "retrodiction": True, "association": "served", "release_on_deletion": True,
+            "lifecycle": {"confirmation": "score", "false_confirmation": 1e-5, "false_deletion": 5e-4}}
+
+
 class NeuralConfig(ContactTrackerConfig):
     """Neural tracker settings: the model file, the feature set expected of it, the decision threshold and
     the association rule."""
