@@ -159,6 +159,13 @@ def test_extended_and_seed_feature_trackers_are_compared_cell_by_cell():
     assert feature_pairs(manifest, classifier) == [("nn-seed", "nn-ext")]  # the same training method
     assert feature_pairs({"trackers": manifest["trackers"][1:]}, classifier) == [("nn-gd", "nn-ext")]
     assert feature_pairs({"trackers": manifest["trackers"][:2]}, classifier) == []
+    life = {"label": "nn-life", "kind": "nn", "model": "ext", "params": {"feature_set": "imm-innovation-9",
+                                                                        "coast_gate": 9.21}}
+    # another life cycle is not the seed trackers' own: only a seed tracker with the same settings is its pair
+    assert feature_pairs({"trackers": [*manifest["trackers"], life]}, classifier) == [("nn-seed", "nn-ext")]
+    seed_life = {**life, "label": "nn-seed-life", "model": "lm", "params": {"coast_gate": 9.21}}
+    assert feature_pairs({"trackers": [*manifest["trackers"], life, seed_life]}, classifier) == [
+        ("nn-seed", "nn-ext"), ("nn-seed-life", "nn-life")]
 
     def stat(mean, lo, hi):
         return {"mean": mean, "ci_low": lo, "ci_high": hi, "n": 10}

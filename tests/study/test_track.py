@@ -60,6 +60,24 @@ def test_track_equals_the_study_job_for_the_same_tracker_and_run(s1, kind):
     assert [TrackStatus[s.upper()] for s in np.array(t["status"])[keep][order]] == record["tracks"]["status"]
 
 
+def test_a_tracker_runs_once_untimed_before_its_first_job_in_a_process(monkeypatch):
+    from nnda.study import job as job_module
+
+    built = []
+    real = job_module.make_tracker
+    monkeypatch.setattr(job_module, "make_tracker", lambda kind, *a: built.append(kind) or real(kind, *a))
+    monkeypatch.setattr(job_module, "_WARM", set())
+    first = _job("gnn", {})
+    assert built == ["gnn", "gnn"]  # the warm-up, then the timed run
+    _job("gnn", {})
+    assert built == ["gnn", "gnn", "gnn"]  # warm already: the timed run alone
+    _job("gnn", {"gate": 6.0})  # other params: another tracker to warm
+    assert built == ["gnn", "gnn", "gnn", "gnn", "gnn"]
+    monkeypatch.setattr(job_module, "_WARM", set())
+    again = _job("gnn", {})
+    assert again["metrics"] == first["metrics"] and again["series"] == first["series"]
+
+
 def test_the_table_holds_state_covariance_and_contacts(s1):
     run = run_tracker(s1, "gnn")
     table = run.table

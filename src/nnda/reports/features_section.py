@@ -4,7 +4,10 @@ Does better pair classification turn into better tracking, and at what cost
 per scan? Present when the study runs neural trackers on both feature sets.
 Each neural tracker whose model reads the IMM-extended features is set
 against the seed-feature tracker whose model was trained by the same method
-(every seed-feature tracker when none was), scenario by scenario, on the
+(every seed-feature tracker when none was), among those whose settings,
+``feature_set`` aside, are its own (so a tracker with another association
+rule or life cycle, such as the demo's ``nn-life``, is not set against one
+with the spec's), scenario by scenario, on the
 measures association changes: association losses, false tracks, track
 breaks, lost targets, hit rate, GOSPA and time per scan, each ``mean [low,
 high]`` over runs with a verdict that calls a difference clear only when the
@@ -27,14 +30,19 @@ COMPARED: tuple[Measure, ...] = tuple(measure(k) for k in (
 def feature_pairs(manifest: dict, classifier: dict) -> list[tuple[str, str]]:
     """(seed-feature tracker, extended-feature tracker) labels to compare (module docstring)."""
     models = {m["label"]: (m.get("features", KINEMATIC.name), m.get("method")) for m in classifier["models"]}
-    nn = [(t["label"], *models[t["model"]]) for t in manifest["trackers"]
+    nn = [(t["label"], *models[t["model"]], _settings(t)) for t in manifest["trackers"]
           if t["kind"] == "nn" and t.get("model") in models]
-    seed = [n for n in nn if n[1] == KINEMATIC.name]
     pairs = []
-    for label, features, method in nn:
+    for label, features, method, settings in nn:
         if features != KINEMATIC.name:
+            seed = [n for n in nn if n[1] == KINEMATIC.name and n[3] == settings]
             pairs += [(s[0], label) for s in ([s for s in seed if s[2] == method] or seed)]
     return pairs
+
+
+def _settings(tracker: dict) -> dict:
+    """A tracker's params without its ``feature_set``: what else sets it apart from another neural tracker."""
+    return {k: v for k, v in (tracker.get("params") or {}).items() if k != "feature_set"}
 
 
 def _verdict(seed: str, ext: str, a: dict | None, b: dict | None, sense: int) -> tuple[str, int]:
