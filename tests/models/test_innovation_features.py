@@ -17,8 +17,8 @@ from nnda.filters.kalman import mahalanobis_2x2
 from nnda.filters.measurement import PositionMeasurement
 from nnda.models.context import IMM_CONTEXT
 from nnda.models.feature_sets import FEATURE_SETS, feature_set
-from nnda.models.features import KINEMATIC
-from nnda.models.innovation import IMM_INNOVATION, innovation_features
+from nnda.models.features import KINEMATIC, candidate_pairs, pair_features
+from nnda.models.innovation import IMM_INNOVATION, innovation_features, scan_features
 from nnda.models.mlp import MLPWeights
 from nnda.models.pairs import extract_pairs, pairs_from_datasets
 from nnda.models.preprocessing import Normaliser
@@ -109,6 +109,36 @@ def test_innovation_features_against_one_pair_at_a_time(polar, seed):
     expected = oracle_innovation(imm, pred, track, contacts, kinematic, age)
     assert got.shape == (P, IMM_INNOVATION.size)
     np.testing.assert_allclose(got, expected, rtol=RTOL, atol=RTOL)  # the terms are of order one (or exact)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_trackers_one_call_equals_candidates_then_the_features(seed):
+    # K tracks with two contacts each and N contacts of a scan 2-6 s later, some of them near the tracks
+    rng = np.random.default_rng(seed)
+    imm = IMM.for_sensor(PRESETS["S1"].sensor)
+    K, N = int(rng.integers(1, 30)), int(rng.integers(0, 120))
+    p2 = rng.uniform(-15e3, 15e3, (K, 2)) + [0.0, 15e3]
+    p1 = p2 - rng.uniform(-400, 400, (K, 2))
+    t2 = rng.choice([2.0, 4.0, 6.0], K)
+    t1, time, born = t2 - 2.0, 8.0, t2 - rng.uniform(2.0, 60.0, K)
+    near = p2[rng.integers(0, K, N)] + rng.normal(0, 600.0, (N, 2))
+    xy = np.where(rng.random((N, 1)) < 0.5, near, rng.uniform(-15e3, 15e3, (N, 2)) + [0.0, 15e3])
+    polar = lambda p: np.stack([np.hypot(*p.T), np.arctan2(*p.T) % (2 * np.pi)], -1)  # noqa: E731
+    z, az2 = polar(xy).reshape(N, 2), polar(p2)[:, 1]
+    state = imm.initialise(polar(p1), polar(p2), 0.0, 2.0)
+    pred = imm.predict(state, time - t2)
+    gate = imm.combined_measurement(pred)
+    track, cand = candidate_pairs(p2, t2, az2, xy, z[:, 1], time)
+    seed_features = pair_features(p1[track], t1[track], p2[track], t2[track], xy[cand], time)
+    for extended, expected in ((False, seed_features),
+                               (True, innovation_features(imm, pred, track, z[cand], seed_features,
+                                                          time - born[track], gate))):
+        got = scan_features(imm, pred, gate if extended else None, p1, t1, p2, t2, az2, born, xy, z, time,
+                            extended)
+        np.testing.assert_array_equal(got[0], track)
+        np.testing.assert_array_equal(got[1], cand)
+        np.testing.assert_array_equal(got[2], expected)  # the same kernels: the same bits
+    assert track.size > 0 or N == 0  # the draw has pairs to compare
 
 
 def test_feature_sets_are_registered_and_unknown_names_refused():

@@ -5,6 +5,7 @@
     track, contact = candidates(last, t_last, az_last, xy, az, time)   # (P,) gated pairs of M x N
     kin, good = kinematic(p1, t1, p2, t2, c, tc)                        # (N, 3) [ΔV m/s, Δα deg/s, ΔT s]
     ext = innovation(kin, track, z, z_pred, S, S_inv, log_det, mu, ct, age, polar)   # (P, 9)
+    track, contact, feat = scan_features(p1, t1, p2, t2, az2, xy, z, time, ...)   # the three above, one call
     context(track, contact, d2, cap, out)                               # out (P, 5) written
 
 Positions are [x east, y north] in m, times in s, azimuths in rad clockwise
@@ -277,6 +278,35 @@ def innovation(kin, track, z, z_pred, S, S_inv, log_det, mu, ct, age, polar):
         out[i, 7] = mu[k, ct]
         out[i, 8] = age[i]
     return out
+
+
+@_jit
+def scan_features(p1, t1, p2, t2, az2, xy, z, time, born, z_pred, S, S_inv, log_det, mu, ct, polar, extended):
+    """The neural tracker's feature path of one scan in one call: `candidates`, then `kinematic` of the pairs
+    and, if ``extended``, `innovation`, as the three separate calls compute them.
+
+    K tracks: last-but-one and last contact ``p1``, ``p2`` (K, 2) m at ``t1``, ``t2`` (K,) s, the last one's
+    azimuth ``az2`` (K,) rad and the time of the first contact ``born`` (K,) s; the scan's N contacts
+    ``xy`` (N, 2) m and ``z`` (N, 2) [range m, azimuth rad] at ``time`` s; the tracks' combined measurement
+    prediction ``z_pred``, ``S``, ``S_inv``, ``log_det``, mode probabilities ``mu`` and CT column ``ct``
+    (read only if ``extended``). Returns the pairs' track and contact (P,) and their features (P, 3) or
+    (P, 9).
+    """
+    track, contact = candidates(p2, t2, az2, xy, z[:, 1], time)
+    n = track.shape[0]
+    q1, q2, c = np.empty((n, 2)), np.empty((n, 2)), np.empty((n, 2))
+    s1, s2, tc = np.empty(n), np.empty(n), np.full(n, time)
+    for i in range(n):
+        k, j = track[i], contact[i]
+        q1[i, 0], q1[i, 1], q2[i, 0], q2[i, 1] = p1[k, 0], p1[k, 1], p2[k, 0], p2[k, 1]
+        c[i, 0], c[i, 1], s1[i], s2[i] = xy[j, 0], xy[j, 1], t1[k], t2[k]
+    kin = kinematic(q1, s1, q2, s2, c, tc)[0]
+    if not extended:
+        return track, contact, kin
+    zc, age = np.empty((n, 2)), np.empty(n)
+    for i in range(n):
+        zc[i, 0], zc[i, 1], age[i] = z[contact[i], 0], z[contact[i], 1], time - born[track[i]]
+    return track, contact, innovation(kin, track, zc, z_pred, S, S_inv, log_det, mu, ct, age, polar)
 
 
 @_jit

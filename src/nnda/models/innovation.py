@@ -23,9 +23,11 @@ prediction of every IMM tracker, `IMM.combined_measurement`), made over the
 time since the track's last update. That time is the seed's ΔT (column 3):
 tracks are updated only by contacts, so it is not repeated.
 
-The neural tracker and the training-pair extraction (`nnda.models.pairs`)
-both call `innovation_features` with the trackers' IMM (`IMM.for_sensor`),
-so the network is trained on exactly what the tracker computes.
+The training-pair extraction (`nnda.models.pairs`) calls `innovation_features`
+with the trackers' IMM (`IMM.for_sensor`); the neural tracker calls
+`scan_features`, which runs the same compiled kernels (`candidates`,
+`kinematic`, `innovation`) in one call and gives the same pairs and bits
+(tested), so the network is trained on exactly what the tracker computes.
 """
 
 from __future__ import annotations
@@ -82,3 +84,25 @@ def innovation_features(
     return feature_kernels.innovation(kinematic, np.asarray(track, np.int64), np.asarray(contacts, float), gate.z,
                                       gate.S, gate.S_inv, gate.log_det_S, pred.state.mu, _ct_index(imm),
                                       np.asarray(age, float), isinstance(imm.measurement, PolarMeasurement))
+
+
+def scan_features(imm: IMM, pred: IMMPrediction, gate: MeasurementPrediction | None, p1: np.ndarray, t1: np.ndarray,
+                  p2: np.ndarray, t2: np.ndarray, az2: np.ndarray, born: np.ndarray, xy: np.ndarray, z: np.ndarray,
+                  time: float, extended: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The gated pairs of one scan's K tracks and their features, in one compiled call
+    (`feature_kernels.scan_features`): `candidate_pairs` of the tracks' last contacts ``p2`` (K, 2) m at
+    ``t2`` (K,) s with azimuths ``az2`` (K,) rad and the N contacts ``xy`` (N, 2) m, ``z`` (N, 2) [range m,
+    azimuth rad] at ``time`` s; `pair_features` from the contacts before them, ``p1`` (K, 2) at ``t1`` (K,);
+    and, if ``extended``, `innovation_features` on ``pred``, its combined measurement prediction ``gate`` and
+    the times of the tracks' first contacts ``born`` (K,) s (both unread otherwise: None and any array).
+
+    Returns the pairs' track (P,), contact (P,) and features (P, 3) or (P, 9), the same as those functions
+    give. Unchecked: for the neural tracker, whose arrays its scan loop has checked.
+    """
+    if extended:
+        state, args = pred.state, (gate.z, gate.S, gate.S_inv, gate.log_det_S)
+        mu, ct = state.mu, _ct_index(imm)
+    else:
+        args, mu, ct = (np.empty((0, 2)), np.empty((0, 2, 2)), np.empty((0, 2, 2)), np.empty(0)), np.empty((0, 1)), 0
+    return feature_kernels.scan_features(p1, t1, p2, t2, az2, xy, z, float(time), born, *args, mu, ct,
+                                         isinstance(imm.measurement, PolarMeasurement), extended)

@@ -92,8 +92,7 @@ from nnda.filters.imm import IMM, IMMPrediction
 from nnda.filters.kalman import MeasurementPrediction
 from nnda.models.context import IMM_CONTEXT, with_context
 from nnda.models.feature_sets import FEATURE_SETS
-from nnda.models.features import candidate_pairs, pair_features
-from nnda.models.innovation import IMM_INNOVATION, innovation_features
+from nnda.models.innovation import IMM_INNOVATION, scan_features
 from nnda.models.scorer import Scorer, load_model, score_log_odds
 from nnda.tracking.assignment import greedy_matching, least_cost_assignment
 from nnda.tracking.gating import Gated, gate, gate_tracks
@@ -232,8 +231,7 @@ class NeuralTracker(SingleHypothesisTracker):
             return hard_update(scan.filter, pred, scan.z, contact)
         # the framework's arrays are checked already (scan checks, filter outputs): no second check here;
         # the scorer still refuses a non-finite feature
-        track, cand = candidate_pairs(tracks.p2, tracks.t2, tracks.az2, scan.xy, scan.z[:, 1], scan.time, check=False)
-        score = self._scores(tracks, pred, scan, track, cand)
+        track, cand, score = self._scored(tracks, pred, scan)
         self._gated_of = None  # this scan's IMM gate (`_gated`), computed once if needed
         if self.config.gate_after_miss:
             after_miss = (tracks.status[track] == CONFIRMED) & (tracks.consecutive[track] >= 1)
@@ -261,17 +259,18 @@ class NeuralTracker(SingleHypothesisTracker):
         assoc = hard_update(scan.filter, pred, scan.z, contact)
         return assoc if tracks is given else Association(assoc.contact, assoc.filt, revised=(tracks, pred))
 
-    def _scores(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts, track: np.ndarray, cand: np.ndarray
-                ) -> np.ndarray:
-        """The scorer's output (P,) for the candidate pairs (track, cand) (P,), on the model's feature set."""
+    def _scored(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The scan's candidate pairs (track, cand) (P,) (`candidate_pairs`) and the scorer's output (P,) for
+        them, on the model's feature set (`scan_features`: the candidates and the seed's or the IMM-extended
+        features in one call)."""
+        ext = self._extended
+        track, cand, features = scan_features(
+            scan.filter, pred, self._combined(scan.filter, pred)[1] if ext else None, tracks.p1, tracks.t1,
+            tracks.p2, tracks.t2, tracks.az2, self._born(tracks) if ext else tracks.t1, scan.xy, scan.z, scan.time,
+            ext)
         if not track.size:
-            return np.empty(0)
-        z, time = scan.z, scan.time
-        features = pair_features(tracks.p1[track], tracks.t1[track], tracks.p2[track], tracks.t2[track],
-                                 scan.xy[cand], time, check=False)
-        if self._extended:
-            features = innovation_features(scan.filter, pred, track, z[cand], features,
-                                           time - self._born(tracks)[track], self._combined(scan.filter, pred)[1])
+            return track, cand, np.empty(0)
         if self._context:
             features = with_context(features, track, cand)
         if self.harvest is not None:
@@ -281,7 +280,7 @@ class NeuralTracker(SingleHypothesisTracker):
             raise TrackingError(f"{self.name}: scan {scan.index}: the model {self.config.model} scored "
                                 f"{int((~np.isfinite(score)).sum())} of {score.size} pairs as NaN; its "
                                 f"weights or normaliser are broken: retrain it")
-        return score
+        return track, cand, score
 
     def _pick(self, contact: np.ndarray, track: np.ndarray, cand: np.ndarray, score: np.ndarray) -> None:
         """Write into ``contact`` (K,) the picks of the association rule (greedy or global) among the pairs
