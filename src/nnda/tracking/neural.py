@@ -218,7 +218,6 @@ class NeuralTracker(SingleHypothesisTracker):
 
     def reset(self) -> None:
         super().reset()
-        self._first_time = np.empty(0)  # time (s) of each track's first contact, by track id
         self._gated_of: Gated | None = None  # the scan's IMM gate (`_gated`)
         self._combined_of: tuple | None = None  # a prediction and its gating prediction (`_combined`)
         self._last_scan: tuple[Tracks, np.ndarray] | None = None  # its tracks and contacts, for `_retrodicted`
@@ -267,8 +266,7 @@ class NeuralTracker(SingleHypothesisTracker):
         ext = self._extended
         track, cand, features = scan_features(
             scan.filter, pred, self._combined(scan.filter, pred)[1] if ext else None, tracks.p1, tracks.t1,
-            tracks.p2, tracks.t2, tracks.az2, self._born(tracks) if ext else tracks.t1, scan.xy, scan.z, scan.time,
-            ext)
+            tracks.p2, tracks.t2, tracks.az2, tracks.t0, scan.xy, scan.z, scan.time, ext)
         if not track.size:
             return track, cand, np.empty(0)
         if self._context:
@@ -402,17 +400,6 @@ class NeuralTracker(SingleHypothesisTracker):
             estimate = imm.estimate(pred.state)
             self._combined_of = (pred, estimate, imm.measurement_prediction(*estimate))
         return self._combined_of[1], self._combined_of[2]
-
-    def _born(self, tracks: Tracks) -> np.ndarray:
-        """Time (s) of each track's first contact, (K,). Track ids count up from 0 and a track is first
-        seen here one scan after its birth, with its first contact still in ``t1``."""
-        new = tracks.track_id >= len(self._first_time)
-        if new.any():
-            grown = np.full(int(tracks.track_id.max()) + 1, np.nan)
-            grown[:len(self._first_time)] = self._first_time
-            grown[tracks.track_id[new]] = tracks.t1[new]
-            self._first_time = grown
-        return self._first_time[tracks.track_id]
 
 
 def global_matching(rows: np.ndarray, cols: np.ndarray, score: np.ndarray, threshold: float

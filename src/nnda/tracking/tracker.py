@@ -167,7 +167,7 @@ class Tracks(Batch):
 
     ``filt`` is the IMM posterior at the track's last update, at time ``t2``
     (s), from the contact at ``p2`` (m, Cartesian) with azimuth ``az2`` (rad);
-    ``p1``/``t1`` is the contact before it. ``hits``, ``misses`` and
+    ``p1``/``t1`` is the contact before it, ``t0`` (s) the time of the track's first contact. ``hits``, ``misses`` and
     ``consecutive`` are the M/N counters of `nnda.tracking.lifecycle`, ``score`` the
     track score (log-likelihood ratio of target against clutter; kept under the score rule,
     0 otherwise; under the existence rule the log-odds of the track's existence) and ``max_score`` its
@@ -183,6 +183,7 @@ class Tracks(Batch):
     p2: np.ndarray
     t2: np.ndarray
     az2: np.ndarray
+    t0: np.ndarray
     hits: np.ndarray
     misses: np.ndarray
     consecutive: np.ndarray
@@ -209,7 +210,7 @@ class Tracks(Batch):
             cfg.confirmation == "existence", lower, upper, early)
         p1, t1, p2, t2, az2 = _moved_history(contact, self.p1, self.t1, self.p2, self.t2, self.az2, xy, z[:, 1], time)
         return Tracks(
-            track_id=self.track_id, status=status, filt=filt, p1=p1, t1=t1, p2=p2, t2=t2, az2=az2,
+            track_id=self.track_id, status=status, filt=filt, p1=p1, t1=t1, p2=p2, t2=t2, az2=az2, t0=self.t0,
             hits=hits, misses=misses, consecutive=consecutive, score=score, max_score=max_score,
             confirm_at=self.confirm_at,
         )
@@ -331,7 +332,7 @@ class TwoPointInitiation:
                     status=np.full(k, PRELIMINARY, np.int8),
                     filt=self.filters[sensor].start(p1, p2, cov2, time - before),
                     p1=p1, t1=np.full(k, before), p2=p2, t2=np.full(k, time),
-                    az2=z[contact, 1], hits=zeros, misses=zeros.copy(), consecutive=zeros.copy(),
+                    az2=z[contact, 1], t0=np.full(k, before), hits=zeros, misses=zeros.copy(), consecutive=zeros.copy(),
                     score=np.zeros(k), max_score=np.zeros(k),
                     confirm_at=np.full(k, self._confirmation_threshold(len(init_xy))),
                 )
