@@ -6,6 +6,7 @@
     x, P, mu = update(xp, Pp, mu_p, z, mask, z_pred, S_inv, log_det, PHt, polar)        # eqs. 4.50-4.53
     xc, Pc = estimate(x, P, mu, d)                                                     # eqs. 4.54-4.55
     d2 = mahalanobis(z_pred, S_inv, Z, polar)                                           # (B, N) gate distances
+    r, c, d2 = gated_pairs(z_pred, S_inv, rows, Z, threshold, polar)                   # (P,) pairs inside a gate
     ll = pair_log_likelihood(z_pred, S_inv, log_det, mu, rows, Z, polar)               # (P,) eqs. 4.50, 4.53
     x, P, mu = start(p1, p2, cov2, dt, x_rest, P_rest, mu0)                            # two-point starts
 
@@ -299,20 +300,44 @@ def estimate(x, P, mu, d):
 
 
 @_jit
+def _d2(z_pred, S_inv, b, Z, m, polar):
+    """Squared Mahalanobis distance of measurement m of Z (N, 2) from prediction b of z_pred (B, 2), S_inv
+    (B, 2, 2) (eq. 4.51; the azimuth residual wrapped when ``polar``)."""
+    n0 = Z[m, 0] - z_pred[b, 0]
+    n1 = Z[m, 1] - z_pred[b, 1]
+    if polar:
+        n1 = wrap_angle_kernel(n1)
+    return S_inv[b, 0, 0] * n0 * n0 + (S_inv[b, 0, 1] + S_inv[b, 1, 0]) * n0 * n1 + S_inv[b, 1, 1] * n1 * n1
+
+
+@_jit
 def mahalanobis(z_pred, S_inv, Z, polar):
     """Squared Mahalanobis distances (B, N) of N measurements Z (N, 2) from B predictions z_pred (B, 2),
-    S_inv (B, 2, 2) (eq. 4.51; azimuth residuals wrapped when ``polar``)."""
+    S_inv (B, 2, 2) (`_d2`)."""
     B, N = z_pred.shape[0], Z.shape[0]
     d2 = np.empty((B, N))
     for b in range(B):
-        s00, s11, s01 = S_inv[b, 0, 0], S_inv[b, 1, 1], S_inv[b, 0, 1] + S_inv[b, 1, 0]
         for m in range(N):
-            n0 = Z[m, 0] - z_pred[b, 0]
-            n1 = Z[m, 1] - z_pred[b, 1]
-            if polar:
-                n1 = wrap_angle_kernel(n1)
-            d2[b, m] = s00 * n0 * n0 + s01 * n0 * n1 + s11 * n1 * n1
+            d2[b, m] = _d2(z_pred, S_inv, b, Z, m, polar)
     return d2
+
+
+@_jit
+def gated_pairs(z_pred, S_inv, rows, Z, threshold, polar):
+    """The pairs of predictions ``rows`` (R,) of z_pred (B, 2), S_inv (B, 2, 2) and measurements Z (N, 2)
+    whose `_d2` is at most ``threshold``, in the order of ``rows``, then of Z: their prediction and
+    measurement indices and d2, (P,) each."""
+    R, N = rows.shape[0], Z.shape[0]
+    out_rows, out_cols, out_d2 = np.empty(R * N, np.int64), np.empty(R * N, np.int64), np.empty(R * N)
+    n = 0
+    for i in range(R):
+        b = rows[i]
+        for m in range(N):
+            d2 = _d2(z_pred, S_inv, b, Z, m, polar)
+            if d2 <= threshold:
+                out_rows[n], out_cols[n], out_d2[n] = b, m, d2
+                n += 1
+    return out_rows[:n].copy(), out_cols[:n].copy(), out_d2[:n].copy()
 
 
 @_jit

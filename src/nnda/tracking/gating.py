@@ -38,7 +38,8 @@ class Gated:
 
 
 def gate(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, xy: np.ndarray, threshold: float,
-         estimate: tuple[np.ndarray, np.ndarray] | None = None, *, check: bool = True) -> Gated:
+         estimate: tuple[np.ndarray, np.ndarray] | None = None, *, rows: np.ndarray | None = None,
+         check: bool = True) -> Gated:
     """Pairs (track, contact) with squared Mahalanobis distance <= ``threshold``.
 
     ``mp`` is the combined measurement prediction of K tracks
@@ -46,24 +47,25 @@ def gate(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, xy: np.ndarray, thr
     measurement space of ``imm.measurement`` and ``xy`` (N, 2) their
     Cartesian positions (m). ``estimate`` is the combined prediction (x (K, 4), P (K, 4, 4),
     `IMM.estimate` of ``pred.state``) the Cartesian test of poorly linearised tracks needs
-    (module docstring); without it every pair is judged by the linearised test alone. ``check=False``
-    skips the check of z (for the trackers, whose scan loop checks every scan's contacts).
+    (module docstring); without it every pair is judged by the linearised test alone. ``rows``
+    (R,) ascending limits the gate to those tracks (the pairs' rows still index ``mp``; None: all K).
+    ``check=False`` skips the check of z (for the trackers, whose scan loop checks every scan's contacts).
     """
     K, N = len(mp.z), len(z)
-    if K == 0 or N == 0:
+    tracks = np.arange(K) if rows is None else np.asarray(rows, np.int64)
+    if tracks.size == 0 or N == 0:
         empty = np.empty(0, np.int64)
         return Gated(empty, empty, np.empty(0))
-    if K * N <= DENSE_PAIRS:
-        d2 = imm.mahalanobis(mp, z, check=check)
-        rows, cols = np.nonzero(d2 <= threshold)
-        return _cartesian_check(imm, mp, z, threshold, estimate, Gated(rows, cols, d2[rows, cols]))
+    if tracks.size * N <= DENSE_PAIRS:
+        return _cartesian_check(imm, mp, z, threshold, estimate,
+                                Gated(*imm.gated_pairs(mp, z, threshold, tracks, check=check)))
     # radius of a circle holding the gate ellipse: sqrt(threshold * its largest spread in metres^2)
     measurement = imm.measurement
-    radius = np.sqrt(threshold * measurement.spread(mp.z, mp.S)) + 1.0
-    centre = measurement.cartesian(mp.z)
+    radius = np.sqrt(threshold * measurement.spread(mp.z[tracks], mp.S[tracks])) + 1.0
+    centre = measurement.cartesian(mp.z[tracks])
     near = cKDTree(xy).query_ball_point(centre, radius, return_sorted=True)
-    counts = np.fromiter((len(c) for c in near), np.int64, K)
-    rows = np.repeat(np.arange(K), counts)
+    counts = np.fromiter((len(c) for c in near), np.int64, tracks.size)
+    rows = np.repeat(tracks, counts)
     cols = np.fromiter((j for c in near for j in c), np.int64, int(counts.sum()))
     nu = imm.measurement.residual(z[cols], mp.z[rows])
     d2 = kalman.mahalanobis_2x2(nu, mp.S_inv[rows])

@@ -384,11 +384,9 @@ class NeuralTracker(SingleHypothesisTracker):
         index ``tracks``), computed once: every use of the gate is a confirmed track's, and the clutter's
         preliminary tracks outnumber them."""
         if self._gated_of is None:
-            sure = np.flatnonzero(tracks.status == CONFIRMED)
-            (x, P), mp = self._combined(scan.filter, pred)
-            g = gate(scan.filter, mp.take(sure), scan.z, scan.xy, self.config.coast_gate, (x[sure], P[sure]),
-                     check=False)
-            self._gated_of = Gated(sure[g.rows], g.cols, g.d2)
+            estimate, mp = self._combined(scan.filter, pred)
+            self._gated_of = gate(scan.filter, mp, scan.z, scan.xy, self.config.coast_gate, estimate,
+                                  rows=np.flatnonzero(tracks.status == CONFIRMED), check=False)
         return self._gated_of
 
     def _combined(self, imm: IMM, pred: IMMPrediction
