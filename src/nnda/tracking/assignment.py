@@ -47,19 +47,19 @@ def greedy_matching(rows: np.ndarray, cols: np.ndarray, score: np.ndarray) -> tu
     row, then lower column first) and keeping each whose row and column are
     both still free. Returns the kept (rows, cols), sorted by row.
 
-    Compiled (`_greedy`: two stable sorts and one pass): the neural tracker
+    Compiled (`greedy_kernel`: two stable sorts and one pass): the neural tracker
     matches a few times a scan on tens of pairs, where the vectorised rounds
     it replaced spent their time in numpy's per-call overhead.
     """
     rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
     if rows.size == 0:
         return rows, cols
-    return _greedy(rows, cols, np.asarray(score, np.float64))
+    return greedy_kernel(rows, cols, np.asarray(score, np.float64))
 
 
 @numba.njit(cache=True, nogil=True)
-def _greedy(rows, cols, score):
-    """`greedy_matching` of P >= 1 pairs."""
+def greedy_kernel(rows, cols, score):
+    """`greedy_matching` of P >= 1 pairs, int64 rows and cols, float64 scores (callable from compiled code)."""
     n_rows, n_cols = rows.max() + 1, cols.max() + 1
     by_pair = np.argsort(rows * n_cols + cols, kind="mergesort")  # ties of score: lower row, then column
     order = by_pair[np.argsort(-score[by_pair], kind="mergesort")]

@@ -94,7 +94,7 @@ from nnda.models.context import IMM_CONTEXT, with_context
 from nnda.models.feature_sets import FEATURE_SETS
 from nnda.models.innovation import IMM_INNOVATION, scan_features
 from nnda.models.scorer import Scorer, load_model, score_log_odds
-from nnda.tracking.assignment import greedy_matching, least_cost_assignment
+from nnda.tracking.assignment import greedy_kernel, greedy_matching, least_cost_assignment
 from nnda.tracking.gating import Gated, gate, gate_tracks
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT
 from nnda.tracking.tracker import (
@@ -438,13 +438,11 @@ def served_matching(rows: np.ndarray, cols: np.ndarray, score: np.ndarray, thres
     `least_cost_assignment`, or, when no contact is in two rows' pairs, each
     row's best pair (`greedy_matching`: the same optimum without the solver).
     """
-    rows, cols, worth, tie, contested = _served_pairs(
+    done, rows, cols, worth, tie = _served_pairs(
         np.asarray(rows, np.int64), np.asarray(cols, np.int64), np.asarray(score, np.float64), float(threshold),
         np.asarray(gate_rows, np.int64), np.asarray(gate_cols, np.int64), np.asarray(gate_d2, np.float64))
-    if not rows.size:
+    if done:  # no contact wanted twice: each row's best pair (most scans; no solver)
         return rows, cols
-    if not contested:  # no contact wanted twice: each row's best pair (most scans; no solver)
-        return greedy_matching(rows, cols, worth - tie)
     unit = 1.0 + 2.0 * float(worth.sum())  # a pair more outweighs every sum of log-odds
     return least_cost_assignment(rows, cols, tie - worth - unit, np.zeros(int(rows.max()) + 1))
 
@@ -452,9 +450,11 @@ def served_matching(rows: np.ndarray, cols: np.ndarray, score: np.ndarray, thres
 @numba.njit(cache=True, nogil=True)
 def _served_pairs(rows, cols, score, threshold, gate_rows, gate_cols, gate_d2):
     """The pairs of `served_matching`: the network's above ``threshold``, worth their log-odds above its,
-    with no tie-break, then the gate pairs not among them, worth 0, with tie-break 1e-6 d². Returns their
-    rows, cols, worth, tie (M,) and whether a column occurs twice. One compiled pass: this runs twice a
-    scan, where a dozen numpy calls cost ~0.1 ms."""
+    with no tie-break, then the gate pairs not among them, worth 0, with tie-break 1e-6 d². Returns whether
+    the matching is done and the rows, cols (M,) and, if it is not, their worth and tie (M,): done when no
+    column occurs twice, the rows and cols then those of each row's best pair (`greedy_kernel` on worth -
+    tie), or when there is no pair. One compiled pass: this runs twice a scan, where a dozen numpy calls
+    cost ~0.1 ms."""
     keep = np.flatnonzero(score > threshold)
     n = 1
     for c in cols[keep]:
@@ -477,7 +477,10 @@ def _served_pairs(rows, cols, score, threshold, gate_rows, gate_cols, gate_d2):
     for c in out_cols:
         wanted[c] += 1
         contested |= wanted[c] > 1
-    return out_rows, out_cols, worth, tie, contested
+    if m == 0 or contested:
+        return m == 0, out_rows, out_cols, worth, tie
+    picked_rows, picked_cols = greedy_kernel(out_rows, out_cols, worth - tie)
+    return True, picked_rows, picked_cols, worth, tie
 
 
 def reacquire(rows: np.ndarray, cols: np.ndarray, d2: np.ndarray, waiting: np.ndarray, taken: np.ndarray,
