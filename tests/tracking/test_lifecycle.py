@@ -89,6 +89,19 @@ def test_window_pairs_against_brute_force(n_a, n_b):
     assert e[0].size == 0 and e[1].size == 0
 
 
+def test_window_pairs_with_initiators_off_the_contacts_and_contacts_far_apart():
+    # strips doubled (contacts 2,000 km apart), initiators left, right and inside of the contacts' x span
+    rng = np.random.default_rng(2)
+    b = np.concatenate([rng.uniform(0, 3000, (40, 2)), [[2e6, 100.0], [2e6 + 300.0, 0.0], [-1e6, 0.0]]])
+    a = np.concatenate([rng.uniform(-500, 3500, (30, 2)), [[2e6 + 100.0, 0.0], [-1e6 - 200.0, 0.0], [5e6, 0.0]]])
+    i, j = window_pairs(a, b, 50.0, 490.0)
+    d = np.linalg.norm(a[:, None] - b[None], axis=2)
+    ei, ej = np.nonzero((d >= 50) & (d <= 490))
+    np.testing.assert_array_equal(i, ei)
+    np.testing.assert_array_equal(j, ej)
+    assert {30, 31} <= set(i.tolist())  # the far initiators found their far contacts
+
+
 def test_bad_lifecycle_config():
     with pytest.raises(ValidationError, match="m <= n"):
         LifecycleConfig(m=5, n=4)

@@ -426,9 +426,10 @@ def window_pairs(initiators: np.ndarray, contacts: np.ndarray, d_min: float, d_m
 
     ``initiators`` (I, 2) and ``contacts`` (J, 2) are Cartesian positions in m.
     Returns two int64 arrays of equal length, sorted by initiator then contact.
-    With the contacts sorted by x, each initiator tests only those in the band
-    |dx| <= d_max (a binary search), in one compiled loop (`_band_pairs`): the
-    work grows with the pairs in the bands, near-linear in the contacts.
+    The contacts are binned by x into strips about ``d_max`` wide (a counting
+    sort), and each initiator tests only those of the strips its band |dx| <=
+    d_max overlaps, in one compiled loop (`_band_pairs`): the work grows with
+    the contacts in the bands, linear in the contacts.
     """
     if len(initiators) == 0 or len(contacts) == 0:
         return np.empty(0, np.int64), np.empty(0, np.int64)
@@ -438,21 +439,53 @@ def window_pairs(initiators: np.ndarray, contacts: np.ndarray, d_min: float, d_m
                        float(d_min), float(d_max), reach)
 
 
+#: `_band_pairs` makes at most this many strips per contact (plus `_MIN_STRIPS`): memory grows with the contacts
+_STRIPS_PER_CONTACT = 2
+_MIN_STRIPS = 64
+
+
 @numba.njit(cache=True, nogil=True)
 def _band_pairs(initiators, contacts, d_min, d_max, reach):
-    """`window_pairs`' loop: per initiator, the contacts of its x band [x - reach, x + reach) whose squared
-    distance lies in [d_min^2, d_max^2], in contact order."""
-    order = np.argsort(contacts[:, 0], kind="mergesort")
-    xs = contacts[order, 0]
-    lo = np.searchsorted(xs, initiators[:, 0] - reach)
-    hi = np.searchsorted(xs, initiators[:, 0] + reach)
-    i = np.empty((hi - lo).sum(), np.int64)
-    j = np.empty(i.size, np.int64)
+    """`window_pairs`' loop: the contacts binned by x into strips of width ``reach`` (> 0), doubled until there
+    are at most 2 per contact plus 64 (a counting sort, contact order within a strip); per initiator, the
+    contacts of the strips its [x - reach, x + reach] overlaps whose squared distance lies in [d_min^2,
+    d_max^2], in contact order."""
+    n = contacts.shape[0]
+    x0, x1 = contacts[0, 0], contacts[0, 0]
+    for b in range(1, n):
+        x0, x1 = min(x0, contacts[b, 0]), max(x1, contacts[b, 0])
+    width = reach
+    while (x1 - x0) / width + 1.0 > _STRIPS_PER_CONTACT * n + _MIN_STRIPS:
+        width *= 2.0
+    strips = int((x1 - x0) / width) + 1
+    start = np.zeros(strips + 1, np.int64)
+    strip = np.empty(n, np.int64)
+    for b in range(n):
+        strip[b] = min(int((contacts[b, 0] - x0) / width), strips - 1)
+        start[strip[b] + 1] += 1
+    for k in range(strips):
+        start[k + 1] += start[k]
+    fill = start[:-1].copy()
+    order = np.empty(n, np.int64)
+    for b in range(n):
+        order[fill[strip[b]]] = b
+        fill[strip[b]] += 1
+    first = np.zeros(len(initiators), np.int64)  # per initiator, its first and last strip + 1 (none: equal)
+    last = np.zeros(len(initiators), np.int64)
+    most = 0
+    for a in range(len(initiators)):
+        lo = max(0.0, math.floor((initiators[a, 0] - reach - x0) / width))
+        hi = min(strips - 1.0, math.floor((initiators[a, 0] + reach - x0) / width))
+        if lo <= hi:
+            first[a], last[a] = int(lo), int(hi) + 1
+            most += start[last[a]] - start[first[a]]
+    i = np.empty(most, np.int64)
+    j = np.empty(most, np.int64)
     lo2, hi2 = d_min * d_min, d_max * d_max
     m = 0
     for a in range(len(initiators)):
-        start = m
-        for t in range(lo[a], hi[a]):
+        begin = m
+        for t in range(start[first[a]], start[last[a]]):
             b = order[t]
             dx = initiators[a, 0] - contacts[b, 0]
             dy = initiators[a, 1] - contacts[b, 1]
@@ -460,8 +493,8 @@ def _band_pairs(initiators, contacts, d_min, d_max, reach):
             if lo2 <= d2 <= hi2:
                 i[m], j[m] = a, b
                 m += 1
-        if m - start > 1:  # most initiators have no pair or one
-            j[start:m] = np.sort(j[start:m])
+        if m - begin > 1:  # most initiators have no pair or one
+            j[begin:m] = np.sort(j[begin:m])
     return i[:m], j[:m]
 
 
