@@ -43,7 +43,7 @@ from nnda.data.generator import generate
 from nnda.data.presets import PRESETS
 from nnda.data.scenario import Clutter, Scenario, Segment, Sensor, Target
 from nnda.filters import kalman
-from nnda.filters.imm import _TINY, IMM, IMMPrediction, IMMState
+from nnda.filters.imm import _TINY, IMM, IMMState
 from nnda.filters.motion import process_noise
 from nnda.models.scorer import load_model
 from nnda.tracking.clutter_density import _covered, _covered_table, local_density
@@ -133,8 +133,8 @@ def numpy_cycle(imm: IMM, state: IMMState, dt: np.ndarray, z: np.ndarray) -> tup
         xp[:, j, :m.dim] = m.transition(x0[:, j, :m.dim], dt, out=F[:, j, :m.dim, :m.dim])[0]
     Pp = kalman.propagate_covariance(F, P0, process_noise(dt, imm._noise_basis))
     mp = kalman.predict_measurement(xp, Pp, imm.measurement)
-    pred = IMMPrediction(IMMState(xp, Pp, mu_pred), mp)
-    gate = kalman.predict_measurement(*numpy_estimate(imm, pred.state), imm.measurement)
+    state = IMMState(xp, Pp, mu_pred)
+    gate = kalman.predict_measurement(*numpy_estimate(imm, state), imm.measurement)
     nu = kalman.innovation(z[:, None, :], mp, imm.measurement)
     xu, Pu = kalman.correct(xp, Pp, nu, mp)
     log_post = np.log(mu_pred + _TINY) + kalman.gaussian_log_likelihood(kalman.mahalanobis_2x2(nu, mp.S_inv),
@@ -157,7 +157,7 @@ def numpy_estimate(imm: IMM, state: IMMState) -> tuple[np.ndarray, np.ndarray]:
 def compiled_cycle(imm: IMM, state: IMMState, dt: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, ...]:
     """`numpy_cycle` through `IMM`'s compiled steps."""
     pred = imm.predict(state, dt, check=False)
-    gate = imm.combined_measurement(pred)
+    gate = pred.gating.measurement
     return (*imm.estimate(imm.update(pred, z, check=False)), gate.z, gate.S)
 
 

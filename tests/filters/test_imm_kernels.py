@@ -138,10 +138,15 @@ def test_a_model_the_compiled_cycle_does_not_know_is_refused_by_name():
 @given(seed=st.integers(0, 2**32 - 1), K=st.integers(1, 12), polar=st.booleans())
 def test_the_fused_prediction_measures_as_the_separate_step(seed, K, polar):
     """`IMM.predict`'s one-call kernel (`imm_kernels.predict`) gives the bits of `measurement_prediction`
-    run on its predicted states."""
+    run on its predicted states, and of `estimate` and `measurement_prediction` of the combined prediction
+    (``pred.gating``)."""
     imm = IMM_SPEC if polar else IMM(measurement=PositionMeasurement(((900.0, 50.0), (50.0, 400.0))))
     x, P, mu = random_tracks(seed, K)
     pred = imm.predict(imm.make_state(x, P, mu), np.linspace(0.5, 8.0, K))
-    alone = imm.measurement_prediction(pred.state.x, pred.state.P)
-    for field in ("z", "S", "S_inv", "log_det_S", "H", "PHt"):
-        np.testing.assert_array_equal(getattr(pred.measurement, field), getattr(alone, field), err_msg=field)
+    x_c, P_c = imm.estimate(pred.state)
+    np.testing.assert_array_equal(pred.gating.x, x_c)
+    np.testing.assert_array_equal(pred.gating.P, P_c)
+    for mp, alone in ((pred.measurement, imm.measurement_prediction(pred.state.x, pred.state.P)),
+                      (pred.gating.measurement, imm.measurement_prediction(x_c, P_c))):
+        for field in ("z", "S", "S_inv", "log_det_S", "H", "PHt"):
+            np.testing.assert_array_equal(getattr(mp, field), getattr(alone, field), err_msg=field)

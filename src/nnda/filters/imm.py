@@ -8,7 +8,7 @@ every track (a single track is K = 1):
     imm = IMM()                                   # the spec's CV + CT IMM
     state = imm.initialise(z1, z2, t1, t2)        # two-point start, (K, 2) polar fixes
     pred = imm.predict(state, dt)                 # mixing + model predictions, dt (K,) s
-    gate = imm.combined_measurement(pred)         # where to look: z (K, 2), S (K, 2, 2)
+    gate = pred.gating.measurement                # where to look: z (K, 2), S (K, 2, 2)
     d2 = imm.mahalanobis(gate, Z)                 # (K, N) against all N contacts
     ll = imm.log_likelihood(pred, Z)              # (K, N) for MHT scores
     state = imm.update(pred, z, mask)             # z (K, 2), mask (K,) detected or not
@@ -83,16 +83,30 @@ class IMMState(Batch):
 
 
 @dataclass(frozen=True)
+class Gating(Batch):
+    """The combined (gating) prediction of K tracks: ``x`` (K, d), ``P`` (K, d, d), the combined estimate
+    (eqs. 4.54-4.55) of the predicted model states on the shared dimensions, and ``measurement``, its
+    measurement prediction (leading shape (K,); spec §7.2: h and H at x, S = H P H^T + R)."""
+
+    x: np.ndarray
+    P: np.ndarray
+    measurement: MeasurementPrediction
+
+
+@dataclass(frozen=True)
 class IMMPrediction(Batch):
     """One IMM prediction of K tracks.
 
     ``state`` holds the mixed and predicted model states and, in ``mu``, the
     predicted mode probabilities mu_j(k+1|k) (eq. 4.47); ``measurement`` the
-    per-model measurement predictions (leading shape (K, r)).
+    per-model measurement predictions (leading shape (K, r)); ``gating`` the
+    combined prediction and its measurement prediction, where every tracker
+    gates (`IMM.predict` computes all three in one compiled call).
     """
 
     state: IMMState
     measurement: MeasurementPrediction
+    gating: Gating
 
 
 @dataclass(frozen=True)
@@ -320,10 +334,12 @@ class IMM:
             self._check_predict(state, dt)
         if not dt.ndim:
             dt = np.full(len(state), float(dt))
-        xp, Pp, mu_pred, *measured = imm_kernels.predict(
+        xp, Pp, mu_pred, *out = imm_kernels.predict(
             state.x, state.P, state.mu, dt, self._tpm, self._kinds, self._dims, self._omega_max, self._noise_basis,
-            self._augment, self._polar, self._origin, self.measurement.R)
-        return IMMPrediction(IMMState(xp, Pp, mu_pred), _measured(xp.shape[:-1], *measured))
+            self._augment, self._polar, self._origin, self.measurement.R, self.output_dim)
+        xc, Pc = out[7:9]
+        return IMMPrediction(IMMState(xp, Pp, mu_pred), _measured(xp.shape[:-1], *out[:7]),
+                             Gating(xc, Pc, _measured(xc.shape[:-1], *out[9:])))
 
     def _check_predict(self, state: IMMState, dt: np.ndarray) -> None:
         K = len(state)
@@ -399,9 +415,9 @@ class IMM:
 
         This is the IMM's gating prediction (spec §7.2): h and H evaluated at
         the combined prediction x (eq. 4.54 on the shared dimensions) with
-        S = H P H^T + R.
+        S = H P H^T + R; `predict` computed it (``pred.gating.measurement``).
         """
-        return self.measurement_prediction(*self.estimate(pred.state))
+        return pred.gating.measurement
 
     def measurement_prediction(self, x: np.ndarray, P: np.ndarray) -> MeasurementPrediction:
         """Predicted measurements, Jacobians and innovation covariances of states x (..., n), P (..., n, n)

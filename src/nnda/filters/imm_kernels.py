@@ -2,7 +2,8 @@
 
     xp, Pp, mu_p = mix_predict(x, P, mu, dt, tpm, kinds, dims, omega_max, basis, augment)   # eqs. 4.46-4.49
     z, S, S_inv, log_det, Ht, PHt, bad = measure(xp2, Pp2, polar, origin, R)             # (B, n) states
-    xp, Pp, mu_p, z, S, S_inv, log_det, Ht, PHt, bad = predict(x, P, mu, dt, ..., R)    # both, one call
+    xp, Pp, mu_p, z, S, ..., bad, xc, Pc, zc, Sc, ..., bad_c = predict(x, P, mu, dt, ..., R, d)   # one call:
+                                                       # both, and the combined (gating) prediction measured
     x, P, mu = update(xp, Pp, mu_p, z, mask, z_pred, S_inv, log_det, PHt, polar)        # eqs. 4.50-4.53
     xc, Pc = estimate(x, P, mu, d)                                                     # eqs. 4.54-4.55
     d2 = mahalanobis(z_pred, S_inv, Z, polar)                                           # (B, N) gate distances
@@ -193,14 +194,18 @@ def measure(x, P, polar, origin, R):
 
 
 @_jit
-def predict(x, P, mu, dt, tpm, kinds, dims, omega_max, basis, augment, polar, origin, R):
-    """`mix_predict`, then `measure` of every model's prediction, in one call (a scan's prediction): xp
-    (K, r, n), Pp (K, r, n, n), mu_pred (K, r), then `measure`'s outputs over the K r predictions (K r
-    leading, track-major)."""
+def predict(x, P, mu, dt, tpm, kinds, dims, omega_max, basis, augment, polar, origin, R, d):
+    """A scan's prediction in one call: `mix_predict`, then `measure` of every model's prediction, then the
+    combined prediction on the first ``d`` entries (`estimate`) and its `measure`. Returns xp (K, r, n), Pp
+    (K, r, n, n), mu_pred (K, r), `measure`'s outputs over the K r predictions (K r leading, track-major),
+    xc (K, d), Pc (K, d, d) and `measure`'s outputs over those K."""
     xp, Pp, mu_pred = mix_predict(x, P, mu, dt, tpm, kinds, dims, omega_max, basis, augment)
     K, r, n = xp.shape
     z, S, S_inv, log_det, Ht, PHt, bad = measure(xp.reshape(K * r, n), Pp.reshape(K * r, n, n), polar, origin, R)
-    return xp, Pp, mu_pred, z, S, S_inv, log_det, Ht, PHt, bad
+    xc, Pc = estimate(xp, Pp, mu_pred, d)
+    zc, Sc, Sc_inv, log_det_c, Htc, PHtc, bad_c = measure(xc, Pc, polar, origin, R)
+    return (xp, Pp, mu_pred, z, S, S_inv, log_det, Ht, PHt, bad,
+            xc, Pc, zc, Sc, Sc_inv, log_det_c, Htc, PHtc, bad_c)
 
 
 @_jit

@@ -95,6 +95,5 @@ def gate_tracks(imm: IMM, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray, th
     """The combined measurement prediction of K tracks' IMM prediction ``pred`` (the gating prediction,
     `IMM.combined_measurement`) and the pairs inside their gates (`gate`, with the Cartesian test of the
     poorly linearised tracks; ``check`` as there)."""
-    estimate = imm.estimate(pred.state)
-    mp = imm.measurement_prediction(*estimate)
-    return mp, gate(imm, mp, z, xy, threshold, estimate, check=check)
+    g = pred.gating
+    return g.measurement, gate(imm, g.measurement, z, xy, threshold, (g.x, g.P), check=check)

@@ -63,7 +63,6 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from nnda.data.dataset import Scan
-from nnda.filters import kalman
 from nnda.filters.batch import Batch
 from nnda.filters.kalman import GATE_99
 from nnda.tracking.clutter_density import local_density
@@ -168,7 +167,7 @@ class MHTTracker(ContactTracker):
         z, xy, time = scan.z, scan.xy, scan.time
         L = len(leaves)
         pred = imm.predict(tr.filt, time - tr.t2)
-        x_pred, P_pred = imm.estimate(pred.state)
+        x_pred, P_pred, mp = pred.gating.x, pred.gating.P, pred.gating.measurement
         p_gate = 1.0 - math.exp(-cfg.gate / 2.0)  # chi-square cdf, 2 dof
         miss_score = leaves.score + math.log(1.0 - cfg.pd * p_gate)
         observed = self._observed(scan, pred)  # a leaf its sensor cannot see keeps its score and counters
@@ -179,7 +178,6 @@ class MHTTracker(ContactTracker):
         contact = np.full(L, NO_CONTACT, np.int64)
         score = miss_score
         if len(z):
-            mp = kalman.predict_measurement(x_pred, P_pred, imm.measurement)  # the combined measurement
             gated = gate(imm, mp, z, xy, cfg.gate, (x_pred, P_pred), check=False)
             pl, pj = gated.rows, gated.cols
             if pl.size:

@@ -88,8 +88,7 @@ from pydantic import Field, model_validator
 
 from nnda.data.scenario import Sensor
 from nnda.errors import ConfigError, ModelError, TrackingError
-from nnda.filters.imm import IMM, IMMPrediction
-from nnda.filters.kalman import MeasurementPrediction
+from nnda.filters.imm import IMMPrediction
 from nnda.models.context import IMM_CONTEXT, with_context
 from nnda.models.feature_sets import FEATURE_SETS
 from nnda.models.innovation import IMM_INNOVATION, scan_features
@@ -219,7 +218,6 @@ class NeuralTracker(SingleHypothesisTracker):
     def reset(self) -> None:
         super().reset()
         self._gated_of: Gated | None = None  # the scan's IMM gate (`_gated`)
-        self._combined_of: tuple | None = None  # a prediction and its gating prediction (`_combined`)
         self._last_scan: tuple[Tracks, np.ndarray] | None = None  # its tracks and contacts, for `_retrodicted`
 
     def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
@@ -265,7 +263,7 @@ class NeuralTracker(SingleHypothesisTracker):
         features in one call)."""
         ext = self._extended
         track, cand, features = scan_features(
-            scan.filter, pred, self._combined(scan.filter, pred)[1] if ext else None, tracks.p1, tracks.t1,
+            scan.filter, pred, pred.gating.measurement if ext else None, tracks.p1, tracks.t1,
             tracks.p2, tracks.t2, tracks.az2, tracks.t0, scan.xy, scan.z, scan.time, ext)
         if not track.size:
             return track, cand, np.empty(0)
@@ -384,20 +382,10 @@ class NeuralTracker(SingleHypothesisTracker):
         index ``tracks``), computed once: every use of the gate is a confirmed track's, and the clutter's
         preliminary tracks outnumber them."""
         if self._gated_of is None:
-            estimate, mp = self._combined(scan.filter, pred)
-            self._gated_of = gate(scan.filter, mp, scan.z, scan.xy, self.config.coast_gate, estimate,
+            g = pred.gating
+            self._gated_of = gate(scan.filter, g.measurement, scan.z, scan.xy, self.config.coast_gate, (g.x, g.P),
                                   rows=np.flatnonzero(tracks.status == CONFIRMED), check=False)
         return self._gated_of
-
-    def _combined(self, imm: IMM, pred: IMMPrediction
-                  ) -> tuple[tuple[np.ndarray, np.ndarray], MeasurementPrediction]:
-        """The combined prediction (x (K, 4), P (K, 4, 4)) of ``pred``'s K tracks and its measurement
-        prediction (the IMM's gating prediction, `IMM.combined_measurement`), computed once per prediction:
-        the innovation features and the gate both need it."""
-        if self._combined_of is None or self._combined_of[0] is not pred:
-            estimate = imm.estimate(pred.state)
-            self._combined_of = (pred, estimate, imm.measurement_prediction(*estimate))
-        return self._combined_of[1], self._combined_of[2]
 
 
 def global_matching(rows: np.ndarray, cols: np.ndarray, score: np.ndarray, threshold: float
