@@ -336,11 +336,17 @@ def sanity_reasons(x: np.ndarray, P: np.ndarray, sensors: tuple[Sensor, ...], ga
     """Which of K track states x (K, 4), P (K, 4, 4) are impossible, and why: (K,) int8 codes, 0 for a
     sane track, else 1 + the index in SANITY_REASONS of the first rule it breaks (module docstring).
     ``gate`` is the tracker's chi-square gate (2 dof) for the coverage rule. One compiled loop over the
-    tracks (`_sanity`)."""
+    tracks (`sanity_kernel`)."""
+    return sanity_kernel(np.asarray(x, float), np.asarray(P, float), *sanity_args(sensors, gate, cfg))
+
+
+def sanity_args(sensors: tuple[Sensor, ...], gate: float, cfg: LifecycleConfig) -> tuple:
+    """`sanity_kernel`'s settings after x and P: the sensors' coverage (`_coverage`), their least noise (m),
+    the gate, whether the coverage rule applies, the largest position sd (m; inf: no limit) and the speed
+    limit (m/s)."""
     max_sd = math.inf if cfg.max_position_sd_m is None else cfg.max_position_sd_m
-    return _sanity(np.asarray(x, float), np.asarray(P, float), _coverage(tuple(sensors)),
-                   min(sensor_noise_m(s) for s in sensors), float(gate), cfg.coverage_deletion, max_sd,
-                   cfg.speed_limit)
+    return (_coverage(tuple(sensors)), min(sensor_noise_m(s) for s in sensors), float(gate), cfg.coverage_deletion,
+            max_sd, cfg.speed_limit)
 
 
 @functools.cache
@@ -398,7 +404,7 @@ def _each(one, a, coverage, noise_m, gate):
 
 
 @_kernel
-def _sanity(x, P, coverage, noise_m, gate, coverage_deletion, max_sd, speed_limit):
+def sanity_kernel(x, P, coverage, noise_m, gate, coverage_deletion, max_sd, speed_limit):
     """`sanity_reasons`' loop over K tracks x (K, 4), P (K, 4, 4): the coverage rule against the sensors'
     ``coverage`` (S, 7) (`_coverage`), then the position standard deviation against ``max_sd`` (m; inf: no
     limit), then the speed against ``speed_limit`` (m/s), which overrides the other two."""

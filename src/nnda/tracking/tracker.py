@@ -44,7 +44,7 @@ from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
-from typing import ClassVar, Protocol, runtime_checkable
+from typing import ClassVar, NamedTuple, Protocol, runtime_checkable
 
 import numba
 import numpy as np
@@ -56,6 +56,7 @@ from nnda.data.sensor import observable
 from nnda.errors import BoundWarning, ConfigError, TrackingError
 from nnda.filters.batch import Batch
 from nnda.filters.imm import IMM, IMMPrediction, IMMState
+from nnda.filters.imm_kernels import estimate
 from nnda.filters.kalman import GATE_99
 from nnda.filters.measurement import measurement_model
 from nnda.tracking.clutter_density import coverage_area, local_density
@@ -71,7 +72,8 @@ from nnda.tracking.lifecycle import (
     everywhere,
     predicted_log_odds,
     rate_threshold,
-    sanity_reasons,
+    sanity_args,
+    sanity_kernel,
     score_bounds,
     sensor_noise_m,
     start_score,
@@ -199,21 +201,88 @@ class Tracks(Batch):
         a contact was used, and the M/N counters, the score (by ``score_gain`` (K,), the scan's
         log-likelihood ratio; None: 0) and the status advance (`lifecycle.advance`, or
         `lifecycle.advance_score` under the score rule) where the scan ``observed`` the track (default:
-        everywhere), in two compiled calls (`_scanned`, `_moved_history`)."""
+        everywhere), in one compiled call (`_scanned_moved`)."""
+        return self._moved_on(filt, *_scanned_moved(*self._scan_args(contact, z, xy, time, lifecycle, observed,
+                                                                      score_gain)))
+
+    def _scan_args(self, contact: np.ndarray, z: np.ndarray, xy: np.ndarray, time: float,
+                   lifecycle: LifecycleConfig, observed: np.ndarray | None, score_gain: np.ndarray | None) -> tuple:
+        """The arguments of `_scanned_moved` for `after_scan`'s."""
         K, cfg = len(contact), lifecycle
         score_rule = cfg.confirmation != "mn"
         lower, upper, early = score_bounds(cfg, K, self.confirm_at) if score_rule else (0.0, self.confirm_at, 0.0)
-        status, hits, misses, consecutive, score, max_score = _scanned(
-            contact, everywhere(observed, K), self.status, self.hits, self.misses, self.consecutive, cfg.m,
-            cfg.n - cfg.m + 1, cfg.max_misses, self.score, self.max_score,
-            np.zeros(K) if score_gain is None else score_gain, score_gain is not None, score_rule,
-            cfg.confirmation == "existence", lower, upper, early)
-        p1, t1, p2, t2, az2 = _moved_history(contact, self.p1, self.t1, self.p2, self.t2, self.az2, xy, z[:, 1], time)
+        return (contact, everywhere(observed, K), self.status, self.hits, self.misses, self.consecutive, cfg.m,
+                cfg.n - cfg.m + 1, cfg.max_misses, self.score, self.max_score,
+                np.zeros(K) if score_gain is None else score_gain, score_gain is not None, score_rule,
+                cfg.confirmation == "existence", lower, upper, early,
+                self.p1, self.t1, self.p2, self.t2, self.az2, xy, z[:, 1], time)
+
+    def _moved_on(self, filt: IMMState, status: np.ndarray, hits: np.ndarray, misses: np.ndarray,
+                  consecutive: np.ndarray, score: np.ndarray, max_score: np.ndarray, p1: np.ndarray, t1: np.ndarray,
+                  p2: np.ndarray, t2: np.ndarray, az2: np.ndarray) -> Tracks:
+        """These tracks with `_scanned_moved`'s outputs and the filter states ``filt``."""
         return Tracks(
             track_id=self.track_id, status=status, filt=filt, p1=p1, t1=t1, p2=p2, t2=t2, az2=az2, t0=self.t0,
             hits=hits, misses=misses, consecutive=consecutive, score=score, max_score=max_score,
             confirm_at=self.confirm_at,
         )
+
+
+@numba.njit(cache=True, nogil=True)
+def _scanned_moved(contact, observed, status, hits, misses, consecutive, m, misses_to_delete, max_misses, score,
+                   max_score, gain, scored, score_rule, exist, lower, upper, early, p1, t1, p2, t2, az2, xy, azimuth,
+                   time):
+    """`_scanned`, then `_moved_history`: (status, hits, misses, consecutive, score, max_score, p1, t1, p2, t2,
+    az2)."""
+    return (_scanned(contact, observed, status, hits, misses, consecutive, m, misses_to_delete, max_misses, score,
+                     max_score, gain, scored, score_rule, exist, lower, upper, early)
+            + _moved_history(contact, p1, t1, p2, t2, az2, xy, azimuth, time))
+
+
+@numba.njit(cache=True, nogil=True)
+def _finished(scan, ux, uP, umu, kx, kP, kmu, d, sanity, release, gx, gP, kept):
+    """The end of a scan for K tracks after association, in one call (`SingleHypothesisTracker._finish`).
+
+    ``scan`` holds `_scanned_moved`'s arguments (`Tracks._scan_args`: the contact each track used first);
+    the filter state from then on is the updated one (ux, uP, umu) where a contact was used, else the last
+    (kx, kP, kmu) (`_picked`); the estimate to report is the updated one's on the first ``d`` entries
+    (`imm_kernels.estimate`); the sanity rules (`lifecycle.sanity_kernel` with ``sanity``, `sanity_args`)
+    then delete the live tracks they fail; with ``release`` a track deleted in this scan after it took a
+    contact gives it back and reports its prediction's estimate (gx (K, d), gP (K, d, d)) instead. ``kept``
+    (track_id, t0, confirm_at) are the fields the scan leaves as they are.
+
+    Returns the status after the scan (K,), the estimate (x (K, d), P (K, d, d)) and the contacts used (K,) to
+    report, the scan's deletions (2 + 3,): preliminary tracks, confirmed tracks by their life cycle, then by
+    each of `SANITY_REASONS`; and the surviving tracks' fields in `Tracks`' order, the filter state as (x,
+    P, mu).
+    """
+    contact, before = scan[0], scan[2]
+    status, hits, misses, consecutive, score, max_score, p1, t1, p2, t2, az2 = _scanned_moved(*scan)
+    fx, fP, fmu = _picked(contact != NO_CONTACT, ux, uP, umu, kx, kP, kmu)
+    x, P = estimate(ux, uP, umu, d)
+    deletions = np.zeros(5, np.int64)
+    code = sanity_kernel(x, P, *sanity)
+    for k in range(status.size):
+        if status[k] == DELETED and before[k] != DELETED:
+            if before[k] == PRELIMINARY:
+                deletions[0] += 1
+            elif before[k] == CONFIRMED:
+                deletions[1] += 1
+        elif code[k] > 0 and status[k] != DELETED:
+            deletions[1 + code[k]] += 1
+            status[k] = DELETED
+    if release:
+        contact = contact.copy()
+        for k in range(status.size):
+            if status[k] == DELETED and before[k] != DELETED and contact[k] != NO_CONTACT:
+                x[k], P[k] = gx[k], gP[k]
+                contact[k] = NO_CONTACT
+    track_id, t0, confirm_at = kept
+    alive = np.flatnonzero(status != DELETED)
+    survivors = (track_id[alive], status[alive], (fx[alive], fP[alive], fmu[alive]), p1[alive], t1[alive],
+                 p2[alive], t2[alive], az2[alive], t0[alive], hits[alive], misses[alive], consecutive[alive],
+                 score[alive], max_score[alive], confirm_at[alive])
+    return status, x, P, contact, deletions, survivors
 
 
 @numba.njit(cache=True, nogil=True)
@@ -249,6 +318,17 @@ def _moved_history(contact, p1, t1, p2, t2, az2, xy, azimuth, time):
             p1[k, 0], p1[k, 1], t1[k] = p2[k, 0], p2[k, 1], t2[k]
             p2[k, 0], p2[k, 1], t2[k], az2[k] = xy[c, 0], xy[c, 1], time, azimuth[c]
     return p1, t1, p2, t2, az2
+
+
+class Shown(NamedTuple):
+    """One block of a scan's output (`TrackerOutput.from_blocks`): K tracks' ids and status after the scan,
+    the combined estimate x (K, 4), P (K, 4, 4) to report and the contact each used (NO_CONTACT: none)."""
+
+    track_id: np.ndarray
+    status: np.ndarray
+    x: np.ndarray
+    P: np.ndarray
+    contact: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -399,23 +479,10 @@ class ContactTracker(ABC):
         (the coverage rule of the sanity deletion measures a track's distance outside coverage in gates)."""
         return float(getattr(self.config, "gate", GATE_99))
 
-    def _judged(self, before: np.ndarray, status: np.ndarray, x: np.ndarray, P: np.ndarray) -> np.ndarray:
-        """``status`` (K,) after a scan's life cycle, with the sanity rules applied to the live tracks'
-        reported states x (K, 4), P (K, 4, 4) (`nnda.tracking.lifecycle.sanity_reasons`); the scan's
-        deletions are counted in ``deletions`` by reason (status ``before`` the scan tells them apart)."""
-        gone = (status == DELETED) & (before != DELETED)
-        if gone.any():  # most scans delete nothing: skip the counts' four reductions
-            self.deletions["unconfirmed"] += int((gone & (before == PRELIMINARY)).sum())
-            self.deletions[self._ended_reason] += int((gone & (before == CONFIRMED)).sum())
-        code = sanity_reasons(x, P, self.sensors, self.gate_threshold, self.config.lifecycle)
-        if not code.any():  # most scans: every track sane
-            return status
-        code[status == DELETED] = 0  # the life cycle deleted these already
-        for reason, n in zip(SANITY_REASONS, np.bincount(code, minlength=len(SANITY_REASONS) + 1)[1:]):
-            self.deletions[reason] += int(n)
-        status = status.copy()
-        status[code > 0] = DELETED
-        return status
+    @cached_property
+    def _sanity_args(self) -> tuple:
+        """The sanity rules' settings for this tracker's sensors, gate and life cycle (`sanity_args`)."""
+        return sanity_args(self.sensors, self.gate_threshold, self.config.lifecycle)
 
     @property
     def _ended_reason(self) -> str:
@@ -572,7 +639,7 @@ class SingleHypothesisTracker(ContactTracker):
         sc = self._checked(scan)
         z, xy, time = sc.z, sc.xy, sc.time
         used = np.zeros(len(z), bool)
-        shown = []  # (tracks, filter state to report, contact used) per block of the output
+        shown: list[Shown] = []  # the output's blocks: old tracks, new ones
         tracks = self.tracks
         if tracks is not None:
             if self.confirmation_rule == "existence":  # IPDA's Markov prediction of the existence probability
@@ -582,23 +649,9 @@ class SingleHypothesisTracker(ContactTracker):
             assoc = self.associate(tracks, pred, sc)
             if assoc.revised is not None:
                 tracks, pred = assoc.revised
-            c = assoc.contact
-            det = c != NO_CONTACT
-            observed = self._observed(sc, pred)
-            # a missed track keeps its last posterior (§7.1.8) and reports its prediction
-            before = tracks.status
-            tracks = tracks.after_scan(c, _pick(det, assoc.filt, tracks.filt), z, xy, time, self.config.lifecycle,
-                                       observed, self._score_gain(pred, sc, assoc))
-            x, P = self.filter.estimate(assoc.filt)
-            judged = self._judged(before, tracks.status, x, P)
-            if judged is not tracks.status:  # a sanity rule deleted a track (most scans: none)
-                tracks = tracks.replaced(status=judged)
-            if getattr(self.config, "release_on_deletion", False):
-                c, x, P = self._released(before, tracks.status, c, pred, x, P)
-            used[c[c != NO_CONTACT]] = True
-            shown.append((tracks, x, P, c))
-            alive = np.flatnonzero(tracks.status != DELETED)
-            tracks = None if not alive.size else tracks if alive.size == len(tracks) else tracks.take(alive)
+            tracks, block = self._finish(tracks, pred, assoc, sc)
+            used[block.contact[block.contact != NO_CONTACT]] = True
+            shown.append(block)
         score_rule = self.confirmation_rule != "mn"
         # under the score rule only confirmed tracks take room from new ones: the cap then keeps the best scores
         held = 0 if tracks is None else int((tracks.status == CONFIRMED).sum()) if score_rule else len(tracks)
@@ -608,29 +661,36 @@ class SingleHypothesisTracker(ContactTracker):
             if score_rule:
                 tracks, born, born_contact = self._capped(tracks, born, born_contact, shown, time)
         if born is not None:
-            shown.append((born, *self.filter.estimate(born.filt), born_contact))
+            shown.append(Shown(born.track_id, born.status, *self.filter.estimate(born.filt), born_contact))
             tracks = born if tracks is None else Tracks.concat([tracks, born])
         self.tracks = tracks
         self.last_time = time
-        return self._shown(scan.index, time, shown)
+        return TrackerOutput.from_blocks(scan.index, time, shown)
 
-    def _released(self, before: np.ndarray, status: np.ndarray, contact: np.ndarray, pred: IMMPrediction,
-                  x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The config's ``release_on_deletion``: a track the scan deleted (``status`` DELETED, ``before`` not)
-        after it took a contact gives the contact back, reported as a miss with its predicted estimate
-        (``pred``) instead of the updated x (K, 4), P (K, 4, 4); the contact stays free for initiation.
-        Returns the scan's contacts (K,) and the estimates to report."""
-        gone = (status == DELETED) & (before != DELETED) & (contact != NO_CONTACT)
-        if not gone.any():
-            return contact, x, P
-        rows = np.flatnonzero(gone)
-        x, P = x.copy(), P.copy()
-        x[rows], P[rows] = self.filter.estimate(pred.state.take(rows))
-        contact = contact.copy()
-        contact[rows] = NO_CONTACT
-        return contact, x, P
+    def _finish(self, tracks: Tracks, pred: IMMPrediction, assoc: Association, scan: ScanContacts
+                ) -> tuple[Tracks | None, Shown]:
+        """The scan's end for the K tracks the method decided for, in one compiled call (`_finished`): a track
+        with a contact takes its updated state, a missed one keeps its last posterior (§7.1.8) and reports its
+        prediction; the life cycle (`Tracks.after_scan`, with the score's increments of `_score_gain`); the
+        sanity rules on the reported states (`nnda.tracking.lifecycle.sanity_reasons`); with the config's
+        ``release_on_deletion``, a track deleted in this scan after it took a contact gives the contact back,
+        reported as a miss with its prediction's estimate. The scan's deletions are counted in ``deletions``
+        by reason. Returns the tracks that live on (None: none) and the K tracks' report."""
+        cfg, u, k, g = self.config.lifecycle, assoc.filt, tracks.filt, pred.gating
+        args = tracks._scan_args(assoc.contact, scan.z, scan.xy, scan.time, cfg, self._observed(scan, pred),
+                                 self._score_gain(pred, scan, assoc))
+        status, x, P, contact, deletions, survivors = _finished(
+            args, u.x, u.P, u.mu, k.x, k.P, k.mu, self.filter.output_dim, self._sanity_args,
+            bool(getattr(self.config, "release_on_deletion", False)), g.x, g.P,
+            (tracks.track_id, tracks.t0, tracks.confirm_at))
+        if deletions.any():
+            for reason, n in zip(("unconfirmed", self._ended_reason, *SANITY_REASONS), deletions.tolist()):
+                self.deletions[reason] += n
+        track_id, status_alive, filt, *rest = survivors
+        alive = Tracks(track_id, status_alive, IMMState(*filt), *rest) if track_id.size else None
+        return alive, Shown(tracks.track_id, status, x, P, contact)
 
-    def _capped(self, tracks: Tracks | None, born: Tracks, contact: np.ndarray, shown: list, time: float
+    def _capped(self, tracks: Tracks | None, born: Tracks, contact: np.ndarray, shown: list[Shown], time: float
                 ) -> tuple[Tracks | None, Tracks | None, np.ndarray]:
         """The score rule's cap on live tracks (``lifecycle.max_tracks``): past it, the preliminary tracks of
         lowest score (old or just born) go, so a target's track, whose score grows with every contact, is
@@ -651,31 +711,20 @@ class SingleHypothesisTracker(ContactTracker):
         self._bound_hit("max_tracks", f"{drop.size} preliminary track(s) of lowest score dropped, {room} live "
                         f"at most", time)
         if old and not keep[:old].all():
-            block, x, P, c = shown[0]
+            block = shown[0]
             gone = np.flatnonzero(~keep[:old])
             shown_status = block.status.copy()
             shown_status[np.flatnonzero(block.status != DELETED)[gone]] = DELETED
-            shown[0] = (block.replaced(status=shown_status), x, P, c)
+            shown[0] = block._replace(status=shown_status)
             tracks = tracks.take(np.flatnonzero(keep[:old])) if keep[:old].any() else None
         new = np.flatnonzero(keep[old:])
         return tracks, (born.take(new) if new.size else None), contact[new]
 
-    def _shown(self, scan: int, time: float, blocks: list[tuple[Tracks, np.ndarray, np.ndarray, np.ndarray]]
-               ) -> TrackerOutput:
-        """The scan's output from blocks of (tracks, the combined estimate x (K, 4), P (K, 4, 4) to report,
-        contact used)."""
-        return TrackerOutput.from_blocks(scan, time, [(t.track_id, t.status, x, P, c) for t, x, P, c in blocks])
-
-
-def _pick(rows: np.ndarray, a: IMMState, b: IMMState) -> IMMState:
-    """Per track, the state of ``a`` where ``rows`` (K,) is true, else that of ``b`` (one compiled loop)."""
-    return IMMState(*_picked(rows, a.x, a.P, a.mu, b.x, b.P, b.mu))
-
 
 @numba.njit(cache=True, nogil=True)
 def _picked(rows, ax, aP, amu, bx, bP, bmu):
-    """`_pick` on the arrays of two IMM states of K tracks (x (K, r, n), P (K, r, n, n), mu (K, r)): new
-    arrays holding track k of ``a`` where rows[k], else of ``b``."""
+    """Per track, the state of IMM state ``a`` where ``rows`` (K,) is true, else that of ``b``, from their arrays
+    (x (K, r, n), P (K, r, n, n), mu (K, r)): new arrays."""
     x, P, mu = bx.copy(), bP.copy(), bmu.copy()
     for k in range(rows.size):
         if rows[k]:
