@@ -253,8 +253,8 @@ def _finished(scan, ux, uP, umu, kx, kP, kmu, d, sanity, release, gx, gP, kept):
 
     Returns the status after the scan (K,), the estimate (x (K, d), P (K, d, d)) and the contacts used (K,) to
     report, the scan's deletions (2 + 3,): preliminary tracks, confirmed tracks by their life cycle, then by
-    each of `SANITY_REASONS`; and the surviving tracks' fields in `Tracks`' order, the filter state as (x,
-    P, mu).
+    each of `SANITY_REASONS`; and the surviving tracks' (track_id, status, (x, P, mu), p1, t1, p2, t2, az2,
+    t0, hits, misses, consecutive, score, max_score, confirm_at).
     """
     contact, before = scan[0], scan[2]
     status, hits, misses, consecutive, score, max_score, p1, t1, p2, t2, az2 = _scanned_moved(*scan)
@@ -686,8 +686,12 @@ class SingleHypothesisTracker(ContactTracker):
         if deletions.any():
             for reason, n in zip(("unconfirmed", self._ended_reason, *SANITY_REASONS), deletions.tolist()):
                 self.deletions[reason] += n
-        track_id, status_alive, filt, *rest = survivors
-        alive = Tracks(track_id, status_alive, IMMState(*filt), *rest) if track_id.size else None
+        (track_id, status_alive, filt, p1, t1, p2, t2, az2, t0, hits, misses, consecutive, score, max_score,
+         confirm_at) = survivors
+        alive = None if not track_id.size else Tracks(
+            track_id=track_id, status=status_alive, filt=IMMState(*filt), p1=p1, t1=t1, p2=p2, t2=t2, az2=az2,
+            t0=t0, hits=hits, misses=misses, consecutive=consecutive, score=score, max_score=max_score,
+            confirm_at=confirm_at)
         return alive, Shown(tracks.track_id, status, x, P, contact)
 
     def _capped(self, tracks: Tracks | None, born: Tracks, contact: np.ndarray, shown: list[Shown], time: float
