@@ -19,7 +19,9 @@ Each scan, for all live tracks at once:
    and for ``imm-context-14`` also each pair's standing among the scan's
    pairs (`nnda.models.context`: rank and d² margin among its track's
    candidates, their count, the other tracks that have the contact as a
-   candidate and their least d²), from the same arrays in a few sorts;
+   candidate and their least d²), from the same arrays in a few sorts. The
+   gate and the first two feature sets take one compiled call a scan
+   (`nnda.models.innovation.scan_features`, the training code's kernels);
 3. *select*: pairs scoring above ``threshold`` (default 0: the network says
    "target") are matched greedily by descending score (`greedy_matching`):
    the best pair of the scan is taken, its track and contact leave the
