@@ -9,6 +9,7 @@ from nnda.data.presets import PRESETS
 from nnda.filters.imm import IMM
 from nnda.tracking import gating
 from nnda.tracking.gating import gate
+from tolerances import RTOL
 
 
 def _scene(seed: int, K: int = 12, N: int = 80):
@@ -40,5 +41,8 @@ def test_the_gate_of_some_tracks_is_brute_forces_pairs_of_those_rows(seed, dense
         r, c = np.nonzero(d2[wanted] <= 9.21)
         np.testing.assert_array_equal(g.rows, wanted[r])
         np.testing.assert_array_equal(g.cols, c)
-        np.testing.assert_array_equal(g.d2, d2[wanted[r], c])  # the same arithmetic
+        if dense:  # the compiled pass and the matrix share `_d2`: the same bits
+            np.testing.assert_array_equal(g.d2, d2[wanted[r], c])
+        else:  # the k-d tree's path computes d2 in numpy: agreement to rounding
+            np.testing.assert_allclose(g.d2, d2[wanted[r], c], rtol=RTOL)
     assert gate(imm, mp, z, xy, 9.21).rows.size > 5

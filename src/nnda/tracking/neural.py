@@ -380,9 +380,9 @@ class NeuralTracker(SingleHypothesisTracker):
         return None if not alive.any() else missed if alive.all() else missed.take(alive)
 
     def _gated(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Gated:
-        """The pairs inside the confirmed tracks' IMM gate of ``coast_gate`` this scan (`gate_tracks`; rows
-        index ``tracks``), computed once: every use of the gate is a confirmed track's, and the clutter's
-        preliminary tracks outnumber them."""
+        """The pairs inside the confirmed tracks' IMM gate of ``coast_gate`` this scan (`gate` on
+        ``pred.gating``, limited to their rows; rows index ``tracks``), computed once: every use of the gate
+        is a confirmed track's, and the clutter's preliminary tracks outnumber them."""
         if self._gated_of is None:
             g = pred.gating
             self._gated_of = gate(scan.filter, g.measurement, scan.z, scan.xy, self.config.coast_gate, (g.x, g.P),
