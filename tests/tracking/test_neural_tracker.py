@@ -24,7 +24,16 @@ from nnda.models.scorer import Scorer, save_model, score_log_odds
 from nnda.study.metrics import run_metrics
 from nnda.tracking.assignment import greedy_matching
 from nnda.tracking.gating import gate_tracks
-from nnda.tracking.neural import NeuralTracker, global_matching, reacquire, served_matching
+from nnda.tracking.neural import NeuralTracker
+from nnda.tracking.neural_matching import (
+    RULES,
+    first_stage,
+    global_matching,
+    reacquire,
+    reacquired,
+    rest_stage,
+    served_matching,
+)
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
 
@@ -315,6 +324,30 @@ def test_reacquire_is_the_nearest_free_pick_of_the_waiting_tracks(seed):
     assert list(zip(r.tolist(), c.tolist())) == expected
     left = [i for i in eligible if rows[i] not in r and cols[i] not in c]
     assert not left  # no pair a waiting track could still take
+
+
+def test_the_stages_on_a_hand_made_scan():
+    C, P = TrackStatus.CONFIRMED, TrackStatus.PRELIMINARY
+    status, consecutive = np.array([C, C, P, C], np.int8), np.array([0, 1, 0, 2])
+    track, cand, score = np.array([0, 1, 1, 2, 2]), np.array([0, 1, 2, 0, 3]), np.array([0.9, 0.8, 0.7, 0.95, 0.6])
+    g_rows, g_cols, g_d2 = np.array([0, 1, 3]), np.array([0, 2, 3]), np.array([1.0, 2.0, 5.0])
+    kept_track, kept_cand, _, first, (done, rows, cols, _, _) = first_stage(
+        track, cand, score, status, consecutive, 4, True, True, 0, RULES["served"], 0.0, g_rows, g_cols, g_d2)
+    # track 1 missed last scan: its pair with contact 1 lies outside its gate and goes; track 2 picks later
+    assert list(zip(kept_track.tolist(), kept_cand.tolist())) == [(0, 0), (1, 2), (2, 0), (2, 3)]
+    assert first.tolist() == [True, True, False, False]
+    # track 3 has no network pair: the served assignment gives it contact 3 of its gate
+    assert done and dict(zip(rows.tolist(), cols.tolist())) == {0: 0, 1: 2, 3: 3}
+    contact = np.full(4, -1)
+    contact[rows] = cols
+    done, rows, cols, _, _ = rest_stage(contact, first, kept_track, kept_cand, score[[0, 2, 3, 4]], 4,
+                                        RULES["served"], 0.0)
+    assert done and rows.size == 0  # track 2's contacts went to the confirmed tracks
+    # without the served pick, track 3 re-acquires contact 3; track 0 (a contact last scan) is then lost
+    again, lost = reacquired(np.array([-1, 2, -1, -1]), status, consecutive, 0, g_rows, g_cols, g_d2, 9.21, 4)
+    assert again.tolist() == [0, 2, -1, 3] and lost.size == 0
+    again, lost = reacquired(np.array([-1, 2, -1, -1]), status, consecutive, 0, g_rows, g_cols, g_d2, 0.5, 4)
+    assert again.tolist() == [-1, 2, -1, -1] and lost.tolist() == [0]
 
 
 class RecordingPredictions(Recording):

@@ -84,7 +84,6 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Annotated, ClassVar, Literal
 
-import numba
 import numpy as np
 from pydantic import Field, model_validator
 
@@ -94,9 +93,9 @@ from nnda.filters.imm import IMMPrediction
 from nnda.models.context import IMM_CONTEXT, with_context
 from nnda.models.feature_sets import FEATURE_SETS
 from nnda.models.innovation import IMM_INNOVATION, scan_features
-from nnda.models.scorer import Scorer, load_model, score_log_odds
-from nnda.tracking.assignment import greedy_kernel, greedy_matching, least_cost_assignment
+from nnda.models.scorer import Scorer, load_model
 from nnda.tracking.gating import Gated, gate, gate_tracks
+from nnda.tracking.neural_matching import RULES, first_stage, given, reacquire, reacquired, rest_stage, solved
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT
 from nnda.tracking.tracker import (
     Association,
@@ -109,6 +108,8 @@ from nnda.tracking.tracker import (
     only_sensor,
 )
 
+#: no gate pairs (the gate is off)
+NO_PAIRS = Gated(np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0))
 #: the recipe of a model whose metadata records none: oracle pairs of the training data alone
 NO_RECIPE = {"encounters": 0, "dagger": 0}
 
@@ -213,16 +214,18 @@ class NeuralTracker(SingleHypothesisTracker):
                                   f"{ {k: self.config.recipe[k] for k in wrong} }; retrain it or change the field")
         self._extended = self.scorer.features in (IMM_INNOVATION, IMM_CONTEXT)
         self._context = self.scorer.features is IMM_CONTEXT
+        self._rule = RULES[self.config.association]  # the code of the matching rule in the compiled stages
         #: if set, called each scan with (scan index, track id (P,), contact row (P,), features (P, F)) of
         #: every pair scored (`nnda.tracking.harvest`)
         self.harvest: Callable[[int, np.ndarray, np.ndarray, np.ndarray], None] | None = None
 
     def reset(self) -> None:
         super().reset()
-        self._gated_of: Gated | None = None  # the scan's IMM gate (`_gated`)
         self._last_scan: tuple[Tracks, np.ndarray] | None = None  # its tracks and contacts, for `_retrodicted`
 
     def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
+        """The scan's three stages (`nnda.tracking.neural_matching`), each a compiled pass, the retrodiction
+        between the second and the third, then the chosen contacts' updates."""
         given = tracks  # the retrodiction may revise them (`_retrodicted`)
         contact = np.full(len(tracks), NO_CONTACT, np.int64)
         if not len(scan.z):
@@ -230,30 +233,24 @@ class NeuralTracker(SingleHypothesisTracker):
             return hard_update(scan.filter, pred, scan.z, contact)
         # the framework's arrays are checked already (scan checks, filter outputs): no second check here;
         # the scorer still refuses a non-finite feature
+        cfg, n = self.config, len(scan.z)
         track, cand, score = self._scored(tracks, pred, scan)
-        self._gated_of = None  # this scan's IMM gate (`_gated`), computed once if needed
-        if self.config.gate_after_miss:
-            after_miss = (tracks.status[track] == CONFIRMED) & (tracks.consecutive[track] >= 1)
-            if after_miss.any():
-                g = self._gated(tracks, pred, scan)
-                inside = _among(track * len(scan.z) + cand, g.rows * len(scan.z) + g.cols)
-                keep = ~after_miss | inside
-                track, cand, score = track[keep], cand[keep], score[keep]
-        if self.config.confirmed_first:  # the confirmed tracks pick, and re-acquire, before the others
-            first = tracks.status[track] == CONFIRMED
-            if self.config.association == "served":
-                self._served(contact, tracks, pred, scan, track[first], cand[first], score[first])
-            else:
-                self._pick(contact, track[first], cand[first], score[first])
-            contact = self._reacquired(tracks, pred, scan, contact)
-            tracks, pred, contact = self._retrodicted(tracks, pred, scan, contact)
-            rest = ~first & ~_given(contact, len(scan.z))[cand]
-            self._pick(contact, track[rest], cand[rest], score[rest])
-        else:
-            self._pick(contact, track, cand, score)
-            contact = self._reacquired(tracks, pred, scan, contact)
-            tracks, pred, contact = self._retrodicted(tracks, pred, scan, contact)
-        if self.config.retrodiction:  # kept as they are; the branches are made only when the next scan asks
+        g = self._gated(tracks, pred, scan)
+        track, cand, score, first, problem = first_stage(
+            track, cand, score, tracks.status, tracks.consecutive, n, cfg.gate_after_miss, cfg.confirmed_first,
+            cfg.coast_after, self._rule, cfg.threshold, g.rows, g.cols, g.d2)
+        rows, cols = solved(self._rule, cfg.threshold, *problem)
+        contact[rows] = cols
+        if cfg.coast_gate is not None:
+            contact, lost = reacquired(contact, tracks.status, tracks.consecutive, cfg.coast_after, g.rows, g.cols,
+                                       g.d2, cfg.coast_gate, n)
+            if cfg.retrodiction:
+                tracks, pred, contact = self._retrodicted(tracks, pred, scan, contact, lost)
+        if cfg.confirmed_first:
+            rows, cols = solved(self._rule, cfg.threshold,
+                                *rest_stage(contact, first, track, cand, score, n, self._rule, cfg.threshold))
+            contact[rows] = cols
+        if cfg.retrodiction:  # kept as they are; the branches are made only when the next scan asks
             self._last_scan = (tracks, contact)
         assoc = hard_update(scan.filter, pred, scan.z, contact)
         return assoc if tracks is given else Association(assoc.contact, assoc.filt, revised=(tracks, pred))
@@ -280,64 +277,15 @@ class NeuralTracker(SingleHypothesisTracker):
                                 f"weights or normaliser are broken: retrain it")
         return track, cand, score
 
-    def _pick(self, contact: np.ndarray, track: np.ndarray, cand: np.ndarray, score: np.ndarray) -> None:
-        """Write into ``contact`` (K,) the picks of the association rule (greedy or global) among the pairs
-        (track, cand, score) (P,) above the threshold."""
-        if self.config.association == "greedy":
-            match = score > self.config.threshold
-            chosen_track, chosen_contact = greedy_matching(track[match], cand[match], score[match])
-        elif self.config.association == "global":
-            chosen_track, chosen_contact = global_matching(track, cand, score, self.config.threshold)
-        else:
-            none = np.empty(0, np.int64)
-            chosen_track, chosen_contact = served_matching(track, cand, score, self.config.threshold, none, none,
-                                                           np.empty(0))
-        contact[chosen_track] = chosen_contact
-
-    def _served(self, contact: np.ndarray, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts,
-                track: np.ndarray, cand: np.ndarray, score: np.ndarray) -> None:
-        """Write into ``contact`` (K,) the confirmed tracks' picks under association 'served': their pairs
-        (track, cand, score) (P,) and, for those that count as coasting (``coast_after``), the contacts in
-        their IMM gate of ``coast_gate`` (`_gated`), in one `served_matching`."""
-        g = self._gated(tracks, pred, scan)
-        near = self._coasting(tracks)[g.rows]
-        rows, cols = served_matching(track, cand, score, self.config.threshold, g.rows[near], g.cols[near],
-                                     g.d2[near])
-        contact[rows] = cols
-
-    def _reacquired(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts, contact: np.ndarray
-                    ) -> np.ndarray:
-        """``contact`` (K,) with the picks (`reacquire`) of the coasting confirmed tracks left without one,
-        among the free contacts in their IMM gate of ``coast_gate`` (`gate_tracks`); unchanged when the
-        gate is off."""
-        cfg = self.config
-        if cfg.coast_gate is None:
-            return contact
-        waiting = self._coasting(tracks) & (contact == NO_CONTACT)
-        if not waiting.any():
-            return contact
-        g = self._gated(tracks, pred, scan)
-        rows, cols = reacquire(g.rows, g.cols, g.d2, waiting, _given(contact, len(scan.z)), cfg.coast_gate)
-        contact = contact.copy()
-        contact[rows] = cols
-        return contact
-
-    def _coasting(self, tracks: Tracks) -> np.ndarray:
-        """(K,) True for the confirmed tracks that count as coasting for ``coast_gate`` (``coast_after``)."""
-        return (tracks.status == CONFIRMED) & (tracks.consecutive >= self.config.coast_after)
-
-    def _retrodicted(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts, contact: np.ndarray
-                     ) -> tuple[Tracks, IMMPrediction, np.ndarray]:
-        """The retrodiction (``retrodiction``): the confirmed tracks that took a contact last scan and have
-        none in ``contact`` (K,) now, replaced by their branch without that contact (`_skipping`) where the
-        branch's prediction has free contacts in its gate of ``coast_gate``, each with the nearest of them
-        (`reacquire`). Returns the revised (tracks, prediction, contact): the same objects when no track goes
-        back."""
+    def _retrodicted(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts, contact: np.ndarray,
+                     lost: np.ndarray) -> tuple[Tracks, IMMPrediction, np.ndarray]:
+        """The retrodiction (``retrodiction``): the confirmed tracks ``lost`` (rows, ascending) that took a
+        contact last scan and have none in ``contact`` (K,) now (`reacquired`), replaced by their branch
+        without that contact (`_skipping`) where the branch's prediction has free contacts in its gate of
+        ``coast_gate``, each with the nearest of them (`reacquire`). Returns the revised (tracks, prediction,
+        contact): the same objects when no track goes back."""
         unchanged = tracks, pred, contact
-        if self._last_scan is None:
-            return unchanged
-        lost = np.flatnonzero((contact == NO_CONTACT) & (tracks.status == CONFIRMED) & (tracks.consecutive == 0))
-        if not lost.size:
+        if self._last_scan is None or not lost.size:
             return unchanged
         skipped = self._skipping(*self._last_scan)
         if skipped is None:
@@ -351,7 +299,7 @@ class NeuralTracker(SingleHypothesisTracker):
         branch = skipped.take(at)
         branch_pred = scan.filter.predict(branch.filt, scan.time - branch.t2, check=False)
         g = gate_tracks(scan.filter, branch_pred, scan.z, scan.xy, self.config.coast_gate, check=False)[1]
-        rows, cols = reacquire(g.rows, g.cols, g.d2, np.ones(lost.size, bool), _given(contact, len(scan.z)),
+        rows, cols = reacquire(g.rows, g.cols, g.d2, np.ones(lost.size, bool), given(contact, len(scan.z)),
                                self.config.coast_gate)
         if not rows.size:
             return unchanged
@@ -359,7 +307,6 @@ class NeuralTracker(SingleHypothesisTracker):
         index[lost[rows]] = len(tracks) + rows
         contact = contact.copy()
         contact[lost[rows]] = cols
-        self._gated_of = None  # the revised tracks' gate differs
         return (Tracks.concat([tracks, branch]).take(index), IMMPrediction.concat([pred, branch_pred]).take(index),
                 contact)
 
@@ -381,123 +328,10 @@ class NeuralTracker(SingleHypothesisTracker):
 
     def _gated(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Gated:
         """The pairs inside the confirmed tracks' IMM gate of ``coast_gate`` this scan (`gate` on
-        ``pred.gating``, limited to their rows; rows index ``tracks``), computed once: every use of the gate
-        is a confirmed track's, and the clutter's preliminary tracks outnumber them."""
-        if self._gated_of is None:
-            g = pred.gating
-            self._gated_of = gate(scan.filter, g.measurement, scan.z, scan.xy, self.config.coast_gate, (g.x, g.P),
-                                  rows=np.flatnonzero(tracks.status == CONFIRMED), check=False)
-        return self._gated_of
-
-
-def global_matching(rows: np.ndarray, cols: np.ndarray, score: np.ndarray, threshold: float
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """One-to-one matching of candidate pairs of least total cost, with a miss option per row.
-
-    ``rows``, ``cols`` (P,) index the pairs' tracks and contacts, ``score``
-    (P,) their scores in [-1, 1]. A pair costs -log-odds of its score
-    (`score_log_odds`); a row may miss at -log-odds of ``threshold``, so a
-    pair scoring at most ``threshold`` is never worth taking. Returns the
-    assigned (rows, cols) of `least_cost_assignment`, or, when no contact is
-    any other row's candidate too, each row's best pair above ``threshold``
-    (the same optimum, found by `greedy_matching` without the solver).
-    """
-    rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
-    keep = score > threshold
-    rows, cols, score = rows[keep], cols[keep], score[keep]
-    if rows.size == 0 or np.bincount(cols).max() == 1:
-        return greedy_matching(rows, cols, score)
-    miss = np.full(int(rows.max()) + 1, -score_log_odds(threshold))
-    return least_cost_assignment(rows, cols, -score_log_odds(score), miss)
-
-
-def served_matching(rows: np.ndarray, cols: np.ndarray, score: np.ndarray, threshold: float,
-                    gate_rows: np.ndarray, gate_cols: np.ndarray, gate_d2: np.ndarray
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """One-to-one matching that serves the most rows, and of those the one the network likes best.
-
-    ``rows``, ``cols`` (P,) index the network's candidate pairs, ``score`` (P,)
-    their scores in [-1, 1]; a pair above ``threshold`` is worth its log-odds
-    above the threshold's (`score_log_odds`). ``gate_rows``, ``gate_cols``,
-    ``gate_d2`` (Q,) are pairs a row may take on the IMM's word alone (inside
-    its gate), worth nothing beyond a tie-break towards the least d² (a pair
-    in both lists is worth its score). A row may miss. The matching has the
-    most pairs (GNN's aim: each pair is worth more than any sum of log-odds)
-    and, among those, the greatest total log-odds, then the least total d²
-    of its gate-only pairs. Returns the assigned (rows, cols) of
-    `least_cost_assignment`, or, when no contact is in two rows' pairs, each
-    row's best pair (`greedy_matching`: the same optimum without the solver).
-    """
-    done, rows, cols, worth, tie = _served_pairs(
-        np.asarray(rows, np.int64), np.asarray(cols, np.int64), np.asarray(score, np.float64), float(threshold),
-        np.asarray(gate_rows, np.int64), np.asarray(gate_cols, np.int64), np.asarray(gate_d2, np.float64))
-    if done:  # no contact wanted twice: each row's best pair (most scans; no solver)
-        return rows, cols
-    unit = 1.0 + 2.0 * float(worth.sum())  # a pair more outweighs every sum of log-odds
-    return least_cost_assignment(rows, cols, tie - worth - unit, np.zeros(int(rows.max()) + 1))
-
-
-@numba.njit(cache=True, nogil=True)
-def _served_pairs(rows, cols, score, threshold, gate_rows, gate_cols, gate_d2):
-    """The pairs of `served_matching`: the network's above ``threshold``, worth their log-odds above its,
-    with no tie-break, then the gate pairs not among them, worth 0, with tie-break 1e-6 d². Returns whether
-    the matching is done and the rows, cols (M,) and, if it is not, their worth and tie (M,): done when no
-    column occurs twice, the rows and cols then those of each row's best pair (`greedy_kernel` on worth -
-    tie), or when there is no pair. One compiled pass: this runs twice a scan, where a dozen numpy calls
-    cost ~0.1 ms."""
-    keep = np.flatnonzero(score > threshold)
-    n = 1
-    for c in cols[keep]:
-        n = max(n, c + 1)
-    for c in gate_cols:
-        n = max(n, c + 1)
-    taken = np.sort(rows[keep] * n + cols[keep])
-    extra = np.flatnonzero(~_among(gate_rows * n + gate_cols, taken))  # a network pair keeps its own worth
-    m = keep.size + extra.size
-    out_rows, out_cols = np.empty(m, np.int64), np.empty(m, np.int64)
-    worth, tie = np.zeros(m), np.zeros(m)
-    base = score_log_odds(threshold)
-    for k, i in enumerate(keep):
-        out_rows[k], out_cols[k], worth[k] = rows[i], cols[i], score_log_odds(score[i]) - base
-    for k, i in enumerate(extra):
-        j = keep.size + k
-        out_rows[j], out_cols[j], tie[j] = gate_rows[i], gate_cols[i], 1e-6 * gate_d2[i]
-    wanted = np.zeros(n, np.int64)
-    contested = False
-    for c in out_cols:
-        wanted[c] += 1
-        contested |= wanted[c] > 1
-    if m == 0 or contested:
-        return m == 0, out_rows, out_cols, worth, tie
-    picked_rows, picked_cols = greedy_kernel(out_rows, out_cols, worth - tie)
-    return True, picked_rows, picked_cols, worth, tie
-
-
-def reacquire(rows: np.ndarray, cols: np.ndarray, d2: np.ndarray, waiting: np.ndarray, taken: np.ndarray,
-              gate: float) -> tuple[np.ndarray, np.ndarray]:
-    """Nearest-neighbour picks of the rows still ``waiting`` for a contact, by the IMM's gate.
-
-    ``rows``, ``cols`` (P,) index the candidate pairs' tracks and contacts, ``d2`` (P,) their squared
-    Mahalanobis distances; ``waiting`` (K,) flags the tracks that may pick, ``taken`` (N,) the contacts
-    already given. Pairs of a waiting row with a free contact and d² <= ``gate`` are matched one-to-one
-    by ascending d² (`greedy_matching`). Returns the (rows, cols) picked.
-    """
-    free = waiting[rows] & (d2 <= gate) & ~taken[cols]
-    return greedy_matching(rows[free], cols[free], -d2[free])
-
-
-def _given(contact: np.ndarray, n: int) -> np.ndarray:
-    """(n,) True for the contacts some track of ``contact`` (K,) took (np.isin costs tens of µs a call)."""
-    given = np.zeros(n, bool)
-    given[contact[contact != NO_CONTACT]] = True
-    return given
-
-
-@numba.njit(cache=True, nogil=True)
-def _among(keys: np.ndarray, sorted_keys: np.ndarray) -> np.ndarray:
-    """(P,) True for the ``keys`` found in ``sorted_keys`` (ascending), by binary search (compiled: also
-    called from `_served_pairs`)."""
-    if not sorted_keys.size:
-        return np.zeros(keys.size, np.bool_)
-    pos = np.minimum(np.searchsorted(sorted_keys, keys), sorted_keys.size - 1)
-    return sorted_keys[pos] == keys
+        ``pred.gating``, limited to their rows; rows index ``tracks``; none when the gate is off): every use
+        of the gate is a confirmed track's, and the clutter's preliminary tracks outnumber them."""
+        if self.config.coast_gate is None:
+            return NO_PAIRS
+        g = pred.gating
+        return gate(scan.filter, g.measurement, scan.z, scan.xy, self.config.coast_gate, (g.x, g.P),
+                    rows=np.flatnonzero(tracks.status == CONFIRMED), check=False)
