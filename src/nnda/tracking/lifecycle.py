@@ -437,12 +437,28 @@ def window_pairs(initiators: np.ndarray, contacts: np.ndarray, d_min: float, d_m
     d_max overlaps, in one compiled loop (`_band_pairs`): the work grows with
     the contacts in the bands, linear in the contacts.
     """
-    if len(initiators) == 0 or len(contacts) == 0:
-        return np.empty(0, np.int64), np.empty(0, np.int64)
+    return free_window_pairs(initiators, contacts, np.zeros(len(contacts), np.bool_), d_min, d_max)[1:]
+
+
+def free_window_pairs(initiators: np.ndarray, contacts: np.ndarray, used: np.ndarray, d_min: float, d_max: float
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """`window_pairs` of the ``initiators`` (I, 2) with the ``contacts`` (N, 2) m that no track ``used`` (N,),
+    in one compiled call: the free contacts' indices (F,) ascending, and the pairs (i, j) (P,), j indexing
+    them."""
     # the margin over d_max keeps rounding at the bands' edges from dropping a pair
     reach = d_max + 1e-6 * (1.0 + d_max)
-    return _band_pairs(np.ascontiguousarray(initiators, float), np.ascontiguousarray(contacts, float),
-                       float(d_min), float(d_max), reach)
+    return _free_pairs(np.ascontiguousarray(initiators, float), np.ascontiguousarray(contacts, float),
+                       np.asarray(used, np.bool_), float(d_min), float(d_max), reach)
+
+
+@numba.njit(cache=True, nogil=True)
+def _free_pairs(initiators, contacts, used, d_min, d_max, reach):
+    """`free_window_pairs`: the free contacts, then `_band_pairs` with them (none without initiators)."""
+    free = np.flatnonzero(~used)
+    if not initiators.shape[0] or not free.size:
+        return free, np.empty(0, np.int64), np.empty(0, np.int64)
+    i, j = _band_pairs(initiators, contacts[free], d_min, d_max, reach)
+    return free, i, j
 
 
 #: `_band_pairs` makes at most this many strips per contact (plus `_MIN_STRIPS`): memory grows with the contacts

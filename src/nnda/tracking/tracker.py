@@ -70,6 +70,7 @@ from nnda.tracking.lifecycle import (
     cap_pairs,
     cap_per_initiator,
     everywhere,
+    free_window_pairs,
     predicted_log_odds,
     rate_threshold,
     sanity_args,
@@ -77,7 +78,6 @@ from nnda.tracking.lifecycle import (
     score_bounds,
     sensor_noise_m,
     start_score,
-    window_pairs,
 )
 from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.marginals import log_miss_weight
@@ -156,11 +156,21 @@ def checked_scan(name: str, scan: Scan, last_time: float, sensors: tuple[Sensor,
     if z.ndim != 2 or z.shape[1] != 2:
         what = "[range m, azimuth rad]" if polar else "[x m, y m]"
         raise TrackingError(f"{name}: scan {scan.index}: measurements must have shape (N, 2) {what}, got {z.shape}")
-    if not (np.isfinite(z).all() and (not polar or (z[:, 0] > 0).all())):
+    if not _valid(z, polar):
         row = int(np.flatnonzero(~np.isfinite(z).all(axis=1) | (polar & ~(z[:, 0] > 0)))[0])
         raise TrackingError(f"{name}: scan {scan.index}: contact {row} is invalid {z[row].tolist()} "
                             f"({'non-finite or non-positive range' if polar else 'non-finite'})")
     return z, time
+
+
+@numba.njit(cache=True, nogil=True)
+def _valid(z, polar):
+    """Whether every contact of z (N, 2) is finite, with a positive range if ``polar`` (`checked_scan`'s test
+    in one compiled pass: it runs on every scan of every tracker)."""
+    for i in range(z.shape[0]):
+        if not (math.isfinite(z[i, 0]) and math.isfinite(z[i, 1])) or (polar and not z[i, 0] > 0):
+            return False
+    return True
 
 
 @dataclass(frozen=True)
@@ -387,38 +397,27 @@ class TwoPointInitiation:
 
         Returns the new tracks (or None) and the contact each one used.
         """
-        free = np.flatnonzero(~used)
-        born, contact = None, None
-        in_window = np.zeros(len(free), bool)
-        d_min, d_max = self.windows[sensor]
-        if len(self.contacts[sensor]) and len(free):
-            init_xy, free_xy, before = self.xy[sensor], xy[free], self.time[sensor]
-            i, j = window_pairs(init_xy, free_xy, d_min, d_max)
-            i, j = cap_per_initiator(i, j, init_xy, free_xy, d_min, d_max, self.lifecycle.max_tracks_per_initiator)
-            room = max(self.lifecycle.max_tracks - live, 0)
-            if len(i) > room:
-                in_window[j] = True  # every windowed contact is spoken for, opened or not
-                self._refuse(len(i) - room, live, time)
-                i, j = cap_pairs(i, j, init_xy, free_xy, d_min, d_max, room)
-            if len(i):
-                in_window[j] = True
-                contact = free[j]
-                p1 = init_xy[i]
-                p2, cov2 = self.filters[sensor].measurement.position(z[contact])
-                k = len(i)
-                zeros = np.zeros(k, np.int64)
-                born = Tracks(
-                    track_id=np.arange(self.next_id, self.next_id + k, dtype=np.int64),
-                    status=np.full(k, PRELIMINARY, np.int8),
-                    filt=self.filters[sensor].start(p1, p2, cov2, time - before),
-                    p1=p1, t1=np.full(k, before), p2=p2, t2=np.full(k, time),
-                    az2=z[contact, 1], t0=np.full(k, before), hits=zeros, misses=zeros.copy(), consecutive=zeros.copy(),
-                    score=np.zeros(k), max_score=np.zeros(k),
-                    confirm_at=np.full(k, self._confirmation_threshold(len(init_xy))),
-                )
-                self.next_id += k
-        rest = free[~in_window]
-        self.contacts[sensor], self.xy[sensor], self.time[sensor] = z[rest], xy[rest], time
+        lifecycle, d_min, d_max = self.lifecycle, *self.windows[sensor]
+        init_xy, before = self.xy[sensor], self.time[sensor]
+        free, i, j = free_window_pairs(init_xy, xy, used, d_min, d_max)
+        if lifecycle.max_tracks_per_initiator is not None:
+            i, j = cap_per_initiator(i, j, init_xy, xy[free], d_min, d_max, lifecycle.max_tracks_per_initiator)
+        windowed = j  # every windowed contact is spoken for, opened or not
+        room = max(lifecycle.max_tracks - live, 0)
+        if len(i) > room:
+            self._refuse(len(i) - room, live, time)
+            i, j = cap_pairs(i, j, init_xy, xy[free], d_min, d_max, room)
+        threshold = self._confirmation_threshold(len(init_xy)) if len(i) else math.inf
+        rest, contact, fields = _opened(free, i, j, windowed, init_xy, z, xy, self.next_id, before, time, threshold)
+        self.contacts[sensor], self.xy[sensor], self.time[sensor] = rest
+        if not contact.size:
+            return None, None
+        track_id, status, p1, t1, t2, az2, t0, hits, misses, consecutive, score, max_score, confirm_at = fields
+        p2, cov2 = self.filters[sensor].measurement.position(z[contact])
+        born = Tracks(track_id=track_id, status=status, filt=self.filters[sensor].start(p1, p2, cov2, t2 - t1),
+                      p1=p1, t1=t1, p2=p2, t2=t2, az2=az2, t0=t0, hits=hits, misses=misses, consecutive=consecutive,
+                      score=score, max_score=max_score, confirm_at=confirm_at)
+        self.next_id += len(contact)
         return born, contact
 
     def _confirmation_threshold(self, initiators: int) -> float:
@@ -439,6 +438,24 @@ class TwoPointInitiation:
                           f"{self.lifecycle.max_tracks} allowed (lifecycle.max_tracks); later refusals of this "
                           f"run are only counted (n_refused)", BoundWarning, stacklevel=4)
         self.n_refused += n
+
+
+@numba.njit(cache=True, nogil=True)
+def _opened(free, i, j, windowed, initiators, z, xy, first_id, before, time, confirm_at):
+    """`TwoPointInitiation`'s new tracks in one call: the free contacts ``free`` (F,) outside every window
+    (not among ``windowed``, indices into ``free``) as the next initiators (their z, xy (M, 2)); the contacts
+    (K,) of the window pairs (i, j) (K,) that open tracks (j indexes ``free``); and the tracks' fields but
+    the filter state and p2: (track_id from ``first_id``, status, p1 (the initiators (I, 2) of i), t1 =
+    t0 = ``before``, t2 = ``time``, az2, hits, misses, consecutive, score, max_score, confirm_at)."""
+    spoken = np.zeros(free.size, np.bool_)
+    spoken[windowed] = True
+    rest = free[~spoken]
+    contact = free[j]
+    k = contact.size
+    fields = (np.arange(first_id, first_id + k), np.full(k, PRELIMINARY, np.int8), initiators[i],
+              np.full(k, before), np.full(k, time), z[contact, 1], np.full(k, before), np.zeros(k, np.int64),
+              np.zeros(k, np.int64), np.zeros(k, np.int64), np.zeros(k), np.zeros(k), np.full(k, confirm_at))
+    return (z[rest], xy[rest], time), contact, fields
 
 
 class ContactTracker(ABC):
