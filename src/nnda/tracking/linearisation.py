@@ -32,6 +32,7 @@ linearised.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from nnda.filters import kalman
@@ -65,12 +66,25 @@ def update(imm: IMM, pred: IMMPrediction, z: np.ndarray, detected: np.ndarray) -
     linearised track (any model's prediction) takes the converted-measurement update instead; a track
     without a contact keeps its prediction. Unchecked (the trackers' checked contacts)."""
     state = imm.update(pred, z, detected, check=False)
-    poor = detected & poorly_linearised(imm.measurement, pred.measurement.S).any(axis=1)
-    if not poor.any():
+    if not isinstance(imm.measurement, PolarMeasurement):
         return state
-    rows = np.flatnonzero(poor)
+    rows = _poor_rows(pred.measurement.S, detected, LINEARISATION_LIMIT_RAD**2)
+    if not rows.size:
+        return state
     xy, R = imm.measurement.position(z[rows])
     fixed = imm.update_position(pred.take(rows), xy, R)
     x, P, mu = state.x.copy(), state.P.copy(), state.mu.copy()
     x[rows], P[rows], mu[rows] = fixed.x, fixed.P, fixed.mu
     return IMMState(x, P, mu)
+
+
+@numba.njit(cache=True, nogil=True)
+def _poor_rows(S, detected, limit):
+    """The ``detected`` (K,) tracks of which some model's prediction, innovation covariance S (K, r, 2, 2), is
+    poorly linearised (`poorly_linearised`: S_aa > ``limit``), ascending (one compiled pass each scan)."""
+    poor = np.zeros(S.shape[0], np.bool_)
+    for k in range(S.shape[0]):
+        if detected[k]:
+            for j in range(S.shape[1]):
+                poor[k] |= S[k, j, 1, 1] > limit
+    return np.flatnonzero(poor)
