@@ -491,6 +491,8 @@ def _measured(lead: tuple[int, ...], z: np.ndarray, S: np.ndarray, S_inv: np.nda
         where = tuple(int(i) for i in np.unravel_index(bad, lead))
         raise FilterError(f"innovation covariance at batch index {where} is not positive definite: "
                           f"{S[bad].tolist()}")
+    if len(lead) == 1:  # the batch is the leading axis already (a reshape is a call each, every scan)
+        return MeasurementPrediction(z, S, S_inv, log_det, Ht.swapaxes(-1, -2), PHt)
     n = Ht.shape[1]
     return MeasurementPrediction(z.reshape(*lead, 2), S.reshape(*lead, 2, 2), S_inv.reshape(*lead, 2, 2),
                                  log_det.reshape(lead), Ht.reshape(*lead, n, 2).swapaxes(-1, -2),
