@@ -22,8 +22,9 @@ Each scan, for all live tracks at once:
    candidate and their least d²), from the same arrays in a few sorts. The
    gate and the first two feature sets take one compiled call a scan
    (`nnda.models.innovation.scan_features`, the training code's kernels);
-3. *select*: pairs scoring above ``threshold`` (default 0: the network says
-   "target") are matched greedily by descending score (`greedy_matching`):
+3. *select* (the rules, and the scan's three compiled stages around them:
+   `nnda.tracking.neural_matching`): pairs scoring above ``threshold``
+   (default 0: the network says "target") are matched greedily by descending score (`greedy_matching`):
    the best pair of the scan is taken, its track and contact leave the
    game, and so on. So each track gets the highest-scoring candidate still
    free, each contact goes to at most one track, and when two tracks want
