@@ -15,6 +15,7 @@ from nnda.tracking.lifecycle import (
     advance,
     advance_score,
     cap_per_initiator,
+    free_window_pairs,
     sprt_thresholds,
     window_pairs,
 )
@@ -87,6 +88,21 @@ def test_window_pairs_against_brute_force(n_a, n_b):
     np.testing.assert_array_equal(j, ej)
     e = window_pairs(np.empty((0, 2)), b, 50, 490)
     assert e[0].size == 0 and e[1].size == 0
+
+
+def test_free_window_pairs_are_those_of_the_unused_contacts():
+    rng = np.random.default_rng(3)
+    a, b = rng.uniform(0, 3000, (40, 2)), rng.uniform(0, 3000, (60, 2))
+    used = rng.random(60) < 0.3
+    free, i, j = free_window_pairs(a, b, used, 50.0, 490.0)
+    np.testing.assert_array_equal(free, np.flatnonzero(~used))
+    d = np.linalg.norm(a[:, None] - b[None, free], axis=2)
+    ei, ej = np.nonzero((d >= 50) & (d <= 490))
+    np.testing.assert_array_equal(i, ei)
+    np.testing.assert_array_equal(j, ej)
+    for none in (free_window_pairs(a, b, np.ones(60, bool), 50.0, 490.0),
+                 free_window_pairs(np.empty((0, 2)), b, used, 50.0, 490.0)):
+        assert none[1].size == 0 and none[2].size == 0
 
 
 def test_window_pairs_with_initiators_off_the_contacts_and_contacts_far_apart():
