@@ -97,7 +97,7 @@ from nnda.models.innovation import IMM_INNOVATION, scan_features
 from nnda.models.scorer import Scorer, load_model
 from nnda.tracking.gating import Gated, gate, gate_tracks
 from nnda.tracking.neural_matching import RULES, first_stage, given, reacquire, reacquired, rest_stage, solved
-from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT
+from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY
 from nnda.tracking.tracker import (
     Association,
     ContactTrackerConfig,
@@ -169,6 +169,11 @@ class NeuralConfig(ContactTrackerConfig):
         False, description="a track its life cycle or a sanity rule deletes in the scan it took a contact gives "
         "the contact back: it ends on a miss at its prediction, and the contact is free to start a track (a "
         "coasting track of a target that has gone takes clutter, and the score rule then ends it)")
+    preliminary_gate: Annotated[float | None, Field(
+        gt=0, description="chi-square gate (2 dof) on the IMM's prediction within which a preliminary track "
+        "the network left without a pick takes its free contact of least Mahalanobis d², after every other "
+        "pick of the scan (a manoeuvring target's young track, whose next contact the network refuses); the "
+        "score rule then weighs the contact; None: off")] = None
 
     @model_validator(mode="after")
     def _needs_gate(self) -> NeuralConfig:
@@ -251,6 +256,8 @@ class NeuralTracker(SingleHypothesisTracker):
             rows, cols = solved(self._rule, cfg.threshold,
                                 *rest_stage(contact, first, track, cand, score, n, self._rule, cfg.threshold))
             contact[rows] = cols
+        if cfg.preliminary_gate is not None:
+            contact = self._preliminary_picks(tracks, pred, scan, contact)
         if cfg.retrodiction:  # kept as they are; the branches are made only when the next scan asks
             self._last_scan = (tracks, contact)
         assoc = hard_update(scan.filter, pred, scan.z, contact)
@@ -326,6 +333,23 @@ class NeuralTracker(SingleHypothesisTracker):
                                  self.config.lifecycle, None, gain)
         alive = missed.status != DELETED
         return None if not alive.any() else missed if alive.all() else missed.take(alive)
+
+    def _preliminary_picks(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts, contact: np.ndarray
+                           ) -> np.ndarray:
+        """``contact`` (K,) with the picks of the preliminary tracks still without one: the nearest free
+        contact inside their IMM gate of ``preliminary_gate`` (`reacquire`)."""
+        waiting = (contact == NO_CONTACT) & (tracks.status == PRELIMINARY)
+        if not waiting.any():
+            return contact
+        g = pred.gating
+        pairs = gate(scan.filter, g.measurement, scan.z, scan.xy, self.config.preliminary_gate, (g.x, g.P),
+                     rows=np.flatnonzero(waiting), check=False)
+        rows, cols = reacquire(pairs.rows, pairs.cols, pairs.d2, waiting, given(contact, len(scan.z)),
+                               self.config.preliminary_gate)
+        if rows.size:
+            contact = contact.copy()
+            contact[rows] = cols
+        return contact
 
     def _gated(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Gated:
         """The pairs inside the confirmed tracks' IMM gate of ``coast_gate`` this scan (`gate` on
