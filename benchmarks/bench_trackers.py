@@ -47,13 +47,13 @@ from nnda.filters.imm import _TINY, IMM, IMMState
 from nnda.filters.motion import process_noise
 from nnda.models.scorer import load_model
 from nnda.tracking.clutter_density import _covered, _covered_table, local_density
-from nnda.tracking.neural import life4
+from nnda.tracking.neural import life5
 from nnda.tracking.registry import TRACKERS, make_tracker
 
 SCALING_SCANS = 15
 GIVE_UP_S = 10.0
-#: the neural tracker's life-cycle options of issue 20 (`nnda.tracking.neural.life4`): its "+life" rows
-LIFE = life4()
+#: the neural tracker's options of issue 20 (`nnda.tracking.neural.life5`, the demo's nn-life): its "+life" rows
+LIFE = life5()
 
 
 def params_for(name: str, model: str | None) -> dict | None:

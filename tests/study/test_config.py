@@ -8,7 +8,7 @@ import pytest
 
 from nnda.errors import ConfigError
 from nnda.study.config import default_study, load_study, study_from_dict, study_to_toml
-from nnda.tracking.neural import life4
+from nnda.tracking.neural import life5
 
 
 def test_relative_paths_resolve_against_the_study_file(small_study, tmp_path):
@@ -28,7 +28,7 @@ def test_written_study_reads_back_equal(tmp_path):
     assert 'ablation = "models/ablation"' in text
     assert list(study.trackers) == ["mht", "nn-gd", "nn-seed", "nn-ext", "nn-life", "gnn", "jpda", "ekphd", "cphd"]
     assert study.trackers["nn-ext"].params == {"feature_set": "imm-innovation-9"}
-    assert study.trackers["nn-life"].params == {"feature_set": "imm-innovation-9", **life4()}
+    assert study.trackers["nn-life"].params == {"feature_set": "imm-innovation-9", **life5()}
     assert study.scenarios[0].preset == "validation"
 
 

@@ -344,10 +344,14 @@ def test_the_stages_on_a_hand_made_scan():
                                         RULES["served"], 0.0)
     assert done and rows.size == 0  # track 2's contacts went to the confirmed tracks
     # without the served pick, track 3 re-acquires contact 3; track 0 (a contact last scan) is then lost
-    again, lost = reacquired(np.array([-1, 2, -1, -1]), status, consecutive, 0, g_rows, g_cols, g_d2, 9.21, 4)
+    again, lost = reacquired(np.array([-1, 2, -1, -1]), status, consecutive, C, 0, g_rows, g_cols, g_d2, 9.21, 4)
     assert again.tolist() == [0, 2, -1, 3] and lost.size == 0
-    again, lost = reacquired(np.array([-1, 2, -1, -1]), status, consecutive, 0, g_rows, g_cols, g_d2, 0.5, 4)
+    again, lost = reacquired(np.array([-1, 2, -1, -1]), status, consecutive, C, 0, g_rows, g_cols, g_d2, 0.5, 4)
     assert again.tolist() == [-1, 2, -1, -1] and lost.tolist() == [0]
+    # the preliminary track 2 left without a pick (preliminary_gate) takes its free contact, not a taken one
+    p_rows, p_cols, p_d2 = np.array([2, 2]), np.array([0, 1]), np.array([1.0, 3.0])
+    again, _ = reacquired(np.array([0, 2, -1, 3]), status, consecutive, P, 0, p_rows, p_cols, p_d2, 13.82, 4)
+    assert again.tolist() == [0, 2, 1, 3]
 
 
 class RecordingPredictions(Recording):
@@ -411,6 +415,35 @@ def test_gate_after_miss_keeps_a_coasting_tracks_picks_inside_the_imm_gate(model
     picks, outside = _picks_outside_the_gate_after_a_miss(model_file, ds, True)
     assert picks > 0 and outside == 0
     assert _picks_outside_the_gate_after_a_miss(model_file, ds, False)[1] > 0  # the network alone does pick there
+
+
+def _preliminary_tracks_left_near_a_free_contact(model_file, ds, preliminary_gate: float | None) -> tuple[int, int]:
+    """(picks of preliminary tracks, preliminary tracks left without a contact while a free one lay in their
+    IMM gate of 13.82) over a run."""
+    gate = 13.82
+    config = NeuralTracker.config_type(model=model_file, preliminary_gate=preliminary_gate,
+                                       lifecycle={"confirmation": "score"})
+    tracker = RecordingPredictions(ds.scenario.sensor, config)
+    for scan in ds.scans():
+        tracker.step(scan)
+    picks = left = 0
+    for tracks, pred, scan, contact in tracker.seen:
+        preliminary = tracks.status == TrackStatus.PRELIMINARY
+        picks += int((preliminary & (contact >= 0)).sum())
+        _, g = gate_tracks(scan.filter, pred, scan.z, scan.xy, gate)
+        free = np.ones(len(scan.z), bool)
+        free[contact[contact >= 0]] = False
+        waiting = preliminary & (contact < 0)
+        left += np.unique(g.rows[waiting[g.rows] & free[g.cols]]).size
+    return picks, left
+
+
+def test_preliminary_gate_gives_a_refused_young_track_its_nearest_free_contact(model_file):
+    ds = generate(PRESETS["S6"], seed=0)  # turning and accelerating targets
+    picks, left = _preliminary_tracks_left_near_a_free_contact(model_file, ds, 13.82)
+    assert picks > 0 and left == 0
+    with_network_alone = _preliminary_tracks_left_near_a_free_contact(model_file, ds, None)
+    assert with_network_alone[1] > 0 and with_network_alone[0] < picks
 
 
 def gap_shy_model(path):

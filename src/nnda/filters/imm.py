@@ -441,14 +441,15 @@ class IMM:
         d2 = imm_kernels.mahalanobis(mp.z.reshape(-1, 2), mp.S_inv.reshape(-1, 2, 2), Z, self._polar)
         return d2.reshape(*lead, len(Z))
 
-    def gated_pairs(self, mp: MeasurementPrediction, Z: np.ndarray, threshold: float, rows: np.ndarray, *,
-                    check: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The (prediction, measurement) pairs within ``threshold`` of `mahalanobis`' squared distance, among
-        the predictions ``rows`` (R,) of ``mp`` (leading shape (K,)) and N measurements Z (N, 2): their row
-        of ``mp``, measurement index and d², (P,) each, by ``rows`` then Z (compiled: no (R, N) matrix is
-        made). ``check`` as for `mahalanobis`."""
+    def gated_pairs(self, mp: MeasurementPrediction, Z: np.ndarray, threshold: float | np.ndarray,
+                    rows: np.ndarray, *, check: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The (prediction, measurement) pairs within ``threshold`` (one for all, or (R,): each row's) of
+        `mahalanobis`' squared distance, among the predictions ``rows`` (R,) of ``mp`` (leading shape (K,))
+        and N measurements Z (N, 2): their row of ``mp``, measurement index and d², (P,) each, by ``rows``
+        then Z (compiled: no (R, N) matrix is made). ``check`` as for `mahalanobis`."""
         Z = self._checked_contacts(Z) if check else Z
-        return imm_kernels.gated_pairs(mp.z, mp.S_inv, np.asarray(rows, np.int64), Z, float(threshold), self._polar)
+        return imm_kernels.gated_pairs(mp.z, mp.S_inv, np.asarray(rows, np.int64), Z,
+                                       np.atleast_1d(np.asarray(threshold, np.float64)), self._polar)
 
     def log_likelihood(self, pred: IMMPrediction, Z: np.ndarray) -> np.ndarray:
         """log p(z | track) (K, N) of N measurements Z (N, 2) under each track's IMM prediction.

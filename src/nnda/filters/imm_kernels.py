@@ -330,16 +330,30 @@ def mahalanobis(z_pred, S_inv, Z, polar):
 @_jit
 def gated_pairs(z_pred, S_inv, rows, Z, threshold, polar):
     """The pairs of predictions ``rows`` (R,) of z_pred (B, 2), S_inv (B, 2, 2) and measurements Z (N, 2)
-    whose `_d2` is at most ``threshold``, in the order of ``rows``, then of Z: their prediction and
-    measurement indices and d2, (P,) each."""
+    whose `_d2` is at most the row's ``threshold`` ((R,), or (1,) for every row), in the order of ``rows``,
+    then of Z: their prediction and measurement indices and d2, (P,) each.
+
+    A measurement whose first residual alone puts it outside the gate is passed over before `_d2` (and
+    its angle wrap, most of the cost): with S^-1 = [[a, b], [b, c]], d2 >= n0^2 (a c - b^2) / c, the least
+    d2 over the second residual. The bound is used with a margin of 1e-6 that covers its rounding, and only
+    where it is well conditioned (a c - b^2 >= 1e-6 a c, c > 0), so exactly the pairs of the full test are
+    kept, with the same d2."""
     R, N = rows.shape[0], Z.shape[0]
     out_rows, out_cols, out_d2 = np.empty(R * N, np.int64), np.empty(R * N, np.int64), np.empty(R * N)
     n = 0
     for i in range(R):
         b = rows[i]
+        gate = threshold[i if threshold.size > 1 else 0]
+        far = gate * (1.0 + 1e-6)
+        a, c, off = S_inv[b, 0, 0], S_inv[b, 1, 1], 0.5 * (S_inv[b, 0, 1] + S_inv[b, 1, 0])
+        det = a * c - off * off
+        least = det / c if c > 0.0 and det >= 1e-6 * a * c else 0.0  # d2 >= least n0^2
         for m in range(N):
+            n0 = Z[m, 0] - z_pred[b, 0]
+            if least * n0 * n0 > far:
+                continue
             d2 = _d2(z_pred, S_inv, b, Z, m, polar)
-            if d2 <= threshold:
+            if d2 <= gate:
                 out_rows[n], out_cols[n], out_d2[n] = b, m, d2
                 n += 1
     return out_rows[:n].copy(), out_cols[:n].copy(), out_d2[:n].copy()

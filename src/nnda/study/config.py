@@ -55,7 +55,7 @@ from nnda.files import read_config
 from nnda.models.features import KINEMATIC
 from nnda.models.innovation import IMM_INNOVATION
 from nnda.study.metrics import DEFAULT_CUTOFF_M, Ownership
-from nnda.tracking.neural import life4
+from nnda.tracking.neural import life5
 
 _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 #: labels become file and directory names, so they are kept to a safe alphabet (and start with no dot)
@@ -195,7 +195,7 @@ def default_study(gd_model: str | Path, lm_model: str | Path, ext_model: str | P
     """The specification's comparison (seed-001 §10.2) and issue 9's: IMM/TOMHT against the neural
     tracker with the seed's features (gradient-descent and Levenberg-Marquardt models: ``nn-gd``,
     ``nn-seed``) and with the IMM-extended features (``nn-ext``; ``nn-life`` with issue 20's settings
-    for coasting tracks, `nnda.tracking.neural.life4`), plus the GNN and JPDA baselines and the
+    for coasting and young tracks, `nnda.tracking.neural.life5`), plus the GNN and JPDA baselines and the
     association-free EK-PHD and CPHD filters (``ekphd``, ``cphd``, issue 14), on S1-S6.
 
     Model paths are kept as given (relative ones are resolved when the study is written and read).
@@ -213,7 +213,7 @@ def default_study(gd_model: str | Path, lm_model: str | Path, ext_model: str | P
                   "nn-gd": TrackerSpec(kind="nn", model="gd", params=seed_set),
                   "nn-seed": TrackerSpec(kind="nn", model="lm", params=seed_set),
                   "nn-ext": TrackerSpec(kind="nn", model="ext", params=ext_set),
-                  "nn-life": TrackerSpec(kind="nn", model="ext", params={**ext_set, **life4()}),
+                  "nn-life": TrackerSpec(kind="nn", model="ext", params={**ext_set, **life5()}),
                   "gnn": TrackerSpec(kind="gnn"), "jpda": TrackerSpec(kind="jpda"),
                   "ekphd": TrackerSpec(kind="ekphd"), "cphd": TrackerSpec(kind="cphd")},
         scenarios=[ScenarioSpec(preset="validation")],

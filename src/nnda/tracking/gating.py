@@ -37,7 +37,7 @@ class Gated:
     d2: np.ndarray
 
 
-def gate(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, xy: np.ndarray, threshold: float,
+def gate(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, xy: np.ndarray, threshold: float | np.ndarray,
          estimate: tuple[np.ndarray, np.ndarray] | None = None, *, rows: np.ndarray | None = None,
          check: bool = True) -> Gated:
     """Pairs (track, contact) with squared Mahalanobis distance <= ``threshold``.
@@ -49,19 +49,27 @@ def gate(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, xy: np.ndarray, thr
     `IMM.estimate` of ``pred.state``) the Cartesian test of poorly linearised tracks needs
     (module docstring); without it every pair is judged by the linearised test alone. ``rows``
     (R,) ascending limits the gate to those tracks (the pairs' rows still index ``mp``; None: all K).
+    ``threshold`` is one gate for all, or each gated track's own ((R,), or (K,) without ``rows``).
     ``check=False`` skips the check of z (for the trackers, whose scan loop checks every scan's contacts).
     """
     K, N = len(mp.z), len(z)
     tracks = np.arange(K) if rows is None else np.asarray(rows, np.int64)
+    limit = np.asarray(threshold, np.float64)
+    if limit.ndim and limit.shape != tracks.shape:
+        raise ValueError(f"gate: thresholds of shape {limit.shape} for {tracks.size} gated tracks")
     if tracks.size == 0 or N == 0:
         empty = np.empty(0, np.int64)
         return Gated(empty, empty, np.empty(0))
+    by_track = limit  # the pairs' gate, by track row: a scalar, or (K,)
+    if limit.ndim:
+        by_track = np.zeros(K)
+        by_track[tracks] = limit
     if tracks.size * N <= DENSE_PAIRS:
-        return _cartesian_check(imm, mp, z, threshold, estimate,
-                                Gated(*imm.gated_pairs(mp, z, threshold, tracks, check=check)))
+        return _cartesian_check(imm, mp, z, by_track, estimate,
+                                Gated(*imm.gated_pairs(mp, z, limit, tracks, check=check)))
     # radius of a circle holding the gate ellipse: sqrt(threshold * its largest spread in metres^2)
     measurement = imm.measurement
-    radius = np.sqrt(threshold * measurement.spread(mp.z[tracks], mp.S[tracks])) + 1.0
+    radius = np.sqrt(limit * measurement.spread(mp.z[tracks], mp.S[tracks])) + 1.0
     centre = measurement.cartesian(mp.z[tracks])
     near = cKDTree(xy).query_ball_point(centre, radius, return_sorted=True)
     counts = np.fromiter((len(c) for c in near), np.int64, tracks.size)
@@ -69,13 +77,14 @@ def gate(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, xy: np.ndarray, thr
     cols = np.fromiter((j for c in near for j in c), np.int64, int(counts.sum()))
     nu = imm.measurement.residual(z[cols], mp.z[rows])
     d2 = kalman.mahalanobis_2x2(nu, mp.S_inv[rows])
-    inside = d2 <= threshold
-    return _cartesian_check(imm, mp, z, threshold, estimate, Gated(rows[inside], cols[inside], d2[inside]))
+    inside = d2 <= (by_track[rows] if by_track.ndim else by_track)
+    return _cartesian_check(imm, mp, z, by_track, estimate, Gated(rows[inside], cols[inside], d2[inside]))
 
 
-def _cartesian_check(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, threshold: float,
+def _cartesian_check(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, by_track: np.ndarray,
                      estimate: tuple[np.ndarray, np.ndarray] | None, gated: Gated) -> Gated:
-    """``gated`` without the pairs of poorly linearised tracks that fail the Cartesian test."""
+    """``gated`` without the pairs of poorly linearised tracks that fail the Cartesian test at their gate
+    (``by_track``: one for all, or (K,))."""
     if estimate is None or not gated.rows.size:
         return gated
     poor = poorly_linearised(imm.measurement, mp.S)
@@ -84,7 +93,8 @@ def _cartesian_check(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, thresho
         return gated
     x, P = estimate
     r = gated.rows[check]
-    far = cartesian_d2(imm.measurement, z[gated.cols[check]], x[r][:, 0:3:2], P[r][:, 0:3:2, 0:3:2]) > threshold
+    far = (cartesian_d2(imm.measurement, z[gated.cols[check]], x[r][:, 0:3:2], P[r][:, 0:3:2, 0:3:2])
+           > (by_track[r] if by_track.ndim else by_track))
     keep = np.ones(gated.rows.size, bool)
     keep[check[far]] = False
     return Gated(gated.rows[keep], gated.cols[keep], gated.d2[keep])

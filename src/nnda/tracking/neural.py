@@ -71,7 +71,13 @@ Each scan, for all live tracks at once:
    contact in its gate, if there is one (`_retrodicted`). This is MHT's
    deferred decision kept to one scan and one alternative: one clutter
    contact inside the gate at a manoeuvre or in a detection gap pulls the
-   filter so far that the target falls outside the gate a scan later;
+   filter so far that the target falls outside the gate a scan later.
+   With ``preliminary_gate``, a preliminary track the network left without
+   a pick takes, after every other pick of the scan, its nearest free
+   contact inside that IMM gate, and the score rule weighs the contact: the
+   young track of a turning or accelerating target, whose next contacts the
+   network refuses (scores of -0.1 to -0.6 in S6, where clutter scores
+   -1.0), would otherwise die and leave its target to a new start;
 4. *filter*: the chosen contact updates the track's IMM. With the seed's
    features the filter smooths the output only (spec §7.2); with the
    extended set its prediction is also what the network reads.
@@ -125,6 +131,12 @@ def life4() -> dict:
     return {"coast_gate": 9.21, "coast_after": 0, "confirmed_first": True, "gate_after_miss": True,
             "retrodiction": True, "association": "served", "release_on_deletion": True,
             "lifecycle": {"confirmation": "score", "false_confirmation": 1e-5, "false_deletion": 5e-4}}
+
+
+def life5() -> dict:
+    """`life4` with ``preliminary_gate`` 13.82 (the 99.9 % gate): a preliminary track the network leaves
+    without a pick takes its nearest free contact in that gate (the demo's ``nn-life``; issue 20)."""
+    return {**life4(), "preliminary_gate": 13.82}
 
 
 class NeuralConfig(ContactTrackerConfig):
@@ -248,8 +260,8 @@ class NeuralTracker(SingleHypothesisTracker):
         rows, cols = solved(self._rule, cfg.threshold, *problem)
         contact[rows] = cols
         if cfg.coast_gate is not None:
-            contact, lost = reacquired(contact, tracks.status, tracks.consecutive, cfg.coast_after, g.rows, g.cols,
-                                       g.d2, cfg.coast_gate, n)
+            contact, lost = reacquired(contact, tracks.status, tracks.consecutive, CONFIRMED, cfg.coast_after, g.rows,
+                                       g.cols, g.d2, cfg.coast_gate, n)
             if cfg.retrodiction:
                 tracks, pred, contact = self._retrodicted(tracks, pred, scan, contact, lost)
         if cfg.confirmed_first:
@@ -257,7 +269,7 @@ class NeuralTracker(SingleHypothesisTracker):
                                 *rest_stage(contact, first, track, cand, score, n, self._rule, cfg.threshold))
             contact[rows] = cols
         if cfg.preliminary_gate is not None:
-            contact = self._preliminary_picks(tracks, pred, scan, contact)
+            contact = self._preliminary_picks(tracks, g, scan, contact)
         if cfg.retrodiction:  # kept as they are; the branches are made only when the next scan asks
             self._last_scan = (tracks, contact)
         assoc = hard_update(scan.filter, pred, scan.z, contact)
@@ -334,29 +346,26 @@ class NeuralTracker(SingleHypothesisTracker):
         alive = missed.status != DELETED
         return None if not alive.any() else missed if alive.all() else missed.take(alive)
 
-    def _preliminary_picks(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts, contact: np.ndarray
-                           ) -> np.ndarray:
+    def _preliminary_picks(self, tracks: Tracks, g: Gated, scan: ScanContacts, contact: np.ndarray) -> np.ndarray:
         """``contact`` (K,) with the picks of the preliminary tracks still without one: the nearest free
-        contact inside their IMM gate of ``preliminary_gate`` (`reacquire`)."""
-        waiting = (contact == NO_CONTACT) & (tracks.status == PRELIMINARY)
-        if not waiting.any():
-            return contact
-        g = pred.gating
-        pairs = gate(scan.filter, g.measurement, scan.z, scan.xy, self.config.preliminary_gate, (g.x, g.P),
-                     rows=np.flatnonzero(waiting), check=False)
-        rows, cols = reacquire(pairs.rows, pairs.cols, pairs.d2, waiting, given(contact, len(scan.z)),
-                               self.config.preliminary_gate)
-        if rows.size:
-            contact = contact.copy()
-            contact[rows] = cols
-        return contact
+        contact inside their IMM gate of ``preliminary_gate`` (their pairs of ``g``, `reacquired`)."""
+        return reacquired(contact, tracks.status, tracks.consecutive, PRELIMINARY, 0, g.rows, g.cols, g.d2,
+                          self.config.preliminary_gate, len(scan.z))[0]
 
     def _gated(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Gated:
-        """The pairs inside the confirmed tracks' IMM gate of ``coast_gate`` this scan (`gate` on
-        ``pred.gating``, limited to their rows; rows index ``tracks``; none when the gate is off): every use
-        of the gate is a confirmed track's, and the clutter's preliminary tracks outnumber them."""
-        if self.config.coast_gate is None:
-            return NO_PAIRS
+        """The pairs inside the IMM gates this scan (`gate` on ``pred.gating``; rows index ``tracks``): the
+        confirmed tracks' of ``coast_gate`` and the preliminary tracks' of ``preliminary_gate``, each when
+        set (none when neither is), in one call: the clutter's preliminary tracks outnumber the confirmed
+        ones, and only ``preliminary_gate`` asks for theirs."""
+        cfg, status = self.config, tracks.status
+        if cfg.preliminary_gate is None:
+            if cfg.coast_gate is None:
+                return NO_PAIRS
+            rows, threshold = np.flatnonzero(status == CONFIRMED), cfg.coast_gate
+        elif cfg.coast_gate is None:
+            rows, threshold = np.flatnonzero(status == PRELIMINARY), cfg.preliminary_gate
+        else:
+            rows = np.arange(len(status))
+            threshold = np.where(status[rows] == CONFIRMED, cfg.coast_gate, cfg.preliminary_gate)
         g = pred.gating
-        return gate(scan.filter, g.measurement, scan.z, scan.xy, self.config.coast_gate, (g.x, g.P),
-                    rows=np.flatnonzero(tracks.status == CONFIRMED), check=False)
+        return gate(scan.filter, g.measurement, scan.z, scan.xy, threshold, (g.x, g.P), rows=rows, check=False)

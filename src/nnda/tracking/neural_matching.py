@@ -202,15 +202,16 @@ def first_stage(track, cand, score, status, consecutive, n_contacts, gate_after_
 
 
 @numba.njit(cache=True, nogil=True)
-def reacquired(contact, status, consecutive, coast_after, gate_rows, gate_cols, gate_d2, gate, n_contacts):
-    """The second stage: ``contact`` (K,) (a new array) with the picks (`reacquire`) of the confirmed tracks
-    that coast (``coast_after`` misses in a row or more) and have none yet, among the free ones of the
-    ``n_contacts`` in their gate pairs (gate_rows, gate_cols, gate_d2) (Q,); and the confirmed tracks
-    (ascending) that took a contact last scan and are still without one (the retrodiction's candidates)."""
+def reacquired(contact, status, consecutive, which, after, gate_rows, gate_cols, gate_d2, gate, n_contacts):
+    """The second stage: ``contact`` (K,) (a new array) with the picks (`reacquire`) of the tracks of status
+    ``which`` that have none yet (the confirmed ones: if they coast, ``after`` misses in a row or more),
+    among the free ones of the ``n_contacts`` in their gate pairs (gate_rows, gate_cols, gate_d2) (Q,); and
+    the confirmed tracks (ascending) that took a contact last scan and are still without one (the
+    retrodiction's candidates). With ``which`` PRELIMINARY, the last pick of the scan (``preliminary_gate``)."""
     contact = contact.copy()
     waiting = np.zeros(contact.size, np.bool_)
     for k in range(contact.size):
-        waiting[k] = contact[k] == NO_CONTACT and status[k] == CONFIRMED and consecutive[k] >= coast_after
+        waiting[k] = contact[k] == NO_CONTACT and status[k] == which and consecutive[k] >= after
     if waiting.any():
         rows, cols = reacquire(gate_rows, gate_cols, gate_d2, waiting, given(contact, n_contacts), gate)
         contact[rows] = cols
