@@ -46,3 +46,21 @@ def test_the_gate_of_some_tracks_is_brute_forces_pairs_of_those_rows(seed, dense
         else:  # the k-d tree's path computes d2 in numpy: agreement to rounding
             np.testing.assert_allclose(g.d2, d2[wanted[r], c], rtol=RTOL)
     assert gate(imm, mp, z, xy, 9.21).rows.size > 5
+
+
+@pytest.mark.parametrize("dense", [True, False])
+def test_a_gate_per_track_is_each_tracks_own_gate(dense, monkeypatch):
+    if not dense:
+        monkeypatch.setattr(gating, "DENSE_PAIRS", 0)
+    imm, pred, z, xy = _scene(4)
+    mp, estimate = imm.combined_measurement(pred), imm.estimate(pred.state)
+    rows = np.arange(0, len(mp.z), 2)
+    limits = np.where(rows % 4 == 0, 5.99, 13.82)
+    g = gate(imm, mp, z, xy, limits, estimate, rows=rows)
+    one = [gate(imm, mp, z, xy, t, estimate, rows=np.array([r])) for r, t in zip(rows, limits)]
+    np.testing.assert_array_equal(g.rows, np.concatenate([o.rows for o in one]))
+    np.testing.assert_array_equal(g.cols, np.concatenate([o.cols for o in one]))
+    wide = gate(imm, mp, z, xy, 13.82, estimate, rows=rows)
+    assert g.rows.size < wide.rows.size  # the 5.99 rows lost pairs that 13.82 keeps
+    with pytest.raises(ValueError, match="thresholds of shape"):
+        gate(imm, mp, z, xy, limits[:-1], estimate, rows=rows)
