@@ -13,6 +13,7 @@ from nnda.models.mlp import MLPWeights, n_weights, nguyen_widrow, unpack
 from nnda.models.network import as_tensor, forward
 from nnda.models.preprocessing import Normaliser
 from nnda.models.scorer import Scorer, load_model, save_model
+from tolerances import RTOL
 
 
 @pytest.fixture
@@ -37,6 +38,13 @@ def test_numpy_network_equals_torch(scorer):
     with torch.no_grad():
         expected = forward(as_tensor(theta), as_tensor(x), 5).numpy()
     np.testing.assert_allclose(scorer.weights(x), expected, rtol=1e-9, atol=1e-9)  # outputs in (-1, 1)
+
+
+def test_the_compiled_scorer_is_the_normaliser_then_the_numpy_network(scorer):
+    x = np.random.default_rng(2).normal(50, 80, (300, 3))
+    expected = scorer.weights(scorer.normaliser.transform(x))
+    np.testing.assert_allclose(scorer(x), expected, rtol=RTOL, atol=RTOL)  # summation order only; outputs in (-1, 1)
+    assert scorer(x[:0]).shape == (0,)
 
 
 def test_model_file_round_trip_is_exact(scorer, tmp_path):

@@ -132,7 +132,7 @@ def fit(
             result = run
     result = replace(result, seconds=seconds)
     weights = MLPWeights.from_vector(result.theta, x.shape[1], n_hidden)
-    scores = weights(x)
+    scores = Scorer(weights, normaliser, pairs.feature_set)(pairs.features)  # as the model file will score
     metrics = {name: classifier_metrics(pairs.labels[rows], scores[rows]) for name, rows in split.items()}
     metrics["all"] = classifier_metrics(pairs.labels, scores)
     metadata = {
