@@ -271,3 +271,18 @@ def test_work_bounds_warn_once_when_they_bite(name, params, counter):
     for key in params:  # once per bound and run
         assert sum(f"(config field {key})" in m for m in messages) == 1, messages
     assert counter is None or getattr(tracker, counter) > 1
+
+
+def test_joined_tracks_are_the_batch_concatenation():
+    tracker = make_tracker("gnn", PRESETS["S1"].sensor)
+    scans = list(generate(PRESETS["S1"], seed=0).scans())
+    tracker.step(scans[0])
+    tracker.step(scans[1])
+    a = tracker.tracks
+    tracker.step(scans[2])
+    b = tracker.tracks
+    joined, concat = a.joined(b), type(a).concat([a, b])
+    assert len(joined) == len(a) + len(b) > 2
+    for mine, theirs in zip(joined._arrays(), concat._arrays()):
+        assert mine.dtype == theirs.dtype
+        np.testing.assert_array_equal(mine, theirs)

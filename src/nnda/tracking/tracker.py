@@ -227,6 +227,19 @@ class Tracks(Batch):
                 cfg.confirmation == "existence", lower, upper, early,
                 self.p1, self.t1, self.p2, self.t2, self.az2, xy, z[:, 1], time)
 
+    def joined(self, other: Tracks) -> Tracks:
+        """These tracks, then ``other``'s: `Batch.concat` of the two in one compiled call (`_joined`; the
+        single-hypothesis trackers add a scan's new tracks every scan, where 18 concatenations cost more
+        than the copying)."""
+        track_id, status, x, P, mu, *rest = _joined(self._arrays(), other._arrays())
+        return Tracks(track_id, status, IMMState(x, P, mu), *rest)
+
+    def _arrays(self) -> tuple[np.ndarray, ...]:
+        """The fields' arrays in field order, the filter state's three in its place."""
+        f = self.filt
+        return (self.track_id, self.status, f.x, f.P, f.mu, self.p1, self.t1, self.p2, self.t2, self.az2, self.t0,
+                self.hits, self.misses, self.consecutive, self.score, self.max_score, self.confirm_at)
+
     def _moved_on(self, filt: IMMState, status: np.ndarray, hits: np.ndarray, misses: np.ndarray,
                   consecutive: np.ndarray, score: np.ndarray, max_score: np.ndarray, p1: np.ndarray, t1: np.ndarray,
                   p2: np.ndarray, t2: np.ndarray, az2: np.ndarray) -> Tracks:
@@ -236,6 +249,17 @@ class Tracks(Batch):
             hits=hits, misses=misses, consecutive=consecutive, score=score, max_score=max_score,
             confirm_at=self.confirm_at,
         )
+
+
+@numba.njit(cache=True, nogil=True)
+def _joined(a, b):
+    """The arrays of `Tracks._arrays` ``a`` then ``b``, concatenated field by field."""
+    return (np.concatenate((a[0], b[0])), np.concatenate((a[1], b[1])), np.concatenate((a[2], b[2])),
+            np.concatenate((a[3], b[3])), np.concatenate((a[4], b[4])), np.concatenate((a[5], b[5])),
+            np.concatenate((a[6], b[6])), np.concatenate((a[7], b[7])), np.concatenate((a[8], b[8])),
+            np.concatenate((a[9], b[9])), np.concatenate((a[10], b[10])), np.concatenate((a[11], b[11])),
+            np.concatenate((a[12], b[12])), np.concatenate((a[13], b[13])), np.concatenate((a[14], b[14])),
+            np.concatenate((a[15], b[15])), np.concatenate((a[16], b[16])))
 
 
 @numba.njit(cache=True, nogil=True)
@@ -679,7 +703,7 @@ class SingleHypothesisTracker(ContactTracker):
                 tracks, born, born_contact = self._capped(tracks, born, born_contact, shown, time)
         if born is not None:
             shown.append(Shown(born.track_id, born.status, *self.filter.estimate(born.filt), born_contact))
-            tracks = born if tracks is None else Tracks.concat([tracks, born])
+            tracks = born if tracks is None else tracks.joined(born)
         self.tracks = tracks
         self.last_time = time
         return TrackerOutput.from_blocks(scan.index, time, shown)
