@@ -56,9 +56,9 @@ from nnda.data.sensor import observable
 from nnda.errors import BoundWarning, ConfigError, TrackingError
 from nnda.filters.batch import Batch
 from nnda.filters.imm import IMM, IMMPrediction, IMMState
-from nnda.filters.imm_kernels import estimate
+from nnda.filters.imm_kernels import estimate, pair_log_likelihood
 from nnda.filters.kalman import GATE_99
-from nnda.filters.measurement import measurement_model
+from nnda.filters.measurement import PolarMeasurement, measurement_model
 from nnda.tracking.clutter_density import coverage_area, local_density
 from nnda.tracking.lifecycle import (
     DELETION_REASONS,
@@ -249,6 +249,18 @@ class Tracks(Batch):
             hits=hits, misses=misses, consecutive=consecutive, score=score, max_score=max_score,
             confirm_at=self.confirm_at,
         )
+
+
+@numba.njit(cache=True, nogil=True)
+def _gains(contact, log_miss, log_pd, z_pred, S_inv, log_det, mu, z, polar):
+    """`ContactTracker._score_gain`'s compiled part: the gains (K,) of a miss, ``log_miss``, everywhere; the
+    tracks ``rows`` that took a contact of ``contact`` (K,), and those contacts; and ln P_D + the IMM
+    likelihood of each (`imm_kernels.pair_log_likelihood` on the prediction's z_pred, S_inv, log_det, mu,
+    of the contacts z (N, 2)). The caller subtracts the clutter density's log."""
+    rows = np.flatnonzero(contact != NO_CONTACT)
+    at = contact[rows]
+    target = log_pd + pair_log_likelihood(z_pred, S_inv, log_det, mu, rows, z[at], polar)
+    return np.full(contact.size, log_miss), rows, at, target
 
 
 @numba.njit(cache=True, nogil=True)
@@ -582,13 +594,11 @@ class ContactTracker(ABC):
             return None
         if assoc.score_gain is not None:
             return assoc.score_gain
-        c = assoc.contact
-        gain = np.full(c.size, self._log_miss)
-        rows = np.flatnonzero(c != NO_CONTACT)
-        if rows.size:
-            j = c[rows]
-            gain[rows] = (math.log(self.score_pd) + scan.filter.pair_log_likelihood(pred, rows, scan.z[j], check=False)
-                          - np.log(self.clutter_density(scan, j)))
+        mp = pred.measurement
+        gain, rows, at, target = _gains(assoc.contact, self._log_miss, math.log(self.score_pd), mp.z, mp.S_inv,
+                                        mp.log_det_S, pred.state.mu, scan.z,
+                                        isinstance(scan.filter.measurement, PolarMeasurement))
+        gain[rows] = target - np.log(self.clutter_density(scan, at))
         return gain
 
     @cached_property
