@@ -24,8 +24,8 @@ Each scan, for all live tracks at once:
    (`nnda.models.innovation.scan_features`, the training code's kernels);
 3. *select* (the rules, and the scan's three compiled stages around them:
    `nnda.tracking.neural_matching`): pairs scoring above ``threshold``
-   (default 0: the network says "target") are matched greedily by descending score (`greedy_matching`):
-   the best pair of the scan is taken, its track and contact leave the
+   (default 0: the network says "target") are matched greedily by
+   descending score (`greedy_matching`): the best pair of the scan is taken, its track and contact leave the
    game, and so on. So each track gets the highest-scoring candidate still
    free, each contact goes to at most one track, and when two tracks want
    the same contact the one that scores it higher wins and the other falls

@@ -24,7 +24,9 @@ solver (about 30 numpy calls a scan before):
 2. `reacquired`: the coasting confirmed tracks left without a contact take
    their nearest free one in the gate (`reacquire`), and the confirmed
    tracks still without one are named for the retrodiction;
-3. `rest_stage`: the other tracks' pick among the contacts left.
+3. `rest_stage`: the other tracks' pick among the contacts left; then, with
+   a ``preliminary_gate``, `reacquired` again, for the preliminary tracks
+   still without a contact.
 """
 
 from __future__ import annotations
