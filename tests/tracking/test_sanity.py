@@ -22,7 +22,7 @@ from nnda.tracking.lifecycle import (
     position_sd,
     sanity_reasons,
 )
-from nnda.tracking.linearisation import poorly_linearised, update
+from nnda.tracking.linearisation import LINEARISATION_LIMIT_RAD, poor_pairs, poorly_linearised, update
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
 
@@ -43,6 +43,7 @@ def test_far_side_contact_passes_the_linearised_gate_but_not_the_cartesian_one()
     xy = imm.measurement.cartesian(z)
     mp = imm.combined_measurement(pred)
     assert poorly_linearised(imm.measurement, mp.S).all()
+    assert poor_pairs(mp.S, np.array([0, 0]), LINEARISATION_LIMIT_RAD**2).tolist() == [0, 1]  # the gate's test
     assert imm.mahalanobis(mp, z)[0, 0] <= GATE_99  # the polar linearisation says "inside the gate"
     assert gate(imm, mp, z, xy, GATE_99).rows.size == 1  # as the old gate did
     assert gate_tracks(imm, pred, z, xy, GATE_99)[1].rows.size == 0
@@ -55,6 +56,7 @@ def test_well_linearised_tracks_gate_and_update_as_before():
     z = imm.measurement.predict(imm.estimate(pred.state)[0])[0] + np.array([[40.0, 2e-3]])
     mp = imm.combined_measurement(pred)
     assert not poorly_linearised(imm.measurement, mp.S).any()
+    assert poor_pairs(mp.S, np.array([0]), LINEARISATION_LIMIT_RAD**2).size == 0
     g1, g2 = gate(imm, mp, z, imm.measurement.cartesian(z), GATE_99), gate_tracks(imm, pred, z,
                                                                                  imm.measurement.cartesian(z),
                                                                                  GATE_99)[1]

@@ -88,3 +88,17 @@ def _poor_rows(S, detected, limit):
             for j in range(S.shape[1]):
                 poor[k] |= S[k, j, 1, 1] > limit
     return np.flatnonzero(poor)
+
+
+@numba.njit(cache=True, nogil=True)
+def poor_pairs(S, rows, limit):
+    """Which of the pairs of tracks ``rows`` (P,) belong to a poorly linearised track (`poorly_linearised`: its
+    innovation covariance S (K, 2, 2) has S_aa > ``limit``), as indices into ``rows``, ascending (the gate's
+    test of every scan, in one compiled pass)."""
+    out = np.empty(rows.size, np.int64)
+    n = 0
+    for p in range(rows.size):
+        if S[rows[p], 1, 1] > limit:
+            out[n] = p
+            n += 1
+    return out[:n]

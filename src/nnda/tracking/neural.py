@@ -305,18 +305,22 @@ class NeuralTracker(SingleHypothesisTracker):
         ``coast_gate``, each with the nearest of them (`reacquire`). Returns the revised (tracks, prediction,
         contact): the same objects when no track goes back."""
         unchanged = tracks, pred, contact
-        if self._last_scan is None or not lost.size:
+        if self._last_scan is None or not lost.size or not len(self._last_scan[0]):
             return unchanged
-        skipped = self._skipping(*self._last_scan)
-        if skipped is None:
-            return unchanged
+        last, last_contact = self._last_scan
         # track ids ascend in both (tracks keep their order; new ones come last, with higher ids)
-        at = np.minimum(np.searchsorted(skipped.track_id, tracks.track_id[lost]), len(skipped) - 1)
-        known = skipped.track_id[at] == tracks.track_id[lost]
+        ids = tracks.track_id[lost]
+        at = np.minimum(np.searchsorted(last.track_id, ids), len(last) - 1)
+        known = (last.track_id[at] == ids) & (last_contact[at] != NO_CONTACT) & (last.status[at] == CONFIRMED)
         lost, at = lost[known], at[known]
         if not lost.size:
             return unchanged
-        branch = skipped.take(at)
+        branch = self._skipping(last.take(at))
+        alive = branch.status != DELETED
+        if not alive.all():
+            lost, branch = lost[alive], branch.take(alive)
+            if not lost.size:
+                return unchanged
         branch_pred = scan.filter.predict(branch.filt, scan.time - branch.t2, check=False)
         g = gate_tracks(scan.filter, branch_pred, scan.z, scan.xy, self.config.coast_gate, check=False)[1]
         rows, cols = reacquire(g.rows, g.cols, g.d2, np.ones(lost.size, bool), given(contact, len(scan.z)),
@@ -327,24 +331,17 @@ class NeuralTracker(SingleHypothesisTracker):
         index[lost[rows]] = len(tracks) + rows
         contact = contact.copy()
         contact[lost[rows]] = cols
-        return (Tracks.concat([tracks, branch]).take(index), IMMPrediction.concat([pred, branch_pred]).take(index),
-                contact)
+        return tracks.joined(branch).take(index), IMMPrediction.concat([pred, branch_pred]).take(index), contact
 
-    def _skipping(self, tracks: Tracks, contact: np.ndarray) -> Tracks | None:
-        """The confirmed tracks of last scan's ``tracks`` (K,) that took a contact in its ``contact`` (K,), as
-        they would be had they missed it instead (the branches of `_retrodicted`): their last posterior kept,
-        the miss counted in their life cycle and score; the ones such a miss deletes left out (None: no
-        track left)."""
-        rows = np.flatnonzero((contact != NO_CONTACT) & (tracks.status == CONFIRMED))
-        if not rows.size:
-            return None
-        kept = tracks.take(rows)
-        gain = None if self.confirmation_rule == "mn" else np.full(rows.size, self._log_miss)
+    def _skipping(self, tracks: Tracks) -> Tracks:
+        """Last scan's confirmed ``tracks`` (K,), each of which took a contact then, as they would be had they
+        missed it instead (the branches of `_retrodicted`): their last posterior kept, the miss counted in
+        their life cycle and score (a branch may come out deleted)."""
+        K = len(tracks)
+        gain = None if self.confirmation_rule == "mn" else np.full(K, self._log_miss)
         none = np.empty((0, 2))  # a miss reads no contact
-        missed = kept.after_scan(np.full(rows.size, NO_CONTACT), kept.filt, none, none, np.nan,
-                                 self.config.lifecycle, None, gain)
-        alive = missed.status != DELETED
-        return None if not alive.any() else missed if alive.all() else missed.take(alive)
+        return tracks.after_scan(np.full(K, NO_CONTACT), tracks.filt, none, none, np.nan, self.config.lifecycle,
+                                 None, gain)
 
     def _preliminary_picks(self, tracks: Tracks, g: Gated, scan: ScanContacts, contact: np.ndarray) -> np.ndarray:
         """``contact`` (K,) with the picks of the preliminary tracks still without one: the nearest free
