@@ -207,7 +207,9 @@ class IMM:
         return np.array([getattr(m, "omega_max", 0.0) for m in self.models])
 
     @cached_property
-    def _polar(self) -> bool:
+    def polar(self) -> bool:
+        """Whether the measurement is polar (range, azimuth): its azimuth residuals wrap, and the compiled
+        kernels take this flag."""
         return isinstance(self.measurement, PolarMeasurement)
 
     @cached_property
@@ -336,7 +338,7 @@ class IMM:
             dt = np.full(len(state), float(dt))
         xp, Pp, mu_pred, *out = imm_kernels.predict(
             state.x, state.P, state.mu, dt, self._tpm, self._kinds, self._dims, self._omega_max, self._noise_basis,
-            self._augment, self._polar, self._origin, self.measurement.R, self.output_dim)
+            self._augment, self.polar, self._origin, self.measurement.R, self.output_dim)
         xc, Pc = out[7:9]
         return IMMPrediction(IMMState(xp, Pp, mu_pred), _measured(xp.shape[:-1], *out[:7]),
                              Gating(xc, Pc, _measured(xc.shape[:-1], *out[9:])))
@@ -378,7 +380,7 @@ class IMM:
         if check:
             self.measurement.validate("z", z)
         x, P, mu = imm_kernels.update(st.x, st.P, st.mu, np.asarray(z, dtype=float), mask, mp.z, mp.S_inv,
-                                      mp.log_det_S, mp.PHt, self._polar)
+                                      mp.log_det_S, mp.PHt, self.polar)
         return IMMState(x, P, mu)
 
     def update_position(self, pred: IMMPrediction, xy: np.ndarray, R: np.ndarray) -> IMMState:
@@ -426,7 +428,7 @@ class IMM:
         Raises FilterError if an innovation covariance is not positive definite.
         """
         n = x.shape[-1]
-        return _measured(x.shape[:-1], *imm_kernels.measure(x.reshape(-1, n), P.reshape(-1, n, n), self._polar,
+        return _measured(x.shape[:-1], *imm_kernels.measure(x.reshape(-1, n), P.reshape(-1, n, n), self.polar,
                                                             self._origin, self.measurement.R))
 
     def mahalanobis(self, mp: MeasurementPrediction, Z: np.ndarray, *, check: bool = True) -> np.ndarray:
@@ -438,7 +440,7 @@ class IMM:
         """
         Z = self._checked_contacts(Z) if check else Z
         lead = mp.z.shape[:-1]
-        d2 = imm_kernels.mahalanobis(mp.z.reshape(-1, 2), mp.S_inv.reshape(-1, 2, 2), Z, self._polar)
+        d2 = imm_kernels.mahalanobis(mp.z.reshape(-1, 2), mp.S_inv.reshape(-1, 2, 2), Z, self.polar)
         return d2.reshape(*lead, len(Z))
 
     def gated_pairs(self, mp: MeasurementPrediction, Z: np.ndarray, threshold: float | np.ndarray,
@@ -449,7 +451,7 @@ class IMM:
         then Z (compiled: no (R, N) matrix is made). ``check`` as for `mahalanobis`."""
         Z = self._checked_contacts(Z) if check else Z
         return imm_kernels.gated_pairs(mp.z, mp.S_inv, np.asarray(rows, np.int64), Z,
-                                       np.atleast_1d(np.asarray(threshold, np.float64)), self._polar)
+                                       np.atleast_1d(np.asarray(threshold, np.float64)), self.polar)
 
     def log_likelihood(self, pred: IMMPrediction, Z: np.ndarray) -> np.ndarray:
         """log p(z | track) (K, N) of N measurements Z (N, 2) under each track's IMM prediction.
@@ -475,7 +477,7 @@ class IMM:
     def _pairs(self, pred: IMMPrediction, rows: np.ndarray, Z: np.ndarray) -> np.ndarray:
         mp = pred.measurement
         return imm_kernels.pair_log_likelihood(mp.z, mp.S_inv, mp.log_det_S, pred.state.mu, rows,
-                                               np.ascontiguousarray(Z, np.float64), self._polar)
+                                               np.ascontiguousarray(Z, np.float64), self.polar)
 
     def _checked_contacts(self, Z: np.ndarray) -> np.ndarray:
         Z = check_array("Z", Z, (None, 2), error=FilterError)

@@ -37,7 +37,6 @@ import numpy as np
 from nnda.errors import ModelError
 from nnda.filters.imm import IMM, IMMPrediction
 from nnda.filters.kalman import MeasurementPrediction
-from nnda.filters.measurement import PolarMeasurement
 from nnda.filters.motion import CoordinatedTurn
 from nnda.models import feature_kernels
 from nnda.models.features import KINEMATIC, FeatureSet
@@ -83,7 +82,7 @@ def innovation_features(
     gate = imm.combined_measurement(pred) if gate is None else gate
     return feature_kernels.innovation(kinematic, np.asarray(track, np.int64), np.asarray(contacts, float), gate.z,
                                       gate.S, gate.S_inv, gate.log_det_S, pred.state.mu, _ct_index(imm),
-                                      np.asarray(age, float), isinstance(imm.measurement, PolarMeasurement))
+                                      np.asarray(age, float), imm.polar)
 
 
 def scan_features(imm: IMM, pred: IMMPrediction, gate: MeasurementPrediction | None, p1: np.ndarray, t1: np.ndarray,
@@ -105,4 +104,4 @@ def scan_features(imm: IMM, pred: IMMPrediction, gate: MeasurementPrediction | N
     else:
         args, mu, ct = (np.empty((0, 2)), np.empty((0, 2, 2)), np.empty((0, 2, 2)), np.empty(0)), np.empty((0, 1)), 0
     return feature_kernels.scan_features(p1, t1, p2, t2, az2, xy, z, float(time), born, *args, mu, ct,
-                                         isinstance(imm.measurement, PolarMeasurement), extended)
+                                         imm.polar, extended)

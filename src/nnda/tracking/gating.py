@@ -22,7 +22,6 @@ from scipy.spatial import cKDTree
 from nnda.filters import kalman
 from nnda.filters.imm import IMM, IMMPrediction
 from nnda.filters.kalman import MeasurementPrediction
-from nnda.filters.measurement import PolarMeasurement
 from nnda.tracking.linearisation import LINEARISATION_LIMIT_RAD, cartesian_d2, poor_pairs
 
 #: below this many track-contact pairs the dense test is faster than building a k-d tree
@@ -86,7 +85,7 @@ def _cartesian_check(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, by_trac
                      estimate: tuple[np.ndarray, np.ndarray] | None, gated: Gated) -> Gated:
     """``gated`` without the pairs of poorly linearised tracks that fail the Cartesian test at their gate
     (``by_track``: one for all, or (K,))."""
-    if estimate is None or not gated.rows.size or not isinstance(imm.measurement, PolarMeasurement):
+    if estimate is None or not gated.rows.size or not imm.polar:
         return gated  # a position sensor is linear
     check = poor_pairs(mp.S, gated.rows, LINEARISATION_LIMIT_RAD**2)
     if not check.size:

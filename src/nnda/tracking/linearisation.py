@@ -66,7 +66,7 @@ def update(imm: IMM, pred: IMMPrediction, z: np.ndarray, detected: np.ndarray) -
     linearised track (any model's prediction) takes the converted-measurement update instead; a track
     without a contact keeps its prediction. Unchecked (the trackers' checked contacts)."""
     state = imm.update(pred, z, detected, check=False)
-    if not isinstance(imm.measurement, PolarMeasurement):
+    if not imm.polar:
         return state
     rows = _poor_rows(pred.measurement.S, detected, LINEARISATION_LIMIT_RAD**2)
     if not rows.size:

@@ -362,7 +362,7 @@ class NeuralTracker(SingleHypothesisTracker):
         elif cfg.coast_gate is None:
             rows, threshold = np.flatnonzero(status == PRELIMINARY), cfg.preliminary_gate
         else:
-            rows = np.arange(len(status))
-            threshold = np.where(status[rows] == CONFIRMED, cfg.coast_gate, cfg.preliminary_gate)
+            rows = None  # every track, each at its own gate
+            threshold = np.where(status == CONFIRMED, cfg.coast_gate, cfg.preliminary_gate)
         g = pred.gating
         return gate(scan.filter, g.measurement, scan.z, scan.xy, threshold, (g.x, g.P), rows=rows, check=False)

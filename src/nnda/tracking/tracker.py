@@ -58,7 +58,7 @@ from nnda.filters.batch import Batch
 from nnda.filters.imm import IMM, IMMPrediction, IMMState
 from nnda.filters.imm_kernels import estimate, pair_log_likelihood
 from nnda.filters.kalman import GATE_99
-from nnda.filters.measurement import PolarMeasurement, measurement_model
+from nnda.filters.measurement import measurement_model
 from nnda.tracking.clutter_density import coverage_area, local_density
 from nnda.tracking.lifecycle import (
     DELETION_REASONS,
@@ -444,8 +444,9 @@ class TwoPointInitiation:
             self._refuse(len(i) - room, live, time)
             i, j = cap_pairs(i, j, init_xy, xy[free], d_min, d_max, room)
         threshold = self._confirmation_threshold(len(init_xy)) if len(i) else math.inf
-        rest, contact, fields = _opened(free, i, j, windowed, init_xy, z, xy, self.next_id, before, time, threshold)
-        self.contacts[sensor], self.xy[sensor], self.time[sensor] = rest
+        rest_z, rest_xy, contact, fields = _opened(free, i, j, windowed, init_xy, z, xy, self.next_id, before, time,
+                                                   threshold)
+        self.contacts[sensor], self.xy[sensor], self.time[sensor] = rest_z, rest_xy, time
         if not contact.size:
             return None, None
         track_id, status, p1, t1, t2, az2, t0, hits, misses, consecutive, score, max_score, confirm_at = fields
@@ -479,7 +480,7 @@ class TwoPointInitiation:
 @numba.njit(cache=True, nogil=True)
 def _opened(free, i, j, windowed, initiators, z, xy, first_id, before, time, confirm_at):
     """`TwoPointInitiation`'s new tracks in one call: the free contacts ``free`` (F,) outside every window
-    (not among ``windowed``, indices into ``free``) as the next initiators (their z, xy (M, 2)); the contacts
+    (not among ``windowed``, indices into ``free``), the next initiators: their z, xy (M, 2); the contacts
     (K,) of the window pairs (i, j) (K,) that open tracks (j indexes ``free``); and the tracks' fields but
     the filter state and p2: (track_id from ``first_id``, status, p1 (the initiators (I, 2) of i), t1 =
     t0 = ``before``, t2 = ``time``, az2, hits, misses, consecutive, score, max_score, confirm_at)."""
@@ -491,7 +492,7 @@ def _opened(free, i, j, windowed, initiators, z, xy, first_id, before, time, con
     fields = (np.arange(first_id, first_id + k), np.full(k, PRELIMINARY, np.int8), initiators[i],
               np.full(k, before), np.full(k, time), z[contact, 1], np.full(k, before), np.zeros(k, np.int64),
               np.zeros(k, np.int64), np.zeros(k, np.int64), np.zeros(k), np.zeros(k), np.full(k, confirm_at))
-    return (z[rest], xy[rest], time), contact, fields
+    return z[rest], xy[rest], contact, fields
 
 
 class ContactTracker(ABC):
@@ -597,7 +598,7 @@ class ContactTracker(ABC):
         mp = pred.measurement
         gain, rows, at, target = _gains(assoc.contact, self._log_miss, math.log(self.score_pd), mp.z, mp.S_inv,
                                         mp.log_det_S, pred.state.mu, scan.z,
-                                        isinstance(scan.filter.measurement, PolarMeasurement))
+                                        scan.filter.polar)
         gain[rows] = target - np.log(self.clutter_density(scan, at))
         return gain
 
