@@ -158,8 +158,8 @@ def test_a_newborn_of_tiny_existence_updates_on_its_targets_contact():
     unconditional no-contact marginal, which holds "no target", it took nothing until its odds times the
     contact's ratio passed 1, and at 1,000 clutter per scan its gate grew for ~50 scans: GOSPA 1,009 m.)"""
     tracker, z = _jipda_with_confirmed_track()
-    newborn = replace(tracker.tracks, status=np.array([PRELIMINARY], np.int8), score=np.array([_logit(1e-6)]),
-                      max_score=np.array([_logit(1e-6)]))
+    newborn = replace(tracker.tracks, status=np.array([PRELIMINARY], np.int8)).rescored(np.array([_logit(1e-6)]),
+                                                                                       restart=True)
     pred_var = tracker.filter.predict(newborn.filt, 2.0).state.P[0, :, 0, 0]
     after = _step(tracker, newborn, z)
     assert after.t2[0] == 14.0  # the contact was used
@@ -183,8 +183,8 @@ def test_tentatives_sharing_the_contact_leave_the_confirmed_tracks_existence_as_
     shift[:, :, 0] = rng.normal(0.0, 20.0, (k, 1))
     tentative = Tracks.concat([one] * k)
     tentative = replace(tentative, track_id=np.arange(100, 100 + k), status=np.full(k, PRELIMINARY, np.int8),
-                        score=np.full(k, _logit(1e-3)), max_score=np.full(k, _logit(1e-3)),
-                        filt=type(one.filt)(tentative.filt.x + shift, tentative.filt.P, tentative.filt.mu))
+                        filt=type(one.filt)(tentative.filt.x + shift, tentative.filt.P, tentative.filt.mu)
+                        ).rescored(np.full(k, _logit(1e-3)), restart=True)
     shared = _step(tracker, Tracks.concat([one, tentative]), z)
     assert shared.track_id[0] == one.track_id[0] and shared.status[0] == CONFIRMED
     assert existence(shared.score[0]) == pytest.approx(existence(alone.score[0]), rel=RTOL)
@@ -197,8 +197,8 @@ def test_the_existence_takes_ipdas_ratio_of_the_reported_contact():
     gate (which walks up on vague clutter-born tracks at 5,000 per scan)."""
     tracker, z = _jipda_with_confirmed_track()
     rho0 = 1e-4
-    tent = replace(tracker.tracks, status=np.array([PRELIMINARY], np.int8), score=np.array([_logit(rho0)]),
-                   max_score=np.array([_logit(rho0)]))
+    tent = replace(tracker.tracks, status=np.array([PRELIMINARY], np.int8)).rescored(np.array([_logit(rho0)]),
+                                                                                    restart=True)
     pred = tracker.filter.predict(tent.filt, 14.0 - tent.t2)
     mp = tracker.filter.combined_measurement(pred)
     step = np.linalg.cholesky(mp.S[0]) @ [np.sqrt(5.0), 0.0]

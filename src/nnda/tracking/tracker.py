@@ -173,35 +173,72 @@ def _valid(z, polar):
     return True
 
 
+#: columns of `Tracks.history`: the contact before the last (x, y m; time s), the last (x, y m; time s; azimuth
+#: rad) and the time (s) of the track's first contact
+P1, T1, P2, T2, AZ2, T0 = slice(0, 2), 2, slice(3, 5), 5, 6, 7
+#: columns of `Tracks.counts`: the M/N counters
+HITS, MISSES, CONSECUTIVE = 0, 1, 2
+#: columns of `Tracks.scores`: the track score, its maximum so far, the score that confirms the track
+SCORE, MAX_SCORE, CONFIRM_AT = 0, 1, 2
+
+
+def _column(field: str, column: int | slice, doc: str) -> property:
+    """A read-only view of one column (or two) of a `Tracks` field."""
+    return property(lambda tracks: getattr(tracks, field)[:, column], doc=doc)
+
+
 @dataclass(frozen=True)
 class Tracks(Batch):
     """K live tracks (preliminary or confirmed); every field has the track axis first.
 
-    ``filt`` is the IMM posterior at the track's last update, at time ``t2``
-    (s), from the contact at ``p2`` (m, Cartesian) with azimuth ``az2`` (rad);
-    ``p1``/``t1`` is the contact before it, ``t0`` (s) the time of the track's first contact. ``hits``, ``misses`` and
-    ``consecutive`` are the M/N counters of `nnda.tracking.lifecycle`, ``score`` the
-    track score (log-likelihood ratio of target against clutter; kept under the score rule,
-    0 otherwise; under the existence rule the log-odds of the track's existence) and ``max_score`` its
-    maximum so far; ``confirm_at`` the score at which a preliminary track confirms under the score rule
-    (Wald's threshold, or `lifecycle.rate_threshold` of its birth scan; inf otherwise).
+    ``track_id`` (K,) int64, ``status`` (K,) int8; ``filt`` is the IMM
+    posterior at the track's last update. The other fields are packed by
+    kind, one array each (the scan loop hands whole records to its compiled
+    steps, and each array crossing that boundary costs a conversion); their
+    columns read as named views:
+
+    - ``history`` (K, 8) float, the contact history: ``p1`` (K, 2) m and
+      ``t1`` (s), the contact before the last; ``p2`` (K, 2) m (Cartesian),
+      ``t2`` (s) and ``az2`` (rad), the last one, where ``filt`` stands;
+      ``t0`` (s), the track's first contact;
+    - ``counts`` (K, 3) int64: ``hits``, ``misses`` and ``consecutive``,
+      the M/N counters of `nnda.tracking.lifecycle`;
+    - ``scores`` (K, 3) float: ``score``, the track score (log-likelihood
+      ratio of target against clutter; kept under the score rule, 0
+      otherwise; under the existence rule the log-odds of the track's
+      existence), ``max_score`` its maximum so far and ``confirm_at`` the
+      score at which a preliminary track confirms under the score rule
+      (Wald's threshold, or `lifecycle.rate_threshold` of its birth scan;
+      inf otherwise).
     """
 
     track_id: np.ndarray
     status: np.ndarray
     filt: IMMState
-    p1: np.ndarray
-    t1: np.ndarray
-    p2: np.ndarray
-    t2: np.ndarray
-    az2: np.ndarray
-    t0: np.ndarray
-    hits: np.ndarray
-    misses: np.ndarray
-    consecutive: np.ndarray
-    score: np.ndarray
-    max_score: np.ndarray
-    confirm_at: np.ndarray
+    history: np.ndarray
+    counts: np.ndarray
+    scores: np.ndarray
+
+    p1 = _column("history", P1, "(K, 2) m: the contact before the last")
+    t1 = _column("history", T1, "(K,) s: its time")
+    p2 = _column("history", P2, "(K, 2) m: the last contact")
+    t2 = _column("history", T2, "(K,) s: its time, that of ``filt``")
+    az2 = _column("history", AZ2, "(K,) rad: its azimuth")
+    t0 = _column("history", T0, "(K,) s: the time of the track's first contact")
+    hits = _column("counts", HITS, "(K,) the M/N hits")
+    misses = _column("counts", MISSES, "(K,) the M/N misses")
+    consecutive = _column("counts", CONSECUTIVE, "(K,) the consecutive misses")
+    score = _column("scores", SCORE, "(K,) the track score")
+    max_score = _column("scores", MAX_SCORE, "(K,) its maximum so far")
+    confirm_at = _column("scores", CONFIRM_AT, "(K,) the score that confirms a preliminary track")
+
+    def rescored(self, score: np.ndarray, *, restart: bool = False) -> Tracks:
+        """These tracks with the score (K,) replaced, and its maximum too with ``restart`` (a new track's)."""
+        scores = self.scores.copy()
+        scores[:, SCORE] = score
+        if restart:
+            scores[:, MAX_SCORE] = score
+        return self.replaced(scores=scores)
 
     def after_scan(self, contact: np.ndarray, filt: IMMState, z: np.ndarray, xy: np.ndarray, time: float,
                    lifecycle: LifecycleConfig, observed: np.ndarray | None = None,
@@ -212,24 +249,25 @@ class Tracks(Batch):
         log-likelihood ratio; None: 0) and the status advance (`lifecycle.advance`, or
         `lifecycle.advance_score` under the score rule) where the scan ``observed`` the track (default:
         everywhere), in one compiled call (`_scanned_moved`)."""
-        return self._moved_on(filt, *_scanned_moved(*self._scan_args(contact, z, xy, time, lifecycle, observed,
-                                                                      score_gain)))
+        status, counts, scores, history = _scanned_moved(*self._scan_args(contact, z, xy, time, lifecycle, observed,
+                                                                          score_gain))
+        return Tracks(self.track_id, status, filt, history, counts, scores)
 
     def _scan_args(self, contact: np.ndarray, z: np.ndarray, xy: np.ndarray, time: float,
                    lifecycle: LifecycleConfig, observed: np.ndarray | None, score_gain: np.ndarray | None) -> tuple:
         """The arguments of `_scanned_moved` for `after_scan`'s."""
         K, cfg = len(contact), lifecycle
         score_rule = cfg.confirmation != "mn"
-        lower, upper, early = score_bounds(cfg, K, self.confirm_at) if score_rule else (0.0, self.confirm_at, 0.0)
-        return (contact, everywhere(observed, K), self.status, self.hits, self.misses, self.consecutive, cfg.m,
-                cfg.n - cfg.m + 1, cfg.max_misses, self.score, self.max_score,
-                np.zeros(K) if score_gain is None else score_gain, score_gain is not None, score_rule,
-                cfg.confirmation == "existence", lower, upper, early,
-                self.p1, self.t1, self.p2, self.t2, self.az2, xy, z[:, 1], time)
+        confirm_at = self.scores[:, CONFIRM_AT]
+        lower, upper, early = score_bounds(cfg, K, confirm_at) if score_rule else (0.0, confirm_at, 0.0)
+        return (contact, everywhere(observed, K), self.status, self.counts, cfg.m, cfg.n - cfg.m + 1,
+                cfg.max_misses, self.scores, np.zeros(K) if score_gain is None else score_gain,
+                score_gain is not None, score_rule, cfg.confirmation == "existence", lower, upper, early,
+                self.history, xy, z[:, 1], time)
 
     def joined(self, other: Tracks) -> Tracks:
         """These tracks, then ``other``'s: `Batch.concat` of the two in one compiled call (`_joined`; the
-        single-hypothesis trackers add a scan's new tracks every scan, where 18 concatenations cost more
+        single-hypothesis trackers add a scan's new tracks every scan, where 8 concatenations cost more
         than the copying)."""
         track_id, status, x, P, mu, *rest = _joined(self._arrays(), other._arrays())
         return Tracks(track_id, status, IMMState(x, P, mu), *rest)
@@ -237,18 +275,7 @@ class Tracks(Batch):
     def _arrays(self) -> tuple[np.ndarray, ...]:
         """The fields' arrays in field order, the filter state's three in its place."""
         f = self.filt
-        return (self.track_id, self.status, f.x, f.P, f.mu, self.p1, self.t1, self.p2, self.t2, self.az2, self.t0,
-                self.hits, self.misses, self.consecutive, self.score, self.max_score, self.confirm_at)
-
-    def _moved_on(self, filt: IMMState, status: np.ndarray, hits: np.ndarray, misses: np.ndarray,
-                  consecutive: np.ndarray, score: np.ndarray, max_score: np.ndarray, p1: np.ndarray, t1: np.ndarray,
-                  p2: np.ndarray, t2: np.ndarray, az2: np.ndarray) -> Tracks:
-        """These tracks with `_scanned_moved`'s outputs and the filter states ``filt``."""
-        return Tracks(
-            track_id=self.track_id, status=status, filt=filt, p1=p1, t1=t1, p2=p2, t2=t2, az2=az2, t0=self.t0,
-            hits=hits, misses=misses, consecutive=consecutive, score=score, max_score=max_score,
-            confirm_at=self.confirm_at,
-        )
+        return self.track_id, self.status, f.x, f.P, f.mu, self.history, self.counts, self.scores
 
 
 @numba.njit(cache=True, nogil=True)
@@ -268,25 +295,20 @@ def _joined(a, b):
     """The arrays of `Tracks._arrays` ``a`` then ``b``, concatenated field by field."""
     return (np.concatenate((a[0], b[0])), np.concatenate((a[1], b[1])), np.concatenate((a[2], b[2])),
             np.concatenate((a[3], b[3])), np.concatenate((a[4], b[4])), np.concatenate((a[5], b[5])),
-            np.concatenate((a[6], b[6])), np.concatenate((a[7], b[7])), np.concatenate((a[8], b[8])),
-            np.concatenate((a[9], b[9])), np.concatenate((a[10], b[10])), np.concatenate((a[11], b[11])),
-            np.concatenate((a[12], b[12])), np.concatenate((a[13], b[13])), np.concatenate((a[14], b[14])),
-            np.concatenate((a[15], b[15])), np.concatenate((a[16], b[16])))
+            np.concatenate((a[6], b[6])), np.concatenate((a[7], b[7])))
 
 
 @numba.njit(cache=True, nogil=True)
-def _scanned_moved(contact, observed, status, hits, misses, consecutive, m, misses_to_delete, max_misses, score,
-                   max_score, gain, scored, score_rule, exist, lower, upper, early, p1, t1, p2, t2, az2, xy, azimuth,
-                   time):
-    """`_scanned`, then `_moved_history`: (status, hits, misses, consecutive, score, max_score, p1, t1, p2, t2,
-    az2)."""
-    return (_scanned(contact, observed, status, hits, misses, consecutive, m, misses_to_delete, max_misses, score,
-                     max_score, gain, scored, score_rule, exist, lower, upper, early)
-            + _moved_history(contact, p1, t1, p2, t2, az2, xy, azimuth, time))
+def _scanned_moved(contact, observed, status, counts, m, misses_to_delete, max_misses, scores, gain, scored,
+                   score_rule, exist, lower, upper, early, history, xy, azimuth, time):
+    """`_scanned`, then `_moved_history`: (status, counts, scores, history)."""
+    return (_scanned(contact, observed, status, counts, m, misses_to_delete, max_misses, scores, gain, scored,
+                     score_rule, exist, lower, upper, early)
+            + (_moved_history(contact, history, xy, azimuth, time),))
 
 
 @numba.njit(cache=True, nogil=True)
-def _finished(scan, ux, uP, umu, kx, kP, kmu, d, sanity, release, gx, gP, kept):
+def _finished(scan, ux, uP, umu, kx, kP, kmu, d, sanity, release, gx, gP, track_id):
     """The end of a scan for K tracks after association, in one call (`SingleHypothesisTracker._finish`).
 
     ``scan`` holds `_scanned_moved`'s arguments (`Tracks._scan_args`: the contact each track used first);
@@ -294,16 +316,15 @@ def _finished(scan, ux, uP, umu, kx, kP, kmu, d, sanity, release, gx, gP, kept):
     (kx, kP, kmu) (`_picked`); the estimate to report is the updated one's on the first ``d`` entries
     (`imm_kernels.estimate`); the sanity rules (`lifecycle.sanity_kernel` with ``sanity``, `sanity_args`)
     then delete the live tracks they fail; with ``release`` a track deleted in this scan after it took a
-    contact gives it back and reports its prediction's estimate (gx (K, d), gP (K, d, d)) instead. ``kept``
-    (track_id, t0, confirm_at) are the fields the scan leaves as they are.
+    contact gives it back and reports its prediction's estimate (gx (K, d), gP (K, d, d)) instead.
 
     Returns the status after the scan (K,), the estimate (x (K, d), P (K, d, d)) and the contacts used (K,) to
     report, the scan's deletions (2 + 3,): preliminary tracks, confirmed tracks by their life cycle, then by
-    each of `SANITY_REASONS`; and the surviving tracks' (track_id, status, (x, P, mu), p1, t1, p2, t2, az2,
-    t0, hits, misses, consecutive, score, max_score, confirm_at).
+    each of `SANITY_REASONS`; and the surviving tracks' fields (`Tracks`: track_id (of ``track_id`` (K,)),
+    status, (x, P, mu), history, counts, scores).
     """
     contact, before = scan[0], scan[2]
-    status, hits, misses, consecutive, score, max_score, p1, t1, p2, t2, az2 = _scanned_moved(*scan)
+    status, counts, scores, history = _scanned_moved(*scan)
     fx, fP, fmu = _picked(contact != NO_CONTACT, ux, uP, umu, kx, kP, kmu)
     x, P = estimate(ux, uP, umu, d)
     deletions = np.zeros(5, np.int64)
@@ -323,47 +344,51 @@ def _finished(scan, ux, uP, umu, kx, kP, kmu, d, sanity, release, gx, gP, kept):
             if status[k] == DELETED and before[k] != DELETED and contact[k] != NO_CONTACT:
                 x[k], P[k] = gx[k], gP[k]
                 contact[k] = NO_CONTACT
-    track_id, t0, confirm_at = kept
     alive = np.flatnonzero(status != DELETED)
-    survivors = (track_id[alive], status[alive], (fx[alive], fP[alive], fmu[alive]), p1[alive], t1[alive],
-                 p2[alive], t2[alive], az2[alive], t0[alive], hits[alive], misses[alive], consecutive[alive],
-                 score[alive], max_score[alive], confirm_at[alive])
+    survivors = (track_id[alive], status[alive], (fx[alive], fP[alive], fmu[alive]), history[alive], counts[alive],
+                 scores[alive])
     return status, x, P, contact, deletions, survivors
 
 
 @numba.njit(cache=True, nogil=True)
-def _scanned(contact, observed, status, hits, misses, consecutive, m, misses_to_delete, max_misses, score,
-             max_score, gain, scored, score_rule, exist, lower, upper, early):
-    """`Tracks.after_scan`'s life cycle of K tracks, arrays (K,), in one call: the M/N counters and status
-    (`lifecycle.advance`, from ``m``, ``misses_to_delete`` = n - m + 1 and ``max_misses``); if ``scored``, the
-    score moved by ``gain`` where ``observed`` and its maximum; under the ``score_rule`` (or the existence rule,
-    ``exist``) the status of `lifecycle.advance_score` instead, with its thresholds ``lower``, ``upper`` (K,)
-    and ``early`` (`lifecycle.score_bounds`). Returns (status, hits, misses, consecutive, score, max_score)."""
-    new, hits, misses, consecutive = advance_kernel(status, hits, misses, consecutive, contact != NO_CONTACT,
-                                                    observed, m, misses_to_delete, max_misses)
+def _scanned(contact, observed, status, counts, m, misses_to_delete, max_misses, scores, gain, scored, score_rule,
+             exist, lower, upper, early):
+    """`Tracks.after_scan`'s life cycle of K tracks in one call: the M/N counters ``counts`` (K, 3) and status
+    (K,) (`lifecycle.advance`, from ``m``, ``misses_to_delete`` = n - m + 1 and ``max_misses``); if
+    ``scored``, the score (column `SCORE` of ``scores`` (K, 3)) moved by ``gain`` (K,) where ``observed``
+    (K,), and its maximum; under the ``score_rule`` (or the existence rule, ``exist``) the status of
+    `lifecycle.advance_score` instead, with its thresholds ``lower``, ``upper`` (K,) and ``early``
+    (`lifecycle.score_bounds`). Returns new (status, counts, scores)."""
+    new, hits, misses, consecutive = advance_kernel(status, counts[:, HITS], counts[:, MISSES],
+                                                    counts[:, CONSECUTIVE], contact != NO_CONTACT, observed, m,
+                                                    misses_to_delete, max_misses)
+    counts = np.empty_like(counts)
+    counts[:, HITS], counts[:, MISSES], counts[:, CONSECUTIVE] = hits, misses, consecutive
+    scores = scores.copy()
     if scored:
-        score, max_score = score.copy(), max_score.copy()
-        for k in range(score.size):
-            score[k] += gain[k] if observed[k] else 0.0
-            a, b = max_score[k], score[k]
-            max_score[k] = a if (a >= b or a != a) else b  # np.maximum, NaN and ties included
+        for k in range(scores.shape[0]):
+            scores[k, SCORE] += gain[k] if observed[k] else 0.0
+            a, b = scores[k, MAX_SCORE], scores[k, SCORE]
+            scores[k, MAX_SCORE] = a if (a >= b or a != a) else b  # np.maximum, NaN and ties included
     if score_rule:
-        new = advance_score_kernel(status, score, max_score, observed, upper, lower, early, exist)
-    return new, hits, misses, consecutive, score, max_score
+        new = advance_score_kernel(status, scores[:, SCORE], scores[:, MAX_SCORE], observed, upper, lower, early,
+                                   exist)
+    return new, counts, scores
 
 
 @numba.njit(cache=True, nogil=True)
-def _moved_history(contact, p1, t1, p2, t2, az2, xy, azimuth, time):
-    """`Tracks.after_scan`'s contact history of K tracks: where ``contact`` (K,) names a contact (not
-    NO_CONTACT), the last contact p2 (K, 2) m, t2 (K,) s becomes the one before (p1, t1) and the contact's
-    position xy (N, 2), ``azimuth`` (N,) rad and the scan ``time`` (s) the last (p2, t2, az2); copies."""
-    p1, t1, p2, t2, az2 = p1.copy(), t1.copy(), p2.copy(), t2.copy(), az2.copy()
+def _moved_history(contact, history, xy, azimuth, time):
+    """`Tracks.after_scan`'s contact history (K, 8) (columns of `Tracks.history`): where ``contact`` (K,)
+    names a contact (not NO_CONTACT), the last contact becomes the one before and the contact's position xy
+    (N, 2) m, ``azimuth`` (N,) rad and the scan ``time`` (s) the last; a copy."""
+    history = history.copy()
     for k in range(contact.size):
         c = contact[k]
         if c != NO_CONTACT:
-            p1[k, 0], p1[k, 1], t1[k] = p2[k, 0], p2[k, 1], t2[k]
-            p2[k, 0], p2[k, 1], t2[k], az2[k] = xy[c, 0], xy[c, 1], time, azimuth[c]
-    return p1, t1, p2, t2, az2
+            # p1, t1 <- p2, t2 (columns 0-2 <- 3-5)
+            history[k, 0], history[k, 1], history[k, T1] = history[k, 3], history[k, 4], history[k, T2]
+            history[k, 3], history[k, 4], history[k, T2], history[k, AZ2] = xy[c, 0], xy[c, 1], time, azimuth[c]
+    return history
 
 
 class Shown(NamedTuple):
@@ -449,11 +474,11 @@ class TwoPointInitiation:
         self.contacts[sensor], self.xy[sensor], self.time[sensor] = rest_z, rest_xy, time
         if not contact.size:
             return None, None
-        track_id, status, p1, t1, t2, az2, t0, hits, misses, consecutive, score, max_score, confirm_at = fields
+        track_id, status, history, counts, scores = fields
         p2, cov2 = self.filters[sensor].measurement.position(z[contact])
-        born = Tracks(track_id=track_id, status=status, filt=self.filters[sensor].start(p1, p2, cov2, t2 - t1),
-                      p1=p1, t1=t1, p2=p2, t2=t2, az2=az2, t0=t0, hits=hits, misses=misses, consecutive=consecutive,
-                      score=score, max_score=max_score, confirm_at=confirm_at)
+        history[:, P2] = p2
+        born = Tracks(track_id, status, self.filters[sensor].start(history[:, P1], p2, cov2, time - before), history,
+                      counts, scores)
         self.next_id += len(contact)
         return born, contact
 
@@ -482,16 +507,21 @@ def _opened(free, i, j, windowed, initiators, z, xy, first_id, before, time, con
     """`TwoPointInitiation`'s new tracks in one call: the free contacts ``free`` (F,) outside every window
     (not among ``windowed``, indices into ``free``), the next initiators: their z, xy (M, 2); the contacts
     (K,) of the window pairs (i, j) (K,) that open tracks (j indexes ``free``); and the tracks' fields but
-    the filter state and p2: (track_id from ``first_id``, status, p1 (the initiators (I, 2) of i), t1 =
-    t0 = ``before``, t2 = ``time``, az2, hits, misses, consecutive, score, max_score, confirm_at)."""
+    the filter state (`Tracks`: track_id from ``first_id``, status, history: p1 the initiators (I, 2) of i,
+    t1 = t0 = ``before``, t2 = ``time``, az2, p2 left to the caller; counts; scores, with ``confirm_at``)."""
     spoken = np.zeros(free.size, np.bool_)
     spoken[windowed] = True
     rest = free[~spoken]
     contact = free[j]
     k = contact.size
-    fields = (np.arange(first_id, first_id + k), np.full(k, PRELIMINARY, np.int8), initiators[i],
-              np.full(k, before), np.full(k, time), z[contact, 1], np.full(k, before), np.zeros(k, np.int64),
-              np.zeros(k, np.int64), np.zeros(k, np.int64), np.zeros(k), np.zeros(k), np.full(k, confirm_at))
+    history = np.zeros((k, 8))
+    scores = np.zeros((k, 3))
+    for t in range(k):
+        history[t, 0], history[t, 1] = initiators[i[t], 0], initiators[i[t], 1]
+        history[t, T1], history[t, T0], history[t, T2], history[t, AZ2] = before, before, time, z[contact[t], 1]
+        scores[t, CONFIRM_AT] = confirm_at
+    fields = (np.arange(first_id, first_id + k), np.full(k, PRELIMINARY, np.int8), history,
+              np.zeros((k, 3), np.int64), scores)
     return z[rest], xy[rest], contact, fields
 
 
@@ -586,7 +616,7 @@ class ContactTracker(ABC):
         if self.confirmation_rule == "existence":
             score += birth_log_odds(self.score_pd, cfg.new_targets_per_scan / coverage_area(sensor),
                                     local_density(scan.xy, born.p1, self._clutter_radius, sensor))
-        return born.replaced(score=score, max_score=score.copy())
+        return born.rescored(score, restart=True)
 
     def _score_gain(self, pred: IMMPrediction, scan: ScanContacts, assoc: Association) -> np.ndarray | None:
         """The scan's track-score increments (K,) under the score rule (None under M/N): the method's own,
@@ -696,7 +726,7 @@ class SingleHypothesisTracker(ContactTracker):
         if tracks is not None:
             if self.confirmation_rule == "existence":  # IPDA's Markov prediction of the existence probability
                 survival = self.config.lifecycle.survival_probability
-                tracks = tracks.replaced(score=predicted_log_odds(tracks.score, survival))
+                tracks = tracks.rescored(predicted_log_odds(tracks.score, survival))
             pred = sc.filter.predict(tracks.filt, time - tracks.t2, check=False)
             assoc = self.associate(tracks, pred, sc)
             if assoc.revised is not None:
@@ -733,17 +763,12 @@ class SingleHypothesisTracker(ContactTracker):
                                  self._score_gain(pred, scan, assoc))
         status, x, P, contact, deletions, survivors = _finished(
             args, u.x, u.P, u.mu, k.x, k.P, k.mu, self.filter.output_dim, self._sanity_args,
-            bool(getattr(self.config, "release_on_deletion", False)), g.x, g.P,
-            (tracks.track_id, tracks.t0, tracks.confirm_at))
+            bool(getattr(self.config, "release_on_deletion", False)), g.x, g.P, tracks.track_id)
         if deletions.any():
             for reason, n in zip(("unconfirmed", self._ended_reason, *SANITY_REASONS), deletions.tolist()):
                 self.deletions[reason] += n
-        (track_id, status_alive, filt, p1, t1, p2, t2, az2, t0, hits, misses, consecutive, score, max_score,
-         confirm_at) = survivors
-        alive = None if not track_id.size else Tracks(
-            track_id=track_id, status=status_alive, filt=IMMState(*filt), p1=p1, t1=t1, p2=p2, t2=t2, az2=az2,
-            t0=t0, hits=hits, misses=misses, consecutive=consecutive, score=score, max_score=max_score,
-            confirm_at=confirm_at)
+        track_id, status_alive, filt, *rest = survivors
+        alive = None if not track_id.size else Tracks(track_id, status_alive, IMMState(*filt), *rest)
         return alive, Shown(tracks.track_id, status, x, P, contact)
 
     def _capped(self, tracks: Tracks | None, born: Tracks, contact: np.ndarray, shown: list[Shown], time: float
