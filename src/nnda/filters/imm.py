@@ -486,17 +486,17 @@ class IMM:
 
 
 def _measured(lead: tuple[int, ...], z: np.ndarray, S: np.ndarray, S_inv: np.ndarray, log_det: np.ndarray,
-              Ht: np.ndarray, PHt: np.ndarray, bad: int) -> MeasurementPrediction:
+              H: np.ndarray, PHt: np.ndarray, bad: int) -> MeasurementPrediction:
     """`imm_kernels.measure`'s outputs over B = prod(lead) states (z (B, 2), S, S_inv (B, 2, 2), log_det
-    (B,), Ht, PHt (B, n, 2), the first bad index) as a `MeasurementPrediction` of leading shape ``lead``;
-    raises FilterError if an innovation covariance is not positive definite."""
+    (B,), H (B, 2, n), PHt (B, n, 2), the first bad index, flat), or the same shaped with ``lead`` leading
+    already (`imm_kernels.predict`'s), as a `MeasurementPrediction` of leading shape ``lead``; raises
+    FilterError if an innovation covariance is not positive definite."""
     if bad >= 0:
         where = tuple(int(i) for i in np.unravel_index(bad, lead))
         raise FilterError(f"innovation covariance at batch index {where} is not positive definite: "
-                          f"{S[bad].tolist()}")
-    if len(lead) == 1:  # the batch is the leading axis already (a reshape is a call each, every scan)
-        return MeasurementPrediction(z, S, S_inv, log_det, Ht.swapaxes(-1, -2), PHt)
-    n = Ht.shape[1]
+                          f"{S.reshape(-1, 2, 2)[bad].tolist()}")
+    if log_det.shape == lead:  # shaped already (a reshape is a call each, every scan)
+        return MeasurementPrediction(z, S, S_inv, log_det, H, PHt)
+    n = H.shape[-1]
     return MeasurementPrediction(z.reshape(*lead, 2), S.reshape(*lead, 2, 2), S_inv.reshape(*lead, 2, 2),
-                                 log_det.reshape(lead), Ht.reshape(*lead, n, 2).swapaxes(-1, -2),
-                                 PHt.reshape(*lead, n, 2))
+                                 log_det.reshape(lead), H.reshape(*lead, 2, n), PHt.reshape(*lead, n, 2))

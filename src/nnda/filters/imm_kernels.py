@@ -1,7 +1,7 @@
 """The compiled steps of the IMM cycle over K tracks x r models (`nnda.filters.imm.IMM` calls them).
 
     xp, Pp, mu_p = mix_predict(x, P, mu, dt, tpm, kinds, dims, omega_max, basis, augment)   # eqs. 4.46-4.49
-    z, S, S_inv, log_det, Ht, PHt, bad = measure(xp2, Pp2, polar, origin, R)             # (B, n) states
+    z, S, S_inv, log_det, H, PHt, bad = measure(xp2, Pp2, polar, origin, R)              # (B, n) states
     xp, Pp, mu_p, z, S, ..., bad, xc, Pc, zc, Sc, ..., bad_c = predict(x, P, mu, dt, ..., R, d)   # one call:
                                                        # both, and the combined (gating) prediction measured
     x, P, mu = update(xp, Pp, mu_p, z, mask, z_pred, S_inv, log_det, PHt, polar)        # eqs. 4.50-4.53
@@ -152,14 +152,14 @@ def mix_predict(x, P, mu, dt, tpm, kinds, dims, omega_max, basis, augment):
 @_jit
 def measure(x, P, polar, origin, R):
     """Measurement predictions of B states x (B, n), P (B, n, n): z (B, 2), S (exactly symmetric), S_inv
-    (B, 2, 2), log |S| (B,), H^T and P H^T (B, n, 2), and the first index whose S is not positive
+    (B, 2, 2), log |S| (B,), H (B, 2, n), P H^T (B, n, 2), and the first index whose S is not positive
     definite (-1: none)."""
     B, n = x.shape
     z = np.empty((B, 2))
     S = np.empty((B, 2, 2))
     S_inv = np.empty((B, 2, 2))
     log_det = np.empty(B)
-    Ht = np.zeros((B, n, 2))
+    H = np.zeros((B, 2, n))
     PHt = np.empty((B, n, 2))
     bad = -1
     for b in range(B):
@@ -169,17 +169,17 @@ def measure(x, P, polar, origin, R):
             z[b, 0] = rng
             z[b, 1] = math.atan2(px, py) % TWO_PI
             r2 = rng * rng
-            Ht[b, 0, 0], Ht[b, 2, 0] = px / rng, py / rng
-            Ht[b, 0, 1], Ht[b, 2, 1] = py / r2, -px / r2
+            H[b, 0, 0], H[b, 0, 2] = px / rng, py / rng
+            H[b, 1, 0], H[b, 1, 2] = py / r2, -px / r2
         else:
             z[b, 0], z[b, 1] = x[b, 0], x[b, 2]
-            Ht[b, 0, 0], Ht[b, 2, 1] = 1.0, 1.0
-        for a in range(n):  # H^T has rows 0 and 2 only
-            PHt[b, a, 0] = P[b, a, 0] * Ht[b, 0, 0] + P[b, a, 2] * Ht[b, 2, 0]
-            PHt[b, a, 1] = P[b, a, 0] * Ht[b, 0, 1] + P[b, a, 2] * Ht[b, 2, 1]
+            H[b, 0, 0], H[b, 1, 2] = 1.0, 1.0
+        for a in range(n):  # H has columns 0 and 2 only
+            PHt[b, a, 0] = P[b, a, 0] * H[b, 0, 0] + P[b, a, 2] * H[b, 0, 2]
+            PHt[b, a, 1] = P[b, a, 0] * H[b, 1, 0] + P[b, a, 2] * H[b, 1, 2]
         for u in range(2):
             for v in range(u, 2):
-                S[b, u, v] = Ht[b, 0, u] * PHt[b, 0, v] + Ht[b, 2, u] * PHt[b, 2, v] + R[u, v]
+                S[b, u, v] = H[b, u, 0] * PHt[b, 0, v] + H[b, u, 2] * PHt[b, 2, v] + R[u, v]
         S[b, 1, 0] = S[b, 0, 1]
         det = S[b, 0, 0] * S[b, 1, 1] - S[b, 0, 1] * S[b, 1, 0]
         S_inv[b, 0, 0], S_inv[b, 1, 1] = S[b, 1, 1] / det, S[b, 0, 0] / det
@@ -190,22 +190,23 @@ def measure(x, P, polar, origin, R):
             log_det[b] = np.nan
         else:
             log_det[b] = math.log(det)
-    return z, S, S_inv, log_det, Ht, PHt, bad
+    return z, S, S_inv, log_det, H, PHt, bad
 
 
 @_jit
 def predict(x, P, mu, dt, tpm, kinds, dims, omega_max, basis, augment, polar, origin, R, d):
     """A scan's prediction in one call: `mix_predict`, then `measure` of every model's prediction, then the
     combined prediction on the first ``d`` entries (`estimate`) and its `measure`. Returns xp (K, r, n), Pp
-    (K, r, n, n), mu_pred (K, r), `measure`'s outputs over the K r predictions (K r leading, track-major),
-    xc (K, d), Pc (K, d, d) and `measure`'s outputs over those K."""
+    (K, r, n, n), mu_pred (K, r), `measure`'s outputs over the K r predictions with (K, r) leading (its
+    ``bad`` a flat index over them), xc (K, d), Pc (K, d, d) and `measure`'s outputs over those K."""
     xp, Pp, mu_pred = mix_predict(x, P, mu, dt, tpm, kinds, dims, omega_max, basis, augment)
     K, r, n = xp.shape
-    z, S, S_inv, log_det, Ht, PHt, bad = measure(xp.reshape(K * r, n), Pp.reshape(K * r, n, n), polar, origin, R)
+    z, S, S_inv, log_det, H, PHt, bad = measure(xp.reshape(K * r, n), Pp.reshape(K * r, n, n), polar, origin, R)
     xc, Pc = estimate(xp, Pp, mu_pred, d)
-    zc, Sc, Sc_inv, log_det_c, Htc, PHtc, bad_c = measure(xc, Pc, polar, origin, R)
-    return (xp, Pp, mu_pred, z, S, S_inv, log_det, Ht, PHt, bad,
-            xc, Pc, zc, Sc, Sc_inv, log_det_c, Htc, PHtc, bad_c)
+    zc, Sc, Sc_inv, log_det_c, Hc, PHtc, bad_c = measure(xc, Pc, polar, origin, R)
+    return (xp, Pp, mu_pred, z.reshape(K, r, 2), S.reshape(K, r, 2, 2), S_inv.reshape(K, r, 2, 2),
+            log_det.reshape(K, r), H.reshape(K, r, 2, n), PHt.reshape(K, r, n, 2), bad,
+            xc, Pc, zc, Sc, Sc_inv, log_det_c, Hc, PHtc, bad_c)
 
 
 @_jit

@@ -251,16 +251,16 @@ class NeuralTracker(SingleHypothesisTracker):
             return hard_update(scan.filter, pred, scan.z, contact)
         # the framework's arrays are checked already (scan checks, filter outputs): no second check here;
         # the scorer still refuses a non-finite feature
-        cfg, n = self.config, len(scan.z)
+        cfg, n, consecutive = self.config, len(scan.z), tracks.consecutive
         track, cand, score = self._scored(tracks, pred, scan)
         g = self._gated(tracks, pred, scan)
         track, cand, score, first, problem = first_stage(
-            track, cand, score, tracks.status, tracks.consecutive, n, cfg.gate_after_miss, cfg.confirmed_first,
+            track, cand, score, tracks.status, consecutive, n, cfg.gate_after_miss, cfg.confirmed_first,
             cfg.coast_after, self._rule, cfg.threshold, g.rows, g.cols, g.d2)
         rows, cols = solved(self._rule, cfg.threshold, *problem)
         contact[rows] = cols
         if cfg.coast_gate is not None:
-            contact, lost = reacquired(contact, tracks.status, tracks.consecutive, CONFIRMED, cfg.coast_after, g.rows,
+            contact, lost = reacquired(contact, tracks.status, consecutive, CONFIRMED, cfg.coast_after, g.rows,
                                        g.cols, g.d2, cfg.coast_gate, n)
             if cfg.retrodiction:
                 tracks, pred, contact = self._retrodicted(tracks, pred, scan, contact, lost)
