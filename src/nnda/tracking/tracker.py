@@ -238,7 +238,7 @@ class Tracks(Batch):
         scores[:, SCORE] = score
         if restart:
             scores[:, MAX_SCORE] = score
-        return self.replaced(scores=scores)
+        return Tracks(self.track_id, self.status, self.filt, self.history, self.counts, scores)
 
     def after_scan(self, contact: np.ndarray, filt: IMMState, z: np.ndarray, xy: np.ndarray, time: float,
                    lifecycle: LifecycleConfig, observed: np.ndarray | None = None,
