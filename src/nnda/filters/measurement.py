@@ -23,7 +23,7 @@ import numba
 import numpy as np
 
 from nnda.data.scenario import Sensor
-from nnda.data.sensor import cart_to_polar, polar_to_cart_at, wrap_angle
+from nnda.data.sensor import cart_to_polar, wrap_angle
 from nnda.errors import FilterError
 from nnda.validation import check_array, check_covariance, check_finite, check_positive
 
@@ -98,13 +98,10 @@ def _positions(z, ox, oy, var_range, var_azimuth):
     sigma_range^2 ``var_range`` and sigma_azimuth^2 ``var_azimuth``: positions (N, 2) m and covariances
     (N, 2, 2), with the operations of `polar_to_cart_at` (no shift at the origin) and `converted_covariance`."""
     n = z.shape[0]
-    xy = np.empty((n, 2))
+    xy = _cartesian(z, ox, oy)
     cov = np.empty((n, 2, 2))
-    shifted = ox != 0.0 or oy != 0.0
     for i in range(n):
         r, azimuth = z[i, 0], z[i, 1]
-        x, y = r * math.sin(azimuth), r * math.cos(azimuth)
-        xy[i, 0], xy[i, 1] = (x + ox, y + oy) if shifted else (x, y)
         phi = 0.5 * math.pi - azimuth
         c, s = math.cos(phi), math.sin(phi)
         var_cross = var_azimuth * r * r
@@ -112,6 +109,19 @@ def _positions(z, ox, oy, var_range, var_azimuth):
         cov[i, 1, 1] = var_range * s * s + var_cross * c * c
         cov[i, 0, 1] = cov[i, 1, 0] = (var_range - var_cross) * c * s
     return xy, cov
+
+
+@numba.njit(cache=True, nogil=True)
+def _cartesian(z, ox, oy):
+    """`PolarMeasurement.cartesian` of N measurements z (N, 2) [range m, azimuth rad] from (ox, oy) m:
+    positions (N, 2) m, with the operations of `polar_to_cart_at` (no shift at the origin) in one compiled
+    loop (every scan of every tracker converts its contacts)."""
+    xy = np.empty((z.shape[0], 2))
+    shifted = ox != 0.0 or oy != 0.0
+    for i in range(z.shape[0]):
+        x, y = z[i, 0] * math.sin(z[i, 1]), z[i, 0] * math.cos(z[i, 1])
+        xy[i, 0], xy[i, 1] = (x + ox, y + oy) if shifted else (x, y)
+    return xy
 
 
 #: signs of the azimuth's gradient (py, -px) / r^2 from (py, px)
@@ -192,10 +202,9 @@ class PolarMeasurement:
         return xy.reshape(z.shape), cov.reshape(*z.shape, 2)
 
     def cartesian(self, z: np.ndarray) -> np.ndarray:
-        """Cartesian positions (..., 2) in the scenario frame."""
-        xy = np.empty(z.shape)
-        xy[..., 0], xy[..., 1] = polar_to_cart_at(self.origin, z[..., 0], z[..., 1])
-        return xy
+        """Cartesian positions (..., 2) in the scenario frame (`_cartesian`)."""
+        z = np.asarray(z, dtype=float)
+        return _cartesian(np.ascontiguousarray(z.reshape(-1, 2)), *self.origin).reshape(z.shape)
 
     def spread(self, z: np.ndarray, S: np.ndarray) -> np.ndarray:
         """S_rr + r^2 S_aa (m^2): range variance plus the cross-range variance at range r."""

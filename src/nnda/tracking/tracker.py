@@ -319,11 +319,11 @@ def _finished(scan, ux, uP, umu, kx, kP, kmu, d, sanity, release, gx, gP, track_
     contact gives it back and reports its prediction's estimate (gx (K, d), gP (K, d, d)) instead.
 
     Returns the status after the scan (K,), the estimate (x (K, d), P (K, d, d)) and the contacts used (K,) to
-    report, the scan's deletions (2 + 3,): preliminary tracks, confirmed tracks by their life cycle, then by
-    each of `SANITY_REASONS`; and the surviving tracks' fields (`Tracks`: track_id (of ``track_id`` (K,)),
-    status, (x, P, mu), history, counts, scores).
+    report, which of the scan's N contacts they are (N,), the scan's deletions (2 + 3,): preliminary tracks,
+    confirmed tracks by their life cycle, then by each of `SANITY_REASONS`; and the surviving tracks' fields
+    (`Tracks`: track_id (of ``track_id`` (K,)), status, (x, P, mu), history, counts, scores).
     """
-    contact, before = scan[0], scan[2]
+    contact, before, n_contacts = scan[0], scan[2], scan[16].shape[0]  # scan[16]: the scan's xy (N, 2)
     status, counts, scores, history = _scanned_moved(*scan)
     fx, fP, fmu = _picked(contact != NO_CONTACT, ux, uP, umu, kx, kP, kmu)
     x, P = estimate(ux, uP, umu, d)
@@ -344,10 +344,14 @@ def _finished(scan, ux, uP, umu, kx, kP, kmu, d, sanity, release, gx, gP, track_
             if status[k] == DELETED and before[k] != DELETED and contact[k] != NO_CONTACT:
                 x[k], P[k] = gx[k], gP[k]
                 contact[k] = NO_CONTACT
+    used = np.zeros(n_contacts, np.bool_)
+    for k in range(status.size):
+        if contact[k] != NO_CONTACT:
+            used[contact[k]] = True
     alive = np.flatnonzero(status != DELETED)
     survivors = (track_id[alive], status[alive], (fx[alive], fP[alive], fmu[alive]), history[alive], counts[alive],
                  scores[alive])
-    return status, x, P, contact, deletions, survivors
+    return status, x, P, contact, used, deletions, survivors
 
 
 @numba.njit(cache=True, nogil=True)
@@ -720,7 +724,7 @@ class SingleHypothesisTracker(ContactTracker):
         """Process one sweep and report every track."""
         sc = self._checked(scan)
         z, xy, time = sc.z, sc.xy, sc.time
-        used = np.zeros(len(z), bool)
+        used = None  # the contacts the tracks reported (N,); None: no track, none
         shown: list[Shown] = []  # the output's blocks: old tracks, new ones
         tracks = self.tracks
         if tracks is not None:
@@ -731,13 +735,13 @@ class SingleHypothesisTracker(ContactTracker):
             assoc = self.associate(tracks, pred, sc)
             if assoc.revised is not None:
                 tracks, pred = assoc.revised
-            tracks, block = self._finish(tracks, pred, assoc, sc)
-            used[block.contact[block.contact != NO_CONTACT]] = True
+            tracks, block, used = self._finish(tracks, pred, assoc, sc)
             shown.append(block)
         score_rule = self.confirmation_rule != "mn"
         # under the score rule only confirmed tracks take room from new ones: the cap then keeps the best scores
         held = 0 if tracks is None else int((tracks.status == CONFIRMED).sum()) if score_rule else len(tracks)
-        born, born_contact = self.initiation(z, xy, used, time, held, sc.sensor)
+        born, born_contact = self.initiation(z, xy, np.zeros(len(z), bool) if used is None else used, time, held,
+                                             sc.sensor)
         if born is not None:
             born = self._start_scores(born, sc, born_contact)
             if score_rule:
@@ -750,18 +754,19 @@ class SingleHypothesisTracker(ContactTracker):
         return TrackerOutput.from_blocks(scan.index, time, shown)
 
     def _finish(self, tracks: Tracks, pred: IMMPrediction, assoc: Association, scan: ScanContacts
-                ) -> tuple[Tracks | None, Shown]:
+                ) -> tuple[Tracks | None, Shown, np.ndarray]:
         """The scan's end for the K tracks the method decided for, in one compiled call (`_finished`): a track
         with a contact takes its updated state, a missed one keeps its last posterior (§7.1.8) and reports its
         prediction; the life cycle (`Tracks.after_scan`, with the score's increments of `_score_gain`); the
         sanity rules on the reported states (`nnda.tracking.lifecycle.sanity_reasons`); with the config's
         ``release_on_deletion``, a track deleted in this scan after it took a contact gives the contact back,
         reported as a miss with its prediction's estimate. The scan's deletions are counted in ``deletions``
-        by reason. Returns the tracks that live on (None: none) and the K tracks' report."""
+        by reason. Returns the tracks that live on (None: none), the K tracks' report and which of the scan's
+        contacts it holds (N,)."""
         cfg, u, k, g = self.config.lifecycle, assoc.filt, tracks.filt, pred.gating
         args = tracks._scan_args(assoc.contact, scan.z, scan.xy, scan.time, cfg, self._observed(scan, pred),
                                  self._score_gain(pred, scan, assoc))
-        status, x, P, contact, deletions, survivors = _finished(
+        status, x, P, contact, used, deletions, survivors = _finished(
             args, u.x, u.P, u.mu, k.x, k.P, k.mu, self.filter.output_dim, self._sanity_args,
             bool(getattr(self.config, "release_on_deletion", False)), g.x, g.P, tracks.track_id)
         if deletions.any():
@@ -769,7 +774,7 @@ class SingleHypothesisTracker(ContactTracker):
                 self.deletions[reason] += n
         track_id, status_alive, filt, *rest = survivors
         alive = None if not track_id.size else Tracks(track_id, status_alive, IMMState(*filt), *rest)
-        return alive, Shown(tracks.track_id, status, x, P, contact)
+        return alive, Shown(tracks.track_id, status, x, P, contact), used
 
     def _capped(self, tracks: Tracks | None, born: Tracks, contact: np.ndarray, shown: list[Shown], time: float
                 ) -> tuple[Tracks | None, Tracks | None, np.ndarray]:
