@@ -132,7 +132,7 @@ def test_origin_model_computes_exactly_the_origin_formulas():
 @pytest.mark.parametrize("origin", [(0.0, 0.0), ORIGIN])
 def test_compiled_position_is_the_numpy_conversion(origin):
     """`PolarMeasurement.position` (one compiled loop) against `polar_to_cart_at` and `converted_covariance`,
-    for measurements of any leading shape."""
+    for measurements of any leading shape; `PolarMeasurement.cartesian` gives position's positions."""
     pm = PolarMeasurement(sigma_range=25.0, sigma_azimuth=2e-3, origin=origin)
     rng = np.random.default_rng(7)
     z = np.stack([rng.uniform(100.0, 40_000.0, (3, 5)), rng.uniform(0.0, 2 * np.pi, (3, 5))], axis=-1)
@@ -140,13 +140,14 @@ def test_compiled_position_is_the_numpy_conversion(origin):
     assert xy.shape == (3, 5, 2) and cov.shape == (3, 5, 2, 2)
     np.testing.assert_allclose(xy, np.stack(polar_to_cart_at(origin, z[..., 0], z[..., 1]), axis=-1), rtol=RTOL,
                                atol=RTOL * 40_000.0)
+    np.testing.assert_array_equal(pm.cartesian(z), xy)
     want = converted_covariance(z[..., 0], z[..., 1], 25.0, 2e-3)
     np.testing.assert_allclose(cov, want, rtol=RTOL, atol=RTOL * np.abs(want).max())
     one_xy, one_cov = pm.position(z[1, 2])  # a single measurement (2,)
     np.testing.assert_array_equal(one_xy, xy[1, 2])
     np.testing.assert_array_equal(one_cov, cov[1, 2])
     empty_xy, empty_cov = pm.position(np.empty((0, 2)))
-    assert empty_xy.shape == (0, 2) and empty_cov.shape == (0, 2, 2)
+    assert empty_xy.shape == (0, 2) and empty_cov.shape == (0, 2, 2) and pm.cartesian(np.empty((0, 2))).shape == (0, 2)
 
 
 def test_shifted_polar_model_is_the_origin_model_on_shifted_states():
