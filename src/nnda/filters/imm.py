@@ -266,9 +266,9 @@ class IMM:
         For callers that hold the fixes' positions already and have checked them (the trackers): one
         compiled call (`imm_kernels.start`, the arithmetic of `two_point` and `from_cv`).
         """
-        dt = np.full(len(p1), dt, dtype=float) if np.ndim(dt) == 0 else np.ascontiguousarray(dt, dtype=float)
-        return IMMState(*imm_kernels.start(np.asarray(p1, float), np.asarray(p2, float), np.asarray(cov2, float), dt,
-                                           *self._cv_extension, self._mu0_array))
+        return IMMState(*imm_kernels.start(np.asarray(p1, float), np.asarray(p2, float), np.asarray(cov2, float),
+                                           np.ascontiguousarray(dt, dtype=float), *self._cv_extension,
+                                           self._mu0_array))
 
     def from_cv(self, x: np.ndarray, P: np.ndarray, mu: np.ndarray | None = None) -> IMMState:
         """IMM state of K tracks from CV estimates x (K, 4), P (K, 4, 4); every model starts there."""

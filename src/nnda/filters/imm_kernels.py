@@ -254,10 +254,11 @@ def update(x, P, mu, z, mask, z_pred, S_inv, log_det, PHt, polar):
 
 @_jit
 def start(p1, p2, cov2, dt, x_rest, P_rest, mu0):
-    """IMM states of K tracks started from two fixes p1, p2 (K, 2) m, dt (K,) s apart, cov2 (K, 2, 2) the
-    second one's covariance: `nnda.filters.two_point.two_point`'s CV state and covariance (the same
-    arithmetic) in every model's first four entries, the rest from ``x_rest`` (r, n), ``P_rest`` (r, n, n)
-    (what each model appends to a CV estimate), and the mode probabilities ``mu0`` (r,)."""
+    """IMM states of K tracks started from two fixes p1, p2 (K, 2) m, dt (K,) s apart (or (1,): one interval
+    for all), cov2 (K, 2, 2) the second one's covariance: `nnda.filters.two_point.two_point`'s CV state and
+    covariance (the same arithmetic) in every model's first four entries, the rest from ``x_rest`` (r, n),
+    ``P_rest`` (r, n, n) (what each model appends to a CV estimate), and the mode probabilities ``mu0``
+    (r,)."""
     K = p1.shape[0]
     r, n = x_rest.shape
     x = np.empty((K, r, n))
@@ -266,7 +267,7 @@ def start(p1, p2, cov2, dt, x_rest, P_rest, mu0):
     cv_x = np.empty(4)
     cv_P = np.empty((4, 4))
     for k in range(K):
-        T = dt[k]
+        T = dt[0] if dt.shape[0] == 1 else dt[k]
         for a in range(2):  # positions at the even entries of [x, vx, y, vy], velocities at the odd ones
             cv_x[2 * a] = p2[k, a]
             cv_x[2 * a + 1] = (p2[k, a] - p1[k, a]) / T

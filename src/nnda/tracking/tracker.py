@@ -319,7 +319,7 @@ def _finished(scan, ux, uP, umu, kx, kP, kmu, d, sanity, release, gx, gP, track_
     contact gives it back and reports its prediction's estimate (gx (K, d), gP (K, d, d)) instead.
 
     Returns the status after the scan (K,), the estimate (x (K, d), P (K, d, d)) and the contacts used (K,) to
-    report, which of the scan's N contacts they are (N,), the scan's deletions (2 + 3,): preliminary tracks,
+    report, which of the scan's N contacts they are (N,), the scan's deletions (2 + 3 ints): preliminary tracks,
     confirmed tracks by their life cycle, then by each of `SANITY_REASONS`; and the surviving tracks' fields
     (`Tracks`: track_id (of ``track_id`` (K,)), status, (x, P, mu), history, counts, scores).
     """
@@ -351,7 +351,8 @@ def _finished(scan, ux, uP, umu, kx, kP, kmu, d, sanity, release, gx, gP, track_
     alive = np.flatnonzero(status != DELETED)
     survivors = (track_id[alive], status[alive], (fx[alive], fP[alive], fmu[alive]), history[alive], counts[alive],
                  scores[alive])
-    return status, x, P, contact, used, deletions, survivors
+    counted = (deletions[0], deletions[1], deletions[2], deletions[3], deletions[4])  # ints: no array to box
+    return status, x, P, contact, used, counted, survivors
 
 
 @numba.njit(cache=True, nogil=True)
@@ -769,8 +770,8 @@ class SingleHypothesisTracker(ContactTracker):
         status, x, P, contact, used, deletions, survivors = _finished(
             args, u.x, u.P, u.mu, k.x, k.P, k.mu, self.filter.output_dim, self._sanity_args,
             bool(getattr(self.config, "release_on_deletion", False)), g.x, g.P, tracks.track_id)
-        if deletions.any():
-            for reason, n in zip(("unconfirmed", self._ended_reason, *SANITY_REASONS), deletions.tolist()):
+        if any(deletions):
+            for reason, n in zip(("unconfirmed", self._ended_reason, *SANITY_REASONS), deletions):
                 self.deletions[reason] += n
         track_id, status_alive, filt, *rest = survivors
         alive = None if not track_id.size else Tracks(track_id, status_alive, IMMState(*filt), *rest)
