@@ -286,3 +286,28 @@ def test_joined_tracks_are_the_batch_concatenation():
     for mine, theirs in zip(joined._arrays(), concat._arrays()):
         assert mine.dtype == theirs.dtype
         np.testing.assert_array_equal(mine, theirs)
+
+
+def test_the_packed_track_fields_read_and_rescore_by_name():
+    """`Tracks` packs its fields by kind: the named views read the right columns (a new track's history is
+    its two contacts' times and positions), and `Tracks.rescored` changes the score alone (its maximum too
+    with ``restart``), copying."""
+    tracker = make_tracker("gnn", PRESETS["S1"].sensor, {"lifecycle": {"confirmation": "score"}})
+    scans = list(generate(PRESETS["S1"], seed=0).scans())
+    tracker.step(scans[0])
+    tracker.step(scans[1])
+    born = tracker.tracks
+    assert len(born) > 2 and born.history.shape == (len(born), 8) and born.counts.shape == (len(born), 3)
+    np.testing.assert_array_equal(born.t1, np.full(len(born), scans[0].time))
+    np.testing.assert_array_equal(born.t0, born.t1)
+    np.testing.assert_array_equal(born.t2, np.full(len(born), scans[1].time))
+    np.testing.assert_array_equal(born.p2, born.filt.x[:, 0, [0, 2]])  # a two-point start sits on its fix
+    assert born.p1.shape == born.p2.shape == (len(born), 2) and (born.hits == 0).all()
+    assert np.isfinite(born.confirm_at).all() and (born.max_score == born.score).all()
+    before = born.scores.copy()
+    again = born.rescored(born.score + 1.0)
+    np.testing.assert_array_equal(again.score, before[:, 0] + 1.0)
+    np.testing.assert_array_equal(again.max_score, before[:, 1])
+    np.testing.assert_array_equal(born.scores, before)  # the original is untouched
+    restarted = born.rescored(np.zeros(len(born)), restart=True)
+    assert (restarted.max_score == 0).all() and (restarted.confirm_at == born.confirm_at).all()
