@@ -4,7 +4,9 @@
 neighbour; the neural tracker's ``association = "global"``); `greedy_matching`
 takes pairs by descending score (the neural method's conflict rule, spec A10).
 Both take pairs as flat (rows, cols) arrays, so their cost grows with the
-candidate pairs rather than with tracks x contacts.
+candidate pairs rather than with tracks x contacts. `given` marks the
+contacts that tracks' picks (K,) took (compiled: the trackers' scan end and
+the neural tracker's stages call it).
 """
 
 from __future__ import annotations
@@ -13,6 +15,8 @@ import numba
 import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import min_weight_full_bipartite_matching
+
+from nnda.tracking.output import NO_CONTACT
 
 
 def least_cost_assignment(rows: np.ndarray, cols: np.ndarray, cost: np.ndarray, miss_cost: np.ndarray
@@ -72,3 +76,13 @@ def greedy_kernel(rows, cols, score):
             col_taken[c] = True
     kept = np.flatnonzero(pick >= 0)
     return kept, pick[kept]
+
+
+@numba.njit(cache=True, nogil=True)
+def given(contact, n):
+    """(n,) True for the contacts some track of ``contact`` (K,) took."""
+    taken = np.zeros(n, np.bool_)
+    for c in contact:
+        if c != NO_CONTACT:
+            taken[c] = True
+    return taken

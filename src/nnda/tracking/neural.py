@@ -101,8 +101,9 @@ from nnda.models.context import IMM_CONTEXT, with_context
 from nnda.models.feature_sets import FEATURE_SETS
 from nnda.models.innovation import IMM_INNOVATION, scan_features
 from nnda.models.scorer import Scorer, load_model
+from nnda.tracking.assignment import given
 from nnda.tracking.gating import Gated, gate, gate_tracks
-from nnda.tracking.neural_matching import RULES, first_stage, given, reacquire, reacquired, rest_stage, solved
+from nnda.tracking.neural_matching import RULES, first_stage, reacquire, reacquired, rest_stage, solved
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY
 from nnda.tracking.tracker import (
     Association,

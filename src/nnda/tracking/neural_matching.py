@@ -35,7 +35,7 @@ import numba
 import numpy as np
 
 from nnda.models.scorer import score_log_odds
-from nnda.tracking.assignment import greedy_kernel, least_cost_assignment
+from nnda.tracking.assignment import given, greedy_kernel, least_cost_assignment
 from nnda.tracking.output import CONFIRMED, NO_CONTACT
 
 #: the matching rules' codes in the compiled passes, by `NeuralConfig.association`
@@ -248,16 +248,6 @@ def reacquire(rows, cols, d2, waiting, taken, gate):
     if not free.any():
         return rows[free], cols[free]
     return greedy_kernel(rows[free], cols[free], -d2[free])
-
-
-@numba.njit(cache=True, nogil=True)
-def given(contact, n):
-    """(n,) True for the contacts some track of ``contact`` (K,) took."""
-    taken = np.zeros(n, np.bool_)
-    for c in contact:
-        if c != NO_CONTACT:
-            taken[c] = True
-    return taken
 
 
 @numba.njit(cache=True, nogil=True)

@@ -59,6 +59,7 @@ from nnda.filters.imm import IMM, IMMPrediction, IMMState
 from nnda.filters.imm_kernels import estimate, pair_log_likelihood
 from nnda.filters.kalman import GATE_99
 from nnda.filters.measurement import measurement_model
+from nnda.tracking.assignment import given
 from nnda.tracking.clutter_density import coverage_area, local_density
 from nnda.tracking.lifecycle import (
     DELETION_REASONS,
@@ -308,7 +309,7 @@ def _scanned_moved(contact, observed, status, counts, m, misses_to_delete, max_m
 
 
 @numba.njit(cache=True, nogil=True)
-def _finished(scan, ux, uP, umu, kx, kP, kmu, d, sanity, release, gx, gP, track_id):
+def _finished(scan, ux, uP, umu, kx, kP, kmu, d, sanity, release, gx, gP, track_id, n_contacts):
     """The end of a scan for K tracks after association, in one call (`SingleHypothesisTracker._finish`).
 
     ``scan`` holds `_scanned_moved`'s arguments (`Tracks._scan_args`: the contact each track used first);
@@ -319,11 +320,11 @@ def _finished(scan, ux, uP, umu, kx, kP, kmu, d, sanity, release, gx, gP, track_
     contact gives it back and reports its prediction's estimate (gx (K, d), gP (K, d, d)) instead.
 
     Returns the status after the scan (K,), the estimate (x (K, d), P (K, d, d)) and the contacts used (K,) to
-    report, which of the scan's N contacts they are (N,), the scan's deletions (2 + 3 ints): preliminary tracks,
+    report, which of the scan's ``n_contacts`` they are, the scan's deletions (2 + 3 ints): preliminary tracks,
     confirmed tracks by their life cycle, then by each of `SANITY_REASONS`; and the surviving tracks' fields
     (`Tracks`: track_id (of ``track_id`` (K,)), status, (x, P, mu), history, counts, scores).
     """
-    contact, before, n_contacts = scan[0], scan[2], scan[16].shape[0]  # scan[16]: the scan's xy (N, 2)
+    contact, before = scan[0], scan[2]
     status, counts, scores, history = _scanned_moved(*scan)
     fx, fP, fmu = _picked(contact != NO_CONTACT, ux, uP, umu, kx, kP, kmu)
     x, P = estimate(ux, uP, umu, d)
@@ -344,10 +345,7 @@ def _finished(scan, ux, uP, umu, kx, kP, kmu, d, sanity, release, gx, gP, track_
             if status[k] == DELETED and before[k] != DELETED and contact[k] != NO_CONTACT:
                 x[k], P[k] = gx[k], gP[k]
                 contact[k] = NO_CONTACT
-    used = np.zeros(n_contacts, np.bool_)
-    for k in range(status.size):
-        if contact[k] != NO_CONTACT:
-            used[contact[k]] = True
+    used = given(contact, n_contacts)
     alive = np.flatnonzero(status != DELETED)
     survivors = (track_id[alive], status[alive], (fx[alive], fP[alive], fmu[alive]), history[alive], counts[alive],
                  scores[alive])
@@ -769,7 +767,7 @@ class SingleHypothesisTracker(ContactTracker):
                                  self._score_gain(pred, scan, assoc))
         status, x, P, contact, used, deletions, survivors = _finished(
             args, u.x, u.P, u.mu, k.x, k.P, k.mu, self.filter.output_dim, self._sanity_args,
-            bool(getattr(self.config, "release_on_deletion", False)), g.x, g.P, tracks.track_id)
+            bool(getattr(self.config, "release_on_deletion", False)), g.x, g.P, tracks.track_id, len(scan.z))
         if any(deletions):
             for reason, n in zip(("unconfirmed", self._ended_reason, *SANITY_REASONS), deletions):
                 self.deletions[reason] += n
