@@ -247,7 +247,7 @@ def test_targets_confirmed_quickly_with_consistent_errors(model_file, preset):
     # 2-D normalised errors: median 1.39 and 99 % below 9.21 if the covariance is right
     assert 0.7 < np.median(nees) < 2.5 and np.mean(nees < 9.21) > 0.9
     m = run_metrics(ds, outputs)
-    # S2: ~83 % with the spec's three features (the thesis reports 93 %): track breaks, see README
+    # S2: ~83 % with the spec's three features (the thesis reports 93 %), from track breaks
     assert m.false_tracks == 0 and m.hit_rate > (90.0 if preset == "S1" else 80.0)
 
 
