@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pyarrow.csv as pacsv
@@ -23,7 +24,8 @@ from nnda.models.preprocessing import Normaliser
 from nnda.models.scorer import Scorer, save_model
 from nnda.study.job import run_job, scalars
 from nnda.study.plan import JobSpec
-from nnda.study.track import COV_COLUMNS, TRACK_SCHEMA, run_tracker
+from nnda.study.track import COV_COLUMNS, TRACK_SCHEMA, run_tracker, tracker_params
+from nnda.tracking.neural import life5
 from nnda.tracking.output import TrackStatus
 
 SEED = 4
@@ -138,3 +140,14 @@ def test_csv_format_and_a_dataset_without_truth(s1, tmp_path, monkeypatch):
     want = run_tracker(tmp_path / "plots", "gnn").table
     assert back.column_names == want.column_names and back.num_rows == want.num_rows
     np.testing.assert_array_equal(back.column("cov_x_x").to_numpy(), want.column("cov_x_x").to_numpy())
+
+
+def test_the_example_nn_life_config_is_life5_and_tracks(s1_dir):
+    example = Path(__file__).resolve().parents[2] / "examples" / "nn-life.toml"
+    fs = feature_set("imm-innovation-9")
+    weights = MLPWeights.from_vector(np.random.default_rng(1).normal(0, 0.5, n_weights(fs.size, 5)), fs.size, 5)
+    model = save_model(Scorer(weights, Normaliser(np.zeros(fs.size), np.ones(fs.size)), fs),
+                       s1_dir.parent / "ext.json")
+    assert tracker_params(example, model) == {"feature_set": "imm-innovation-9", **life5(), "model": str(model)}
+    run = run_tracker(s1_dir, "nn", example, model)
+    assert run.table.num_rows > 0 and run.scores.values["confirmed_tracks"] > 0
