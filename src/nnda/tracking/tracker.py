@@ -177,6 +177,8 @@ def _valid(z, polar):
 #: columns of `Tracks.history`: the contact before the last (x, y m; time s), the last (x, y m; time s; azimuth
 #: rad) and the time (s) of the track's first contact
 P1, T1, P2, T2, AZ2, T0 = slice(0, 2), 2, slice(3, 5), 5, 6, 7
+#: the x columns of p1 and p2 (y follows each), for the compiled loops that write them entry by entry
+X1, X2 = P1.start, P2.start
 #: columns of `Tracks.counts`: the M/N counters
 HITS, MISSES, CONSECUTIVE = 0, 1, 2
 #: columns of `Tracks.scores`: the track score, its maximum so far, the score that confirms the track
@@ -388,9 +390,8 @@ def _moved_history(contact, history, xy, azimuth, time):
     for k in range(contact.size):
         c = contact[k]
         if c != NO_CONTACT:
-            # p1, t1 <- p2, t2 (columns 0-2 <- 3-5)
-            history[k, 0], history[k, 1], history[k, T1] = history[k, 3], history[k, 4], history[k, T2]
-            history[k, 3], history[k, 4], history[k, T2], history[k, AZ2] = xy[c, 0], xy[c, 1], time, azimuth[c]
+            history[k, X1], history[k, X1 + 1], history[k, T1] = history[k, X2], history[k, X2 + 1], history[k, T2]
+            history[k, X2], history[k, X2 + 1], history[k, T2], history[k, AZ2] = xy[c, 0], xy[c, 1], time, azimuth[c]
     return history
 
 
@@ -520,7 +521,7 @@ def _opened(free, i, j, windowed, initiators, z, xy, first_id, before, time, con
     history = np.zeros((k, 8))
     scores = np.zeros((k, 3))
     for t in range(k):
-        history[t, 0], history[t, 1] = initiators[i[t], 0], initiators[i[t], 1]
+        history[t, X1], history[t, X1 + 1] = initiators[i[t], 0], initiators[i[t], 1]
         history[t, T1], history[t, T0], history[t, T2], history[t, AZ2] = before, before, time, z[contact[t], 1]
         scores[t, CONFIRM_AT] = confirm_at
     fields = (np.arange(first_id, first_id + k), np.full(k, PRELIMINARY, np.int8), history,
