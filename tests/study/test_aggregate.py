@@ -6,7 +6,8 @@ import math
 
 import pytest
 
-from nnda.study.results import _nanmean_rows, mean_ci
+from nnda.study.results import _nanmean_rows
+from nnda.study.stats import mean_ci
 
 #: Student t quantiles from printed tables: t(0.975; 3) and t(0.95; 9)
 T_975_3 = 3.182446

@@ -38,7 +38,7 @@ from nnda.reports import study_figures
 from nnda.reports.text_table import DASH, TextTable, interval, stat_cell
 from nnda.study.cardinality import CARDINALITY_FILE, Counts, read_cardinality
 from nnda.study.measures import measure
-from nnda.study.results import mean_ci
+from nnda.study.stats import mean_ci
 
 COUNT_ERROR = measure("count_error")
 #: how the filter-cardinality table reads its numbers (counts per scan)

@@ -22,6 +22,7 @@ import numpy as np
 from nnda.models.features import KINEMATIC
 from nnda.models.metrics import SPEC_TABLE_6_3, ClassifierMetrics
 from nnda.reports.text_table import DASH, TextTable, interval
+from nnda.study.stats import bootstrap_indices, percentile_interval
 
 if TYPE_CHECKING:  # the experiment module imports torch; tables are also made without it
     from nnda.models.experiment import FitResult, RunSummary, SweepResult
@@ -80,9 +81,8 @@ def mean_interval(values: Sequence[float], level: float = 0.95, resamples: int =
     mean = float(v.mean())
     if v.size < 2:
         return mean, float("nan"), float("nan")
-    means = v[np.random.default_rng(0).integers(0, v.size, (resamples, v.size))].mean(axis=1)
-    lo, hi = np.quantile(means, [(1 - level) / 2, (1 + level) / 2])
-    return mean, float(lo), float(hi)
+    means = v[bootstrap_indices(0, v.size, resamples)].mean(axis=1)
+    return mean, *percentile_interval(means, level)
 
 
 def _cell(values: Sequence[float], fmt: str) -> str:

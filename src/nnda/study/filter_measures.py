@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from nnda.study.measures import Measure
+from nnda.study.stats import root_mean_square
 
 #: chi-square 99.9% quantile, 4 degrees of freedom: a NEES above it counts as divergence
 NEES_BOUND = 18.4668
@@ -67,7 +68,7 @@ def _position_error(r: FilterRun) -> np.ndarray:
 def _rmse(columns: tuple[int, int]):
     def compute(r: FilterRun) -> float:
         e = r.error()[r.started][:, list(columns)]
-        return float(np.sqrt((e**2).sum(axis=1).mean())) if len(e) else math.nan
+        return float(root_mean_square((e**2).sum(axis=1)))
     return compute
 
 

@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
+from nnda.study.stats import root_mean_square
 from nnda.tracking.output import TrackStatus
 
 if TYPE_CHECKING:
@@ -161,7 +162,7 @@ def _position_rmse(r: ScoredRun) -> float:
     pos = np.searchsorted(truth_key, est_key)
     found = (pos < truth_key.size) & (truth_key[np.minimum(pos, truth_key.size - 1)] == est_key)
     err2 = (r.x[rows][found] - truth.x[pos[found]]) ** 2 + (r.y[rows][found] - truth.y[pos[found]]) ** 2
-    return float(np.sqrt(err2.mean())) if err2.size else float("nan")
+    return float(root_mean_square(err2))
 
 
 # ----------------------------------------------------------------------------- per scan

@@ -73,7 +73,7 @@ from nnda.filters.ground_motion import ThesisCV
 from nnda.filters.imm import IMM
 from nnda.filters.measurement import measurement_model
 from nnda.study.gospa import gospa, ospa
-from nnda.study.results import mean_ci
+from nnda.study.stats import bootstrap_indices, mean_ci, percentile_interval, root_mean_square
 from nnda.tracking.output import CONFIRMED
 from nnda.tracking.registry import TRACKERS, make_tracker
 from nnda.tracking.tracker import Tracker
@@ -324,8 +324,7 @@ def owned(trace: Trace, n_scans: int, cutoff: float) -> Owned:
 def _rms(sq: np.ndarray, found: np.ndarray) -> np.ndarray:
     """sqrt(sum over runs of squared errors / points found) per scan (..., K) from per-run sums (..., R, K);
     NaN where no run found a point."""
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.sqrt(sq.sum(axis=-2) / found.sum(axis=-2))
+    return root_mean_square(sq, found, axis=-2)
 
 
 def _mean_rms(sq: np.ndarray, found: np.ndarray) -> np.ndarray:
@@ -333,13 +332,8 @@ def _mean_rms(sq: np.ndarray, found: np.ndarray) -> np.ndarray:
     return np.nanmean(_rms(sq, found), axis=-1)
 
 
-def _percentiles(samples: np.ndarray, confidence: float) -> tuple[float, float]:
-    tail = (1 - confidence) / 2
-    return float(np.quantile(samples, tail)), float(np.quantile(samples, 1 - tail))
-
-
 def _stat(value: float, samples: np.ndarray, confidence: float) -> dict:
-    low, high = _percentiles(samples, confidence)
+    low, high = percentile_interval(samples, confidence)
     return {"mean": float(value), "ci_low": low, "ci_high": high, "n": int(samples.size)}
 
 
@@ -375,7 +369,7 @@ def score_accuracy(traces: dict[str, list[Trace]], n_scans: int, cfg: Pedestrian
     labels = list(traces)
     own = {f: [owned(t, n_scans, cfg.cutoff_m) for t in traces[f]] for f in labels}
     R = len(traces[labels[0]])
-    idx = np.random.default_rng([cfg.seed, salt]).integers(0, R, size=(cfg.bootstrap, R))
+    idx = bootstrap_indices([cfg.seed, salt], R, cfg.bootstrap)
     out: dict = {"runs": R, "n_scans": n_scans, "filters": {}, "differences": []}
     boot, per_run = {}, {}
     for f in labels:

@@ -28,12 +28,11 @@ from typing import Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
-from scipy.stats import binomtest
 
 from nnda.data.reentry import ReentryConfig, ReentryData, simulate
 from nnda.filters.particle.smc import SMCConfig, run_smc
 from nnda.filters.reentry import converted_kf, ekf, reentry_ssm, ukf
-from nnda.study.results import mean_ci
+from nnda.study.stats import bootstrap_indices, mean_ci, percentile_interval, root_mean_square, sign_test_p
 
 RESULTS_FORMAT = "nnda-reentry-study"
 RESULTS_VERSION = 1
@@ -130,10 +129,10 @@ def _scores(mean: np.ndarray, truth: np.ndarray) -> dict:
     """RMSE per step, time-averaged and final per component; per-run position errors (time-averaged and
     final), their median and the worst final one (a diverged run shows there)."""
     err = mean - truth[:, 1:]
-    rmse = np.sqrt((err**2).mean(axis=0))  # (K, 4)
+    rmse = root_mean_square(err**2, axis=0)  # (K, 4)
     pos2 = err[..., 0] ** 2 + err[..., 2] ** 2  # (R, K)
-    position = np.sqrt(pos2.mean(axis=0))
-    per_run, final = np.sqrt(pos2.mean(axis=1)), np.sqrt(pos2[:, -1])
+    position = root_mean_square(pos2, axis=0)
+    per_run, final = root_mean_square(pos2, axis=1), np.sqrt(pos2[:, -1])
     return {
         "rmse": {c: rmse[:, i].tolist() for i, c in enumerate(COMPONENTS)} | {"position": position.tolist()},
         "time_avg": {c: float(rmse[:, i].mean()) for i, c in enumerate(COMPONENTS)} | {
@@ -149,12 +148,9 @@ def _scores(mean: np.ndarray, truth: np.ndarray) -> dict:
 def _ratio_interval(num: np.ndarray, den: np.ndarray, confidence: float, seed: int) -> tuple[float, float]:
     """Paired bootstrap interval over runs of the ratio of time-averaged position RMSE; num, den (R, K) the
     squared position errors of the two filters."""
-    rng = np.random.default_rng(seed)
-    R = num.shape[0]
-    idx = rng.integers(0, R, size=(BOOTSTRAP_RESAMPLES, R))
-    ratio = np.sqrt(num[idx].mean(axis=1)).mean(axis=1) / np.sqrt(den[idx].mean(axis=1)).mean(axis=1)
-    tail = (1 - confidence) / 2
-    return float(np.quantile(ratio, tail)), float(np.quantile(ratio, 1 - tail))
+    idx = bootstrap_indices(seed, num.shape[0], BOOTSTRAP_RESAMPLES)
+    ratio = root_mean_square(num[idx], axis=1).mean(axis=1) / root_mean_square(den[idx], axis=1).mean(axis=1)
+    return percentile_interval(ratio, confidence)
 
 
 def compare(a: str, b: str, errors: dict[str, np.ndarray], scores: dict[str, dict], confidence: float,
@@ -166,10 +162,9 @@ def compare(a: str, b: str, errors: dict[str, np.ndarray], scores: dict[str, dic
     df = np.array(scores[a]["per_run_final_position"]) - np.array(scores[b]["per_run_final_position"])
     low, high = _ratio_interval(errors[a], errors[b], confidence, seed)
     ratio = scores[a]["time_avg"]["position"] / scores[b]["time_avg"]["position"]
-    wins, ties = int((da > 0).sum()), int((da == 0).sum())
-    sign_p = float(binomtest(wins, da.size - ties).pvalue) if da.size > ties else 1.0
     return {"a": a, "b": b, "difference": mean_ci(da, confidence), "final_difference": mean_ci(df, confidence),
-            "median_difference": float(np.median(da)), "b_better": float((da > 0).mean()), "sign_test_p": sign_p,
+            "median_difference": float(np.median(da)), "b_better": float((da > 0).mean()),
+            "sign_test_p": sign_test_p(da),
             "ratio": {"mean": ratio, "ci_low": low, "ci_high": high}}
 
 

@@ -38,7 +38,6 @@ whether run at once, resumed, locally or on Dask.
 
 from __future__ import annotations
 
-import math
 import os
 import platform
 from pathlib import Path
@@ -46,7 +45,6 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
-from scipy import stats
 
 import nnda
 from nnda.errors import DatasetError
@@ -56,6 +54,7 @@ from nnda.study.filter_measures import FILTER_MEASURES, FILTER_SERIES
 from nnda.study.measures import RUN_MEASURES, SERIES_MEASURES, TIME
 from nnda.study.plan import StudyPlan
 from nnda.study.runner import Execution, read_job
+from nnda.study.stats import mean_ci
 from nnda.tracking.lifecycle import DELETION_REASONS
 from nnda.tracking.output import TrackStatus
 
@@ -70,27 +69,6 @@ TIMING_FILE = "timing.parquet"
 TIMING_SUMMARY_FILE = "timing.json"
 #: GOSPA's fixed parameters (the cut-off is the study's)
 GOSPA_P, GOSPA_ALPHA = 2, 2
-
-
-def mean_ci(values, confidence: float = 0.95, low: float = -math.inf, high: float = math.inf) -> dict:
-    """Mean and two-sided Student-t interval of the mean over runs, clipped to [low, high].
-
-    ``values`` may hold None/NaN (undefined in a run, e.g. a hit rate with
-    no contacts); they are left out and ``n`` counts the rest. With one
-    value the interval is undefined (None); with none, everything is None.
-    ``low``/``high`` are the measure's possible range (a count is never
-    negative): with few runs the t-interval can reach past it, and is cut.
-    """
-    x = np.array([np.nan if v is None else v for v in values], dtype=float)
-    x = x[np.isfinite(x)]
-    n = int(x.size)
-    if n == 0:
-        return {"mean": None, "ci_low": None, "ci_high": None, "n": 0}
-    mean = float(x.mean())
-    if n == 1:
-        return {"mean": mean, "ci_low": None, "ci_high": None, "n": 1}
-    half = float(stats.t.ppf(0.5 + confidence / 2, n - 1) * x.std(ddof=1) / math.sqrt(n))
-    return {"mean": mean, "ci_low": max(mean - half, low), "ci_high": min(mean + half, high), "n": n}
 
 
 def _nanmean_rows(rows: list[list[float]]) -> list[float | None]:

@@ -59,10 +59,9 @@ import time
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
-from scipy.stats import binomtest, fisher_exact
 
 from nnda.data.frames import FramesConfig, simulate
-from nnda.study.results import mean_ci
+from nnda.study.stats import clopper_pearson, fisher_p, mean_ci, root_mean_square
 from nnda.study.tbd_chain import ChainConfig, frame_detections, run_chain
 from nnda.tracking.tbd import FILTERS, TBDConfig, run_tbd, tbd_model
 
@@ -162,21 +161,19 @@ class TBDStudyConfig(BaseModel):
 
 def divergence(count: int, runs: int, confidence: float) -> dict:
     """``count`` of ``runs`` with its Clopper-Pearson (exact binomial) interval."""
-    ci = binomtest(count, runs).proportion_ci(confidence, method="exact")
-    return {"count": count, "runs": runs, "rate": count / runs, "ci_low": float(ci.low), "ci_high": float(ci.high)}
+    low, high = clopper_pearson(count, runs, confidence)
+    return {"count": count, "runs": runs, "rate": count / runs, "ci_low": low, "ci_high": high}
 
 
 def fisher(a: dict, b: dict) -> float:
     """Two-sided p of Fisher's exact test of two divergence records (count of runs)."""
-    table = [[a["count"], a["runs"] - a["count"]], [b["count"], b["runs"] - b["count"]]]
-    return float(fisher_exact(table).pvalue)
+    return fisher_p((a["count"], a["runs"]), (b["count"], b["runs"]))
 
 
 def _rmse(err2: np.ndarray, mask: np.ndarray) -> list[float | None]:
     """Per-frame RMSE (K,) over the runs where ``mask`` (R, K) holds; None for a frame with none."""
-    n = mask.sum(axis=0)
-    total = np.where(mask, err2, 0.0).sum(axis=0)
-    return [None if c == 0 else float(np.sqrt(t / c)) for t, c in zip(total, n)]
+    rms = root_mean_square(np.where(mask, err2, 0.0), mask, axis=0)
+    return [None if c == 0 else float(v) for v, c in zip(rms, mask.sum(axis=0))]
 
 
 def score(truth: np.ndarray, position: np.ndarray, present: np.ndarray, cfg: TBDStudyConfig) -> dict:
