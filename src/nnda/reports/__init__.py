@@ -1,5 +1,6 @@
 """Pictures, tables and reports: a dataset's plot, the association network's tables, a study's report.
 
+``pages`` holds the page model (`Section`, `Figure`, the Markdown and HTML pages);
 ``text_table`` holds `TextTable` (console, Markdown and HTML renderings)
 and the one ``mean [low, high]`` formatter; ``classifier_tables`` the
 association network's tables; ``scenario_plot`` draws one dataset;

@@ -188,7 +188,7 @@ def figure(lines: dict[str, dict[str, dict[int, dict]]], trackers: list[str]) ->
 
 def clutter_section(section, manifest: dict, summary: dict, timing: dict,
                     made: Callable[[str, str, bytes], object]):
-    """Fill ``section`` (a `nnda.reports.study_report.Section`) when the study holds a sweep; else None.
+    """Fill ``section`` (a `nnda.reports.pages.Section`) when the study holds a sweep; else None.
     ``made(name, caption, png)`` registers a figure and returns it for ``section.figure``."""
     found = sweeps(manifest)
     if not found:

@@ -42,7 +42,7 @@ def deletions(out: Path) -> dict[str, tuple[str, dict[str, float]]]:
 
 
 def deletions_section(section, out: Path):
-    """Fill ``section`` (a `nnda.reports.study_report.Section`) with the deletions table; None without one."""
+    """Fill ``section`` (a `nnda.reports.pages.Section`) with the deletions table; None without one."""
     found = deletions(out)
     if not found:
         return None

@@ -12,7 +12,7 @@ from nnda.study.measures import TIME
 
 
 def filters_section(section, summary: dict, timing: dict):
-    """Fill ``section`` (a `nnda.reports.study_report.Section`) from the study's ``filters`` summaries."""
+    """Fill ``section`` (a `nnda.reports.pages.Section`) from the study's ``filters`` summaries."""
     conf = summary["confidence"]
     section.text("Single-target filters run on the study's single-target scenarios with the target's own "
                  "contacts (the generator's labels: no association), from the two-point start onwards, and are "

@@ -62,7 +62,7 @@ def _claim(what: str, mine: dict, theirs: dict, ms, label: str, reference: str) 
 
 
 def fusion_section(section, manifest: dict, summary: dict):
-    """Fill ``section`` (a `nnda.reports.study_report.Section`) for every scenario with several sensors and
+    """Fill ``section`` (a `nnda.reports.pages.Section`) for every scenario with several sensors and
     single-sensor trackers; None when the study has no such comparison."""
     singles = single_sensor(manifest)
     sensors = {s["name"]: len(s["scenario"].get("sensors", [])) for s in manifest["scenarios"]}

@@ -28,7 +28,7 @@ from rich.console import Console
 
 from nnda.errors import ConfigError, validated
 from nnda.files import read_config, refuse_existing, write_json, write_results_directory
-from nnda.reports.pages import REPORT_HTML, write_pages
+from nnda.reports.pages import REPORT_HTML, Figure, Section, write_pages
 from nnda.reports.pedestrian_values import THESIS_EXCESS, THESIS_RMS, THESIS_RUNTIME_S, THESIS_STRESS_SCANS
 from nnda.reports.text_table import DASH, TextTable, stat_cell
 from nnda.study.pedestrian import (
@@ -339,10 +339,8 @@ def test1_figure(test1: dict) -> bytes:
 
 
 def pedestrian_section(section, results: dict) -> tuple[object, list]:
-    """Fill ``section`` (a `nnda.reports.study_report.Section`) from a pedestrian study's results; returns
-    it and its figures (`nnda.reports.study_report.Figure`)."""
-    from nnda.reports.study_report import Figure
-
+    """Fill ``section`` (a `nnda.reports.pages.Section`) from a pedestrian study's results; returns
+    it and its figures (`nnda.reports.pages.Figure`)."""
     cfg = results["config"]
     birth = ("measurement-driven (rate 0.1 per scan over the unexplained contacts)" if cfg["birth"] == "measurement"
              else "the thesis's oracle birth (the walkers' true first states at the first scan only)")
@@ -390,8 +388,6 @@ def pedestrian_section(section, results: dict) -> tuple[object, list]:
 
 def write_report(out: Path, results: dict) -> None:
     """``out``/report.md, report.html and figures/ of ``results``."""
-    from nnda.reports.study_report import Section  # plotly only when reporting
-
     section, figures = pedestrian_section(Section("pedestrian", "Pedestrian study (seed 000)", [], []), results)
     write_pages(out, TITLE, [section], figures)
 

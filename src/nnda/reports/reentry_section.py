@@ -20,7 +20,7 @@ from rich.console import Console
 
 from nnda.errors import validated
 from nnda.files import read_config, refuse_existing, write_results_directory
-from nnda.reports.pages import REPORT_HTML, write_pages
+from nnda.reports.pages import REPORT_HTML, Section, write_pages
 from nnda.reports.text_table import DASH, TextTable, interval, stat_cell
 from nnda.study.reentry import PRIOR, RESULTS_FILE, ReentryStudyConfig, run_reentry_study
 
@@ -106,7 +106,7 @@ def _verdict(c: dict, filters: dict) -> str:
 
 
 def reentry_section(section, results: dict):
-    """Fill ``section`` (a `nnda.reports.study_report.Section`) from a re-entry study's results."""
+    """Fill ``section`` (a `nnda.reports.pages.Section`) from a re-entry study's results."""
     cfg = results["config"]
     conf = cfg["confidence"]
     when = "at every step" if cfg["ess_threshold"] is None else f"when ESS < {cfg['ess_threshold']} N"
@@ -161,8 +161,6 @@ def _against_b5(results: dict) -> str:
 
 def write_report(out: Path, results: dict) -> None:
     """``out``/report.md and report.html of ``results``."""
-    from nnda.reports.study_report import Section  # plotly only when reporting
-
     write_pages(out, TITLE, [reentry_section(Section("reentry", "Ballistic re-entry filters", [], []), results)])
 
 

@@ -22,11 +22,7 @@ view while scrolling (sticky), figures scale to the window.
 
 from __future__ import annotations
 
-import base64
-import html
 import json
-import re
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +30,7 @@ import pyarrow.parquet as pq
 
 from nnda.data.scenario import scenario_from_dict
 from nnda.errors import DatasetError
-from nnda.files import atomic_file, read_json
+from nnda.files import read_json
 from nnda.models.ablation import ABLATION_FILE
 from nnda.reports import (
     ablation_section,
@@ -49,7 +45,7 @@ from nnda.reports.clutter_section import clutter_section
 from nnda.reports.deletions_section import deletions_section
 from nnda.reports.filters_section import filters_section
 from nnda.reports.fusion_section import fusion_section
-from nnda.reports.pages import FIGURES, REPORT_HTML, REPORT_MD
+from nnda.reports.pages import FIGURES, Figure, Section, html_page, markdown_page, write_pages
 from nnda.reports.peers_section import against_stonesoup, peer_labels
 from nnda.reports.study_tables import is_thesis_scenario, scenario_table
 from nnda.reports.text_table import DASH, TextTable
@@ -60,59 +56,6 @@ from nnda.study.plan import STUDY_FORMAT, STUDY_FORMAT_VERSION
 from nnda.study.results import TIMING_FILE, TRAJECTORIES_FILE, read_summary
 from nnda.study.runner import MANIFEST
 from nnda.tracking.registry import confirmation_rule
-
-
-@dataclass(frozen=True)
-class Figure:
-    """A PNG figure: file name under figures/, caption, bytes."""
-
-    name: str
-    caption: str
-    png: bytes
-
-
-@dataclass
-class Section:
-    """One report section in both renderings."""
-
-    ident: str
-    title: str
-    md: list[str]
-    html: list[str]
-
-    def text(self, paragraph: str) -> None:
-        self.md += [paragraph, ""]
-        self.html.append(_md_html(paragraph))
-
-    def table(self, table: TextTable, ident: str = "") -> None:
-        self.md.append(table.markdown())
-        self.html.append(table.html(ident))
-
-    def figure(self, fig: Figure) -> None:
-        self.md += [f"![{fig.caption}]({FIGURES}/{fig.name})", ""]
-        data = base64.b64encode(fig.png).decode()
-        self.html.append(f'<figure><img alt="{html.escape(fig.caption)}" src="data:image/png;base64,{data}">'
-                         f"<figcaption>{html.escape(fig.caption)}</figcaption></figure>")
-
-
-def _inline(text: str) -> str:
-    """Escape, then render **bold** and `code` of our own generated Markdown."""
-    text = html.escape(text)
-    text = re.sub(r"\*\*(.+?)\*\*", r"<strong>\1</strong>", text)
-    return re.sub(r"`(.+?)`", r"<code>\1</code>", text)
-
-
-def _md_html(text: str) -> str:
-    """HTML of the small Markdown subset the report writes: paragraphs, '* ' bullet lists, bold, code."""
-    out = []
-    for block in text.strip().split("\n\n"):
-        lines = block.splitlines()
-        if all(line.startswith("* ") for line in lines):
-            items = "".join(f"<li>{_inline(line[2:])}</li>" for line in lines)
-            out.append(f"<ul>{items}</ul>")
-        else:
-            out.append(f"<p>{_inline(' '.join(lines))}</p>")
-    return "".join(out)
 
 
 def _columns(path: Path) -> dict[str, np.ndarray]:
@@ -301,6 +244,12 @@ def _kept(fig: Figure, figures: list[Figure]) -> Figure:
 
 def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
     """Markdown text, HTML text and the figures of the report of study directory ``out``."""
+    title, sections, figures = report_sections(out)
+    return markdown_page(title, sections), html_page(title, sections, plotly_js()), figures
+
+
+def report_sections(out: str | Path) -> tuple[str, list[Section], list[Figure]]:
+    """The title, sections and figures of the report of study directory ``out``."""
     out = Path(out)
     manifest = read_json(out / MANIFEST, STUDY_FORMAT, STUDY_FORMAT_VERSION)
     summary, timing = read_summary(out)
@@ -352,63 +301,11 @@ def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
             Section("cardinality", "Target count over time", [], []), out, summary, scan_times,
             lambda *made: _kept(Figure(*made), figures)))
 
-    title = f"nnda study report: {manifest['study']['name']}"
-    return markdown_page(title, sections), html_page(title, sections), figures
-
-
-def markdown_page(title: str, sections: list[Section]) -> str:
-    """A whole Markdown page: the title and each section under its heading."""
-    md = "\n".join([f"# {title}", ""] + [line for s in sections for line in [f"## {s.title}", "", *s.md]])
-    return md.rstrip() + "\n"
-
-
-_CSS = """
-body { font: 16px/1.5 system-ui, -apple-system, "Segoe UI", sans-serif; margin: 0 auto; max-width: 1300px;
-       padding: 0 2em 3em; color: #222; }
-h1 { font-size: 1.6em; margin: .6em 0 .2em; } h2 { font-size: 1.3em; margin: 1.6em 0 .4em; }
-h2 { border-bottom: 1px solid #ddd; padding-bottom: .15em; }
-nav.toc { font-size: .85em; line-height: 1.8; padding: .2em 0 .4em; border-bottom: 1px solid #ddd; }
-nav.toc strong { margin-right: .6em; } nav.toc a { margin-right: 1em; white-space: nowrap; }
-a { color: #1f5fa8; text-decoration: none; } a:hover { text-decoration: underline; }
-div.table { overflow: auto; max-height: 85vh; margin: 1em 0 .3em; }
-table { border-collapse: separate; border-spacing: 0; font-size: .85em; }
-caption { text-align: left; font-weight: 600; padding: .3em 0; position: sticky; left: 0; }
-th, td { border-right: 1px solid #ccc; border-bottom: 1px solid #ccc; padding: .2em .5em; text-align: right;
-         white-space: nowrap; background: #fff; }
-tr > :first-child { border-left: 1px solid #ccc; } thead th { border-top: 1px solid #ccc; }
-th:first-child, td:first-child { text-align: left; white-space: pre; position: sticky; left: 0; z-index: 1; }
-thead th { background: #f3f3f3; position: sticky; top: 0; z-index: 2; }
-thead th:first-child { z-index: 3; }
-td.text { text-align: left; white-space: normal; min-width: 24em; max-width: 48em; }
-p.note { font-size: .85em; color: #555; margin-top: 0; max-width: 60em; }
-figure { margin: 1em 0; } figure img { max-width: 100%; height: auto; }
-figcaption { font-size: .85em; color: #555; max-width: 60em; }
-code { background: #f3f3f3; padding: 0 .2em; }
-"""
-
-
-def html_page(title: str, sections: list[Section]) -> str:
-    """A whole HTML page: the title, a table of contents (links to the section ids) and the sections (also the
-    re-entry report's page)."""
-    toc = " ".join(f'<a href="#{s.ident}">{html.escape(s.title)}</a>' for s in sections)
-    body = "".join(f'<section id="{s.ident}"><h2>{html.escape(s.title)}</h2>{"".join(s.html)}</section>'
-                   for s in sections)
-    return (f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>'
-            f'<meta name="viewport" content="width=device-width, initial-scale=1">'
-            f"<style>{_CSS}</style><script>{plotly_js()}</script></head>"
-            f'<body><h1>{html.escape(title)}</h1><nav class="toc" aria-label="Contents"><strong>Contents</strong>'
-            f"{toc}</nav>{body}</body></html>\n")
+    return f"nnda study report: {manifest['study']['name']}", sections, figures
 
 
 def write_report(out: str | Path) -> Path:
     """Write ``report.md``, ``figures/`` and ``report.html`` into study directory ``out``; returns the HTML path."""
     out = Path(out)
-    md, page, figures = build_report(out)
-    for fig in figures:
-        with atomic_file(out / FIGURES / fig.name) as tmp:
-            tmp.write_bytes(fig.png)
-    with atomic_file(out / REPORT_MD) as tmp:
-        tmp.write_text(md)
-    with atomic_file(out / REPORT_HTML) as tmp:
-        tmp.write_text(page)
-    return out / REPORT_HTML
+    title, sections, figures = report_sections(out)
+    return write_pages(out, title, sections, figures, plotly_js())

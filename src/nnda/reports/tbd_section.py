@@ -27,7 +27,7 @@ from rich.console import Console
 from nnda.data.frames import simulate
 from nnda.errors import validated
 from nnda.files import read_config, refuse_existing, write_results_directory
-from nnda.reports.pages import REPORT_HTML, write_pages
+from nnda.reports.pages import REPORT_HTML, Figure, Section, write_pages
 from nnda.reports.text_table import DASH, TextTable, interval, stat_cell
 from nnda.study.tbd import PAPER_DIVERGENCES, RESULTS_FILE, TBDStudyConfig, run_tbd_study
 from nnda.tracking.tbd import run_tbd, tbd_model
@@ -221,7 +221,7 @@ def _verdict(s: dict) -> str:
 
 
 def tbd_section(section, results: dict):
-    """Fill ``section`` (a `nnda.reports.study_report.Section`) from a TBD study's results."""
+    """Fill ``section`` (a `nnda.reports.pages.Section`) from a TBD study's results."""
     cfg = results["config"]
     scene, conf = cfg["scene"], cfg["confidence"]
     section.text(
@@ -261,13 +261,11 @@ FIGURE_PARTICLES = 400
 
 
 def frames_figure(cfg: TBDStudyConfig):
-    """A `nnda.reports.study_report.Figure`: run 0 of the study at its first PTCR, a few frames with the first
+    """A `nnda.reports.pages.Figure`: run 0 of the study at its first PTCR, a few frames with the first
     filter's heaviest present particles, its estimate and the truth."""
     import matplotlib.pyplot as plt
 
     from nnda.reports.study_figures import _png
-    from nnda.reports.study_report import Figure
-
     f = cfg.filters[0]
     scene = cfg.scene.model_copy(update={"ptcr_db": cfg.ptcr_db[0]})
     fs = simulate(scene, 1, cfg.seed)
@@ -297,8 +295,6 @@ def frames_figure(cfg: TBDStudyConfig):
 
 def write_report(out: Path, results: dict, figure=None) -> None:
     """``out``/report.md and report.html of ``results`` (and ``figure``, a `Figure`, under figures/)."""
-    from nnda.reports.study_report import Section  # plotly only when reporting
-
     section = tbd_section(Section("tbd", "Track-before-detect filters", [], []), results)
     figures = [] if figure is None else [figure]
     for f in figures:
