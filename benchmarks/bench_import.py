@@ -25,11 +25,11 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.csv as pacsv
 
+from nnda.app.track_commands import write_track_outputs
 from nnda.data.dataset import Dataset
 from nnda.data.detections_import import import_detections, read_detections
 from nnda.data.generator import generate
 from nnda.data.presets import preset
-from nnda.reports.track_commands import write_track_outputs
 from nnda.study.track import run_tracker, tracker_params
 
 

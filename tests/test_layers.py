@@ -1,4 +1,5 @@
-"""The layer contract (pyproject.toml, [tool.importlinter]): kept by the package, broken by an upward import.
+"""The layer contracts (pyproject.toml, [tool.importlinter]): kept by the package, broken by an upward import or
+by a command defined below the application layer; and every registered command's code lives in `nnda.app`.
 
 Both checks run import-linter in a subprocess on a copy of the package, so
 the second can add an import that points up a layer without touching the
@@ -36,13 +37,16 @@ def package_copy(tmp_path) -> Path:
 def test_the_package_keeps_its_layers(package_copy):
     run = _lint(package_copy)
     assert run.returncode == 0, run.stdout + run.stderr
-    assert "1 kept, 0 broken" in run.stdout
+    assert "2 kept, 0 broken" in run.stdout
 
 
 @pytest.mark.parametrize("module, upward", [
     ("filters/kalman.py", "nnda.tracking.output"),  # a filter importing the trackers
     ("models/features.py", "nnda.tracking.gnn"),  # the model code importing a tracker
     ("study/compare.py", "nnda.reports.study_report"),  # the study stage importing its report
+    ("reports/study_report.py", "nnda.app.cli"),  # a report importing the command line
+    ("reports/pages.py", "typer"),  # a command defined in reports/
+    ("data/dataset.py", "typer"),  # ... or in data/
 ])
 def test_an_upward_import_breaks_the_contract(package_copy, module, upward):
     path = package_copy / "nnda" / module
@@ -50,3 +54,11 @@ def test_an_upward_import_breaks_the_contract(package_copy, module, upward):
     run = _lint(package_copy)
     assert run.returncode != 0
     assert "BROKEN" in run.stdout and upward in run.stdout
+
+
+def test_every_command_is_defined_in_the_application_layer():
+    from nnda.app.cli import app
+
+    modules = {info.name or info.callback.__name__: info.callback.__module__ for info in app.registered_commands}
+    assert len(modules) >= 13
+    assert {name: m for name, m in modules.items() if not m.startswith("nnda.app.")} == {}

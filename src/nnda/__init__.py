@@ -1,24 +1,32 @@
 """nnda: data association in radar multi-target tracking.
 
-Subpackages follow the data flow (conventions.md): ``data`` (scenarios and
-datasets) -> ``models`` (neural association) -> ``tracking`` (filters and
-trackers) -> ``study`` (Monte Carlo comparison) -> ``reports``.
+Subpackages, from the bottom layer up: ``data`` (scenarios, sensors and
+datasets), ``filters`` (single-object estimation), ``models`` (the neural
+association model), ``tracking`` (multi-target trackers), ``peers`` (Stone
+Soup behind nnda's tracker protocol), ``study`` (studies: plans, jobs,
+measures, statistics), ``reports`` (pages, tables, figures) and ``app``
+(the command line and the Python API). The API's calls (`nnda.track`,
+`nnda.generate`, `nnda.read_dataset`, `nnda.run_study`; `nnda.app.api`) are
+loaded on first use.
 """
 
-import importlib
-from importlib.metadata import PackageNotFoundError, version
+from nnda.version import __version__
 
-try:
-    __version__ = version("nnda")
-except PackageNotFoundError:  # running from a source tree without installation
-    __version__ = "0.0.0+unknown"
+_API = ("generate", "read_dataset", "run_study", "track")
 
 
-def track(dataset, tracker, config=None, model=None):
-    """Run one tracker on one dataset (a `nnda.data.dataset.Dataset` or a dataset directory) and return its
-    track table, a pyarrow Table (`nnda.study.track.TRACK_SCHEMA`). ``config``: the tracker's params (a mapping
-    or a .toml/.json file); ``model``: the model file of ``nn``. Imports the trackers only when called."""
-    # resolved at call time, by name: every layer imports this root package (for __version__), so a static
-    # import of the study here would read, to the layer contract, as each of them importing the study
-    study_track = importlib.import_module("nnda.study.track")
-    return study_track.track(dataset, tracker, config=config, model=model)
+def __getattr__(name: str):
+    """The API's calls, loaded when first asked for: importing any nnda module imports this package first, so
+    importing the application layer here would load all of nnda for each of them."""
+    if name in _API:
+        from nnda.app import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'nnda' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_API])
+
+
+__all__ = ["__version__", *_API]

@@ -1,5 +1,5 @@
 """``python -m nnda`` runs the command line."""
 
-from nnda.cli import main
+from nnda.app.cli import main
 
 main()

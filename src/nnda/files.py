@@ -29,8 +29,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-import nnda
 from nnda.errors import ConfigError, DatasetError, NndaError, OutputError
+from nnda.version import __version__
 
 
 def _umask() -> int:
@@ -171,7 +171,7 @@ def read_json(path: str | Path, expected_format: str, version: int | tuple[int, 
     versions = (version,) if isinstance(version, int) else version
     if data.get("format_version") not in versions:
         raise error(f"{path}: field 'format_version' is {data.get('format_version')!r}; this nnda "
-                    f"({nnda.__version__}) reads version {' or '.join(map(str, versions))} only")
+                    f"({__version__}) reads version {' or '.join(map(str, versions))} only")
     return data
 
 

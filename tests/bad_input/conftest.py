@@ -1,6 +1,6 @@
 """Fixtures of the bad-input suite: the command line run as a user runs it, tiny inputs, before/after stock.
 
-`nnda` runs in this process through `nnda.cli.main` (the entry point of
+`nnda` runs in this process through `nnda.app.cli.main` (the entry point of
 ``python -m nnda``: the same error handling and exit status) with the
 working directory set, so a case costs milliseconds rather than a new
 interpreter; each module also runs one case as a real subprocess. Every
@@ -20,7 +20,7 @@ import pytest
 from cli_run import TINY, Outcome, assert_one_line_error
 
 from dataset_edits import snapshot
-from nnda.cli import main
+from nnda.app.cli import main
 from nnda.data.dataset import write_dataset
 from nnda.data.generator import generate
 from nnda.data.scenario import scenario_from_dict

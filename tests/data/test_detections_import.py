@@ -10,7 +10,7 @@ import pyarrow.csv as pacsv
 import pytest
 from typer.testing import CliRunner
 
-from nnda.cli import app
+from nnda.app.cli import app
 from nnda.data.dataset import Dataset, read_dataset
 from nnda.data.detections_import import export_detections, import_detections, read_detections, sensor_specs
 from nnda.data.generator import generate

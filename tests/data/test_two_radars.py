@@ -14,7 +14,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from dataset_edits import rewrite_table, set_value
-from nnda.data.commands import generate as generate_command
+from nnda.app.data_commands import generate as generate_command
 from nnda.data.dataset import FORMAT_VERSION, read_dataset, write_dataset
 from nnda.data.generator import generate
 from nnda.data.presets import PRESETS

@@ -7,7 +7,7 @@ import sys
 import pytest
 from typer.testing import CliRunner
 
-from nnda.cli import app
+from nnda.app.cli import app
 from nnda.errors import ConfigError
 from nnda.models.pairs import load_pairs
 from nnda.models.scorer import Scorer, load_model, save_model
@@ -69,14 +69,14 @@ def test_cli_prints_a_clean_error_for_a_model_of_another_feature_version(tmp_pat
     model = tmp_path / "model.json"
     model.write_text(json.dumps({"format": "nnda.model", "format_version": 1,
                                  "feature_set": "kinematic-3", "feature_version": 99}))
-    proc = subprocess.run([sys.executable, "-c", "from nnda.cli import main; main()", "evaluate", str(model),
+    proc = subprocess.run([sys.executable, "-c", "from nnda.app.cli import main; main()", "evaluate", str(model),
                            "--data", str(tmp_path)], capture_output=True, text=True)
     assert proc.returncode == 2
     assert "version 99" in proc.stderr and "Traceback" not in proc.stderr
 
 
 def test_parse_sizes():
-    from nnda.reports.model_commands import parse_sizes
+    from nnda.app.model_commands import parse_sizes
     assert parse_sizes("1-3,8") == [1, 2, 3, 8]
     assert parse_sizes("5") == [5]
     with pytest.raises(ConfigError):

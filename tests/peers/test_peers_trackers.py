@@ -112,7 +112,7 @@ def test_missing_extra_is_a_clear_error(monkeypatch):
 def test_nnda_does_not_import_stonesoup():
     import subprocess
 
-    code = ("import sys, nnda, nnda.cli, nnda.tracking, nnda.study.compare, nnda.reports.study_report; "
+    code = ("import sys, nnda, nnda.app.cli, nnda.tracking, nnda.study.compare, nnda.reports.study_report; "
             "assert 'stonesoup' not in sys.modules, 'imported'")
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert run.returncode == 0, run.stderr

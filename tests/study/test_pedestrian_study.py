@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from nnda.cli import app
+from nnda.app.cli import app
 from nnda.reports import pedestrian_section as ps
 from nnda.reports.pedestrian_values import THESIS_EXCESS, THESIS_RMS, THESIS_RUNTIME_S
 from nnda.study import pedestrian as P

@@ -10,8 +10,9 @@ import sys
 import numpy as np
 import pytest
 
+from nnda.app.study_commands import reentry
 from nnda.errors import ConfigError, validated
-from nnda.reports.reentry_section import combined, reentry
+from nnda.reports.reentry_section import combined
 from nnda.study.reentry import FILTER_NAMES, ReentrySetting, ReentryStudyConfig, run_reentry_study
 
 TINY = {"runs": 4, "steps": 6, "chunk_particles": 300, "settings": [

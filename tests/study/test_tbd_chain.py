@@ -180,7 +180,7 @@ def test_report_rows_and_verdict_move_with_the_numbers(small):
 def test_no_chain_flag_runs_the_detector_alone(tmp_path):
     import json
 
-    from nnda.reports.tbd_section import tbd
+    from nnda.app.study_commands import tbd
 
     (tmp_path / "tiny.toml").write_text('runs = 2\nptcr_db = [8.1]\nscene = {rows = 32, cols = 32, frames = 5}\n'
                                         'filters = [{name = "apf", particles = 200}]\nexit_reentry = {runs = 1, '

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from scipy.stats import beta
 
+from nnda.app.study_commands import tbd
 from nnda.errors import ConfigError, validated
-from nnda.reports.tbd_section import tbd
 from nnda.study.tbd import TBDStudyConfig, divergence, fisher, run_tbd_study, score, score_exit_reentry
 
 TINY = {"runs": 3, "chunk_runs": 2, "scene": {"rows": 32, "cols": 32, "frames": 6},

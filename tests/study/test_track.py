@@ -13,7 +13,7 @@ import pytest
 from typer.testing import CliRunner
 
 import nnda
-from nnda.cli import app
+from nnda.app.cli import app
 from nnda.data.dataset import write_dataset
 from nnda.data.detections_import import export_detections, import_detections, sensor_specs
 from nnda.data.generator import generate

@@ -36,12 +36,12 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-import nnda
 from nnda.data.checks import whole_number
 from nnda.data.scenario import Scenario, scenario_from_dict
 from nnda.data.sensor import TWO_PI, polar_to_cart
 from nnda.errors import ConfigError, DatasetError
 from nnda.files import atomic_directory, dumps, file_digests, path_component, read_json, verify_digests
+from nnda.version import __version__
 
 FORMAT = "nnda.dataset"
 COLLECTION_FORMAT = "nnda.collection"
@@ -192,7 +192,7 @@ def manifest(dataset: Dataset, sha256: dict[str, str]) -> dict:
     return {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
-        "nnda_version": nnda.__version__,
+        "nnda_version": __version__,
         "seed": dataset.seed,
         "run": dataset.run,
         "n_scans": s.n_scans,
@@ -252,7 +252,7 @@ def write_collection(
         (tmp / COLLECTION_MANIFEST).write_text(dumps({
             "format": COLLECTION_FORMAT,
             "format_version": COLLECTION_FORMAT_VERSION,
-            "nnda_version": nnda.__version__,
+            "nnda_version": __version__,
             "description": description,
             "members": names,
         }))

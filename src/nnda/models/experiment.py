@@ -26,7 +26,6 @@ from typing import Literal
 
 import numpy as np
 
-import nnda
 from nnda.errors import ConfigError, ModelError
 from nnda.models.metrics import ClassifierMetrics, classifier_metrics
 from nnda.models.mlp import MLPWeights, n_weights, nguyen_widrow
@@ -42,6 +41,7 @@ from nnda.models.trainers import (
     train_gd,
     train_lm,
 )
+from nnda.version import __version__
 
 Method = Literal["gd", "lm"]
 METHODS: tuple[Method, ...] = ("gd", "lm")
@@ -136,7 +136,7 @@ def fit(
     metrics = {name: classifier_metrics(pairs.labels[rows], scores[rows]) for name, rows in split.items()}
     metrics["all"] = classifier_metrics(pairs.labels, scores)
     metadata = {
-        "nnda_version": nnda.__version__,
+        "nnda_version": __version__,
         "method": method,
         "settings": asdict(settings),
         "seed": seed,

@@ -29,13 +29,13 @@ from pathlib import Path
 import numba
 import numpy as np
 
-import nnda
 from nnda.errors import ModelError
 from nnda.files import content_digest, read_json, with_content_digest, write_json
 from nnda.models.feature_sets import FEATURE_SETS
 from nnda.models.features import KINEMATIC, FeatureSet
 from nnda.models.mlp import MLPWeights, n_weights
 from nnda.models.preprocessing import Normaliser
+from nnda.version import __version__
 
 MODEL_FORMAT = "nnda.model"
 MODEL_FORMAT_VERSION = 2
@@ -125,7 +125,7 @@ def model_document(scorer: Scorer) -> dict:
     return with_content_digest({
         "format": MODEL_FORMAT,
         "format_version": MODEL_FORMAT_VERSION,
-        "nnda_version": nnda.__version__,
+        "nnda_version": __version__,
         "feature_set": scorer.features.name,
         "feature_version": scorer.features.version,
         "feature_names": list(scorer.features.names),

@@ -20,25 +20,12 @@ it to its own directory: it is reported on its own).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
 
 import numpy as np
-import typer
-from rich.console import Console
 
-from nnda.errors import ConfigError, validated
-from nnda.files import read_config, refuse_existing, write_json, write_results_directory
-from nnda.reports.pages import REPORT_HTML, Figure, Section, write_pages
+from nnda.reports.pages import Figure, Section, write_pages
 from nnda.reports.pedestrian_values import THESIS_EXCESS, THESIS_RMS, THESIS_RUNTIME_S, THESIS_STRESS_SCANS
 from nnda.reports.text_table import DASH, TextTable, stat_cell
-from nnda.study.pedestrian import (
-    RESULTS_FILE,
-    TESTS,
-    TIMING_FILE,
-    PedestrianStudyConfig,
-    run_pedestrian_study,
-    split_timing,
-)
 
 TITLE = "nnda pedestrian study: PHD filters on seed-000's walkers (Frencl 2014, Tests 1-4)"
 #: every this many scans in the per-time tables
@@ -390,40 +377,3 @@ def write_report(out: Path, results: dict) -> None:
     """``out``/report.md, report.html and figures/ of ``results``."""
     section, figures = pedestrian_section(Section("pedestrian", "Pedestrian study (seed 000)", [], []), results)
     write_pages(out, TITLE, [section], figures)
-
-
-def pedestrian(
-    out: Annotated[Path, typer.Option(help="directory for results.json, report.md, report.html and figures/")],
-    tests: Annotated[list[str] | None, typer.Argument(help="test1, test2, test3, test4 (default: all)")] = None,
-    config: Annotated[Path | None, typer.Option(help="study config (.toml or .json; fields of "
-                                                     "nnda.study.pedestrian.PedestrianStudyConfig)")] = None,
-    runs: Annotated[int | None, typer.Option(min=2, help="accuracy runs of Tests 2-3 (default 300)")] = None,
-    test4_runs: Annotated[int | None, typer.Option(min=2, help="runs of Test 4 (default 600)")] = None,
-    stress_runs: Annotated[int | None, typer.Option(min=2, help="runs of the stress scenes (default 25)")] = None,
-    birth: Annotated[str | None, typer.Option(help="measurement (default) or oracle (the thesis's)")] = None,
-    seed: Annotated[int | None, typer.Option(min=0, help="seed (overrides the config)")] = None,
-    jobs: Annotated[int | None, typer.Option(min=1, help="worker processes")] = None,
-    beyond: Annotated[bool | None, typer.Option(help="also GNN, JPDA, MHT and CPHD on the stress scene")] = None,
-    overwrite: Annotated[bool, typer.Option(help="replace an earlier directory at --out")] = False,
-) -> None:
-    """Run seed-000's pedestrian study (Tests 2-4: PHD filters and motion models on walkers) and write its report."""
-    unknown = [t for t in tests or () if t not in (*TESTS, "all")]
-    if unknown:
-        raise ConfigError(f"pedestrian: unknown test(s) {', '.join(map(repr, unknown))}; choose from "
-                          f"{', '.join(TESTS)} or all")
-    data = read_config(config, "pedestrian study") if config is not None else {}
-    given = {"runs": runs, "test4_runs": test4_runs, "stress_runs": stress_runs, "birth": birth, "seed": seed,
-             "jobs": jobs, "beyond": beyond,
-             "tests": None if not tests else (TESTS if tests == ["all"] else tuple(tests))}
-    data |= {k: v for k, v in given.items() if v is not None}
-    cfg = validated(PedestrianStudyConfig, data, str(config or "the command line"), "pedestrian study")
-    refuse_existing(out, overwrite)
-    results = run_pedestrian_study(cfg)
-    kept, timing = split_timing(results)
-
-    def report(directory: Path, _: dict) -> None:
-        write_json(directory / TIMING_FILE, timing)
-        write_report(directory, results)
-
-    write_results_directory(out, overwrite, RESULTS_FILE, kept, report)
-    Console().print(f"pedestrian study: {results['runtime_s']:.0f} s; report: {out / REPORT_HTML}")

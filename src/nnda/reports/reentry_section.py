@@ -12,17 +12,12 @@ beats the bootstrap filter at the same particle count) holds there.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
 
 import numpy as np
-import typer
-from rich.console import Console
 
-from nnda.errors import validated
-from nnda.files import read_config, refuse_existing, write_results_directory
-from nnda.reports.pages import REPORT_HTML, Section, write_pages
+from nnda.reports.pages import Section, write_pages
 from nnda.reports.text_table import DASH, TextTable, interval, stat_cell
-from nnda.study.reentry import PRIOR, RESULTS_FILE, ReentryStudyConfig, run_reentry_study
+from nnda.study.reentry import PRIOR
 
 TITLE = "nnda re-entry study: optimal importance function vs bootstrap (seed 004)"
 #: the independent reproduction's time-averaged RMSE x / y (m) at the paper's setting, 4,000 particles (spec B.5)
@@ -162,21 +157,3 @@ def _against_b5(results: dict) -> str:
 def write_report(out: Path, results: dict) -> None:
     """``out``/report.md and report.html of ``results``."""
     write_pages(out, TITLE, [reentry_section(Section("reentry", "Ballistic re-entry filters", [], []), results)])
-
-
-def reentry(
-    out: Annotated[Path, typer.Option(help="directory for results.json, report.md and report.html")],
-    config: Annotated[Path | None, typer.Option(help="study config (.toml or .json; default: the paper's "
-                                                     "setting, the particle sweep and the precise sensor)")] = None,
-    runs: Annotated[int | None, typer.Option(min=1, help="Monte Carlo runs (overrides the config)")] = None,
-    seed: Annotated[int | None, typer.Option(min=0, help="seed (overrides the config)")] = None,
-    overwrite: Annotated[bool, typer.Option(help="replace an earlier directory at --out")] = False,
-) -> None:
-    """Run the seed-004 ballistic re-entry filter study (every filter on the same runs) and write its report."""
-    data = read_config(config, "re-entry study") if config is not None else {}
-    data |= {k: v for k, v in (("runs", runs), ("seed", seed)) if v is not None}
-    cfg = validated(ReentryStudyConfig, data, str(config or "--runs/--seed"), "re-entry study")
-    refuse_existing(out, overwrite)
-    results = run_reentry_study(cfg)
-    write_results_directory(out, overwrite, RESULTS_FILE, results, write_report)
-    Console().print(f"re-entry study: {results['runtime_s']:.0f} s; report: {out / REPORT_HTML}")

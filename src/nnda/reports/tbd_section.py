@@ -18,18 +18,13 @@ particles, estimate and truth.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
 
 import numpy as np
-import typer
-from rich.console import Console
 
 from nnda.data.frames import simulate
-from nnda.errors import validated
-from nnda.files import read_config, refuse_existing, write_results_directory
-from nnda.reports.pages import REPORT_HTML, Figure, Section, write_pages
+from nnda.reports.pages import Figure, Section, write_pages
 from nnda.reports.text_table import DASH, TextTable, interval, stat_cell
-from nnda.study.tbd import PAPER_DIVERGENCES, RESULTS_FILE, TBDStudyConfig, run_tbd_study
+from nnda.study.tbd import PAPER_DIVERGENCES, TBDStudyConfig
 from nnda.tracking.tbd import run_tbd, tbd_model
 
 TITLE = "nnda track-before-detect study: auxiliary particle filter vs resample-move (seed 003)"
@@ -300,26 +295,3 @@ def write_report(out: Path, results: dict, figure=None) -> None:
     for f in figures:
         section.figure(f)
     write_pages(out, TITLE, [section], figures)
-
-
-def tbd(
-    out: Annotated[Path, typer.Option(help="directory for results.json, report.md and report.html")],
-    config: Annotated[Path | None, typer.Option(help="study config (.toml or .json; default: 100 runs x 20 "
-                                                     "frames at 6.5 and 8.1 dB, APF 5,000, RS 8,000, ...)")] = None,
-    runs: Annotated[int | None, typer.Option(min=1, help="Monte Carlo runs (overrides the config)")] = None,
-    seed: Annotated[int | None, typer.Option(min=0, help="seed (overrides the config)")] = None,
-    overwrite: Annotated[bool, typer.Option(help="replace an earlier directory at --out")] = False,
-    chain: Annotated[bool, typer.Option(help="also track the detector's detections with GNN and MHT (the "
-                                             "config's `chain`; --no-chain: the detector alone)")] = True,
-) -> None:
-    """Run the seed-003 track-before-detect study (every filter on the same frames) and write its report."""
-    data = read_config(config, "tbd study") if config is not None else {}
-    data |= {k: v for k, v in (("runs", runs), ("seed", seed)) if v is not None}
-    if not chain:
-        data["chain"] = None
-    cfg = validated(TBDStudyConfig, data, str(config or "--runs/--seed"), "tbd study")
-    refuse_existing(out, overwrite)
-    results = run_tbd_study(cfg)
-    figure = frames_figure(cfg)
-    write_results_directory(out, overwrite, RESULTS_FILE, results, lambda d, r: write_report(d, r, figure))
-    Console().print(f"tbd study: {results['runtime_s']:.0f} s; report: {out / REPORT_HTML}")

@@ -29,7 +29,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import nnda
 from nnda.data.dataset import (
     DETECTIONS_FILE,
     MANIFEST,
@@ -47,6 +46,7 @@ from nnda.filters.single_target import make_filter
 from nnda.models.scorer import MODEL_FILE, load_model
 from nnda.study.config import MODEL_PARAM, Study
 from nnda.tracking.registry import PEERS, TRACKERS, make_tracker
+from nnda.version import __version__
 
 STUDY_FORMAT = "nnda.study"
 STUDY_FORMAT_VERSION = 1
@@ -161,7 +161,7 @@ class StudyPlan:
         return {
             "format": STUDY_FORMAT,
             "format_version": STUDY_FORMAT_VERSION,
-            "nnda_version": nnda.__version__,
+            "nnda_version": __version__,
             "fingerprint": self.fingerprint,
             "study": self.study.model_dump(mode="json"),
             "scenarios": [{"name": s.name, "source": s.source, "runs": s.runs, "n_scans": s.scenario.n_scans,
@@ -289,7 +289,7 @@ def plan_study(study: Study, where: str = "study") -> StudyPlan:
             data_id = source if sc.generated else sc.dataset_digests[run]
             for t in trackers:
                 key = digest(_canonical({
-                    "nnda": nnda.__version__, "scenario": sc.name, "data": data_id, "tracker": t.label,
+                    "nnda": __version__, "scenario": sc.name, "data": data_id, "tracker": t.label,
                     **tracker_ids[t.label], "run": run, "seed": study.seed, "cutoff_m": study.gospa_cutoff_m,
                     **ownership,
                 }))
@@ -308,7 +308,7 @@ def plan_study(study: Study, where: str = "study") -> StudyPlan:
                 if sc.name not in f.scenarios:
                     continue
                 key = digest(_canonical({
-                    "nnda": nnda.__version__, "task": "filter", "scenario": sc.name, "data": data_id,
+                    "nnda": __version__, "task": "filter", "scenario": sc.name, "data": data_id,
                     "filter": f.label, "kind": f.kind, "params": f.params, "run": run, "seed": study.seed,
                 }))
                 jobs.append(JobSpec(

@@ -46,7 +46,6 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-import nnda
 from nnda.errors import DatasetError
 from nnda.files import atomic_file, finite_or_none, read_json, write_json
 from nnda.study.cardinality import CARDINALITY_FILE, cardinality_table
@@ -57,6 +56,7 @@ from nnda.study.runner import Execution, read_job
 from nnda.study.stats import mean_ci
 from nnda.tracking.lifecycle import DELETION_REASONS
 from nnda.tracking.output import TrackStatus
+from nnda.version import __version__
 
 SUMMARY_FORMAT = "nnda.study-summary"
 TIMING_FORMAT = "nnda.study-timing"
@@ -279,7 +279,7 @@ def summarise_timing(plan: StudyPlan, records: list[dict], execution: Execution)
                       "jobs_skipped": execution.jobs_skipped, "seconds": execution.seconds},
         "machine": {"python": platform.python_version(), "platform": platform.platform(),
                     "processor": platform.processor() or platform.machine(), "cpus": os.cpu_count(),
-                    "nnda_version": nnda.__version__},
+                    "nnda_version": __version__},
         "method": "time.perf_counter around each Tracker.step, one BLAS thread per job (spec A29)",
         "scenarios": times([t.label for t in plan.trackers], "track"),
         **filters,

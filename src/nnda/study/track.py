@@ -5,7 +5,6 @@ Usage sketch::
     run = run_tracker(read_dataset("data/S3"), "mht", config={"n_scan": 3})   # TrackRun
     run.table            # pyarrow Table, one row per reported track per scan (TRACK_SCHEMA)
     run.scores           # RunMetrics of nnda.study.metrics.run_metrics, or None without truth
-    table = track("data/S3", "nn", model="models/lm")             # nnda.track: the table alone
 
 The tracker is built and stepped exactly as a study job does
 (`nnda.study.job.run_job`: `make_tracker` with the config, the model path in
@@ -139,13 +138,6 @@ def run_tracker(dataset: Dataset | str | Path, tracker: str, config: Mapping[str
                 on_scan(i + 1, dataset.n_scans)
         scores = run_metrics(dataset, outputs, cutoff_m, ownership) if score and has_truth(dataset) else None
     return TrackRun(tracker, outputs, track_table(dataset, outputs), seconds, scores)
-
-
-def track(dataset: Dataset | str | Path, tracker: str, config: Mapping[str, Any] | str | Path | None = None,
-          model: str | Path | None = None) -> pa.Table:
-    """The track table (`TRACK_SCHEMA`) of ``tracker`` on ``dataset`` (a `Dataset` or a dataset directory);
-    ``config``: the tracker's params (mapping or .toml/.json file), ``model``: a model for ``nn``."""
-    return run_tracker(dataset, tracker, config, model, score=False).table
 
 
 SCORES_FORMAT = "nnda.track-scores"

@@ -92,7 +92,7 @@ def test_a_scene_where_nobody_is_born_is_refused():
 def test_nnda_generate_takes_a_walker_scene(tmp_path):
     from typer.testing import CliRunner
 
-    from nnda.cli import app
+    from nnda.app.cli import app
     result = CliRunner().invoke(app, ["generate", "--preset", "walk-test4", "--out", str(tmp_path / "w"),
                                       "--seed", "7"])
     assert result.exit_code == 0, result.output

@@ -1,9 +1,11 @@
 """The ``nnda`` command line: generate datasets, train models, compare trackers, write reports.
 
-Commands of each stage live beside the stage (``nnda.data.commands``,
-``nnda.peers.commands``, ...; those that end in tables or a report, ``nnda
-train`` and ``nnda compare`` among them, in ``nnda.reports``) and are
-registered on one typer app here.
+Every command is defined in this package (`nnda.app`), one module per
+group: ``data_commands`` (presets, generate), ``import_commands`` (import-
+detections, import-stonesoup), ``model_commands`` (train, evaluate),
+``track_commands`` (track), ``study_commands`` (compare, report,
+plot-scenario and the reference studies); they are registered on one
+typer app here.
 Errors from bad input (nnda.errors.NndaError) are printed without a
 traceback and exit with status 2.
 """
@@ -18,15 +20,11 @@ import typer
 from rich.console import Console
 from rich.text import Text
 
-from nnda.data import commands as data_commands
-from nnda.data import import_commands
+from nnda.app import data_commands, import_commands, model_commands, study_commands, track_commands
 from nnda.data.dataset import collection_members
 from nnda.data.presets import GROUPS
 from nnda.errors import NndaError
 from nnda.models.innovation import IMM_INNOVATION
-from nnda.peers import commands as peer_commands
-from nnda.reports import commands as report_commands
-from nnda.reports import model_commands, pedestrian_section, reentry_section, tbd_section, track_commands
 from nnda.study.config import default_study, study_to_toml
 
 app = typer.Typer(
@@ -41,15 +39,15 @@ app.command("presets")(data_commands.presets)
 app.command("generate")(data_commands.generate)
 app.command("train")(model_commands.train)
 app.command("evaluate")(model_commands.evaluate)
-app.command("plot-scenario")(report_commands.plot_scenario)
-app.command("compare")(report_commands.compare)
-app.command("report")(report_commands.report)
-app.command("import-stonesoup")(peer_commands.import_stonesoup)
+app.command("plot-scenario")(study_commands.plot_scenario)
+app.command("compare")(study_commands.compare)
+app.command("report")(study_commands.report)
+app.command("import-stonesoup")(import_commands.import_stonesoup)
 app.command("import-detections")(import_commands.import_detections_command)
 app.command("track")(track_commands.track)
-app.command("reentry")(reentry_section.reentry)
-app.command("pedestrian")(pedestrian_section.pedestrian)
-app.command("tbd")(tbd_section.tbd)
+app.command("reentry")(study_commands.reentry)
+app.command("pedestrian")(study_commands.pedestrian)
+app.command("tbd")(study_commands.tbd)
 
 
 def demo(
@@ -68,7 +66,7 @@ def demo(
     plots.mkdir(parents=True, exist_ok=True)
     for group in ("train", "validation"):
         for member in collection_members(data / group):
-            report_commands.plot_scenario(member, plots / f"{member.name}.png", overwrite=True)
+            study_commands.plot_scenario(member, plots / f"{member.name}.png", overwrite=True)
     models = (out / "models").resolve()
     lm, ext = model_commands.MethodChoice.lm, model_commands.FeatureChoice[IMM_INNOVATION.name]
     for method in (model_commands.MethodChoice.gd, lm):
@@ -81,7 +79,7 @@ def demo(
                           ablation=models / "ablation")
     study_file = out / "study.toml"
     study_file.write_text(study_to_toml(study, relative_to=out))
-    report_commands.compare(study=study_file, out=out / "comparison", jobs=jobs, overwrite=True)
+    study_commands.compare(study=study_file, out=out / "comparison", jobs=jobs, overwrite=True)
     console.print(f"demo written to {out}/; open {out / 'comparison' / 'report.html'}")
 
 

@@ -1,4 +1,5 @@
-"""CLI command of the data stage for a user's own data: ``nnda import-detections``."""
+"""CLI commands that bring outside data in: ``nnda import-detections`` (a user's recorded detections) and
+``nnda import-stonesoup`` (a scene of Stone Soup's simulators; Stone Soup is imported only when it runs)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from rich.console import Console
 from nnda.data.detections_import import SCAN_TOLERANCE_S, import_detections, load_sensors, sensor_fields
 from nnda.errors import ConfigError
 from nnda.files import check_output_location
+from nnda.peers import require_stonesoup
 
 
 def import_detections_command(
@@ -53,3 +55,26 @@ def import_detections_command(
         Console().print(f"  sensor {s.name} ({s.kind}) at ({s.x_m:g}, {s.y_m:g}) m: period {s.scan_period_s:g} s, "
                         f"offset {s.scan_offset_s + time_origin:g} s, ranges {s.min_range_m:g}-{s.max_range_m:g} m",
                         markup=False, highlight=False)
+
+
+def import_stonesoup(
+    out: Annotated[Path, typer.Option(help="output dataset directory")],
+    seed: Annotated[int, typer.Option(min=0, help="seed of every Stone Soup random draw")] = 0,
+    scans: Annotated[int, typer.Option(min=1, help="scans to simulate")] = 60,
+    targets: Annotated[int, typer.Option(min=0, help="targets at the first scan")] = 4,
+    birth_rate: Annotated[float, typer.Option(min=0, help="mean targets born per scan (Poisson)")] = 0.02,
+    clutter: Annotated[float, typer.Option(min=0, help="mean clutter contacts per scan (Poisson)")] = 100.0,
+    pd: Annotated[float, typer.Option(min=0, max=1, help="detection probability")] = 0.9,
+    overwrite: Annotated[bool, typer.Option(help="replace an existing output directory")] = False,
+) -> None:
+    """Simulate a scene with Stone Soup's ground-truth and detection simulators; write an nnda dataset."""
+    check_output_location(out)
+    require_stonesoup("nnda import-stonesoup")
+    from nnda.data.scenario import Sensor
+    from nnda.peers.importer import StoneSoupScene
+    from nnda.peers.importer import import_stonesoup as run
+
+    scene = StoneSoupScene(n_scans=scans, targets=targets, birth_rate=birth_rate, clutter=clutter,
+                           sensor=Sensor(pd=pd))
+    path = run(out, scene, seed, overwrite)
+    Console().print(f"wrote {path} (Stone Soup scene, seed {seed}, {scans} scans)", markup=False, highlight=False)

@@ -24,7 +24,7 @@ from nnda.files import check_output_location, read_config
 
 def presets() -> None:
     """List the preset scenarios and groups of the reference thesis."""
-    table = Table(title="nnda presets (shared/spec/seed-001.md §3)")
+    table = Table(title="nnda presets")
     for col in ("name", "targets", "scans", "description"):
         table.add_column(col)
     for name, s in PRESETS.items():
