@@ -29,7 +29,7 @@ import numpy as np
 from nnda.data import gmrf
 from nnda.data.frames import FramesConfig, simulate, template_library
 from nnda.filters.frame_likelihood import FrameLikelihood
-from nnda.tracking.tbd import TBDConfig, run_tbd, tbd_model
+from nnda.filters.tbd import TBDConfig, run_tbd, tbd_model
 
 
 def numpy_llr(lik: FrameLikelihood, d_pad: np.ndarray, bh: float, bv: float, sc: float, x: np.ndarray,

@@ -13,6 +13,7 @@ import pytest
 from nnda.data import gmrf
 from nnda.data.frames import FramesConfig, simulate
 from nnda.errors import ConfigError, validated
+from nnda.filters.tbd import TBDConfig, TBDModel, tbd_model
 from nnda.reports.tbd_section import _chain_verdicts, _divergence_table, _pairs_table
 from nnda.study.tbd import TBDStudyConfig, run_tbd_study, score
 from nnda.study.tbd_chain import (
@@ -24,7 +25,6 @@ from nnda.study.tbd_chain import (
     track_filter,
     tracker_params,
 )
-from nnda.tracking.tbd import TBDConfig, TBDModel, tbd_model
 
 #: small frames: 48 x 48, 15 frames; acquisition frames left out of the rates
 SCENE = FramesConfig(rows=48, cols=48, frames=15)

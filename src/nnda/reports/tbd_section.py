@@ -22,10 +22,10 @@ from pathlib import Path
 import numpy as np
 
 from nnda.data.frames import simulate
+from nnda.filters.tbd import run_tbd, tbd_model
 from nnda.reports.pages import Figure, Section, write_pages
 from nnda.reports.text_table import DASH, TextTable, interval, stat_cell
 from nnda.study.tbd import PAPER_DIVERGENCES, TBDStudyConfig
-from nnda.tracking.tbd import run_tbd, tbd_model
 
 TITLE = "nnda track-before-detect study: auxiliary particle filter vs resample-move (seed 003)"
 #: every this many frames in the RMSE tables

@@ -3,7 +3,7 @@
 At each PTCR, ``runs`` runs of ``frames`` frames are simulated once
 (`nnda.data.frames`, the same seed at every PTCR, so the truths and the
 clutter are shared and only the amplitude differs) and every filter runs
-on them (`nnda.tracking.tbd.run_tbd`, batched over ``chunk_runs`` runs):
+on them (`nnda.filters.tbd.run_tbd`, batched over ``chunk_runs`` runs):
 
     cfg = TBDStudyConfig()                  # 100 runs x 20 frames at 6.5 and 8.1 dB; APF 5,000, RS 8,000, ...
     results = run_tbd_study(cfg)            # a JSON-ready dict (RESULTS_FORMAT, version 1)
@@ -61,9 +61,9 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from nnda.data.frames import FramesConfig, simulate
+from nnda.filters.tbd import FILTERS, TBDConfig, run_tbd, tbd_model
 from nnda.study.stats import clopper_pearson, fisher_p, mean_ci, root_mean_square
 from nnda.study.tbd_chain import ChainConfig, frame_detections, run_chain
-from nnda.tracking.tbd import FILTERS, TBDConfig, run_tbd, tbd_model
 
 RESULTS_FORMAT = "nnda-tbd-study"
 RESULTS_VERSION = 2
@@ -75,7 +75,7 @@ _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class TBDFilter(BaseModel):
-    """A filter of the study: ``name`` (one of `nnda.tracking.tbd.FILTERS`) at ``particles`` per run."""
+    """A filter of the study: ``name`` (one of `nnda.filters.tbd.FILTERS`) at ``particles`` per run."""
 
     model_config = _STRICT
 

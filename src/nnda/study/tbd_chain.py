@@ -1,7 +1,7 @@
 """The conventional chain of seed 003 (spec C): detect in every frame, then track the detections with nnda's
 contact trackers (GNN, MHT), for the track-before-detect study to score beside its particle filters.
 
-    model = tbd_model(fs, TBDConfig())                 # R runs of K frames (`nnda.tracking.tbd`)
+    model = tbd_model(fs, TBDConfig())                 # R runs of K frames (`nnda.filters.tbd`)
     hits = frame_detections(model, pfa=1e-4)           # K arrays (n_k, 5) [run, row, column, aspect, t]
     out = run_chain(model, hits, "gnn", ChainConfig(), pfa=1e-4)
     out.present (R, K)   out.position (R, K, 2)   out.tracks (R, K) confirmed tracks   out.seconds
@@ -86,9 +86,9 @@ from nnda.filters.frame_likelihood import FrameLikelihood, detections
 from nnda.filters.imm import IMM
 from nnda.filters.measurement import PositionMeasurement
 from nnda.filters.motion import ConstantVelocity
+from nnda.filters.tbd import TBDModel
 from nnda.tracking.output import CONFIRMED, NO_CONTACT
 from nnda.tracking.registry import TRACKERS
-from nnda.tracking.tbd import TBDModel
 
 #: the detect-then-track chain's trackers (contact trackers taking a per-track filter)
 CHAIN_TRACKERS = ("gnn", "mht")

@@ -9,7 +9,7 @@ import pytest
 from nnda.data import gmrf
 from nnda.data.frames import FramesConfig, aspect_transition, on_extended_grid, simulate
 from nnda.errors import FilterError
-from nnda.tracking.tbd import FILTERS, TBDConfig, TBDModel, run_tbd, tbd_model
+from nnda.filters.tbd import FILTERS, TBDConfig, TBDModel, run_tbd, tbd_model
 
 #: the detection tests' setting: 64 x 64 frames, 20 runs of 20 frames, 2,000 particles per run
 SMALL = FramesConfig(rows=64, cols=64, frames=20, ptcr_db=8.1)
