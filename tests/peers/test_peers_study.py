@@ -44,5 +44,5 @@ def test_the_shipped_study_against_stone_soup_plans():
 
     study = load_study(Path(__file__).resolve().parents[2] / "studies" / "against-stonesoup.toml")
     plan = plan_study(study)  # every input checked, nothing run
-    assert {t.kind for t in plan.trackers} >= {"stonesoup-gnn", "stonesoup-jpda", "mht"}
+    assert {t.kind for t in plan.kinds["track"].trackers} >= {"stonesoup-gnn", "stonesoup-jpda", "mht"}
     assert len(plan.jobs) == 6 * 3 * 5

@@ -6,8 +6,8 @@ import math
 
 import pytest
 
-from nnda.study.results import _nanmean_rows
 from nnda.study.stats import mean_ci
+from nnda.study.stats import ragged_mean as _nanmean_rows
 
 #: Student t quantiles from printed tables: t(0.975; 3) and t(0.95; 9)
 T_975_3 = 3.182446

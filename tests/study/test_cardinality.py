@@ -16,9 +16,8 @@ from nnda.errors import DatasetError
 from nnda.study.cardinality import CARDINALITY_FILE, read_cardinality
 from nnda.study.compare import compare
 from nnda.study.config import load_study
-from nnda.study.job import JOB_FORMAT_VERSION
 from nnda.study.plan import plan_study
-from nnda.study.runner import is_done, read_job
+from nnda.study.runner import JOB_FORMAT_VERSION, is_done, read_job
 from nnda.tracking.registry import make_tracker
 from tolerances import RTOL
 
@@ -83,7 +82,7 @@ def test_read_cardinality_gives_runs_by_scans_arrays(counted):
 
 
 def test_a_missing_file_is_named(tmp_path):
-    with pytest.raises(DatasetError, match=r"cardinality.parquet: missing \(a study written before"):
+    with pytest.raises(DatasetError, match=r"cardinality.parquet: missing \(run the study to completion"):
         read_cardinality(tmp_path)
 
 
@@ -91,12 +90,12 @@ def test_job_records_of_the_previous_format_are_rerun_and_refused(counted, tmp_p
     _, study, out = counted
     job = plan_study(study).jobs[0]
     record = json.loads((out / job.relpath).read_text())
-    assert record["format_version"] == JOB_FORMAT_VERSION == 4 and set(record["cardinality"]) == {
+    assert record["format_version"] == JOB_FORMAT_VERSION == 5 and set(record["cardinality"]) == {
         "true", "confirmed", "filter_mean", "filter_map", "filter_variance"}
     old = tmp_path / job.relpath
     old.parent.mkdir(parents=True)
-    old.write_text(json.dumps({**record, "format_version": 3}))
+    old.write_text(json.dumps({**record, "format_version": 4}))
     assert is_done(job, out) and not is_done(job, tmp_path)
-    with pytest.raises(DatasetError, match=r"run-0000.json: field 'format_version' is 3; this nnda .* reads "
-                                           r"version 4 only"):
+    with pytest.raises(DatasetError, match=r"run-0000.json: field 'format_version' is 4; this nnda .* reads "
+                                           r"version 5 only"):
         read_job(job, tmp_path)

@@ -9,7 +9,7 @@ from nnda.models.mlp import MLPWeights, n_weights
 from nnda.models.preprocessing import Normaliser
 from nnda.models.scorer import Scorer, save_model
 from nnda.study.classifier import evaluate_models
-from nnda.study.plan import ModelPlan
+from nnda.study.kinds.track import ModelPlan
 
 
 def model_plan(directory, label: str, features: str) -> ModelPlan:

@@ -33,7 +33,7 @@ def test_written_study_reads_back_equal(tmp_path):
 
 
 @pytest.mark.parametrize("data, message", [
-    ({"trackers": {}, "scenarios": [{"preset": "S1"}]}, "name at least one tracker"),
+    ({"trackers": {}, "scenarios": [{"preset": "S1"}]}, "name what to run: at least one of [trackers"),
     ({"trackers": {"a": {"kind": "gnn"}}, "scenarios": [{"preset": "S1", "path": "x"}]},
      "give exactly one of preset, config or path"),
     ({"trackers": {"a": {"kind": "nn", "model": "lm"}}, "scenarios": [{"preset": "S1"}]},
@@ -60,7 +60,7 @@ def test_ownership_reads_back_and_enters_the_job_keys_only_when_not_auto(tmp_pat
     (tmp_path / "s.toml").write_text(study_to_toml(position))
     assert load_study(tmp_path / "s.toml") == position
     plans = plan_study(auto), plan_study(position)
-    assert [j.ownership for p in plans for j in p.jobs] == ["auto", "position"]
+    assert [j.spec.ownership for p in plans for j in p.jobs] == ["auto", "position"]
     assert plans[0].fingerprint != plans[1].fingerprint
 
 

@@ -52,9 +52,9 @@ def test_filters_run_on_the_single_target_scenarios_and_are_scored(tmp_path):
 def test_tracker_jobs_keep_their_keys_beside_filters(tmp_path):
     with_filters = plan_study(_study(tmp_path, FILTERS))
     without = plan_study(_study(tmp_path, {}))
-    tracks = [j.key for j in with_filters.jobs if j.task == "track"]
+    tracks = [j.key for j in with_filters.jobs if j.kind == "track"]
     assert tracks == [j.key for j in without.jobs]
-    assert sum(j.task == "filter" for j in with_filters.jobs) == 2 * 3  # two filters x three runs of "one"
+    assert sum(j.kind == "filter" for j in with_filters.jobs) == 2 * 3  # two filters x three runs of "one"
 
 
 def test_resume_and_workers_give_the_same_bytes(tmp_path):
@@ -91,7 +91,7 @@ def test_bad_filters_are_refused_at_planning(tmp_path, filters, scenarios, messa
 def test_a_label_names_a_tracker_or_a_filter(tmp_path):
     with pytest.raises(ConfigError, match="gnn name both a tracker and a filter"):
         _study(tmp_path, {"gnn": {"kind": "imm"}})
-    with pytest.raises(ConfigError, match="at least one tracker"):
+    with pytest.raises(ConfigError, match="name what to run"):
         _study(tmp_path, {}, trackers={})
 
 

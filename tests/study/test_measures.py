@@ -11,9 +11,9 @@ from nnda.data.generator import generate
 from nnda.data.presets import PRESETS
 from nnda.reports.study_summary import HEADLINES
 from nnda.reports.study_tables import scenario_table
-from nnda.study.job import scalars, series
 from nnda.study.measures import MEASURES, RUN_MEASURES, SERIES_MEASURES, TIME, measure
 from nnda.study.metrics import run_metrics
+from nnda.study.track_job import scalars, series
 from nnda.tracking.registry import make_tracker
 
 

@@ -18,13 +18,14 @@ from nnda.data.dataset import write_dataset
 from nnda.data.detections_import import export_detections, import_detections, sensor_specs
 from nnda.data.generator import generate
 from nnda.data.presets import preset
+from nnda.data.sources import GeneratedScenes
 from nnda.models.feature_sets import feature_set
 from nnda.models.mlp import MLPWeights, n_weights
 from nnda.models.preprocessing import Normaliser
 from nnda.models.scorer import Scorer, save_model
-from nnda.study.job import run_job, scalars
-from nnda.study.plan import JobSpec
+from nnda.study.kinds.track import TrackJob
 from nnda.study.track import COV_COLUMNS, TRACK_SCHEMA, run_tracker, tracker_params
+from nnda.study.track_job import run_job, scalars
 from nnda.tracking.neural import life5
 from nnda.tracking.output import TrackStatus
 
@@ -42,8 +43,8 @@ def s1_dir(s1, tmp_path_factory):
 
 
 def _job(kind: str, params: dict) -> dict:
-    return run_job(JobSpec(scenario="S1", tracker=kind, run=0, kind=kind, params=params, seed=SEED, cutoff_m=1000.0,
-                           key="test", generate=preset("S1")))
+    return run_job(TrackJob(scenario="S1", tracker=kind, run=0, kind=kind, params=params, seed=SEED, cutoff_m=1000.0,
+                            source=GeneratedScenes("S1", "preset S1", preset("S1"))))
 
 
 @pytest.mark.parametrize("kind", ["gnn", "ekphd"])
@@ -63,7 +64,7 @@ def test_track_equals_the_study_job_for_the_same_tracker_and_run(s1, kind):
 
 
 def test_a_tracker_runs_once_untimed_before_its_first_job_in_a_process(monkeypatch):
-    from nnda.study import job as job_module
+    from nnda.study import track_job as job_module
 
     built = []
     real = job_module.make_tracker

@@ -19,10 +19,10 @@ from nnda.reports.reentry_section import write_report as write_reentry_report
 from nnda.reports.tbd_section import frames_figure
 from nnda.reports.tbd_section import write_report as write_tbd_report
 from nnda.study.config import load_study
+from nnda.study.kinds.base import Job
 from nnda.study.pedestrian import RESULTS_FILE as PEDESTRIAN_RESULTS
 from nnda.study.pedestrian import TESTS, PedestrianStudyConfig, run_pedestrian_study, split_timing
 from nnda.study.pedestrian import TIMING_FILE as PEDESTRIAN_TIMING
-from nnda.study.plan import JobSpec
 from nnda.study.reentry import RESULTS_FILE as REENTRY_RESULTS
 from nnda.study.reentry import ReentryStudyConfig, run_reentry_study
 from nnda.study.tbd import RESULTS_FILE as TBD_RESULTS
@@ -79,10 +79,10 @@ def compare(
                    TextColumn("{task.fields[last]}"), TimeElapsedColumn(), TimeRemainingColumn(), console=console)
     task = bar.add_task(f"compare {definition.name}", total=None, last="")
 
-    def on_job(done: int, total: int, job: JobSpec | None) -> None:
+    def on_job(done: int, total: int, job: Job | None) -> None:
         if job is None:  # the study passed its checks: show the bar from here on
             bar.start()
-        last = f"{job.scenario} run {job.run} {job.tracker}" if job is not None else ""
+        last = job.title if job is not None else ""
         bar.update(task, completed=done, total=total, last=last)
 
     try:

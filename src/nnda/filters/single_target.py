@@ -1,6 +1,6 @@
 """Single-target filters: one object followed through its own contacts, no association, no track management.
 
-A study's filter jobs (`nnda.study.job`) run these on single-target scenes:
+A study's filter jobs (`nnda.study.kinds.filter`) run these on single-target scenes:
 every scan hands the filter its time, its sensor and the target's own
 contact of that scan (or None when the target was missed):
 
@@ -14,7 +14,9 @@ contact of that scan (or None when the target was missed):
 updates with the scan's contact when there is one; on a miss the estimate
 is the prediction. Each sensor has its own measurement model
 (`IMM.for_measurement`), so a two-radar scene updates from both. The
-ballistic and track-before-detect studies add their filters to `FILTERS`.
+re-entry and track-before-detect filters are particle filters batched over
+runs, not per-contact filters: they live in `nnda.filters.reentry` and
+`nnda.filters.tbd` and run as the study's ``reentry`` and ``tbd`` jobs.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The report's "Track deletions" section: why each contact tracker ended its tracks (issue 21).
 
 Read from ``results.parquet`` (its ``confirmation`` and ``deleted_<reason>``
-columns, `nnda.study.results`): per tracker, its confirmation rule and the
+columns, `nnda.study.track_results`): per tracker, its confirmation rule and the
 mean number of tracks deleted per run for each reason of
 `nnda.tracking.lifecycle.DELETION_REASONS` (the life cycle's: unconfirmed,
 misses, score, capped; the sanity rules': speed, coverage, covariance),
@@ -18,7 +18,8 @@ import numpy as np
 import pyarrow.parquet as pq
 
 from nnda.reports.text_table import TextTable
-from nnda.study.results import RESULTS_FILE
+from nnda.study.checksums import read_checked, read_table
+from nnda.study.track_results import RESULTS_FILE
 from nnda.tracking.lifecycle import DELETION_REASONS
 
 #: how the table names each confirmation rule
@@ -27,11 +28,10 @@ RULES = {"mn": "M/N", "score": "track score", "existence": "existence"}
 
 def deletions(out: Path) -> dict[str, tuple[str, dict[str, float]]]:
     """Per contact tracker of the study in ``out``: (its rule, mean deletions per run by reason)."""
-    path = Path(out) / RESULTS_FILE
     columns = ["tracker", "confirmation", *(f"deleted_{r}" for r in DELETION_REASONS)]
-    if not path.is_file() or not set(columns) <= set(pq.read_schema(path).names):
+    if not set(columns) <= set(pq.read_schema(read_checked(out, RESULTS_FILE)).names):
         return {}
-    t = pq.read_table(path, columns=columns).to_pydict()
+    t = read_table(out, RESULTS_FILE, columns).to_pydict()
     found: dict[str, tuple[str, dict[str, float]]] = {}
     for label in dict.fromkeys(t["tracker"]):
         rows = [i for i, name in enumerate(t["tracker"]) if name == label and t["confirmation"][i] is not None]

@@ -26,7 +26,6 @@ import json
 from pathlib import Path
 
 import numpy as np
-import pyarrow.parquet as pq
 
 from nnda.data.scenario import scenario_from_dict
 from nnda.errors import DatasetError
@@ -50,27 +49,24 @@ from nnda.reports.peers_section import against_stonesoup, peer_labels
 from nnda.reports.study_tables import is_thesis_scenario, scenario_table
 from nnda.reports.text_table import DASH, TextTable
 from nnda.reports.trajectory_plot import figure_div, plotly_js, trajectory_figure
+from nnda.study.checksums import read_checked, read_table
 from nnda.study.classifier import CLASSIFIER_FILE, CLASSIFIER_FORMAT, read_ablation
 from nnda.study.classifier import FORMAT_VERSION as CLASSIFIER_VERSION
 from nnda.study.plan import STUDY_FORMAT, STUDY_FORMAT_VERSION
-from nnda.study.results import TIMING_FILE, TRAJECTORIES_FILE, read_summary
+from nnda.study.results import read_summary
 from nnda.study.runner import MANIFEST
+from nnda.study.track_results import TIMING_FILE, TRAJECTORIES_FILE
 from nnda.tracking.registry import confirmation_rule
 
 
-def _columns(path: Path) -> dict[str, np.ndarray]:
-    if not path.is_file():
-        raise DatasetError(f"{path}: missing (run `nnda compare` to completion first)")
-    table = pq.read_table(path)
-    return {name: table.column(name).to_numpy(zero_copy_only=False) for name in table.column_names}
+def _columns(out: Path, name: str) -> dict[str, np.ndarray]:
+    table = read_table(out, name)
+    return {c: table.column(c).to_numpy(zero_copy_only=False) for c in table.column_names}
 
 
 def _times(out: Path) -> dict[tuple[str, str], np.ndarray]:
     """Every per-scan time (s) of each (scenario, tracker), all runs together."""
-    path = out / TIMING_FILE
-    if not path.is_file():
-        raise DatasetError(f"{path}: missing (run `nnda compare` to completion first)")
-    table = pq.read_table(path).to_pydict()
+    table = read_table(out, TIMING_FILE).to_pydict()
     grouped: dict[tuple[str, str], list] = {}
     for s, t, times in zip(table["scenario"], table["tracker"], table["time_per_scan_s"]):
         grouped.setdefault((s, t), []).extend(times)
@@ -223,7 +219,7 @@ def _tracker_figures(out: Path, summary: dict, scenarios: list[str], trackers: l
                 "and status).", ""]
     traj.html.append("<p>Run 0 of each scenario. Zoom with the mouse, hover a track point for the tracker, track "
                      "id and status, click a legend entry to hide or show it.</p>")
-    rows = _columns(out / TRAJECTORIES_FILE)
+    rows = _columns(out, TRAJECTORIES_FILE)
     for name in scenarios:
         mine = {k: v[rows["scenario"] == name] for k, v in rows.items()}
         fig = Figure(f"tracks_{name}.png", f"{name}, run 0: truth and confirmed tracks",
@@ -253,7 +249,7 @@ def report_sections(out: str | Path) -> tuple[str, list[Section], list[Figure]]:
     out = Path(out)
     manifest = read_json(out / MANIFEST, STUDY_FORMAT, STUDY_FORMAT_VERSION)
     summary, timing = read_summary(out)
-    classifier = read_json(out / CLASSIFIER_FILE, CLASSIFIER_FORMAT, CLASSIFIER_VERSION)
+    classifier = read_json(read_checked(out, CLASSIFIER_FILE), CLASSIFIER_FORMAT, CLASSIFIER_VERSION)
     if not summary["fingerprint"] == timing["fingerprint"] == manifest["fingerprint"]:
         raise DatasetError(f"{out}: study.json, summary.json and timing.json come from different studies; "
                            f"rerun `nnda compare --resume` to rebuild them")
@@ -280,7 +276,7 @@ def report_sections(out: str | Path) -> tuple[str, list[Section], list[Figure]]:
                 sec.table(table)
             sections.append(sec)
         if (out / ABLATION_FILE).is_file():
-            sections.append(_ablation(read_ablation(out / ABLATION_FILE), figures))
+            sections.append(_ablation(read_ablation(read_checked(out, ABLATION_FILE)), figures))
         if peer_labels(summary):
             sections.append(against_stonesoup(Section("peers", "Against Stone Soup", [], []), summary, timing))
         fused = fusion_section(Section("fusion", "Fusion against single sensors", [], []), manifest, summary)

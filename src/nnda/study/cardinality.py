@@ -15,8 +15,8 @@ A tracker job records, per scan (issue 14, item 8):
   count and no distribution; other trackers have no record), and a scan
   whose record is missing or stale (of another scan) holds None.
 
-The job keeps these under ``cardinality`` in its record (`nnda.study.job`,
-job format 4) and `nnda.study.results` writes them, one row per tracker job
+The job keeps these under ``cardinality`` in its record (`nnda.study.track_job`,
+job format 4) and `nnda.study.track_results` writes them, one row per tracker job
 in plan order, to ``cardinality.parquet``: scenario, tracker, kind, run and
 the five series as list columns (``true_count`` and ``confirmed_count``
 int64; ``filter_mean``, ``filter_variance`` float64 and ``filter_map``
@@ -31,10 +31,10 @@ from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
-import pyarrow.parquet as pq
 
 from nnda.errors import DatasetError
 from nnda.files import finite_or_none
+from nnda.study.checksums import read_table
 
 CARDINALITY_FILE = "cardinality.parquet"
 #: the filter's own series of a job record's ``cardinality``, in record order
@@ -123,10 +123,7 @@ def read_cardinality(out: str | Path) -> dict[tuple[str, str], Counts]:
     DatasetError when the file is missing (a study written before nnda recorded counts, or unfinished)
     or lacks a column."""
     path = Path(out) / CARDINALITY_FILE
-    if not path.is_file():
-        raise DatasetError(f"{path}: missing (a study written before the target counts were recorded, or not "
-                           f"finished): run `nnda compare` again to completion")
-    table = pq.read_table(path).to_pydict()
+    table = read_table(out, CARDINALITY_FILE).to_pydict()
     missing = [c for c in ("scenario", "tracker", "kind", *COLUMNS.values()) if c not in table]
     if missing:
         raise DatasetError(f"{path}: no column {', '.join(missing)}")

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -32,7 +33,9 @@ from nnda.models.ablation import ABLATION_FILE, ABLATION_FORMAT, ABLATION_FORMAT
 from nnda.models.metrics import classifier_metrics, roc
 from nnda.models.pairs import PairSet, model_pair_options, pairs_from_datasets
 from nnda.models.scorer import load_model
-from nnda.study.plan import ModelPlan
+
+if TYPE_CHECKING:
+    from nnda.study.kinds.track import ModelPlan
 
 CLASSIFIER_FORMAT = "nnda.study-classifier"
 FORMAT_VERSION = 1

@@ -1,166 +1,88 @@
-"""Study definition: which trackers, on which scenarios, how many runs, with which seed.
+"""The study file: a few common fields and a table (or top-level fields) per job kind it uses.
 
 A study is validated data (pydantic), read from TOML or JSON::
 
     name = "thesis"
-    seed = 0                  # every preset run is generated from (scenario, seed, run)
-    runs = 100                # Monte Carlo runs per generated scenario
-    gospa_cutoff_m = 1000.0   # GOSPA/OSPA cut-off c (p = 2, alpha = 2), also the position matching's threshold
-    ownership = "auto"        # track ownership: by "contacts", by "position", or "auto" (nnda.study.metrics)
+    description = "..."
+    seed = 0                  # every random draw of every job comes from (seed, what the job is)
+    confidence = 0.95         # level of every interval of the summary and the report
 
-    ablation = "models/ablation"  # optional: an `nnda train --ablation` directory, shown in the report
-
-    [models]                  # trained association networks (`nnda train` output or model.json)
-    lm = "models/lm"
-
-    [trackers.nn-lm]          # a label of your choice -> a registered tracker kind
-    kind = "nn"
-    model = "lm"              # passed to the tracker as params["model"] = the model file's path
-                              # (the tracker computes the feature set the model was trained on)
-    [trackers.gnn]
+    ...                       # then what to run: each kind's fields (`nnda.study.kinds`), e.g.
+    [trackers.gnn]            # the track kind (with runs, [models], [[scenarios]], ...)
     kind = "gnn"
-    params = { gate = 9.21 }  # the tracker's own validated config
-
-    [filters.imm-cv]          # optional: a single-target filter (nnda.filters.single_target), run on the
-    kind = "imm"              # study's single-target scenarios with the target's own contacts
-    params = { motion = "cv" }
-
     [[scenarios]]
-    preset = "validation"     # a preset or a preset group (S1-S6 here)
-    [[scenarios]]
-    config = "my.toml"        # a scenario config file, generated like a preset
-    [[scenarios]]
-    path = "data/recorded"    # a dataset or a collection: its members are the runs
-    name = "recorded"
+    preset = "validation"
 
-Relative paths are resolved against the study file's directory. Defaults
-where the specification is silent: seed 0, 10 runs, GOSPA cut-off 1000 m
-(the order of the initiation window and gates for this radar), track
-ownership "auto" (by contacts when a tracker's outputs report them, by
-position otherwise), 95% t-intervals over runs.
+    [reentry]                 # or the re-entry particle filters, the track-before-detect filters, ...
+    runs = 100
+
+The fields a kind adds are in its module's docstring. A study names at
+least one kind's work. Relative paths anywhere in the file are resolved
+against the file's directory. Defaults where the reference works are
+silent: seed 0, 95% intervals.
 """
 
 from __future__ import annotations
 
-import json
-import math
 import os
 from pathlib import Path
 from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, model_validator
+import tomli_w
+from pydantic import BaseModel, Field, PrivateAttr, create_model, model_validator
 
 from nnda.errors import ConfigError, validated
 from nnda.files import read_config
 from nnda.models.features import KINEMATIC
 from nnda.models.innovation import IMM_INNOVATION
-from nnda.study.metrics import DEFAULT_CUTOFF_M, Ownership
+from nnda.study.kinds import KINDS
+from nnda.study.kinds.base import STRICT, Label
+from nnda.study.kinds.track import ScenarioSpec, TrackerSpec
 from nnda.tracking.neural import life5
 
-_STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
-#: labels become file and directory names, so they are kept to a safe alphabet (and start with no dot)
-Label = Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z0-9_\-][A-Za-z0-9_.\-]*$")]
 
-#: the tracker parameter that receives a model file's path
-MODEL_PARAM = "model"
-
-
-class TrackerSpec(BaseModel):
-    """One tracker of the study: a registered kind, its parameters and optionally a model."""
-
-    model_config = _STRICT
-
-    kind: Annotated[str, Field(min_length=1, description="registered tracker name (nnda.tracking.registry)")]
-    model: Label | None = Field(default=None, description="label of an entry of [models]")
-    params: dict[str, Any] = Field(default_factory=dict, description="the tracker's config")
-
-    @model_validator(mode="after")
-    def _model_given_once(self) -> TrackerSpec:
-        if self.model is not None and MODEL_PARAM in self.params:
-            raise ValueError(f"give the model as `model = \"<label>\"`, not as params.{MODEL_PARAM}")
-        return self
+def _map_paths(value: Any, fn) -> Any:
+    """``value`` with ``fn`` applied to every `Path` inside it (through models, mappings and sequences)."""
+    if isinstance(value, Path):
+        return fn(value)
+    if isinstance(value, BaseModel):
+        return value.model_copy(update={k: _map_paths(getattr(value, k), fn) for k in type(value).model_fields})
+    if isinstance(value, dict):
+        return {k: _map_paths(v, fn) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return type(value)(_map_paths(v, fn) for v in value)
+    return value
 
 
-class FilterSpec(BaseModel):
-    """One single-target filter of the study: a registered kind and its parameters."""
+class StudyBase(BaseModel):
+    """The fields every study has; `Study` adds each registered kind's (module docstring)."""
 
-    model_config = _STRICT
-
-    kind: Annotated[str, Field(min_length=1, description="registered filter name (nnda.filters.single_target)")]
-    params: dict[str, Any] = Field(default_factory=dict, description="the filter's config")
-
-
-class ScenarioSpec(BaseModel):
-    """Where one or more scenarios come from: a preset (or group), a config file, or datasets on disk."""
-
-    model_config = _STRICT
-
-    preset: str | None = Field(default=None, description="preset or preset group name")
-    config: Path | None = Field(default=None, description="scenario config file (.toml or .json)")
-    path: Path | None = Field(default=None, description="dataset or collection directory")
-    name: Label | None = Field(default=None, description="name in the report (path scenarios)")
-
-    @model_validator(mode="after")
-    def _one_source(self) -> ScenarioSpec:
-        given = [k for k in ("preset", "config", "path") if getattr(self, k) is not None]
-        if len(given) != 1:
-            raise ValueError(f"give exactly one of preset, config or path (got {', '.join(given) or 'none'})")
-        if self.name is not None and self.path is None:
-            raise ValueError("name is for path scenarios; presets and configs keep their own names")
-        return self
-
-
-class Study(BaseModel):
-    """A comparison study (see the module docstring for the file format)."""
-
-    model_config = _STRICT
+    model_config = STRICT
 
     name: Label = "study"
     description: str = ""
     seed: Annotated[int, Field(ge=0)] = 0
-    runs: Annotated[int, Field(ge=1, description="Monte Carlo runs of each generated scenario")] = 10
-    gospa_cutoff_m: Annotated[float, Field(
-        gt=0, description="GOSPA/OSPA cut-off c (m), also the threshold of the position matching")] = DEFAULT_CUTOFF_M
-    ownership: Ownership = Field(default="auto", description="track ownership: auto, contacts or position")
-    confidence: Annotated[float, Field(gt=0, lt=1, description="level of the t-intervals")] = 0.95
-    models: dict[Label, Path] = Field(default_factory=dict)
-    ablation: Path | None = Field(default=None, description="`nnda train --ablation` output for the report")
-    trackers: dict[Label, TrackerSpec] = Field(default_factory=dict)
-    filters: dict[Label, FilterSpec] = Field(default_factory=dict, description="single-target filters: jobs "
-                                             "on the study's single-target scenarios")
-    scenarios: Annotated[list[ScenarioSpec], Field(min_length=1)]
+    confidence: Annotated[float, Field(gt=0, lt=1, description="level of the intervals")] = 0.95
     #: the directory relative paths were resolved against (the study file's), set by `resolved`
     _base: Path | None = PrivateAttr(default=None)
 
     @model_validator(mode="after")
-    def _models_declared(self) -> Study:
-        if not self.trackers and not self.filters:
-            raise ValueError("name at least one tracker ([trackers.<label>]) or filter ([filters.<label>])")
-        both = sorted(set(self.trackers) & set(self.filters))
-        if both:
-            raise ValueError(f"label(s) {', '.join(both)} name both a tracker and a filter; labels must differ")
-        for label, spec in self.trackers.items():
-            if spec.model is not None and spec.model not in self.models:
-                raise ValueError(f"tracker {label!r} uses model {spec.model!r}, which [models] does not declare "
-                                 f"(declared: {', '.join(self.models) or 'none'})")
+    def _kinds_checked(self) -> StudyBase:
+        if not any(kind.given(self) for kind in KINDS.values()):
+            raise ValueError(f"name what to run: at least one of {', '.join(k.work for k in KINDS.values())}")
+        for kind in KINDS.values():
+            kind.check(self)
         return self
 
-    def resolved(self, base: Path) -> Study:
+    def resolved(self, base: Path) -> StudyBase:
         """A copy with every relative path made absolute against ``base``."""
-        def fix(p: Path | None) -> Path | None:
-            return None if p is None else (p if p.is_absolute() else base / p).resolve()
-
-        copy = self.model_copy(update={
-            "models": {k: fix(v) for k, v in self.models.items()}, "ablation": fix(self.ablation),
-            "scenarios": [s.model_copy(update={"config": fix(s.config), "path": fix(s.path)})
-                          for s in self.scenarios],
-        })
+        copy = _map_paths(self, lambda p: (p if p.is_absolute() else base / p).resolve())
         copy._base = base.resolve()
         return copy
 
     def __eq__(self, other: object) -> bool:
         """Equal fields: where the study file was read from (``_base``) does not make two studies differ."""
-        return isinstance(other, Study) and self.model_dump() == other.model_dump()
+        return isinstance(other, StudyBase) and self.model_dump() == other.model_dump()
 
     def __hash__(self) -> int:
         return hash(self.model_dump_json())
@@ -173,9 +95,14 @@ class Study(BaseModel):
         return os.path.relpath(path, self._base)
 
     def inputs(self) -> list[Path]:
-        """Every file or directory the study reads: model files, scenario configs, datasets, the ablation."""
-        paths = [*self.models.values(), *(s.config or s.path for s in self.scenarios if s.preset is None)]
-        return paths + ([self.ablation] if self.ablation is not None else [])
+        """Every file or directory the study reads (model files, scenario configs, datasets, ...)."""
+        found: list[Path] = []
+        _map_paths(self, found.append)
+        return found
+
+
+Study = create_model("Study", __base__=StudyBase, __doc__="A study (see the module docstring for the file format).",
+                     **{name: spec for kind in KINDS.values() for name, spec in kind.fields.items()})
 
 
 def study_from_dict(data: dict, source: str = "<study>", base: Path | None = None) -> Study:
@@ -192,11 +119,11 @@ def load_study(path: str | Path) -> Study:
 
 def default_study(gd_model: str | Path, lm_model: str | Path, ext_model: str | Path, runs: int = 100,
                   seed: int = 0, ablation: str | Path | None = None) -> Study:
-    """The specification's comparison (seed-001 §10.2) and issue 9's: IMM/TOMHT against the neural
-    tracker with the seed's features (gradient-descent and Levenberg-Marquardt models: ``nn-gd``,
-    ``nn-seed``) and with the IMM-extended features (``nn-ext``; ``nn-life`` with issue 20's settings
-    for coasting and young tracks, `nnda.tracking.neural.life5`), plus the GNN and JPDA baselines and the
-    association-free EK-PHD and CPHD filters (``ekphd``, ``cphd``, issue 14), on S1-S6.
+    """The radar thesis's comparison (Vargas Avila 2015, S1-S6): IMM/TOMHT against the neural tracker with the
+    thesis's features (gradient-descent and Levenberg-Marquardt models: ``nn-gd``, ``nn-seed``) and with the
+    IMM-extended features (``nn-ext``; ``nn-life`` with the life cycle for coasting and young tracks,
+    `nnda.tracking.neural.life5`), plus the GNN and JPDA baselines and the association-free EK-PHD and CPHD
+    filters (``ekphd``, ``cphd``).
 
     Model paths are kept as given (relative ones are resolved when the study is written and read).
     """
@@ -220,28 +147,14 @@ def default_study(gd_model: str | Path, lm_model: str | Path, ext_model: str | P
     )
 
 
-# ----------------------------------------------------------------------------- writing
-
-def _toml_value(value: Any) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        if not math.isfinite(value):
-            raise ConfigError(f"study: cannot write the non-finite number {value} to TOML")
-        return repr(value)
-    if isinstance(value, (str, Path)):
-        return json.dumps(str(value))  # a JSON string is a valid TOML basic string
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+def _pruned(value: Any) -> Any:
+    """``value`` without None entries and empty tables (TOML has no null)."""
     if isinstance(value, dict):
-        return "{ " + ", ".join(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items()) + " }"
-    raise ConfigError(f"study: cannot write {type(value).__name__} values to TOML")
-
-
-def _toml_key(key: str) -> str:
-    return key if key.replace("-", "").replace("_", "").isalnum() else json.dumps(key)
+        kept = {k: _pruned(v) for k, v in value.items() if v is not None}
+        return {k: v for k, v in kept.items() if v != {}}
+    if isinstance(value, list):
+        return [_pruned(v) for v in value]
+    return value
 
 
 def study_to_toml(study: Study, relative_to: Path | None = None) -> str:
@@ -249,34 +162,16 @@ def study_to_toml(study: Study, relative_to: Path | None = None) -> str:
 
     Paths under ``relative_to`` (the directory the file will live in) are written relative to it.
     """
-    def path(p: Path) -> str:
+    def path(p: Path) -> Path:
         if relative_to is not None and p.is_absolute():
             try:
-                return str(p.relative_to(relative_to.resolve()))
+                return p.relative_to(relative_to.resolve())
             except ValueError:
-                return str(p)
-        return str(p)
+                return p
+        return p
 
-    lines = [f"{k} = {_toml_value(getattr(study, k))}"
-             for k in ("name", "description", "seed", "runs", "gospa_cutoff_m", "ownership", "confidence")]
-    if study.ablation is not None:
-        lines.append(f"ablation = {_toml_value(path(study.ablation))}")
-    if study.models:
-        lines += ["", "[models]"] + [f"{_toml_key(k)} = {_toml_value(path(v))}" for k, v in study.models.items()]
-    for label, spec in study.trackers.items():
-        lines += ["", f"[trackers.{_toml_key(label)}]", f"kind = {_toml_value(spec.kind)}"]
-        if spec.model is not None:
-            lines.append(f"model = {_toml_value(spec.model)}")
-        if spec.params:
-            lines.append(f"params = {_toml_value(spec.params)}")
-    for label, spec in study.filters.items():
-        lines += ["", f"[filters.{_toml_key(label)}]", f"kind = {_toml_value(spec.kind)}"]
-        if spec.params:
-            lines.append(f"params = {_toml_value(spec.params)}")
-    for s in study.scenarios:
-        lines += ["", "[[scenarios]]"]
-        for key in ("preset", "config", "path", "name"):
-            value = getattr(s, key)
-            if value is not None:
-                lines.append(f"{key} = {_toml_value(path(value) if isinstance(value, Path) else value)}")
-    return "\n".join(lines) + "\n"
+    data = _pruned(_map_paths(study, path).model_dump(mode="json"))
+    try:
+        return tomli_w.dumps(data)
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f"study: cannot be written as TOML ({exc})") from None

@@ -2,7 +2,7 @@
 
     run = ScoredRun(dataset, outputs)            # nnda.study.metrics
     causes = loss_causes(run)                    # {cause: lost target contacts}, summing to run's "losses"
-    causes = job_loss_causes(job)                # the same for one study job (JobSpec), run afresh
+    causes = job_loss_causes(job)                # the same for one tracker job (a TrackJob), run afresh
 
 A *loss* is a target contact the hit rate counts against the tracker (`nnda.study.metrics`: after the
 first scan with a track owned by its target, not used by a displayed track of that target). Each one,
@@ -29,15 +29,17 @@ The counts are per run; a study sums or averages them over runs.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from nnda.data.dataset import read_dataset
-from nnda.data.generator import generate
 from nnda.study.metrics import ScoredRun
-from nnda.study.plan import JobSpec
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
+
+if TYPE_CHECKING:
+    from nnda.study.kinds.track import TrackJob
 
 #: the causes, in the order of the module docstring (the first that applies wins)
 LOSS_CAUSES: tuple[str, ...] = (
@@ -103,11 +105,11 @@ def loss_causes(run: ScoredRun) -> dict[str, int]:
     return {name: int(c) for name, c in zip(LOSS_CAUSES, counts)}
 
 
-def job_loss_causes(job: JobSpec) -> dict[str, int]:
+def job_loss_causes(job: TrackJob) -> dict[str, int]:
     """`loss_causes` of one study job (a tracker job on a generated run), its tracker run afresh as
-    `nnda.study.job.run_job` runs it."""
+    `nnda.study.track_job.run_job` runs it."""
     with threadpool_limits(1):
-        dataset = read_dataset(job.dataset) if job.dataset is not None else generate(job.generate, job.seed, job.run)
+        dataset = job.dataset()
         tracker = make_tracker(job.kind, dataset.scenario.sensors, job.params)
         outputs = [tracker.step(scan) for scan in dataset.scans()]
         return loss_causes(ScoredRun(dataset, outputs, job.cutoff_m, job.ownership))

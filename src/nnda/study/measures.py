@@ -31,13 +31,13 @@ is `nnda.study.metrics`'s; its module docstring states the rules.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
-from nnda.study.stats import root_mean_square
+from nnda.study.stats import mean_ci, root_mean_square
 from nnda.tracking.output import TrackStatus
 
 if TYPE_CHECKING:
@@ -263,7 +263,7 @@ MEASURES: tuple[Measure, ...] = (
     Measure("ospa_cardinality", "OSPA cardinality part", "m", "lower", _COUNT, True, _set_part(1, 2), "{:.1f}"),
     Measure("count_error", "Target-count error (confirmed tracks vs targets)", "", "lower", _COUNT, True, _count_error,
             "{:.2f}"),
-    # its series is "false_tracks" in job records (results.parquet: false_tracks_per_scan, see nnda.study.results)
+    # its series is "false_tracks" in job records (results.parquet: false_tracks_per_scan, see nnda.study.track_results)
     Measure("false_tracks_per_scan", "False tracks present", "", "lower", _COUNT, True, _false_per_scan, "{:.3f}",
             integer=True, series="false_tracks"),
     Measure("time_to_count_s", "Time to a correct count", "s", "lower", _COUNT, False, _time_to_count, "{:.1f}"),
@@ -280,6 +280,15 @@ SERIES_MEASURES: tuple[Measure, ...] = tuple(m for m in RUN_MEASURES if m.per_sc
 _BY_KEY = {m.key: m for m in MEASURES}
 #: the time per scan (s): the job's wall-clock measure
 TIME: Measure = next(m for m in MEASURES if m.timing)
+
+
+def time_summary(per_run: Sequence[Sequence[float]], confidence: float) -> dict:
+    """The time per scan (or step) of one estimator over its runs, each run a list of seconds: the mean over runs
+    of each run's mean with its t-interval (under `TIME`'s key), and the median, 95th percentile and maximum
+    of every scan of every run (s)."""
+    every = np.concatenate([np.asarray(t, dtype=float) for t in per_run])
+    return {TIME.key: mean_ci([float(np.mean(t)) for t in per_run], confidence, *TIME.bounds),
+            "median_s": float(np.median(every)), "p95_s": float(np.percentile(every, 95)), "max_s": float(every.max())}
 
 
 def measure(key: str) -> Measure:

@@ -48,7 +48,7 @@ no estimate within c is *missed* and enters no RMS. Per time k over runs:
 Intervals: the mean-RMS figures are ratios over runs, so their intervals are
 percentile bootstraps over runs (``bootstrap`` resamples, paired: the same
 resampled runs for every filter, which gives the differences' intervals);
-per-run measures take Student-t intervals (`nnda.study.results.mean_ci`).
+per-run measures take Student-t intervals (`nnda.study.stats.mean_ci`).
 A verdict reads an interval: a difference whose interval excludes 0.
 """
 

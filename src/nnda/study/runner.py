@@ -3,12 +3,13 @@
 Layout of a study directory::
 
     study.json                         what was run (nnda.study manifest, with the fingerprint)
-    jobs/<scenario>/<tracker>/run-NNNN.json   one file per finished job, written atomically
-    results.parquet, summary.json, ...        the aggregates (`nnda.study.results`)
+    jobs/...                           one file per finished job, written atomically (where: each kind's)
+    summary.json, timing.json, *.parquet, ...  the aggregates (`nnda.study.results`)
 
-Every job is independent and its record is written as soon as it arrives,
+Every job is independent (`nnda.study.kinds.base.Job`; a worker runs it
+with its kind's ``run``) and its record is written as soon as it arrives,
 by this process (so Dask workers need no shared disk for results), with
-the SHA-256 of its own content. With ``resume`` the jobs whose file exists
+its key and the SHA-256 of its own content. With ``resume`` the jobs whose file exists
 with the same key and an intact digest are kept and the others run, so a
 study changed after a failure (the cause fixed) resumes with whatever still
 holds; the aggregates are always rebuilt from the job files in plan order,
@@ -36,13 +37,14 @@ from pathlib import Path
 
 from nnda.errors import ConfigError, DatasetError
 from nnda.files import digest, dumps, read_json, write_json
-from nnda.study.job import JOB_FORMAT, JOB_FORMAT_VERSION, run_job
-from nnda.study.plan import STUDY_FORMAT, STUDY_FORMAT_VERSION, JobSpec, StudyPlan
+from nnda.study.kinds import KINDS
+from nnda.study.kinds.base import Job
+from nnda.study.plan import STUDY_FORMAT, STUDY_FORMAT_VERSION, StudyPlan
 
 MANIFEST = "study.json"
 
 #: progress: called with (number of jobs done, total, the job just finished or None at the start)
-JobCallback = Callable[[int, int, JobSpec | None], None]
+JobCallback = Callable[[int, int, Job | None], None]
 
 
 @dataclass(frozen=True)
@@ -75,6 +77,18 @@ def check_out(out: Path, resume: bool, overwrite: bool) -> bool:
     return True
 
 
+#: every job record's format (each kind's fields inside); older versions are run again on resume and refused
+#: by `read_job`, naming the version
+JOB_FORMAT = "nnda.study-job"
+JOB_FORMAT_VERSION = 5
+
+
+def run_job(job: Job) -> dict:
+    """Run one job with its kind's ``run`` (in any process): its record, with its format, version and key."""
+    return {"format": JOB_FORMAT, "format_version": JOB_FORMAT_VERSION, **KINDS[job.kind].run(job.spec),
+            "key": job.key}
+
+
 def _sealed(record: dict) -> dict:
     """The record with the SHA-256 of its canonical content (without that field) in ``sha256``."""
     return {**record, "sha256": digest(dumps({k: v for k, v in record.items() if k != "sha256"}, None).encode())}
@@ -84,7 +98,7 @@ def _intact(record: dict) -> bool:
     return record.get("sha256") == _sealed(record)["sha256"]
 
 
-def is_done(job: JobSpec, out: Path) -> bool:
+def is_done(job: Job, out: Path) -> bool:
     """True when the job's file exists and holds a record with the job's key."""
     path = out / job.relpath
     if not path.is_file():
@@ -98,7 +112,7 @@ def is_done(job: JobSpec, out: Path) -> bool:
             and _intact(record))  # an edited or damaged record is run again
 
 
-def read_job(job: JobSpec, out: Path) -> dict:
+def read_job(job: Job, out: Path) -> dict:
     """The saved record of a finished job; DatasetError if it is missing or of another job."""
     path = out / job.relpath
     record = read_json(path, JOB_FORMAT, JOB_FORMAT_VERSION)
@@ -113,20 +127,20 @@ def read_job(job: JobSpec, out: Path) -> dict:
 class JobFailed(RuntimeError):
     """A job raised: names the job; the jobs finished before it are kept for --resume."""
 
-    def __init__(self, job: JobSpec, exc: BaseException) -> None:
-        super().__init__(f"job {job.relpath} ({job.tracker} on {job.scenario} run {job.run}) failed: "
+    def __init__(self, job: Job, exc: BaseException) -> None:
+        super().__init__(f"job {job.relpath} ({job.title}) failed: "
                          f"{type(exc).__name__}: {exc}; finished jobs are kept: fix the cause, then run again "
                          f"with --resume (the jobs whose inputs did not change are kept)")
 
 
-def _result(job: JobSpec, future) -> dict:
+def _result(job: Job, future) -> dict:
     try:
         return future.result()
     except Exception as exc:
         raise JobFailed(job, exc) from exc
 
 
-def _in_process(jobs: list[JobSpec]) -> Iterator[tuple[JobSpec, dict]]:
+def _in_process(jobs: list[Job]) -> Iterator[tuple[Job, dict]]:
     for job in jobs:
         try:
             record = run_job(job)
@@ -135,14 +149,14 @@ def _in_process(jobs: list[JobSpec]) -> Iterator[tuple[JobSpec, dict]]:
         yield job, record
 
 
-def _local_pool(jobs: list[JobSpec], workers: int) -> Iterator[tuple[JobSpec, dict]]:
+def _local_pool(jobs: list[Job], workers: int) -> Iterator[tuple[Job, dict]]:
     """Jobs on worker processes, yielded as they finish. After a failure no new job starts, the
     running ones finish (and are yielded, so they are kept), then the failure is raised."""
     # spawn: workers start clean (no copy of this process's threads, e.g. the progress bar's)
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
     failure: JobFailed | None = None
     try:
-        pending: dict[Future, JobSpec] = {pool.submit(run_job, job): job for job in jobs}
+        pending: dict[Future, Job] = {pool.submit(run_job, job): job for job in jobs}
         while pending:
             done, _ = wait(pending, return_when=FIRST_COMPLETED)
             for future in done:
@@ -190,7 +204,7 @@ def dask_client(address: str, workers: int):
             yield client
 
 
-def _dask(jobs: list[JobSpec], address: str, workers: int) -> Iterator[tuple[JobSpec, dict]]:
+def _dask(jobs: list[Job], address: str, workers: int) -> Iterator[tuple[Job, dict]]:
     as_completed = require_dask().as_completed
     with dask_client(address, workers) as client:
         futures = {client.submit(run_job, job, key=f"nnda-{job.key}", pure=False): job for job in jobs}

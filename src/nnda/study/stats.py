@@ -7,6 +7,7 @@
     fisher_p((3, 100), (14, 100))                   # two-sided Fisher exact test of two counts
     sign_test_p(differences)                        # two-sided sign test of paired differences (ties left out)
     root_mean_square(squares, counts, axis=0)       # sqrt(sum squares / sum counts), NaN where no count
+    ragged_mean([[1.0, 2.0], [3.0]])                # element-wise mean of series of unequal length: [2.0, 2.0]
 
 Every function takes plain numbers or numpy arrays and returns floats or
 arrays; nothing here knows a tracker, a scene or a file.
@@ -85,3 +86,15 @@ def root_mean_square(squares: np.ndarray, counts: np.ndarray | None = None, axis
         n = np.asarray(counts).sum(axis=axis)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(n > 0, np.sqrt(squares.sum(axis=axis) / n), np.nan)
+
+
+def ragged_mean(rows: Sequence[Sequence[float | None]]) -> list[float | None]:
+    """Element-wise mean of series of possibly different lengths (the missing tail of a shorter one, None and
+    NaN left out); None where no series has a value."""
+    width = max(len(r) for r in rows)
+    a = np.full((len(rows), width), np.nan)
+    for i, r in enumerate(rows):
+        a[i, :len(r)] = [np.nan if v is None else v for v in r]
+    counts = np.isfinite(a).sum(axis=0)
+    sums = np.nansum(a, axis=0)
+    return [float(s / c) if c and math.isfinite(s / c) else None for s, c in zip(sums, counts)]

@@ -7,7 +7,7 @@ Usage sketch::
     run.scores           # RunMetrics of nnda.study.metrics.run_metrics, or None without truth
 
 The tracker is built and stepped exactly as a study job does
-(`nnda.study.job.run_job`: `make_tracker` with the config, the model path in
+(`nnda.study.track_job.run_job`: `make_tracker` with the config, the model path in
 its ``model`` field, one BLAS thread, ``time.perf_counter`` around each
 ``step``), so the table and scores equal that job's for the same tracker,
 config and dataset.
@@ -42,8 +42,9 @@ from threadpoolctl import threadpool_limits
 from nnda.data.dataset import Dataset, is_collection, read_dataset
 from nnda.errors import ConfigError, DatasetError
 from nnda.files import read_config
-from nnda.study.config import MODEL_PARAM
+from nnda.study.kinds.track import MODEL_PARAM
 from nnda.study.metrics import DEFAULT_CUTOFF_M, Ownership, RunMetrics, run_metrics
+from nnda.study.track_job import dataset_digest, scalars
 from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
 from nnda.tracking.registry import make_tracker
 
@@ -145,11 +146,8 @@ SCORES_FORMAT_VERSION = 1
 
 
 def scores_record(run: TrackRun, dataset: Dataset, params: Mapping[str, Any], cutoff_m: float) -> dict:
-    """``scores.json``: what was run on what, the ownership used and every run measure (`nnda.study.job.scalars`:
-    a per-scan measure's mean over scans, undefined ones null). No wall-clock time: the same inputs give the
-    same bytes."""
-    from nnda.study.job import dataset_digest, scalars
-
+    """``scores.json``: what was run on what, the ownership used and every run measure (`scalars`: a per-scan
+    measure's mean over scans, undefined ones null). No wall-clock time: the same inputs give the same bytes."""
     assert run.scores is not None
     return {
         "format": SCORES_FORMAT, "format_version": SCORES_FORMAT_VERSION, "tracker": run.tracker,

@@ -1,0 +1,16 @@
+"""The registry of job kinds: what a study can run (`nnda.study.kinds.base.JobKind`).
+
+* ``track``: a tracker over one run of a scene (`nnda.study.kinds.track`);
+* ``filter``: a single-target filter over one run of a single-target scene
+  (`nnda.study.kinds.filter`).
+
+A new kind is one module defining a `JobKind` and one entry below; the
+study file, the plan, keys, resume, local processes and Dask come with it.
+"""
+
+from __future__ import annotations
+
+from nnda.study.kinds import filter, track
+from nnda.study.kinds.base import JobKind
+
+KINDS: dict[str, JobKind] = {k.name: k for k in (track.KIND, filter.KIND)}

@@ -1,0 +1,90 @@
+"""What a job kind is: the contract between the study engine and one kind of work.
+
+A study file holds one table (or a few top-level fields) per kind it uses;
+the engine (`nnda.study.plan`, `nnda.study.runner`, `nnda.study.results`)
+knows only this contract::
+
+    kind = KINDS["reentry"]
+    kind.fields                      # its study-file fields: {name: (annotation, pydantic Field)}
+    kind.work                        # how a study file names its work, e.g. "[trackers.<label>]"
+    kind.given(study)                # does this study ask for it?
+    kind.check(study)                # cross-field checks (ValueError), run when the study file is read
+    plan = kind.plan(study, where)   # every input checked; plan.jobs: the independent Jobs, keyed
+    record = kind.run(job.spec)      # one job, in any process: a JSON-ready dict
+    summary, timing, files = kind.aggregate(plan, records)   # in plan order: summary.json and timing.json
+                                     # entries, and the kind's own tables ({file name: pyarrow Table})
+
+``measures`` names the registry entries (`nnda.study.measures.MEASURES`)
+that apply to the kind's records. Records hold no wall-clock time outside
+their ``timing`` entry, so everything but ``timing.json`` and ``timing.*``
+tables is the same, byte for byte, for the same study and seed.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Annotated, Any, Protocol
+
+import pyarrow as pa
+from pydantic import ConfigDict, Field
+
+from nnda.files import digest
+from nnda.version import __version__
+
+#: study-file models: unknown keys refused, values frozen, no NaN or infinity
+STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+#: labels become file and directory names, so they are kept to a safe alphabet (and start with no dot)
+Label = Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z0-9_\-][A-Za-z0-9_.\-]*$")]
+
+
+@dataclass(frozen=True)
+class Job:
+    """One independent unit of a study's work; picklable, no open files.
+
+    ``kind`` is the registry name of its job kind, ``key`` a SHA-256 over
+    what determines its record (a saved record is reused on resume only
+    under the same key), ``relpath`` where its record lives in the study
+    directory, ``title`` how messages name it, ``spec`` what the kind's
+    ``run`` needs.
+    """
+
+    kind: str
+    key: str
+    relpath: str
+    title: str
+    spec: Any
+
+
+class KindPlan(Protocol):
+    """A kind's checked part of a study: its jobs in plan order and its entries of ``study.json``."""
+
+    jobs: tuple[Job, ...]
+
+    def manifest(self) -> dict: ...
+
+
+@dataclass(frozen=True)
+class JobKind:
+    """A job kind: its study-file fields and the functions the engine calls (module docstring)."""
+
+    name: str
+    fields: Mapping[str, tuple[Any, Any]]
+    work: str
+    given: Callable[[Any], bool]
+    plan: Callable[[Any, str], KindPlan]
+    run: Callable[[Any], dict]
+    aggregate: Callable[[Any, list[dict]], tuple[dict, dict, dict[str, pa.Table]]]
+    check: Callable[[Any], None] = lambda study: None
+    measures: Sequence[str] = field(default_factory=tuple)
+
+
+def canonical(data: Any) -> bytes:
+    """The canonical JSON bytes of ``data`` (sorted keys, no spaces), the input of every job key."""
+    return json.dumps(data, sort_keys=True, separators=(",", ":"), default=str).encode()
+
+
+def job_key(what: Mapping[str, Any]) -> str:
+    """SHA-256 of ``what`` determines a record, with the nnda version (a new release recomputes every job)."""
+    return digest(canonical({"nnda": __version__, **what}))
