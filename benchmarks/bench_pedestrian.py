@@ -1,4 +1,4 @@
-"""Pedestrian speed (issue 15): walker simulation, EK-PHD ms per scan on the stress scene, the Test 4 study.
+"""Pedestrian speed: walker simulation, EK-PHD ms per scan on the stress scene, the Test 4 study.
 
 Simulates WALKERS walkers for STEPS steps of 1 s on a 1 km x 1 km lawn with
 a gravel band, a row of buildings, a gate along the west edge and a door
@@ -23,14 +23,18 @@ Usage: python benchmarks/bench_pedestrian.py [--walkers 1000] [--steps 300] [--r
 from __future__ import annotations
 
 import argparse
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
 from nnda.data.pedestrian.scenes import PEDESTRIAN_SCENES, PERSON_SET_A
 from nnda.data.pedestrian.terrain import TerrainMap, build_terrain
 from nnda.data.pedestrian.walkers import WalkerScene, simulate, walker_runs
-from nnda.study.pedestrian import TEST_SPECS, PedestrianStudyConfig, run_test, track
+from nnda.study.compare import compare
+from nnda.study.config import study_from_dict
+from nnda.study.pedestrian import TEST_SPECS, track
 
 #: the thesis's EK-PHD on its stress scene (Table 6.2): seconds per 100-scan run
 THESIS_EKPHD_S = 53.24
@@ -96,11 +100,15 @@ def phd(runs: int) -> None:
 
 
 def test4(runs: int, jobs: int) -> None:
-    """The whole Test 4 study (simulation, both filters, scoring) on ``jobs`` processes, wall-clock."""
-    cfg = PedestrianStudyConfig(tests=("test4",), test4_runs=runs, jobs=jobs)
-    t0 = time.perf_counter()
-    result = run_test(TEST_SPECS["test4"], cfg, 0)
-    seconds = time.perf_counter() - t0
+    """The whole Test 4 study through the study engine (simulation, both filters, scoring, the aggregates) on
+    ``jobs`` processes, wall-clock."""
+    study = study_from_dict({"name": "bench-test4", "pedestrian": {"tests": ["test4"], "test4_runs": runs,
+                                                                    "beyond": False}}, "bench")
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        done = compare(study, Path(tmp) / "out", workers=jobs)
+        seconds = time.perf_counter() - t0
+    result = done.summary["pedestrian"]["tests"][0]
     steps = runs * PEDESTRIAN_SCENES["walk-test4"].n_scans * len(TEST_SPECS["test4"].filters)
     print(f"Test 4 study, {runs} runs x 2 filters on {jobs} process(es): {seconds:.1f} s "
           f"({1e3 * seconds / steps:.2f} ms per filter-scan; target < 120 s for 600 runs on 2 cores); "

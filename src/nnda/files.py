@@ -24,7 +24,7 @@ import shutil
 import socket
 import tempfile
 import tomllib
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -109,21 +109,6 @@ def atomic_directory(out: str | Path, overwrite: bool = False) -> Iterator[Path]
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
-
-
-def refuse_existing(out: str | Path, overwrite: bool) -> None:
-    """Raise FileExistsError when ``out`` exists and ``overwrite`` is not given (checked before long work)."""
-    if Path(out).exists() and not overwrite:
-        raise FileExistsError(f"{out}: already exists (pass --overwrite to replace it)")
-
-
-def write_results_directory(out: str | Path, overwrite: bool, results_file: str, results: dict,
-                            write_report: Callable[[Path, dict], None]) -> None:
-    """Write the directory ``out`` atomically: ``results`` as JSON in ``results_file`` and what
-    ``write_report(directory, results)`` adds (a study command's results and report)."""
-    with atomic_directory(out, overwrite=overwrite) as tmp:
-        write_json(tmp / results_file, results)
-        write_report(tmp, results)
 
 
 def finite_or_none(value: float) -> float | None:

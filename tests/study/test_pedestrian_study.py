@@ -1,4 +1,4 @@
-"""seed-000's pedestrian study: estimate ownership, the thesis's RMS figures, the tables, verdicts and command."""
+"""The pedestrian study (Frencl 2014): estimate ownership, the thesis's RMS figures, the tables, verdicts, command."""
 
 from __future__ import annotations
 
@@ -14,14 +14,16 @@ from nnda.app.cli import app
 from nnda.reports import pedestrian_section as ps
 from nnda.reports.pedestrian_values import THESIS_EXCESS, THESIS_RMS, THESIS_RUNTIME_S
 from nnda.study import pedestrian as P
+from nnda.study import pedestrian_scores as S
+from nnda.study.timing import join_timing, split_timing
 
 
 def _trace(truth_scan, truth_xy, est_scan, est_xy, k):
-    return P.Trace(np.array(truth_scan), np.array(truth_xy, float).reshape(-1, 2), np.array(est_scan, np.int64),
+    return S.Trace(np.array(truth_scan), np.array(truth_xy, float).reshape(-1, 2), np.array(est_scan, np.int64),
                    np.array(est_xy, float).reshape(-1, 2), np.zeros(k, int), np.zeros(k), 0.0)
 
 
-def _owned_by_brute_force(t: P.Trace, n_scans: int, c: float):
+def _owned_by_brute_force(t: S.Trace, n_scans: int, c: float):
     """Every estimate against every true point of its scan, one at a time."""
     M = len(t.truth_scan)
     count = np.zeros(M, int)
@@ -52,7 +54,7 @@ def test_estimates_go_to_the_nearest_true_point_within_the_cutoff():
     est_scan = np.sort(rng.integers(1, K + 1, 30))
     est_xy = truth_xy[2 * (est_scan - 1)] + rng.normal(0, 1.5, (30, 2))
     t = _trace(truth_scan, truth_xy, est_scan, est_xy, K)
-    o = P.owned(t, K, 2.0)
+    o = S.owned(t, K, 2.0)
     count, close_x, all_x, found = _owned_by_brute_force(t, K, 2.0)
     np.testing.assert_array_equal(o.count, count)
     np.testing.assert_allclose(o.close_x, close_x, rtol=1e-12)
@@ -61,13 +63,20 @@ def test_estimates_go_to_the_nearest_true_point_within_the_cutoff():
     np.testing.assert_array_equal(o.points, np.full(K, 2))
 
 
+def _score(cfg: P.PedestrianStudyConfig, traces: dict) -> dict:
+    runs = {label: [S.score_run(t, 60, cfg.cutoff_m) for t in ts] for label, ts in traces.items()}
+    return S.score_accuracy(runs, 60, cfg.seed, cfg.bootstrap, cfg.confidence, 0)
+
+
 @pytest.fixture(scope="module")
 def test4():
     """Test 4 on 3 runs (both filters), its traces and its scores."""
     cfg = P.PedestrianStudyConfig(tests=("test4",), test4_runs=3, bootstrap=200)
     spec = P.TEST_SPECS["test4"]
-    traces = P.run_traces(spec.accuracy, spec.filters, 3, cfg)
-    return cfg, traces, P.score_accuracy(traces, 60, cfg, 0)
+    scene = P.PEDESTRIAN_SCENES[spec.accuracy]
+    datasets = list(P.walker_runs(scene, range(3), cfg.seed))
+    traces = {f.label: [P.track(f, scene, ds, cfg.birth) for ds in datasets] for f in spec.filters}
+    return cfg, traces, _score(cfg, traces)
 
 
 def test_the_mean_rms_is_the_thesis_min_distance_rms_from_the_runs(test4):
@@ -89,7 +98,7 @@ def test_changing_one_run_moves_the_table(test4):
     moved = dict(traces)
     t = moved[label][1]
     moved[label] = [traces[label][0], dataclasses.replace(t, est_xy=t.est_xy + [0.5, 0.0]), *traces[label][2:]]
-    again = P.score_accuracy(moved, 60, cfg, 0)
+    again = _score(cfg, moved)
     assert again["filters"][label]["mean_rms"]["x"]["mean"] > acc["filters"][label]["mean_rms"]["x"]["mean"]
     assert again["filters"][label]["mean_rms"]["y"] == acc["filters"][label]["mean_rms"]["y"]
     test = {"name": "test4", "title": "Test 4", "accuracy_scene": "walk-test4"}
@@ -98,13 +107,15 @@ def test_changing_one_run_moves_the_table(test4):
     assert before[2] != after[2] and before[4] == after[4]
 
 
-def test_traces_do_not_depend_on_the_number_of_processes(test4):
+def test_a_block_of_runs_is_the_same_alone_as_among_all_runs(test4):
     cfg, traces, _ = test4
-    spec = P.TEST_SPECS["test4"]
-    two = P.run_traces(spec.accuracy, spec.filters[:1], 3, cfg.model_copy(update={"jobs": 2}))
-    for a, b in zip(traces[spec.filters[0].label], two[spec.filters[0].label], strict=True):
-        np.testing.assert_array_equal(a.est_xy, b.est_xy)
-        np.testing.assert_array_equal(a.weight, b.weight)
+    f = P.TEST_SPECS["test4"].filters[0]
+    whole = P.run_block("walk-test4", f, 0, 3, cfg.seed, cfg.birth, cfg.cutoff_m, True)
+    split = [*P.run_block("walk-test4", f, 0, 1, cfg.seed, cfg.birth, cfg.cutoff_m, True),
+             *P.run_block("walk-test4", f, 1, 2, cfg.seed, cfg.birth, cfg.cutoff_m, True)]
+    for a, b, t in zip(whole, split, traces[f.label], strict=True):
+        assert {k: v for k, v in a.items() if k != "timing"} == {k: v for k, v in b.items() if k != "timing"}
+        assert a["estimates"] == t.est_xy.tolist() and a["weight"] == t.weight.tolist()
 
 
 def test_oracle_birth_puts_the_thesis_components_on_the_true_first_states():
@@ -144,7 +155,7 @@ def test_the_command_writes_results_and_a_report(tmp_path):
     args = ["pedestrian", "test4", "--out", str(out), "--test4-runs", "2", "--no-beyond"]
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 0, result.output
-    results = json.loads((out / "results.json").read_text())
+    results = json.loads((out / "summary.json").read_text())["pedestrian"]
     assert [t["name"] for t in results["tests"]] == ["test4"]
     md = (out / "report.md").read_text()
     assert "19800" in md and "the HM map gives fewer duplicate estimates" in md
@@ -153,17 +164,17 @@ def test_the_command_writes_results_and_a_report(tmp_path):
     assert again.exit_code != 0 and "already exists" in str(again.exception or again.output)
     second = tmp_path / "again"
     assert CliRunner().invoke(app, [*args[:3], str(second), *args[4:]]).exit_code == 0
-    assert (second / "results.json").read_bytes() == (out / "results.json").read_bytes()  # same seed, same bytes
-    assert "runtime_s" in json.loads((out / "timing.json").read_text()) and "runtime_s" not in results
+    assert (second / "summary.json").read_bytes() == (out / "summary.json").read_bytes()  # same seed, same bytes
+    assert "runtime_s" in json.loads((out / "timing.json").read_text())["pedestrian"] and "runtime_s" not in results
 
 
 def test_the_wall_clock_entries_split_off_and_join_back():
     doc = {"a": 1, "runtime_s": 2.0, "tests": [{"x": [1, 2], "per_run": {"time_per_scan_s": {"mean": 1.0}}},
                                                {"y": 3}]}
-    kept, timing = P.split_timing(doc)
+    kept, timing = split_timing(doc)
     assert "runtime_s" not in json.dumps(kept) and "time_per_scan_s" not in json.dumps(kept)
     assert timing == {"runtime_s": 2.0, "tests": [{"per_run": {"time_per_scan_s": {"mean": 1.0}}}, {}]}
-    assert P.join_timing(kept, timing) == doc
+    assert join_timing(kept, timing) == doc
 
 
 def test_the_command_refuses_an_unknown_test(tmp_path):
@@ -174,13 +185,13 @@ def test_the_command_refuses_an_unknown_test(tmp_path):
 
 def test_the_contact_trackers_follow_the_walkers_with_the_thesis_cv():
     """Beyond the thesis: GNN, JPDA and MHT with the thesis's CV as a one-model IMM on the stress scene."""
-    cfg = P.PedestrianStudyConfig(stress_runs=2)
     scene = P.PEDESTRIAN_SCENES[P.BEYOND_SCENE]
     ds = next(P.walker_runs(scene, [0]))
     for f in P.BEYOND[3:]:
         tracker = P.contact_tracker(f, scene, ds.scenario.sensors)
         assert tracker.filter.models[0].__class__.__name__ == "ThesisCV"
-    stress = P.score_stress(P.run_traces(P.BEYOND_SCENE, P.BEYOND[3:4], 1, cfg), scene.n_scans, cfg)
+    runs = {"GNN": P.run_block(P.BEYOND_SCENE, P.BEYOND[3], 0, 1, 0, "measurement", 2.0, False)}
+    stress = S.score_stress(runs, scene.n_scans, 0.95)
     assert stress["filters"]["GNN"]["per_run"]["ospa"]["mean"] < 1.5
     table = ps.beyond_table({"scene": P.BEYOND_SCENE, **stress})
     assert [r[0] for r in table.rows] == ["GNN"]
@@ -190,14 +201,14 @@ def test_test1_draws_match_the_closed_form_variances_and_make_the_figures(tmp_pa
     out = tmp_path / "t1"
     result = CliRunner().invoke(app, ["pedestrian", "test1", "--out", str(out), "--no-beyond"])
     assert result.exit_code == 0, result.output
-    results = json.loads((out / "results.json").read_text())
+    results = json.loads((out / "summary.json").read_text())["pedestrian"]
     assert results["tests"] == [] and "beyond" not in results
     leaf7 = next(e for e in results["test1"]["variance"]["leaf"] if e["parameter"] == 7.0)
     assert leaf7["closed"] == pytest.approx(0.0408, abs=5e-5)
     inside = [e["sampled"]["ci_low"] <= e["closed"] <= e["sampled"]["ci_high"]
               for entries in results["test1"]["variance"].values() for e in entries]
     assert sum(inside) >= len(inside) - 2  # 95% intervals: a miss or two among 24 is chance
-    assert [sum(h["counts"]) for h in results["test1"]["histograms"]] == [P.TEST1_DRAWS] * 3
+    assert [sum(h["counts"]) for h in results["test1"]["histograms"]] == [S.TEST1_DRAWS] * 3
     assert (out / "figures" / "pedestrian-test1-profiles.png").stat().st_size > 10_000
     assert "Test 1: variance of the heading deviation" in (out / "report.md").read_text()
 

@@ -10,12 +10,13 @@ import math
 import numpy as np
 import pytest
 
+from kind_study import run_kind
 from nnda.data import gmrf
 from nnda.data.frames import FramesConfig, simulate
 from nnda.errors import ConfigError, validated
 from nnda.filters.tbd import TBDConfig, TBDModel, tbd_model
 from nnda.reports.tbd_section import _chain_verdicts, _divergence_table, _pairs_table
-from nnda.study.tbd import TBDStudyConfig, run_tbd_study, score
+from nnda.study.tbd import TBDStudyConfig, score
 from nnda.study.tbd_chain import (
     COAST_RISK,
     ChainConfig,
@@ -128,11 +129,11 @@ def test_bad_chain_config_is_a_config_error():
 
 
 @pytest.fixture(scope="module")
-def small():
+def small(tmp_path_factory):
     cfg = {"runs": 4, "chunk_runs": 3, "ptcr_db": (6.5, 8.1), "scene": {"rows": 40, "cols": 40, "frames": 8},
            "filters": [{"name": "apf", "particles": 300}], "divergence_frames": 2, "steady_frames": 3,
            "acquisition": 2, "exit_reentry": {"runs": 2, "frames": 16, "exit_frames": 4, "reentry_frame": 10}}
-    return run_tbd_study(validated(TBDStudyConfig, cfg, "test", "tbd study"))
+    return run_kind(tmp_path_factory.mktemp("chain") / "out", "tbd", cfg)
 
 
 def test_study_scores_the_chain_as_the_filters(small):
@@ -187,7 +188,7 @@ def test_no_chain_flag_runs_the_detector_alone(tmp_path):
                                         'frames = 12, exit_frames = 3, reentry_frame = 8}\ndivergence_frames = 2\n'
                                         'steady_frames = 2\nacquisition = 2\n')
     tbd(out=tmp_path / "t", config=tmp_path / "tiny.toml", chain=False)
-    results = json.loads((tmp_path / "t" / "results.json").read_text())
+    results = json.loads((tmp_path / "t" / "summary.json").read_text())["tbd"]
     assert results["config"]["chain"] is None and results["settings"][0]["chain"] == {}
     md = (tmp_path / "t" / "report.md").read_text()
     assert "were not tracked" in md and "detect + gnn" not in md

@@ -1,6 +1,6 @@
 """The track-before-detect study: its statistics against their definitions and the spec's worked numbers, the
 divergence rule and RMSE against brute force, a tiny study end to end (files, seeds, bad config), and (slow)
-spec A.5's main comparison at the paper's setting."""
+the main comparison at the paper's setting."""
 
 from __future__ import annotations
 
@@ -12,9 +12,10 @@ import numpy as np
 import pytest
 from scipy.stats import beta
 
+from kind_study import run_kind
 from nnda.app.study_commands import tbd
 from nnda.errors import ConfigError, validated
-from nnda.study.tbd import TBDStudyConfig, divergence, fisher, run_tbd_study, score, score_exit_reentry
+from nnda.study.tbd import TBDStudyConfig, divergence, fisher, score, score_exit_reentry
 
 TINY = {"runs": 3, "chunk_runs": 2, "scene": {"rows": 32, "cols": 32, "frames": 6},
         "filters": [{"name": "apf", "particles": 300}, {"name": "rs", "particles": 400}],
@@ -73,14 +74,14 @@ def test_divergence_rule_and_rmse_against_brute_force():
 
 
 @pytest.fixture(scope="module")
-def tiny():
-    return run_tbd_study(validated(TBDStudyConfig, TINY, "test", "tbd study"))
+def tiny(tmp_path_factory):
+    return run_kind(tmp_path_factory.mktemp("tbd") / "out", "tbd", TINY)
 
 
-def test_tiny_study_structure_and_seeds(tiny):
+def test_tiny_study_structure_and_seeds(tiny, tmp_path):
     assert [s["ptcr_db"] for s in tiny["settings"]] == [6.5, 8.1]
     s = tiny["settings"][0]
-    assert list(s["filters"]) == ["apf@300", "rs@400"] and len(s["pairs"]) == 1
+    assert set(s["filters"]) == {"apf@300", "rs@400"} and len(s["pairs"]) == 1
     apf, rs = s["filters"]["apf@300"], s["filters"]["rs@400"]
     assert apf["evaluations_per_frame"] == 600 and rs["evaluations_per_frame"] == 800
     assert len(apf["rmse"]["x"]) == 6 and apf["divergence"]["runs"] == 3
@@ -90,7 +91,7 @@ def test_tiny_study_structure_and_seeds(tiny):
     assert det["pfa"] == 1e-4 and 0 <= det["p_detection"] <= 1 and det["false_per_frame"] >= 0
     er = tiny["exit_reentry"]["filters"]["rs@400"]
     assert len(er["present_by_frame"]) == 16 and er["absent_frames"] > 0 and er["reacquire"]["events"] == 2
-    again = run_tbd_study(validated(TBDStudyConfig, TINY, "test", "tbd study"))
+    again = run_kind(tmp_path / "again", "tbd", TINY, workers=2)  # blocks on other processes, in another order
     strip = lambda d: {k: v for k, v in d.items() if k not in ("seconds", "ms_per_frame")}  # noqa: E731
     for a, b in zip(tiny["settings"], again["settings"]):
         assert {k: strip(v) for k, v in a["filters"].items()} == {k: strip(v) for k, v in b["filters"].items()}
@@ -113,8 +114,8 @@ def test_cli_writes_results_and_report_and_refuses_to_overwrite(tmp_path):
     run = [sys.executable, "-m", "nnda", "tbd", "--config", "tiny.toml", "--out", "t", "--seed", "3"]
     done = subprocess.run(run, cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
-    results = json.loads((tmp_path / "t" / "results.json").read_text())
-    assert results["config"]["seed"] == 3 and list(results["settings"][0]["filters"]) == ["apf@200", "rs@300"]
+    results = json.loads((tmp_path / "t" / "summary.json").read_text())["tbd"]
+    assert results["config"]["seed"] == 3 and set(results["settings"][0]["filters"]) == {"apf@200", "rs@300"}
     md = (tmp_path / "t" / "report.md").read_text()
     assert "PTCR 8.1 dB: divergence, detection and cost" in md and "(paper: 2/100 vs 3/100)" in md
     assert "Exit and re-entry: 2 runs of 12 frames" in md and "per-frame detector (matched filter" in md
@@ -126,14 +127,13 @@ def test_cli_writes_results_and_report_and_refuses_to_overwrite(tmp_path):
 
 
 @pytest.mark.slow
-def test_paper_setting_main_comparison():
-    """Spec A.5, 3 at the paper's setting (100 runs x 20 frames, APF 5,000, RS 8,000): RS within ~11% at 6.5
+def test_paper_setting_main_comparison(tmp_path):
+    """At the paper's setting (100 runs x 20 frames, APF 5,000, RS 8,000): RS within ~11% at 6.5
     dB and the APF within ~9% at 8.1 dB (the upper 95% bounds of the paper's counts), no significant APF/RS
     difference at 6.5 dB, and no filter significantly worse at 8.1 dB than at 6.5 dB. Not asserted: the APF
     within ~9% at 6.5 dB (measured 14/100 [7.9%, 22.4%] on nnda's template, seed 0; reported, not hidden)."""
-    cfg = TBDStudyConfig(filters=({"name": "apf", "particles": 5000}, {"name": "rs", "particles": 8000}),
-                         exit_reentry=None)
-    r = run_tbd_study(cfg)
+    table = {"filters": [{"name": "apf", "particles": 5000}, {"name": "rs", "particles": 8000}], "exit_reentry": None}
+    r = run_kind(tmp_path / "out", "tbd", table, workers=2)
     low, high = r["settings"]
     assert low["filters"]["rs@8000"]["divergence"]["rate"] <= 0.11
     assert high["filters"]["apf@5000"]["divergence"]["rate"] <= 0.09

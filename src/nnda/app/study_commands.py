@@ -1,8 +1,10 @@
-"""CLI commands that run a study or draw from one: ``nnda compare`` (run a study, then report), ``nnda report``,
-``nnda plot-scenario``, ``nnda reentry``, ``nnda tbd`` and ``nnda pedestrian``."""
+"""CLI commands that run a study or draw from one: ``nnda run`` (alias ``nnda compare``: run a study file, then
+report), ``nnda report``, ``nnda plot-scenario``, and ``nnda reentry``, ``nnda tbd`` and ``nnda pedestrian``, which
+run the reference works' study files shipped with nnda."""
 
 from __future__ import annotations
 
+from importlib import resources
 from pathlib import Path
 from typing import Annotated
 
@@ -11,22 +13,11 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from nnda.data.dataset import read_dataset
-from nnda.errors import ConfigError, OutputError, validated
-from nnda.files import check_output_location, read_config, refuse_existing, write_json, write_results_directory
-from nnda.reports.pages import REPORT_HTML
-from nnda.reports.pedestrian_section import write_report as write_pedestrian_report
-from nnda.reports.reentry_section import write_report as write_reentry_report
-from nnda.reports.tbd_section import frames_figure
-from nnda.reports.tbd_section import write_report as write_tbd_report
-from nnda.study.config import load_study
+from nnda.errors import ConfigError, OutputError
+from nnda.files import check_output_location, read_config
+from nnda.study.config import load_study, study_from_dict
 from nnda.study.kinds.base import Job
-from nnda.study.pedestrian import RESULTS_FILE as PEDESTRIAN_RESULTS
-from nnda.study.pedestrian import TESTS, PedestrianStudyConfig, run_pedestrian_study, split_timing
-from nnda.study.pedestrian import TIMING_FILE as PEDESTRIAN_TIMING
-from nnda.study.reentry import RESULTS_FILE as REENTRY_RESULTS
-from nnda.study.reentry import ReentryStudyConfig, run_reentry_study
-from nnda.study.tbd import RESULTS_FILE as TBD_RESULTS
-from nnda.study.tbd import TBDStudyConfig, run_tbd_study
+from nnda.study.pedestrian import TESTS
 
 
 def plot_scenario(
@@ -58,116 +49,145 @@ def report(
     Console().print(f"report: {write_report(study_dir)}")
 
 
-def compare(
-    study: Annotated[Path, typer.Option(help="study file (.toml or .json)")],
-    out: Annotated[Path, typer.Option(help="study directory for job results, aggregates and the report")],
-    resume: Annotated[bool, typer.Option(
-        help="continue an interrupted study in --out, skipping finished jobs")] = False,
-    dask: Annotated[str | None, typer.Option(
-        help="run the jobs on Dask: a scheduler address, or 'local' for a LocalCluster (needs nnda[dask])")] = None,
-    jobs: Annotated[int, typer.Option(
-        min=1, help="local worker processes (1: in this process); Dask workers with --dask local")] = 2,
-    overwrite: Annotated[bool, typer.Option(help="replace an earlier study directory at --out")] = False,
-) -> None:
-    """Run every tracker of a study on every run of every scenario, then write the report."""
-    from nnda.reports.study_report import write_report  # matplotlib and plotly only when reporting
-    from nnda.study.compare import compare as run_comparison  # scikit-learn and the trackers: only when run
-
-    definition = load_study(study)
-    console = Console()
+def _progress(console: Console, title: str):
+    """A progress bar over a study's jobs and the callback that moves it (shown once the study passed its
+    checks)."""
     bar = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
                    TextColumn("{task.fields[last]}"), TimeElapsedColumn(), TimeRemainingColumn(), console=console)
-    task = bar.add_task(f"compare {definition.name}", total=None, last="")
+    task = bar.add_task(title, total=None, last="")
 
     def on_job(done: int, total: int, job: Job | None) -> None:
-        if job is None:  # the study passed its checks: show the bar from here on
+        if job is None:
             bar.start()
-        last = job.title if job is not None else ""
-        bar.update(task, completed=done, total=total, last=last)
+        bar.update(task, completed=done, total=total, last=job.title if job is not None else "")
 
+    return bar, on_job
+
+
+def run_study(definition, out: Path, where: str, resume: bool = False, jobs: int = 2, dask: str | None = None,
+              overwrite: bool = False) -> Path:
+    """Run a `nnda.study.config.Study` into ``out`` with a progress bar, then write its report; returns the
+    report's path."""
+    from nnda.reports.study_report import write_report  # matplotlib and plotly only when reporting
+    from nnda.study.compare import compare as run_comparison  # the trackers and filters: only when run
+
+    console = Console()
+    bar, on_job = _progress(console, f"{definition.name}")
     try:
         result = run_comparison(definition, out, resume=resume, workers=jobs, dask=dask, on_job=on_job,
-                                where=str(study), overwrite=overwrite)
+                                where=where, overwrite=overwrite)
     finally:
         bar.stop()
     ex = result.execution
     console.print(f"{ex.jobs_run} job(s) run, {ex.jobs_skipped} resumed, on {ex.executor} in {ex.seconds:.1f} s")
-    console.print(f"report: {write_report(out)}")
+    page = write_report(out)
+    console.print(f"report: {page}")
+    return page
+
+
+Resume = Annotated[bool, typer.Option(help="continue an interrupted study in --out, skipping finished jobs")]
+Dask = Annotated[str | None, typer.Option(
+    help="run the jobs on Dask: a scheduler address, or 'local' for a LocalCluster (needs nnda[dask])")]
+Jobs = Annotated[int, typer.Option(min=1, help="local worker processes (1: in this process); Dask workers with "
+                                               "--dask local")]
+Overwrite = Annotated[bool, typer.Option(help="replace an earlier study directory at --out")]
+
+
+def compare(
+    study: Annotated[Path, typer.Option(help="study file (.toml or .json)")],
+    out: Annotated[Path, typer.Option(help="study directory for job results, aggregates and the report")],
+    resume: Resume = False,
+    dask: Dask = None,
+    jobs: Jobs = 2,
+    overwrite: Overwrite = False,
+) -> None:
+    """Run a study file: every job of every kind it names (trackers, filters, particle-filter studies, ...),
+    then write the report."""
+    run_study(load_study(study), out, str(study), resume, jobs, dask, overwrite)
+
+
+def reference_study(name: str) -> Path:
+    """The study file of a reference work shipped with nnda (``nnda/studies/<name>.toml``)."""
+    return Path(str(resources.files("nnda") / "studies" / f"{name}.toml"))
+
+
+def _reference(kind: str, config: Path | None, table: dict, seed: int | None) -> tuple:
+    """The shipped study of ``kind`` with its ``[kind]`` table replaced by the one in ``config`` (a file of the
+    table's fields; a seed or confidence there is the study's) and then updated by ``table``; the seed
+    overridden by ``seed``. Returns the study and how messages name it."""
+    path = reference_study(kind)
+    data = read_config(path, "study")
+    where = str(config) if config is not None else f"the shipped {path.name}"
+    if config is not None:
+        own = read_config(config, f"{kind} study")
+        data |= {k: own.pop(k) for k in ("seed", "confidence") if k in own}
+        data[kind] = own
+    data[kind] = {**data.get(kind, {}), **table}
+    if seed is not None:
+        data["seed"] = seed
+    return study_from_dict(data, where, path.parent), where
 
 
 def reentry(
-    out: Annotated[Path, typer.Option(help="directory for results.json, report.md and report.html")],
-    config: Annotated[Path | None, typer.Option(help="study config (.toml or .json; default: the paper's "
-                                                     "setting, the particle sweep and the precise sensor)")] = None,
+    out: Annotated[Path, typer.Option(help="study directory for job results, aggregates and the report")],
+    config: Annotated[Path | None, typer.Option(help="the [reentry] table's fields (.toml or .json; default: the "
+                                                     "paper's setting, the particle sweep and the precise sensor)")
+                      ] = None,
     runs: Annotated[int | None, typer.Option(min=1, help="Monte Carlo runs (overrides the config)")] = None,
     seed: Annotated[int | None, typer.Option(min=0, help="seed (overrides the config)")] = None,
-    overwrite: Annotated[bool, typer.Option(help="replace an earlier directory at --out")] = False,
+    resume: Resume = False,
+    dask: Dask = None,
+    jobs: Jobs = 2,
+    overwrite: Overwrite = False,
 ) -> None:
-    """Run the seed-004 ballistic re-entry filter study (every filter on the same runs) and write its report."""
-    data = read_config(config, "re-entry study") if config is not None else {}
-    data |= {k: v for k, v in (("runs", runs), ("seed", seed)) if v is not None}
-    cfg = validated(ReentryStudyConfig, data, str(config or "--runs/--seed"), "re-entry study")
-    refuse_existing(out, overwrite)
-    results = run_reentry_study(cfg)
-    write_results_directory(out, overwrite, REENTRY_RESULTS, results, write_reentry_report)
-    Console().print(f"re-entry study: {results['runtime_s']:.0f} s; report: {out / REPORT_HTML}")
+    """Run the ballistic re-entry filter study (Pavlov & Bruno 2003; the shipped studies/reentry.toml): every
+    filter on the same runs, then its report."""
+    study, where = _reference("reentry", config, {} if runs is None else {"runs": runs}, seed)
+    run_study(study, out, where, resume, jobs, dask, overwrite)
 
 
 def tbd(
-    out: Annotated[Path, typer.Option(help="directory for results.json, report.md and report.html")],
-    config: Annotated[Path | None, typer.Option(help="study config (.toml or .json; default: 100 runs x 20 "
-                                                     "frames at 6.5 and 8.1 dB, APF 5,000, RS 8,000, ...)")] = None,
+    out: Annotated[Path, typer.Option(help="study directory for job results, aggregates and the report")],
+    config: Annotated[Path | None, typer.Option(help="the [tbd] table's fields (.toml or .json; default: 100 runs x "
+                                                     "20 frames at 6.5 and 8.1 dB, APF 5,000, RS 8,000, ...)")] = None,
     runs: Annotated[int | None, typer.Option(min=1, help="Monte Carlo runs (overrides the config)")] = None,
     seed: Annotated[int | None, typer.Option(min=0, help="seed (overrides the config)")] = None,
-    overwrite: Annotated[bool, typer.Option(help="replace an earlier directory at --out")] = False,
     chain: Annotated[bool, typer.Option(help="also track the detector's detections with GNN and MHT (the "
                                              "config's `chain`; --no-chain: the detector alone)")] = True,
+    resume: Resume = False,
+    dask: Dask = None,
+    jobs: Jobs = 2,
+    overwrite: Overwrite = False,
 ) -> None:
-    """Run the seed-003 track-before-detect study (every filter on the same frames) and write its report."""
-    data = read_config(config, "tbd study") if config is not None else {}
-    data |= {k: v for k, v in (("runs", runs), ("seed", seed)) if v is not None}
-    if not chain:
-        data["chain"] = None
-    cfg = validated(TBDStudyConfig, data, str(config or "--runs/--seed"), "tbd study")
-    refuse_existing(out, overwrite)
-    results = run_tbd_study(cfg)
-    figure = frames_figure(cfg)
-    write_results_directory(out, overwrite, TBD_RESULTS, results, lambda d, r: write_tbd_report(d, r, figure))
-    Console().print(f"tbd study: {results['runtime_s']:.0f} s; report: {out / REPORT_HTML}")
+    """Run the track-before-detect study (Bruno, Araújo & Pavlov; the shipped studies/tbd.toml): every filter
+    on the same frames, the detector and the detect-then-track chain, then its report."""
+    table = ({} if runs is None else {"runs": runs}) | ({} if chain else {"chain": None})
+    study, where = _reference("tbd", config, table, seed)
+    run_study(study, out, where, resume, jobs, dask, overwrite)
 
 
 def pedestrian(
-    out: Annotated[Path, typer.Option(help="directory for results.json, report.md, report.html and figures/")],
+    out: Annotated[Path, typer.Option(help="study directory for job results, aggregates and the report")],
     tests: Annotated[list[str] | None, typer.Argument(help="test1, test2, test3, test4 (default: all)")] = None,
-    config: Annotated[Path | None, typer.Option(help="study config (.toml or .json; fields of "
-                                                     "nnda.study.pedestrian.PedestrianStudyConfig)")] = None,
+    config: Annotated[Path | None, typer.Option(help="the [pedestrian] table's fields (.toml or .json)")] = None,
     runs: Annotated[int | None, typer.Option(min=2, help="accuracy runs of Tests 2-3 (default 300)")] = None,
     test4_runs: Annotated[int | None, typer.Option(min=2, help="runs of Test 4 (default 600)")] = None,
     stress_runs: Annotated[int | None, typer.Option(min=2, help="runs of the stress scenes (default 25)")] = None,
     birth: Annotated[str | None, typer.Option(help="measurement (default) or oracle (the thesis's)")] = None,
     seed: Annotated[int | None, typer.Option(min=0, help="seed (overrides the config)")] = None,
-    jobs: Annotated[int | None, typer.Option(min=1, help="worker processes")] = None,
     beyond: Annotated[bool | None, typer.Option(help="also GNN, JPDA, MHT and CPHD on the stress scene")] = None,
-    overwrite: Annotated[bool, typer.Option(help="replace an earlier directory at --out")] = False,
+    resume: Resume = False,
+    dask: Dask = None,
+    jobs: Jobs = 2,
+    overwrite: Overwrite = False,
 ) -> None:
-    """Run seed-000's pedestrian study (Tests 2-4: PHD filters and motion models on walkers) and write its report."""
+    """Run the pedestrian study (Frencl 2014, Tests 1-4: PHD filters and motion models on walkers; the shipped
+    studies/pedestrian.toml), then its report."""
     unknown = [t for t in tests or () if t not in (*TESTS, "all")]
     if unknown:
         raise ConfigError(f"pedestrian: unknown test(s) {', '.join(map(repr, unknown))}; choose from "
                           f"{', '.join(TESTS)} or all")
-    data = read_config(config, "pedestrian study") if config is not None else {}
-    given = {"runs": runs, "test4_runs": test4_runs, "stress_runs": stress_runs, "birth": birth, "seed": seed,
-             "jobs": jobs, "beyond": beyond,
-             "tests": None if not tests else (TESTS if tests == ["all"] else tuple(tests))}
-    data |= {k: v for k, v in given.items() if v is not None}
-    cfg = validated(PedestrianStudyConfig, data, str(config or "the command line"), "pedestrian study")
-    refuse_existing(out, overwrite)
-    results = run_pedestrian_study(cfg)
-    kept, timing = split_timing(results)
-
-    def report(directory: Path, _: dict) -> None:
-        write_json(directory / PEDESTRIAN_TIMING, timing)
-        write_pedestrian_report(directory, results)
-
-    write_results_directory(out, overwrite, PEDESTRIAN_RESULTS, kept, report)
-    Console().print(f"pedestrian study: {results['runtime_s']:.0f} s; report: {out / REPORT_HTML}")
+    given = {"runs": runs, "test4_runs": test4_runs, "stress_runs": stress_runs, "birth": birth, "beyond": beyond,
+             "tests": None if not tests else (list(TESTS) if tests == ["all"] else list(tests))}
+    study, where = _reference("pedestrian", config, {k: v for k, v in given.items() if v is not None}, seed)
+    run_study(study, out, where, resume, jobs, dask, overwrite)

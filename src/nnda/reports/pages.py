@@ -23,10 +23,26 @@ from pathlib import Path
 
 from nnda.files import atomic_file
 from nnda.reports.text_table import TextTable
+from nnda.study.timing import join_timing
 
 REPORT_MD = "report.md"
 REPORT_HTML = "report.html"
 FIGURES = "figures"
+
+
+@dataclass(frozen=True)
+class StudyFiles:
+    """What a study directory's report sections read: the directory (for its checked tables), ``study.json``,
+    and the checked ``summary.json`` and ``timing.json``."""
+
+    out: Path
+    manifest: dict
+    summary: dict
+    timing: dict
+
+    def results(self, kind: str) -> dict:
+        """A kind's results document: its ``summary.json`` entry with its wall-clock entries put back."""
+        return join_timing(self.summary[kind], self.timing.get(kind, {}))
 
 
 @dataclass(frozen=True)

@@ -1,33 +1,25 @@
-"""The pedestrian study's report (seed 000, Tests 2-4) and the ``nnda pedestrian`` command that runs and writes it.
+"""The pedestrian study's report section (Frencl 2014, Tests 1-4), from the ``pedestrian`` jobs' results.
 
-``nnda pedestrian --out DIR [test1 test2 test3 test4]`` runs
-`nnda.study.pedestrian.run_pedestrian_study` and writes, atomically,
-``DIR/results.json`` (the same bytes for the same config and seed),
-``DIR/timing.json`` (its wall-clock entries), ``DIR/report.md``,
-``DIR/report.html`` and ``DIR/figures/*.png``. Test 1: the profiles' variance against the
+Test 1: the profiles' variance against the
 objectivity parameter, closed form beside 10,000 draws, their polar
 histograms and pdf curves. Per later test: the thesis's mean RMS beside ours with 95%
 intervals, punished RMS, OSPA, GOSPA, count error and missed share (Tables
 6.1 / 6.3), the paired differences, RMS per time (Figs. 6.4-6.6), the
 stress scene's runtime and target count (Tables 6.2 / 6.4, Figs. 6.8 /
 6.16), Test 4's estimate counts and density plots (Table 6.5, Fig. 6.19),
-the verdict on each of the thesis's claims read from the intervals (spec
-§7), and beyond the thesis nnda's GNN, JPDA, MHT and CPHD on the stress
-scene's walkers (``--no-beyond`` leaves it out). ``--birth oracle`` runs the thesis's oracle birth instead (write
-it to its own directory: it is reported on its own).
+the verdict on each of the thesis's claims read from the intervals, and
+beyond the thesis nnda's GNN, JPDA, MHT and CPHD on the stress scene's
+walkers.
 """
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
-from nnda.reports.pages import Figure, Section, write_pages
+from nnda.reports.pages import Figure, Section, StudyFiles
 from nnda.reports.pedestrian_values import THESIS_EXCESS, THESIS_RMS, THESIS_RUNTIME_S, THESIS_STRESS_SCANS
 from nnda.reports.text_table import DASH, TextTable, stat_cell
 
-TITLE = "nnda pedestrian study: PHD filters on seed-000's walkers (Frencl 2014, Tests 1-4)"
 #: every this many scans in the per-time tables
 EVERY = 5
 
@@ -334,9 +326,9 @@ def pedestrian_section(section, results: dict) -> tuple[object, list]:
     section.text(f"The thesis's filters on our drawing of its scenes (`nnda.data.pedestrian.scenes`), every filter "
                  f"on the same runs (seed {cfg['seed']}); birth {birth}; cut-off c = {cfg['cutoff_m']:g} m for the "
                  f"estimate-to-truth assignment, OSPA and GOSPA (p = 2); {cfg['bootstrap']} bootstrap resamples. "
-                 f"The study took {results['runtime_s']:.0f} s. The thesis's maps and trajectories exist only as "
-                 "figures, so its numbers are a reference, not a target: the verdicts compare filters within our "
-                 "runs.")
+                 f"Its jobs took {results['runtime_s']:.0f} s of compute. The thesis's maps and trajectories exist "
+                 "only as figures, so its numbers are a reference, not a target: the verdicts compare filters within "
+                 "our runs.")
     figures = []
     claims = []
     if "test1" in results:
@@ -373,7 +365,9 @@ def pedestrian_section(section, results: dict) -> tuple[object, list]:
     return section, figures
 
 
-def write_report(out: Path, results: dict) -> None:
-    """``out``/report.md, report.html and figures/ of ``results``."""
-    section, figures = pedestrian_section(Section("pedestrian", "Pedestrian study (seed 000)", [], []), results)
-    write_pages(out, TITLE, [section], figures)
+def sections(study: StudyFiles, figures: list[Figure]) -> list[Section]:
+    """The pedestrian study's section of a study report, with its figures."""
+    section, drawn = pedestrian_section(Section("pedestrian", "Pedestrian study (Frencl 2014)", [], []),
+                                        study.results("pedestrian"))
+    figures += drawn
+    return [section]

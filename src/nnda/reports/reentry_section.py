@@ -1,8 +1,6 @@
-"""The re-entry study's report (seed 004) and the ``nnda reentry`` command that runs the study and writes it.
+"""The re-entry study's report section (Pavlov & Bruno 2003), from the ``reentry`` jobs' results.
 
-``nnda reentry --out DIR`` runs `nnda.study.reentry.run_reentry_study` and
-writes, atomically, ``DIR/results.json``, ``DIR/report.md`` and
-``DIR/report.html``. Per setting, the report has the accuracy table (RMSE
+Per setting, the section has the accuracy table (RMSE
 of x, y, vx, vy time-averaged and final, position RMSE, ESS, runtime), the
 paired comparisons over runs and the time profile, and says from the
 comparisons whether the paper's claim (the optimal importance function
@@ -11,15 +9,12 @@ beats the bootstrap filter at the same particle count) holds there.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
-from nnda.reports.pages import Section, write_pages
+from nnda.reports.pages import Figure, Section, StudyFiles
 from nnda.reports.text_table import DASH, TextTable, interval, stat_cell
 from nnda.study.reentry import PRIOR
 
-TITLE = "nnda re-entry study: optimal importance function vs bootstrap (seed 004)"
 #: the independent reproduction's time-averaged RMSE x / y (m) at the paper's setting, 4,000 particles (spec B.5)
 SPEC_B5 = {"bootstrap": (233.0, 424.0), "optimal": (217.0, 407.0)}
 #: every this many steps in the time-profile table
@@ -109,7 +104,7 @@ def reentry_section(section, results: dict):
                  f"{cfg['seed']}, data mode {cfg['mode']}, resampling {cfg['resampling']} {when}; "
                  "settings share the truths, only the sensor noise differs). The paper claims the particle filter "
                  "with the optimal importance function beats the bootstrap filter at the same particle count, in x "
-                 f"and y, along the track and at its end. The whole study took {results['runtime_s']:.0f} s.")
+                 f"and y, along the track and at its end. Its jobs took {results['runtime_s']:.0f} s of compute.")
     for setting in results["settings"]:
         section.text(f"**{setting['name']}**: sigma_r {setting['sigma_r']:g} m, sigma_eps {setting['sigma_eps']:g} "
                      f"rad, {setting['runs']} runs of {setting['steps']} steps.")
@@ -154,6 +149,6 @@ def _against_b5(results: dict) -> str:
             + "; ".join(parts) + ".")
 
 
-def write_report(out: Path, results: dict) -> None:
-    """``out``/report.md and report.html of ``results``."""
-    write_pages(out, TITLE, [reentry_section(Section("reentry", "Ballistic re-entry filters", [], []), results)])
+def sections(study: StudyFiles, figures: list[Figure]) -> list[Section]:
+    """The re-entry study's section of a study report."""
+    return [reentry_section(Section("reentry", "Ballistic re-entry filters", [], []), study.results("reentry"))]

@@ -1,7 +1,5 @@
-"""The track-before-detect study's report (seed 003) and the ``nnda tbd`` command that runs it and writes it.
+"""The track-before-detect study's report section (Bruno, Araújo & Pavlov), from the ``tbd`` jobs' results.
 
-``nnda tbd --out DIR`` runs `nnda.study.tbd.run_tbd_study` and writes,
-atomically, ``DIR/results.json``, ``DIR/report.md`` and ``DIR/report.html``.
 Per PTCR: the divergence table (divergent runs with their Clopper-Pearson
 interval beside the paper's count, detection rate, steady-state error,
 likelihood evaluations and milliseconds per frame), the detect-then-track
@@ -17,17 +15,14 @@ particles, estimate and truth.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
-from nnda.data.frames import simulate
-from nnda.filters.tbd import run_tbd, tbd_model
-from nnda.reports.pages import Figure, Section, write_pages
+from nnda.files import read_json
+from nnda.reports.pages import Figure, Section, StudyFiles
 from nnda.reports.text_table import DASH, TextTable, interval, stat_cell
-from nnda.study.tbd import PAPER_DIVERGENCES, TBDStudyConfig
+from nnda.study.checksums import read_checked
+from nnda.study.tbd import PAPER_DIVERGENCES, SNAPSHOT_FILE, SNAPSHOT_FORMAT, SNAPSHOT_VERSION
 
-TITLE = "nnda track-before-detect study: auxiliary particle filter vs resample-move (seed 003)"
 #: every this many frames in the RMSE tables
 PROFILE_EVERY = 2
 #: a Fisher p below this is called a difference
@@ -227,7 +222,7 @@ def tbd_section(section, results: dict):
         "particles) against 5/100 (RS, 8,000) divergent runs at 6.5 dB and 2/100 against 3/100 at 8.1 dB, and "
         f"calls the APF equivalent or slightly better. A run diverged when in each of its last "
         f"{cfg['divergence_frames']} frames the filter declared the target absent or was more than "
-        f"{cfg['divergence_px']:g} px from it. The whole study took {results['runtime_s']:.0f} s.")
+        f"{cfg['divergence_px']:g} px from it. Its jobs took {results['runtime_s']:.0f} s of compute.")
     verdicts = []
     for s in results["settings"]:
         section.table(_divergence_table(s, conf), f"tbd-{s['ptcr_db']:g}-divergence")
@@ -249,49 +244,35 @@ def tbd_section(section, results: dict):
     return section
 
 
-#: the frames of the figure (1-based; the last frame is added)
-FIGURE_FRAMES = (1, 2, 5)
-#: particles drawn per panel (the heaviest present ones)
-FIGURE_PARTICLES = 400
-
-
-def frames_figure(cfg: TBDStudyConfig):
-    """A `nnda.reports.pages.Figure`: run 0 of the study at its first PTCR, a few frames with the first
-    filter's heaviest present particles, its estimate and the truth."""
+def snapshot_figure(snap: dict) -> Figure:
+    """The study's run 0 at its first PTCR (``tbd_snapshot.json``): a few frames with the first filter's heaviest
+    present particles, its estimate and the truth."""
     import matplotlib.pyplot as plt
 
     from nnda.reports.study_figures import _png
-    f = cfg.filters[0]
-    scene = cfg.scene.model_copy(update={"ptcr_db": cfg.ptcr_db[0]})
-    fs = simulate(scene, 1, cfg.seed)
-    model = tbd_model(fs, cfg.tbd)
-    model.snapshots = []
-    out = run_tbd(model, f.name, f.particles, np.random.default_rng(np.random.SeedSequence([cfg.seed, 0, 0, 0])))
-    frames = sorted({n for n in FIGURE_FRAMES if n <= scene.frames} | {scene.frames})
+
+    frames = snap["frames"]
     fig, axes = plt.subplots(1, len(frames), figsize=(3.2 * len(frames), 3.4), squeeze=False)
-    for ax, n in zip(axes[0], frames):
-        W, x = model.snapshots[n - 1]
-        ax.imshow(fs.frames[0, n - 1], cmap="gray", interpolation="nearest")
-        present = np.flatnonzero(x[0, :, 4] > 0)
-        top = present[np.argsort(W[0, present])[::-1][:FIGURE_PARTICLES]]
-        ax.scatter(x[0, top, 2], x[0, top, 0], s=4, c="tab:orange", alpha=0.6, linewidths=0, label="particles")
-        ax.plot(fs.truth[0, n - 1, 2], fs.truth[0, n - 1, 0], "c+", ms=12, mew=2, label="truth")
-        ax.plot(out.position[0, n - 1, 1], out.position[0, n - 1, 0], "o", mfc="none", mec="tab:red", ms=10,
-                mew=1.5, label="estimate")
-        ax.set_title(f"frame {n}: P(absent) {out.p_absent[0, n - 1]:.2f}", fontsize=9)
+    for ax, f in zip(axes[0], frames):
+        particles, estimate, truth = np.asarray(f["particles"]).reshape(-1, 2), f["estimate"], f["truth"]
+        ax.imshow(np.asarray(f["image"]), cmap="gray", interpolation="nearest")
+        ax.scatter(particles[:, 1], particles[:, 0], s=4, c="tab:orange", alpha=0.6, linewidths=0, label="particles")
+        ax.plot(truth[1], truth[0], "c+", ms=12, mew=2, label="truth")
+        ax.plot(estimate[1], estimate[0], "o", mfc="none", mec="tab:red", ms=10, mew=1.5, label="estimate")
+        ax.set_title(f"frame {f['frame']}: P(absent) {f['p_absent']:.2f}", fontsize=9)
         ax.set_xticks([])
         ax.set_yticks([])
     axes[0, 0].legend(loc="lower left", fontsize=7)
     fig.tight_layout()
-    caption = (f"Run 0 at {scene.ptcr_db:g} dB: frames (gray), the {FIGURE_PARTICLES} heaviest present particles "
-               f"of {f.label}, its conditional-mean estimate and the truth")
+    caption = (f"Run 0 at {snap['ptcr_db']:g} dB: frames (gray), the {snap['particles_shown']} heaviest present "
+               f"particles of {snap['filter']}, its conditional-mean estimate and the truth")
     return Figure("tbd-frames.png", caption, _png(fig))
 
 
-def write_report(out: Path, results: dict, figure=None) -> None:
-    """``out``/report.md and report.html of ``results`` (and ``figure``, a `Figure`, under figures/)."""
-    section = tbd_section(Section("tbd", "Track-before-detect filters", [], []), results)
-    figures = [] if figure is None else [figure]
-    for f in figures:
-        section.figure(f)
-    write_pages(out, TITLE, [section], figures)
+def sections(study: StudyFiles, figures: list[Figure]) -> list[Section]:
+    """The TBD study's section of a study report, with the snapshot figure."""
+    section = tbd_section(Section("tbd", "Track-before-detect filters", [], []), study.results("tbd"))
+    figure = snapshot_figure(read_json(read_checked(study.out, SNAPSHOT_FILE), SNAPSHOT_FORMAT, SNAPSHOT_VERSION))
+    figures.append(figure)
+    section.figure(figure)
+    return [section]

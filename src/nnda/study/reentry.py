@@ -1,18 +1,16 @@
-"""The ballistic re-entry filter study of seed 004: every filter on the same Monte Carlo runs, with intervals.
+"""The ballistic re-entry filter study (Pavlov & Bruno 2003): every filter on the same Monte Carlo runs.
 
 A study is a list of settings (a sensor, the particle counts, the filters);
-each setting simulates ``runs`` re-entry runs once (`nnda.data.reentry`,
-the same seed for every setting, so the truths are shared and only the
-sensor noise differs) and runs every filter on them, batched over runs
-(`nnda.filters.particle.smc.run_smc`, `nnda.filters.reentry`):
-
-    cfg = ReentryStudyConfig()              # the paper's setting, the particle sweep, the precise sensor
-    results = run_reentry_study(cfg)        # a JSON-ready dict (RESULTS_FORMAT, version 1)
-
-(`nnda reentry`, in `nnda.reports.reentry_section`, writes it and its report atomically.)
+each setting's ``runs`` re-entry runs (`nnda.data.reentry`, the same seed
+for every setting, so the truths are shared and only the sensor noise
+differs) are filtered by every filter, batched over runs
+(`nnda.filters.particle.smc.run_smc`, `nnda.filters.reentry`). The study
+engine runs it as the ``reentry`` job kind (`nnda.study.kinds.reentry`):
+one job per (setting, filter, particle count), `run_filter`, whose records
+`setting_results` turns into the setting's results.
 
 Per filter: the RMSE of x, y, vx and vy over runs at every step, its time
-average (the mean of the per-step RMSE over k = 1..K, as spec B.5) and its
+average (the mean of the per-step RMSE over k = 1..K) and its
 final value; the per-run position error (root mean over steps of ex^2 +
 ey^2) and final position error, on which the paired comparisons rest;
 the mean ESS per step and the runtime. A comparison pairs two filters on
@@ -29,18 +27,16 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from nnda.data.reentry import ReentryConfig, ReentryData, simulate
+from nnda.data.reentry import ReentryConfig, ReentryData
+from nnda.data.sources import ReentryScenes
 from nnda.filters.particle.smc import SMCConfig, run_smc
 from nnda.filters.reentry import converted_kf, ekf, reentry_ssm, ukf
 from nnda.study.stats import bootstrap_indices, mean_ci, percentile_interval, root_mean_square, sign_test_p
 
-RESULTS_FORMAT = "nnda-reentry-study"
-RESULTS_VERSION = 1
-RESULTS_FILE = "results.json"
 #: the particle filters and the Gaussian baselines a setting may run
 PARTICLE_FILTERS = ("bootstrap", "optimal", "auxiliary", "resample-move")
 BASELINES = ("ekf", "ukf", "converted-kf")
-#: the prior alone (m0, Sigma0 predicted, no measurement): the reference of spec B.6's "below 0.35 x prior only"
+#: the prior alone (m0, Sigma0 predicted, no measurement): the reference of the "below 0.35 x prior only" bound
 PRIOR = "prior"
 FILTER_NAMES = PARTICLE_FILTERS + BASELINES + (PRIOR,)
 #: the state components scored, in state order
@@ -73,7 +69,7 @@ class ReentrySetting(BaseModel):
         return self
 
 
-#: the paper's Monte Carlo setting (spec B.4), the particle sweep on the same data, the precise sensor (B.5)
+#: the paper's Monte Carlo setting, the particle sweep on the same data, the precise sensor
 DEFAULT_SETTINGS = (
     ReentrySetting(name="paper", sigma_r=200.0, sigma_eps=0.017, particles=(4000,)),
     ReentrySetting(name="sweep", sigma_r=200.0, sigma_eps=0.017, particles=(1000, 20000),
@@ -183,32 +179,45 @@ def _pairs(labels: list[str]) -> list[tuple[str, str]]:
     return pairs
 
 
-def run_setting(setting: ReentrySetting, cfg: ReentryStudyConfig, index: int) -> dict:
-    """Simulate the setting's runs and score every filter on them."""
-    data = simulate(ReentryConfig(sigma_r=setting.sigma_r, sigma_eps=setting.sigma_eps, steps=cfg.steps,
-                                  mode=cfg.mode), cfg.runs, cfg.seed)
-    filters, errors = {}, {}
-    for fi, name in enumerate(setting.filters):
-        for n in (setting.particles if name in PARTICLE_FILTERS else (None,)):
-            label = _label(name, n)
-            mean, ess, seconds = _run_filter(name, n, data, cfg, np.random.SeedSequence([cfg.seed, index, fi, n or 0]))
-            entry = {"filter": name, "particles": n, "runtime_s": seconds} | _scores(mean, data.truth)
-            if ess is not None:
-                entry["ess_mean"] = ess.mean(axis=0).tolist()
-                entry["ess"] = {"mean": float(ess.mean()), "min": float(ess.min())}
-            filters[label] = entry
-            err = mean - data.truth[:, 1:]
-            errors[label] = err[..., 0] ** 2 + err[..., 2] ** 2
+def source(setting: ReentrySetting, cfg: ReentryStudyConfig) -> ReentryScenes:
+    """Where a setting's runs come from: ``cfg.runs`` runs of its sensor, drawn with the study's seed (every
+    setting shares the truths; only the sensor noise differs)."""
+    config = ReentryConfig(sigma_r=setting.sigma_r, sigma_eps=setting.sigma_eps, steps=cfg.steps, mode=cfg.mode)
+    return ReentryScenes(setting.name, f"re-entry runs, sigma_r {setting.sigma_r:g} m, sigma_eps "
+                                       f"{setting.sigma_eps:g} rad", config)
+
+
+def filter_entries(setting: ReentrySetting) -> list[tuple[int, str, int | None]]:
+    """(index in the setting's filters, filter, particle count or None) of every filter run of a setting, in
+    report order."""
+    return [(fi, name, n) for fi, name in enumerate(setting.filters)
+            for n in (setting.particles if name in PARTICLE_FILTERS else (None,))]
+
+
+def run_filter(setting: ReentrySetting, index: int, fi: int, name: str, n: int | None,
+               cfg: ReentryStudyConfig) -> dict:
+    """One filter of setting ``index`` on the setting's runs: its scores (`_scores`), the ESS of a particle
+    filter, each run's squared position error per step (for the paired comparisons), the runs' steps and
+    impacts, and its runtime (s) under ``timing``."""
+    data = source(setting, cfg).load(0, cfg.runs, cfg.seed)
+    mean, ess, seconds = _run_filter(name, n, data, cfg, np.random.SeedSequence([cfg.seed, index, fi, n or 0]))
+    entry = {"filter": name, "particles": n} | _scores(mean, data.truth)
+    if ess is not None:
+        entry["ess_mean"] = ess.mean(axis=0).tolist()
+        entry["ess"] = {"mean": float(ess.mean()), "min": float(ess.min())}
+    err = mean - data.truth[:, 1:]
+    return {"setting": setting.name, "label": _label(name, n), "entry": entry, "steps": data.steps,
+            "impact_steps": sorted(set(data.impact.tolist()) - {0}),
+            "position_error2": (err[..., 0] ** 2 + err[..., 2] ** 2).tolist(), "timing": {"runtime_s": seconds}}
+
+
+def setting_results(setting: ReentrySetting, cfg: ReentryStudyConfig, records: list[dict]) -> dict:
+    """A setting's results from its filters' records (in `filter_entries` order): every filter's entry (with
+    its runtime) and the paired comparisons."""
+    filters = {r["label"]: r["entry"] | r["timing"] for r in records}
+    errors = {r["label"]: np.asarray(r["position_error2"]) for r in records}
     comparisons = [compare(a, b, errors, filters, cfg.confidence, cfg.seed + i)
                    for i, (a, b) in enumerate(_pairs(list(filters)))]
     return {"name": setting.name, "sigma_r": setting.sigma_r, "sigma_eps": setting.sigma_eps,
-            "runs": cfg.runs, "steps": data.steps, "impact_steps": sorted(set(data.impact.tolist()) - {0}),
+            "runs": cfg.runs, "steps": records[0]["steps"], "impact_steps": records[0]["impact_steps"],
             "filters": filters, "comparisons": comparisons}
-
-
-def run_reentry_study(cfg: ReentryStudyConfig) -> dict:
-    """Every setting of ``cfg``; the results document (format RESULTS_FORMAT)."""
-    t0 = time.perf_counter()
-    settings = [run_setting(s, cfg, i) for i, s in enumerate(cfg.settings)]
-    return {"format": RESULTS_FORMAT, "version": RESULTS_VERSION, "config": cfg.model_dump(mode="json"),
-            "settings": settings, "runtime_s": time.perf_counter() - t0}

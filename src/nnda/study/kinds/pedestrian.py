@@ -1,0 +1,114 @@
+"""The ``pedestrian`` kind: PHD filters and motion models on simulated walkers (Frencl 2014, Tests 1-4;
+`nnda.study.pedestrian`). Its table holds `nnda.study.pedestrian.PedestrianStudyConfig`'s fields but the seed
+and confidence, which are the study's::
+
+    [pedestrian]
+    tests = ["test1", "test2", "test3", "test4"]
+    runs = 300                # accuracy runs of Tests 2-3
+    test4_runs = 600
+    stress_runs = 25
+    block_runs = 25           # runs one job filters (the results do not depend on it)
+
+A job is one filter on one block of runs of one walker scene, each run
+scored in the job; a filter on the same runs of the same scene in two
+tests (GM-PHD and EK-PHD on the stress scene, in Test 2 and beyond it) is
+one job. Test 1 (the heading profiles' draws) is one job. The aggregate is
+``summary.json``'s ``pedestrian`` (the tests' accuracy and stress tables,
+the differences with their intervals, Test 1, the comparison beyond the
+thesis) and its times in ``timing.json``'s ``pedestrian``.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import asdict, dataclass
+
+from pydantic import Field
+
+from nnda.data.pedestrian.scenes import PEDESTRIAN_SCENES
+from nnda.data.sources import config_digest
+from nnda.study.kinds.base import Job, JobKind, job_key
+from nnda.study.pedestrian import FilterSpec, PedestrianStudyConfig, groups, run_block, study_results
+from nnda.study.pedestrian_scores import run_test1
+from nnda.study.timing import split_timing
+
+FIELDS = {"pedestrian": (PedestrianStudyConfig | None, Field(default=None, description="the pedestrian study"))}
+
+
+def check(study) -> None:
+    if study.pedestrian is not None and {"seed", "confidence"} & study.pedestrian.model_fields_set:
+        raise ValueError("pedestrian: seed and confidence are the study's: give them at the top of the study file")
+
+
+@dataclass(frozen=True)
+class BlockJob:
+    """Filter ``f`` on runs ``first``..``first + count - 1`` of walker scene ``scene``; ``f`` None: Test 1."""
+
+    scene: str
+    f: FilterSpec | None
+    first: int
+    count: int
+    keep_estimates: bool
+    config: PedestrianStudyConfig
+
+
+@dataclass(frozen=True)
+class PedestrianPlan:
+    """The checked pedestrian part of a study: its config (with the study's seed and confidence) and jobs."""
+
+    config: PedestrianStudyConfig
+    jobs: tuple[Job, ...]
+
+    def manifest(self) -> dict:
+        return {}
+
+
+def _slug(label: str) -> str:
+    return re.sub(r"[^a-z0-9]+", "-", label.lower()).strip("-")
+
+
+def plan(study, where: str) -> PedestrianPlan:
+    cfg = study.pedestrian.model_copy(update={"seed": study.seed, "confidence": study.confidence})
+    common = {"kind": "pedestrian", "seed": cfg.seed, "birth": cfg.birth, "cutoff_m": cfg.cutoff_m}
+    jobs: dict[str, Job] = {}
+    if "test1" in cfg.tests:
+        key = job_key({**common, "test1": True})
+        jobs[key] = Job("pedestrian", key, "jobs/pedestrian/test1.json", "pedestrian Test 1 (heading profiles)",
+                        BlockJob("", None, 0, 0, False, cfg))
+    # (scene, filter label) -> the filter, the most runs a test asks of it there, whether they keep estimates
+    runs: dict[tuple[str, str], tuple[FilterSpec, int, bool]] = {}
+    for g in groups(cfg):
+        for f in g.filters:
+            _, most, keep = runs.get((g.scene, f.label), (f, 0, False))
+            runs[g.scene, f.label] = (f, max(most, g.runs), keep or g.keeps_estimates)
+    for (scene, _), (f, count, keep) in runs.items():
+        data = config_digest(PEDESTRIAN_SCENES[scene])
+        for first in range(0, count, cfg.block_runs):
+            n = min(cfg.block_runs, count - first)
+            key = job_key({**common, "data": data, "filter": asdict(f), "first": first, "count": n, "estimates": keep})
+            jobs[key] = Job("pedestrian", key, f"jobs/pedestrian/{scene}/{_slug(f.label)}/runs-{first:04d}.json",
+                            f"{f.label} on {scene} runs {first}-{first + n - 1}",
+                            BlockJob(scene, f, first, n, keep, cfg))
+    return PedestrianPlan(cfg, tuple(jobs.values()))
+
+
+def run(job: BlockJob) -> dict:
+    cfg = job.config
+    if job.f is None:
+        return {"test1": run_test1(cfg.seed, cfg.confidence)}
+    return {"scene": job.scene, "label": job.f.label, "first": job.first,
+            "runs": run_block(job.scene, job.f, job.first, job.count, cfg.seed, cfg.birth, cfg.cutoff_m,
+                              job.keep_estimates)}
+
+
+def aggregate(plan: PedestrianPlan, records: list[dict]) -> tuple[dict, dict, dict]:
+    runs: dict[tuple[str, str], list[dict]] = {}
+    for r in sorted((r for r in records if "runs" in r), key=lambda r: r["first"]):
+        runs.setdefault((r["scene"], r["label"]), []).extend(r["runs"])
+    test1 = next((r["test1"] for r in records if "test1" in r), None)
+    kept, timing = split_timing(study_results(plan.config, runs, test1))
+    return {"pedestrian": kept}, {"pedestrian": timing}, {}
+
+
+KIND = JobKind(name="pedestrian", fields=FIELDS, work="[pedestrian]",
+               given=lambda study: study.pedestrian is not None, plan=plan, run=run, aggregate=aggregate, check=check)
