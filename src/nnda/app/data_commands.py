@@ -13,13 +13,11 @@ from rich.text import Text
 
 from nnda.data.checks import MAX_DETECTIONS
 from nnda.data.dataset import write_collection, write_dataset
-from nnda.data.generator import check_scenario, generate_runs
 from nnda.data.pedestrian.scenes import PEDESTRIAN_SCENES
-from nnda.data.pedestrian.walkers import is_walker_config, load_walker_scene, walker_runs
-from nnda.data.presets import GROUP_DESCRIPTIONS, GROUPS, PRESETS, resolve
-from nnda.data.scenario import load_scenario
+from nnda.data.presets import GROUP_DESCRIPTIONS, GROUPS, PRESETS
+from nnda.data.sources import resolve_scenes
 from nnda.errors import ConfigError
-from nnda.files import check_output_location, read_config
+from nnda.files import check_output_location
 
 
 def presets() -> None:
@@ -58,57 +56,38 @@ def generate(
     if (preset is None) == (config is None):
         raise ConfigError("give exactly one of --preset or --config")
     check_output_location(out, [config] if config is not None else [])
-    if preset in PEDESTRIAN_SCENES or (config is not None and is_walker_config(read_config(config, "scenario"))):
-        scene = PEDESTRIAN_SCENES[preset] if preset is not None else load_walker_scene(config)  # walkers
-        _write_runs(out, preset or str(config), list(walker_runs(scene, range(runs), seed)), overwrite)
-        return
-    try:
-        scenarios = resolve(preset) if preset is not None else [load_scenario(config)]
-    except ConfigError as exc:
-        if preset is None:
-            raise
-        raise ConfigError(f"{exc}, or a walker scene ({', '.join(PEDESTRIAN_SCENES)})") from None
+    sources = resolve_scenes(preset=preset, config=config)
     warn = Console(stderr=True)
-    for scenario in scenarios:
+    for source in sources:
         try:
-            lines = check_scenario(scenario, max_detections)
+            lines = source.check(max_detections)
         except ConfigError as exc:
-            raise ConfigError(f"{config or f'preset {scenario.name}'}: {exc}") from None
+            raise ConfigError(f"{config or f'preset {source.name}'}: {exc}") from None
         for line in lines:
             warn.print(Text.assemble(("warning:", "bold yellow"), " ", line), highlight=False, soft_wrap=True)
-    single = len(scenarios) == 1
+    single = len(sources) == 1
     if single and runs == 1:
-        dataset = next(generate_runs(scenarios[0], [0], seed, max_detections))
+        dataset = sources[0].load(0, 1, seed)[0]
         write_dataset(dataset, out, overwrite)
         Console().print(f"wrote {out} ({dataset.detections.scan.size} detections)", markup=False, highlight=False)
         return
 
     def members():
-        for scenario in scenarios:
-            for ds in generate_runs(scenario, range(runs), seed, max_detections):
+        for source in sources:
+            for ds in source.iterate(0, runs, seed):  # one run at a time: a collection is never all in memory
                 if runs == 1:
-                    yield scenario.name, ds
+                    yield source.name, ds
                 elif single:
                     yield f"run-{ds.run:04d}", ds
                 else:
-                    yield f"{scenario.name}-run-{ds.run:04d}", ds
+                    yield f"{source.name}-run-{ds.run:04d}", ds
 
     what = preset or str(config)
     seeds = seed if seed is not None else "per scenario"
-    description = f"{what}: {len(scenarios)} scenario(s) x {runs} run(s), seed {seeds}"
+    description = f"{what}: {len(sources)} scenario(s) x {runs} run(s), seed {seeds}"
     with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
                   TimeElapsedColumn(), transient=False) as bar:
-        task = bar.add_task(f"generating {what}", total=len(scenarios) * runs)
+        task = bar.add_task(f"generating {what}", total=len(sources) * runs)
         write_collection(members(), out, description, overwrite,
                          on_member=lambda _name: bar.advance(task))
-    Console().print(f"wrote {out} ({len(scenarios) * runs} datasets)", markup=False, highlight=False)
-
-
-def _write_runs(out: Path, what: str, datasets: list, overwrite: bool) -> None:
-    """One dataset, or a collection of runs ``run-0000``, ...; prints what was written."""
-    if len(datasets) == 1:
-        write_dataset(datasets[0], out, overwrite)
-        Console().print(f"wrote {out} ({datasets[0].detections.scan.size} detections)", markup=False, highlight=False)
-        return
-    write_collection(((f"run-{d.run:04d}", d) for d in datasets), out, f"{what}: {len(datasets)} run(s)", overwrite)
-    Console().print(f"wrote {out} ({len(datasets)} datasets)", markup=False, highlight=False)
+    Console().print(f"wrote {out} ({len(sources) * runs} datasets)", markup=False, highlight=False)

@@ -9,8 +9,9 @@
 Every source has a ``name`` (its name in results), a ``description`` (where
 it comes from, for a report), ``stored_runs`` (the runs on disk, or None
 for a generated source that draws any number), ``digest(run)`` and
-``load(first, count, seed)``: a list of runs (one `Dataset` each) or one
-block of runs (`FrameSet`, `ReentryData`), the same data in any process:
+``load(first, count, seed)``: a list of runs (one `Dataset` each, also
+one at a time from ``iterate``) or one block of runs (`FrameSet`,
+`ReentryData`), the same data in any process:
 
 * `GeneratedScenes`: a radar scenario (a preset or a config file), run r
   drawn by `nnda.data.generator.generate` from (scenario, seed, r);
@@ -31,6 +32,7 @@ with no ``if`` on scene kinds left to the caller.
 from __future__ import annotations
 
 import json
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
@@ -91,7 +93,11 @@ class GeneratedScenes:
         return config_digest(self.scenario)
 
     def load(self, first: int, count: int, seed: int | None) -> list[Dataset]:
-        return list(generate_runs(self.scenario, range(first, first + count), seed))
+        return list(self.iterate(first, count, seed))
+
+    def iterate(self, first: int, count: int, seed: int | None) -> Iterator[Dataset]:
+        """The runs one at a time (the noise-free plan computed once)."""
+        return generate_runs(self.scenario, range(first, first + count), seed)
 
     def check(self, max_detections: int = MAX_DETECTIONS) -> list[str]:
         """What generation would refuse, before any draw (ConfigError); the scenario's plausibility warnings."""
@@ -116,7 +122,11 @@ class StoredDatasets:
         return self.digests[run]
 
     def load(self, first: int, count: int, seed: int | None = None) -> list[Dataset]:
-        return [read_dataset(p) for p in self.paths[first:first + count]]
+        return list(self.iterate(first, count, seed))
+
+    def iterate(self, first: int, count: int, seed: int | None = None) -> Iterator[Dataset]:
+        """The runs one at a time."""
+        return (read_dataset(p) for p in self.paths[first:first + count])
 
     def check(self, max_detections: int = MAX_DETECTIONS) -> list[str]:
         return []
@@ -135,7 +145,11 @@ class WalkerScenes:
         return config_digest(self.scene)
 
     def load(self, first: int, count: int, seed: int | None) -> list[Dataset]:
-        return list(walker_runs(self.scene, range(first, first + count), seed))
+        return list(self.iterate(first, count, seed))
+
+    def iterate(self, first: int, count: int, seed: int | None) -> Iterator[Dataset]:
+        """The runs one at a time (a fixed-truth scene's walks simulated once)."""
+        return walker_runs(self.scene, range(first, first + count), seed)
 
     def check(self, max_detections: int = MAX_DETECTIONS) -> list[str]:
         return []
