@@ -11,7 +11,16 @@ from nnda.data.generator import generate
 from nnda.data.presets import PRESETS
 from nnda.reports.study_summary import HEADLINES
 from nnda.reports.study_tables import scenario_table
-from nnda.study.measures import MEASURES, RUN_MEASURES, SERIES_MEASURES, TIME, measure
+from nnda.study.measures import (
+    FILTER_MEASURES,
+    MEASURES,
+    RUN_MEASURES,
+    SERIES_MEASURES,
+    TIME,
+    TRACK_MEASURES,
+    for_kind,
+    measure,
+)
 from nnda.study.metrics import run_metrics
 from nnda.study.track_job import scalars, series
 from nnda.tracking.registry import make_tracker
@@ -55,5 +64,15 @@ def test_the_scenario_table_has_a_row_per_measure():
     scenario = {"name": "X", "source": "config", "n_scans": 3, "targets": ["a"],
                 "trackers": {"t": {"runs": 3, "metrics": {m.key: stat for m in RUN_MEASURES}}}}
     table = scenario_table(scenario, {"trackers": {"t": {TIME.key: stat}}}, False, 0.95)
-    assert [r[0] for r in table.rows] == [m.title for m in MEASURES]
-    assert table.rows[[m.key for m in MEASURES].index("mota")][1] == "1.000 [0.500, 1.500]"
+    assert [r[0] for r in table.rows] == [m.title for m in TRACK_MEASURES]
+    assert table.rows[[m.key for m in TRACK_MEASURES].index("mota")][1] == "1.000 [0.500, 1.500]"
+
+
+def test_one_entry_serves_every_kind_it_applies_to():
+    rmse = measure("position_rmse_m")
+    assert set(rmse.kinds) == {"track", "filter"} and rmse in RUN_MEASURES and rmse in FILTER_MEASURES
+    assert [m.key for m in FILTER_MEASURES] == ["position_error_m", "position_rmse_m", "velocity_rmse_m_s", "nees",
+                                                 "divergence_pct", "start_s"]
+    assert TIME in for_kind("track") and TIME in for_kind("filter") and TIME not in FILTER_MEASURES
+    assert all("filter" not in m.kinds or m in for_kind("filter") for m in MEASURES)
+    assert for_kind("reentry") == ()

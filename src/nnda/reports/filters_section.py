@@ -1,14 +1,13 @@
 """The report's "Single-target filters" section: each filter job's measures against the truth, per scenario.
 
-Rows come from `nnda.study.filter_measures.FILTER_MEASURES` plus the time
+Rows come from `nnda.study.measures.FILTER_MEASURES` plus the time
 per scan of `timing.json`; one column per filter, mean [t-interval] over runs.
 """
 
 from __future__ import annotations
 
 from nnda.reports.text_table import TextTable, stat_cell
-from nnda.study.filter_measures import FILTER_MEASURES, NEES_BOUND
-from nnda.study.measures import TIME
+from nnda.study.measures import FILTER_MEASURES, NEES_BOUND, TIME
 
 
 def filters_section(section, summary: dict, timing: dict):

@@ -14,7 +14,7 @@ from nnda.data.presets import PRESETS
 from nnda.reports.spec_values import SPEC_COLUMN_TITLES, SPEC_TRACKING
 from nnda.reports.study_summary import stat
 from nnda.reports.text_table import DASH, TextTable, stat_cell
-from nnda.study.measures import MEASURES
+from nnda.study.measures import TRACK_MEASURES
 
 
 def is_thesis_scenario(name: str, scenario: dict) -> bool:
@@ -31,7 +31,7 @@ def scenario_table(scenario: dict, timing: dict, thesis: bool, confidence: float
     if spec:
         header += tuple(SPEC_COLUMN_TITLES[c] for c in spec)
     rows = []
-    for m in MEASURES:
+    for m in TRACK_MEASURES:
         row = [m.title, *(stat_cell(stat(scenario, timing, name, m.key), m.fmt, m.scale) for name in trackers)]
         if spec:
             for column in spec.values():

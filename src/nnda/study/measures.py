@@ -1,9 +1,15 @@
-"""The registry of a study's measures: what each one is, how it reads, and the function that computes it.
+"""The registry of a study's measures: what each one is, how it reads, and the functions that compute it.
 
-Every table, summary and figure of the report iterates `MEASURES` (or
+One registry for every job kind: a measure names the kinds it applies to
+by the functions it has for them (``compute``: kind -> function of that
+kind's run), so a measure shared by two kinds (the position RMSE of a
+tracker's confirmed tracks and of a single-target filter) is one entry,
+and a new measure for several kinds is written in one place. Every table,
+summary and figure of the report iterates the registry (`for_kind`, or
 picks keys from it) instead of keeping its own labels and units, and the
-study's job records, ``results.parquet`` and ``summary.json`` hold one
-value per `RUN_MEASURES` key. A `Measure` has:
+tracker jobs' records, ``results.parquet`` and ``summary.json`` hold one
+value per `RUN_MEASURES` key (the filter jobs' per `FILTER_MEASURES` key).
+A `Measure` has:
 
 * ``key``: its name in job records, ``results.parquet`` and ``summary.json``;
 * ``label`` and ``unit``: how a table names it (``title`` = "label (unit)");
@@ -16,22 +22,29 @@ value per `RUN_MEASURES` key. A `Measure` has:
 * ``per_scan``: True for a per-scan series whose run value is its mean
   over scans (the series is kept as well, under ``series_name``), False
   for a value of the whole run;
-* ``compute``: the function of a `nnda.study.metrics.ScoredRun` that gives
-  the value (the (n_scans,) array of a per-scan measure); None for the time
-  per scan, which the job measures around each `Tracker.step` and keeps in
-  ``timing.json`` (wall-clock time changes between two runs of a study);
+* ``compute``: per job kind, the function that gives the value (the
+  (n_scans,) array of a per-scan measure): of a `nnda.study.metrics.ScoredRun`
+  for "track", of a `FilterRun` for "filter"; empty for the time per scan,
+  which a job measures around each step and keeps in ``timing.json``
+  (wall-clock time changes between two runs of a study), the kinds it
+  times in ``timed``;
 * ``integer``: a count (int64: the value of a per-run measure, the series
   of a per-scan one); ``contacts``: the value needs the outputs' contacts
   (None for outputs without them).
 
-The bookkeeping the functions share (ownership, the position matching)
-is `nnda.study.metrics`'s; its module docstring states the rules.
+The bookkeeping the tracker functions share (ownership, the position
+matching) is `nnda.study.metrics`'s; its module docstring states the rules.
+A filter job's run (`FilterRun`) is scored on the scans where its target
+exists: position error per scan, position and velocity RMSE over the scans
+with an estimate, NEES per scan on [x, vx, y, vy] (4 when consistent), the
+share of scans whose NEES exceeds the chi-square 99.9% quantile for 4
+degrees of freedom (`NEES_BOUND`), and the time to the first estimate.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -44,6 +57,8 @@ if TYPE_CHECKING:
     from nnda.study.metrics import ScoredRun
 
 Better = Literal["higher", "lower", "none"]
+#: the job kinds whose runs the registry's functions score (`nnda.study.kinds`)
+TRACK, FILTER = "track", "filter"
 _NEVER = np.iinfo(np.int64).max
 _COUNT = (0.0, math.inf)
 
@@ -58,12 +73,23 @@ class Measure:
     better: Better
     bounds: tuple[float, float]
     per_scan: bool
-    compute: Callable[[ScoredRun], Any] | None
+    compute: Mapping[str, Callable[[Any], Any]]
     fmt: str = "{:.2f}"
     scale: float = 1.0
     integer: bool = False
     contacts: bool = False
     series: str = ""
+    timed: tuple[str, ...] = ()
+
+    @property
+    def kinds(self) -> tuple[str, ...]:
+        """The job kinds this measure applies to: those it has a function for, or that time it."""
+        return tuple(self.compute) or self.timed
+
+    def of(self, kind: str, run: Any) -> Any:
+        """The measure of ``run``, the input of job kind ``kind`` (`ScoredRun` for "track", `FilterRun` for
+        "filter")."""
+        return self.compute[kind](run)
 
     @property
     def title(self) -> str:
@@ -84,7 +110,7 @@ class Measure:
     @property
     def timing(self) -> bool:
         """True for the wall-clock measure kept in ``timing.json`` rather than with the metrics."""
-        return self.compute is None
+        return not self.compute
 
 
 # ----------------------------------------------------------------------------- contacts
@@ -213,6 +239,65 @@ def _false_per_scan(r: ScoredRun) -> np.ndarray:
     return np.bincount(r.scan[r.confirmed & (r.row_owner < 0)] - 1, minlength=r.dataset.n_scans).astype(np.int64)
 
 
+# ----------------------------------------------------------------------------- single-target filters
+
+#: chi-square 99.9% quantile, 4 degrees of freedom: a NEES above it counts as divergence
+NEES_BOUND = 18.4668
+
+
+@dataclass(frozen=True)
+class FilterRun:
+    """One filter job's estimates and truth over the target's scans, all with the scan axis first (S,).
+
+    ``x`` (S, 4) and ``P`` (S, 4, 4) are the estimates ([x, vx, y, vy], m and m/s; NaN before the
+    start), ``truth`` (S, 4) the true state, ``time`` (S,) the scan times (s).
+    """
+
+    time: np.ndarray
+    x: np.ndarray
+    P: np.ndarray
+    truth: np.ndarray
+
+    @property
+    def started(self) -> np.ndarray:
+        return np.isfinite(self.x).all(axis=1)
+
+    def error(self) -> np.ndarray:
+        return self.x - self.truth
+
+    def nees(self) -> np.ndarray:
+        """(S,) NEES, NaN before the start."""
+        out = np.full(len(self.time), np.nan)
+        ok = self.started
+        if ok.any():
+            e = self.error()[ok]
+            out[ok] = np.einsum("si,si->s", e, np.linalg.solve(self.P[ok], e[..., None])[..., 0])
+        return out
+
+
+def _position_error(r: FilterRun) -> np.ndarray:
+    e = r.error()
+    return np.hypot(e[:, 0], e[:, 2])
+
+
+def _filter_rmse(columns: tuple[int, int]):
+    def compute(r: FilterRun) -> float:
+        e = r.error()[r.started][:, list(columns)]
+        return float(root_mean_square((e**2).sum(axis=1)))
+    return compute
+
+
+def _divergence(r: FilterRun) -> float:
+    nees = r.nees()[r.started]
+    return float(100.0 * (nees > NEES_BOUND).mean()) if nees.size else math.nan
+
+
+def _start(r: FilterRun) -> float:
+    ok = np.flatnonzero(r.started)
+    return float(r.time[ok[0]] - r.time[0]) if ok.size else math.nan
+
+
+
 # ----------------------------------------------------------------------------- CLEAR-MOT
 
 def _mota(r: ScoredRun) -> float:
@@ -238,45 +323,74 @@ def _id_switches(r: ScoredRun) -> int:
 
 #: every measure, in the order of the report's per-scenario tables (the thesis's seven rows first)
 MEASURES: tuple[Measure, ...] = (
-    Measure("target_contacts", "Target contacts", "", "none", _COUNT, False, _target_contacts, "{:.1f}",
+    Measure("target_contacts", "Target contacts", "", "none", _COUNT, False, {TRACK: _target_contacts}, "{:.1f}",
             integer=True),
-    Measure("hits", "Hits", "", "higher", _COUNT, False, _hits, "{:.1f}", integer=True, contacts=True),
-    Measure("losses", "Association losses", "", "lower", _COUNT, False, _losses, "{:.1f}", integer=True,
+    Measure("hits", "Hits", "", "higher", _COUNT, False, {TRACK: _hits}, "{:.1f}", integer=True, contacts=True),
+    Measure("losses", "Association losses", "", "lower", _COUNT, False, {TRACK: _losses}, "{:.1f}", integer=True,
             contacts=True),
     Measure("clutter_associated", "Clutter associated with tracks", "", "lower", _COUNT, False,
-            _clutter_associated, integer=True, contacts=True),
-    Measure("hit_rate", "Hit rate", "%", "higher", (0.0, 100.0), False, _hit_rate, contacts=True),
-    Measure("mean_time_per_scan_s", "Time per scan", "ms", "lower", _COUNT, True, None, "{:.4g}", 1e3),
-    Measure("confirmed_tracks", "Confirmed tracks", "", "none", _COUNT, False, _confirmed_tracks, integer=True),
-    Measure("false_tracks", "False tracks", "", "lower", _COUNT, False, _false_tracks, integer=True),
-    Measure("track_breaks", "Track breaks", "", "lower", _COUNT, False, _track_breaks, integer=True),
-    Measure("lost_targets", "Lost targets", "", "lower", _COUNT, False, _lost_targets, integer=True),
-    Measure("mean_time_to_confirm_s", "Time to confirm", "s", "lower", _COUNT, False, _time_to_confirm, "{:.1f}"),
-    Measure("position_rmse_m", "Position RMSE", "m", "lower", _COUNT, False, _position_rmse, "{:.1f}"),
-    Measure("gospa", "GOSPA", "m", "lower", _COUNT, True, _set_part(0, 0), "{:.1f}"),
-    Measure("gospa_localisation", "GOSPA localisation part", "m²", "lower", _COUNT, True, _set_part(0, 1),
+            {TRACK: _clutter_associated}, integer=True, contacts=True),
+    Measure("hit_rate", "Hit rate", "%", "higher", (0.0, 100.0), False, {TRACK: _hit_rate}, contacts=True),
+    Measure("mean_time_per_scan_s", "Time per scan", "ms", "lower", _COUNT, True, {}, "{:.4g}", 1e3,
+            timed=(TRACK, FILTER)),
+    Measure("confirmed_tracks", "Confirmed tracks", "", "none", _COUNT, False, {TRACK: _confirmed_tracks},
+            integer=True),
+    Measure("false_tracks", "False tracks", "", "lower", _COUNT, False, {TRACK: _false_tracks}, integer=True),
+    Measure("track_breaks", "Track breaks", "", "lower", _COUNT, False, {TRACK: _track_breaks}, integer=True),
+    Measure("lost_targets", "Lost targets", "", "lower", _COUNT, False, {TRACK: _lost_targets}, integer=True),
+    Measure("mean_time_to_confirm_s", "Time to confirm", "s", "lower", _COUNT, False, {TRACK: _time_to_confirm},
+            "{:.1f}"),
+    Measure("position_error_m", "Position error", "m", "lower", _COUNT, True, {FILTER: _position_error}, "{:.1f}"),
+    Measure("position_rmse_m", "Position RMSE", "m", "lower", _COUNT, False,
+            {TRACK: _position_rmse, FILTER: _filter_rmse((0, 2))}, "{:.1f}"),
+    Measure("velocity_rmse_m_s", "Velocity RMSE", "m/s", "lower", _COUNT, False, {FILTER: _filter_rmse((1, 3))},
+            "{:.1f}"),
+    Measure("nees", "NEES (4 when consistent)", "", "none", _COUNT, True, {FILTER: FilterRun.nees}, "{:.2f}"),
+    Measure("divergence_pct", "Divergent scans (NEES > 18.47)", "%", "lower", (0.0, 100.0), False,
+            {FILTER: _divergence}),
+    Measure("start_s", "Time to the first estimate", "s", "lower", _COUNT, False, {FILTER: _start}, "{:.1f}"),
+    Measure("gospa", "GOSPA", "m", "lower", _COUNT, True, {TRACK: _set_part(0, 0)}, "{:.1f}"),
+    Measure("gospa_localisation", "GOSPA localisation part", "m²", "lower", _COUNT, True, {TRACK: _set_part(0, 1)},
             "{:,.0f}"),
-    Measure("gospa_missed", "GOSPA missed-target part", "m²", "lower", _COUNT, True, _set_part(0, 2), "{:,.0f}"),
-    Measure("gospa_false", "GOSPA false-track part", "m²", "lower", _COUNT, True, _set_part(0, 3), "{:,.0f}"),
-    Measure("ospa", "OSPA", "m", "lower", _COUNT, True, _set_part(1, 0), "{:.1f}"),
-    Measure("ospa_localisation", "OSPA localisation part", "m", "lower", _COUNT, True, _set_part(1, 1), "{:.1f}"),
-    Measure("ospa_cardinality", "OSPA cardinality part", "m", "lower", _COUNT, True, _set_part(1, 2), "{:.1f}"),
-    Measure("count_error", "Target-count error (confirmed tracks vs targets)", "", "lower", _COUNT, True, _count_error,
-            "{:.2f}"),
+    Measure("gospa_missed", "GOSPA missed-target part", "m²", "lower", _COUNT, True, {TRACK: _set_part(0, 2)},
+            "{:,.0f}"),
+    Measure("gospa_false", "GOSPA false-track part", "m²", "lower", _COUNT, True, {TRACK: _set_part(0, 3)},
+            "{:,.0f}"),
+    Measure("ospa", "OSPA", "m", "lower", _COUNT, True, {TRACK: _set_part(1, 0)}, "{:.1f}"),
+    Measure("ospa_localisation", "OSPA localisation part", "m", "lower", _COUNT, True, {TRACK: _set_part(1, 1)},
+            "{:.1f}"),
+    Measure("ospa_cardinality", "OSPA cardinality part", "m", "lower", _COUNT, True, {TRACK: _set_part(1, 2)},
+            "{:.1f}"),
+    Measure("count_error", "Target-count error (confirmed tracks vs targets)", "", "lower", _COUNT, True,
+            {TRACK: _count_error}, "{:.2f}"),
     # its series is "false_tracks" in job records (results.parquet: false_tracks_per_scan, see nnda.study.track_results)
-    Measure("false_tracks_per_scan", "False tracks present", "", "lower", _COUNT, True, _false_per_scan, "{:.3f}",
-            integer=True, series="false_tracks"),
-    Measure("time_to_count_s", "Time to a correct count", "s", "lower", _COUNT, False, _time_to_count, "{:.1f}"),
+    Measure("false_tracks_per_scan", "False tracks present", "", "lower", _COUNT, True, {TRACK: _false_per_scan},
+            "{:.3f}", integer=True, series="false_tracks"),
+    Measure("time_to_count_s", "Time to a correct count", "s", "lower", _COUNT, False, {TRACK: _time_to_count},
+            "{:.1f}"),
     Measure("tracked_undetected", "Targets tracked while undetected", "%", "higher", (0.0, 100.0), False,
-            _tracked_undetected, "{:.1f}"),
-    Measure("mota", "MOTA", "", "higher", (-math.inf, 1.0), False, _mota, "{:.3f}"),
-    Measure("motp_m", "MOTP", "m", "lower", _COUNT, False, _motp, "{:.1f}"),
-    Measure("id_switches", "Identity switches", "", "lower", _COUNT, False, _id_switches, integer=True),
+            {TRACK: _tracked_undetected}, "{:.1f}"),
+    Measure("mota", "MOTA", "", "higher", (-math.inf, 1.0), False, {TRACK: _mota}, "{:.3f}"),
+    Measure("motp_m", "MOTP", "m", "lower", _COUNT, False, {TRACK: _motp}, "{:.1f}"),
+    Measure("id_switches", "Identity switches", "", "lower", _COUNT, False, {TRACK: _id_switches}, integer=True),
 )
-#: the measures computed from a run's outputs (all but the wall-clock time), in registry order
-RUN_MEASURES: tuple[Measure, ...] = tuple(m for m in MEASURES if not m.timing)
+
+
+def for_kind(kind: str) -> tuple[Measure, ...]:
+    """The measures that apply to job kind ``kind``, in registry order."""
+    return tuple(m for m in MEASURES if kind in m.kinds)
+
+
+#: the tracker measures (the per-scenario tables' rows, the wall-clock time among them), in registry order
+TRACK_MEASURES = for_kind(TRACK)
+#: the tracker measures computed from a run's outputs (all but the wall-clock time)
+RUN_MEASURES: tuple[Measure, ...] = tuple(m for m in TRACK_MEASURES if not m.timing)
 #: the run measures kept as per-scan series too
 SERIES_MEASURES: tuple[Measure, ...] = tuple(m for m in RUN_MEASURES if m.per_scan)
+#: the measures of a filter job, in the order of the report's filter tables
+FILTER_MEASURES: tuple[Measure, ...] = tuple(m for m in for_kind(FILTER) if not m.timing)
+#: the filter measures kept as per-scan series too
+FILTER_SERIES: tuple[Measure, ...] = tuple(m for m in FILTER_MEASURES if m.per_scan)
 _BY_KEY = {m.key: m for m in MEASURES}
 #: the time per scan (s): the job's wall-clock measure
 TIME: Measure = next(m for m in MEASURES if m.timing)

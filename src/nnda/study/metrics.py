@@ -289,7 +289,7 @@ def run_metrics(dataset: Dataset, outputs: Sequence[TrackerOutput], cutoff_m: fl
         if m.contacts and not run.has_contacts:
             values[m.key] = None
             continue
-        value = m.compute(run)
+        value = m.of("track", run)
         if m.per_scan:
             series[m.key] = value
             value = float(value.mean())

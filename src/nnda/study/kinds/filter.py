@@ -7,7 +7,7 @@ scenarios, each fed the target's own contacts (the generator's labels pick them:
 
 A job is one filter over one run of one single-target scenario (the
 study's ``[[scenarios]]`` with one target); its record holds every measure
-of `nnda.study.filter_measures` (the run value, and the per-scan series of
+of `nnda.study.measures` (the run value, and the per-scan series of
 the per-scan ones) and the time of each step. The aggregates:
 ``filter_results.parquet`` (one row per job) and, in ``summary.json``, a
 ``filters`` list (per scenario and filter, mean and t-interval of each
@@ -29,10 +29,9 @@ from nnda.data.sources import GeneratedScenes, StoredDatasets, WalkerScenes
 from nnda.errors import ConfigError
 from nnda.files import finite_or_none
 from nnda.filters.single_target import make_filter
-from nnda.study.filter_measures import FILTER_MEASURES, FILTER_SERIES, FilterRun
 from nnda.study.kinds.base import STRICT, Job, JobKind, Label, job_key
 from nnda.study.kinds.track import relpath, scenario_plans, sensor_setups
-from nnda.study.measures import time_summary
+from nnda.study.measures import FILTER_MEASURES, FILTER_SERIES, FilterRun, time_summary
 from nnda.study.stats import mean_ci, ragged_mean
 from nnda.study.track_job import dataset_digest
 
@@ -150,7 +149,7 @@ def run(job: FilterJob) -> dict:
             i += 1
     result = FilterRun(dataset.scan_time[truth.scan[rows] - 1], x, P,
                        np.column_stack([truth.x[rows], truth.vx[rows], truth.y[rows], truth.vy[rows]]))
-    values = {m.key: m.compute(result) for m in FILTER_MEASURES}
+    values = {m.key: m.of("filter", result) for m in FILTER_MEASURES}
     return {
         "scenario": job.scenario, "tracker": job.label, "kind": job.kind, "run": job.run, "seed": job.seed,
         "dataset_digest": dataset_digest(dataset), "n_scans": dataset.n_scans, "n_targets": 1,
@@ -185,7 +184,11 @@ def results_table(records: list[dict]) -> pa.Table:
 
 def aggregate(plan: FiltersPlan, records: list[dict]) -> tuple[dict, dict, dict[str, pa.Table]]:
     """``summary.json``'s ``filters`` (per single-target scenario and filter: mean and t-interval of each measure,
-    per-scan means), ``timing.json``'s ``filters`` (time per scan) and ``filter_results.parquet``."""
+    per-scan means), ``timing.json``'s ``filters`` (time per scan) and ``filter_results.parquet`` (rows in
+    scenario, filter, run order)."""
+    scenario = {name: i for i, (name, _) in enumerate(plan.scenarios)}
+    label = {f.label: i for i, f in enumerate(plan.filters)}
+    records = sorted(records, key=lambda r: (scenario[r["scenario"]], label[r["tracker"]], r["run"]))
     conf = plan.study.confidence
     summary, timing = [], []
     for name, runs in plan.scenarios:
