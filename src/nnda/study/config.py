@@ -24,6 +24,7 @@ silent: seed 0, 95% intervals.
 
 from __future__ import annotations
 
+import functools
 import os
 from pathlib import Path
 from typing import Annotated, Any
@@ -101,13 +102,25 @@ class StudyBase(BaseModel):
         return found
 
 
-Study = create_model("Study", __base__=StudyBase, __doc__="A study (see the module docstring for the file format).",
-                     **{name: spec for kind in KINDS.values() for name, spec in kind.fields.items()})
+def study_model() -> type[StudyBase]:
+    """The study-file model of the registered kinds: the common fields and every kind's (a kind registered later,
+    as in a test, is part of the next model asked for)."""
+    return _model(tuple(KINDS.values()))
+
+
+@functools.lru_cache(maxsize=8)
+def _model(kinds: tuple) -> type[StudyBase]:
+    return create_model("Study", __base__=StudyBase, __doc__="A study (see the module docstring for the file format).",
+                        **{name: spec for kind in kinds for name, spec in kind.fields.items()})
+
+
+#: the study-file model of nnda's own kinds
+Study = study_model()
 
 
 def study_from_dict(data: dict, source: str = "<study>", base: Path | None = None) -> Study:
     """Validate a mapping into a Study (relative paths against ``base``, default the cwd)."""
-    study = validated(Study, data, source, "study")
+    study = validated(study_model(), data, source, "study")
     return study.resolved(base if base is not None else Path.cwd())
 
 

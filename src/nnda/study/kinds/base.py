@@ -65,7 +65,7 @@ class KindPlan(Protocol):
     def manifest(self) -> dict: ...
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # compared and hashed by identity: a kind is one registry entry
 class JobKind:
     """A job kind: its study-file fields and the functions the engine calls (module docstring)."""
 
