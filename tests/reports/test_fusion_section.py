@@ -7,7 +7,6 @@ import json
 
 import pytest
 
-from nnda.reports.fusion_section import _side
 from nnda.reports.study_report import build_report
 from nnda.study.compare import compare
 from nnda.study.config import load_study
@@ -48,14 +47,6 @@ def test_the_section_compares_fusion_with_the_single_radar(harbour_study):
     assert f"**radar2** (GOSPA {gospa['radar2']:.1f} m)" in section
     assert f"fusion-aa: GOSPA {gospa['fusion-aa'] / gospa['radar2']:.2f}x the best single sensor's" in section
     assert 'id="fusion"' in html or "Fusion against single sensors" in html
-
-
-@pytest.mark.parametrize("a, b, better, side", [
-    ((1.0, 2.0), (3.0, 4.0), -1, 1), ((1.0, 2.0), (3.0, 4.0), 1, -1), ((1.0, 3.5), (3.0, 4.0), -1, 0),
-    ((5.0, 6.0), (3.0, 4.0), 1, 1), ((None, None), (3.0, 4.0), 1, None)])
-def test_a_claim_holds_only_with_the_intervals_apart(a, b, better, side):
-    record = lambda lo_hi: {"ci_low": lo_hi[0], "ci_high": lo_hi[1]}  # noqa: E731
-    assert _side(record(a), record(b), better) == side
 
 
 def test_no_section_without_single_sensor_trackers(tmp_path):

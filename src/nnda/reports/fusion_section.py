@@ -1,4 +1,4 @@
-"""The report's "Fusion against single sensors" section: several sensors against each alone (issue 16).
+"""The report's "Fusion against single sensors" section: several sensors against each alone.
 
 Present when a scenario of the study has two or more sensors and the study
 runs at least one tracker restricted to a single sensor (a PHD tracker with
@@ -8,7 +8,7 @@ GOSPA, the OSPA localisation and cardinality parts, the target-count
 error, the time to a correct count, the share of undetected target-scans
 (misses, occlusion) a confirmed track still covers and the false tracks,
 each ``mean [low, high]`` over runs. Then sentences computed from those
-numbers that check the harbour thesis's claims (seed-002 §3.3) for every
+numbers that check the harbour thesis's claims (Lima 2022) for every
 tracker using all the sensors against the best single-sensor one: its GOSPA
 as a ratio, whether it reaches a correct count sooner ("the fused picture
 converges faster") and whether it covers more of the undetected
@@ -19,6 +19,7 @@ when the intervals do not overlap (and not to fail unless they do). Reads ``stud
 
 from __future__ import annotations
 
+from nnda.reports.claims import HOLDS, NOT_MEASURED, NOT_SHOWN, REVERSED, difference, sign_verdict
 from nnda.reports.text_table import TextTable, stat_cell
 from nnda.study.measures import measure
 
@@ -42,22 +43,13 @@ def _mean(stat: dict | None) -> float | None:
     return None if not stat else stat.get("mean")
 
 
-def _side(a: dict, b: dict, better: int) -> int | None:
-    """+1 when a's interval lies wholly on the better side of b's (``better`` +1 higher, -1 lower), -1 when
-    wholly on the worse side, 0 when they overlap; None when either is undefined."""
-    lo_a, hi_a, lo_b, hi_b = a.get("ci_low"), a.get("ci_high"), b.get("ci_low"), b.get("ci_high")
-    if None in (lo_a, hi_a, lo_b, hi_b):
-        return None
-    above, below = lo_a > hi_b, hi_a < lo_b
-    return 0 if not (above or below) else (1 if above == (better > 0) else -1)
-
-
 def _claim(what: str, mine: dict, theirs: dict, ms, label: str, reference: str) -> str:
     if _mean(mine) is None or _mean(theirs) is None:
         return f"{what}: not measured for {label} or {reference}."
     cells = f"{stat_cell(mine, ms.fmt, ms.scale)} {ms.unit} against {stat_cell(theirs, ms.fmt, ms.scale)} {ms.unit}"
-    verdict = {1: "**holds**", 0: "not shown (the intervals overlap)", -1: "**does not hold** (worse)",
-               None: "not shown (too few runs for intervals)"}[_side(mine, theirs, ms.sense)]
+    verdict = {HOLDS: "**holds**", NOT_SHOWN: "not shown (the intervals overlap)",
+               REVERSED: "**does not hold** (worse)", NOT_MEASURED: "not shown (too few runs for intervals)",
+               }[sign_verdict([difference(mine, theirs)], ms.sense)]
     return f"{what}: {verdict} for {label} ({cells} for {reference})."
 
 

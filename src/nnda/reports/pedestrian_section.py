@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from nnda.reports.claims import HOLDS, NOT_MEASURED, NOT_SHOWN, REVERSED, difference, sign_verdict
 from nnda.reports.pages import Figure, Section, StudyFiles
 from nnda.reports.pedestrian_values import THESIS_EXCESS, THESIS_RMS, THESIS_RUNTIME_S, THESIS_STRESS_SCANS
 from nnda.reports.text_table import DASH, TextTable, stat_cell
@@ -26,14 +27,6 @@ EVERY = 5
 
 def _f(value: float | None, fmt: str = "{:.3f}") -> str:
     return DASH if value is None else fmt.format(value)
-
-
-def _differs(stat: dict) -> int:
-    """+1 when the interval lies above 0, -1 below, 0 when it holds 0 (or is undefined)."""
-    low, high = stat.get("ci_low"), stat.get("ci_high")
-    if low is None or high is None:
-        return 0
-    return 1 if low > 0 else -1 if high < 0 else 0
 
 
 def accuracy_table(test: dict) -> TextTable:
@@ -146,14 +139,10 @@ def beyond_table(beyond: dict) -> TextTable:
 
 
 def _claim(text: str, stats: list[dict], sign: int) -> str:
-    """A claim that each difference in ``stats`` has sign ``sign``: holds (all shown), fails (one shown the
-    other way) or not shown."""
-    signs = [_differs(s) for s in stats]
-    if all(s == sign for s in signs):
-        return f"{text}: **holds**"
-    if any(s == -sign for s in signs):
-        return f"{text}: **fails** (a difference is shown the other way)"
-    return f"{text}: **not shown** (an interval includes 0)"
+    """``text`` with the verdict of its differences' intervals (`nnda.reports.claims.sign_verdict`)."""
+    return text + {HOLDS: ": **holds**", REVERSED: ": **fails** (a difference is shown the other way)",
+                   NOT_SHOWN: ": **not shown** (an interval includes 0)",
+                   NOT_MEASURED: ": **not measured** (too few runs for an interval)"}[sign_verdict(stats, sign)]
 
 
 def _diff(test: dict, a: str, b: str, key: str) -> dict:
@@ -171,43 +160,42 @@ def _diff(test: dict, a: str, b: str, key: str) -> dict:
 
 def _runtime_diff(test: dict, a: str, b: str) -> dict:
     """a's runtime per stress run less b's, as an interval: disjoint t-intervals show a difference."""
-    ra, rb = (test["stress"]["filters"][x]["runtime_s"] for x in (a, b))
-    if None in (ra["ci_low"], rb["ci_low"]):
-        return {"mean": None, "ci_low": None, "ci_high": None}
-    return {"mean": ra["mean"] - rb["mean"], "ci_low": ra["ci_low"] - rb["ci_high"],
-            "ci_high": ra["ci_high"] - rb["ci_low"]}
+    return difference(*(test["stress"]["filters"][x]["runtime_s"] for x in (a, b)))
 
 
-def verdicts(test: dict) -> list[str]:
-    """The thesis's claims for this test (spec §6's conclusions, §7's reading), each read from the intervals."""
+def comparisons(test: dict) -> list[tuple[str, list[dict], int]]:
+    """The thesis's conclusions for this test as (claim, the differences that decide it, the claimed sign)."""
     labels = list(test["accuracy"]["filters"])
     out = []
     if test["name"] == "test2":
         gm, ek, uk = labels
-        out.append(_claim("EK-PHD + NCSHT is the most accurate (lower RMS_x and RMS_y than GM-PHD and UK-PHD)",
-                          [_diff(test, ek, o, k) for o in (gm, uk) for k in ("x", "y")], -1))
-        out.append(_claim("UK-PHD is clearly worse than EK-PHD (higher RMS_x and RMS_y)",
-                          [_diff(test, uk, ek, k) for k in ("x", "y")], +1))
+        out.append(("EK-PHD + NCSHT is the most accurate (lower RMS_x and RMS_y than GM-PHD and UK-PHD)",
+                    [_diff(test, ek, o, k) for o in (gm, uk) for k in ("x", "y")], -1))
+        out.append(("UK-PHD is clearly worse than EK-PHD (higher RMS_x and RMS_y)",
+                    [_diff(test, uk, ek, k) for k in ("x", "y")], +1))
     if test["name"] == "test3":
         cv, nc, hm = labels
-        out.append(_claim("the HM-map model gives the most precise estimates (lower RMS_x and RMS_y than CV and "
-                          "NCSHT)", [_diff(test, hm, o, k) for o in (cv, nc) for k in ("x", "y")], -1))
-        out.append(_claim("modified NCSHT beats CV (lower RMS_x and RMS_y)", [_diff(test, nc, cv, k)
-                                                                              for k in ("x", "y")], -1))
+        out.append(("the HM-map model gives the most precise estimates (lower RMS_x and RMS_y than CV and NCSHT)",
+                    [_diff(test, hm, o, k) for o in (cv, nc) for k in ("x", "y")], -1))
+        out.append(("modified NCSHT beats CV (lower RMS_x and RMS_y)", [_diff(test, nc, cv, k) for k in ("x", "y")],
+                    -1))
     if test["name"] == "test4":
         no, hm = labels
-        out.append(_claim("the HM map gives fewer duplicate estimates (points with 2 or more per run)",
-                          [_diff(test, hm, no, "duplicates")], -1))
-        out.append(_claim("the HM map narrows the scatter (lower punished RMS_y across the corridor)",
-                          [_diff(test, hm, no, "y_punished")], -1))
-    if "stress" in test:
+        out.append(("the HM map gives fewer duplicate estimates (points with 2 or more per run)",
+                    [_diff(test, hm, no, "duplicates")], -1))
+        out.append(("the HM map narrows the scatter (lower punished RMS_y across the corridor)",
+                    [_diff(test, hm, no, "y_punished")], -1))
+    if "stress" in test and test["name"] == "test2":
         first, second = list(test["stress"]["filters"])[:2]
-        if test["name"] == "test2":
-            out.append(_claim(f"{first} runs faster than {second} (Table 6.2)", [_runtime_diff(test, first, second)],
-                              -1))
-            out.append(_claim("every filter overestimates the target count (Fig. 6.8)",
-                              [f["per_run"]["count_bias"] for f in test["stress"]["filters"].values()], +1))
+        out.append((f"{first} runs faster than {second} (Table 6.2)", [_runtime_diff(test, first, second)], -1))
+        out.append(("every filter overestimates the target count (Fig. 6.8)",
+                    [f["per_run"]["count_bias"] for f in test["stress"]["filters"].values()], +1))
     return out
+
+
+def verdicts(test: dict) -> list[str]:
+    """The thesis's conclusions for this test (`comparisons`), each read from the intervals."""
+    return [_claim(text, stats, sign) for text, stats, sign in comparisons(test)]
 
 
 def _png(fig) -> bytes:
