@@ -20,11 +20,11 @@ import typer
 from rich.console import Console
 from rich.text import Text
 
-from nnda.app import data_commands, import_commands, model_commands, study_commands, track_commands
+from nnda.app import data_commands, import_commands, model_commands, reproduce, study_commands, track_commands
+from nnda.app.model_commands import train_thesis_models
 from nnda.data.dataset import collection_members
 from nnda.data.presets import GROUPS
 from nnda.errors import NndaError
-from nnda.models.innovation import IMM_INNOVATION
 from nnda.study.config import default_study, study_to_toml
 
 app = typer.Typer(
@@ -68,14 +68,9 @@ def demo(
     for group in ("train", "validation"):
         for member in collection_members(data / group):
             study_commands.plot_scenario(member, plots / f"{member.name}.png", overwrite=True)
-    models = (out / "models").resolve()
-    lm, ext = model_commands.MethodChoice.lm, model_commands.FeatureChoice[IMM_INNOVATION.name]
-    for method in (model_commands.MethodChoice.gd, lm):
-        model_commands.train(data=data / "train", out=models / method.value, method=method, seed=seed, overwrite=True)
-    model_commands.train(data=data / "train", out=models / "ext", method=lm, features=ext, starts=3, seed=seed,
-                         overwrite=True)
-    model_commands.train(data=data / "train", out=models / "ablation", method=lm, ablation=True, repeats=10,
-                         seed=seed, overwrite=True)
+    models = train_thesis_models(data / "train", out / "models", seed)
+    model_commands.train(data=data / "train", out=models / "ablation", method=model_commands.MethodChoice.lm,
+                         ablation=True, repeats=10, seed=seed, overwrite=True)
     study = default_study(models / "gd", models / "lm", models / "ext", runs=runs, seed=seed,
                           ablation=models / "ablation")
     study_file = out / "study.toml"
@@ -85,6 +80,7 @@ def demo(
 
 
 app.command("demo")(demo)
+app.command("reproduce")(reproduce.reproduce)
 
 
 def _print_error(message: str) -> None:

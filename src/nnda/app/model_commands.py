@@ -43,6 +43,7 @@ from nnda.errors import ConfigError
 from nnda.files import atomic_directory, check_output_location
 from nnda.models.feature_sets import FEATURE_SETS
 from nnda.models.features import KINEMATIC
+from nnda.models.innovation import IMM_INNOVATION
 from nnda.models.pairs import PairSet, load_pairs, model_pair_options
 from nnda.models.scorer import MODEL_FILE, load_model, save_model
 
@@ -336,3 +337,16 @@ def evaluate(
             plot_roc({"all pairs": (pairs.labels, scores)}, tmp / "roc.png", f"ROC of {model.name} on {data.name}")
         console.print(f"wrote {out}/", markup=False, highlight=False)
     console.print(table.rich())
+
+
+def train_thesis_models(data: Path, models: Path, seed: int) -> Path:
+    """The association networks of the radar thesis's comparison (`nnda.study.config.default_study`), trained on
+    the dataset collection ``data`` into ``models``/gd, lm (the thesis's three features, gradient descent and
+    Levenberg-Marquardt) and ext (the IMM-extended features, three starts); returns ``models`` (absolute).
+    The same seed gives the same model files, so a study that names them resumes."""
+    models = models.resolve()
+    for method in (MethodChoice.gd, MethodChoice.lm):
+        train(data=data, out=models / method.value, method=method, seed=seed, overwrite=True)
+    train(data=data, out=models / "ext", method=MethodChoice.lm, features=FeatureChoice[IMM_INNOVATION.name],
+          starts=3, seed=seed, overwrite=True)
+    return models

@@ -111,18 +111,20 @@ def reference_study(name: str) -> Path:
     return Path(str(resources.files("nnda") / "studies" / f"{name}.toml"))
 
 
-def _reference(kind: str, config: Path | None, table: dict, seed: int | None) -> tuple:
-    """The shipped study of ``kind`` with its ``[kind]`` table replaced by the one in ``config`` (a file of the
-    table's fields; a seed or confidence there is the study's) and then updated by ``table``; the seed
-    overridden by ``seed``. Returns the study and how messages name it."""
-    path = reference_study(kind)
+def shipped_study(name: str, overrides: dict, seed: int | None = None, config: Path | None = None,
+                  table: str | None = None) -> tuple:
+    """The study file ``name`` shipped with nnda, with ``overrides`` merged in (tables merged key by key), its
+    ``[table]`` first replaced by the one in ``config`` (a file of the table's fields; a seed or confidence
+    there is the study's), and the seed overridden by ``seed``. Returns the study and how messages name it."""
+    path = reference_study(name)
     data = read_config(path, "study")
     where = str(config) if config is not None else f"the shipped {path.name}"
     if config is not None:
-        own = read_config(config, f"{kind} study")
+        own = read_config(config, f"{table} study")
         data |= {k: own.pop(k) for k in ("seed", "confidence") if k in own}
-        data[kind] = own
-    data[kind] = {**data.get(kind, {}), **table}
+        data[table] = own
+    for key, value in overrides.items():
+        data[key] = {**data.get(key, {}), **value} if isinstance(value, dict) and data.get(key) else value
     if seed is not None:
         data["seed"] = seed
     return study_from_dict(data, where, path.parent), where
@@ -142,7 +144,8 @@ def reentry(
 ) -> None:
     """Run the ballistic re-entry filter study (Pavlov & Bruno 2003; the shipped studies/reentry.toml): every
     filter on the same runs, then its report."""
-    study, where = _reference("reentry", config, {} if runs is None else {"runs": runs}, seed)
+    table = {} if runs is None else {"runs": runs}
+    study, where = shipped_study("reentry", {"reentry": table}, seed, config, "reentry")
     run_study(study, out, where, resume, jobs, dask, overwrite)
 
 
@@ -162,7 +165,7 @@ def tbd(
     """Run the track-before-detect study (Bruno, Araújo & Pavlov; the shipped studies/tbd.toml): every filter
     on the same frames, the detector and the detect-then-track chain, then its report."""
     table = ({} if runs is None else {"runs": runs}) | ({} if chain else {"chain": None})
-    study, where = _reference("tbd", config, table, seed)
+    study, where = shipped_study("tbd", {"tbd": table}, seed, config, "tbd")
     run_study(study, out, where, resume, jobs, dask, overwrite)
 
 
@@ -189,5 +192,6 @@ def pedestrian(
                           f"{', '.join(TESTS)} or all")
     given = {"runs": runs, "test4_runs": test4_runs, "stress_runs": stress_runs, "birth": birth, "beyond": beyond,
              "tests": None if not tests else (list(TESTS) if tests == ["all"] else list(tests))}
-    study, where = _reference("pedestrian", config, {k: v for k, v in given.items() if v is not None}, seed)
+    study, where = shipped_study("pedestrian", {"pedestrian": {k: v for k, v in given.items() if v is not None}},
+                                 seed, config, "pedestrian")
     run_study(study, out, where, resume, jobs, dask, overwrite)

@@ -69,11 +69,6 @@ def difference(a: Stat, b: Stat) -> Stat:
     return {"mean": a["mean"] - b["mean"], "ci_low": a["ci_low"] - b["ci_high"], "ci_high": a["ci_high"] - b["ci_low"]}
 
 
-def shifted(stat: Stat, by: float) -> Stat:
-    """``stat`` less ``by`` (a ratio against 1, say, as a difference against 0)."""
-    return {k: (None if stat.get(k) is None else stat[k] - by) for k in ("mean", "ci_low", "ci_high")}
-
-
 @dataclass(frozen=True)
 class Claim:
     """A claim of ``work`` that study ``study`` (a directory of the reproduction) checks: ``measured`` gives

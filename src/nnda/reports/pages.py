@@ -79,9 +79,10 @@ class Section:
 
 
 def _inline(text: str) -> str:
-    """Escape, then render **bold** and `code` of our own generated Markdown."""
+    """Escape, then render **bold**, `code` and [links](relative/path) of our own generated Markdown."""
     text = html.escape(text)
     text = re.sub(r"\*\*(.+?)\*\*", r"<strong>\1</strong>", text)
+    text = re.sub(r"\[([^\]]+)\]\(([^)\s]+)\)", r'<a href="\2">\1</a>', text)
     return re.sub(r"`(.+?)`", r"<code>\1</code>", text)
 
 

@@ -20,6 +20,7 @@ from nnda.reports.claims import HOLDS, NOT_MEASURED, NOT_SHOWN, REVERSED, differ
 from nnda.reports.pages import Figure, Section, StudyFiles
 from nnda.reports.pedestrian_values import THESIS_EXCESS, THESIS_RMS, THESIS_RUNTIME_S, THESIS_STRESS_SCANS
 from nnda.reports.text_table import DASH, TextTable, stat_cell
+from nnda.study.pedestrian import BEYOND, TEST_SPECS
 
 #: every this many scans in the per-time tables
 EVERY = 5
@@ -353,9 +354,33 @@ def pedestrian_section(section, results: dict) -> tuple[object, list]:
     return section, figures
 
 
+def _ordered(mapping: dict, labels: list[str]) -> dict:
+    return {label: mapping[label] for label in labels if label in mapping}
+
+
+def in_study_order(results: dict) -> dict:
+    """``results`` with every per-filter mapping in the study's filter order (summary.json sorts its keys; the
+    tables, figures and conclusions read the filters in the thesis's order)."""
+    tests = []
+    for test in results["tests"]:
+        labels = [f.label for f in TEST_SPECS[test["name"]].filters]
+        test = {**test, "filters": _ordered(test["filters"], labels),
+                "accuracy": {**test["accuracy"], "filters": _ordered(test["accuracy"]["filters"], labels)}}
+        if "stress" in test:
+            test["stress"] = {**test["stress"], "filters": _ordered(test["stress"]["filters"], labels)}
+        if "density" in test:
+            test["density"] = _ordered(test["density"], labels)
+        tests.append(test)
+    out = {**results, "tests": tests}
+    if "beyond" in results:
+        out["beyond"] = {**results["beyond"], "filters": _ordered(results["beyond"]["filters"],
+                                                                  [f.label for f in BEYOND])}
+    return out
+
+
 def sections(study: StudyFiles, figures: list[Figure]) -> list[Section]:
     """The pedestrian study's section of a study report, with its figures."""
     section, drawn = pedestrian_section(Section("pedestrian", "Pedestrian study (Frencl 2014)", [], []),
-                                        study.results("pedestrian"))
+                                        in_study_order(study.results("pedestrian")))
     figures += drawn
     return [section]

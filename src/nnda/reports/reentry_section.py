@@ -13,7 +13,7 @@ import numpy as np
 
 from nnda.reports.pages import Figure, Section, StudyFiles
 from nnda.reports.text_table import DASH, TextTable, interval, stat_cell
-from nnda.study.reentry import PRIOR
+from nnda.study.reentry import PRIOR, ReentrySetting, filter_entries
 
 #: the independent reproduction's time-averaged RMSE x / y (m) at the paper's setting, 4,000 particles (spec B.5)
 SPEC_B5 = {"bootstrap": (233.0, 424.0), "optimal": (217.0, 407.0)}
@@ -149,6 +149,16 @@ def _against_b5(results: dict) -> str:
             + "; ".join(parts) + ".")
 
 
+def in_study_order(results: dict) -> dict:
+    """``results`` with each setting's filters in the study's order (summary.json sorts its keys)."""
+    settings = []
+    for setting, cfg in zip(results["settings"], results["config"]["settings"], strict=True):
+        labels = [name if n is None else f"{name}@{n}" for _, name, n in filter_entries(ReentrySetting(**cfg))]
+        settings.append({**setting, "filters": {k: setting["filters"][k] for k in labels}})
+    return {**results, "settings": settings}
+
+
 def sections(study: StudyFiles, figures: list[Figure]) -> list[Section]:
     """The re-entry study's section of a study report."""
-    return [reentry_section(Section("reentry", "Ballistic re-entry filters", [], []), study.results("reentry"))]
+    return [reentry_section(Section("reentry", "Ballistic re-entry filters", [], []),
+                            in_study_order(study.results("reentry")))]

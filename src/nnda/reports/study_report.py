@@ -61,16 +61,22 @@ def summary_sections(kind: str, study: StudyFiles) -> list[Section]:
     return [sec]
 
 
-def report_sections(out: str | Path) -> tuple[str, list[Section], list[Figure], bool]:
-    """The title, sections and figures of the report of study directory ``out``, and whether it has interactive
-    figures."""
+def study_files(out: str | Path) -> StudyFiles:
+    """A finished study directory's ``study.json`` and its checked ``summary.json`` and ``timing.json``."""
     out = Path(out)
     manifest = read_json(out / MANIFEST, STUDY_FORMAT, STUDY_FORMAT_VERSION)
     summary, timing = read_summary(out)
     if not summary["fingerprint"] == timing["fingerprint"] == manifest["fingerprint"]:
         raise DatasetError(f"{out}: study.json, summary.json and timing.json come from different studies; "
                            f"rerun `nnda run --resume` to rebuild them")
-    study = StudyFiles(out, manifest, summary, timing)
+    return StudyFiles(out, manifest, summary, timing)
+
+
+def report_sections(out: str | Path) -> tuple[str, list[Section], list[Figure], bool]:
+    """The title, sections and figures of the report of study directory ``out``, and whether it has interactive
+    figures."""
+    study = study_files(out)
+    manifest = study.manifest
     sections: list[Section] = []
     figures: list[Figure] = []
     for kind in manifest["kinds"]:

@@ -269,9 +269,25 @@ def snapshot_figure(snap: dict) -> Figure:
     return Figure("tbd-frames.png", caption, _png(fig))
 
 
+def in_study_order(results: dict) -> dict:
+    """``results`` with the filters and chain trackers of every setting in the study's order (summary.json sorts
+    its keys)."""
+    cfg = results["config"]
+    labels = [f"{f['name']}@{f['particles']}" for f in cfg["filters"]]
+    chain = list(cfg["chain"]["trackers"]) if cfg["chain"] else []
+
+    def ordered(s: dict) -> dict:
+        return {**s, "filters": {k: s["filters"][k] for k in labels},
+                **({"chain": {k: s["chain"][k] for k in chain}} if "chain" in s else {})}
+
+    er = results.get("exit_reentry")
+    return {**results, "settings": [ordered(s) for s in results["settings"]],
+            "exit_reentry": None if er is None else ordered(er)}
+
+
 def sections(study: StudyFiles, figures: list[Figure]) -> list[Section]:
     """The TBD study's section of a study report, with the snapshot figure."""
-    section = tbd_section(Section("tbd", "Track-before-detect filters", [], []), study.results("tbd"))
+    section = tbd_section(Section("tbd", "Track-before-detect filters", [], []), in_study_order(study.results("tbd")))
     figure = snapshot_figure(read_json(read_checked(study.out, SNAPSHOT_FILE), SNAPSHOT_FORMAT, SNAPSHOT_VERSION))
     figures.append(figure)
     section.figure(figure)

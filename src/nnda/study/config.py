@@ -144,8 +144,8 @@ def default_study(gd_model: str | Path, lm_model: str | Path, ext_model: str | P
     return Study(
         name="thesis-comparison",
         description="IMM + track-oriented MHT against neural association (seed features with GD and LM "
-                    "models, IMM-extended features with LM, alone and with issue 20's life cycle for coasting "
-                    "tracks), with GNN and JPDA baselines and the EK-PHD and CPHD filters, on S1-S6",
+                    "models, IMM-extended features with LM, alone and with the life cycle for coasting tracks), "
+                    "with GNN and JPDA baselines and the EK-PHD and CPHD filters, on S1-S6",
         seed=seed, runs=runs,
         models={"gd": Path(gd_model), "lm": Path(lm_model), "ext": Path(ext_model)},
         ablation=None if ablation is None else Path(ablation),
