@@ -71,8 +71,8 @@ def test_the_figures_points_are_the_summarys_numbers(study_dir, key):
 def test_the_figure_is_in_the_report_and_the_same_bytes_twice(study_dir):
     summary, timing = _files(study_dir)
     trackers = [t["label"] for t in summary["trackers"]]
-    png = quality_cost(headline_points(summary, timing, "gospa"), measure("gospa"), trackers)
-    assert png == quality_cost(headline_points(summary, timing, "gospa"), measure("gospa"), trackers)
+    png = quality_cost(headline_points(summary, timing, "gospa"), "gospa", trackers)
+    assert png == quality_cost(headline_points(summary, timing, "gospa"), "gospa", trackers)
     assert (study_dir / "figures/quality_cost_gospa.png").read_bytes() == png
     md = (study_dir / "report.md").read_text()
     summary_md = md[md.index("## Summary\n"):md.index("\n## Setup\n")]

@@ -34,8 +34,9 @@ def test_markdown_and_html_hold_every_section_and_figure(study_dir):
         assert f"\n## {title}\n" in md
         assert f'<section id="{ident}"><h2>{title}</h2>' in page
     figures = re.findall(r"\]\((figures/[^)]+\.png)\)", md)
-    # quality against cost (GOSPA, hit rate), ROC, time per scan; over time, target count, tracks per scenario
-    assert len(figures) == 2 + 1 + 1 + 2 + 2 + 2
+    # quality against cost (GOSPA, hit rate), ROC, time per scan; over time and target count per scenario (the
+    # trajectories are drawn once, interactive, in report.html)
+    assert len(figures) == 2 + 1 + 1 + 2 + 2
     for f in figures:
         assert (study_dir / f).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # self-contained: images inline, plotly.js inline, nothing fetched

@@ -154,9 +154,9 @@ def comparisons(rows: dict[tuple[str, str], dict], summary: dict) -> list[str]:
 
 
 def target_counts(section, out: str | Path, summary: dict, scan_times: dict[str, np.ndarray],
-                  figure: Callable[[str, str, bytes], object]):
-    """Fill ``section`` (a study_report Section: ``text``, ``table``, ``figure``) and return it; ``figure``
-    (name, caption, PNG bytes) makes a report figure and registers it for writing."""
+                  figure: Callable[..., object]):
+    """Fill ``section`` (a `nnda.reports.pages.Section`) and return it; ``figure(name, caption, draw, args)``
+    makes a report figure and registers it for drawing."""
     trackers = [t["label"] for t in summary["trackers"]]
     section.text("How many targets each tracker reports, scan by scan, against the true count: its confirmed "
                  "tracks and, for the PHD filters, the filter's own expected count N_hat (a PHD: the total weight "
@@ -172,10 +172,10 @@ def target_counts(section, out: str | Path, summary: dict, scan_times: dict[str,
         mine = {t: counts[sc["name"], t] for t in trackers if (sc["name"], t) in counts}
         if not mine:
             continue
-        png = study_figures.target_count(sc["name"], scan_times[sc["name"]], mine, trackers)
         section.figure(figure(f"target_count_{sc['name']}.png",
                               f"{sc['name']}: estimated target count per scan, mean over runs and the central 95% "
-                              f"of runs (2.5-97.5 percentiles), true count in black", png))
+                              f"of runs (2.5-97.5 percentiles), true count in black", study_figures.target_count,
+                              (sc["name"], scan_times[sc["name"]], mine, trackers)))
     rows = {(sc["name"], t): filter_row(counts[sc["name"], t], summary["confidence"])
             for sc in summary["scenarios"] for t in trackers
             if (sc["name"], t) in counts and counts[sc["name"], t].filter_mean is not None}

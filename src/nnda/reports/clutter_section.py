@@ -187,9 +187,9 @@ def figure(lines: dict[str, dict[str, dict[int, dict]]], trackers: list[str]) ->
 
 
 def clutter_section(section, manifest: dict, summary: dict, timing: dict,
-                    made: Callable[[str, str, bytes], object]):
+                    made: Callable[..., object]):
     """Fill ``section`` (a `nnda.reports.pages.Section`) when the study holds a sweep; else None.
-    ``made(name, caption, png)`` registers a figure and returns it for ``section.figure``."""
+    ``made(name, caption, draw, args)`` registers a figure and returns it for ``section.figure``."""
     found = sweeps(manifest)
     if not found:
         return None
@@ -201,7 +201,7 @@ def clutter_section(section, manifest: dict, summary: dict, timing: dict,
                  f"{', '.join(f'{c:,}' for c in counts)} points per scan. Each point is the mean over those scenes "
                  f"of the per-scene means; its bars are the means of the per-scene 95% intervals.")
     section.figure(made("clutter_sweep.png", "Quality and cost against clutter points per scan, mean over the "
-                        f"swept scenes ({scenes}).", figure(lines, trackers)))
+                        f"swept scenes ({scenes}).", figure, (lines, trackers)))
     rows = []
     for t in trackers:
         for c in counts:

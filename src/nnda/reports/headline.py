@@ -142,8 +142,9 @@ def _err(mean: float, low: float | None, high: float | None) -> list[list[float]
     return [[max(mean - low, 0.0)], [max(high - mean, 0.0)]]
 
 
-def quality_cost(panels: dict[str, list[Point]], m: Measure, trackers: list[str]) -> bytes:
-    """PNG of ``m`` against the time per scan, one panel per entry of ``panels`` (`headline_points`)."""
+def quality_cost(panels: dict[str, list[Point]], key: str, trackers: list[str]) -> bytes:
+    """PNG of measure ``key`` against the time per scan, one panel per entry of ``panels`` (`headline_points`)."""
+    m = measure(key)
     colours = _colours(trackers)
     n = len(panels)
     cols = min(n, 4)
@@ -264,10 +265,10 @@ def reading(summary: dict, timing: dict) -> str:
     return " ".join(sentences)
 
 
-def headline_section(section, summary: dict, timing: dict, figure: Callable[[str, str, bytes], object]):
-    """Fill ``section`` (a study_report Section) with the figures, the compact table and the reading, then
-    the best tracker per scenario and measure (`nnda.reports.study_summary.verdict_table`), and return it;
-    ``figure`` (name, caption, PNG bytes) makes a report figure and registers it for writing."""
+def headline_section(section, summary: dict, timing: dict, figure: Callable[..., object]):
+    """Fill ``section`` (a `nnda.reports.pages.Section`) with the figures, the compact table and the reading,
+    then the best tracker per scenario and measure (`nnda.reports.study_summary.verdict_table`), and return it;
+    ``figure(name, caption, draw, args)`` makes a report figure and registers it for drawing."""
     trackers = [t["label"] for t in summary["trackers"]]
     if not trackers:
         section.text("No tracker ran in this study (single-target filters only: see their section).")
@@ -284,7 +285,7 @@ def headline_section(section, summary: dict, timing: dict, figure: Callable[[str
                    f"runs to the left edge (log axis)")
         if lacking:
             caption += f"; {', '.join(lacking)}: no {m.label.lower()}"
-        section.figure(figure(f"quality_cost_{m.key}.png", caption, quality_cost(panels, m, trackers)))
+        section.figure(figure(f"quality_cost_{m.key}.png", caption, quality_cost, (panels, m.key, trackers)))
     table = compact_table(summary, timing)
     section.md.append(table.markdown())  # the bold cells: ** in Markdown, <strong> in HTML
     section.html.append(re.sub(r"\*\*(.+?)\*\*", r"<strong>\1</strong>", table.html("headline-table")))

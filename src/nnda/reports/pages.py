@@ -3,8 +3,9 @@
     sec = Section("reentry", "Ballistic re-entry filters", [], [])
     sec.text("A paragraph with **bold** and `code`.")       # Markdown and its HTML
     sec.table(text_table)                                   # a nnda.reports.text_table.TextTable
-    sec.figure(Figure("rmse.png", "RMSE per step", png_bytes))
-    write_pages(out, "Re-entry study", [sec], [figure])     # out/report.md, out/report.html, out/figures/*.png
+    fig = Figure("rmse.png", "RMSE per step", draw_rmse, (results,))   # draw_rmse(results) -> PNG bytes
+    sec.figure(fig)                                         # drawn when the page is written
+    write_pages(out, "Re-entry study", [sec], [fig])        # out/report.md, out/report.html, out/figures/*.png
 
 A report section is a function of a study's records that fills a `Section`;
 this module knows no study. The HTML page is self-contained: figures are
@@ -15,9 +16,12 @@ inlined, so it opens without network or sibling files.
 from __future__ import annotations
 
 import base64
+import functools
 import html
+import multiprocessing
 import re
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -47,11 +51,42 @@ class StudyFiles:
 
 @dataclass(frozen=True)
 class Figure:
-    """A PNG figure: file name under figures/, caption, bytes."""
+    """A PNG figure: file name under figures/, caption, and how to draw it: ``draw(*args)`` returns the PNG's
+    bytes (a module-level function of plain data, so a worker process can draw it). Nothing is drawn until the
+    page is written (`render`)."""
 
     name: str
     caption: str
-    png: bytes
+    draw: Callable[..., bytes]
+    args: tuple = ()
+
+    @functools.cached_property
+    def png(self) -> bytes:
+        """The figure's PNG bytes (drawn on first use, or by `render`)."""
+        return self.draw(*self.args)
+
+
+#: below this many figures, drawing them in this process is quicker than starting workers
+PARALLEL_FIGURES = 6
+
+
+def _drawn(figure: Figure) -> bytes:
+    return figure.draw(*figure.args)
+
+
+def render(figures: Sequence[Figure], workers: int = 2) -> dict[str, bytes]:
+    """Draw every figure not drawn yet, on ``workers`` processes when there are `PARALLEL_FIGURES` or more (the
+    same bytes either way); every figure's PNG by name."""
+    names = [f.name for f in figures]
+    if len(set(names)) != len(names):
+        raise ValueError(f"figure names repeat: {sorted({n for n in names if names.count(n) > 1})}")
+    todo = [f for f in figures if "png" not in f.__dict__]
+    if workers >= 2 and len(todo) >= PARALLEL_FIGURES:
+        # spawn: a worker starts clean (no copy of this process's threads or open figures)
+        with ProcessPoolExecutor(min(workers, len(todo)), mp_context=multiprocessing.get_context("spawn")) as pool:
+            for f, png in zip(todo, pool.map(_drawn, todo), strict=True):
+                f.__dict__["png"] = png  # what `Figure.png` would draw
+    return {f.name: f.png for f in figures}
 
 
 @dataclass
@@ -72,10 +107,18 @@ class Section:
         self.html.append(table.html(ident))
 
     def figure(self, fig: Figure) -> None:
+        """The figure in both renderings: a file link in Markdown, the image inlined in HTML once drawn."""
         self.md += [f"![{fig.caption}]({FIGURES}/{fig.name})", ""]
-        data = base64.b64encode(fig.png).decode()
-        self.html.append(f'<figure><img alt="{html.escape(fig.caption)}" src="data:image/png;base64,{data}">'
-                         f"<figcaption>{html.escape(fig.caption)}</figcaption></figure>")
+        self.html.append(f'<figure><img alt="{html.escape(fig.caption)}" src="data:image/png;base64,'
+                         f'{_slot(fig.name)}"><figcaption>{html.escape(fig.caption)}</figcaption></figure>')
+
+
+def _slot(name: str) -> str:
+    """Where a figure's base64 goes in a section's HTML until it is drawn (no HTML or base64 text has NUL)."""
+    return f"\0figure:{name}\0"
+
+
+_SLOT = re.compile("\0figure:([^\0]*)\0")
 
 
 def _inline(text: str) -> str:
@@ -130,12 +173,15 @@ code { background: #f3f3f3; padding: 0 .2em; }
 """
 
 
-def html_page(title: str, sections: Sequence[Section], script: str = "") -> str:
-    """A whole HTML page: the title, a table of contents (links to the section ids) and the sections;
-    ``script`` (JavaScript, e.g. plotly.js for interactive figures) goes inline into the head."""
+def html_page(title: str, sections: Sequence[Section], script: str = "", pngs: Mapping[str, bytes] | None = None
+              ) -> str:
+    """A whole HTML page: the title, a table of contents (links to the section ids) and the sections with their
+    figures' ``pngs`` (by name, `render`) inlined; ``script`` (JavaScript, e.g. plotly.js for interactive
+    figures) goes inline into the head."""
     toc = " ".join(f'<a href="#{s.ident}">{html.escape(s.title)}</a>' for s in sections)
     body = "".join(f'<section id="{s.ident}"><h2>{html.escape(s.title)}</h2>{"".join(s.html)}</section>'
                    for s in sections)
+    body = _SLOT.sub(lambda m: base64.b64encode((pngs or {})[m.group(1)]).decode(), body)
     return (f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>'
             f'<meta name="viewport" content="width=device-width, initial-scale=1">'
             f"<style>{_CSS}</style>{f'<script>{script}</script>' if script else ''}</head>"
@@ -143,15 +189,17 @@ def html_page(title: str, sections: Sequence[Section], script: str = "") -> str:
             f"{toc}</nav>{body}</body></html>\n")
 
 
-def write_pages(out: Path, title: str, sections: Sequence[Section], figures: Iterable[Figure] = (),
+def write_pages(out: Path, title: str, sections: Sequence[Section], figures: Sequence[Figure] = (),
                 script: str = "") -> Path:
-    """Write ``out``/report.md and report.html of ``sections`` under ``title`` (``script`` inlined in the HTML),
-    and each figure as ``out``/figures/<name>, every file atomically; returns the HTML page's path."""
-    for figure in figures:
-        with atomic_file(out / FIGURES / figure.name) as tmp:
-            tmp.write_bytes(figure.png)
+    """Draw ``figures`` (`render`), write each as ``out``/figures/<name>, then ``out``/report.md and report.html
+    of ``sections`` under ``title`` (``script`` inlined in the HTML), every file atomically; returns the HTML
+    page's path."""
+    pngs = render(figures)
+    for name, png in pngs.items():
+        with atomic_file(out / FIGURES / name) as tmp:
+            tmp.write_bytes(png)
     with atomic_file(out / REPORT_MD) as tmp:
         tmp.write_text(markdown_page(title, sections))
     with atomic_file(out / REPORT_HTML) as tmp:
-        tmp.write_text(html_page(title, sections, script))
+        tmp.write_text(html_page(title, sections, script, pngs))
     return out / REPORT_HTML

@@ -324,7 +324,7 @@ def pedestrian_section(section, results: dict) -> tuple[object, list]:
         section.text("**Test 1: the heading profiles' objectivity**")
         section.table(variance_table(results["test1"]), "pedestrian-test1-variance")
         fig = Figure("pedestrian-test1-profiles.png", "Test 1: polar histograms, pdfs and variance of the profiles",
-                     test1_figure(results["test1"]))
+                     test1_figure, (results["test1"],))
         section.figure(fig)
         figures.append(fig)
     for test in results["tests"]:
@@ -332,7 +332,7 @@ def pedestrian_section(section, results: dict) -> tuple[object, list]:
         section.table(accuracy_table(test), f"pedestrian-{test['name']}-accuracy")
         section.table(differences_table(test), f"pedestrian-{test['name']}-differences")
         section.table(profile_table(test), f"pedestrian-{test['name']}-profile")
-        fig = Figure(f"pedestrian-{test['name']}-rms.png", f"{test['name']}: RMS per time", rms_figure(test))
+        fig = Figure(f"pedestrian-{test['name']}-rms.png", f"{test['name']}: RMS per time", rms_figure, (test,))
         section.figure(fig)
         figures.append(fig)
         if "stress" in test:
@@ -341,7 +341,7 @@ def pedestrian_section(section, results: dict) -> tuple[object, list]:
         if test["name"] == "test4":
             section.table(excess_table(test), "pedestrian-test4-excess")
             fig = Figure("pedestrian-test4-density.png", "Test 4: density of the estimates (Fig. 6.19)",
-                         density_figure(test))
+                         density_figure, (test,))
             section.figure(fig)
             figures.append(fig)
         found = verdicts(test)

@@ -1,4 +1,4 @@
-"""Static figures of a study report (PNG bytes): time per scan, metrics over time, target count, ROC, tracks.
+"""Static figures of a study report (PNG bytes): time per scan, metrics over time, target count, ROC.
 
 Each function returns the PNG as bytes; the report writes them to files
 for ``report.md`` and embeds them as base64 in ``report.html``.
@@ -17,18 +17,6 @@ import numpy as np  # noqa: E402
 from matplotlib.ticker import FuncFormatter  # noqa: E402
 
 from nnda.study.measures import TIME, measure  # noqa: E402
-
-KM = 1e-3
-#: margin (m) around the true trajectories in track plots; coasting tracks may run further out
-VIEW_MARGIN_M = 3_000.0
-
-
-def view_box(x: np.ndarray, y: np.ndarray) -> tuple[tuple[float, float], tuple[float, float]]:
-    """(x range, y range) in km: the true trajectories' bounding box plus VIEW_MARGIN_M."""
-    if x.size == 0:
-        return (-30.0, 30.0), (-30.0, 30.0)
-    m = VIEW_MARGIN_M
-    return (((x.min() - m) * KM, (x.max() + m) * KM), ((y.min() - m) * KM, (y.max() + m) * KM))
 
 
 def _png(fig, dpi: int = 100) -> bytes:
@@ -165,31 +153,4 @@ def roc_curves(models: list[dict]) -> bytes:
            xlim=(0, 1), ylim=(0, 1.01))
     ax.legend(loc="lower right")
     ax.grid(alpha=0.3)
-    return _png(fig)
-
-
-def tracks(scenario: str, rows: dict[str, np.ndarray], trackers: list[str]) -> bytes:
-    """Run 0 of a scenario: true trajectories (grey) and each tracker's confirmed tracks, one panel each.
-
-    ``rows`` are the scenario's ``trajectories.parquet`` columns as arrays.
-    """
-    colours = _colours(trackers)
-    n = max(1, len(trackers))
-    fig, axes = plt.subplots(1, n, figsize=(4.2 * n, 4.4), squeeze=False, constrained_layout=True)
-    truth = rows["source"] == "truth"
-    xlim, ylim = view_box(rows["x"][truth], rows["y"][truth])
-    for ax, tracker in zip(axes[0], trackers):
-        for tid in np.unique(rows["id"][truth]):
-            sel = truth & (rows["id"] == tid)
-            ax.plot(rows["x"][sel] * KM, rows["y"][sel] * KM, color="0.6", lw=3, alpha=0.6)
-        mine = rows["source"] == tracker
-        for tid in np.unique(rows["id"][mine]):
-            sel = mine & (rows["id"] == tid)
-            ax.plot(rows["x"][sel] * KM, rows["y"][sel] * KM, color=colours[tracker], lw=1)
-        ax.set(title=f"{tracker}: {np.unique(rows['id'][mine]).size} confirmed tracks", xlabel="x east (km)",
-               ylabel="y north (km)")
-        ax.set(xlim=xlim, ylim=ylim)
-        ax.set_aspect("equal", adjustable="box")
-        ax.grid(alpha=0.3)
-    fig.suptitle(f"{scenario}, run 0: truth (grey) and confirmed tracks (view: the targets' area)")
     return _png(fig)

@@ -19,7 +19,7 @@ from pathlib import Path
 from nnda.errors import DatasetError
 from nnda.files import read_json
 from nnda.reports import pedestrian_section, reentry_section, tbd_section
-from nnda.reports.pages import Figure, Section, StudyFiles, html_page, markdown_page, write_pages
+from nnda.reports.pages import Figure, Section, StudyFiles, html_page, markdown_page, render, write_pages
 from nnda.reports.text_table import TextTable
 from nnda.reports.track_report import track_sections
 from nnda.reports.trajectory_plot import plotly_js
@@ -91,7 +91,9 @@ def report_sections(out: str | Path) -> tuple[str, list[Section], list[Figure], 
 def build_report(out: str | Path) -> tuple[str, str, list[Figure]]:
     """Markdown text, HTML text and the figures of the report of study directory ``out``."""
     title, sections, figures, interactive = report_sections(out)
-    return markdown_page(title, sections), html_page(title, sections, plotly_js() if interactive else ""), figures
+    pngs = render(figures)
+    return (markdown_page(title, sections), html_page(title, sections, plotly_js() if interactive else "", pngs),
+            figures)
 
 
 def write_report(out: str | Path) -> Path:

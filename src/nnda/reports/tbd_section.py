@@ -244,7 +244,7 @@ def tbd_section(section, results: dict):
     return section
 
 
-def snapshot_figure(snap: dict) -> Figure:
+def snapshot_png(snap: dict) -> bytes:
     """The study's run 0 at its first PTCR (``tbd_snapshot.json``): a few frames with the first filter's heaviest
     present particles, its estimate and the truth."""
     import matplotlib.pyplot as plt
@@ -264,9 +264,7 @@ def snapshot_figure(snap: dict) -> Figure:
         ax.set_yticks([])
     axes[0, 0].legend(loc="lower left", fontsize=7)
     fig.tight_layout()
-    caption = (f"Run 0 at {snap['ptcr_db']:g} dB: frames (gray), the {snap['particles_shown']} heaviest present "
-               f"particles of {snap['filter']}, its conditional-mean estimate and the truth")
-    return Figure("tbd-frames.png", caption, _png(fig))
+    return _png(fig)
 
 
 def in_study_order(results: dict) -> dict:
@@ -288,7 +286,10 @@ def in_study_order(results: dict) -> dict:
 def sections(study: StudyFiles, figures: list[Figure]) -> list[Section]:
     """The TBD study's section of a study report, with the snapshot figure."""
     section = tbd_section(Section("tbd", "Track-before-detect filters", [], []), in_study_order(study.results("tbd")))
-    figure = snapshot_figure(read_json(read_checked(study.out, SNAPSHOT_FILE), SNAPSHOT_FORMAT, SNAPSHOT_VERSION))
+    snap = read_json(read_checked(study.out, SNAPSHOT_FILE), SNAPSHOT_FORMAT, SNAPSHOT_VERSION)
+    caption = (f"Run 0 at {snap['ptcr_db']:g} dB: frames (gray), the {snap['particles_shown']} heaviest present "
+               f"particles of {snap['filter']}, its conditional-mean estimate and the truth")
+    figure = Figure("tbd-frames.png", caption, snapshot_png, (snap,))
     figures.append(figure)
     section.figure(figure)
     return [section]

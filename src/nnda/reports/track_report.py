@@ -41,7 +41,7 @@ from nnda.reports.clutter_section import clutter_section
 from nnda.reports.deletions_section import deletions_section
 from nnda.reports.filters_section import filters_section
 from nnda.reports.fusion_section import fusion_section
-from nnda.reports.pages import FIGURES, Figure, Section, StudyFiles
+from nnda.reports.pages import Figure, Section, StudyFiles
 from nnda.reports.peers_section import against_stonesoup, peer_labels
 from nnda.reports.study_tables import is_thesis_scenario, scenario_table
 from nnda.reports.text_table import DASH, TextTable
@@ -142,7 +142,7 @@ def _classifier(classifier: dict, figures: list[Figure]) -> Section:
         return sec
     sec.table(classifier_table(models), "classifier-table")
     sec.table(model_test_table(models))
-    fig = Figure("roc.png", "ROC of each model over all its training pairs", study_figures.roc_curves(models))
+    fig = Figure("roc.png", "ROC of each model over all its training pairs", study_figures.roc_curves, (models,))
     figures.append(fig)
     sec.figure(fig)
     return sec
@@ -168,8 +168,8 @@ def _ablation(doc: dict, figures: list[Figure]) -> Section:
     for table in ablation_section.tables(doc):
         sec.table(table)
     sec.text(ablation_section.reading(doc))
-    fig = Figure("ablation_roc.png", "Feature ablation: mean test ROC over seeds",
-                 study_figures.ablation_roc(doc["results"]))
+    fig = Figure("ablation_roc.png", "Feature ablation: mean test ROC over seeds", study_figures.ablation_roc,
+                 (doc["results"],))
     figures.append(fig)
     sec.figure(fig)
     return sec
@@ -193,7 +193,7 @@ def _tracker_figures(out: Path, summary: dict, scenarios: list[str], trackers: l
     sections = []
     timing_sec = Section("timing", "Time per scan", [], [])
     fig = Figure("time_per_scan.png", "Time per scan of every scan and run (log scale)",
-                 study_figures.time_per_scan(_times(out), scenarios, trackers))
+                 study_figures.time_per_scan, (_times(out), scenarios, trackers))
     figures.append(fig)
     timing_sec.figure(fig)
     timing_sec.text("Wall-clock time of `Tracker.step` only (data generation and metrics excluded), one BLAS "
@@ -203,23 +203,20 @@ def _tracker_figures(out: Path, summary: dict, scenarios: list[str], trackers: l
     over = Section("over-time", "False tracks and GOSPA over time", [], [])
     for sc in summary["scenarios"]:
         fig = Figure(f"over_time_{sc['name']}.png", f"{sc['name']}: per-scan means over runs",
-                     study_figures.over_time(sc, scan_times[sc["name"]], summary["gospa"]["cutoff_m"]))
+                     study_figures.over_time, (sc, scan_times[sc["name"]], summary["gospa"]["cutoff_m"]))
         figures.append(fig)
         over.figure(fig)
     sections.append(over)
 
     traj = Section("trajectories", "Trajectories and tracks", [], [])
-    traj.md += ["Static views of run 0 below; report.html has interactive ones (zoom, hover a track for its id "
-                "and status).", ""]
+    traj.md += ["Run 0 of each scenario, the truth and every tracker's confirmed tracks, is drawn in report.html "
+                "(interactive: zoom, hover a track for its id and status); trajectories.parquet holds its points.",
+                ""]
     traj.html.append("<p>Run 0 of each scenario. Zoom with the mouse, hover a track point for the tracker, track "
                      "id and status, click a legend entry to hide or show it.</p>")
     rows = _columns(out, TRAJECTORIES_FILE)
     for name in scenarios:
         mine = {k: v[rows["scenario"] == name] for k, v in rows.items()}
-        fig = Figure(f"tracks_{name}.png", f"{name}, run 0: truth and confirmed tracks",
-                     study_figures.tracks(name, mine, trackers))
-        figures.append(fig)
-        traj.md += [f"![{fig.caption}]({FIGURES}/{fig.name})", ""]
         div = figure_div(trajectory_figure(name, mine, trackers), f"trajectories-{name}")
         traj.html.append(f'<div class="plot">{div}</div>')
     sections.append(traj)

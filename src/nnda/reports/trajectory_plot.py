@@ -14,9 +14,19 @@ import numpy as np
 import plotly.graph_objects as go
 from plotly.offline import get_plotlyjs
 
-from nnda.reports.study_figures import view_box
-
 KM = 1e-3
+#: margin (m) around the true trajectories in track plots; coasting tracks may run further out
+VIEW_MARGIN_M = 3_000.0
+
+
+def view_box(x: np.ndarray, y: np.ndarray) -> tuple[tuple[float, float], tuple[float, float]]:
+    """(x range, y range) in km: the true trajectories' bounding box plus VIEW_MARGIN_M."""
+    if x.size == 0:
+        return (-30.0, 30.0), (-30.0, 30.0)
+    m = VIEW_MARGIN_M
+    return (((x.min() - m) * KM, (x.max() + m) * KM), ((y.min() - m) * KM, (y.max() + m) * KM))
+
+
 #: plotly's default qualitative colours, so that trackers keep one colour through the report
 PALETTE = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf")
 

@@ -181,8 +181,18 @@ class TrackJob:
         return self.run == 0
 
     def dataset(self) -> Dataset:
-        """The run's data: the same for every tracker."""
-        return self.source.load(self.run, 1, self.seed)[0]
+        """The run's data: the same for every tracker (a worker runs a run's trackers one after another, so the
+        last runs it loaded are kept, `_RECENT`)."""
+        key = (self.source.description, self.source.digest(self.run), self.run, self.seed)
+        if key not in _RECENT:
+            if len(_RECENT) >= 2:
+                del _RECENT[next(iter(_RECENT))]
+            _RECENT[key] = self.source.load(self.run, 1, self.seed)[0]
+        return _RECENT[key]
+
+
+#: the datasets this process loaded last, by (source, digest, run, seed): the plan lists a run's trackers together
+_RECENT: dict[tuple, Dataset] = {}
 
 
 def relpath(scenario: str, label: str, run: int) -> str:
