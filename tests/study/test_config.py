@@ -8,6 +8,7 @@ import pytest
 
 from nnda.errors import ConfigError
 from nnda.study.config import default_study, load_study, study_from_dict, study_to_toml
+from nnda.study.kinds.base import study_table
 from nnda.tracking.neural import life5
 
 
@@ -73,3 +74,11 @@ def test_unreadable_study_files(tmp_path):
     (tmp_path / "s.yaml").write_text("")
     with pytest.raises(ConfigError, match="unknown study file type"):
         load_study(Path(tmp_path / "s.yaml"))
+
+
+@pytest.mark.parametrize("kind", ["reentry", "tbd", "pedestrian"])
+def test_a_kinds_table_leaves_the_seed_to_the_study(kind):
+    with pytest.raises(ConfigError, match=f"{kind}: seed and confidence are the study's"):
+        study_from_dict({kind: {"seed": 3}}, "s.toml")
+    study = study_from_dict({"seed": 3, "confidence": 0.9, kind: {}}, "s.toml")
+    assert (study_table(study, kind).seed, study_table(study, kind).confidence) == (3, 0.9)

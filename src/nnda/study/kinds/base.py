@@ -88,3 +88,30 @@ def canonical(data: Any) -> bytes:
 def job_key(what: Mapping[str, Any]) -> str:
     """SHA-256 of ``what`` determines a record, with the nnda version (a new release recomputes every job)."""
     return digest(canonical({"nnda": __version__, **what}))
+
+
+def study_table(study, name: str):
+    """A kind's own table ``name`` (a config with ``seed`` and ``confidence`` fields) with the study's seed and
+    confidence in them."""
+    return getattr(study, name).model_copy(update={"seed": study.seed, "confidence": study.confidence})
+
+
+def study_seed_only(name: str) -> Callable[[Any], None]:
+    """The check of a kind whose table ``name`` is a config with its own seed and confidence fields: they are
+    the study's, so the table may not give them."""
+    def check(study) -> None:
+        table = getattr(study, name)
+        if table is not None and {"seed", "confidence"} & table.model_fields_set:
+            raise ValueError(f"{name}: seed and confidence are the study's: give them at the top of the study file")
+    return check
+
+
+@dataclass(frozen=True)
+class TablePlan:
+    """The checked part of a kind with a table of its own: the table (`study_table`) and the jobs."""
+
+    config: Any
+    jobs: tuple[Job, ...]
+
+    def manifest(self) -> dict:
+        return {}  # the table is in the manifest's study

@@ -27,17 +27,12 @@ from pydantic import Field
 
 from nnda.data.pedestrian.scenes import PEDESTRIAN_SCENES
 from nnda.data.sources import config_digest
-from nnda.study.kinds.base import Job, JobKind, job_key
+from nnda.study.kinds.base import Job, JobKind, TablePlan, job_key, study_seed_only, study_table
 from nnda.study.pedestrian import FilterSpec, PedestrianStudyConfig, groups, run_block, study_results
 from nnda.study.pedestrian_scores import run_test1
 from nnda.study.timing import split_timing
 
 FIELDS = {"pedestrian": (PedestrianStudyConfig | None, Field(default=None, description="the pedestrian study"))}
-
-
-def check(study) -> None:
-    if study.pedestrian is not None and {"seed", "confidence"} & study.pedestrian.model_fields_set:
-        raise ValueError("pedestrian: seed and confidence are the study's: give them at the top of the study file")
 
 
 @dataclass(frozen=True)
@@ -52,23 +47,12 @@ class BlockJob:
     config: PedestrianStudyConfig
 
 
-@dataclass(frozen=True)
-class PedestrianPlan:
-    """The checked pedestrian part of a study: its config (with the study's seed and confidence) and jobs."""
-
-    config: PedestrianStudyConfig
-    jobs: tuple[Job, ...]
-
-    def manifest(self) -> dict:
-        return {}
-
-
 def _slug(label: str) -> str:
     return re.sub(r"[^a-z0-9]+", "-", label.lower()).strip("-")
 
 
-def plan(study, where: str) -> PedestrianPlan:
-    cfg = study.pedestrian.model_copy(update={"seed": study.seed, "confidence": study.confidence})
+def plan(study, where: str) -> TablePlan:
+    cfg = study_table(study, "pedestrian")
     common = {"kind": "pedestrian", "seed": cfg.seed, "birth": cfg.birth, "cutoff_m": cfg.cutoff_m}
     jobs: dict[str, Job] = {}
     if "test1" in cfg.tests:
@@ -89,7 +73,7 @@ def plan(study, where: str) -> PedestrianPlan:
             jobs[key] = Job("pedestrian", key, f"jobs/pedestrian/{scene}/{_slug(f.label)}/runs-{first:04d}.json",
                             f"{f.label} on {scene} runs {first}-{first + n - 1}",
                             BlockJob(scene, f, first, n, keep, cfg))
-    return PedestrianPlan(cfg, tuple(jobs.values()))
+    return TablePlan(cfg, tuple(jobs.values()))
 
 
 def run(job: BlockJob) -> dict:
@@ -101,7 +85,7 @@ def run(job: BlockJob) -> dict:
                               job.keep_estimates)}
 
 
-def aggregate(plan: PedestrianPlan, records: list[dict]) -> tuple[dict, dict, dict]:
+def aggregate(plan: TablePlan, records: list[dict]) -> tuple[dict, dict, dict]:
     runs: dict[tuple[str, str], list[dict]] = {}
     for r in sorted((r for r in records if "runs" in r), key=lambda r: r["first"]):
         runs.setdefault((r["scene"], r["label"]), []).extend(r["runs"])
@@ -111,4 +95,5 @@ def aggregate(plan: PedestrianPlan, records: list[dict]) -> tuple[dict, dict, di
 
 
 KIND = JobKind(name="pedestrian", fields=FIELDS, work="[pedestrian]",
-               given=lambda study: study.pedestrian is not None, plan=plan, run=run, aggregate=aggregate, check=check)
+               given=lambda study: study.pedestrian is not None, plan=plan, run=run, aggregate=aggregate,
+               check=study_seed_only("pedestrian"))

@@ -29,18 +29,13 @@ import pyarrow as pa
 from pydantic import Field
 
 from nnda.files import path_component
-from nnda.study.kinds.base import Job, JobKind, job_key
+from nnda.study.kinds.base import Job, JobKind, TablePlan, job_key, study_seed_only, study_table
 from nnda.study.reentry import ReentrySetting, ReentryStudyConfig, filter_entries, run_filter, setting_results, source
 from nnda.study.timing import split_timing
 
 RESULTS_FILE = "reentry_results.parquet"
 
 FIELDS = {"reentry": (ReentryStudyConfig | None, Field(default=None, description="the re-entry filter study"))}
-
-
-def check(study) -> None:
-    if study.reentry is not None and {"seed", "confidence"} & study.reentry.model_fields_set:
-        raise ValueError("reentry: seed and confidence are the study's: give them at the top of the study file")
 
 
 @dataclass(frozen=True)
@@ -55,19 +50,8 @@ class ReentryJob:
     config: ReentryStudyConfig
 
 
-@dataclass(frozen=True)
-class ReentryPlan:
-    """The checked re-entry part of a study: its config (with the study's seed and confidence) and jobs."""
-
-    config: ReentryStudyConfig
-    jobs: tuple[Job, ...]
-
-    def manifest(self) -> dict:
-        return {}
-
-
-def plan(study, where: str) -> ReentryPlan:
-    cfg = study.reentry.model_copy(update={"seed": study.seed, "confidence": study.confidence})
+def plan(study, where: str) -> TablePlan:
+    cfg = study_table(study, "reentry")
     names = [path_component(s.name, f"{where}: reentry setting name") for s in cfg.settings]
     if len(set(names)) != len(names):
         raise ValueError(f"{where}: reentry setting names {names} repeat one")
@@ -83,7 +67,7 @@ def plan(study, where: str) -> ReentryPlan:
             spec = ReentryJob(setting, index, fi, name, n, cfg)
             jobs.append(Job("reentry", key, f"jobs/reentry/{setting.name}/{label}.json",
                             f"{label} on re-entry setting {setting.name}", spec))
-    return ReentryPlan(cfg, tuple(jobs))
+    return TablePlan(cfg, tuple(jobs))
 
 
 def run(job: ReentryJob) -> dict:
@@ -108,10 +92,10 @@ def table(records: list[dict]) -> pa.Table:
     return pa.table(cols)
 
 
-def aggregate(plan: ReentryPlan, records: list[dict]) -> tuple[dict, dict, dict]:
+def aggregate(plan: TablePlan, records: list[dict]) -> tuple[dict, dict, dict]:
     kept, timing = split_timing(results(plan.config, records))
     return {"reentry": kept}, {"reentry": timing}, {RESULTS_FILE: table(records)}
 
 
 KIND = JobKind(name="reentry", fields=FIELDS, work="[reentry]", given=lambda study: study.reentry is not None,
-               plan=plan, run=run, aggregate=aggregate, check=check)
+               plan=plan, run=run, aggregate=aggregate, check=study_seed_only("reentry"))

@@ -24,7 +24,7 @@ from pydantic import Field
 
 from nnda.data.frames import FramesConfig
 from nnda.data.sources import config_digest
-from nnda.study.kinds.base import Job, JobKind, job_key
+from nnda.study.kinds.base import Job, JobKind, TablePlan, job_key, study_seed_only, study_table
 from nnda.study.tbd import (
     SNAPSHOT_FILE,
     TBDStudyConfig,
@@ -42,11 +42,6 @@ from nnda.study.timing import split_timing
 FIELDS = {"tbd": (TBDStudyConfig | None, Field(default=None, description="the track-before-detect study"))}
 
 
-def check(study) -> None:
-    if study.tbd is not None and {"seed", "confidence"} & study.tbd.model_fields_set:
-        raise ValueError("tbd: seed and confidence are the study's: give them at the top of the study file")
-
-
 @dataclass(frozen=True)
 class BlockJob:
     """One estimator on runs ``start``..``start + count - 1`` of setting ``index``; ``estimator`` None: the
@@ -60,19 +55,8 @@ class BlockJob:
     estimator: str | None
 
 
-@dataclass(frozen=True)
-class TBDPlan:
-    """The checked TBD part of a study: its config (with the study's seed and confidence) and jobs."""
-
-    config: TBDStudyConfig
-    jobs: tuple[Job, ...]
-
-    def manifest(self) -> dict:
-        return {}
-
-
-def plan(study, where: str) -> TBDPlan:
-    cfg = study.tbd.model_copy(update={"seed": study.seed, "confidence": study.confidence})
+def plan(study, where: str) -> TablePlan:
+    cfg = study_table(study, "tbd")
     # what a record depends on beyond its scene and block (the scoring rules and the interval level do not enter)
     options = cfg.model_dump(mode="json", exclude={"ptcr_db", "scene", "runs", "exit_reentry", "confidence",
                                                    "chunk_runs", "acquisition", "steady_frames", "divergence_frames"})
@@ -88,7 +72,7 @@ def plan(study, where: str) -> TBDPlan:
                 jobs.append(Job("tbd", key, f"jobs/tbd/{name}/{estimator.replace(':', '-')}/runs-{start:04d}.json",
                                 f"{estimator} on {name} runs {start}-{start + count - 1}",
                                 BlockJob(cfg, index, scene, start, count, estimator)))
-    return TBDPlan(cfg, tuple(jobs))
+    return TablePlan(cfg, tuple(jobs))
 
 
 def run(job: BlockJob) -> dict:
@@ -113,11 +97,11 @@ def results(cfg: TBDStudyConfig, records: list[dict]) -> dict:
     return study_results(cfg, settings, exit_reentry, runtime)
 
 
-def aggregate(plan: TBDPlan, records: list[dict]) -> tuple[dict, dict, dict]:
+def aggregate(plan: TablePlan, records: list[dict]) -> tuple[dict, dict, dict]:
     kept, timing = split_timing(results(plan.config, records))
     snap = next(r["snapshot"] for r in records if "snapshot" in r)
     return {"tbd": kept}, {"tbd": timing}, {SNAPSHOT_FILE: snap}
 
 
 KIND = JobKind(name="tbd", fields=FIELDS, work="[tbd]", given=lambda study: study.tbd is not None,
-               plan=plan, run=run, aggregate=aggregate, check=check)
+               plan=plan, run=run, aggregate=aggregate, check=study_seed_only("tbd"))
