@@ -82,3 +82,11 @@ def test_a_kinds_table_leaves_the_seed_to_the_study(kind):
         study_from_dict({kind: {"seed": 3}}, "s.toml")
     study = study_from_dict({"seed": 3, "confidence": 0.9, kind: {}}, "s.toml")
     assert (study_table(study, kind).seed, study_table(study, kind).confidence) == (3, 0.9)
+
+
+def test_a_study_of_every_kind_reads_back_from_its_toml(tmp_path):
+    study = study_from_dict({"name": "all", "seed": 3, "runs": 2, "trackers": {"g": {"kind": "gnn"}},
+                             "scenarios": [{"preset": "S1"}], "reentry": {"runs": 5},
+                             "tbd": {"runs": 3, "ptcr_db": [7.0]}, "pedestrian": {"tests": ["test4"]}}, "s")
+    (tmp_path / "s.toml").write_text(study_to_toml(study, relative_to=tmp_path))
+    assert load_study(tmp_path / "s.toml") == study

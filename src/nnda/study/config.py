@@ -171,7 +171,8 @@ def _pruned(value: Any) -> Any:
 
 
 def study_to_toml(study: Study, relative_to: Path | None = None) -> str:
-    """The study as a TOML document that `load_study` reads back to an equal study.
+    """The study as a TOML document that `load_study` reads back to an equal study (defaults left out: a kind's
+    table then gives no seed of its own).
 
     Paths under ``relative_to`` (the directory the file will live in) are written relative to it.
     """
@@ -183,7 +184,7 @@ def study_to_toml(study: Study, relative_to: Path | None = None) -> str:
                 return p
         return p
 
-    data = _pruned(_map_paths(study, path).model_dump(mode="json"))
+    data = _pruned(_map_paths(study, path).model_dump(mode="json", exclude_defaults=True))
     try:
         return tomli_w.dumps(data)
     except (TypeError, ValueError) as exc:
