@@ -172,8 +172,8 @@ def test_exit_reentry_scenario_leaves_and_reenters():
 def test_matched_filter_detector_finds_a_bright_target_and_not_a_missing_one():
     from nnda.data.frames import FramesConfig, simulate
     from nnda.filters.tbd import TBDConfig, tbd_model
-    from nnda.study.tbd import detector_counts
     from nnda.study.tbd_chain import frame_detections
+    from nnda.study.tbd_runs import detector_counts
 
     def counts(fs):
         return detector_counts(fs.truth, frame_detections(tbd_model(fs, TBDConfig()), 1e-4), 5.0)

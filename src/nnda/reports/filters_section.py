@@ -7,7 +7,8 @@ per scan of `timing.json`; one column per filter, mean [t-interval] over runs.
 from __future__ import annotations
 
 from nnda.reports.text_table import TextTable, stat_cell
-from nnda.study.measures import FILTER_MEASURES, NEES_BOUND, TIME
+from nnda.study.filter_run import NEES_BOUND
+from nnda.study.measures import FILTER_MEASURES, TIME
 
 
 def filters_section(section, summary: dict, timing: dict):

@@ -21,7 +21,8 @@ from nnda.files import read_json
 from nnda.reports.pages import Figure, Section, StudyFiles
 from nnda.reports.text_table import DASH, TextTable, interval, stat_cell
 from nnda.study.checksums import read_checked
-from nnda.study.tbd import PAPER_DIVERGENCES, SNAPSHOT_FILE, SNAPSHOT_FORMAT, SNAPSHOT_VERSION
+from nnda.study.tbd import PAPER_DIVERGENCES
+from nnda.study.tbd_runs import SNAPSHOT_FILE, SNAPSHOT_FORMAT, SNAPSHOT_VERSION
 
 #: every this many frames in the RMSE tables
 PROFILE_EVERY = 2

@@ -24,7 +24,7 @@ A `Measure` has:
   for a value of the whole run;
 * ``compute``: per job kind, the function that gives the value (the
   (n_scans,) array of a per-scan measure): of a `nnda.study.metrics.ScoredRun`
-  for "track", of a `FilterRun` for "filter"; empty for the time per scan,
+  for "track", of a `nnda.study.filter_run.FilterRun` for "filter"; empty for the time per scan,
   which a job measures around each step and keeps in ``timing.json``
   (wall-clock time changes between two runs of a study), the kinds it
   times in ``timed``;
@@ -34,11 +34,7 @@ A `Measure` has:
 
 The bookkeeping the tracker functions share (ownership, the position
 matching) is `nnda.study.metrics`'s; its module docstring states the rules.
-A filter job's run (`FilterRun`) is scored on the scans where its target
-exists: position error per scan, position and velocity RMSE over the scans
-with an estimate, NEES per scan on [x, vx, y, vy] (4 when consistent), the
-share of scans whose NEES exceeds the chi-square 99.9% quantile for 4
-degrees of freedom (`NEES_BOUND`), and the time to the first estimate.
+A filter job's run is scored by `nnda.study.filter_run`'s functions.
 """
 
 from __future__ import annotations
@@ -50,6 +46,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
+from nnda.study import filter_run
 from nnda.study.stats import mean_ci, root_mean_square
 from nnda.tracking.output import TrackStatus
 
@@ -239,65 +236,6 @@ def _false_per_scan(r: ScoredRun) -> np.ndarray:
     return np.bincount(r.scan[r.confirmed & (r.row_owner < 0)] - 1, minlength=r.dataset.n_scans).astype(np.int64)
 
 
-# ----------------------------------------------------------------------------- single-target filters
-
-#: chi-square 99.9% quantile, 4 degrees of freedom: a NEES above it counts as divergence
-NEES_BOUND = 18.4668
-
-
-@dataclass(frozen=True)
-class FilterRun:
-    """One filter job's estimates and truth over the target's scans, all with the scan axis first (S,).
-
-    ``x`` (S, 4) and ``P`` (S, 4, 4) are the estimates ([x, vx, y, vy], m and m/s; NaN before the
-    start), ``truth`` (S, 4) the true state, ``time`` (S,) the scan times (s).
-    """
-
-    time: np.ndarray
-    x: np.ndarray
-    P: np.ndarray
-    truth: np.ndarray
-
-    @property
-    def started(self) -> np.ndarray:
-        return np.isfinite(self.x).all(axis=1)
-
-    def error(self) -> np.ndarray:
-        return self.x - self.truth
-
-    def nees(self) -> np.ndarray:
-        """(S,) NEES, NaN before the start."""
-        out = np.full(len(self.time), np.nan)
-        ok = self.started
-        if ok.any():
-            e = self.error()[ok]
-            out[ok] = np.einsum("si,si->s", e, np.linalg.solve(self.P[ok], e[..., None])[..., 0])
-        return out
-
-
-def _position_error(r: FilterRun) -> np.ndarray:
-    e = r.error()
-    return np.hypot(e[:, 0], e[:, 2])
-
-
-def _filter_rmse(columns: tuple[int, int]):
-    def compute(r: FilterRun) -> float:
-        e = r.error()[r.started][:, list(columns)]
-        return float(root_mean_square((e**2).sum(axis=1)))
-    return compute
-
-
-def _divergence(r: FilterRun) -> float:
-    nees = r.nees()[r.started]
-    return float(100.0 * (nees > NEES_BOUND).mean()) if nees.size else math.nan
-
-
-def _start(r: FilterRun) -> float:
-    ok = np.flatnonzero(r.started)
-    return float(r.time[ok[0]] - r.time[0]) if ok.size else math.nan
-
-
-
 # ----------------------------------------------------------------------------- CLEAR-MOT
 
 def _mota(r: ScoredRun) -> float:
@@ -340,15 +278,17 @@ MEASURES: tuple[Measure, ...] = (
     Measure("lost_targets", "Lost targets", "", "lower", _COUNT, False, {TRACK: _lost_targets}, integer=True),
     Measure("mean_time_to_confirm_s", "Time to confirm", "s", "lower", _COUNT, False, {TRACK: _time_to_confirm},
             "{:.1f}"),
-    Measure("position_error_m", "Position error", "m", "lower", _COUNT, True, {FILTER: _position_error}, "{:.1f}"),
-    Measure("position_rmse_m", "Position RMSE", "m", "lower", _COUNT, False,
-            {TRACK: _position_rmse, FILTER: _filter_rmse((0, 2))}, "{:.1f}"),
-    Measure("velocity_rmse_m_s", "Velocity RMSE", "m/s", "lower", _COUNT, False, {FILTER: _filter_rmse((1, 3))},
+    Measure("position_error_m", "Position error", "m", "lower", _COUNT, True, {FILTER: filter_run.position_error},
             "{:.1f}"),
-    Measure("nees", "NEES (4 when consistent)", "", "none", _COUNT, True, {FILTER: FilterRun.nees}, "{:.2f}"),
+    Measure("position_rmse_m", "Position RMSE", "m", "lower", _COUNT, False,
+            {TRACK: _position_rmse, FILTER: filter_run.rmse((0, 2))}, "{:.1f}"),
+    Measure("velocity_rmse_m_s", "Velocity RMSE", "m/s", "lower", _COUNT, False, {FILTER: filter_run.rmse((1, 3))},
+            "{:.1f}"),
+    Measure("nees", "NEES (4 when consistent)", "", "none", _COUNT, True, {FILTER: filter_run.FilterRun.nees},
+            "{:.2f}"),
     Measure("divergence_pct", "Divergent scans (NEES > 18.47)", "%", "lower", (0.0, 100.0), False,
-            {FILTER: _divergence}),
-    Measure("start_s", "Time to the first estimate", "s", "lower", _COUNT, False, {FILTER: _start}, "{:.1f}"),
+            {FILTER: filter_run.divergence}),
+    Measure("start_s", "Time to the first estimate", "s", "lower", _COUNT, False, {FILTER: filter_run.start}, "{:.1f}"),
     Measure("gospa", "GOSPA", "m", "lower", _COUNT, True, {TRACK: _set_part(0, 0)}, "{:.1f}"),
     Measure("gospa_localisation", "GOSPA localisation part", "m²", "lower", _COUNT, True, {TRACK: _set_part(0, 1)},
             "{:,.0f}"),

@@ -29,9 +29,10 @@ from nnda.data.sources import GeneratedScenes, StoredDatasets, WalkerScenes
 from nnda.errors import ConfigError
 from nnda.files import finite_or_none
 from nnda.filters.single_target import make_filter
+from nnda.study.filter_run import FilterRun
 from nnda.study.kinds.base import STRICT, Job, JobKind, Label, job_key
 from nnda.study.kinds.track import relpath, scenario_plans, sensor_setups
-from nnda.study.measures import FILTER_MEASURES, FILTER_SERIES, FilterRun, time_summary
+from nnda.study.measures import FILTER_MEASURES, FILTER_SERIES, time_summary
 from nnda.study.stats import mean_ci, ragged_mean
 from nnda.study.track_job import dataset_digest
 

@@ -25,9 +25,9 @@ from pydantic import Field
 from nnda.data.frames import FramesConfig
 from nnda.data.sources import config_digest
 from nnda.study.kinds.base import Job, JobKind, TablePlan, job_key, study_seed_only, study_table
-from nnda.study.tbd import (
+from nnda.study.tbd import TBDStudyConfig
+from nnda.study.tbd_runs import (
     SNAPSHOT_FILE,
-    TBDStudyConfig,
     assemble,
     estimators,
     exit_reentry_results,
