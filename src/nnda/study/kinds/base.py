@@ -12,19 +12,20 @@ knows only this contract::
     plan = kind.plan(study, where)   # every input checked; plan.jobs: the independent Jobs, keyed
     record = kind.run(job.spec)      # one job, in any process: a JSON-ready dict
     summary, timing, files = kind.aggregate(plan, records)   # in plan order: summary.json and timing.json
-                                     # entries, and the kind's own tables ({file name: pyarrow Table})
+                                     # entries, and the kind's own files ({name: pyarrow Table, JSON or None})
 
-``measures`` names the registry entries (`nnda.study.measures.MEASURES`)
-that apply to the kind's records. Records hold no wall-clock time outside
-their ``timing`` entry, so everything but ``timing.json`` and ``timing.*``
-tables is the same, byte for byte, for the same study and seed.
+The measures a kind's records hold are the registry's entries for the kind
+(`nnda.study.measures.for_kind`: a measure names the kinds it applies to).
+Records hold no wall-clock time outside their ``timing`` entry, so
+everything but ``timing.json`` and ``timing.*`` tables is the same, byte
+for byte, for the same study and seed.
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from typing import Annotated, Any, Protocol
 
 import pyarrow as pa
@@ -75,9 +76,8 @@ class JobKind:
     given: Callable[[Any], bool]
     plan: Callable[[Any, str], KindPlan]
     run: Callable[[Any], dict]
-    aggregate: Callable[[Any, list[dict]], tuple[dict, dict, dict[str, pa.Table]]]
+    aggregate: Callable[[Any, list[dict]], tuple[dict, dict, dict[str, pa.Table | dict | None]]]
     check: Callable[[Any], None] = lambda study: None
-    measures: Sequence[str] = field(default_factory=tuple)
 
 
 def canonical(data: Any) -> bytes:
