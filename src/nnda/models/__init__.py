@@ -9,6 +9,6 @@ layout), ``network`` and ``trainers`` (torch: GD and Levenberg-Marquardt),
 ``experiment`` (fit, sweep, repeats), ``ablation`` (which features buy
 what), ``metrics``, ``plots`` and ``scorer`` (model file and numpy scorer;
 no torch). The tables and the ``nnda train`` / ``nnda evaluate`` commands
-are `nnda.reports.classifier_tables` and `nnda.reports.model_commands`.
+are `nnda.reports.classifier_tables` and `nnda.app.model_commands`.
 Nothing is imported here, so ``import nnda.models.scorer`` never loads torch.
 """
