@@ -220,3 +220,9 @@ def test_a_bad_study_config_is_refused_naming_the_file_and_field(tmp_path):
     message = str(result.exception)
     assert result.exit_code != 0 and str(config) in message and "runs" in message and "birth" in message
     assert not (tmp_path / "o").exists()
+
+
+def test_the_command_knows_the_studys_tests():
+    from nnda.app.study_commands import PEDESTRIAN_TESTS
+
+    assert PEDESTRIAN_TESTS == P.TESTS  # the command's own copy, kept so that `nnda --help` loads no tracker

@@ -25,7 +25,6 @@ from nnda.app.model_commands import train_thesis_models
 from nnda.data.dataset import collection_members
 from nnda.data.presets import GROUPS
 from nnda.errors import NndaError
-from nnda.study.config import default_study, study_to_toml
 
 app = typer.Typer(
     name="nnda",
@@ -59,6 +58,8 @@ def demo(
 ) -> None:
     """Run the whole job: generate the presets, train the models (GD and LM on the seed's features, LM on the
     IMM-extended ones, the feature ablation), compare the trackers on S1-S6, report."""
+    from nnda.study.config import default_study, study_to_toml  # the trackers: when the demo runs
+
     console = Console()
     data = out / "data"
     for group in GROUPS:

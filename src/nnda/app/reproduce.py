@@ -27,8 +27,6 @@ from nnda.app import data_commands
 from nnda.app.model_commands import train_thesis_models
 from nnda.app.study_commands import Dask, Jobs, Overwrite, Resume, run_study, shipped_study
 from nnda.errors import ConfigError
-from nnda.reports.reproduction import STUDIES, write_reproduction
-from nnda.study.config import default_study
 
 #: the runs of each study at each size: the overrides of its shipped study file (the radar thesis's comparison
 #: is `nnda.study.config.default_study`, whose runs are given here)
@@ -38,6 +36,8 @@ SIZES: dict[str, dict[str, dict]] = {
               "reentry": {"reentry": {"runs": 20}}, "tbd": {"tbd": {"runs": 20, "exit_reentry": {"runs": 5}}}},
     "full": {"radar": {"runs": 100}, "harbour": {}, "pedestrian": {}, "reentry": {}, "tbd": {}},
 }
+#: the reproduction's studies (its directories under --out), in report order
+STUDIES = tuple(SIZES["full"])
 
 
 def reproduce(
@@ -54,6 +54,9 @@ def reproduce(
 ) -> None:
     """Reproduce the five reference works' studies and write one report of their claims against nnda's
     numbers, with the verdict each interval gives."""
+    from nnda.reports.reproduction import write_reproduction  # the reports and the engine: when it runs
+    from nnda.study.config import default_study
+
     names = list(only or STUDIES)
     unknown = [n for n in names if n not in STUDIES]
     if unknown:

@@ -12,12 +12,13 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-from nnda.data.dataset import read_dataset
 from nnda.errors import ConfigError, OutputError
 from nnda.files import check_output_location, read_config
-from nnda.study.config import load_study, study_from_dict
-from nnda.study.kinds.base import Job
-from nnda.study.pedestrian import TESTS
+
+# The study engine and the reports load the trackers, matplotlib and plotly: each command imports what it runs
+# when it runs, so `nnda --help` and the other commands start quickly.
+#: the pedestrian study's tests (`nnda.study.pedestrian.TESTS`)
+PEDESTRIAN_TESTS = ("test1", "test2", "test3", "test4")
 
 
 def plot_scenario(
@@ -35,6 +36,8 @@ def plot_scenario(
                           f"writes PNG: give a file name ending in .png")
     if out.exists() and not overwrite:
         raise FileExistsError(f"{out}: already exists (pass --overwrite to replace it)")
+    from nnda.data.dataset import read_dataset
+
     check_output_location(out, [dataset])
     draw(read_dataset(dataset), out)
     Console().print(f"wrote {out}", markup=False, highlight=False)
@@ -56,7 +59,7 @@ def _progress(console: Console, title: str):
                    TextColumn("{task.fields[last]}"), TimeElapsedColumn(), TimeRemainingColumn(), console=console)
     task = bar.add_task(title, total=None, last="")
 
-    def on_job(done: int, total: int, job: Job | None) -> None:
+    def on_job(done: int, total: int, job) -> None:
         if job is None:
             bar.start()
         bar.update(task, completed=done, total=total, last=job.title if job is not None else "")
@@ -103,6 +106,8 @@ def compare(
 ) -> None:
     """Run a study file: every job of every kind it names (trackers, filters, particle-filter studies, ...),
     then write the report."""
+    from nnda.study.config import load_study
+
     run_study(load_study(study), out, str(study), resume, jobs, dask, overwrite)
 
 
@@ -116,6 +121,8 @@ def shipped_study(name: str, overrides: dict, seed: int | None = None, config: P
     """The study file ``name`` shipped with nnda, with ``overrides`` merged in (tables merged key by key), its
     ``[table]`` first replaced by the one in ``config`` (a file of the table's fields; a seed or confidence
     there is the study's), and the seed overridden by ``seed``. Returns the study and how messages name it."""
+    from nnda.study.config import study_from_dict
+
     path = reference_study(name)
     data = read_config(path, "study")
     where = str(config) if config is not None else f"the shipped {path.name}"
@@ -186,12 +193,12 @@ def pedestrian(
 ) -> None:
     """Run the pedestrian study (Frencl 2014, Tests 1-4: PHD filters and motion models on walkers; the shipped
     studies/pedestrian.toml), then its report."""
-    unknown = [t for t in tests or () if t not in (*TESTS, "all")]
+    unknown = [t for t in tests or () if t not in (*PEDESTRIAN_TESTS, "all")]
     if unknown:
         raise ConfigError(f"pedestrian: unknown test(s) {', '.join(map(repr, unknown))}; choose from "
-                          f"{', '.join(TESTS)} or all")
+                          f"{', '.join(PEDESTRIAN_TESTS)} or all")
     given = {"runs": runs, "test4_runs": test4_runs, "stress_runs": stress_runs, "birth": birth, "beyond": beyond,
-             "tests": None if not tests else (list(TESTS) if tests == ["all"] else list(tests))}
+             "tests": None if not tests else (list(PEDESTRIAN_TESTS) if tests == ["all"] else list(tests))}
     study, where = shipped_study("pedestrian", {"pedestrian": {k: v for k, v in given.items() if v is not None}},
                                  seed, config, "pedestrian")
     run_study(study, out, where, resume, jobs, dask, overwrite)

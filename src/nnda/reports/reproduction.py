@@ -41,8 +41,6 @@ from nnda.study.tbd import PAPER_DIVERGENCES
 
 RADAR, HARBOUR, PEDESTRIAN = "Vargas Avila (2015)", "Lima (2022); Lima & Costa (2022)", "Frencl (2014)"
 REENTRY, TBD = "Pavlov & Bruno (2003)", "Bruno, Araújo & Pavlov"
-#: the study directories of a reproduction, in report order
-STUDIES = ("radar", "harbour", "pedestrian", "reentry", "tbd")
 UNDEFINED: Stat = {"mean": None, "ci_low": None, "ci_high": None}
 
 
@@ -195,7 +193,8 @@ def claims_table(claims: tuple[Claim, ...], studies: Mapping[str, StudyFiles]) -
 
 def write_reproduction(out: Path, dirs: Mapping[str, Path], size: str, claims: tuple[Claim, ...] = CLAIMS) -> Path:
     """Write ``out``/report.md and report.html: the claims table over the study directories ``dirs`` (by study
-    name), a tally of the verdicts, then each study with a link to its own report."""
+    name, in the order the page lists them), a tally of the verdicts, then each study with a link to its own
+    report."""
     studies = {name: study_files(path) for name, path in dirs.items()}
     top = Section("claims", "Claims of the reference works", [], [])
     table = claims_table(claims, studies)
@@ -205,11 +204,9 @@ def write_reproduction(out: Path, dirs: Mapping[str, Path], size: str, claims: t
              + ". Each study's own report gives its tables, figures and the reading of every number.")
     listing = Section("studies", "The studies", [], [])
     lines = []
-    for name in STUDIES:
-        if name in studies:
-            st = studies[name]
-            ex = st.timing["execution"]
-            lines.append(f"* **{name}**: {st.manifest['study']['description']} ({st.manifest['jobs']} jobs, "
-                         f"{ex['seconds']:.0f} s on {ex['executor']}); [its report]({name}/report.html)")
+    for name, st in studies.items():
+        ex = st.timing["execution"]
+        lines.append(f"* **{name}**: {st.manifest['study']['description']} ({st.manifest['jobs']} jobs, "
+                     f"{ex['seconds']:.0f} s on {ex['executor']}); [its report]({name}/report.html)")
     listing.text("\n".join(lines))
     return write_pages(out, f"nnda reproduce ({size}): the reference works against nnda", [top, listing])
