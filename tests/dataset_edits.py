@@ -10,15 +10,31 @@ from pathlib import Path
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from nnda.data.dataset import manifest_seal
 from nnda.files import file_digests
 
 
-def edit_manifest(directory: Path, change: Callable[[dict], None], name: str = "scenario.json") -> None:
-    """Apply ``change`` to the parsed JSON manifest ``directory / name`` and write it back."""
+def edit_manifest(directory: Path, change: Callable[[dict], None], name: str = "scenario.json",
+                  reseal: bool = True) -> None:
+    """Apply ``change`` to the parsed JSON manifest ``directory / name`` and write it back, sealed again as a
+    writer of those values would have (``reseal``; False: a hand edit, which the seal then refuses)."""
     path = directory / name
     doc = json.loads(path.read_text())
     change(doc)
+    if reseal and "manifest_sha256" in doc:
+        doc["manifest_sha256"] = manifest_seal(doc)
     path.write_text(json.dumps(doc))
+
+
+def as_format(version: int) -> Callable[[dict], None]:
+    """An `edit_manifest` change: the manifest as a writer of format ``version`` wrote it (the fields of later
+    versions gone)."""
+    def change(doc: dict) -> None:
+        doc["format_version"] = version
+        for field, since in (("sha256", 3), ("manifest_sha256", 4)):
+            if version < since:
+                doc.pop(field, None)
+    return change
 
 
 def rewrite_table(directory: Path, name: str, change: Callable[[pa.Table], pa.Table]) -> None:

@@ -15,7 +15,7 @@ import pyarrow as pa
 import pytest
 from cli_run import TINY, assert_one_line_error, nnda_process
 
-from dataset_edits import edit_manifest, flip_byte, rewrite_table, set_value, snapshot
+from dataset_edits import as_format, edit_manifest, flip_byte, rewrite_table, set_value, snapshot
 from nnda.data.dataset import read_dataset, write_collection
 from nnda.data.generator import generate_runs
 from nnda.data.scenario import scenario_from_dict
@@ -101,7 +101,7 @@ def test_a_position_within_the_tolerance_is_accepted(tiny_dataset):
     ("target_names", ["b"], ("field 'target_names' is ['b'], but the dataset holds ['a']",)),
     ("sha256", {"detections.parquet": "0" * 64}, ("ds/scenario.json: field 'sha256' must map detections.parquet and "
                                                   "truth.parquet to their SHA-256 digests",)),
-    ("format_version", 4, ("field 'format_version' is 4; this nnda", "reads version 1 or 2 or 3 only")),
+    ("format_version", 5, ("field 'format_version' is 5; this nnda", "reads version 1 or 2 or 3 or 4 only")),
 ])
 def test_hand_edited_manifests_are_refused(tmp_path, tiny_dataset, refused, field, value, fragments):
     edit_manifest(tiny_dataset, lambda m: m.update({field: value}))
@@ -109,7 +109,7 @@ def test_hand_edited_manifests_are_refused(tmp_path, tiny_dataset, refused, fiel
 
 
 def test_a_dataset_of_format_2_reads_without_digests(tiny_dataset):
-    edit_manifest(tiny_dataset, lambda m: (m.pop("sha256"), m.update(format_version=2)))
+    edit_manifest(tiny_dataset, as_format(2))
     assert read_dataset(tiny_dataset).seed == TINY["seed"]
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pyarrow as pa
 import pytest
 
-from dataset_edits import edit_manifest, flip_byte, rewrite_table
+from dataset_edits import as_format, edit_manifest, flip_byte, rewrite_table
 from nnda.data import dataset as dataset_module
 from nnda.data.dataset import Detections, Truth, iter_datasets, read_dataset, write_collection, write_dataset
 from nnda.data.generator import generate, generate_runs
@@ -118,14 +118,34 @@ def test_a_flipped_byte_in_either_data_file_is_a_corrupt_file(written):
 def test_unreadable_parquet_is_refused(written):
     rewrite_table(written, "truth.parquet", lambda t: t)
     (written / "detections.parquet").write_bytes(b"PAR1 not really")
-    edit_manifest(written, lambda m: m.update(format_version=2))  # no digests: the Parquet reader sees it
+    edit_manifest(written, as_format(2))  # no digests: the Parquet reader sees it
     with pytest.raises(DatasetError, match="detections.parquet: unreadable Parquet"):
         read_dataset(written)
 
 
 def test_format_2_without_digests_still_reads(written):
-    edit_manifest(written, lambda m: (m.update(format_version=2), m.pop("sha256")))
+    edit_manifest(written, as_format(2))
     assert read_dataset(written).seed == 1
+
+
+def test_format_3_without_its_seal_still_reads_and_4_is_written_sealed(written):
+    meta = json.loads((written / "scenario.json").read_text())
+    assert meta["format_version"] == 4 and len(meta["manifest_sha256"]) == 64
+    edit_manifest(written, as_format(3))
+    assert read_dataset(written).seed == 1
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda m: m.update(seed=2), r"edited or corrupt \(field 'manifest_sha256' does not match"),
+    (lambda m: m["scenario"]["targets"][0].update(speed_m_s=123.0), r"edited or corrupt"),
+    (lambda m: m.update(format_version=2), r"field 'sha256' is written since format version 3, but field "
+                                           r"'format_version' is 2: an edited manifest"),
+    (lambda m: (m.update(format_version=3)), r"field 'manifest_sha256' is written since format version 4"),
+])
+def test_a_hand_edited_manifest_is_refused(written, change, message):
+    edit_manifest(written, change, reseal=False)
+    with pytest.raises(DatasetError, match=message):
+        read_dataset(written)
 
 
 def test_other_format_version_is_refused(written):

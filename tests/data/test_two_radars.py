@@ -172,7 +172,7 @@ def test_round_trip_and_same_seed_same_bytes(tmp_path, two):
     a, b, c = (_files(tmp_path / n) for n in "abc")
     assert a == b and a["detections.parquet"] != c["detections.parquet"]
     meta = json.loads(a["scenario.json"])
-    assert meta["format_version"] == FORMAT_VERSION == 3 and meta["sensor_names"] == ["west", "east"]
+    assert meta["format_version"] == FORMAT_VERSION == 4 and meta["sensor_names"] == ["west", "east"]
     assert meta["sha256"] == file_digests(tmp_path / "a", ["detections.parquet", "truth.parquet"])
     assert [s["name"] for s in meta["scenario"]["sensors"]] == ["west", "east"]
     assert pq.read_schema(tmp_path / "a" / "detections.parquet").field("sensor").type == pa.int32()
@@ -242,13 +242,13 @@ def written(tmp_path):
                          tmp_path / "d")
 
 
-@pytest.mark.parametrize("version", [4, 0, "3"])
+@pytest.mark.parametrize("version", [5, 0, "3"])
 def test_unknown_format_version_is_refused(written, version):
     meta = json.loads((written / "scenario.json").read_text())
     meta["format_version"] = version
     (written / "scenario.json").write_text(json.dumps(meta))
     with pytest.raises(DatasetError, match=rf"{written / 'scenario.json'}: field 'format_version' is "
-                                           rf"{version!r}; this nnda \(.*\) reads version 1 or 2 or 3 only"):
+                                           rf"{version!r}; this nnda \(.*\) reads version 1 or 2 or 3 or 4 only"):
         read_dataset(written)
 
 

@@ -8,9 +8,14 @@ manifest listing them. Everything is written to a temporary sibling and
 renamed into place, so a failed write leaves nothing behind; readers check
 format, version and schema and name the file and field they refuse.
 
-Format versions: 3 (written) is 2 plus the SHA-256 of ``detections.parquet``
-and ``truth.parquet`` in the manifest's ``sha256`` field, checked on read,
-so a flipped byte is a "corrupt file" error rather than data; 2 has a
+Format versions: 4 (written) is 3 plus the SHA-256 of the manifest's own
+canonical content in its ``manifest_sha256`` field, checked on read, so a
+hand-edited ``scenario.json`` (its scenario, its counts, its format
+version) is refused rather than read; 3 is 2 plus the SHA-256 of
+``detections.parquet`` and ``truth.parquet`` in the manifest's ``sha256``
+field, checked on read, so a flipped byte is a "corrupt file" error rather
+than data; a manifest holding a field of a later version than it names is
+refused as edited; 2 has a
 ``sensor`` column in ``detections.parquet``, the index of the detecting
 sensor in the manifest's ``scenario.sensors``; 1 (one radar at the origin,
 the scenario in the one-sensor form) has no such column (read as all 0).
@@ -40,16 +45,18 @@ from nnda.data.checks import whole_number
 from nnda.data.scenario import Scenario, scenario_from_dict
 from nnda.data.sensor import TWO_PI, polar_to_cart
 from nnda.errors import ConfigError, DatasetError
-from nnda.files import atomic_directory, dumps, file_digests, path_component, read_json, verify_digests
+from nnda.files import atomic_directory, digest, dumps, file_digests, path_component, read_json, verify_digests
 from nnda.version import __version__
 
 FORMAT = "nnda.dataset"
 COLLECTION_FORMAT = "nnda.collection"
-FORMAT_VERSION = 3
+FORMAT_VERSION = 4
 #: dataset format versions `read_dataset` reads (1: one radar, no ``sensor`` column; 1 and 2: no digests)
-READABLE_VERSIONS = (1, 2, 3)
+READABLE_VERSIONS = (1, 2, 3, 4)
 #: the first format version whose manifest records the SHA-256 of its data files
 DIGESTS_SINCE = 3
+#: the manifest's own SHA-256 (``manifest_sha256``) since format 4
+SEALED_SINCE = 4
 COLLECTION_FORMAT_VERSION = 1
 MANIFEST = "scenario.json"
 COLLECTION_MANIFEST = "collection.json"
@@ -189,7 +196,7 @@ def manifest(dataset: Dataset, sha256: dict[str, str]) -> dict:
     """The ``scenario.json`` content: what the dataset is, from what, with what; ``sha256`` maps each data
     file's name to its digest (`nnda.files.file_digests`)."""
     s = dataset.scenario
-    return {
+    head = {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
         "nnda_version": __version__,
@@ -203,6 +210,12 @@ def manifest(dataset: Dataset, sha256: dict[str, str]) -> dict:
         "scenario": s.model_dump(mode="json"),
         "sha256": sha256,
     }
+    return head | {"manifest_sha256": manifest_seal(head)}
+
+
+def manifest_seal(meta: dict) -> str:
+    """SHA-256 of a manifest's canonical JSON without its ``manifest_sha256`` field."""
+    return digest(dumps({k: v for k, v in meta.items() if k != "manifest_sha256"}, None).encode())
 
 
 def write_dataset_files(dataset: Dataset, directory: Path) -> None:
@@ -405,6 +418,23 @@ def _verify_files(path: Path, meta: dict) -> None:
     verify_digests(path, recorded)
 
 
+def _check_later_fields(where: Path, meta: dict) -> None:
+    """A manifest naming format version v holds no field that only a later version writes (an edited one)."""
+    version = meta["format_version"]
+    for field, since in (("sha256", DIGESTS_SINCE), ("manifest_sha256", SEALED_SINCE)):
+        if field in meta and version < since:
+            raise DatasetError(f"{where}: field {field!r} is written since format version {since}, but field "
+                               f"'format_version' is {version}: an edited manifest; regenerate or re-import the "
+                               f"dataset")
+
+
+def _verifymanifest_seal(where: Path, meta: dict) -> None:
+    """A format-4 manifest's ``manifest_sha256`` matches its content."""
+    if meta.get("manifest_sha256") != manifest_seal(meta):
+        raise DatasetError(f"{where}: edited or corrupt (field 'manifest_sha256' does not match the manifest's "
+                           f"content); regenerate or re-import the dataset")
+
+
 def _check_counts(where: Path, meta: dict, dataset: Dataset) -> None:
     """The manifest's summary fields, where present, describe the data read."""
     d, sc = dataset.detections, dataset.scenario
@@ -416,13 +446,15 @@ def _check_counts(where: Path, meta: dict, dataset: Dataset) -> None:
 
 
 def read_dataset(path: str | Path) -> Dataset:
-    """Read and check one dataset directory (format version 3; 2 and 1, one radar at the origin, unverified).
+    """Read and check one dataset directory (format version 4; 3 without the manifest's seal; 2 and 1, one radar
+    at the origin, unverified).
 
     Refuses, naming the file and field or column and row: a missing or
     foreign manifest, a seed or run that is not a whole number >= 0, an
     invalid scenario, a data file whose SHA-256 differs from the manifest's
-    (format 3: "corrupt file"), a Parquet file of another schema, and values
-    `check_dataset` refuses.
+    (format 3 on: "corrupt file"), a manifest edited since it was written
+    (format 4: its own SHA-256; any format: a field of a later version), a
+    Parquet file of another schema, and values `check_dataset` refuses.
     """
     path = Path(path)
     if not path.is_dir():
@@ -440,6 +472,7 @@ def read_dataset(path: str | Path) -> Dataset:
     except ConfigError as exc:
         raise DatasetError(str(exc)) from None
     version = meta["format_version"]
+    _check_later_fields(path / MANIFEST, meta)
     if version == 1 and not _one_radar_at_origin(scenario):
         raise DatasetError(f"{path / MANIFEST}: a format-1 dataset holds one radar at the origin, but field "
                            f"'scenario' describes other sensors")
@@ -451,6 +484,8 @@ def read_dataset(path: str | Path) -> Dataset:
     dataset = Dataset(scenario, seed, run, detections, truth)
     check_dataset(dataset, str(path / DETECTIONS_FILE), str(path / TRUTH_FILE))
     _check_counts(path / MANIFEST, meta, dataset)
+    if version >= SEALED_SINCE:  # last: an edit the checks above name is named so
+        _verifymanifest_seal(path / MANIFEST, meta)
     return dataset
 
 
