@@ -191,3 +191,18 @@ def test_extended_and_seed_feature_trackers_are_compared_cell_by_cell():
     assert verdicts["GOSPA, mean over scans (m)"] == "equal" and verdicts["False tracks"] == "—"
     assert verdicts["Time per scan, mean over scans (ms)"] == "nn-seed better, intervals apart"
     assert counts == {1: 1, 0: 5, -1: 1}
+
+
+@pytest.mark.parametrize("name", ["timing.parquet", "summary.json", "trajectories.parquet", "classifier.json"])
+def test_a_file_changed_since_the_study_wrote_it_is_named(study_dir, tmp_path, name):
+    import shutil
+
+    from nnda.errors import DatasetError
+
+    copy = tmp_path / "out"
+    shutil.copytree(study_dir, copy)
+    data = bytearray((copy / name).read_bytes())
+    data[len(data) // 2] ^= 0x01
+    (copy / name).write_bytes(bytes(data))
+    with pytest.raises(DatasetError, match=rf"{name}: corrupt or edited \(its SHA-256 differs from checksums.json\)"):
+        build_report(copy)
