@@ -82,7 +82,8 @@ bootstrap = 100
 """
 #: what the aggregation writes that must not change with where the jobs ran (timing files aside)
 SAME_BYTES = ("summary.json", "results.parquet", "filter_results.parquet", "reentry_results.parquet",
-              "tbd_snapshot.json", "cardinality.parquet", "trajectories.parquet", "classifier.json")
+              "tbd_results.parquet", "tbd_snapshot.json", "pedestrian_results.parquet", "cardinality.parquet",
+              "trajectories.parquet", "classifier.json")
 
 
 def _write_study(root: Path) -> Path:

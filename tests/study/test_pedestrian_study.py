@@ -11,6 +11,7 @@ import pytest
 from typer.testing import CliRunner
 
 from nnda.app.cli import app
+from nnda.data.pedestrian.walkers import walker_runs
 from nnda.reports import pedestrian_section as ps
 from nnda.reports.pedestrian_values import THESIS_EXCESS, THESIS_RMS, THESIS_RUNTIME_S
 from nnda.study import pedestrian as P
@@ -74,7 +75,7 @@ def test4():
     cfg = P.PedestrianStudyConfig(tests=("test4",), test4_runs=3, bootstrap=200)
     spec = P.TEST_SPECS["test4"]
     scene = P.PEDESTRIAN_SCENES[spec.accuracy]
-    datasets = list(P.walker_runs(scene, range(3), cfg.seed))
+    datasets = list(walker_runs(scene, range(3), cfg.seed))
     traces = {f.label: [P.track(f, scene, ds, cfg.birth) for ds in datasets] for f in spec.filters}
     return cfg, traces, _score(cfg, traces)
 
@@ -186,7 +187,7 @@ def test_the_command_refuses_an_unknown_test(tmp_path):
 def test_the_contact_trackers_follow_the_walkers_with_the_thesis_cv():
     """Beyond the thesis: GNN, JPDA and MHT with the thesis's CV as a one-model IMM on the stress scene."""
     scene = P.PEDESTRIAN_SCENES[P.BEYOND_SCENE]
-    ds = next(P.walker_runs(scene, [0]))
+    ds = next(walker_runs(scene, [0]))
     for f in P.BEYOND[3:]:
         tracker = P.contact_tracker(f, scene, ds.scenario.sensors)
         assert tracker.filter.models[0].__class__.__name__ == "ThesisCV"

@@ -39,7 +39,8 @@ from threadpoolctl import threadpool_limits
 
 from nnda.data.dataset import Dataset
 from nnda.data.pedestrian.scenes import PEDESTRIAN_SCENES
-from nnda.data.pedestrian.walkers import WalkerScene, walker_runs
+from nnda.data.pedestrian.walkers import WalkerScene
+from nnda.data.sources import resolve_scenes
 from nnda.errors import validated
 from nnda.filters.ground_motion import ThesisCV
 from nnda.filters.imm import IMM
@@ -202,11 +203,13 @@ def track(f: FilterSpec, scene: WalkerScene, dataset: Dataset, birth: str) -> Tr
 
 def run_block(scene_name: str, f: FilterSpec, first: int, count: int, seed: int, birth: str, cutoff_m: float,
               keep_estimates: bool) -> list[dict]:
-    """Filter ``f`` on runs ``first``..``first + count - 1`` of walker scene ``scene_name`` (run r drawn from (seed,
-    r), so a block is the same alone as among all runs): each run's record (`score_run`)."""
-    scene = PEDESTRIAN_SCENES[scene_name]
+    """Filter ``f`` on runs ``first``..``first + count - 1`` of walker scene ``scene_name`` (its source,
+    `nnda.data.sources.WalkerScenes`: run r drawn from (seed, r), so a block is the same alone as among all runs):
+    each run's record (`score_run`)."""
+    (source,) = resolve_scenes(preset=scene_name)
+    scene = source.scene
     return [score_run(track(f, scene, ds, birth), scene.n_scans, cutoff_m, keep_estimates)
-            for ds in walker_runs(scene, range(first, first + count), seed)]
+            for ds in source.iterate(first, count, seed)]
 
 
 @dataclass(frozen=True)

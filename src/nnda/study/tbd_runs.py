@@ -14,7 +14,8 @@ import time
 
 import numpy as np
 
-from nnda.data.frames import FramesConfig, simulate
+from nnda.data.frames import FramesConfig
+from nnda.data.sources import FrameScenes
 from nnda.filters.tbd import run_tbd, tbd_model
 from nnda.study.stats import mean_ci
 from nnda.study.tbd import (
@@ -29,15 +30,18 @@ from nnda.study.tbd import (
 from nnda.study.tbd_chain import frame_detections, run_chain
 
 
-def scenes(cfg: TBDStudyConfig) -> list[tuple[str, FramesConfig, int]]:
-    """(name, frames config, runs) of every setting in index order: each PTCR, then the exit and re-entry
-    scenario when the study runs it."""
-    out = [(f"ptcr-{p:g}", cfg.scene.model_copy(update={"ptcr_db": p}), cfg.runs) for p in cfg.ptcr_db]
+def scenes(cfg: TBDStudyConfig) -> list[tuple[FrameScenes, int]]:
+    """The frames of every setting in index order (each PTCR, then the exit and re-entry scenario when the study
+    runs it) and its runs."""
+    out = [(FrameScenes(f"ptcr-{p:g}", f"frames at {p:g} dB", cfg.scene.model_copy(update={"ptcr_db": p})),
+            cfg.runs) for p in cfg.ptcr_db]
     er = cfg.exit_reentry
     if er is not None:
-        out.append(("exit-reentry", cfg.scene.model_copy(update={
-            "ptcr_db": er.ptcr_db, "frames": er.frames, "scenario": "exit-reentry", "exit_frames": er.exit_frames,
-            "reentry_frame": er.reentry_frame, "exit_speed": er.speed, "birth_velocity_sd": er.speed}), er.runs))
+        out.append((FrameScenes("exit-reentry", f"the exit and re-entry scenario at {er.ptcr_db:g} dB",
+                                cfg.scene.model_copy(update={
+                                    "ptcr_db": er.ptcr_db, "frames": er.frames, "scenario": "exit-reentry",
+                                    "exit_frames": er.exit_frames, "reentry_frame": er.reentry_frame,
+                                    "exit_speed": er.speed, "birth_velocity_sd": er.speed})), er.runs))
     return out
 
 
@@ -48,13 +52,13 @@ def estimators(cfg: TBDStudyConfig) -> list[str]:
     return ["detector", *chain, *(f.label for f in cfg.filters)]
 
 
-def run_block(cfg: TBDStudyConfig, index: int, scene: FramesConfig, start: int, count: int, estimator: str) -> dict:
+def run_block(cfg: TBDStudyConfig, index: int, source: FrameScenes, start: int, count: int, estimator: str) -> dict:
     """One estimator on runs ``start``..``start + count - 1`` of setting ``index`` (frames drawn from the seed and
     the run, so a block is the same alone as among all runs). The detector's record holds the block's truth
     (count, K, 5) and its counts (`detector_counts`); a chain tracker's and a filter's their position
     (count, K, 2; NaN without an estimate) and decisions (count, K), a filter's also P(z = 0) and its
     likelihood evaluations; every record its seconds under ``timing``."""
-    fs = simulate(scene, count, cfg.seed, first_run=start)
+    fs = source.load(start, count, cfg.seed)
     model = tbd_model(fs, cfg.tbd)
     t0 = time.perf_counter()
     if estimator == "detector":
@@ -202,8 +206,8 @@ def snapshot(cfg: TBDStudyConfig) -> dict:
     """Run 0 at the first PTCR through the first filter (its seed as in the study's first block): at frames
     `SNAPSHOT_FRAMES` and the last, the frame (rows x cols), the `SNAPSHOT_PARTICLES` heaviest present particles'
     [row, column], the estimate, P(z = 0) and the truth, for the report's figure."""
-    f, scene = cfg.filters[0], cfg.scene.model_copy(update={"ptcr_db": cfg.ptcr_db[0]})
-    fs = simulate(scene, 1, cfg.seed)
+    f, (source, _) = cfg.filters[0], scenes(cfg)[0]
+    scene, fs = source.config, source.load(0, 1, cfg.seed)
     model = tbd_model(fs, cfg.tbd)
     model.snapshots = []
     out = run_tbd(model, f.name, f.particles, np.random.default_rng(np.random.SeedSequence([cfg.seed, 0, 0, 0])))

@@ -15,7 +15,8 @@ tests (GM-PHD and EK-PHD on the stress scene, in Test 2 and beyond it) is
 one job. Test 1 (the heading profiles' draws) is one job. The aggregate is
 ``summary.json``'s ``pedestrian`` (the tests' accuracy and stress tables,
 the differences with their intervals, Test 1, the comparison beyond the
-thesis) and its times in ``timing.json``'s ``pedestrian``.
+thesis), its times in ``timing.json``'s ``pedestrian``, and
+``pedestrian_results.parquet`` (one row per scene, filter and run).
 """
 
 from __future__ import annotations
@@ -23,14 +24,16 @@ from __future__ import annotations
 import re
 from dataclasses import asdict, dataclass
 
+import pyarrow as pa
 from pydantic import Field
 
-from nnda.data.pedestrian.scenes import PEDESTRIAN_SCENES
-from nnda.data.sources import config_digest
+from nnda.data.sources import resolve_scenes
 from nnda.study.kinds.base import Job, JobKind, TablePlan, job_key, study_seed_only, study_table
 from nnda.study.pedestrian import FilterSpec, PedestrianStudyConfig, groups, run_block, study_results
 from nnda.study.pedestrian_scores import run_test1
 from nnda.study.timing import split_timing
+
+RESULTS_FILE = "pedestrian_results.parquet"
 
 FIELDS = {"pedestrian": (PedestrianStudyConfig | None, Field(default=None, description="the pedestrian study"))}
 
@@ -66,7 +69,8 @@ def plan(study, where: str) -> TablePlan:
             _, most, keep = runs.get((g.scene, f.label), (f, 0, False))
             runs[g.scene, f.label] = (f, max(most, g.runs), keep or g.keeps_estimates)
     for (scene, _), (f, count, keep) in runs.items():
-        data = config_digest(PEDESTRIAN_SCENES[scene])
+        (source,) = resolve_scenes(preset=scene)
+        data = source.digest(0)
         for first in range(0, count, cfg.block_runs):
             n = min(cfg.block_runs, count - first)
             key = job_key({**common, "data": data, "filter": asdict(f), "first": first, "count": n, "estimates": keep})
@@ -85,13 +89,24 @@ def run(job: BlockJob) -> dict:
                               job.keep_estimates)}
 
 
+def table(runs: dict[tuple[str, str], list[dict]]) -> pa.Table:
+    """One row per (walker scene, filter, run): the run's measures (`nnda.study.pedestrian_scores.score_run`)."""
+    rows = [(scene, label, i, r["measures"]) for (scene, label), rs in runs.items() for i, r in enumerate(rs)]
+    keys = list(rows[0][3]) if rows else []
+    return pa.table({"scene": pa.array([r[0] for r in rows], pa.string()),
+                     "filter": pa.array([r[1] for r in rows], pa.string()),
+                     "run": pa.array([r[2] for r in rows], pa.int32()),
+                     **{k: pa.array([r[3][k] for r in rows], pa.int64() if k == "duplicates" else pa.float64())
+                        for k in keys}})
+
+
 def aggregate(plan: TablePlan, records: list[dict]) -> tuple[dict, dict, dict]:
     runs: dict[tuple[str, str], list[dict]] = {}
-    for r in sorted((r for r in records if "runs" in r), key=lambda r: r["first"]):
+    for r in sorted((r for r in records if "runs" in r), key=lambda r: (r["scene"], r["label"], r["first"])):
         runs.setdefault((r["scene"], r["label"]), []).extend(r["runs"])
     test1 = next((r["test1"] for r in records if "test1" in r), None)
     kept, timing = split_timing(study_results(plan.config, runs, test1))
-    return {"pedestrian": kept}, {"pedestrian": timing}, {}
+    return {"pedestrian": kept}, {"pedestrian": timing}, {RESULTS_FILE: table(runs)}
 
 
 KIND = JobKind(name="pedestrian", fields=FIELDS, work="[pedestrian]",
