@@ -206,3 +206,16 @@ def test_a_file_changed_since_the_study_wrote_it_is_named(study_dir, tmp_path, n
     (copy / name).write_bytes(bytes(data))
     with pytest.raises(DatasetError, match=rf"{name}: corrupt or edited \(its SHA-256 differs from checksums.json\)"):
         build_report(copy)
+
+
+def test_a_study_directory_of_the_previous_format_is_named(study_dir, tmp_path):
+    import shutil
+
+    from nnda.errors import DatasetError
+
+    copy = tmp_path / "out"
+    shutil.copytree(study_dir, copy)
+    manifest = json.loads((copy / "study.json").read_text())
+    (copy / "study.json").write_text(json.dumps({**manifest, "format_version": 1}))
+    with pytest.raises(DatasetError, match=r"study.json: field 'format_version' is 1; this nnda .* reads version 2"):
+        build_report(copy)

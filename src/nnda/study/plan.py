@@ -19,7 +19,9 @@ from nnda.study.kinds.base import Job, KindPlan
 from nnda.version import __version__
 
 STUDY_FORMAT = "nnda.study"
-STUDY_FORMAT_VERSION = 1
+#: 2: the job kinds the study ran (``kinds``) and each kind's entries; a study directory of version 1 (before
+#: the engine ran every kind) is refused by resume and report, naming the version: run it again
+STUDY_FORMAT_VERSION = 2
 
 
 @dataclass(frozen=True)
