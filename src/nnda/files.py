@@ -160,6 +160,12 @@ def read_json(path: str | Path, expected_format: str, version: int | tuple[int, 
     return data
 
 
+def canonical(data: Any) -> bytes:
+    """The canonical JSON bytes of ``data`` (sorted keys, no spaces, other types by ``str``): the input of a
+    digest that must not depend on key order or formatting (job keys, scene digests)."""
+    return json.dumps(data, sort_keys=True, separators=(",", ":"), default=str).encode()
+
+
 def digest(*parts: bytes) -> str:
     """SHA-256 hex digest of the concatenated byte strings."""
     h = hashlib.sha256()

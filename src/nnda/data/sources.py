@@ -31,7 +31,6 @@ with no ``if`` on scene kinds left to the caller.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -57,7 +56,7 @@ from nnda.data.reentry import ReentryConfig, ReentryData
 from nnda.data.reentry import simulate as simulate_reentry
 from nnda.data.scenario import Scenario, load_scenario
 from nnda.errors import ConfigError, DatasetError
-from nnda.files import digest, file_digest, read_config
+from nnda.files import canonical, digest, file_digest, read_config
 
 
 class SceneSource(Protocol):
@@ -76,12 +75,21 @@ class SceneSource(Protocol):
 
 def config_digest(config) -> str:
     """SHA-256 of a pydantic config's canonical JSON: equal digests, equal generated data for a seed."""
-    return digest(json.dumps(config.model_dump(mode="json"), sort_keys=True, separators=(",", ":"),
-                             default=str).encode())
+    return digest(canonical(config.model_dump(mode="json")))
+
+
+class _DatasetRuns:
+    """What the sources of datasets share: ``load`` is ``iterate`` collected, and nothing to check by default."""
+
+    def load(self, first: int, count: int, seed: int | None = None) -> list[Dataset]:
+        return list(self.iterate(first, count, seed))
+
+    def check(self, max_detections: int = MAX_DETECTIONS) -> list[str]:
+        return []
 
 
 @dataclass(frozen=True)
-class GeneratedScenes:
+class GeneratedScenes(_DatasetRuns):
     """A radar scenario whose run r is generated from (scenario, seed, r)."""
 
     name: str
@@ -91,9 +99,6 @@ class GeneratedScenes:
 
     def digest(self, run: int) -> str:
         return config_digest(self.scenario)
-
-    def load(self, first: int, count: int, seed: int | None) -> list[Dataset]:
-        return list(self.iterate(first, count, seed))
 
     def iterate(self, first: int, count: int, seed: int | None) -> Iterator[Dataset]:
         """The runs one at a time (the noise-free plan computed once)."""
@@ -105,7 +110,7 @@ class GeneratedScenes:
 
 
 @dataclass(frozen=True)
-class StoredDatasets:
+class StoredDatasets(_DatasetRuns):
     """Datasets on disk of one scenario, run r the r-th of ``paths``; ``digests`` the SHA-256 of each one's files."""
 
     name: str
@@ -121,19 +126,13 @@ class StoredDatasets:
     def digest(self, run: int) -> str:
         return self.digests[run]
 
-    def load(self, first: int, count: int, seed: int | None = None) -> list[Dataset]:
-        return list(self.iterate(first, count, seed))
-
     def iterate(self, first: int, count: int, seed: int | None = None) -> Iterator[Dataset]:
         """The runs one at a time."""
         return (read_dataset(p) for p in self.paths[first:first + count])
 
-    def check(self, max_detections: int = MAX_DETECTIONS) -> list[str]:
-        return []
-
 
 @dataclass(frozen=True)
-class WalkerScenes:
+class WalkerScenes(_DatasetRuns):
     """A walker scene whose run r is simulated from (scene, seed, r)."""
 
     name: str
@@ -144,15 +143,9 @@ class WalkerScenes:
     def digest(self, run: int) -> str:
         return config_digest(self.scene)
 
-    def load(self, first: int, count: int, seed: int | None) -> list[Dataset]:
-        return list(self.iterate(first, count, seed))
-
     def iterate(self, first: int, count: int, seed: int | None) -> Iterator[Dataset]:
         """The runs one at a time (a fixed-truth scene's walks simulated once)."""
         return walker_runs(self.scene, range(first, first + count), seed)
-
-    def check(self, max_detections: int = MAX_DETECTIONS) -> list[str]:
-        return []
 
 
 @dataclass(frozen=True)

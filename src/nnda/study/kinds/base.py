@@ -23,7 +23,6 @@ for byte, for the same study and seed.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Annotated, Any, Protocol
@@ -31,7 +30,7 @@ from typing import Annotated, Any, Protocol
 import pyarrow as pa
 from pydantic import ConfigDict, Field
 
-from nnda.files import digest
+from nnda.files import canonical, digest
 from nnda.version import __version__
 
 #: study-file models: unknown keys refused, values frozen, no NaN or infinity
@@ -78,11 +77,6 @@ class JobKind:
     run: Callable[[Any], dict]
     aggregate: Callable[[Any, list[dict]], tuple[dict, dict, dict[str, pa.Table | dict | None]]]
     check: Callable[[Any], None] = lambda study: None
-
-
-def canonical(data: Any) -> bytes:
-    """The canonical JSON bytes of ``data`` (sorted keys, no spaces), the input of every job key."""
-    return json.dumps(data, sort_keys=True, separators=(",", ":"), default=str).encode()
 
 
 def job_key(what: Mapping[str, Any]) -> str:

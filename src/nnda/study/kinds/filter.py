@@ -161,22 +161,18 @@ def run(job: FilterJob) -> dict:
     }
 
 
-def _column(values: list, kind: pa.DataType) -> pa.Array:
-    return pa.array(values, type=kind)
-
-
 def results_table(records: list[dict]) -> pa.Table:
     """One row per filter job: scenario, filter, kind, run, seed, dataset digest, every filter measure."""
     cols: dict[str, pa.Array] = {
-        "scenario": _column([r["scenario"] for r in records], pa.string()),
-        "filter": _column([r["tracker"] for r in records], pa.string()),
-        "kind": _column([r["kind"] for r in records], pa.string()),
-        "run": _column([r["run"] for r in records], pa.int32()),
-        "seed": _column([r["seed"] for r in records], pa.int64()),
-        "dataset_digest": _column([r["dataset_digest"] for r in records], pa.string()),
+        "scenario": pa.array([r["scenario"] for r in records], pa.string()),
+        "filter": pa.array([r["tracker"] for r in records], pa.string()),
+        "kind": pa.array([r["kind"] for r in records], pa.string()),
+        "run": pa.array([r["run"] for r in records], pa.int32()),
+        "seed": pa.array([r["seed"] for r in records], pa.int64()),
+        "dataset_digest": pa.array([r["dataset_digest"] for r in records], pa.string()),
     }
     for m in FILTER_MEASURES:
-        cols[m.key] = _column([r["metrics"][m.key] for r in records], pa.float64())
+        cols[m.key] = pa.array([r["metrics"][m.key] for r in records], pa.float64())
     for m in FILTER_SERIES:
         cols[f"{m.series_name}_per_scan"] = pa.array([r["series"][m.series_name] for r in records],
                                                      type=pa.list_(pa.float64()))
