@@ -9,7 +9,7 @@ STAMP  := $(VENV)/.nnda-installed
 DEMO   ?= demo
 SEED   ?= 0
 
-.PHONY: demo test test-cpus test-slow bench install clean chromium lint
+.PHONY: demo test test-cpus test-slow bench install clean chromium lint docs docs-check
 
 install: $(STAMP)
 
@@ -23,8 +23,19 @@ $(STAMP): pyproject.toml constraints.txt
 demo: $(STAMP)
 	$(BIN)/nnda demo --out $(DEMO) --seed $(SEED)
 
-test: $(STAMP) chromium lint
+test: $(STAMP) chromium lint docs-check
 	$(BIN)/python -m pytest -q
+
+# the documentation site (mkdocs.yml) into site/; open site/index.html
+docs: $(STAMP)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet
+	@echo "documentation written to site/; open site/index.html"
+
+# the site built in strict mode into a scratch directory: a broken link, a missing page or API object, or
+# any other warning fails it (the pages' examples run in tests/test_docs.py)
+docs-check: $(STAMP)
+	@tmp="$$(mktemp -d)" && trap 'rm -rf "$$tmp"' EXIT && \
+	  NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet --site-dir "$$tmp"
 
 # ruff, and the layer contract of shared/design/architecture.md (pyproject.toml, [tool.importlinter])
 lint: $(STAMP)
@@ -39,7 +50,7 @@ chromium:
 	  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null; } || \
 	  echo "chromium not available: the report's browser test will be skipped"
 
-# The default suite twice more, as on machines with other CPUs (issue 22): with OpenBLAS choosing its
+# The default suite twice more, as on machines with other CPUs: with OpenBLAS choosing its
 # kernels itself (OPENBLAS_CORETYPE and OPENBLAS_L2_SIZE unset), then with numpy's SIMD dispatch cut to
 # its baseline by disabling every dispatch target numpy was built with and this CPU has (x86_64: X86_V3,
 # X86_V4, ...; aarch64: ASIMDHP, SVE, ...), asked at run time: numpy refuses to disable a baseline one.
@@ -59,4 +70,4 @@ bench: $(STAMP)
 	for b in benchmarks/bench_*.py; do $(BIN)/python $$b || exit 1; done
 
 clean:
-	rm -rf $(VENV) $(DEMO) .pytest_cache
+	rm -rf $(VENV) $(DEMO) site .pytest_cache

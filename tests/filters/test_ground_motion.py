@@ -1,4 +1,4 @@
-"""seed-000's pedestrian motion models: Jacobians against finite differences, the xi = 0 switch, conversions."""
+"""Frencl (2014)'s pedestrian motion models: Jacobians against finite differences, the xi = 0 switch, conversions."""
 
 from __future__ import annotations
 
@@ -6,11 +6,12 @@ import numpy as np
 import pytest
 
 from nnda.errors import FilterError
+from nnda.filters import ground_motion
 from nnda.filters.ground_motion import (
+    DiagonalCV,
     GroundVehicle,
     HMMap,
     ModifiedNCSHT,
-    ThesisCV,
     corridor_hm_map,
     cv_to_ncsht,
     ncsht_to_cv,
@@ -97,11 +98,11 @@ def test_xi_is_clipped_to_one_and_read_bilinearly():
 
 
 def test_process_noise_is_the_thesis_diagonal_at_one_second():
-    np.testing.assert_allclose(ThesisCV().noise(1.0), np.diag([1 / 9, 0.18**2, 1 / 9, 0.18**2]))
+    np.testing.assert_allclose(DiagonalCV().noise(1.0), np.diag([1 / 9, 0.18**2, 1 / 9, 0.18**2]))
     np.testing.assert_allclose(ModifiedNCSHT().noise(np.ones(3)), np.broadcast_to(
         np.diag([1 / 9, 1 / 9, 1 / 12, 0.18**2]), (3, 4, 4)))
     x = np.array([[1.0, 2.0, 3.0, -1.0]])
-    f, F = ThesisCV().transition(x, 2.0)
+    f, F = DiagonalCV().transition(x, 2.0)
     np.testing.assert_allclose(f, [[5.0, 2.0, 1.0, -1.0]])
 
 
@@ -127,3 +128,11 @@ def test_bad_maps_and_parameters():
         GroundVehicle(hm_map=corridor_hm_map(), rho=1.5)
     with pytest.raises(FilterError, match="an HMMap is needed"):
         GroundVehicle()
+
+
+def test_thesis_cv_is_a_deprecated_alias_of_diagonal_cv():
+    with pytest.warns(FutureWarning, match="ThesisCV.*DiagonalCV"):
+        old = ground_motion.ThesisCV
+    assert old is DiagonalCV
+    with pytest.raises(AttributeError):
+        _ = ground_motion.NoSuchModel

@@ -54,7 +54,7 @@ def test_sweep_and_repeats_modes(train_dir, tmp_path):
     result = runner.invoke(app, ["train", "--data", str(train_dir), "--method", "lm", "--repeats", "2",
                                  "--hidden", "2", "--out", str(tmp_path / "rep")])
     assert result.exit_code == 0, result.output
-    assert "spec LM" in (tmp_path / "rep" / "repeats.md").read_text()
+    assert "thesis LM" in (tmp_path / "rep" / "repeats.md").read_text()
 
 
 def test_bad_requests_leave_nothing_behind(train_dir, tmp_path):

@@ -53,7 +53,7 @@ def test_sweep_and_repeat_tables(train_pairs):
     assert [(r.method, r.seed) for r in runs] == [("lm", 0), ("lm", 1)]
     assert runs[0].metrics == s.runs[2].metrics  # same seed and size: same fit
     table = repeats_table(runs)
-    assert table.header == ("Measure", "LM, test", "LM, all", "spec LM")
+    assert table.header == ("Measure", "LM, test", "LM, all", "thesis LM")
 
 
 def test_bad_requests_are_refused(train_pairs):

@@ -190,7 +190,7 @@ def test_the_contact_trackers_follow_the_walkers_with_the_thesis_cv():
     ds = next(walker_runs(scene, [0]))
     for f in P.BEYOND[3:]:
         tracker = P.contact_tracker(f, scene, ds.scenario.sensors)
-        assert tracker.filter.models[0].__class__.__name__ == "ThesisCV"
+        assert tracker.filter.models[0].__class__.__name__ == "DiagonalCV"
     runs = {"GNN": P.run_block(P.BEYOND_SCENE, P.BEYOND[3], 0, 1, 0, "measurement", 2.0, False)}
     stress = S.score_stress(runs, scene.n_scans, 0.95)
     assert stress["filters"]["GNN"]["per_run"]["ospa"]["mean"] < 1.5

@@ -1,4 +1,4 @@
-"""Fusion of local GM-PHD filters (the harbour of seed-002): the fusion rules on hand-made intensities, the
+"""Fusion of local GM-PHD filters (the harbour of Lima 2022): the fusion rules on hand-made intensities, the
 centralised update against single-sensor updates in turn, and every method on the harbour without occlusion."""
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from nnda.data.scenario import Clutter
 from nnda.errors import ConfigError
 from nnda.filters.mixture import Mixture
 from nnda.study.metrics import run_metrics
+from nnda.tracking.phd import config as phd_config
 from nnda.tracking.phd.fusion import CentralPHDTracker, coverage_shares, fuse
 from nnda.tracking.registry import make_tracker
 from tolerances import RTOL
@@ -126,3 +127,11 @@ def test_a_filter_on_one_radar_of_two_is_the_filter_on_that_radar_alone(name):
         assert_close(a.state, b.state)
     with pytest.raises(ConfigError, match="use_sensors names 'radar9'"):
         make_tracker(name, HARBOUR.sensors, {"use_sensors": ["radar9"]})
+
+
+def test_harbour_config_is_a_deprecated_alias_of_central_phd_config():
+    with pytest.warns(FutureWarning, match="HarbourConfig.*CentralPHDConfig"):
+        old = phd_config.HarbourConfig
+    assert old is phd_config.CentralPHDConfig
+    assert CentralPHDTracker.config_type is phd_config.CentralPHDConfig
+    assert phd_config.CentralPHDConfig().preset == "harbour"

@@ -1,4 +1,4 @@
-"""The EK-PHD and UK-PHD with seed-000's heading models ([x, y, v, alpha]: modified NCSHT, HM-map composite)."""
+"""The EK-PHD and UK-PHD with Frencl (2014)'s heading models ([x, y, v, alpha]: modified NCSHT, HM-map composite)."""
 
 from __future__ import annotations
 
@@ -36,7 +36,7 @@ def _oracle_params(motion: str, first: np.ndarray, cov: np.ndarray, **extra) -> 
             **extra}
 
 
-@pytest.mark.parametrize(("motion", "extra"), [("ncsht-seed-000", {}), ("hm-map", {"hm_map": "corridor"}),
+@pytest.mark.parametrize(("motion", "extra"), [("ncsht", {}), ("hm-map", {"hm_map": "corridor"}),
                                                ("hm-map", {"hm_map": "corridor", "hm_jacobian": "printed"})])
 @pytest.mark.parametrize("kind", ["ekphd", "ukphd"])
 def test_one_target_without_clutter_at_pd_1_is_the_single_target_filter(kind, motion, extra):
@@ -96,7 +96,7 @@ def test_the_ncsht_newborn_ring_shares_each_contacts_birth_weight():
 
 def test_the_ncsht_ekphd_follows_the_test2_walker_from_measurement_birth():
     ds = generate_walkers(PEDESTRIAN_SCENES["walk-test2"], run=0)
-    params = {"preset": "seed-000", "motion": "ncsht-seed-000", "pd": 0.99, "clutter": 5.0,
+    params = {"preset": "pedestrian", "motion": "ncsht", "pd": 0.99, "clutter": 5.0,
               "clutter_area_m2": 2500.0, "birth": {"kind": "measurement", "rate": 0.1, "speed_sigma_m_s": 1.5}}
     tracker = make_tracker("ekphd", ds.scenario.sensors, params)
     assert isinstance(tracker.motion, ModifiedNCSHT) and tracker.views[0].volume == 2500.0
@@ -111,13 +111,13 @@ def test_the_ncsht_ekphd_follows_the_test2_walker_from_measurement_birth():
 
 def test_heading_models_are_refused_where_they_cannot_work():
     with pytest.raises(ConfigError, match="polar radar measurement.*Cartesian position fixes"):
-        make_tracker("ekphd", Sensor(), {"motion": "ncsht-seed-000"})
+        make_tracker("ekphd", Sensor(), {"motion": "ncsht"})
     with pytest.raises(ConfigError, match="hm_map"):
         make_tracker("ekphd", (radar_sensor(SCENE),), {"motion": "hm-map"})
     with pytest.raises(ConfigError, match="hm_map"):
-        make_tracker("ekphd", (radar_sensor(SCENE),), {"motion": "ncsht-seed-000", "hm_map": "plus"})
+        make_tracker("ekphd", (radar_sensor(SCENE),), {"motion": "ncsht", "hm_map": "plus"})
     with pytest.raises(ConfigError, match=r"\[x, y, v, alpha\]"):
-        make_tracker("ekphd", (radar_sensor(SCENE),), {"motion": "ncsht-seed-000", "birth": {
+        make_tracker("ekphd", (radar_sensor(SCENE),), {"motion": "ncsht", "birth": {
             "kind": "static", "components": [{"weight": 1.0, "mean": [0.0] * 5, "covariance": np.eye(5).tolist()}]}})
 
 
@@ -143,7 +143,7 @@ def test_a_walker_is_reported_once_whatever_its_heading(heading):
     cut, which merge on the circle, so it gets one estimate, as one heading east does."""
     rng = np.random.default_rng(0)
     tracker = make_tracker("ekphd", (radar_sensor(SCENE),), {
-        "preset": "seed-000", "motion": "ncsht-seed-000", "pd": 0.99, "clutter": 1.0, "clutter_area_m2": 5000.0,
+        "preset": "pedestrian", "motion": "ncsht", "pd": 0.99, "clutter": 1.0, "clutter_area_m2": 5000.0,
         "birth": {"kind": "measurement", "rate": 0.1, "speed_sigma_m_s": 1.5}})
     p, counts = np.array([50.0, 25.0]), []
     for k in range(1, 26):

@@ -1,4 +1,4 @@
-"""The GM-PHD on seed-000's walkers: the thesis's CV (motion "cv-seed-000") on the ground radar's fixes."""
+"""The GM-PHD on Frencl (2014)'s walkers: its diagonal-noise CV (motion "cv-diagonal") on the ground radar's fixes."""
 
 from __future__ import annotations
 
@@ -6,16 +6,16 @@ import numpy as np
 
 from nnda.data.pedestrian.scenes import PEDESTRIAN_SCENES
 from nnda.data.pedestrian.walkers import generate_walkers
-from nnda.filters.ground_motion import ThesisCV
+from nnda.filters.ground_motion import DiagonalCV
 from nnda.tracking.registry import make_tracker
 
 
 def test_gmphd_with_the_thesis_cv_follows_the_test2_walker():
     ds = generate_walkers(PEDESTRIAN_SCENES["walk-test2"], run=0)
-    params = {"preset": "seed-000", "motion": "cv-seed-000", "pd": 0.99, "clutter": 5.0,
+    params = {"preset": "pedestrian", "motion": "cv-diagonal", "pd": 0.99, "clutter": 5.0,
               "birth": {"kind": "measurement", "rate": 0.1, "speed_sigma_m_s": 2.0}}
     tracker = make_tracker("gmphd", ds.scenario.sensors, params)
-    assert isinstance(tracker.motion, ThesisCV)
+    assert isinstance(tracker.motion, DiagonalCV)
     errors = []
     truth = ds.truth
     for scan in ds.scans():

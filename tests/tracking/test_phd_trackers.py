@@ -126,7 +126,7 @@ def test_presets_and_overrides():
         for preset, values in REDUCTION_PRESETS.items():
             cfg = make_tracker(name, Sensor(), {"preset": preset}).config
             assert {k: getattr(cfg, k) for k in values} == values
-    cfg = make_tracker("ekphd", Sensor(), {"preset": "seed-002", "max_components": 200}).config
+    cfg = make_tracker("ekphd", Sensor(), {"preset": "harbour", "max_components": 200}).config
     assert (cfg.prune_threshold, cfg.merge_threshold, cfg.max_components, cfg.extraction_threshold) == (
         1e-6, 25.0, 200, 0.8)
     assert make_tracker("gmphd", Sensor()).config.linearisation == "linear"
@@ -136,12 +136,27 @@ def test_presets_and_overrides():
     assert again == cfg
 
 
+@pytest.mark.parametrize(("field", "old", "new", "extra"), [
+    ("preset", "seed-000", "pedestrian", {}),
+    ("preset", "seed-002", "harbour", {}),
+    ("motion", "cv-seed-000", "cv-diagonal", {}),
+    ("motion", "ncsht-seed-000", "ncsht", {"linearisation": "linear"}),
+])
+def test_old_preset_and_motion_names_are_read_with_a_future_warning(field, old, new, extra):
+    config_type = TRACKERS["ekphd"].config_type
+    with pytest.warns(FutureWarning, match=f"{old}.*{new}") as caught:
+        cfg = config_type(**{field: old, **extra})
+    assert len([w for w in caught if issubclass(w.category, FutureWarning)]) == 1
+    assert cfg == config_type(**{field: new, **extra})
+    assert getattr(cfg, field) == new
+
+
 @pytest.mark.parametrize("params, message", [
     ({"pd": 1.2}, "pd: Input should be less than or equal to 1"),
     ({"ps": -0.1}, "ps: Input should be greater than 0"),
     ({"pd": 0.0}, "pd: Input should be greater than 0"),
     ({"max_components": 0}, "max_components: Input should be greater than or equal to 1"),
-    ({"preset": "seed-003"}, "preset: Input should be"),
+    ({"preset": "walkers"}, "preset: Input should be"),
     ({"birth": {"kind": "static", "components": [
         {"weight": 1.0, "mean": [0, 0, 0], "covariance": np.eye(3).tolist()}]}},
      r"birth.components.0.mean: the cv state has 4 entries"),

@@ -34,6 +34,24 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 
+
+
+def _show_version(value: bool) -> None:
+    if value:
+        from nnda.version import __version__
+
+        typer.echo(f"nnda {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _options(
+    version: Annotated[bool, typer.Option("--version", callback=_show_version, is_eager=True,
+                                          help="Print the installed nnda's version and exit.")] = False,
+) -> None:
+    """Data association in radar multi-target tracking: datasets, models, comparisons."""
+
+
 app.command("presets")(data_commands.presets)
 app.command("generate")(data_commands.generate)
 app.command("train")(model_commands.train)
@@ -56,8 +74,8 @@ def demo(
     runs: Annotated[int, typer.Option(min=1, help="Monte Carlo runs of each of S1-S6 in the comparison")] = 10,
     jobs: Annotated[int, typer.Option(min=1, help="worker processes of the comparison")] = 2,
 ) -> None:
-    """Run the whole job: generate the presets, train the models (GD and LM on the seed's features, LM on the
-    IMM-extended ones, the feature ablation), compare the trackers on S1-S6, report."""
+    """Run the whole job: generate the presets, train the models (GD and LM on Vargas Avila (2015)'s three
+    features, LM on the IMM-extended ones, the feature ablation), compare the trackers on S1-S6, report."""
     from nnda.study.config import default_study, study_to_toml  # the trackers: when the demo runs
 
     console = Console()

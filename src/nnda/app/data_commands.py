@@ -21,7 +21,7 @@ from nnda.files import check_output_location
 
 
 def presets() -> None:
-    """List the preset scenarios and groups of the reference thesis."""
+    """List the preset scenarios and groups of Vargas Avila (2015)."""
     table = Table(title="nnda presets")
     for col in ("name", "targets", "scans", "description"):
         table.add_column(col)
@@ -29,7 +29,7 @@ def presets() -> None:
         table.add_row(name, str(len(s.targets)), str(s.n_scans), s.description)
     for name, members in GROUPS.items():
         table.add_row(f"[bold]{name}[/]", "", str(len(members)) + " sets", GROUP_DESCRIPTIONS[name])
-    for name, scene in PEDESTRIAN_SCENES.items():  # seed-000's walkers (nnda.data.pedestrian.scenes)
+    for name, scene in PEDESTRIAN_SCENES.items():  # Frencl (2014)'s walkers (nnda.data.pedestrian.scenes)
         table.add_row(name, "walkers", str(scene.n_scans), scene.description)
     Console().print(table)
 

@@ -12,13 +12,13 @@ models/ sits below reports/ and may not import them.
   ``sweep.md``, ``sweep.png``;
 * ``--repeats N``: fits with seeds seed .. seed+N-1 (``--method both`` runs
   GD and LM on the same splits); ``repeats.json`` and ``repeats.md``, the
-  table in the layout of the spec's Table 6.3 with mean and 95% intervals;
+  table in the layout of Vargas Avila (2015), Table 6.3, with mean and 95% intervals;
 * ``--ablation --repeats N``: the feature ablation of `nnda.models.ablation`
-  (seed vs extended features vs each added feature, under both data models
-  of spec §14.1); ``ablation.json``, ``ablation.md``, ``ablation_roc.png``.
+  (kinematic vs extended features vs each added feature, under both data models:
+  measured or true track history); ``ablation.json``, ``ablation.md``, ``ablation_roc.png``.
 
 ``--features`` picks the pair-feature set of the first three modes
-(`nnda.models.feature_sets`; default the seed's ``kinematic-3``). One model
+(`nnda.models.feature_sets`; default Vargas Avila (2015)'s ``kinematic-3``). One model
 can also be trained on seeded multi-target scenes besides the data
 (``--encounters N``, `nnda.data.encounters`) and on pairs harvested from the
 neural tracker's own runs (``--dagger R``, `nnda.tracking.harvest`; each
@@ -112,12 +112,12 @@ def train(
     restarts: Annotated[int, typer.Option(min=1, help="fits per hidden size in a sweep")] = 10,
     repeats: Annotated[int, typer.Option(min=1, help="fits with seeds seed..seed+N-1, tabulated")] = 1,
     history: Annotated[HistoryChoice, typer.Option(
-        help="track history of the pairs: measured contacts (spec) or true positions (spec §14.1)",
+        help="track history of the pairs: measured contacts (as in Vargas Avila 2015) or true positions",
     )] = HistoryChoice.measured,
     init: Annotated[InitChoice, typer.Option(
-        help="initial weights: Nguyen-Widrow (spec A22) or uniform in [-0.5, 0.5]")] = InitChoice.nguyen_widrow,
+        help="initial weights: Nguyen-Widrow (MATLAB's default) or uniform in [-0.5, 0.5]")] = InitChoice.nguyen_widrow,
     features: Annotated[FeatureChoice, typer.Option(
-        help="pair features: the seed's three or the IMM-extended nine")] = FeatureChoice[KINEMATIC.name],
+        help="pair features: Vargas Avila (2015)'s three or the IMM-extended nine")] = FeatureChoice[KINEMATIC.name],
     starts: Annotated[int | None, typer.Option(
         min=1, help="initial-weight draws per fit, the lowest validation MSE kept (default 1; ablation 3)")] = None,
     ablation: Annotated[bool, typer.Option(
@@ -141,7 +141,7 @@ def train(
         raise ConfigError("--encounters and --dagger train one model: give them without --sweep, --repeats "
                           "or --ablation")
     if ablation and repeats < 2:
-        raise ConfigError("--ablation needs --repeats N (N >= 2; the issue's protocol uses 10) for its intervals")
+        raise ConfigError("--ablation needs --repeats N (N >= 2; 10 is the usual protocol) for its intervals")
     check_output_location(out, [data])  # --out replaced with --overwrite must never be the training data
     methods = ("gd", "lm") if method is MethodChoice.both else (method.value,)
     console = Console()

@@ -5,7 +5,7 @@ clutter, targets), ``trajectory`` (noise-free target paths), ``sensor``
 (coordinate transforms about a sensor, coverage and measurement noise), ``clutter``,
 ``generator`` (seeded datasets), ``presets`` (the reference scenarios),
 ``dataset`` (records and their Parquet files), ``commands`` (CLI) and the
-``pedestrian`` package (seed-000's walkers).
+``pedestrian`` package (Frencl (2014)'s walkers).
 Nothing is imported here, so ``import nnda.data.sensor`` loads neither
 pyarrow nor scipy.
 """

@@ -1,11 +1,14 @@
-"""Clutter: false contacts per sweep of one sensor (spec §2, ambiguity A3 and the §14 calibration).
+"""Clutter: false contacts per sweep of one sensor.
+
+Vargas Avila (2015) gives the count (100 per scan) but not where the points
+lie; the laws are ours, the default square sized so that the 17 training
+scenes give about the thesis's 1935 clutter pairs.
 
 Points are drawn in Cartesian coordinates (scenario frame, m) and redrawn
 until they lie inside the sensor's coverage, so the count per sweep is exact
-(the §14 "resampled" rule; dropping them instead would lower the
-clutter-pair count by about 2%). The generator's plan has checked that at
-least `nnda.data.checks.MIN_CLUTTER_INSIDE` of the region lies inside the
-coverage (`nnda.data.checks.check_clutter`), so the redrawing ends.
+(dropping them instead would lower the clutter-pair count by about 2%). The
+generator's plan has checked that at least `nnda.data.checks.MIN_CLUTTER_INSIDE`
+of the region lies inside the coverage (`nnda.data.checks.check_clutter`), so the redrawing ends.
 """
 
 from __future__ import annotations

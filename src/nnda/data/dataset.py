@@ -1,4 +1,4 @@
-"""Datasets in memory and on disk (conventions.md, "Dataset on disk").
+"""Datasets in memory and on disk.
 
 A dataset directory holds ``scenario.json`` (manifest: format, version, seed,
 run, the validated scenario with its sensors), ``detections.parquet`` and

@@ -34,7 +34,7 @@ rounding; raise it, below half a period, for a radar that stamps each plot
 with its own time). The dataset records the sweep's time. A sensor's
 period, when not given, is the median gap between its successive distinct
 times (rounded to 1 us) and its offset the first time modulo the period;
-range limits not given are widened from the spec's 5-30 km to hold every
+range limits not given are widened from the default 5-30 km to hold every
 detection. nnda's scans lie at t > 0: ``time_origin`` (s) is subtracted
 from every time first (for clock times or a file that starts at 0). Rows of
 one sensor must not go back in time (in file order).
@@ -321,7 +321,7 @@ def read_detections(
     """The detections file at ``path`` (and its ``truth`` file) as a checked `Dataset` (see the module).
 
     ``sensors``: one mapping of Sensor fields (or a Sensor) per sensor, in
-    index order (default: one radar of the spec's defaults); fields left out
+    index order (default: one radar with the default fields); fields left out
     are inferred as the module docstring says. ``columns`` maps nnda's column
     names to the file's. ``name`` names the scenario (default: the file's stem).
     """

@@ -1,4 +1,4 @@
-"""Seeded multi-target training scenes: targets that meet (issue 20, training data that looks like tracking).
+"""Seeded multi-target training scenes: targets that meet, training data that looks like tracking.
 
 The 17 training presets hold one target each, so another target's contact
 near a track is never a negative training pair. These scenes put two or

@@ -1,4 +1,4 @@
-"""Image frames of seed 003 (spec seed-003-004.md, A.1-A.2): one dim target of changing aspect in GMRF clutter.
+"""Image frames after Bruno, Araújo & Pavlov: one dim target of changing aspect in GMRF clutter.
 
 R runs of K frames of L x M pixels at once, saved as their own files (not
 detection rows):
@@ -10,9 +10,9 @@ detection rows):
     fs = read_frames("frames/a")                       # arrays memory-mapped (read lazily), digests checked
     T = aspect_transition(G, p_entry, p_in)            # (..., A+1, A+1) eq. (1), T[i, j] = P(z_n = i | z_n-1 = j)
 
-Pixels: x is the row and y the column (spec A.1), both in pixels (xi = 1)
-with pixel centres at integers 0..L-1 and 0..M-1; the quantised centroid is
-s* = (round(x), round(y)). A template's support is the square of
+Pixels: x is the row and y the column (the paper's eq. 10), both in pixels
+(xi = 1) with pixel centres at integers 0..L-1 and 0..M-1; the quantised
+centroid is s* = (round(x), round(y)). A template's support is the square of
 offsets -h..h (``template_half`` h); a centroid is on the extended grid when
 at least one template pixel is in the frame: -h <= s* <= L-1+h (rows), and
 likewise for columns. The truth row of a frame is [x, vx, y, vy, z] with z
@@ -24,8 +24,8 @@ s_n = F s_n-1 + u_n with F = [[1, dt], [0, 1]] and E[u u^T] = q [[dt^3/3,
 dt^2/2], [dt^2/2, dt]] (the paper's dt = 0.04, q = 6); a present target whose
 new centroid has left the extended grid becomes absent, otherwise its aspect
 moves by G; an absent target enters with probability p_entry (eq. 1), born
-again from f_0. (This draws s first and then z, the "consistent" order of
-spec A.1, which has the marginal P(z_n) of eq. 1.) Frames are Y = B + H(s*,
+again from f_0. (This draws s first and then z, where the paper's samplers draw z
+first; the marginal P(z_n) of eq. 1 is the same.) Frames are Y = B + H(s*,
 z) + V: B an optional piecewise-constant background of local means, H the
 template clipped at the borders, V GMRF clutter (`nnda.data.gmrf`). The
 amplitude is set by the peak target-to-clutter ratio PTCR = 20 log10(max a
@@ -33,8 +33,8 @@ amplitude is set by the peak target-to-clutter ratio PTCR = 20 log10(max a
 
 What the paper leaves out, chosen here (named constants):
 
-- frame size `DEFAULT_SHAPE`; GMRF `DEFAULT_BETA` (beta_h, beta_v), the
-  spec's worked example; sigma_c 1;
+- frame size `DEFAULT_SHAPE`; GMRF `DEFAULT_BETA` (beta_h, beta_v), a
+  moderately correlated field of our choosing; sigma_c 1;
 - the reference target (`reference_target`: a vehicle seen from above, a
   hull of level `HULL_LEVEL`, a turret of level 1 and a gun of level
   `GUN_LEVEL`) and its `DEFAULT_ASPECTS` (identity, a rotation, a scale, a
@@ -69,7 +69,7 @@ MANIFEST = "manifest.json"
 FILES = {"frames": "frames.npy", "truth": "truth.npy", "templates": "templates.npy", "background": "background.npy"}
 
 DEFAULT_SHAPE = (128, 128)
-#: (beta_h, beta_v): the spec's worked example (marginal pixel variance 5.31 for sigma_c^2 = 4)
+#: (beta_h, beta_v): our choice, not the paper's (marginal pixel variance 5.31 for sigma_c^2 = 4)
 DEFAULT_BETA = (0.22, 0.2)
 #: a template's support is offsets -3..3 in rows and columns (7 x 7)
 TEMPLATE_HALF = 3

@@ -1,9 +1,9 @@
 """Scenario generator: noise-free truth + process noise + measurement noise + clutter + gaps.
 
-Spec §3.2. The noise-free part (trajectories sampled at the scan times of
-every sensor) is computed once per scenario in a `Plan`; each run then draws
-its own noise, detections and clutter, vectorised over all scans and targets
-of one sensor at a time.
+After the scenario generator of Vargas Avila (2015). The noise-free part
+(trajectories sampled at the scan times of every sensor) is computed once
+per scenario in a `Plan`; each run then draws its own noise, detections
+and clutter, vectorised over all scans and targets of one sensor at a time.
 
 Random streams: run ``i`` of seed ``s`` of scenario ``name`` uses, for its
 first sensor, ``SeedSequence(s, spawn_key=(crc32(name), i))`` and, for
@@ -92,7 +92,7 @@ class Plan:
 
 
 def _clutter_centre(clutter: Clutter, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Square: centre of the noise-free bounding box; Gaussian: mean position (spec §14); (2,) m.
+    """Square: centre of the noise-free bounding box; Gaussian: mean position; (2,) m.
 
     ``x``, ``y`` are the noise-free target positions at the sensor's sweeps.
     """

@@ -1,4 +1,4 @@
-"""Gauss-Markov random field clutter of seed 003 (spec seed-003-004.md, A.2): the exact sampler, the
+"""Gauss-Markov random field clutter (Bruno, Araújo & Pavlov's eq. 8): the exact sampler, the
 differential (whitening) filter and a per-frame parameter estimator.
 
 A first-order GMRF on an L x M frame with zero boundary: every pixel is

@@ -1,4 +1,4 @@
-"""Occlusion: a ship hides the smaller ships behind it from a sensor (the harbour scene of seed-002, §3.3).
+"""Occlusion: a ship hides the smaller ships behind it from a sensor (the harbour of Lima (2022), Ch. 4).
 
 Each target with a length L (m, `Target.length_m`) spans the bearings
 within atan(L / 2 / r) of its own as seen from a sensor at range r: a
@@ -8,8 +8,9 @@ lies in that shadow). A target without a length is a point: it hides
 nothing and a ship can hide it. Hidden targets are not detected by that
 sensor in that scan (`nnda.data.generator`); the other sensors still see
 them. The rule ignores the hidden ship's own extent, heights and the
-radar horizon: those are the choices this scene leaves open (seed-002
-§6.3 "ship dimensions, which drive occlusion").
+radar horizon. Lima (2022) gives no ship dimensions and does not describe
+the occlusion mechanism (it lives inside its MATLAB radar model), so this
+rule and the lengths are ours.
 """
 
 from __future__ import annotations

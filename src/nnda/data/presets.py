@@ -1,22 +1,25 @@
-"""The reference scenarios of shared/spec/seed-001.md as ready-made configs.
+"""The reference scenarios as ready-made configs: the radar scenes of Vargas Avila (2015), Sec. 5.2, and more.
 
-* ``train01`` .. ``train17``: the 17 single-target training scenarios (§3.3)
-  with their gap tables (§3.3.1) and the §3.5 placements;
-* ``T1`` .. ``T7``: each validation trajectory alone (§3.4), 200 s, no gaps;
+* ``train01`` .. ``train17``: the thesis's 17 single-target training
+  scenarios with their gap tables (Tables 5.1-5.11) and our placements (the
+  thesis gives starting points and headings only in figures);
+* ``T1`` .. ``T7``: each validation trajectory alone, 200 s, no gaps;
 * ``S1`` .. ``S6``: the multi-target validation scenarios with Tables 5.12/5.13;
-* ``two-radars`` (no counterpart in the spec): two polar radars 20 km apart
+* ``two-radars`` (no counterpart in the thesis): two polar radars 20 km apart
   with overlapping 120-degree sectors and four targets crossing both;
-* ``harbour``, ``harbour-dense``: seed-002's two radars over a harbour and its
-  five ships, one hidden from a radar by a larger one (2 and 50 clutter
-  points per sweep).
+* ``harbour``, ``harbour-dense``: the two radars of Lima (2022) over a
+  harbour and its five ships, one hidden from a radar by a larger one (2 and
+  50 clutter points per sweep).
 
-Training presets use the calibrated clutter of §14 (100 points per scan,
-uniform in a 16.6 km square on the target's bounding box); validation
-presets keep 100 points per scan in a square fitted to their targets (see
-`_fitted_clutter`). Groups ``train``, ``trajectories`` and ``validation`` name
-the spec's sets, ``multisensor`` the scenes with several sensors.
+Training presets use our calibrated clutter (100 points per scan, uniform
+in a 16.6 km square on the target's bounding box, which gives the thesis's
+share of clutter among the training pairs); validation presets keep 100
+points per scan in a square fitted to their targets (see
+`_fitted_clutter`). Groups ``train``, ``trajectories`` and ``validation``
+name the thesis's sets, ``multisensor`` the scenes with several sensors.
 Trajectories are data: (initial speed m/s, [(duration s, a_t m/s^2,
-a_n m/s^2), ...]) with positive a_n a right turn (spec A6).
+a_n m/s^2), ...]) with positive a_n a right turn (our convention: the
+thesis does not say).
 """
 
 from __future__ import annotations
@@ -31,7 +34,7 @@ from nnda.errors import ConfigError
 
 Trajectory = tuple[float, list[tuple[float, float, float]]]
 
-# --- training trajectories TR1-TR12 (spec §3.3) -------------------------------------------------
+# --- training trajectories TR1-TR12 (the thesis's "Trajectory 1-12") ---------------------------
 TRAINING_TRAJECTORIES: dict[str, Trajectory] = {
     "TR1": (99.0, [(50, 0, 0), (26, 5, 0)]),
     "TR2": (99.0, [(80, 0, 0), (100, 0, 5), (80, 0, 0)]),
@@ -43,11 +46,11 @@ TRAINING_TRAJECTORIES: dict[str, Trajectory] = {
     "TR8": (141.4, [(40, 0, 0), (50, 0, -10), (50, 0, -5)]),
     "TR9": (108.17, [(200, 0, 3.48)]),
     "TR10": (127.28, [(120, 0, -6.6)]),
-    "TR11": (113.14, [(100, 0, 0), (50, 0, -5)]),  # spec A6: -5 m/s^2
+    "TR11": (113.14, [(100, 0, 0), (50, 0, -5)]),  # -5 m/s^2: the printed rate has no sign
     "TR12": (160.0, [(40, 0, 11.2), (40, 0, -11.2), (40, 0, 13)]),
 }
 
-# --- gap tables (spec §3.3.1; scan k is at t = 2k s) --------------------------------------------
+# --- gap tables (the thesis's Tables 5.1-5.11; scan k is at t = 2k s) ----------------------------
 _G5_1 = [7, 8, 15, 16, 17, 24, 25, 30, 36, 37, 38]
 _G5_3 = _G5_1 + [42, 43, 47]
 G8 = _G5_3 + [51, 52, 53]
@@ -83,7 +86,7 @@ TRAINING_SCENARIOS: list[tuple[str, float, float, float, str]] = [
     ("TR12", -16000, -8000, 45, "G8"),
 ]
 
-# --- validation trajectories T1-T7 (spec §3.4; T1's third section is A5's 50 s) ----------------
+# --- validation trajectories T1-T7 (T1's third section: 50 s, a length the thesis omits) ---------
 VALIDATION_TRAJECTORIES: dict[str, Trajectory] = {
     "T1": (70.7, [(50, 0, 0), (50, 0, 4.94), (50, 0, -4.94), (20, 3, 0)]),
     "T2": (141.4, [(150, 0, 0)]),
@@ -94,7 +97,7 @@ VALIDATION_TRAJECTORIES: dict[str, Trajectory] = {
     "T7": (85.0, [(20, 5, 0), (45, 0, -6.44), (50, 0, 0)]),
 }
 
-# placements (trajectory, x0, y0, heading) keyed by the name the target takes in a scenario (§3.5)
+# placements (trajectory, x0, y0, heading; ours) keyed by the name the target takes in a scenario
 PLACEMENTS: dict[str, tuple[str, float, float, float]] = {
     "T1": ("T1", -12000, -6000, 45),
     "T2.1": ("T2", -20000, -6000, 45),
@@ -124,8 +127,8 @@ VALIDATION_SCENARIOS: dict[str, tuple[str, dict[str, list[int]]]] = {
 }
 VALIDATION_DURATION_S = 200.0
 
-#: Clutter of the validation presets. The spec calibrates its 16.6 km square on
-#: single-target training scenes only (§14); the validation targets spread over
+#: Clutter of the validation presets. The 16.6 km square is calibrated on
+#: single-target training scenes only; the validation targets spread over
 #: up to 30 km, so these presets keep 100 uniform points per scan but size the
 #: square to the targets' noise-free bounding box plus this margin on each side,
 #: so every target flies through clutter.
@@ -188,7 +191,7 @@ def _trajectory(name: str) -> Scenario:
                     seed=200 + int(name[1:]))
 
 
-# --- two radars (no spec counterpart) ----------------------------------------------------------
+# --- two radars (no counterpart in the reference works) ---------------------------------------
 #: the radars 20 km apart on the east-west axis, each looking across the other's side of north, so
 #: both sectors wrap through north and overlap north of the baseline; the east radar sweeps 1 s after
 #: the west one, so the scans alternate every second
@@ -216,15 +219,15 @@ def _two_radars() -> Scenario:
                                 "north), four targets crossing both coverages, 100 clutter points per sweep")
 
 
-# --- the harbour of seed-002 (spec §3.3, Tables 4.1-4.3) --------------------------------------------
+# --- the harbour of Lima (2022), Ch. 4, Tables 4.1-4.3 ---------------------------------------------
 KNOT_M_S = 1852.0 / 3600.0
-#: the thesis's two radars staring into the harbour. Its sector angles fit no one convention (spec §3.3), so
-#: the boresights are the spec's reconstruction (146 and -40 degrees counter-clockwise from east, as compass
+#: the thesis's two radars staring into the harbour. Its sector angles fit no one convention, so the
+#: boresights are our reconstruction (146 and -40 degrees counter-clockwise from east, as compass
 #: bearings 304 and 130 degrees): each 90-degree sector holds all five ships at the start. Table 4.3: 12 km
 #: range, 25 m and 0.5 degree taken as standard deviations, PD 0.9. Named defaults where the thesis is
 #: silent: T = 1 s, radar 2 half a period after radar 1 (so every scan has its own time), a 50 m blind range,
-#: Poisson clutter of mean 2 per sweep uniform over the sector (the spec reads the density 2e-8 per m^2 as
-#: about 2.3 per scan).
+#: Poisson clutter of mean 2 per sweep uniform over the sector (the density 2e-8 read per m^2 over the
+#: sector is about 2.3 per scan).
 HARBOUR_RADARS = (
     Sensor(name="radar1", x_m=7_380.0, y_m=-236.0, boresight_deg=304.0, fov_deg=90.0, scan_period_s=1.0,
            sigma_range_m=25.0, sigma_azimuth_mrad=1e3 * math.radians(0.5), min_range_m=50.0, max_range_m=12_000.0,
@@ -259,8 +262,9 @@ def _harbour(name: str, clutter_count: int) -> Scenario:
                     for s in HARBOUR_RADARS)
     return Scenario(name=name, duration_s=HARBOUR_DURATION_S, targets=targets, sensors=sensors, seed=402,
                     process_noise=ProcessNoise(sigma_accel=0.05),
-                    description=f"seed-002's harbour: two radars with 90-degree sectors, five ships (two circling), "
-                                f"ship 2 hiding ship 3 from radar 2; T = 1 s, {clutter_count} clutter per sweep")
+                    description=f"the harbour of Lima (2022): two radars with 90-degree sectors, five ships (two "
+                                f"circling), ship 2 hiding ship 3 from radar 2; T = 1 s, {clutter_count} clutter "
+                                "per sweep")
 
 
 def _build() -> dict[str, Scenario]:
@@ -285,7 +289,7 @@ GROUP_DESCRIPTIONS = {
     "train": "the 17 training scenarios (one target each) that build the neural training set",
     "trajectories": "validation trajectories T1-T7, each alone",
     "validation": "multi-target validation scenarios S1-S6",
-    "multisensor": "scenes with several sensors: two-radars and seed-002's harbour (2 or 50 clutter per sweep)",
+    "multisensor": "scenes with several sensors: two-radars and the harbour of Lima 2022 (2 or 50 clutter per sweep)",
 }
 
 

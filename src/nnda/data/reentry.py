@@ -1,4 +1,4 @@
-"""Ballistic re-entry truth and radar data of seed 004 (spec seed-003-004.md, part B.1-B.2).
+"""Ballistic re-entry truth and radar data of Pavlov & Bruno (2003).
 
 A flat-Earth 2-D model: state s = [x, vx, y, vy] (m, m/s), x downrange and
 y altitude, the radar at the origin measuring range r (m) and elevation eps
@@ -16,7 +16,7 @@ drag acceleration f(s) = -0.5 (g / beta) rho(y) |v| v (m/s^2), the two-layer
 air density rho (kg/m^3) and w_k ~ N(0, Q), Q = sigma_w^2 blkdiag(Theta,
 Theta). Measurements (eq. 6): z_k = [r cos eps, r sin eps] = H s_k + v_k with
 the converted covariance R_k of eqs. 7-10 evaluated at the measured (r, eps).
-The two data modes of B.2: ``"polar"`` adds noise to r and eps and converts;
+Two data modes (the paper allows either): ``"polar"`` adds noise to r and eps and converts;
 ``"gaussian"`` draws v_k ~ N(0, R_k(true r, eps)). In both, the R_k a filter
 gets is the one of the measurement's own (r, eps).
 
@@ -46,11 +46,11 @@ H = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]])
 
 
 class ReentryConfig(BaseModel):
-    """The re-entry model and radar (defaults: the paper's Monte Carlo setting, spec B.1-B.4).
+    """The re-entry model and radar (defaults: the paper's Monte Carlo setting).
 
     ``dt`` scan period (s); ``sigma_w`` process-noise intensity (m s^-3/2,
     "q = 1"); ``beta`` ballistic coefficient (kg m^-1 s^-2); ``drag`` False
-    switches drag off (the linear-Gaussian check of B.6); ``speed`` (m/s),
+    switches drag off (a linear-Gaussian model, checkable against a Kalman filter); ``speed`` (m/s),
     ``heading_deg`` (degrees, counter-clockwise from +x: 190 is 10 deg below
     the horizontal towards the radar), ``x0``, ``y0`` (m) the initial mean;
     ``sd0_position`` (m) and ``sd0_velocity`` (m/s) its standard deviations;
@@ -77,7 +77,7 @@ class ReentryConfig(BaseModel):
 
 
 def air_density(y: np.ndarray | float) -> np.ndarray:
-    """Two-layer air density rho(y) (kg/m^3) at altitudes y (m), any shape (B.1)."""
+    """Two-layer air density rho(y) (kg/m^3) at altitudes y (m), any shape."""
     y = np.asarray(y)
     low = y < LAYER_ALTITUDE
     c1 = np.where(low, LOW_LAYER[0], HIGH_LAYER[0])
@@ -212,7 +212,7 @@ class ReentryData:
 
 
 def simulate(cfg: ReentryConfig, runs: int, seed: int | np.random.Generator) -> ReentryData:
-    """``runs`` trajectories and their measurements (spec B.1-B.2), cut at the earliest ground impact.
+    """``runs`` trajectories and their measurements, cut at the earliest ground impact.
 
     Every draw comes from one Generator (``seed`` or a Generator): the same
     seed gives the same arrays. Raises ConfigError for runs < 1 or a run

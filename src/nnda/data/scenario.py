@@ -1,13 +1,14 @@
 """Scenario configuration: targets, sensors (each with its clutter), duration and seed.
 
 A scenario is validated data (pydantic), loadable from TOML or JSON. It speaks
-as a pilot would (conventions.md): headings in degrees clockwise from north,
+as a pilot would: headings in degrees clockwise from north,
 turn rates in degrees per second with positive = right (clockwise) turn,
 accelerations in m/s^2. Everything is converted to SI radians once, in
 `nnda.data.trajectory`.
 
-Numbers without a citation come from shared/spec/seed-001.md §2-§3; the spec's
-ambiguity labels (A2, A3, ...) mark the defaults the spec chose.
+Numbers without a citation come from the radar and scenario generator of
+Vargas Avila (2015), Ch. 5; where the thesis leaves a choice open, the
+docstrings say what we chose.
 """
 
 from __future__ import annotations
@@ -35,12 +36,13 @@ FRAME_HALF_WIDTH_M = 1e7
 
 
 class Segment(BaseModel):
-    """One section of a trajectory (spec §3.1).
+    """One section of a trajectory (the curvilinear model of Vargas Avila (2015), eqs. A.1-A.7).
 
     Motion inside a section is set by a tangential acceleration (m/s^2) and
     either a normal acceleration (m/s^2; the turn rate then follows as a_n / V
     and changes with speed) or a constant turn rate (deg/s). Positive normal
-    acceleration or turn rate is a right (clockwise) turn (spec A6).
+    acceleration or turn rate is a right (clockwise) turn (our convention; the
+    thesis does not fix one).
     """
 
     model_config = _STRICT
@@ -58,7 +60,7 @@ class Segment(BaseModel):
 
     @property
     def kind(self) -> Literal["cv", "accel", "turn", "mixed"]:
-        """Section type in the spec's words: straight CV, straight accelerating, turn, mixed."""
+        """Section type in the thesis's words: straight CV, straight accelerating, turn, mixed."""
         turning = bool(self.normal_accel) or bool(self.turn_rate_deg_s)
         if turning:
             return "mixed" if self.tangential_accel else "turn"
@@ -104,7 +106,8 @@ class Target(BaseModel):
 
 
 class Clutter(BaseModel):
-    """False contacts per sweep of one sensor (spec §2 and ambiguity A3, calibrated in §14).
+    """False contacts per sweep of one sensor (the thesis's 100 per scan; where they fall is ours, calibrated
+    so the training set has the thesis's share of clutter pairs).
 
     Laws: ``square`` (default) uniform in a square of side ``side_m`` centred on
     ``centre_m`` (scenario frame, m; default: centre of the targets' noise-free
@@ -112,7 +115,7 @@ class Clutter(BaseModel):
     axis centred on ``centre_m`` (default: the targets' mean position at those
     sweeps); ``annulus`` uniform in
     area over the sensor's coverage (its ring, or its sector of the ring);
-    ``none``. Points outside the sensor's coverage are redrawn (the §14 rule),
+    ``none``. Points outside the sensor's coverage are redrawn (as calibrated),
     so every sweep holds exactly ``count`` points, or a Poisson number of mean
     ``count`` when ``count_law = "poisson"``.
     """
@@ -130,7 +133,7 @@ class Clutter(BaseModel):
 class Sensor(BaseModel):
     """One sensor of a scenario: where it is, what it covers, when it sweeps, how well it measures.
 
-    The default is the spec's static radar at the origin (§2). ``kind``:
+    The default is the thesis's static radar at the origin. ``kind``:
     ``"polar"`` measures (range m, azimuth rad clockwise from north) from its
     position (x_m, y_m), with noise ``sigma_range_m`` and
     ``sigma_azimuth_mrad``; ``"position"`` measures a Cartesian fix (x, y) in
@@ -158,7 +161,7 @@ class Sensor(BaseModel):
     sigma_position_m: NonNegativeFloat = 10.0
     min_range_m: NonNegativeFloat = 5_000.0
     max_range_m: PositiveFloat = 30_000.0
-    pd: Probability = Field(default=1.0, description="detection probability outside scripted gaps (A4)")
+    pd: Probability = Field(default=1.0, description="detection probability outside scripted gaps")
     clutter: Clutter = Clutter()
 
     @field_validator("x_m", "y_m")
@@ -213,7 +216,7 @@ class Sensor(BaseModel):
 
 
 class ProcessNoise(BaseModel):
-    """Target process noise (spec §3.2 and ambiguity A2).
+    """Target process noise (the thesis's 2 m/s^2; how it is applied is ours).
 
     ``jitter`` (default): each scan adds an independent position perturbation
     (T^2/2) w with w ~ N(0, sigma_accel^2) per axis, not carried into velocity;
@@ -300,7 +303,7 @@ class Scenario(BaseModel):
 
     @property
     def n_scans(self) -> int:
-        """Scans k = 1..n_scans: every sweep of every sensor (one sensor: t_k = k T, spec §1)."""
+        """Scans k = 1..n_scans: every sweep of every sensor (one sensor: t_k = k T)."""
         return sum(s.n_sweeps(self.duration_s) for s in self.sensors)
 
     def scan_schedule(self) -> tuple[np.ndarray, np.ndarray]:

@@ -1,6 +1,6 @@
-"""Sensors: polar geometry about a sensor's position, coverage and measurement noise (spec §2).
+"""Sensors: polar geometry about a sensor's position, coverage and measurement noise.
 
-Frame (conventions.md): x east, y north, metres; the spec's radar sits at
+Frame: x east, y north, metres; the radar of Vargas Avila (2015) sits at
 the origin, other sensors at their configured positions. A polar
 measurement is (range r in m, azimuth theta in rad clockwise from north)
 from the sensor: x - x_s = r sin(theta), y - y_s = r cos(theta),
@@ -81,7 +81,7 @@ def measure(
 
     Polar sensor: (range m, azimuth rad in [0, 2 pi)) from the sensor, with
     independent zero-mean Gaussian noise of std ``sigma_range_m`` and
-    ``sigma_azimuth_mrad`` (spec eqs. 5.1-5.3). Position sensor: (x m, y m)
+    ``sigma_azimuth_mrad`` (Vargas Avila (2015), eqs. 5.1-5.3). Position sensor: (x m, y m)
     with std ``sigma_position_m`` per axis. Draws one (2, size) standard
     normal block from ``rng`` in both cases.
     """

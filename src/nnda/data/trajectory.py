@@ -1,4 +1,4 @@
-"""Noise-free target trajectories from a list of segments (spec §3.1, Appendix A).
+"""Noise-free target trajectories from a list of segments (Vargas Avila (2015), Appendix A).
 
 State of the curvilinear model: position (x east, y north) in m, speed V in
 m/s and heading psi in rad clockwise from north, so that
@@ -7,7 +7,7 @@ m/s and heading psi in rad clockwise from north, so that
 
 with omega = a_n / V or a fixed turn rate; omega > 0 is a right (clockwise)
 turn. Straight, accelerating and constant-speed turning sections are
-integrated in closed form; a section with both a_t and a turn (the spec's
+integrated in closed form; a section with both a_t and a turn (the thesis's
 "mixed" section) goes through scipy's DOP853 at tight tolerances.
 """
 

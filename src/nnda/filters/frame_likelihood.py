@@ -1,4 +1,4 @@
-"""The log-likelihood ratio of an image frame given a target (seed 003, spec A.2 eqs. 9-11), read from the
+"""The log-likelihood ratio of an image frame given a target (Bruno, Araújo & Pavlov, eqs. 9-11), read from the
 differential-filtered frame at the template's offsets, for every particle of R runs in one compiled call.
 
     lik = FrameLikelihood(templates, (L, M))           # templates (A, 2hr+1, 2hc+1), aspects 1..A
@@ -23,7 +23,7 @@ do not depend on beta). An absent particle (z = 0) or one off the extended
 grid has llr 0. beta_h, beta_v and sigma_c are given per run (R,), known
 or estimated per frame.
 
-The conventional chain's detector (spec C: thresholding the d-filtered
+The conventional chain's detector (thresholding the d-filtered
 frame) is the matched filter of every aspect at every extended-grid
 position, t = lambda / (sigma_c sqrt(rho)), N(0, 1) without a target
 (Var lambda = sigma_c^2 rho); `detections` keeps the positions whose best

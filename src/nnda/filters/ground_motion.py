@@ -1,10 +1,11 @@
-"""Motion models of seed-000's pedestrians (spec §2.8-2.9): the thesis's CV, modified NCSHT, the HM-map model.
+"""Pedestrian motion models of Frencl (2014), Ch. 5 and Sec. 6.2: a diagonal-noise CV, the modified NCSHT, the
+HM-map model.
 
 Batched like `nnda.filters.motion`: states (..., n), intervals ``dt`` (s)
 broadcastable to (...); ``transition(x, dt) -> (f(x) (..., n), Jacobian
 (..., n, n))`` and ``noise(dt) -> Q (..., n, n)``::
 
-    cv = ThesisCV()                      # [x, vx, y, vy], Q = diag(1/9, 0.18^2, 1/9, 0.18^2) at T = 1 s
+    cv = DiagonalCV()                    # [x, vx, y, vy], Q = diag(1/9, 0.18^2, 1/9, 0.18^2) at T = 1 s
     nc = ModifiedNCSHT()                 # [x, y, v, alpha]: alpha rad counter-clockwise from east
     hm = GroundVehicle(corridor_hm_map(), v0=1.5, rho=0.2)
     fx, F = hm.transition(x, 1.0)        # x (..., 4) -> (..., 4), (..., 4, 4)
@@ -21,10 +22,10 @@ The composite (eqs. 5.16-5.23) relaxes speed toward v0 with rho = T/tau_v
 alpha0(x, y) with xi(x, y) = T / tau_alpha(x, y) in [0, 1], both read at the
 previous position: alpha = alpha' + xi wrap(alpha0 - alpha') (the shortest
 arc: the thesis's (1 - xi) alpha' + xi alpha0 whenever |alpha0 - alpha'| <
-pi). Where xi = 0 it is the modified NCSHT (spec §2.8: no preferred
-direction, no map): the speed is relaxed only where xi > 0 (our reading of
-that switch). ``jacobian="printed"`` is the thesis's J_F, whose heading row
-is [-alpha' dxi/dx, -alpha' dxi/dy, 0, 1 - xi]; ``"complete"`` (default)
+pi). Where xi = 0 it is the modified NCSHT (no preferred direction, no
+map): the speed is relaxed only where xi > 0 (our reading of that switch).
+``jacobian="printed"`` is the thesis's J_F, whose heading row is
+[-alpha' dxi/dx, -alpha' dxi/dy, 0, 1 - xi]; ``"complete"`` (default)
 differentiates the transition as implemented: wrap(alpha0 - alpha') dxi/dx
 in place of -alpha' dxi/dx (alpha0 is piecewise constant, nearest vertex).
 """
@@ -32,6 +33,7 @@ in place of -alpha' dxi/dx (alpha0 is piecewise constant, nearest vertex).
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import ClassVar, Literal
@@ -43,7 +45,7 @@ from nnda.filters.motion import ConstantVelocity, process_noise
 from nnda.validation import check_array, check_finite, check_nonnegative, check_positive
 
 #: the thesis's position noise std per step (m), heading noise std (rad), CV velocity noise std (m/s) and
-#: the NCSHT speed noise std (m/s) (spec §4.1)
+#: the NCSHT speed noise std (m/s) (its Sec. 6.2, Q_k)
 SIGMA_POSITION_M, SIGMA_HEADING_RAD, SIGMA_V_CV, SIGMA_V_NCSHT = 1.0 / 3.0, 0.18, 0.18, math.sqrt(1.0 / 12.0)
 #: headings of the ring of newborn components a heading state puts on one fix (`ModifiedNCSHT.newborn`; ours:
 #: with headings merged on the circle, 8, 12, 16 and 24 left 1-4% of walk-test3's true points two estimates;
@@ -62,9 +64,10 @@ def _constant_basis(q_diag: tuple[float, ...]) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class ThesisCV(ConstantVelocity):
-    """CV on nnda's state [x, vx, y, vy] with the thesis's diagonal Q (eq. 6.3 and spec §4.1), T^2-scaled;
-    the transition is `nnda.filters.motion.ConstantVelocity`'s (its ``sigma_q`` is unused here)."""
+class DiagonalCV(ConstantVelocity):
+    """CV on nnda's state [x, vx, y, vy] whose process noise is diagonal in position and velocity (Frencl
+    (2014)'s CV, eq. 6.3, with its Q_k of Sec. 6.2), T^2-scaled; the transition is
+    `nnda.filters.motion.ConstantVelocity`'s (its ``sigma_q`` is unused here)."""
 
     sigma_q: float = 0.0
     sigma_position_m: float = SIGMA_POSITION_M
@@ -72,8 +75,8 @@ class ThesisCV(ConstantVelocity):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        check_nonnegative("ThesisCV.sigma_position_m", self.sigma_position_m, error=FilterError)
-        check_nonnegative("ThesisCV.sigma_velocity_m_s", self.sigma_velocity_m_s, error=FilterError)
+        check_nonnegative("DiagonalCV.sigma_position_m", self.sigma_position_m, error=FilterError)
+        check_nonnegative("DiagonalCV.sigma_velocity_m_s", self.sigma_velocity_m_s, error=FilterError)
 
     @cached_property
     def noise_basis(self) -> np.ndarray:
@@ -154,7 +157,7 @@ class ModifiedNCSHT:
 
 @dataclass(frozen=True)
 class HMMap:
-    """A "hospitality for manoeuvres" map (spec §2.9): xi and alpha0 at the vertices of a square grid.
+    """A "hospitality for manoeuvres" map (the thesis's Sec. 5.1.4): xi and alpha0 at the vertices of a square grid.
 
     ``xi`` and ``alpha0`` (n_rows, n_cols): the value at the vertex (x, y) =
     (col cell_m, row cell_m), m, from the origin; row 0 is y = 0. xi is clipped
@@ -299,3 +302,11 @@ def plus_hm_map(size_m: float = 48.0, low_m: float = 18.0, high_m: float = 30.0)
     alpha0 = np.zeros((n, n))
     alpha0[north], alpha0[west] = np.pi / 2, np.pi
     return HMMap(xi, alpha0)
+
+
+def __getattr__(name: str) -> object:
+    if name == "ThesisCV":
+        warnings.warn("nnda.filters.ground_motion.ThesisCV is deprecated: use DiagonalCV", FutureWarning,
+                      stacklevel=2)
+        return DiagonalCV
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

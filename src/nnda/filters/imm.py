@@ -1,11 +1,11 @@
-"""Interacting multiple model (IMM) filter for K tracks at once, spec §5.3 and §7.
+"""Interacting multiple model (IMM) filter for K tracks at once: Vargas Avila (2015), eqs. 4.43-4.55 and Sec. 5.6.
 
 `IMM` holds the configuration (motion models, measurement model, transition
 probability matrix, initial mode probabilities) and the steps; the estimates
 of K tracks live in `IMMState` records of batched arrays, so one call runs
 every track (a single track is K = 1):
 
-    imm = IMM()                                   # the spec's CV + CT IMM
+    imm = IMM()                                   # the thesis's CV + CT IMM
     state = imm.initialise(z1, z2, t1, t2)        # two-point start, (K, 2) polar fixes
     pred = imm.predict(state, dt)                 # mixing + model predictions, dt (K,) s
     gate = pred.gating.measurement                # where to look: z (K, 2), S (K, 2, 2)
@@ -18,9 +18,9 @@ Models of different sizes share one padded layout: model j's state fills the
 first ``models[j].dim`` entries of n = max(dim), the rest (and the matching
 rows and columns of its covariance) stay exactly zero. For mixing, a smaller
 model is extended by those zero entries with variance ``augment_variance``
-(spec default A17: CV gets omega = 0 with variance 0; P_omega = 0.0076 is the
-alternative the spec names); mixing into a smaller model drops the extra rows
-and columns (§7.1.7). The combined output covers the dimensions all models
+(default: CV gets omega = 0 with variance 0; P_omega = 0.0076 is the
+alternative; the thesis does not say how its 4-D and 5-D states mix); mixing
+into a smaller model drops the extra rows and columns. The combined output covers the dimensions all models
 share ([x, vx, y, vy] for CV + CT).
 
 The cycle's steps (mixing and prediction, measurement prediction, update,
@@ -30,9 +30,9 @@ know: `ConstantVelocity` (and its subclasses) and `CoordinatedTurn`, with a
 `PolarMeasurement` or a `PositionMeasurement`; anything else is refused at
 construction.
 
-Missed scans (§7.1.8): `update` with ``mask`` False returns the prediction
-for that track, so the mode probabilities are the TPM-propagated ones. A
-tracker that follows the spec literally keeps the last posterior of a
+Missed scans: `update` with ``mask`` False returns the prediction for that
+track, so the mode probabilities are the TPM-propagated ones. A tracker
+that skips the update on a miss keeps the last posterior of a
 missed track and, at its next contact, predicts once over the whole elapsed
 time (dt = 4, 6 or 8 s); both uses are supported because ``dt`` is per track.
 """
@@ -86,7 +86,7 @@ class IMMState(Batch):
 class Gating(Batch):
     """The combined (gating) prediction of K tracks: ``x`` (K, d), ``P`` (K, d, d), the combined estimate
     (eqs. 4.54-4.55) of the predicted model states on the shared dimensions, and ``measurement``, its
-    measurement prediction (leading shape (K,); spec §7.2: h and H at x, S = H P H^T + R)."""
+    measurement prediction (leading shape (K,): h and H at x, S = H P H^T + R)."""
 
     x: np.ndarray
     P: np.ndarray
@@ -111,14 +111,14 @@ class IMMPrediction(Batch):
 
 @dataclass(frozen=True)
 class IMM:
-    """An IMM filter configuration and its batched steps (spec §7, defaults from the spec).
+    """An IMM filter configuration and its batched steps (defaults: Vargas Avila (2015), Sec. 5.6).
 
     ``models`` are the motion models (CV then CT by default), ``measurement``
     the measurement model (polar, sigma 30 m and 3 mrad), ``tpm`` the
     transition probabilities p_ij = P(model j now | model i before), rows
     summing to one (eq. 5.61), ``mu0`` the initial mode probabilities
     (eqs. 5.62-5.63) and ``augment_variance`` the variance given to the
-    padding entries of smaller models when mixing (spec A17; default 0).
+    padding entries of smaller models when mixing (default 0).
     """
 
     models: tuple[MotionModel, ...] = (ConstantVelocity(), CoordinatedTurn())
@@ -226,7 +226,7 @@ class IMM:
     # ------------------------------------------------------------- creation
     @classmethod
     def for_sensor(cls, sensor: Sensor) -> IMM:
-        """The IMM every tracker runs for a sensor: the spec's CV + CT models and TPM, the sensor's
+        """The IMM every tracker runs for a sensor: the thesis's CV + CT models and TPM, the sensor's
         measurement model (`measurement_model`: its kind, noise and position).
 
         The training pairs of the IMM-extended features (`nnda.models.pairs`) run this same filter.
@@ -407,7 +407,7 @@ class IMM:
     def estimate(self, state: IMMState) -> tuple[np.ndarray, np.ndarray]:
         """Combined estimate (eqs. 4.54-4.55) on the shared dimensions: x (K, d), P (K, d, d).
 
-        For CV + CT, d = 4 ([x, vx, y, vy], spec §7.1.7). Works on a posterior
+        For CV + CT, d = 4 ([x, vx, y, vy]). Works on a posterior
         or on ``pred.state`` (the combined prediction).
         """
         return imm_kernels.estimate(state.x, state.P, state.mu, self.output_dim)
@@ -415,7 +415,7 @@ class IMM:
     def combined_measurement(self, pred: IMMPrediction) -> MeasurementPrediction:
         """Predicted measurement and innovation covariance of the combined predicted state (K leading).
 
-        This is the IMM's gating prediction (spec §7.2): h and H evaluated at
+        This is the IMM's gating prediction: h and H evaluated at
         the combined prediction x (eq. 4.54 on the shared dimensions) with
         S = H P H^T + R; `predict` computed it (``pred.gating.measurement``).
         """

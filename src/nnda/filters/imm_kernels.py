@@ -13,8 +13,8 @@
 
 Shapes: x (K, r, n), P (K, r, n, n) in the IMM's padded layout (model j's
 state in its first ``dims[j]`` entries, zeros beyond), mu (K, r), dt (K,) s;
-``kinds`` (r,) names each model's transition (`CV` or `CT`, spec §7.1.1-
-§7.1.2, CT's turn rate limited to ``omega_max[j]`` rad/s), ``basis`` (3, r,
+``kinds`` (r,) names each model's transition (`CV` or `CT`, Vargas Avila (2015),
+eqs. 5.7-5.18, CT's turn rate limited to ``omega_max[j]`` rad/s), ``basis`` (3, r,
 n, n) the process-noise matrices of Q(T) = T^2 B0 + T^3 B1 + T^4 B2 and
 ``augment`` (r, n, n) the variance added to a model's padding before mixing.
 The measurement is polar (range m, azimuth rad clockwise from north, from

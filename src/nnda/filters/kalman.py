@@ -1,4 +1,4 @@
-"""Batched (extended) Kalman filter steps, spec §5.1-§5.2.
+"""Batched (extended) Kalman filter steps (Vargas Avila (2015), eqs. 4.1-4.42).
 
 Every function works on stacks of Gaussian states: means x (..., n) and
 covariances P (..., n, n), with any leading batch shape (K tracks, or K
@@ -26,7 +26,7 @@ from nnda.filters.motion import MotionModel
 
 LOG_2PI = float(np.log(2.0 * np.pi))
 
-#: chi-square gate on a 2-D innovation with P_G = 0.99 (spec §4.3 and §7.3 defaults)
+#: chi-square gate on a 2-D innovation with P_G = 0.99 (ours: the thesis gives no gate size)
 GATE_99 = 9.21
 
 #: sign pattern of the 2 x 2 adjugate

@@ -1,4 +1,4 @@
-"""Measurement models: a radar's polar measurement (spec §7.1.3) and a linear position fix.
+"""Measurement models: a radar's polar measurement (Vargas Avila (2015), eqs. 5.19-5.25) and a linear position fix.
 
 Both work on batches: states (..., n) whose components 0 and 2 are the
 Cartesian position (x east, y north, m, scenario frame), measurements
@@ -73,12 +73,12 @@ class MeasurementModel(Protocol):
 def converted_covariance(
     r: np.ndarray, azimuth: np.ndarray, sigma_range: float, sigma_azimuth: float
 ) -> np.ndarray:
-    """Covariance (..., 2, 2) of the Cartesian position of polar measurements (spec §7.1.6).
+    """Covariance (..., 2, 2) of the Cartesian position of polar measurements.
 
     Linearised polar-to-Cartesian errors with the math angle phi = pi/2 - azimuth:
     sigma_x^2 (eq. 5.44), sigma_y^2 (its mirror) and
     sigma_xy^2 = (sigma_d^2 - sigma_theta^2 d^2) cos phi sin phi (eq. 5.46 with
-    the spec's correction d^2, ambiguity A16). ``r`` m, ``azimuth`` rad.
+    d^2 where the thesis prints d, as the units require). ``r`` m, ``azimuth`` rad.
     """
     r = np.asarray(r, dtype=float)
     phi = 0.5 * np.pi - np.asarray(azimuth, dtype=float)
@@ -130,10 +130,10 @@ _AZIMUTH_SIGN = np.array([1.0, -1.0])
 
 @dataclass(frozen=True)
 class PolarMeasurement:
-    """Range and azimuth from a radar at ``origin`` (m, scenario frame; default the origin, spec §7.1.3).
+    """Range and azimuth from a radar at ``origin`` (m, scenario frame; default the origin).
 
     ``sigma_range`` m and ``sigma_azimuth`` rad give R = diag(sigma_range^2,
-    sigma_azimuth^2) (eq. 5.25); defaults are the spec's 30 m and 3 mrad.
+    sigma_azimuth^2) (eq. 5.25); defaults are the thesis's 30 m and 3 mrad.
     The Jacobian is H1/H2 of eqs. 5.23-5.24 at the position relative to the
     radar, padded with zero columns to the state size.
     """

@@ -1,17 +1,17 @@
-"""Motion models of the IMM: constant velocity (CV) and coordinated turn (CT), spec §7.1.1-§7.1.2.
+"""Motion models of the IMM: constant velocity (CV) and coordinated turn (CT), Vargas Avila (2015), eqs. 5.7-5.18.
 
 Every method works on a batch: states of shape (..., n) and sampling
 intervals ``dt`` (s) broadcastable to the batch shape (...). The interval is
 per track and variable (2, 4, 6 or 8 s: the time since the track's last
-update, spec §7).
+update).
 
-State vectors (conventions.md): CV [x, vx, y, vy]; CT [x, vx, y, vy, omega],
+State vectors: CV [x, vx, y, vy]; CT [x, vx, y, vy, omega],
 metres, m/s and rad/s, omega positive counter-clockwise in the x-east/y-north
-plane (the sign of the spec's CT transition; a pilot's right turn is
+plane (the sign of the thesis's CT transition; a pilot's right turn is
 omega < 0). Each model's first four components are the CV state, so a
 two-point CV estimate extends to any model (`from_cv`).
 
-Process noise is ``Q = Gamma diag(sigma^2) Gamma^T`` with the spec's noise
+Process noise is ``Q = Gamma diag(sigma^2) Gamma^T`` with the thesis's noise
 gains; both models write it as ``Q(T) = T^2 Q2 + T^3 Q3 + T^4 Q4`` with
 constant matrices (``noise_basis``), which is how it is evaluated for a batch
 of intervals (and how the IMM evaluates all its models' noise in one product).
@@ -131,11 +131,11 @@ def _wna_basis(dim: int, sigma_q: float, velocity_power: float) -> np.ndarray:
 
 @dataclass(frozen=True)
 class ConstantVelocity:
-    """Nearly constant velocity with white-noise acceleration, spec §7.1.1.
+    """Nearly constant velocity with white-noise acceleration.
 
     Transition F (eq. 5.8), noise gain Gamma (eq. 5.9) and
     Q = sigma_q^2 Gamma Gamma^T (eq. 5.10). ``sigma_q`` (m/s^2) defaults to the
-    spec's 0.7 a_max = 3.5.
+    thesis's 0.7 a_max = 3.5.
     """
 
     sigma_q: float = 3.5
@@ -180,17 +180,17 @@ class ConstantVelocity:
 
 @dataclass(frozen=True)
 class CoordinatedTurn:
-    """Coordinated turn with an estimated turn rate, spec §7.1.2.
+    """Coordinated turn with an estimated turn rate.
 
-    The transition is the spec's second-order Taylor form f(X) (eq. 5.17),
+    The transition is the thesis's second-order Taylor form f(X) (eq. 5.17),
     implemented as written (not the exact sin/cos turn), with the EKF Jacobian
     of eq. 5.18. The turn rate used to propagate is limited to
-    [-omega_max, omega_max] (spec: omega_max = 5 deg/s); the propagated state
+    [-omega_max, omega_max] (the thesis's omega_max = 5 deg/s); the propagated state
     carries the limited value.
 
     Process noise Q = Gamma diag(sigma_q^2, sigma_q^2, sigma_omega^2) Gamma^T
-    with Gamma of eq. 5.14 (T^2 on the velocity and turn-rate diagonals, the
-    spec's default A15). ``noise_variant="printed"`` uses the matrix as
+    with Gamma of eq. 5.14 (T^2 on the velocity and turn-rate diagonals, as
+    the thesis's derivation gives). ``noise_variant="printed"`` uses the matrix as
     printed (eq. 5.15, T^2/2 on those diagonals); note that the printed
     per-axis block [[T^4/4, T^3/2], [T^3/2, T^2/2]] sigma_q^2 has a negative
     determinant, so it is not a covariance on its own.

@@ -1,4 +1,5 @@
-"""Filters of the ballistic re-entry study (seed 004): its particle-filter model and the Gaussian baselines.
+"""Filters of the ballistic re-entry study (Pavlov & Bruno 2003): its particle-filter model and the Gaussian
+baselines.
 
 All work on the R runs of a `nnda.data.reentry.ReentryData` at once:
 
@@ -13,7 +14,7 @@ Q (EKF: linearised, eq. 4.39 with the Jacobian of g; UKF: sigma points
 through g, `nnda.filters.unscented`; converted KF: Phi x + G [0, -g] with
 its own process noise, the standard converted-measurement Kalman filter
 that knows nothing of drag) and updates linearly with the converted
-measurement z_k = H s_k + v_k and its R_k (spec B.2), so the comparison
+measurement z_k = H s_k + v_k and its R_k (the paper's eqs. 6-10), so the comparison
 with the particle filters is on exactly the data they see. With drag off
 and ``sigma_w`` equal to the model's, `converted_kf` is the exact Kalman
 filter of the linear-Gaussian model (the particle filters' oracle).
@@ -85,7 +86,8 @@ def _filter(data: ReentryData, predict: Predict, update: bool = True) -> Gaussia
 
 def ekf(data: ReentryData, update: bool = True) -> GaussianEstimates:
     """Extended Kalman filter: x' = g(x), P' = J P J^T + Q with J = dg/ds at x. Without ``update``, the
-    prior alone (m0, Sigma0 predicted to every step; spec B.5's "prior only" reference)."""
+    prior alone (m0, Sigma0 predicted to every step: the "prior only" reference, what a filter gains over
+    ignoring the measurements)."""
     cfg = data.config
     Q = process_noise(cfg)
 

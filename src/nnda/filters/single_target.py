@@ -63,13 +63,13 @@ class SingleTargetFilter(Protocol):
 
 
 class IMMFilterConfig(FilterConfig):
-    """The trackers' IMM (CV + CT, spec §7) or its CV model alone, on one target's contacts."""
+    """The trackers' IMM (CV + CT) or its CV model alone, on one target's contacts."""
 
     motion: Literal["cv+ct", "cv"] = "cv+ct"
 
 
 class IMMFilter:
-    """The spec's IMM (or its CV EKF alone) on one target; see the module docstring."""
+    """The trackers' IMM (or its CV EKF alone) on one target; see the module docstring."""
 
     name: ClassVar[str] = "imm"
     config_type: ClassVar[type[FilterConfig]] = IMMFilterConfig

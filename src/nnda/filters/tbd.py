@@ -1,4 +1,4 @@
-"""Track-before-detect in image frames (seed 003, spec A.1-A.3): the mixed-state model on the SMC engine and
+"""Track-before-detect in image frames (Bruno, Araújo & Pavlov): the mixed-state model on the SMC engine and
 the filters over it, batched over R runs x N particles.
 
     model = tbd_model(fs, TBDConfig())                 # fs: a nnda.data.frames.FrameSet (R runs of K frames)
@@ -29,8 +29,8 @@ unit; z the aspect, 0 = absent, stored as a float). `TBDModel` implements
   its aspect among 1..A; symmetric, so the engine accepts with min(1,
   pi' / pi), pi = p(y_n | s_n, z_n) p(s_n, z_n | parent), the parent kept;
 - the summary (`estimate`): [P(z_n = 0), E[x, vx, y, vy | z_n != 0]] from
-  the weights (spec A.3(d)); the target is declared present when P(z_n =
-  0) < 0.5 (the minimum-error test, eq. 17).
+  the weights; the target is declared present when P(z_n = 0) < 0.5 (the
+  minimum-error test, the paper's eq. 17).
 
 The filters: ``apf`` the auxiliary filter of the paper (first-stage
 weights from a sampled look-ahead, W carried in the second stage),

@@ -1,4 +1,5 @@
-"""Two-point initialisation of a CV state from a track's first two position fixes, spec §7.1.5-§7.1.6."""
+"""Two-point initialisation of a CV state from a track's first two position fixes (Vargas Avila 2015,
+eqs. 5.26-5.56)."""
 
 from __future__ import annotations
 
@@ -13,10 +14,10 @@ def two_point(
     ``p1``, ``p2`` (K, 2) are Cartesian positions (m) at times t1 and t2 =
     t1 + dt (s, scalar or (K,)); ``cov2`` (K, 2, 2) is the covariance of the
     second fix. The state is the second position and the difference velocity
-    (eqs. 5.28-5.30); the covariance is the spec's analytic P(0|0) (eq. 5.54):
+    (eqs. 5.28-5.30); the covariance is the thesis's analytic P(0|0) (eq. 5.54):
     with Sigma = cov2, the position block is Sigma, position-velocity
     Sigma / T and velocity 2 Sigma / T^2 (both fixes taken as having the
-    second one's covariance, as the spec does).
+    second one's covariance, as the thesis does).
     """
     T = np.asarray(dt, dtype=float)
     if T.ndim:

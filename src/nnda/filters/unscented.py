@@ -26,8 +26,8 @@ The defaults (alpha 1, beta 2, kappa 0: lambda = 0, central mean weight 0)
 keep every covariance weight non-negative, so S stays positive definite
 for any state; a negative central weight (Julier's kappa = 3 - n, or a
 small alpha) can make a valid polar covariance indefinite far from the
-radar, which `predict_measurement` reports as a FilterError. Seed 000's
-W_0 = 2/3 is kappa = 2 n (alpha 1).
+radar, which `predict_measurement` reports as a FilterError. Frencl
+(2014)'s W_0 = 2/3 is kappa = 2 n (alpha 1).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The neural association model: pair features, training pairs, the MLP, its trainers and metrics.
 
-Modules, in data-flow order: ``features`` (the seed's pair features and
+Modules, in data-flow order: ``features`` (Vargas Avila (2015)'s pair features and
 gating, shared with the tracker), ``innovation`` (the IMM-extended features,
 shared with the tracker), ``feature_sets`` (both sets by name),
 ``pairs`` (labelled pairs from datasets),

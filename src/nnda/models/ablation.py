@@ -1,7 +1,7 @@
-"""Feature ablation: which pair features buy how much classification (issue 9).
+"""Feature ablation: which pair features buy how much classification.
 
-The pairs are extracted once per data model of spec §14.1 (track history =
-measured contacts, the spec's; or the targets' true positions) with the
+The pairs are extracted once per data model (track history =
+measured contacts, as in Vargas Avila (2015); or the targets' true positions) with the
 extended set (`nnda.models.innovation.IMM_INNOVATION`); every variant then
 trains on a subset of its columns, so all variants see the same pairs and,
 for a given seed, the same split and the same random stream
@@ -9,11 +9,11 @@ for a given seed, the same split and the same random stream
 MSE, so that a start stalled in a saturated minimum does not stand for the
 feature set). Variants:
 
-* ``seed``: the seed's three features;
+* ``seed``: the thesis's three kinematic features (`nnda.models.features.KINEMATIC`);
 * ``extended``: all nine;
-* ``seed + <feature>``: the seed's three and one added feature, for each of
+* ``seed + <feature>``: those three and one added feature, for each of
   the six IMM features;
-* ``IMM only``: the six IMM features without the seed's three.
+* ``IMM only``: the six IMM features without the kinematic three.
 
 Per data model, the pairs are also described (`describe_pairs`): how many
 there are and how many negatives fall inside the track's 99 % gate

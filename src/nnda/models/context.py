@@ -1,4 +1,4 @@
-"""Context features: a candidate judged against its rivals, not alone (issue 20, item 2).
+"""Context features: a candidate judged against its rivals, not alone.
 
 A pair seen alone cannot tell clutter inside the gate from the target. These
 five columns, appended to the IMM-extended nine

@@ -1,10 +1,10 @@
-"""Training protocols: one model, the hidden-size sweep and seeded repeats (spec §8.4-§8.5).
+"""Training protocols: one model, the hidden-size sweep and seeded repeats (after Vargas Avila (2015)).
 
 One *fit* with seed s: split the pairs 60/20/20 and draw the initial
 weights from two independent streams of ``SeedSequence(s)``, fit the
 z-score normaliser on the training split, train, and measure every subset.
-Initial weights (spec A22): Nguyen-Widrow by default, or every weight
-uniform in [-0.5, 0.5] (``init="uniform"``, the spec's alternative). The
+Initial weights: Nguyen-Widrow by default (MATLAB's), or every weight
+uniform in [-0.5, 0.5] (``init="uniform"``). The
 same seed gives the same split and start for GD and LM, so the two methods
 are compared on identical problems. With ``starts`` > 1 the network is trained
 from that many successive draws of the initial-weight
@@ -13,7 +13,7 @@ validation MSE at its returned epoch is kept: LM stalls in a saturated
 minimum from about one start in 20, and the validation split, not the
 test split, picks the survivor.
 
-Sweep (spec A23): for each hidden size, ``restarts`` fits with seeds
+Sweep: for each hidden size, ``restarts`` fits with seeds
 s, s+1, ...; the size with the lowest mean test MSE wins. Restart r uses
 the same split and the same random stream for every size.
 """

@@ -227,7 +227,7 @@ def _sort_small(a, lo, hi):
 
 @_jit
 def kinematic(p1, t1, p2, t2, c, tc):
-    """The seed's features (N, 3) [ΔV m/s, Δα deg/s, ΔT s] of N pairs and whether all are good.
+    """The three kinematic features (N, 3) [ΔV m/s, Δα deg/s, ΔT s] of N pairs and whether all are good.
 
     ``p1``, ``p2``, ``c`` (N, 2) m are each pair's last-but-one and last track
     contact and its candidate, ``t1``, ``t2``, ``tc`` (N,) s their times.
@@ -255,7 +255,7 @@ def kinematic(p1, t1, p2, t2, c, tc):
 def innovation(kin, track, z, z_pred, S, S_inv, log_det, mu, ct, age, polar):
     """The IMM-extended features (P, 9) of P pairs (`nnda.models.innovation`).
 
-    ``kin`` (P, 3) the seed's features, ``track`` (P,) each pair's row of the
+    ``kin`` (P, 3) the kinematic features, ``track`` (P,) each pair's row of the
     K-track prediction, ``z`` (P, 2) the candidates' measurements;
     ``z_pred`` (K, 2), ``S``, ``S_inv`` (K, 2, 2) and ``log_det`` (K,) the
     combined measurement prediction, ``mu`` (K, r) the predicted mode

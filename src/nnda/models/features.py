@@ -1,4 +1,4 @@
-"""Pair features of the neural association and candidate gating (spec §8.1, §8.2).
+"""Pair features of the neural association and candidate gating (Vargas Avila (2015), eqs. 5.4-5.6).
 
 A *pair* joins a track, summarised by its last two contacts P1 (time t1)
 and P2 (time t2), with a candidate contact C (time tc) of a later scan.
@@ -12,7 +12,7 @@ Its features, in this order:
   to the right (starboard);
 * ``delta_t`` ΔT (s): tc - t2, which grows across missed scans.
 
-Δα stays in deg/s, the unit in which the spec defines the network input
+Δα stays in deg/s, the unit in which the thesis defines the network input
 (the z-score normaliser makes the unit immaterial to the network).
 
 Gating keeps a pair only if C lies in the azimuth sector of P2 or in one of
@@ -61,10 +61,10 @@ class FeatureSet:
         return len(self.names)
 
 
-#: The seed's three features [ΔV, Δα, ΔT] from the track's last two contacts and the candidate.
+#: Vargas Avila (2015)'s three features [ΔV, Δα, ΔT] from the track's last two contacts and the candidate.
 KINEMATIC = FeatureSet(
     "kinematic-3", 1, ("delta_speed_m_s", "course_rate_deg_s", "delta_t_s"),
-    "the seed's speed change, course-change rate and time gap, from the track's last two contacts",
+    "the thesis's speed change, course-change rate and time gap, from the track's last two contacts",
 )
 
 def _positions(name: str, p: np.ndarray, what: str = "pair features") -> np.ndarray:

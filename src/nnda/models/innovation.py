@@ -1,9 +1,9 @@
-"""The extended pair features: the seed's three plus what the track's IMM knows (issue 9).
+"""The extended pair features: the three kinematic ones plus what the track's IMM knows.
 
-The seed's features (`nnda.models.features.KINEMATIC`) judge a candidate
+The kinematic features of Vargas Avila (2015) (`nnda.models.features.KINEMATIC`) judge a candidate
 from the track's last two *contacts*: the speed and course implied by two
 noisy fixes 2 s apart carry tens of m/s of noise, which caps any classifier
-near 93-94 % accuracy (spec §14.1). The track's IMM filter has already
+near 93-94 % accuracy (measured with an MLP and with boosted trees). The track's IMM filter has already
 averaged that noise away; these features read its prediction for the scan
 of the candidate C (polar z_c = [range m, azimuth rad]):
 
@@ -20,7 +20,7 @@ of the candidate C (polar z_c = [range m, azimuth rad]):
 
 z_pred and S are those of the IMM's combined prediction (the gating
 prediction of every IMM tracker, `IMM.combined_measurement`), made over the
-time since the track's last update. That time is the seed's ΔT (column 3):
+time since the track's last update. That time is the kinematic ΔT (column 3):
 tracks are updated only by contacts, so it is not repeated.
 
 The training-pair extraction (`nnda.models.pairs`) calls `innovation_features`
@@ -46,7 +46,7 @@ ADDED_NAMES = ("innovation_range_sigma", "innovation_azimuth_sigma", "mahalanobi
 
 IMM_INNOVATION = FeatureSet(
     "imm-innovation-9", 1, KINEMATIC.names + ADDED_NAMES,
-    "the seed's three plus the IMM's normalised innovation, squared Mahalanobis distance, log |S|, "
+    "the kinematic three plus the IMM's normalised innovation, squared Mahalanobis distance, log |S|, "
     "CT mode probability and track age",
 )
 
@@ -67,7 +67,7 @@ def innovation_features(
 
     ``pred`` is the IMM prediction of K tracks at the scan time; ``track``
     (P,) the pair's row in it; ``contacts`` (P, 2) the candidates' polar
-    measurements [range m, azimuth rad]; ``kinematic`` (P, 3) the seed's
+    measurements [range m, azimuth rad]; ``kinematic`` (P, 3) the kinematic
     features of the same pairs (`pair_features`); ``age`` (P,) the time (s)
     from each pair's track's first contact to the scan; ``gate`` the tracks' combined measurement
     prediction (`IMM.combined_measurement` of ``pred``) when the caller has it. The azimuth

@@ -1,7 +1,7 @@
-"""Classifier metrics of the association network (spec §9.1), via scikit-learn.
+"""Classifier metrics of the association network (as in Vargas Avila (2015), eqs. 6.1-6.3), via scikit-learn.
 
 The positive class is "the track's own contact" (label +1); a score > 0
-predicts it (spec §8.5). The ROC sweeps the threshold over the scores.
+predicts it. The ROC sweeps the threshold over the scores.
 """
 
 from __future__ import annotations
@@ -9,9 +9,9 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from sklearn.metrics import confusion_matrix, roc_auc_score, roc_curve
 
 from nnda.errors import ModelError
+from nnda.extras import require
 
 
 @dataclass(frozen=True)
@@ -37,7 +37,7 @@ class ClassifierMetrics:
         return asdict(self)
 
 
-#: Table 6.3 of the thesis (spec §10.1): totals over all 2766 pairs, one run per method.
+#: Vargas Avila (2015), Table 6.3: totals over all 2766 pairs, one run per method.
 SPEC_TABLE_6_3 = {
     "gd": {"tp": 784, "fn": 47, "tn": 1819, "fp": 116, "sensitivity": 0.9434, "specificity": 0.94,
            "fpr": 0.0599, "accuracy": 0.941, "auc": 0.979, "epochs": 1000},
@@ -66,8 +66,9 @@ def classifier_metrics(labels: np.ndarray, scores: np.ndarray, threshold: float 
     """Metrics of scores (N,) against labels (N,) in {-1, +1}; predicted positive when score > threshold."""
     labels, scores = _check(labels, scores)
     predicted = np.where(scores > threshold, 1, -1)
-    tn, fp, fn, tp = (int(v) for v in confusion_matrix(labels, predicted, labels=[-1, 1]).ravel())
-    auc = float(roc_auc_score(labels, scores)) if np.unique(labels).size == 2 else float("nan")
+    sk = require("sklearn.metrics", "a classifier's metrics")
+    tn, fp, fn, tp = (int(v) for v in sk.confusion_matrix(labels, predicted, labels=[-1, 1]).ravel())
+    auc = float(sk.roc_auc_score(labels, scores)) if np.unique(labels).size == 2 else float("nan")
     return ClassifierMetrics(
         tp=tp, fn=fn, tn=tn, fp=fp,
         sensitivity=_ratio(tp, tp + fn), specificity=_ratio(tn, tn + fp), fpr=_ratio(fp, tn + fp),
@@ -78,5 +79,5 @@ def classifier_metrics(labels: np.ndarray, scores: np.ndarray, threshold: float 
 def roc(labels: np.ndarray, scores: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """ROC curve: (false-positive rate, sensitivity) arrays as the threshold sweeps the scores."""
     labels, scores = _check(labels, scores)
-    fpr, tpr, _ = roc_curve(labels, scores, pos_label=1)
+    fpr, tpr, _ = require("sklearn.metrics", "a ROC curve").roc_curve(labels, scores, pos_label=1)
     return fpr, tpr

@@ -3,7 +3,7 @@
 This module imports no torch: the tracker scores pairs with it, and the
 trainers (`nnda.models.trainers`) share its weight layout.
 
-Flat weight vector (spec eq. 3.18), length K = H (N + 1) + H + 1: layer by
+Flat weight vector (Vargas Avila (2015), eq. 3.18), length K = H (N + 1) + H + 1: layer by
 layer, and within a layer neuron by neuron with the bias first, i.e.
 ``[b1_0, w1_00 .. w1_0(N-1), b1_1, w1_10, .., b2, w2_0 .. w2_(H-1)]``.
 """
@@ -96,7 +96,7 @@ def _nguyen_widrow_layer(
 
 
 def nguyen_widrow(input_range: np.ndarray, n_hidden: int, rng: np.random.Generator) -> MLPWeights:
-    """Nguyen-Widrow initial weights of an N-H-1 network (spec A22, MATLAB ``initnw``).
+    """Nguyen-Widrow initial weights of an N-H-1 network (MATLAB's default, ``initnw``).
 
     ``input_range`` (N, 2) holds [min, max] of each normalised input over the
     training split; the output layer sees hidden outputs in [-1, 1].

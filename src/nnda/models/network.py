@@ -9,9 +9,11 @@ score pairs without torch.
 from __future__ import annotations
 
 import numpy as np
-import torch
 
+from nnda.extras import require
 from nnda.models.mlp import unpack
+
+torch = require("torch", "training the association network")
 
 DTYPE = torch.float64
 

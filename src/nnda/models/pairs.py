@@ -1,4 +1,4 @@
-"""Labelled training pairs from datasets (spec §8.4, ambiguity A25).
+"""Labelled training pairs from datasets (after Vargas Avila (2015)).
 
 For every target, its *oracle* track history is the sequence of its own
 contacts (detections whose ``target_id`` is the target). At every scan after
@@ -12,17 +12,17 @@ last two contacts becomes a pair:
   out with ``other_targets="drop"``. The 17 training presets hold one
   target each, so the choice only matters for multi-target datasets.
 
-ΔT counts from the target's last detection. Defaults where the spec is silent:
+ΔT counts from the target's last detection. Defaults where the thesis is silent:
 
 * a pair is formed only while the track would still be alive: at most
   ``max_missed`` = 3 consecutive missed scans (ΔT <= 4 scan periods), the
-  longest gap of the spec's tables and the proposed tracker's deletion rule;
+  longest gap of the thesis's gap tables and its proposed tracker's deletion rule;
 * scans run to the target's last scan in the truth table (the end of the
   scenario for the training presets).
 
 ``history="true"`` replaces the measured track contacts P1 and P2 by the
 target's true positions at those scans (the candidates stay measured): the
-easier data model of spec §14.1, kept to explain the accuracy gap with the
+easier data model, kept to explain the accuracy gap with the
 thesis, not for training the tracker's model.
 
 ``features`` picks the feature set (`nnda.models.feature_sets`). The
@@ -34,7 +34,7 @@ prediction giving the features of that scan's candidates, then updated with
 the target's own contact if it has one (a missed scan is not an update).
 After a gap longer than ``max_missed`` scans, when a tracker would have
 deleted the track, the filter restarts from the contacts on either side of
-the gap, as the seed features do. With ``history="true"`` the filter is fed
+the gap, as the kinematic features do. With ``history="true"`` the filter is fed
 the true positions. The context set ``imm-context-14``
 (`nnda.models.context`) adds, per scan, each pair's standing among its
 target's candidates and among the other targets' oracle tracks that have
@@ -235,7 +235,7 @@ def _along_history(
 
     ``own_z`` (J, 2) polar [m, rad], ``own_time`` (J,) s and ``own_scan``
     (J,) are the target's history; the P pairs, sorted by scan, have their
-    candidate's scan, time and polar measurement and their seed features.
+    candidate's scan, time and polar measurement and their kinematic features.
     """
     out = np.empty((len(pair_scan), IMM_INNOVATION.size))
     post, t_post, born = imm.initialise(own_z[:1], own_z[1:2], own_time[0], own_time[1]), own_time[1], own_time[0]

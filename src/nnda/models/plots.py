@@ -11,8 +11,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from sklearn.metrics import roc_auc_score  # noqa: E402
 
+from nnda.extras import require  # noqa: E402
 from nnda.models.metrics import roc  # noqa: E402
 
 if TYPE_CHECKING:  # both import torch; plotting their results does not need it
@@ -31,10 +31,11 @@ def _save(fig, out: str | Path, dpi: int) -> Path:
 def plot_roc(curves: dict[str, tuple[np.ndarray, np.ndarray]], out: str | Path, title: str = "ROC",
              dpi: int = 110) -> Path:
     """ROC (sensitivity against false-positive rate) of each named (labels, scores) pair of arrays."""
+    auc = require("sklearn.metrics", "a ROC figure").roc_auc_score
     fig, ax = plt.subplots(figsize=(5.5, 5), constrained_layout=True)
     for name, (labels, scores) in curves.items():
         fpr, tpr = roc(labels, scores)
-        ax.plot(fpr, tpr, lw=1.4, label=f"{name} (AUC {roc_auc_score(labels, scores):.4f})")
+        ax.plot(fpr, tpr, lw=1.4, label=f"{name} (AUC {auc(labels, scores):.4f})")
     ax.plot([0, 1], [0, 1], ":", color="0.6", lw=1)
     ax.set(xlabel="false-positive rate", ylabel="sensitivity", title=title, xlim=(0, 1), ylim=(0, 1.01))
     ax.legend(loc="lower right")

@@ -1,10 +1,10 @@
-"""Input normalisation and the train/validation/test split (spec §8.4).
+"""Input normalisation and the train/validation/test split.
 
 The normaliser is a per-feature z-score, like MATLAB's ``mapstd``, fitted on
-the training split only (the issue's rule; the spec's A19 default fits it on
-all pairs, which lets validation and test statistics leak into training).
+the training split only (fitting it on all pairs, as the MATLAB toolbox
+does, would let validation and test statistics leak into training).
 The split is a seeded random permutation cut 60/20/20, with the training
-and validation sizes rounded (2766 pairs give the spec's 1660/553/553).
+and validation sizes rounded (2766 pairs give Vargas Avila (2015)'s 1660/553/553).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The trained scorer and its model file; plain numpy, no torch (conventions.md, Interfaces).
+"""The trained scorer and its model file; plain numpy, no torch.
 
 A model file is one small JSON document::
 

@@ -1,13 +1,13 @@
 """Training the association network: full-batch gradient descent and Levenberg-Marquardt.
 
-Both minimise the mean squared error over the training subset (spec §8.5),
+Both minimise the mean squared error over the training subset,
 stop early when the validation error has not improved for ``max_fail``
-epochs in a row (spec A20/A21, MATLAB's validation check: an epoch that
+epochs in a row (MATLAB's validation check: an epoch that
 ties the best does not count as a failure), and return the weights of the
 epoch with the lowest validation error. Without a validation subset they
 run until another criterion stops them and return the last weights.
 
-Levenberg-Marquardt (spec §6, eq. 3.10): per epoch the Jacobian J (P, K) of
+Levenberg-Marquardt (Vargas Avila (2015), eq. 3.10): per epoch the Jacobian J (P, K) of
 the training residuals e = output - target with respect to all K weights
 (torch.func: reverse-mode gradient of one pair's residual, vmapped over the
 P pairs; faster here than forward mode over the K weights), then steps
@@ -33,11 +33,11 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-import torch
-from torch.func import grad, jacrev, vmap
 
 from nnda.errors import ModelError
-from nnda.models.network import DTYPE, as_tensor, forward, mse
+from nnda.models.network import DTYPE, as_tensor, forward, mse, torch
+
+grad, jacrev, vmap = torch.func.grad, torch.func.jacrev, torch.func.vmap
 
 EpochCallback = Callable[[int, dict[str, float]], None]
 
@@ -52,9 +52,9 @@ class Subset:
 
 @dataclass(frozen=True)
 class GDSettings:
-    """Gradient descent (spec A20; MATLAB ``traingd`` defaults where the spec is silent).
+    """Gradient descent (MATLAB ``traingd`` defaults where the thesis gives no value).
 
-    ``min_grad`` is traingd's default 1e-5; the spec gives none for GD.
+    ``min_grad`` is traingd's default 1e-5; the thesis gives none for GD.
     """
 
     lr: float = 0.01
@@ -65,7 +65,7 @@ class GDSettings:
 
 @dataclass(frozen=True)
 class LMSettings:
-    """Levenberg-Marquardt (spec §6 and A21); ``mu_min`` (ours) keeps mu from underflowing to 0."""
+    """Levenberg-Marquardt (mu and beta from Vargas Avila (2015)); ``mu_min`` (ours) keeps mu from underflowing to 0."""
 
     mu: float = 0.01
     beta: float = 10.0

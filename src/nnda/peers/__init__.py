@@ -1,4 +1,4 @@
-"""Stone Soup peers: its trackers on our data, our trackers on its data (issue 8).
+"""Stone Soup peers: its trackers on our data, our trackers on its data.
 
 Stone Soup (``stonesoup`` on PyPI) is an optional extra: ``pip install
 'nnda[peers]'``. Nothing here imports it at nnda import time; the modules

@@ -29,7 +29,7 @@ MATCHING = (
      "updates, dropped after N-M+1 = 2 scans without one (UpdateTimeStepsDeleter)",
      "two-point start + M/N = 3/4: confirmed at the 5th contact at the earliest"),
     ("deletion", "UpdateTimeStepsDeleter(max_misses + 1 = 4)", "confirmed tracks survive 3 misses, deleted "
-     "at the 4th (A14)"),
+     "at the 4th"),
     ("GM-PHD (stonesoup-gmphd)", "PointProcessMultiTargetTracker: GaussianMixtureHypothesiser over a "
      "DistanceHypothesiser (Mahalanobis, missed_distance sqrt(50)), PHDUpdater around an ExtendedKalmanUpdater, "
      "GaussianMixtureReducer", "ekphd: the same recursion on the gated (component, contact) pairs, batched"),

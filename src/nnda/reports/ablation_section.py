@@ -1,13 +1,14 @@
-"""The report's "Feature ablation" section: what each pair feature buys, under both data models (issue 9).
+"""The report's "Feature ablation" section: what each pair feature buys, under both data models.
 
 Present when the study names an ablation (``ablation = ...``, the output of
 ``nnda train --ablation``), which `nnda compare` copies into the study
 directory as ``ablation.json``. The tables are `nnda.reports.classifier_tables.ablation_table`;
-the reading below them is computed from the same numbers: where the seed's
-features land under each data model of spec §14.1, which of the two the
-thesis's Levenberg-Marquardt figure (99.2 % accuracy) fits, and whether the
-extended features reach issue 9's target (>= 99 % accuracy, AUC >= 0.998)
-on the spec's data model.
+the reading below them is computed from the same numbers: where Vargas Avila
+(2015)'s three features land under each data model (track history = measured
+contacts, or the targets' true positions), which of the two the thesis's
+Levenberg-Marquardt figure (99.2 % accuracy) fits, and whether the extended
+features reach our target (>= 99 % accuracy, AUC >= 0.998) on the
+measured-history data model, the thesis's stated one.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from nnda.models.metrics import SPEC_TABLE_6_3
 from nnda.reports.classifier_tables import ablation_table, mean_interval
 from nnda.reports.text_table import TextTable, interval
 
-#: issue 9's targets for the extended features on the spec's (measured-history) data model
+#: our targets for the extended features on the measured-history data model
 TARGET_ACCURACY, TARGET_AUC = 0.99, 0.998
 
 
@@ -48,7 +49,7 @@ def _limit(pairs: dict | None) -> str:
 
 
 def reading(doc: dict) -> str:
-    """A paragraph per training method reading the ablation against the thesis and the issue's targets."""
+    """A paragraph per training method reading the ablation against the thesis and our targets."""
     out = []
     for method in doc["methods"]:
         thesis = SPEC_TABLE_6_3[method]["accuracy"]
@@ -64,13 +65,14 @@ def reading(doc: dict) -> str:
                  else "outside both intervals")
         met = ext_acc[0] >= TARGET_ACCURACY and ext_auc[0] >= TARGET_AUC
         out.append(
-            f"**{method.upper()}.** With the seed's three features, test accuracy is {_fmt(seed_m)} when the track "
-            f"history is the measured contacts (the spec's data model) and {_fmt(seed_t)} when it is the true "
-            f"positions. The thesis's {thesis:.3f} lies {where} and nearer the **{closer}**-history figure"
+            f"**{method.upper()}.** With Vargas Avila (2015)'s three features, test accuracy is {_fmt(seed_m)} when "
+            f"the track history is the measured contacts (the thesis's stated data model) and {_fmt(seed_t)} when "
+            f"it is the true positions. The thesis's {thesis:.3f} lies {where} and nearer the "
+            f"**{closer}**-history figure"
             + (": it fits an error-free track history, not tracks built from measured contacts. "
                if closer == "true" else ". ")
-            + f"With the IMM-extended features on the spec's data model: accuracy {_fmt(ext_acc)}, AUC "
-            f"{_fmt(ext_auc)}; issue 9's target ({TARGET_ACCURACY:.2f} / {TARGET_AUC:.3f}) is "
+            + f"With the IMM-extended features on measured histories: accuracy {_fmt(ext_acc)}, AUC "
+            f"{_fmt(ext_auc)}; our target ({TARGET_ACCURACY:.2f} / {TARGET_AUC:.3f}) is "
             + ("**met**." if met else "**not met**" + _limit(doc.get("pairs", {}).get("measured")))
         )
     return "\n\n".join(out)

@@ -1,7 +1,7 @@
-"""The report's "Neural association ablation" section (issue 20): what each change of the method buys.
+"""The report's "Neural association ablation" section: what each extension of the method buys.
 
-Present when a neural tracker of the study uses a change of issue 20: a
-model on the context features (``imm-context-14``), one trained with
+Present when a neural tracker of the study uses an extension of Vargas
+Avila (2015)'s method: a model on the context features (``imm-context-14``), one trained with
 multi-target encounter scenes or DAgger rounds (its metadata ``recipe``),
 the global association, or a life cycle other than M/N alone (the score
 rule, ``coast_gate``). Two tables, side by side:
@@ -57,7 +57,7 @@ def _life_cycle(params: dict) -> str:
 
 
 def neural_trackers(manifest: dict, classifier: dict) -> list[tuple[dict, dict]]:
-    """(tracker, model entry) of every neural tracker, if one of them uses a change of issue 20; else []."""
+    """(tracker, model entry) of every neural tracker, if one of them uses an extension (module docstring); else []."""
     models = {m["label"]: m for m in classifier["models"]}
     nn = [(t, models[t["model"]]) for t in manifest["trackers"] if t["kind"] == "nn" and t.get("model") in models]
     changed = any(s["features"] == IMM_CONTEXT.name or s["encounters"] or s["dagger"] or s["association"] != "greedy"
@@ -103,7 +103,7 @@ def tracking_table(scenario: dict, timing: dict, labels: list[str], confidence: 
 
 
 def tables(manifest: dict, classifier: dict, summary: dict, timing: dict) -> list[TextTable]:
-    """The section's tables (empty when no neural tracker uses a change of issue 20)."""
+    """The section's tables (empty when no neural tracker uses an extension)."""
     nn = neural_trackers(manifest, classifier)
     if not nn:
         return []

@@ -1,4 +1,4 @@
-"""The report's "Target count" section [cardinality]: how well each tracker counts the targets (issue 14).
+"""The report's "Target count" section [cardinality]: how well each tracker counts the targets.
 
 Read from ``cardinality.parquet`` (`nnda.study.cardinality`) and
 ``summary.json``:

@@ -1,6 +1,6 @@
 """Tables of the association network: ``nnda train`` / ``nnda evaluate``'s and the study report's.
 
-Layouts follow the spec's Table 6.3 (rows TP, FN, TN, FP, sensitivity,
+Layouts follow Vargas Avila (2015), Table 6.3 (rows TP, FN, TN, FP, sensitivity,
 specificity, false-positive rate), extended by accuracy, AUC and MSE, and
 for repeated runs by epochs and training time. Over repeated runs a cell
 reads ``mean [lo, hi]``: the mean over seeds and a 95% percentile-bootstrap
@@ -51,10 +51,10 @@ def _spec(method: str, key: str, fmt: str) -> str:
 def metrics_table(
     title: str, columns: dict[str, ClassifierMetrics], spec_method: str | None = None, note: str = "",
 ) -> TextTable:
-    """Measures (rows) of each named subset (columns), optionally beside the spec's Table 6.3 column."""
+    """Measures (rows) of each named subset (columns), optionally beside the thesis's Table 6.3 column."""
     header = ("Measure", *columns)
     if spec_method is not None:
-        header += (f"spec {spec_method.upper()} (all)",)
+        header += (f"thesis {spec_method.upper()} (all)",)
     rows = []
     for label, key, fmt in CLASSIFIER_MEASURES:
         row = [label, *(fmt.format(getattr(m, key)) for m in columns.values())]
@@ -65,10 +65,10 @@ def metrics_table(
 
 
 def fit_table(result: FitResult) -> TextTable:
-    """The metrics of one trained model on each subset, beside the spec's figures for its method."""
+    """The metrics of one trained model on each subset, beside the thesis's figures for its method."""
     t = result.training
     note = (f"{t.epochs} epochs (weights of epoch {t.best_epoch}), stopped by {t.stop_reason}, "
-            f"{t.seconds:.3f} s; spec: {SPEC_TABLE_6_3[result.method]['epochs']} epochs")
+            f"{t.seconds:.3f} s; thesis: {SPEC_TABLE_6_3[result.method]['epochs']} epochs")
     n = result.scorer.weights.n_hidden
     title = f"{METHOD_NAMES[result.method]}, {result.scorer.weights.n_inputs}-{n}-1 tanh on " \
             f"{result.scorer.features.name}, seed {result.seed}"
@@ -90,11 +90,11 @@ def _cell(values: Sequence[float], fmt: str) -> str:
 
 
 def repeats_table(runs: Sequence[RunSummary]) -> TextTable:
-    """GD and LM over seeds: test split and all pairs, beside the spec's Table 6.3 (all pairs)."""
+    """GD and LM over seeds: test split and all pairs, beside the thesis's Table 6.3 (all pairs)."""
     methods = [m for m in ("gd", "lm") if any(r.method == m for r in runs)]
     by_method = {m: [r for r in runs if r.method == m] for m in methods}
     columns = [(m, subset) for subset in ("test", "all") for m in methods]
-    header = ("Measure", *(f"{m.upper()}, {s}" for m, s in columns), *(f"spec {m.upper()}" for m in methods))
+    header = ("Measure", *(f"{m.upper()}, {s}" for m, s in columns), *(f"thesis {m.upper()}" for m in methods))
     rows = []
     for label, key, fmt in CLASSIFIER_MEASURES:
         mean_fmt = "{:.1f}" if fmt == "{:.0f}" else fmt  # mean counts get one decimal
@@ -124,12 +124,12 @@ def repeats_table(runs: Sequence[RunSummary]) -> TextTable:
             f"seeds of split and initialisation ({'/'.join(inits)}); {'/'.join(shapes)} tanh. "
             "Stop reasons: "
             + "; ".join(f"{m.upper()} {', '.join(stops[m])}" for m in methods)
-            + ". Spec values are Table 6.3 (one run, all 2766 pairs).")
-    return TextTable("Classifier results over seeds (spec Table 6.3 layout)", header, tuple(rows), note)
+            + ". Thesis values: Vargas Avila (2015), Table 6.3 (one run, all 2766 pairs).")
+    return TextTable("Classifier results over seeds (Table 6.3 layout)", header, tuple(rows), note)
 
 
 def sweep_table(result: SweepResult) -> TextTable:
-    """Mean and std of the test MSE per hidden size (spec A23), with test accuracy and epochs."""
+    """Mean and std of the test MSE per hidden size, with test accuracy and epochs."""
     mse = result.test_mse
     acc = result.grid(lambda r: r.metrics["test"].accuracy)
     epochs = result.grid(lambda r: r.epochs)
@@ -163,8 +163,8 @@ def ablation_table(results: Sequence[dict], method: str) -> TextTable:
         rows.append(tuple(row))
     n = len(next(iter(tests.values())))
     note = (f"{METHOD_NAMES[method]}, test split, mean [95% bootstrap interval of the mean] over {n} seeds of split "
-            f"and initialisation; every variant trains on the same pairs and splits. 'measured' history: the spec's "
-            f"data model (track = measured contacts); 'true': the targets' true positions (spec §14.1). Thesis "
+            f"and initialisation; every variant trains on the same pairs and splits. 'measured' history: the thesis's "
+            f"data model (track = measured contacts); 'true': the targets' true positions. Vargas Avila (2015) "
             f"(one run, all pairs): GD 0.941 / 0.979, LM 0.992 / 0.9981.")
     return TextTable(f"Feature ablation, {METHOD_NAMES[method]}", header, tuple(rows), note)
 

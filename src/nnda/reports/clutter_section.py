@@ -1,4 +1,4 @@
-"""The report's "Against clutter density" section: quality and cost as the clutter grows (issues 19 and 21).
+"""The report's "Against clutter density" section: quality and cost as the clutter grows.
 
 Present when the study holds a *sweep*: scenarios equal in everything but
 their sensors' clutter count (and their names), at two or more counts, such

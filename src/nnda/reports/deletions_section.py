@@ -1,4 +1,4 @@
-"""The report's "Track deletions" section: why each contact tracker ended its tracks (issue 21).
+"""The report's "Track deletions" section: why each contact tracker ended its tracks.
 
 Read from ``results.parquet`` (its ``confirmation`` and ``deleted_<reason>``
 columns, `nnda.study.track_results`): per tracker, its confirmation rule and the

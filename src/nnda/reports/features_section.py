@@ -1,13 +1,14 @@
-"""The report's "Seed vs extended features in the tracker" section (issue 9).
+"""The report's "Kinematic vs extended features in the tracker" section.
 
 Does better pair classification turn into better tracking, and at what cost
 per scan? Present when the study runs neural trackers on both feature sets.
 Each neural tracker whose model reads the IMM-extended features is set
-against the seed-feature tracker whose model was trained by the same method
-(every seed-feature tracker when none was), among those whose settings,
+against the kinematic-feature tracker (Vargas Avila (2015)'s three features)
+whose model was trained by the same method (every kinematic-feature tracker
+when none was), among those whose settings,
 ``feature_set`` aside, are its own (so a tracker with another association
 rule or life cycle, such as the demo's ``nn-life``, is not set against one
-with the spec's), scenario by scenario, on the
+with the default ones), scenario by scenario, on the
 measures association changes: association losses, false tracks, track
 breaks, lost targets, hit rate, GOSPA and time per scan, each ``mean [low,
 high]`` over runs with a verdict that calls a difference clear only when the
@@ -28,7 +29,7 @@ COMPARED: tuple[Measure, ...] = tuple(measure(k) for k in (
 
 
 def feature_pairs(manifest: dict, classifier: dict) -> list[tuple[str, str]]:
-    """(seed-feature tracker, extended-feature tracker) labels to compare (module docstring)."""
+    """(kinematic-feature tracker, extended-feature tracker) labels to compare (module docstring)."""
     models = {m["label"]: (m.get("features", KINEMATIC.name), m.get("method")) for m in classifier["models"]}
     nn = [(t["label"], *models[t["model"]], _settings(t)) for t in manifest["trackers"]
           if t["kind"] == "nn" and t.get("model") in models]
@@ -69,7 +70,7 @@ def comparison(seed: str, ext: str, summary: dict, timing: dict) -> tuple[TextTa
             rows.append((sc["name"], m.title, stat_cell(a, m.fmt, m.scale), stat_cell(b, m.fmt, m.scale), words))
     note = (f"Mean [{summary['confidence']:.0%} interval] over runs; a difference is called only when the two "
             f"intervals are apart.")
-    return TextTable(f"{seed} (seed features) against {ext} (extended features)",
+    return TextTable(f"{seed} (kinematic features) against {ext} (extended features)",
                      ("Scenario", "Measure", seed, ext, "Verdict"), tuple(rows), note), counts
 
 

@@ -1,4 +1,4 @@
-"""The report's opening [summary]: quality against cost, a compact table and a reading of the numbers (issue 19).
+"""The report's opening [summary]: quality against cost, a compact table and a reading of the numbers.
 
 Read only from ``summary.json`` and ``timing.json``:
 

@@ -1,12 +1,12 @@
-"""The pedestrian thesis's results (shared/spec/seed-000.md §6, Tables 6.1-6.5), beside which the study is read.
+"""The pedestrian thesis's results (Frencl (2014), Tables 6.1-6.5), beside which the study is read.
 
 Keyed by the study's filter labels (`nnda.study.pedestrian.TEST_SPECS`). RMS
 values are the thesis's min-distance mean RMS (m; 300 runs in Test 2, the
 Test-3 run count lost); runtimes are seconds for one stress realisation of
 100 scans on a 1st-generation Core i3 at 2.4 GHz (MATLAB, inferred); Table
 6.5 counts true points of 600 runs x 60 scans by the number of estimates
-they got (spec §7: all multiples of 600, and "2" may mean two estimates or
-two extra; read here as two estimates).
+they got (its counts are all multiples of 600, and "2" may mean two
+estimates or two extra; read here as two estimates).
 """
 
 from __future__ import annotations

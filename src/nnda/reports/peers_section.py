@@ -1,4 +1,4 @@
-"""The report's "Against Stone Soup" section: our trackers beside the Stone Soup peers (issue 8).
+"""The report's "Against Stone Soup" section: our trackers beside the Stone Soup peers.
 
 Present only when the study ran a peer (a tracker kind of
 `nnda.tracking.registry.PEERS`). Per scenario, one row per tracker: mean

@@ -1,11 +1,11 @@
-"""The reference thesis's tracking results (shared/spec/seed-001.md §10.2, Tables 6.4-6.9).
+"""The tracking results of Vargas Avila (2015), Tables 6.4-6.9.
 
 One realisation per scenario, timed in MATLAB on an Intel i5-2450M. The
 "classical" column is IMM + track-oriented MHT (tracker kind ``mht``), the
 "proposed" one the neural association (kind ``nn``). Lost targets come from
-the text of §6.3: the classical method lost two targets in each scenario
-with detection gaps (S3, S5); the proposed method never lost one; for the
-classical method elsewhere the thesis gives no number.
+the text of the thesis's Section 6.3: the classical method lost two targets
+in each scenario with detection gaps (S3, S5); the proposed method never
+lost one; for the classical method elsewhere the thesis gives no number.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ _TABLES = {  # scenario: (classical row values, proposed row values) in SPEC_ROW
     "S6": ((308, 307, 0, 4, 98.71, 2.20885, 9), (308, 305, 3, 0, 99.03, 0.174040, 6)),
 }
 
-#: spec value of each row: SPEC_TRACKING[scenario][column][metric], column "classical" or "proposed"
+#: the thesis's value of each row: SPEC_TRACKING[scenario][column][metric], column "classical" or "proposed"
 SPEC_TRACKING: dict[str, dict[str, dict[str, float]]] = {
     name: {"classical": dict(zip(SPEC_ROWS, classical)), "proposed": dict(zip(SPEC_ROWS, proposed))}
     for name, (classical, proposed) in _TABLES.items()

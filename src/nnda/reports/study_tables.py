@@ -1,7 +1,7 @@
 """The per-scenario tables of a study report: every measure, beside the thesis's values.
 
 Per-scenario tables follow the layout of the thesis's Tables 6.4-6.9 (rows:
-the measures of `nnda.study.measures.MEASURES`, the spec's seven first; a
+the measures of `nnda.study.measures.MEASURES`, the thesis's seven first; a
 column per tracker) and add the thesis's classical and proposed columns
 when the scenario is the preset the thesis ran. A cell reads ``mean [low,
 high]``: the mean over runs and its Student-t confidence interval. The

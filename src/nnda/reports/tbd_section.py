@@ -208,7 +208,8 @@ def _verdict(s: dict) -> str:
     paper = PAPER_DIVERGENCES.get(s["ptcr_db"])
     said = "" if paper is None else f" (paper: {paper['apf']}/100 vs {paper['rs']}/100)"
     return (f"PTCR {s['ptcr_db']:g} dB{said}: {head}; {steady}; RS costs {cost:.1f} x the APF's likelihood "
-            f"evaluations per frame; the APF's upper {da['ci_high']:.1%} bound is {upper} spec A.5's ~9%.")
+            f"evaluations per frame; the APF's upper {da['ci_high']:.1%} bound is {upper} ~9%, the "
+            f"upper 95% bound of the paper's 3/100.")
 
 
 def tbd_section(section, results: dict):

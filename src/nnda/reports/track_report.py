@@ -8,7 +8,7 @@ summary [summary] (the answer first: quality against cost, a table over
 all scenarios and a reading, `nnda.reports.headline`; then the best
 tracker per scenario and measure, `nnda.reports.study_summary`), setup
 [setup], association network [classifier], results per scenario
-[scenarios], seed vs extended features in the tracker
+[scenarios], kinematic vs extended features in the tracker
 [features-in-tracker] (when neural trackers run on both feature sets),
 feature ablation [ablation] (when the study names one, from
 ``ablation.json``), against Stone Soup [peers] (when the study ran a
@@ -94,7 +94,7 @@ def _setup(manifest: dict, summary: dict, timing: dict) -> Section:
         (t["label"], t["kind"], t["model"] or DASH, _json_compact(t["params"]) if t["params"] else "defaults")
         for t in manifest["trackers"])))
     rules = [(t["label"], confirmation_rule(t["kind"], t["params"])) for t in manifest["trackers"]]
-    if any(rule is not None for _, rule in rules):  # issue 21: which rule confirmed and deleted each one's tracks
+    if any(rule is not None for _, rule in rules):  # which rule confirmed and deleted each one's tracks
         sec.text("Track confirmation and deletion: " + "; ".join(
             f"{label}: {_RULES[rule]}" for label, rule in rules if rule is not None)
             + ". Every contact tracker also deletes impossible tracks (speed, coverage, covariance; "
@@ -149,9 +149,9 @@ def _classifier(classifier: dict, figures: list[Figure]) -> Section:
 
 
 def _features_in_tracker(pairs: list[tuple[str, str]], summary: dict, timing: dict) -> Section:
-    sec = Section("features-in-tracker", "Seed vs extended features in the tracker", [], [])
+    sec = Section("features-in-tracker", "Kinematic vs extended features in the tracker", [], [])
     sec.text("Does better pair classification make better tracks, and at what cost per scan? Each neural "
-             "tracker on the IMM-extended features beside the seed-feature tracker trained by the same method.")
+             "tracker on the IMM-extended features beside the kinematic-feature tracker trained by the same method.")
     for seed, ext in pairs:
         table, counts = features_section.comparison(seed, ext, summary, timing)
         sec.text(features_section.tally(seed, ext, counts))
@@ -161,10 +161,10 @@ def _features_in_tracker(pairs: list[tuple[str, str]], summary: dict, timing: di
 
 def _ablation(doc: dict, figures: list[Figure]) -> Section:
     sec = Section("ablation", "Feature ablation", [], [])
-    sec.text("Which pair features buy how much classification: the seed's three, the IMM-extended nine, the "
-             "seed's three plus each IMM feature, and the IMM features alone, every variant trained on the same "
-             "pairs and splits, under the spec's data model (measured track history) and the error-free one "
-             "(true positions, spec §14.1).")
+    sec.text("Which pair features buy how much classification: Vargas Avila (2015)'s three kinematic features "
+             "(variant 'seed'), the IMM-extended nine, the three plus each IMM feature, and the IMM features "
+             "alone, every variant trained on the same pairs and splits, under the thesis's data model (measured "
+             "track history) and the error-free one (true positions).")
     for table in ablation_section.tables(doc):
         sec.table(table)
     sec.text(ablation_section.reading(doc))

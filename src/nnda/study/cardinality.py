@@ -1,6 +1,6 @@
 """The target count of every scan of every tracker job: estimated, as the filter saw it, and true.
 
-A tracker job records, per scan (issue 14, item 8):
+A tracker job records, per scan:
 
 * ``true``: the targets present (rows of the dataset's truth at that scan);
 * ``confirmed``: the confirmed tracks the tracker reported (the count every

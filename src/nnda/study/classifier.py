@@ -8,7 +8,7 @@ A feature ablation (``nnda train --ablation``) named by the study is read
 and checked here (`read_ablation`) and kept in the study directory for the
 report.
 
-The ROC and the metrics over *all* pairs (the spec's "Total" rows, §10.1)
+The ROC and the metrics over *all* pairs (the "Total" rows of Vargas Avila (2015), Tables 6.1-6.3)
 need the scores of every pair, which the file does not hold, so they are
 computed here: the named datasets are regenerated from their presets with
 their seed and run (bit-identical to the training data), their pairs built

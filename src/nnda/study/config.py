@@ -143,7 +143,7 @@ def default_study(gd_model: str | Path, lm_model: str | Path, ext_model: str | P
     seed_set, ext_set = {"feature_set": KINEMATIC.name}, {"feature_set": IMM_INNOVATION.name}
     return Study(
         name="thesis-comparison",
-        description="IMM + track-oriented MHT against neural association (seed features with GD and LM "
+        description="IMM + track-oriented MHT against neural association (the thesis's three features with GD and LM "
                     "models, IMM-extended features with LM, alone and with the life cycle for coasting tracks), "
                     "with GNN and JPDA baselines and the EK-PHD and CPHD filters, on S1-S6",
         seed=seed, runs=runs,

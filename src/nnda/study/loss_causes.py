@@ -1,4 +1,4 @@
-"""Why a tracker lost the hits it lost: each association loss of a run put down to one cause (issue 20).
+"""Why a tracker lost the hits it lost: each association loss of a run put down to one cause.
 
     run = ScoredRun(dataset, outputs)            # nnda.study.metrics
     causes = loss_causes(run)                    # {cause: lost target contacts}, summing to run's "losses"

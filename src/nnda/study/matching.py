@@ -4,7 +4,7 @@ The one position assignment of the study: ownership by position
 (`nnda.study.metrics`) and the CLEAR-MOT measures (MOTA, MOTP, identity
 switches; `nnda.study.measures`) both read it. Scan by scan, in time order
 (Bernardin & Stiefelhagen, "Evaluating multiple object tracking
-performance: the CLEAR MOT metrics", EURASIP JIVP 2008, §2.1):
+performance: the CLEAR MOT metrics", EURASIP JIVP 2008, Sec. 2.1):
 
 1. a target keeps the track it was last matched to (in any earlier scan)
    when that track is reported in this scan and closer than the threshold;

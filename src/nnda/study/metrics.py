@@ -19,7 +19,8 @@ position otherwise, as for outputs without contacts (PHD filters). The
 measures that count contacts (hits, losses, clutter associated, hit rate)
 need the outputs' contacts and are undefined (None) without them.
 
-Bookkeeping rules (spec §9.2 and its default A26, written down here once).
+Bookkeeping rules (Vargas Avila (2015)'s measures, read where the thesis is
+silent; written down here once).
 Only tracks that were confirmed at some scan count as displayed tracks.
 
 * **Hits**: target contacts used by a displayed track of their own target.
@@ -28,7 +29,8 @@ Only tracks that were confirmed at some scan count as displayed tracks.
   target (so a target's contacts before its track exists, including the
   initiator contact, are not counted). **Clutter associated**: clutter
   contacts used by displayed tracks owned by a target.
-  **Hit rate** = 100 hits / (hits + losses + clutter associated) (§9.2).
+  **Hit rate** = 100 hits / (hits + losses + clutter associated)
+  (this denominator reproduces all 12 of the thesis's hit rates).
 * **Confirmed tracks**: distinct tracks ever confirmed. **False tracks**:
   confirmed tracks owned by -1. **Track breaks**: displayed tracks of a
   target beyond its first. **Lost targets**: targets whose displayed track

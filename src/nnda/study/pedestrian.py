@@ -42,7 +42,7 @@ from nnda.data.pedestrian.scenes import PEDESTRIAN_SCENES
 from nnda.data.pedestrian.walkers import WalkerScene
 from nnda.data.sources import resolve_scenes
 from nnda.errors import validated
-from nnda.filters.ground_motion import ThesisCV
+from nnda.filters.ground_motion import DiagonalCV
 from nnda.filters.imm import IMM
 from nnda.filters.measurement import measurement_model
 from nnda.study.pedestrian_scores import Trace, density, score_accuracy, score_run, score_stress
@@ -57,10 +57,10 @@ BIRTH_STD = (2.0, 2.0, 1.5, 1.36)
 BIRTH_WEIGHT, SPAWN_WEIGHT = 0.1, 0.05
 #: measurement-driven birth: expected births per scan and the newborn's speed std per axis (m/s; ours)
 BIRTH_RATE, BIRTH_SPEED_SIGMA = 0.1, 1.5
-#: seed-000's unscented central weight W0 = 2/3 is kappa = 2 n for n = 4 (`nnda.filters.unscented`)
+#: the thesis's unscented central weight W0 = 2/3 is kappa = 2 n for n = 4 (`nnda.filters.unscented`)
 UKF_KAPPA = 8.0
 #: the motions whose state is [x, y, v, alpha] (the oracle birth's layout)
-HEADING = ("ncsht-seed-000", "hm-map")
+HEADING = ("ncsht", "hm-map")
 #: the PHD trackers (the others are contact trackers: `contact_tracker`)
 PHD_KINDS = ("gmphd", "ekphd", "ukphd", "cphd")
 #: the contact trackers' initiation window tops at this speed (m/s; person set A's fastest: 2 + 2 x 1)
@@ -79,9 +79,9 @@ class FilterSpec:
     extra: tuple[tuple[str, object], ...] = ()
 
 
-_GM_CV = FilterSpec("GM-PHD + CV", "gmphd", "cv-seed-000")
-_EK_NC = FilterSpec("EK-PHD + NCSHT", "ekphd", "ncsht-seed-000")
-_UK_NC = FilterSpec("UK-PHD + NCSHT", "ukphd", "ncsht-seed-000", (("unscented", {"kappa": UKF_KAPPA}),))
+_GM_CV = FilterSpec("GM-PHD + CV", "gmphd", "cv-diagonal")
+_EK_NC = FilterSpec("EK-PHD + NCSHT", "ekphd", "ncsht")
+_UK_NC = FilterSpec("UK-PHD + NCSHT", "ukphd", "ncsht", (("unscented", {"kappa": UKF_KAPPA}),))
 
 
 @dataclass(frozen=True)
@@ -102,15 +102,15 @@ TEST_SPECS = {t.name: t for t in (
              (_GM_CV, _EK_NC, _UK_NC), "runs"),
     TestSpec("test3", "Test 3: the EK-PHD with CV, modified NCSHT and the HM-map model on the '+' map",
              "walk-test3", "walk-test3-stress",
-             (FilterSpec("EK-PHD + CV", "ekphd", "cv-seed-000"), _EK_NC,
+             (FilterSpec("EK-PHD + CV", "ekphd", "cv-diagonal"), _EK_NC,
               FilterSpec("EK-PHD + NCSHT + HM map", "ekphd", "hm-map", (("hm_map", "plus"),))), "runs"),
     TestSpec("test4", "Test 4: the EK-PHD without and with the HM map in the corridor", "walk-test4", None,
-             (FilterSpec("EK-PHD, no HM map", "ekphd", "ncsht-seed-000"),
+             (FilterSpec("EK-PHD, no HM map", "ekphd", "ncsht"),
               FilterSpec("EK-PHD, HM map", "ekphd", "hm-map", (("hm_map", "corridor"),))), "test4_runs"),
 )}
 #: beyond the thesis: nnda's contact trackers and the CPHD on the stress scene's walkers, beside two of its PHDs
-BEYOND = (_GM_CV, _EK_NC, FilterSpec("CPHD + CV", "cphd", "cv-seed-000"), FilterSpec("GNN", "gnn", "cv-seed-000"),
-          FilterSpec("JPDA", "jpda", "cv-seed-000"), FilterSpec("MHT", "mht", "cv-seed-000"))
+BEYOND = (_GM_CV, _EK_NC, FilterSpec("CPHD + CV", "cphd", "cv-diagonal"), FilterSpec("GNN", "gnn", "cv-diagonal"),
+          FilterSpec("JPDA", "jpda", "cv-diagonal"), FilterSpec("MHT", "mht", "cv-diagonal"))
 BEYOND_SCENE = "walk-stress"
 
 
@@ -143,7 +143,7 @@ def filter_params(f: FilterSpec, scene: WalkerScene, birth: str, dataset: Datase
     """The tracker parameters of filter ``f`` on ``scene`` (module docstring); ``birth`` "oracle" needs the
     run's ``dataset`` (its walkers' first states)."""
     area = scene.map.width_m * scene.map.height_m
-    params: dict = {"preset": "seed-000", "motion": f.motion, "pd": 0.99, "ps": 0.99,
+    params: dict = {"preset": "pedestrian", "motion": f.motion, "pd": 0.99, "ps": 0.99,
                     "clutter": scene.radar.clutter_per_m2 * area, "clutter_area_m2": area, **dict(f.extra)}
     if f.kind != "cphd":  # the CPHD has no spawning
         motion = TRACKERS[f.kind].config_type(**params).motion_model()
@@ -174,7 +174,7 @@ def contact_tracker(f: FilterSpec, scene: WalkerScene, sensors: tuple) -> Tracke
         params |= {"pd": scene.radar.pd, "clutter_density": scene.radar.clutter_per_m2}
     cls = TRACKERS[f.kind]
     config = validated(cls.config_type, params, f.label, f"{f.kind} config")
-    imm = IMM(models=(ThesisCV(),), measurement=measurement_model(sensors[0]), tpm=((1.0,),), mu0=(1.0,))
+    imm = IMM(models=(DiagonalCV(),), measurement=measurement_model(sensors[0]), tpm=((1.0,),), mu0=(1.0,))
     return cls(sensors, config, track_filter=imm)
 
 

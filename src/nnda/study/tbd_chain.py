@@ -1,5 +1,6 @@
-"""The conventional chain of seed 003 (spec C): detect in every frame, then track the detections with nnda's
-contact trackers (GNN, MHT), for the track-before-detect study to score beside its particle filters.
+"""The conventional chain that Bruno, Araújo & Pavlov argue against: detect in every frame, then track the
+detections with nnda's contact trackers (GNN, MHT), for the track-before-detect study to
+score beside its particle filters.
 
     model = tbd_model(fs, TBDConfig())                 # R runs of K frames (`nnda.filters.tbd`)
     hits = frame_detections(model, pfa=1e-4)           # K arrays (n_k, 5) [run, row, column, aspect, t]

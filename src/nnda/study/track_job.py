@@ -3,8 +3,8 @@
 `run_job` is what a worker process (local or on a Dask cluster) executes. It
 builds the run's dataset (generated from scenario, seed and run, or read
 from disk, so every tracker sees the same data), steps the tracker through
-every scan with `time.perf_counter` around each `step` (single BLAS thread,
-spec A29; the first job of a tracker in a process runs it once untimed
+every scan with `time.perf_counter` around each `step` (single BLAS thread;
+the first job of a tracker in a process runs it once untimed
 before, `_warm_up`, so no scan's time holds the loading or compiling of
 numba kernels), scores the outputs with `nnda.study.metrics.run_metrics` (every
 run measure of `nnda.study.measures`), records the target count of every scan
@@ -100,7 +100,7 @@ def run_job(job: TrackJob) -> dict:
         "cardinality": count_record(*m.counts, counts),
         "timing": {"time_per_scan_s": seconds.tolist()},
     }
-    management = getattr(tracker, "track_management", None)  # the contact trackers' (issue 21)
+    management = getattr(tracker, "track_management", None)  # the contact trackers'
     if management is not None:
         record["track_management"] = management()
     if job.keeps_tracks:

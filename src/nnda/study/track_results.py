@@ -89,7 +89,7 @@ def results_table(records: list[dict]) -> pa.Table:
     for m in sorted(RUN_MEASURES, key=lambda m: m.key):
         kind = "int" if m.integer and not m.per_scan else "float"
         cols[m.key] = _column([r["metrics"][m.key] for r in records], kind)
-    # the contact trackers' track management (issue 21): confirmation rule and deletions by reason; null otherwise
+    # the contact trackers' track management: confirmation rule and deletions by reason; null otherwise
     managed = [r.get("track_management") for r in records]
     cols["confirmation"] = _column([None if m is None else m["confirmation"] for m in managed], "str")
     for reason in DELETION_REASONS:

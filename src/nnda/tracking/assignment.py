@@ -2,7 +2,8 @@
 
 `least_cost_assignment` is exact, with a miss option per track (global nearest
 neighbour; the neural tracker's ``association = "global"``); `greedy_matching`
-takes pairs by descending score (the neural method's conflict rule, spec A10).
+takes pairs by descending score (the neural method's conflict rule: each contact to
+the track that scores it highest).
 Both take pairs as flat (rows, cols) arrays, so their cost grows with the
 candidate pairs rather than with tracks x contacts. `given` marks the
 contacts that tracks' picks (K,) took (compiled: the trackers' scan end and

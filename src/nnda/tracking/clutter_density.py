@@ -16,7 +16,7 @@ that follows the coverage edge on clutter alone confirm. That part is
 tabulated once per coverage and radius on the counting grid's cells
 (`_covered_table`, interpolated), so it too costs O(1) per query point.
 
-Why compiled (issue 20): every tracker under the score rule counts once
+Why compiled: every tracker under the score rule counts once
 per scan, at ~100 contacts, and the numpy formulation spent ~110 us of a
 ~0.65 ms scan (the neural tracker's) in per-call overhead: the table's
 cumulative sums, fancy indexing, the interpolation's dozen temporaries.

@@ -1,4 +1,4 @@
-"""The least confirmation delay a single-scan-likelihood rule can have: a clairvoyant SPRT (issue 21).
+"""The least confirmation delay a single-scan-likelihood rule can have: a clairvoyant SPRT.
 
 Feed Wald's test on the track score (`nnda.tracking.lifecycle`) only the
 true target's contacts, with a perfect prediction (innovation covariance S

@@ -1,6 +1,6 @@
 """Global nearest neighbour association (baseline).
 
-Each scan, every track's IMM gating prediction (combined state, spec §7.2)
+Each scan, every track's IMM gating prediction (combined state)
 is compared with every contact; pairs outside the chi-square gate are
 forbidden, and an exact sparse matching finds the one-to-one assignment of
 least total cost. The cost of a pair is its squared

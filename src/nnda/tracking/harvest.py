@@ -1,4 +1,4 @@
-"""Training pairs harvested from the neural tracker's own runs, labelled by the truth (issue 20, DAgger).
+"""Training pairs harvested from the neural tracker's own runs, labelled by the truth (DAgger).
 
 Oracle pairs (`nnda.models.pairs`) follow each target's own contacts, so the
 network never sees the states a tracker reaches after its own mistakes, nor

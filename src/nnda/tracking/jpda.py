@@ -3,7 +3,7 @@
 Each scan:
 
 1. **Gate** every contact against each track's IMM gating prediction (the
-   combined state, spec §7.2) with the chi-square gate (9.21 on 2 dof:
+   combined state) with the chi-square gate (9.21 on 2 dof:
    P_G = 0.99) of the shared sparse gating (`nnda.tracking.gating.gate`,
    as GNN). From here on everything works on the list of gated
    (track, contact) pairs, never on a tracks x contacts array, so a scan
@@ -65,8 +65,8 @@ a clutter-only scene's tracks in 100 scans), as the score rule's did.
 
 Clutter density lambda, in contacts per m per rad of measurement space
 (``clutter_density``): a fixed value, ``"scan"`` (each scan's contact count
-over the coverage, (r_max - r_min) x 2 pi: the spec's §7.3 MHT figure of
-6.4e-4 for 100 uniform contacts), or by default ``"local"``: at each gated
+over the coverage, (r_max - r_min) x 2 pi: 6.4e-4 for 100 uniform contacts
+over 5-30 km, the MHT's figure), or by default ``"local"``: at each gated
 contact, the scan's contacts in the square of half-side ``clutter_radius_m``
 (3 km, itself included) per unit area (`nnda.tracking.clutter_density`, as
 the MHT uses), times the contact's range (an area density rho
@@ -111,7 +111,7 @@ class JPDAConfig(ContactTrackerConfig):
 
     gate: Annotated[float, Field(gt=0, description="chi-square gate, 2 dof (9.21: P_G = 0.99)")] = GATE_99
     pd: Annotated[float, Field(gt=0, le=1, description="detection probability used in the event "
-                               "weights (spec A4: 0.9 for scoring)")] = 0.9
+                               "weights (0.9, as the MHT's scores)")] = 0.9
     clutter_density: Annotated[float, Field(gt=0)] | Literal["local", "scan"] = Field(
         "local", description="clutter contacts per m per rad of measurement space, or how to estimate it "
         "from each scan: 'local' (around each contact) or 'scan' (whole coverage)")

@@ -1,17 +1,18 @@
-"""Track life cycle shared by every tracker (spec §4): initiation window and M/N logic.
+"""Track life cycle shared by every tracker (Vargas Avila 2015, Ch. 2 and Sec. 5.3): initiation window and
+M/N logic.
 
 * A contact not used by any track becomes an *initiator* (tentative track).
   On the next scan, each contact at a distance in [D_min, D_max] from it
   forms a preliminary track with it, D_min = V_min T - 3 sigma_r and
-  D_max = V_max T + 3 sigma_r (§4.2). An initiator with no such contact is
+  D_max = V_max T + 3 sigma_r. An initiator with no such contact is
   discarded; contacts inside some initiator's window do not start initiators
-  themselves (A11).
+  themselves (our reading: the thesis leaves it open).
 * Preliminary tracks pass an M/N test counted from the third scan of their
-  life (§4.4): confirmed at the M-th detection, deleted at the (N-M+1)-th
-  miss. Confirmed tracks are deleted when their consecutive misses exceed
-  ``max_misses`` (§4.5 and A14: survive 3, delete at the 4th).
-* Track score (issue 21; ``confirmation = "score"``, Blackman & Popoli
-  1999, §6.2): instead of counting, a track carries the log-likelihood
+  life (the thesis's eqs. 2.2-2.3): confirmed at the M-th detection, deleted
+  at the (N-M+1)-th miss. Confirmed tracks are deleted when their consecutive
+  misses exceed ``max_misses`` (its Sec. 5.5: survive 3, delete at the 4th).
+* Track score (``confirmation = "score"``, Blackman & Popoli 1999,
+  Sec. 6.2): instead of counting, a track carries the log-likelihood
   ratio of "target" against "clutter" of the contacts it used. The two-point
   start gives ln(P_D / (A_w rho)), A_w the initiation annulus' area and rho
   the clutter's area density at the second contact (the target's second
@@ -31,7 +32,7 @@
   new ones and then keeps the preliminary tracks of best score (the
   tracker's cap). With P_D = 0.9 and beta = 1e-3 a confirmed track survives
   three misses and is deleted at the fourth, as the M/N rule's max_misses = 3.
-* False tracks at a rate (``false_tracks_per_scan`` = r; Blackman & Popoli 1999, §6.2, where the
+* False tracks at a rate (``false_tracks_per_scan`` = r; Blackman & Popoli 1999, Sec. 6.2, where the
   false-confirmation probability comes from the wanted false-track rate): Wald's bound alpha holds per
   initiator (each is one trial of the test: the start score is its second contact's likelihood ratio,
   whichever pairs it opens), so with a fixed alpha the false tracks a run may confirm grow with the
@@ -68,7 +69,7 @@
   ``existence_deletion`` (0.01). JPDA then weighs each track's events by its
   existence (`jipda_log_ratio`) and updates its state conditioned on
   existence.
-* Sanity deletion (issue 21; every contact tracker, whatever its
+* Sanity deletion (every contact tracker, whatever its
   confirmation rule): a live track is deleted when its reported state is
   impossible: faster than ``max_speed_m_s`` (2.5 v_max by default), outside every sensor's
   coverage by more than its gate (`outside_coverage_m` against
@@ -95,7 +96,8 @@ from nnda.tracking.output import CONFIRMED, DELETED, PRELIMINARY
 
 
 class LifecycleConfig(BaseModel):
-    """Initiation window and confirmation/deletion counts; defaults are the neural method's (§4.2, §8.6)."""
+    """Initiation window and confirmation/deletion counts; defaults are those of Vargas Avila (2015)'s proposed
+    (neural) method, Sec. 5.3 and 5.5."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
@@ -106,7 +108,8 @@ class LifecycleConfig(BaseModel):
     max_misses: Annotated[int, Field(ge=0, description="consecutive misses a confirmed track survives")] = 3
     max_tracks_per_initiator: Annotated[int | None, Field(
         ge=1, description="at most this many preliminary tracks per initiator, those whose implied "
-        "speed is nearest the window's middle (spec §4.1's optional rule; None = off, the spec's default)")] = None
+        "speed is nearest the window's middle (a rule Vargas Avila (2015), Ch. 2, mentions but does not use; "
+        "None = off)")] = None
     max_tracks: Annotated[int, Field(
         ge=1, description="live tracks (preliminary and confirmed; for MHT, track families) at most: past "
         "it, a scan opens only as many new tracks as there is room for, those whose implied speed is "
@@ -190,7 +193,7 @@ class LifecycleConfig(BaseModel):
         return math.pi * (d_max**2 - d_min**2)
 
     def window(self, scan_period: float, sigma_range: float) -> tuple[float, float]:
-        """(D_min, D_max) in m for the initiation annulus (§4.2)."""
+        """(D_min, D_max) in m for the initiation annulus."""
         return (max(0.0, self.v_min * scan_period - 3 * sigma_range),
                 self.v_max * scan_period + 3 * sigma_range)
 

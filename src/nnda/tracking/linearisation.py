@@ -9,7 +9,7 @@ standard deviations of a radian, and there
 
 * the gate accepts contacts on the far side of the radar: the wrapped
   azimuth residual and the linearised S say "2 sigma" of a contact 15 km
-  away whose Cartesian Mahalanobis distance is 1,900 (issue 21: S1 run 1,
+  away whose Cartesian Mahalanobis distance is 1,900 (measured on S1 run 1,
   gnn track 0 at scan 38, predicted range 3.1 km, range sd 3.1 km);
 * the update moves the state along the tangent plane of the prediction, not
   to the contact: the posterior lands kilometres from the contact it used,

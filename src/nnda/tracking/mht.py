@@ -1,8 +1,9 @@
-"""Track-oriented multiple hypothesis tracking (TOMHT) with the IMM (spec §7.3, default A13).
+"""Track-oriented multiple hypothesis tracking (TOMHT) with the IMM: the baseline of Vargas Avila (2015).
 
 Every track (a *family*, one id) keeps a tree of hypotheses whose leaves are
 alternative contact sequences, each with its own IMM state and
-log-likelihood-ratio score (Blackman & Popoli 1999, spec §7.3 defaults):
+log-likelihood-ratio score (Blackman & Popoli 1999; the thesis gives no MHT equations or parameters,
+so these are ours):
 
 * new family from the shared initiation: L = ln(beta_NT / beta_FT);
 * detection: dL = ln P_D + ln N(nu; 0, S) - ln beta_FT, N the IMM mixture
@@ -38,7 +39,7 @@ half-side ``clutter_radius_m`` around the predicted position) times the predicte
 The chosen leaf of each family is what the tracker reports; new families are
 reported from their first scan, like the other trackers' preliminary tracks.
 A family that loses its last leaf is reported once as deleted if it was ever
-reported. Confirmation is M/N (3/4, A12; a new family's score starts at
+reported. Confirmation is M/N (3/4, as the neural method's; a new family's score starts at
 ln(beta_NT / beta_FT) = ln(``new_target_ratio``)) or, with
 ``lifecycle.confirmation = "score"``, the track score of every contact
 tracker (`nnda.tracking.lifecycle`): a new family starts at the two-point
@@ -77,7 +78,7 @@ UNKNOWN = -2
 
 
 class MHTConfig(ContactTrackerConfig):
-    """TOMHT settings; defaults are the spec's §7.3 list and MATLAB trackerTOMHT's bounds."""
+    """TOMHT settings; defaults are a standard Blackman-style TOMHT's and MATLAB trackerTOMHT's bounds."""
 
     @model_validator(mode="after")
     def _rule(self) -> MHTConfig:
@@ -87,7 +88,7 @@ class MHTConfig(ContactTrackerConfig):
         return self
 
     gate: Annotated[float, Field(gt=0, description="chi-square gate, 2 dof (9.21: P_G = 0.99)")] = GATE_99
-    pd: Annotated[float, Field(gt=0, lt=1, description="detection probability used in the scores (A4)")] = 0.9
+    pd: Annotated[float, Field(gt=0, lt=1, description="detection probability used in the scores")] = 0.9
     new_target_ratio: Annotated[float, Field(gt=0, description="beta_NT / beta_FT")] = 0.1
     clutter_density: Annotated[float | None, Field(gt=0, description="clutter per m^2; None: local estimate")] = None
     clutter_radius_m: Annotated[float, Field(gt=0)] = 3_000.0
@@ -123,7 +124,7 @@ class _Shown:
 
 
 class MHTTracker(ContactTracker):
-    """IMM + track-oriented MHT (the spec's classical method)."""
+    """IMM + track-oriented MHT (the classical method of Vargas Avila 2015)."""
 
     name: ClassVar[str] = "mht"
     config_type: ClassVar[type[TrackerConfig]] = MHTConfig
@@ -286,7 +287,7 @@ class MHTTracker(ContactTracker):
             members = np.flatnonzero(exact)
             chosen = np.concatenate([chosen, self._solve_clusters(members, fam, rows, res, leaves.score)])
             self.n_clusters_solved += int(np.unique(leaf_cluster[exact]).size)
-        if (joint & ~exact).any():  # clusters too large to solve exactly: greedy (spec §7.3 step 5)
+        if (joint & ~exact).any():  # clusters too large to solve exactly: greedy, as the thesis's global hypothesis
             members = np.flatnonzero(joint & ~exact)
             chosen = np.concatenate([chosen, _greedy_compatible(members, fam, rows, res, leaves.score)])
             self.n_clusters_greedy += int(np.unique(leaf_cluster[joint & ~exact]).size)

@@ -1,4 +1,4 @@
-"""The proposed method: association by the trained MLP scorer (spec §8.2-§8.3, A8, A10).
+"""The proposed method of Vargas Avila (2015), Sec. 5.3-5.5: association by the trained MLP scorer.
 
 Each scan, for all live tracks at once:
 
@@ -11,7 +11,7 @@ Each scan, for all live tracks at once:
 2. *score*: the pair features of every candidate pair go through the numpy
    scorer in one call per scan. The features are those of the set the model
    was trained on (`nnda.models.feature_sets`), computed by the training
-   code: the seed's [ΔV, Δα, ΔT] from the track's last two contacts and the
+   code: the thesis's [ΔV, Δα, ΔT] (``kinematic-3``) from the track's last two contacts and the
    candidate (`nnda.models.features.pair_features`), and for
    ``imm-innovation-9`` also the track's IMM prediction read against the
    candidate (`nnda.models.innovation.innovation_features`: normalised
@@ -29,10 +29,11 @@ Each scan, for all live tracks at once:
    game, and so on. So each track gets the highest-scoring candidate still
    free, each contact goes to at most one track, and when two tracks want
    the same contact the one that scores it higher wins and the other falls
-   back to its next candidate above the threshold, if any (A10). With
+   back to its next candidate above the threshold, if any (our reading: the
+   thesis does not say how conflicts are settled). With
    ``confirmed_first`` the confirmed tracks take their pick before the
-   preliminary ones, as GNN and JPDA do (off by default: the spec's rule).
-   With ``association = "global"`` (issue 20) the pairs above the threshold
+   preliminary ones, as GNN and JPDA do (off by default: the thesis's rule).
+   With ``association = "global"`` the pairs above the threshold
    are instead assigned in one least-cost assignment per scan
    (`global_matching`): a pair costs the negative log-odds of its score
    (`nnda.models.scorer.score_log_odds`, p = (1 + s) / 2), and a track may
@@ -42,7 +43,7 @@ Each scan, for all live tracks at once:
    and a track whose best pick would block a better total yields it.
    ``confirmed_first`` then solves the confirmed tracks' assignment first and
    the preliminary tracks' on the contacts left;
-   With ``coast_gate`` set (issue 20), a confirmed track that has missed
+   With ``coast_gate`` set, a confirmed track that has missed
    ``coast_after`` scans in a row or more and got no pair above the
    threshold takes, of the contacts still free in its chi-square gate (2
    dof) on the IMM's prediction, the one of least Mahalanobis d², as GNN
@@ -78,8 +79,8 @@ Each scan, for all live tracks at once:
    young track of a turning or accelerating target, whose next contacts the
    network refuses (scores of -0.1 to -0.6 in S6, where clutter scores
    -1.0), would otherwise die and leave its target to a new start;
-4. *filter*: the chosen contact updates the track's IMM. With the seed's
-   features the filter smooths the output only (spec §7.2); with the
+4. *filter*: the chosen contact updates the track's IMM. With the thesis's
+   three features the filter smooths the output only (as in the thesis); with the
    extended set its prediction is also what the network reads.
 
 Contacts left over go to initiation, as for every tracker.
@@ -123,7 +124,7 @@ NO_RECIPE = {"encounters": 0, "dagger": 0}
 
 
 def life4() -> dict:
-    """The neural tracker's settings for coasting tracks that issue 20 kept ("life4" in
+    """The neural tracker's settings for coasting tracks that the measurements kept ("life4" in
     docs/neural-association.md and studies/neural-ablation.toml; `life5` adds to them), as `NeuralConfig`
     fields (a new dict each call):
     a coasting confirmed track takes its nearest free contact in the IMM's 99 % gate, and after a miss a
@@ -137,7 +138,7 @@ def life4() -> dict:
 
 def life5() -> dict:
     """`life4` with ``preliminary_gate`` 13.82 (the 99.9 % gate): a preliminary track the network leaves
-    without a pick takes its nearest free contact in that gate (the demo's ``nn-life``; issue 20)."""
+    without a pick takes its nearest free contact in that gate (the demo's ``nn-life``)."""
     return {**life4(), "preliminary_gate": 13.82}
 
 
@@ -158,7 +159,7 @@ class NeuralConfig(ContactTrackerConfig):
         None, description="training recipe the model must record (metadata 'recipe' of `nnda train`, e.g. "
         "{ encounters = 60, dagger = 1 }; a model without one was trained with neither); None: any")
     association: Literal["greedy", "global", "served"] = Field(
-        "greedy", description="'greedy': pairs taken by descending score (spec A10); 'global': one least-cost "
+        "greedy", description="'greedy': pairs taken by descending score; 'global': one least-cost "
         "assignment per scan, a pair costing the negative log-odds of its score, a miss the threshold's; "
         "'served': one assignment serving the most tracks, the confirmed ones also through the free contacts "
         "in their coast_gate, then of greatest log-odds (`served_matching`; needs coast_gate and "
@@ -280,7 +281,7 @@ class NeuralTracker(SingleHypothesisTracker):
     def _scored(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The scan's candidate pairs (track, cand) (P,) (`candidate_pairs`) and the scorer's output (P,) for
-        them, on the model's feature set (`scan_features`: the candidates and the seed's or the IMM-extended
+        them, on the model's feature set (`scan_features`: the candidates and the kinematic or the IMM-extended
         features in one call)."""
         ext = self._extended
         track, cand, features = scan_features(

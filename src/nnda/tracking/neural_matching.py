@@ -3,8 +3,8 @@
 A scan's pairs are (track row, contact column, network score in [-1, 1]),
 (P,) each. Three rules match them one-to-one (`NeuralConfig.association`):
 
-* ``greedy``: the pairs above the threshold by descending score (spec A10,
-  `greedy_matching`);
+* ``greedy``: the pairs above the threshold by descending score
+  (`greedy_matching`);
 * ``global``: the least-cost assignment, a pair costing the negative
   log-odds of its score and a miss the threshold's (`global_matching`);
 * ``served``: the assignment serving the most tracks, also through the

@@ -1,4 +1,4 @@
-"""What every tracker returns per scan (conventions.md, "Interfaces")."""
+"""What every tracker returns per scan."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 
 
 class TrackStatus(IntEnum):
-    """Life stages of a track (spec §4): initiator -> preliminary -> confirmed -> deleted."""
+    """Life stages of a track (Vargas Avila 2015, Ch. 2): initiator -> preliminary -> confirmed -> deleted."""
 
     TENTATIVE = 0
     PRELIMINARY = 1

@@ -63,7 +63,7 @@ TRACKERS: dict[str, type[Tracker]] = _Registry(
 def make_tracker(name: str, sensors: Sensor | Sequence[Sensor], params: Mapping[str, Any] | None = None,
                  where: str = "tracker config") -> Tracker:
     """A tracker of kind ``name`` for ``sensors`` (a scenario's, or one) with its config validated from
-    ``params`` (defaults: the spec's); a tracker that cannot use these sensors is a ConfigError."""
+    ``params`` (defaults: each config's); a tracker that cannot use these sensors is a ConfigError."""
     if name not in TRACKERS:
         raise ConfigError(f"{where}: unknown tracker {name!r}; choose one of {', '.join([*TRACKERS, *PEERS])}")
     try:
@@ -79,7 +79,7 @@ def make_tracker(name: str, sensors: Sensor | Sequence[Sensor], params: Mapping[
 
 def confirmation_rule(name: str, params: Mapping[str, Any] | None = None) -> str | None:
     """The confirmation rule ("mn", "score" or "existence") a contact tracker of kind ``name`` runs with ``params``
-    (issue 21: a study states it), or None for a tracker without one (PHD filters, peers, unknown kinds)."""
+    (a study states it), or None for a tracker without one (PHD filters, peers, unknown kinds)."""
     if name in PEERS or name not in TRACKERS or not issubclass(TRACKERS[name], ContactTracker):
         return None
     lifecycle = dict(params or {}).get("lifecycle") or {}

@@ -2,7 +2,7 @@
 
 **Protocol.** A tracker is anything with a ``name``, a ``config_type`` (its
 strict pydantic config, a `TrackerConfig`), ``reset()`` and ``step(scan) ->
-TrackerOutput`` (conventions.md, "Interfaces"); it is built as
+TrackerOutput`` (`nnda.tracking.output`); it is built as
 ``cls(sensors, config)`` (a scenario's sensors, or one `Sensor`), by
 `nnda.tracking.registry.make_tracker`. Nothing more is assumed: a peer
 (Stone Soup), a PHD filter or a track-before-detect tracker meets it
@@ -20,7 +20,7 @@ only, `associate`; each scan:
 
 1. check the scan (time increasing, a known sensor, (N, 2) finite contacts);
 2. predict every live track's filter to the scan time, over the time since
-   its last update (spec §7.1.8: a missed scan is not an update);
+   its last update (a missed scan is not an update);
 3. **associate** (the method's part): decide which contact, if any, updates
    each track and return the states after the scan (`Association`);
 4. the M/N and deletion logic of `nnda.tracking.lifecycle`, then its sanity rules on the reported
@@ -28,7 +28,8 @@ only, `associate`; each scan:
 5. initiation: the initiators of the sensor's last scan pair with this
    scan's unused contacts inside their [D_min, D_max] window, each pair
    opening a preliminary track (two-point start); unused contacts outside
-   every window become that sensor's next initiators (spec §4, A11);
+   every window become that sensor's next initiators (Vargas Avila 2015,
+   Ch. 2; contacts inside a window start none: our reading);
 6. report every track (and those deleted in this scan, once more).
 
 Track records are batched arrays (`Tracks`), so steps 2-6 have no Python
@@ -84,7 +85,7 @@ from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.marginals import log_miss_weight
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
 
-#: detection probability of the track score for a tracker whose config has none (spec A4)
+#: detection probability of the track score for a tracker whose config has none (MHT's default)
 SCORE_PD = 0.9
 #: half-side (m) of the local clutter density's square for a tracker whose config has none
 CLUTTER_RADIUS_M = 3_000.0
@@ -427,7 +428,7 @@ class Association:
 
 
 class TwoPointInitiation:
-    """Initiators and the preliminary tracks they open (spec §4.2 and A11), per sensor.
+    """Initiators and the preliminary tracks they open (Vargas Avila 2015, Ch. 2 and Sec. 5.3), per sensor.
 
     Holds each sensor's unused contacts of its previous scan; ``__call__``
     pairs them with the same sensor's unused contacts of this scan inside the
@@ -534,7 +535,7 @@ class ContactTracker(ABC):
 
     Construct with the scenario's sensors (`nnda.data.scenario.Sensor`: kind,
     position, noise, coverage, scan period; or one sensor), a config and
-    optionally the per-track filter (default: the spec's IMM, `IMM.for_sensor`
+    optionally the per-track filter (default: the CV + CT IMM, `IMM.for_sensor`
     of the first sensor); the other sensors get copies of it with their own
     measurement models (`IMM.for_measurement`). ``step(scan)`` processes one
     sweep of one of the sensors.
@@ -563,7 +564,7 @@ class ContactTracker(ABC):
 
     @cached_property
     def gate_threshold(self) -> float:
-        """The chi-square gate (2 dof) of the tracker's config, or the spec's 9.21 for a tracker without one
+        """The chi-square gate (2 dof) of the tracker's config, or 9.21 (P_G = 0.99) for a tracker without one
         (the coverage rule of the sanity deletion measures a track's distance outside coverage in gates)."""
         return float(getattr(self.config, "gate", GATE_99))
 
@@ -585,7 +586,7 @@ class ContactTracker(ABC):
 
     @cached_property
     def score_pd(self) -> float:
-        """The detection probability of the track score: the config's ``pd``, or the spec's 0.9 (A4)."""
+        """The detection probability of the track score: the config's ``pd``, or 0.9 (`SCORE_PD`)."""
         return float(getattr(self.config, "pd", SCORE_PD))
 
     def clutter_density(self, scan: ScanContacts, at: np.ndarray) -> np.ndarray:
@@ -756,7 +757,7 @@ class SingleHypothesisTracker(ContactTracker):
     def _finish(self, tracks: Tracks, pred: IMMPrediction, assoc: Association, scan: ScanContacts
                 ) -> tuple[Tracks | None, Shown, np.ndarray]:
         """The scan's end for the K tracks the method decided for, in one compiled call (`_finished`): a track
-        with a contact takes its updated state, a missed one keeps its last posterior (§7.1.8) and reports its
+        with a contact takes its updated state, a missed one keeps its last posterior (no update) and reports its
         prediction; the life cycle (`Tracks.after_scan`, with the score's increments of `_score_gain`); the
         sanity rules on the reported states (`nnda.tracking.lifecycle.sanity_reasons`); with the config's
         ``release_on_deletion``, a track deleted in this scan after it took a contact gives the contact back,

@@ -1,4 +1,4 @@
-"""Walking individuals of seed-000 (Frencl 2014): heading profiles, terrain maps, the walker simulator.
+"""Walking individuals after Frencl (2014): heading profiles, terrain maps, the walker simulator.
 
 Modules: ``profiles`` (the drop / leaf / balloon heading-deviation laws),
 ``terrain`` (map files and their grid), ``walkers`` (the simulator and its

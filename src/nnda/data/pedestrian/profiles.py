@@ -1,4 +1,4 @@
-"""Heading-deviation profiles of seed-000 (spec §3.1): ``drop``, ``leaf`` and ``balloon``.
+"""Heading-deviation profiles of Frencl (2014), Ch. 3: ``drop``, ``leaf`` and ``balloon``.
 
 At every step a walker's heading changes by delta (rad), drawn from one of
 three symmetric laws, each with one "objectivity" parameter (larger: a walker

@@ -1,4 +1,4 @@
-"""The walker scenes of seed-000's Tests 2-4 (spec §4.3-4.5), ready to generate.
+"""The walker scenes of Tests 2-4 of Frencl (2014), Secs. 6.2-6.4, ready to generate.
 
 The thesis's maps survive only as figure captions, so every map here is our
 drawing of what the text says (sizes, kinds of region, how many generators,
@@ -29,7 +29,7 @@ from __future__ import annotations
 from nnda.data.pedestrian.terrain import TerrainMap
 from nnda.data.pedestrian.walkers import PersonType, Profile, WalkerScene
 
-#: the thesis's person vector of its single-walker runs and its person set A (spec §4.1)
+#: the thesis's person vector of its single-walker runs and its person set A (its Sec. 6.2)
 ONE_PERSON = [PersonType(mean_speed_m_s=1.5, speed_std_m_s=0.5, continuity=1.0)]
 PERSON_SET_A = [PersonType(mean_speed_m_s=1.5, speed_std_m_s=0.5, continuity=1.0),
                 PersonType(mean_speed_m_s=2.0, speed_std_m_s=1.0, continuity=0.75)]
@@ -80,14 +80,14 @@ CORRIDOR = TerrainMap.model_validate({
 
 PEDESTRIAN_SCENES: dict[str, WalkerScene] = {s.name: s for s in (
     WalkerScene(name="walk-test2", map=LAWN, duration_s=45.0, people=ONE_PERSON, fixed_truth=True, seed=2,
-                description="seed-000 Test 2: one walker on the 50 x 50 m lawn, leaf 7, 45 s, fixed truth"),
+                description="Frencl (2014) Test 2: one walker on the 50 x 50 m lawn, leaf 7, 45 s, fixed truth"),
     WalkerScene(name="walk-stress", map=LAWN, people=PERSON_SET_A, seed=20, **STRESS,
-                description="seed-000 stress scene: 10 initial, 6 spawned and spontaneous walkers, 100 s"),
+                description="Frencl (2014) stress scene: 10 initial, 6 spawned and spontaneous walkers, 100 s"),
     WalkerScene(name="walk-test3", map=PLUS, duration_s=45.0, people=ONE_PERSON, fixed_truth=True, seed=3,
-                description="seed-000 Test 3: one walker on the 48 x 48 m '+' map of Fig. 5.1, 45 s, fixed truth"),
+                description="Frencl (2014) Test 3: one walker on the 48 x 48 m '+' map of Fig. 5.1, 45 s, fixed truth"),
     WalkerScene(name="walk-test3-stress", map=PLUS, people=PERSON_SET_A, seed=30, **STRESS,
-                description="seed-000 Test 3 stress scene on the '+' map: 10 initial, 6 spawned, spontaneous"),
+                description="Frencl (2014) Test 3 stress scene on the '+' map: 10 initial, 6 spawned, spontaneous"),
     WalkerScene(name="walk-test4", map=CORRIDOR, duration_s=60.0, people=ONE_PERSON, seed=4,
                 profile=Profile(kind="leaf", parameter=3.0),
-                description="seed-000 Test 4: one walker in the 9 m-wide corridor, leaf 3, 60 s"),
+                description="Frencl (2014) Test 4: one walker in the 9 m-wide corridor, leaf 3, 60 s"),
 )}

@@ -1,4 +1,4 @@
-"""Terrain maps of seed-000's walker simulator (spec §3.2-3.3): regions on a grid, waypoints, their links.
+"""Terrain maps of the walker simulator of Frencl (2014), Secs. 4.1-4.2: regions on a grid, waypoints, their links.
 
 Format (our choice; the thesis draws its maps as colour-coded images): a
 TOML (or JSON) file of axis-aligned boxes painted in order on a grid of

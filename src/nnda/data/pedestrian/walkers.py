@@ -1,4 +1,4 @@
-"""seed-000's walker simulator (spec §3.3) and its scenes, ending in an nnda `Dataset`.
+"""The walker simulator of Frencl (2014), Sec. 4.2, and its scenes, ending in an nnda `Dataset`.
 
 Walkers are born at generators (the first at time 0, later ones at
 spontaneous births and by spawning beside a walker), walk from waypoint to
@@ -10,7 +10,7 @@ loop over steps only)::
     ds.truth          # one row per walker per scan (x, y, vx, vy; m, m/s)
     ds.detections     # a ground radar's Cartesian fixes and clutter (kind "position")
 
-Per step, for each walker (spec §3.3; eqs. 4.1-4.7 of the thesis):
+Per step, for each walker (eqs. 4.1-4.7 of the thesis):
 
 1. reached the capture radius of its waypoint: the next one is the linked
    name whose direction from the walker is closest (largest dot product) to
@@ -86,7 +86,7 @@ COLLISION = "stay and turn"
 MIN_SPEED_M_S = 0.1
 #: the ground radar stands this far south of the map's south edge, at its middle (m; our placement)
 RADAR_STANDOFF_M = 10.0
-#: the thesis's ground radar (spec §4.1): position std per axis (m), PD, clutter per m^2 over the map
+#: the thesis's ground radar (its Sec. 6.2): position std per axis (m), PD, clutter per m^2 over the map
 RADAR_SIGMA_M, RADAR_PD, CLUTTER_PER_M2 = 0.25, 0.99, 2e-3
 
 
@@ -121,7 +121,7 @@ class Profile(BaseModel):
 
 class Radar(BaseModel):
     """The ground radar: Cartesian fixes of std ``sigma_m`` per axis, detection probability ``pd``, Poisson
-    clutter of ``clutter_per_m2`` per m^2 uniform over the map (spec §4.1)."""
+    clutter of ``clutter_per_m2`` per m^2 uniform over the map (Frencl (2014), Sec. 6.2)."""
 
     model_config = _STRICT
 

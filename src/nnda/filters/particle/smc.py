@@ -9,16 +9,19 @@ log-weights (R, N); no Python loop over runs or particles, one over steps):
 
 Algorithms, step k (W the normalised weights of step k-1):
 
-- ``bootstrap`` (SIR, Gordon-Salmond-Smith; spec B.3 eq. 23): x_k ~ p(x_k |
-  x_k-1), w_k = W p(y_k | x_k). ``sis`` is the same step without any
-  resampling (spec A.3(a); ``ess_threshold`` does not apply).
-- ``optimal``: x_k ~ p(x_k | x_k-1, y_k), w_k = W p(y_k | x_k-1) (spec B.3
-  eqs. 16-22; the model's ``optimal_proposal``). ``resample_first`` resamples
-  on these weights (which do not depend on x_k) before sampling, the other
-  ordering B.3 asks to offer; its estimate is the mean after sampling.
-- ``auxiliary`` (Pitt & Shephard; spec A.3(b)): first-stage weights lambda
-  = p(y_k | mu^(j)) at a look-ahead point mu (``look_ahead``: "sample", a
-  draw of the transition as the paper; "mean", the transition mean; or
+- ``bootstrap`` (SIR, Gordon-Salmond-Smith; Pavlov & Bruno 2003, eq. 23):
+  x_k ~ p(x_k | x_k-1), w_k = W p(y_k | x_k). ``sis`` is the same step
+  without any resampling (Bruno, Araújo & Pavlov, Sec. III-A;
+  ``ess_threshold`` does not apply).
+- ``optimal``: x_k ~ p(x_k | x_k-1, y_k), w_k = W p(y_k | x_k-1) (Pavlov &
+  Bruno 2003, eqs. 16-22; the model's ``optimal_proposal``).
+  ``resample_first`` resamples on these weights (which do not depend on
+  x_k) before sampling, the other ordering (the paper does not say which
+  it used); its estimate is the mean after sampling.
+- ``auxiliary`` (Pitt & Shephard; Bruno, Araújo & Pavlov, Sec. III-B):
+  first-stage weights lambda = p(y_k | mu^(j)) at a look-ahead point mu
+  (``look_ahead``: "sample", a draw of the transition as Bruno, Araújo &
+  Pavlov do; "mean", the transition mean; or
   "predictive", the exact p(y_k | x_k-1) when the model has an optimal
   proposal), ancestors drawn by lambda, fresh x_k ~ p(x_k | x_k-1^(i)),
   second-stage weights p(y_k | x_k) / p(y_k | mu^(i)). ``auxiliary_form``

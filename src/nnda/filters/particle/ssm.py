@@ -13,10 +13,10 @@ A model holds R runs' observations y_1..y_K and answers, for particles x
     model.move(k, x1, rng)                           # optional: (R, N, d) a symmetric MH proposal (resample-move)
     model.estimate(W, x1)                            # optional: (R, e) the summary of weights W (R, N)
 
-`AdditiveGaussianSSM` is the family of seed 004 (and of the linear-Gaussian
-check): x_k = g(x_k-1) + w_k, w_k ~ N(0, Q); y_k = H x_k + v_k, v_k ~ N(0,
-R_k) with a known per-run, per-step R_k. Its optimal proposal is one
-Kalman step per particle (spec B.3, eqs. 16-22): S_k = H Q H^T + R_k,
+`AdditiveGaussianSSM` is the family of Pavlov & Bruno (2003) (and of the
+linear-Gaussian check): x_k = g(x_k-1) + w_k, w_k ~ N(0, Q); y_k = H x_k +
+v_k, v_k ~ N(0, R_k) with a known per-run, per-step R_k. Its optimal
+proposal is one Kalman step per particle (their eqs. 16-22): S_k = H Q H^T + R_k,
 K_k = Q H^T S_k^-1, Sigma_k = Q - K_k S_k K_k^T (= (Q^-1 + H^T R_k^-1
 H)^-1), m^(j) = g^(j) + K_k (y_k - H g^(j)) and the predictive likelihood
 p(y_k | x_k-1^(j)) = N(y_k; H g^(j), S_k); Sigma_k is shared by every

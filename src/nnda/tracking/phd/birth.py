@@ -22,8 +22,8 @@ filter is given no truth.
 Static birth (Vo & Ma 2006's gamma_k; `nnda.tracking.phd.config.StaticBirth`,
 added by the tracker) puts fixed components at the scan time; placed at the
 targets' true initial states and given at the first scan only, it is the
-seeds' oracle birth (the caller builds it from the truth; the tracker never
-reads truth).
+oracle birth of Frencl (2014) (the caller builds it from the truth; the
+tracker never reads truth).
 """
 
 from __future__ import annotations

@@ -1,24 +1,28 @@
 """Configs of the PHD trackers: strict pydantic models, checked once when a tracker is configured.
 
-Motion (``motion``): nnda's CV and CT, or seed-000's pedestrian models, its
-CV (``cv-seed-000``), its modified NCSHT [x, y, v, alpha]
-(``ncsht-seed-000``) and its HM-map composite (``hm-map``, with ``hm_map``
-naming the map of the scene: ``corridor`` for walk-test4, ``plus`` for the
-walk-test3 scenes; `HM_MAPS`); the heading models take Cartesian fixes only.
+Motion (``motion``): nnda's CV and CT, or the pedestrian models of Frencl
+(2014): a CV with diagonal process noise (``cv-diagonal``), the modified
+NCSHT [x, y, v, alpha] (``ncsht``) and its HM-map composite (``hm-map``,
+with ``hm_map`` naming the map of the scene: ``corridor`` for walk-test4,
+``plus`` for the walk-test3 scenes; `HM_MAPS`); the heading models take
+Cartesian fixes only.
 
 Reduction and extraction come as named parameter sets (``preset``), any of
 whose four numbers an explicit field overrides:
 
-| preset     | prune T | merge U | J_max | extraction | from                                        |
-|------------|---------|---------|-------|------------|---------------------------------------------|
-| `radar`    | 1e-5    | 4       | 100   | 0.5        | this study's radar scenes (the default)     |
-| `seed-000` | 1e-5    | 4       | 15    | 0.25       | Frencl 2014, pedestrians (spec seed-000 4.1)|
-| `seed-002` | 1e-6    | 25      | 1000  | 0.8        | the harbour thesis (spec seed-002 Table 4.3)|
+| preset       | prune T | merge U | J_max | extraction | from                                          |
+|--------------|---------|---------|-------|------------|-----------------------------------------------|
+| `radar`      | 1e-5    | 4       | 100   | 0.5        | this study's radar scenes (the default)       |
+| `pedestrian` | 1e-5    | 4       | 15    | 0.25       | Frencl (2014), Sec. 6.2: walking individuals  |
+| `harbour`    | 1e-6    | 25      | 1000  | 0.8        | Lima (2022), Table 4.3: two radars, harbour   |
 
-Two more reduction settings are off by default (issue 21, measured in the
-README): ``components_per_contact`` grows J_max with the scan's contact
-count, and ``extraction_scans`` reports a label only after that many scans
-in a row above the extraction threshold.
+The previous version's preset and motion names are still read, mapped to
+these with a FutureWarning (`RENAMED_PRESETS`, `RENAMED_MOTIONS`).
+
+Two more reduction settings are off by default (measured in the README):
+``components_per_contact`` grows J_max with the scan's contact count, and
+``extraction_scans`` reports a label only after that many scans in a row
+above the extraction threshold.
 
 Clutter (``clutter``) is a Poisson number of false contacts per scan, of
 mean lambda, spread uniformly over the radar's coverage in measurement
@@ -37,14 +41,15 @@ space, with lambda the contact count.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from typing import Annotated, Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, model_validator
+from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, field_validator, model_validator
 
 from nnda.errors import ConfigError
-from nnda.filters.ground_motion import GroundVehicle, HMMap, ModifiedNCSHT, ThesisCV, corridor_hm_map, plus_hm_map
+from nnda.filters.ground_motion import DiagonalCV, GroundVehicle, HMMap, ModifiedNCSHT, corridor_hm_map, plus_hm_map
 from nnda.filters.motion import ConstantVelocity, CoordinatedTurn, MotionModel
 from nnda.filters.unscented import UnscentedTransform
 from nnda.tracking.tracker import TrackerConfig
@@ -52,8 +57,8 @@ from nnda.validation import check_covariance
 
 _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
-#: the motions whose state is [x, y, v, alpha] (seed-000's modified NCSHT and its HM-map composite)
-HEADING_MOTIONS = ("ncsht-seed-000", "hm-map")
+#: the motions whose state is [x, y, v, alpha] (the modified NCSHT and its HM-map composite)
+HEADING_MOTIONS = ("ncsht", "hm-map")
 #: the HM maps of motion "hm-map" by name (`nnda.filters.ground_motion`): Test 4's corridor (scene
 #: walk-test4) and Fig. 5.1's "+" (scenes walk-test3 and walk-test3-stress)
 HM_MAPS: dict[str, Callable[[], HMMap]] = {"corridor": corridor_hm_map, "plus": plus_hm_map}
@@ -64,11 +69,23 @@ Probability = Annotated[float, Field(gt=0, le=1)]
 #: reduction and extraction parameter sets by name (see the module table)
 REDUCTION_PRESETS: dict[str, dict[str, float]] = {
     "radar": {"prune_threshold": 1e-5, "merge_threshold": 4.0, "max_components": 100, "extraction_threshold": 0.5},
-    "seed-000": {"prune_threshold": 1e-5, "merge_threshold": 4.0, "max_components": 15,
-                 "extraction_threshold": 0.25},
-    "seed-002": {"prune_threshold": 1e-6, "merge_threshold": 25.0, "max_components": 1000,
-                 "extraction_threshold": 0.8},
+    "pedestrian": {"prune_threshold": 1e-5, "merge_threshold": 4.0, "max_components": 15,
+                   "extraction_threshold": 0.25},
+    "harbour": {"prune_threshold": 1e-6, "merge_threshold": 25.0, "max_components": 1000,
+                "extraction_threshold": 0.8},
 }
+
+#: the preset and motion names of the previous version, read for one more version with a FutureWarning
+RENAMED_PRESETS = {"seed-000": "pedestrian", "seed-002": "harbour"}  # deprecated spelling
+RENAMED_MOTIONS = {"cv-seed-000": "cv-diagonal", "ncsht-seed-000": "ncsht"}  # deprecated spelling
+
+
+def _renamed(field: str, value: Any, renamed: dict[str, str]) -> Any:
+    """``value`` under its current name, warning (FutureWarning) when it is one of ``renamed``'s old names."""
+    if isinstance(value, str) and value in renamed:
+        warnings.warn(f"{field} {value!r} is deprecated: use {renamed[value]!r}", FutureWarning, stacklevel=2)
+        return renamed[value]
+    return value
 
 
 def _spd(name: str, matrix: list[list[float]], n: int) -> None:
@@ -107,7 +124,7 @@ class BirthComponent(BaseModel):
 
 class StaticBirth(BaseModel):
     """Fixed birth components (Vo & Ma's gamma_k) at every scan, or at the first only (``every_scan``
-    false: with the true initial states as means, the seeds' oracle birth)."""
+    false: with the true initial states as means, the oracle birth of Frencl (2014))."""
 
     model_config = _STRICT
 
@@ -148,7 +165,7 @@ class CommonConfig(TrackerConfig):
     """What every GM-PHD tracker here shares (ours and the Stone Soup peer): reduction and extraction (by
     preset), CV noise, survival and detection probabilities, clutter, the pair gate."""
 
-    preset: Literal["radar", "seed-000", "seed-002"] = Field(
+    preset: Literal["radar", "pedestrian", "harbour"] = Field(
         "radar", description="named reduction/extraction set; explicit fields override it")
     prune_threshold: Annotated[float, Field(ge=0, description="drop components of weight <= T")]
     merge_threshold: Annotated[float, Field(ge=0, description="squared Mahalanobis distance U of a merge")]
@@ -160,8 +177,14 @@ class CommonConfig(TrackerConfig):
     def _preset(cls, data: Any) -> Any:
         if isinstance(data, dict):
             preset = data.get("preset", cls.model_fields["preset"].default)
+            preset = RENAMED_PRESETS.get(preset, preset) if isinstance(preset, str) else preset
             data = {**REDUCTION_PRESETS.get(preset, {}), **data}
         return data
+
+    @field_validator("preset", mode="before")
+    @classmethod
+    def _old_preset(cls, value: Any) -> Any:
+        return _renamed("preset", value, RENAMED_PRESETS)
 
     sigma_q: Annotated[float, Field(ge=0, description="acceleration noise (m/s^2) of the motion model")] = 10.0
     ps: Probability = Field(0.99, description="survival probability per scan (per shortest scan period)")
@@ -188,11 +211,11 @@ class PHDConfig(CommonConfig):
     linearisation: Literal["linear", "ekf", "ukf"] = Field(
         "ekf", description="linear: Cartesian fixes (a radar's contacts converted); ekf / ukf: polar radar")
     unscented: UnscentedConfig = UnscentedConfig()
-    motion: Literal["cv", "ct", "cv-seed-000", "ncsht-seed-000", "hm-map"] = Field(
-        "cv", description="cv / ct: nnda's CV and CT (sigma_q, sigma_omega); cv-seed-000: the pedestrian "
-        "thesis's CV with its diagonal Q (`nnda.filters.ground_motion.ThesisCV`; sigma_q unused); "
-        "ncsht-seed-000: its modified NCSHT [x, y, v, alpha]; hm-map: its composite model on the HM map "
-        "``hm_map`` (`nnda.filters.ground_motion.GroundVehicle`)")
+    motion: Literal["cv", "ct", "cv-diagonal", "ncsht", "hm-map"] = Field(
+        "cv", description="cv / ct: nnda's CV and CT (sigma_q, sigma_omega); cv-diagonal: a CV with diagonal "
+        "process noise in position and velocity, Frencl (2014)'s (`nnda.filters.ground_motion.DiagonalCV`; "
+        "sigma_q unused); ncsht: the modified NCSHT [x, y, v, alpha]; hm-map: its composite model on the HM "
+        "map ``hm_map`` (`nnda.filters.ground_motion.GroundVehicle`)")
     hm_map: Literal["corridor", "plus"] | None = Field(
         None, description="the HM map of motion 'hm-map': 'corridor' (Test 4, scene walk-test4) or 'plus' "
         "(Fig. 5.1, scenes walk-test3*)")
@@ -212,6 +235,11 @@ class PHDConfig(CommonConfig):
     use_sensors: Annotated[tuple[str, ...], Field(min_length=1)] | None = Field(
         None, description="names of the sensors whose scans update the filter; the others' scans only "
         "predict it (a report still follows every scan); None: every sensor")
+
+    @field_validator("motion", mode="before")
+    @classmethod
+    def _old_motion(cls, value: Any) -> Any:
+        return _renamed("motion", value, RENAMED_MOTIONS)
 
     @model_validator(mode="after")
     def _state_sizes(self) -> PHDConfig:
@@ -239,9 +267,9 @@ class PHDConfig(CommonConfig):
     def motion_model(self) -> MotionModel:
         if self.motion == "cv":
             return ConstantVelocity(self.sigma_q)
-        if self.motion == "cv-seed-000":
-            return ThesisCV()
-        if self.motion == "ncsht-seed-000":
+        if self.motion == "cv-diagonal":
+            return DiagonalCV()
+        if self.motion == "ncsht":
             return ModifiedNCSHT()
         if self.motion == "hm-map":
             return GroundVehicle(hm_map=HM_MAPS[self.hm_map](), v0=self.v0_m_s, rho=self.rho,
@@ -279,12 +307,13 @@ class CPHDConfig(PHDConfig):
         return self
 
 
-class HarbourConfig(PHDConfig):
-    """A GM-PHD for seed-002's harbour (its Table 4.3): the ``seed-002`` reduction set (T 1e-6, U 25,
-    J_max 1000, E 0.8), p_S 0.99, p_D 0.9, the EKF on the CT model. The thesis gives no process noise:
-    sigma_q 0.5 m/s^2 and sigma_omega 0.02 rad/s (ships turning at up to 0.05 rad/s) are ours."""
+class CentralPHDConfig(PHDConfig):
+    """The GM-PHD of the centralised harbour tracker (``fusion-central``) and of each fusion tracker's
+    local filters, after Lima (2022), Table 4.3: the ``harbour`` reduction set (T 1e-6, U 25, J_max 1000,
+    E 0.8), p_S 0.99, p_D 0.9, the EKF on the CT model. Lima gives no process noise: sigma_q 0.5 m/s^2
+    and sigma_omega 0.02 rad/s (ships turning at up to 0.05 rad/s) are ours."""
 
-    preset: Literal["radar", "seed-000", "seed-002"] = "seed-002"
+    preset: Literal["radar", "pedestrian", "harbour"] = "harbour"
     motion: Literal["cv", "ct"] = "ct"
     sigma_q: Annotated[float, Field(ge=0, description="acceleration noise (m/s^2) of the motion model")] = 0.5
     sigma_omega: Annotated[float, Field(ge=0, description="turn-rate noise (rad/s) of the CT model")] = 0.02
@@ -292,9 +321,9 @@ class HarbourConfig(PHDConfig):
                      Discriminator(_birth_kind)] = MeasurementBirth(speed_sigma_m_s=10.0)
 
 
-class FusionConfig(HarbourConfig):
+class FusionConfig(CentralPHDConfig):
     """A fusion centre over one local GM-PHD per sensor (`nnda.tracking.phd.fusion`): every field of
-    `HarbourConfig` sets the local filters (``sensor_pd`` gives each its own p_D); the centre merges with
+    `CentralPHDConfig` sets the local filters (``sensor_pd`` gives each its own p_D); the centre merges with
     ``merge_threshold`` and reports fused components of weight >= ``fused_extraction_threshold``."""
 
     fused_extraction_threshold: Annotated[float, Field(gt=0, description="report fused components of weight "
@@ -307,3 +336,11 @@ class AAFusionConfig(FusionConfig):
 
     fused_extraction_threshold: Annotated[float, Field(gt=0, description="report fused components of weight "
                                                                          ">= this")] = 0.4
+
+
+def __getattr__(name: str) -> Any:
+    if name == "HarbourConfig":
+        warnings.warn("nnda.tracking.phd.config.HarbourConfig is deprecated: use CentralPHDConfig",
+                      FutureWarning, stacklevel=2)
+        return CentralPHDConfig
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -19,16 +19,19 @@ measurement space), Lambda_z = p_D sum_j w_j q_j(z) / c(z) and, for u = 0, 1,
 (the GM-CPHD update of Vo, Vo & Cantoni, "Analytic implementations of the
 cardinalized probability hypothesis density filter", IEEE TSP 55(7), 2007,
 Sec. IV-B, with the Poisson clutter cardinality's (|Z|-k)! p_K(|Z|-k)
-written out). Then p'(n) = Upsilon^0[Z](n) p(n) / <Upsilon^0[Z], p>, missed
-copies weigh (1 - p_D) w_j <Upsilon^1[Z], p> / <Upsilon^0[Z], p> and the
-copy of component j updated by z weighs
-p_D w_j q_j(z) / c(z) <Upsilon^1[Z \\ {z}], p> / <Upsilon^0[Z], p>.
+written out). Then
+
+    p'(n) = Upsilon^0[Z](n) p(n) / <Upsilon^0[Z], p>,
+
+missed copies weigh ``(1 - p_D) w_j <Upsilon^1[Z], p> / <Upsilon^0[Z], p>``
+and the copy of component j updated by z weighs
+``p_D w_j q_j(z) / c(z) <Upsilon^1[Z \\ {z}], p> / <Upsilon^0[Z], p>``.
 
 Numerics. The elementary symmetric functions e_k span hundreds of orders
 of magnitude, so every sum runs on logarithms (the factors above) or on
 rescaled values with their scale kept as a logarithm. e_k(Lambda) comes
 from Vieta's recursion on Lambda / max(Lambda); the N values
-<Upsilon^1[Z \\ {z}], p> come from one forward pass (prefix ESFs) and one
+``<Upsilon^1[Z \\ {z}], p>`` come from one forward pass (prefix ESFs) and one
 backward pass (the prefix's partner, a correlation of the Upsilon^1
 coefficients with the suffix ESFs), both sums of non-negative terms only
 (no subtraction, so no cancellation), renormalised every 64 contacts. Only

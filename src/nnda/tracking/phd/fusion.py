@@ -1,7 +1,7 @@
-"""Fusion of local GM-PHD filters at a central station: the harbour of seed-002 (§2.6), done three ways.
+"""Fusion of local GM-PHD filters at a central station: the harbour of Lima (2022), Ch. 4, done three ways.
 
 Each radar runs its own GM-PHD (`GMPHDTracker` with the EKF on the CT model,
-`HarbourConfig`) on its own scans only and sends its posterior intensity to
+`CentralPHDConfig`) on its own scans only and sends its posterior intensity to
 the centre; nothing is fed back. After every scan the centre takes each
 local intensity at that scan's time (the sweeping radar's posterior, the
 others' predicted without births: `GMPHDTracker.intensity_at`) and fuses:
@@ -52,7 +52,7 @@ from nnda.data.sensor import in_coverage
 from nnda.filters.mixture import Mixture, cap, combine_groups, merge_groups
 from nnda.filters.motion import POS
 from nnda.tracking.output import CONFIRMED, NO_CONTACT, TrackerOutput
-from nnda.tracking.phd.config import AAFusionConfig, FusionConfig, HarbourConfig
+from nnda.tracking.phd.config import AAFusionConfig, CentralPHDConfig, FusionConfig
 from nnda.tracking.phd.extraction import above
 from nnda.tracking.phd.tracker import Cardinality, GMPHDTracker, sensor_detection
 from nnda.tracking.tracker import TrackerConfig, checked_config, checked_scan
@@ -82,11 +82,11 @@ def fuse(union: Mixture, threshold: float, covariance: str = "candidate") -> tup
 
 class CentralPHDTracker(GMPHDTracker):
     """``fusion-central``: one GM-PHD (EKF, CT) updated with every radar's scans in turn, with the harbour's
-    parameters (`HarbourConfig`): the centralised reference of the fusion trackers; on one radar, the
+    parameters (`CentralPHDConfig`): the centralised reference of the fusion trackers; on one radar, the
     local filter of `FusionTracker`."""
 
     name: ClassVar[str] = "fusion-central"
-    config_type: ClassVar[type[TrackerConfig]] = HarbourConfig
+    config_type: ClassVar[type[TrackerConfig]] = CentralPHDConfig
 
 
 class FusionTracker:
@@ -100,7 +100,7 @@ class FusionTracker:
         self.sensors = sensor_tuple(sensors)
         self.config = cfg = checked_config(self, config)
         local = cfg.model_dump(exclude={"fused_extraction_threshold", "sensor_pd"})
-        self.local = tuple(CentralPHDTracker(s, HarbourConfig(**{**local, "pd": pd}))
+        self.local = tuple(CentralPHDTracker(s, CentralPHDConfig(**{**local, "pd": pd}))
                            for s, pd in zip(self.sensors, sensor_detection(self.name, cfg, self.sensors),
                                             strict=True))
         self.reset()

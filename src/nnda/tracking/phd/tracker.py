@@ -9,7 +9,7 @@ a `PositionMeasurement` makes the contacts Cartesian (x, y) fixes, whose
 update is linear whatever the linearisation: there ``ekf`` and ``ukf`` name
 how the motion is predicted, and the clutter is spread over
 ``clutter_area_m2`` when given). The motion model says where the position
-sits in its state (`MotionModel.position`): the seed-000 heading models
+sits in its state (`MotionModel.position`): the pedestrian heading models
 [x, y, v, alpha] take Cartesian fixes only. The prediction is the EKF's
 (the motion's Jacobian), or the unscented transform's with ``ukf``. One
 scan (J components, N contacts):
