@@ -1,5 +1,5 @@
-"""Bad track-management settings (issue 21): each refused by `make_tracker` with a ConfigError that names the
-field and what was wrong."""
+"""Bad track-management settings (the confirmation and deletion rules): each refused by `make_tracker`
+with a ConfigError that names the field and what was wrong."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The harbour of seed-002: occlusion geometry against a brute-force rule, and the preset's scene."""
+"""The harbour of Lima (2022): occlusion geometry against a brute-force rule, and the preset's scene."""
 
 from __future__ import annotations
 

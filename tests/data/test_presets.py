@@ -1,4 +1,4 @@
-"""Every preset against the numbers of shared/spec/seed-001.md §3."""
+"""Every preset against the numbers of Vargas Avila (2015)'s scenarios (Chapter 5 and Appendix G)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ G8 = [7, 8, 15, 16, 17, 24, 25, 30, 36, 37, 38, 42, 43, 47, 51, 52, 53]
 T51 = [7, 8, 15, 16, 17, 24, 25, 30, 36, 37, 38]
 T52 = [7, 8, 15, 16, 17, 24, 25, 30, 36, 37, 38, 42, 43, 47, 51, 52, 53, 100, 101, 102, 115]
 
-# spec §3.3: (duration s, scans, gap scans, initial speed m/s, segment (duration, a_t, a_n) list)
+# the training scenarios: (duration s, scans, gap scans, initial speed m/s, segment (duration, a_t, a_n) list)
 TRAINING = {
     1: (76, 38, [], 99, [(50, 0, 0), (26, 5, 0)]),
     2: (76, 38, T51, 99, [(50, 0, 0), (26, 5, 0)]),
@@ -32,7 +32,7 @@ TRAINING = {
     17: (120, 60, G8, 160, [(40, 0, 11.2), (40, 0, -11.2), (40, 0, 13)]),
 }
 
-# spec §3.4 tables 5.12 / 5.13 (targets in the order of the spec's scenario table)
+# Vargas Avila (2015), Tables 5.12 / 5.13 (targets in the order of its scenario table)
 VALIDATION_GAPS = {
     "S1": {"T1": [], "T2.1": [], "T2.2": [], "T3a": []},
     "S2": {"T4": [], "T5": [], "T6": [], "T7": []},

@@ -111,7 +111,7 @@ def test_heading_changes_quoted_by_the_spec(name, degrees):
 
 
 def test_training_09_placement_spec_radius():
-    """Spec §3.3: TR9's full circle has a radius of about 3.36 km."""
+    """TR9's full circle has a radius of about 3.36 km."""
     speed, sections = TRAINING_TRAJECTORIES["TR9"]
     assert speed**2 / sections[0][2] == pytest.approx(3360, rel=0.01)
 

@@ -1,7 +1,7 @@
-"""Single-track references for the filter tests (and the glue that lets filterpy run the spec's IMM).
+"""Single-track references for the filter tests (and the glue that lets filterpy run the same IMM).
 
 Everything here is written per track, matrix by matrix, straight from the
-spec's equations (shared/spec/seed-001.md §7), without nnda's batching or
+IMM and polar EKF equations as Vargas Avila (2015) writes them, without nnda's batching or
 padding. The tests compare nnda's batched filters with these and with
 filterpy; benchmarks/bench_filters.py times filterpy's IMMEstimator through
 `PolarEKF`.
@@ -120,7 +120,7 @@ def gauss_loglik(nu: np.ndarray, S: np.ndarray) -> float:
 
 
 class LoopIMM:
-    """The spec's CV (4-D) / CT (5-D) IMM for one track, every step written out (§5.3, §7.1).
+    """The CV (4-D) / CT (5-D) IMM of Vargas Avila (2015) for one track, every step written out.
 
     CV is extended with omega = 0 and variance ``aug_var`` for mixing; the
     mixed CV state drops the omega row and column. ``update(None)`` is a

@@ -1,4 +1,4 @@
-"""Polar and position measurement models (spec §7.1.3) and the two-point start (§7.1.5-§7.1.6)."""
+"""Polar and position measurement models and the two-point start of Vargas Avila (2015)."""
 
 from __future__ import annotations
 

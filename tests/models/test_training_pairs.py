@@ -90,7 +90,8 @@ def test_concatenate_renumbers_datasets(hand):
 
 def test_training_presets_give_the_spec_sized_set(train_pairs):
     p = train_pairs
-    # spec §8.4 / §14: 868 target detections, at most 868 - 2 x 17 = 834 positives; ~1935-1967 clutter
+    # Vargas Avila (2015)'s training set: 868 target detections, at most 868 - 2 x 17 = 834 positives;
+    # ~1935-1967 clutter
     assert 820 <= p.n_positive <= 834
     assert 1750 <= p.n_clutter <= 2200
     assert p.n_other_target == 0

@@ -1,4 +1,4 @@
-"""The report's neural association ablation section (issue 20) from hand-made study records."""
+"""The report's neural association ablation section from hand-made study records."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The report's opening (issue 19): the Pareto marking on hand-made points, the quality-against-cost figure's
+"""The report's opening: the Pareto marking on hand-made points, the quality-against-cost figure's
 points read back from summary.json and timing.json, the compact table and the reading computed from the
 numbers, and the per-scenario verdicts as one table."""
 

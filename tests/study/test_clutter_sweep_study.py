@@ -1,4 +1,4 @@
-"""The clutter-sweep study of issue 21 (studies/clutter-sweep.toml) is valid and sweeps what it says."""
+"""The clutter-sweep study (studies/clutter-sweep.toml) is valid and sweeps what it says."""
 
 from __future__ import annotations
 

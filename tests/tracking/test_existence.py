@@ -131,7 +131,7 @@ def test_mht_refuses_the_existence_rule():
         make_tracker("mht", Sensor(), {"lifecycle": {"confirmation": "existence"}})
 
 
-# ------------------------------------------------------------------ JIPDA with tentatives (issue 21, tm3)
+# ------------------------------------------------------------------ JIPDA with tentatives
 
 def _jipda_with_confirmed_track():
     """A JIPDA tracker (fixed clutter density) holding one confirmed track of a target moving east at

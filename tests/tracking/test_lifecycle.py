@@ -1,4 +1,4 @@
-"""M/N confirmation, deletion and the initiation window (spec §4)."""
+"""M/N confirmation, deletion and the initiation window."""
 
 from __future__ import annotations
 

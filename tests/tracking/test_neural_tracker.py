@@ -281,7 +281,7 @@ def test_no_clutter_full_detection_one_track_per_target(tmp_path, model_file):
     assert (m.confirmed_tracks, m.false_tracks, m.track_breaks, m.lost_targets) == (n, 0, 0, 0)
     assert m.clutter_associated == 0 and m.hit_rate > 97.0
     # the trained scorer makes no false track either, and finds every target (it may drop and
-    # restart a track: the features cap its accuracy near 94 %, spec §14.1)
+    # restart a track: the features cap its accuracy near 94 %, as Vargas Avila (2015) reports)
     trained = make_tracker("nn", ds.scenario.sensor, {"model": str(model_file)})
     m = run_metrics(ds, [trained.step(scan) for scan in ds.scans()])
     assert m.false_tracks == 0 and m.confirmed_tracks - m.track_breaks == n
@@ -563,7 +563,7 @@ def test_a_model_scoring_nan_is_an_error_not_silence(model_file):
 
 
 def test_the_imm_feature_tracker_gives_the_same_bytes_for_the_same_seed(ext_model_file):
-    """Same scenario and seed -> the same bits in every output, the compiled IMM cycle included (issue 20)."""
+    """Same scenario and seed -> the same bits in every output, the compiled IMM cycle included."""
     def digest() -> str:
         ds = generate(PRESETS["S1"], seed=3)
         tracker = make_tracker("nn", ds.scenario.sensor, {"model": str(ext_model_file)})

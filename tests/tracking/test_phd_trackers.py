@@ -137,10 +137,10 @@ def test_presets_and_overrides():
 
 
 @pytest.mark.parametrize(("field", "old", "new", "extra"), [
-    ("preset", "seed-000", "pedestrian", {}),
-    ("preset", "seed-002", "harbour", {}),
-    ("motion", "cv-seed-000", "cv-diagonal", {}),
-    ("motion", "ncsht-seed-000", "ncsht", {"linearisation": "linear"}),
+    ("preset", "seed-000", "pedestrian", {}),  # deprecated spelling
+    ("preset", "seed-002", "harbour", {}),  # deprecated spelling
+    ("motion", "cv-seed-000", "cv-diagonal", {}),  # deprecated spelling
+    ("motion", "ncsht-seed-000", "ncsht", {"linearisation": "linear"}),  # deprecated spelling
 ])
 def test_old_preset_and_motion_names_are_read_with_a_future_warning(field, old, new, extra):
     config_type = TRACKERS["ekphd"].config_type

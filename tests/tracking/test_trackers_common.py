@@ -29,8 +29,8 @@ MODEL_FREE = [name for name in TRACKERS if name != "nn"]
 #: trackers whose tracks are built from contacts (scored by the contacts they used)
 CONTACT = [name for name in MODEL_FREE if issubclass(TRACKERS[name], ContactTracker)]
 #: trackers that report positions without contacts (the PHD family), scored by position
-#: trackers set up for seed-002's ships (`nnda.tracking.phd.fusion`): the protocol tests here, their quality in
-#: test_phd_fusion.py, not the aircraft scenes'
+#: trackers set up for the harbour's ships of Lima (2022) (`nnda.tracking.phd.fusion`): the protocol tests here,
+#: their quality in test_phd_fusion.py, not the aircraft scenes'
 HARBOUR = [name for name in MODEL_FREE if TRACKERS[name].__module__ == "nnda.tracking.phd.fusion"]
 POSITION = [name for name in MODEL_FREE if name not in CONTACT and name not in HARBOUR]
 

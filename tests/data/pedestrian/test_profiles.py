@@ -1,4 +1,4 @@
-"""The heading-deviation profiles of seed-000 (spec §3.1): variances, densities, samplers."""
+"""The heading-deviation profiles of Frencl (2014): variances, densities, samplers."""
 
 from __future__ import annotations
 

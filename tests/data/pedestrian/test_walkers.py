@@ -1,4 +1,4 @@
-"""The walker simulator and its scenes (spec §3.2-3.3): obstacles, births, sinks, determinism, the radar."""
+"""The walker simulator and its scenes: obstacles, births, sinks, determinism, the radar."""
 
 from __future__ import annotations
 
