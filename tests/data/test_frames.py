@@ -1,4 +1,5 @@
-"""Seed-003 frames: eq. (1), templates, the truth's life cycle, PTCR, and the frame files on disk."""
+"""Track-before-detect frames (Bruno, Araújo & Pavlov): eq. (1), templates, the truth's life cycle, PTCR,
+and the frame files on disk."""
 
 from __future__ import annotations
 

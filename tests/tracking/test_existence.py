@@ -1,4 +1,4 @@
-"""Issue 21, part 5: IPDA / JIPDA existence (lifecycle.confirmation = "existence")."""
+"""IPDA / JIPDA existence (lifecycle.confirmation = "existence")."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Issue 21, part 1: sanity deletion with counted reasons, and the root cause of the far jumps (the polar
+"""Sanity deletion with counted reasons, and the root cause of the far jumps (the polar
 linearisation at a prediction whose spread rivals its range)."""
 
 from __future__ import annotations
@@ -176,7 +176,7 @@ RULES = {"default": {}, "score": {"lifecycle": {"confirmation": "score"}},
     *((kind, "default") for kind in ("gnn", "jpda", "mht", "nn", "ekphd", "cphd")),
     *((kind, rule) for rule in ("score", "rate") for kind in ("gnn", "jpda", "mht"))])
 def test_no_confirmed_track_is_impossible_on_the_demo_runs(name, rule, demo_runs, model_file):
-    """Issue 21's target on S1-S6 as they are (seed 0, runs 0-1): no confirmed track of any tracker of the
+    """The target on S1-S6 as they are (seed 0, runs 0-1): no confirmed track of any tracker of the
     demo or the clutter sweep (the contact trackers under each rule, the PHD filters' extracted tracks)
     faster than 1 km/s or outside the coverage by more than its gate."""
     params = {"model": str(model_file)} if name == "nn" else RULES[rule]

@@ -1,4 +1,4 @@
-"""Issue 21, parts 2-3: the track score (SPRT) rule of every contact tracker."""
+"""The track score (SPRT) rule of every contact tracker."""
 
 from __future__ import annotations
 
