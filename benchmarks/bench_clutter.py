@@ -1,4 +1,4 @@
-"""Track management in dense clutter (issue 21): time per scan and what the trackers keep, per rule.
+"""Track management in dense clutter: time per scan and what the trackers keep, per rule.
 
 Every contact tracker (gnn, jpda, mht, and nn when given ``--model``) runs
 S6 (six targets) with its clutter raised to each ``--clutter`` count per

@@ -1,9 +1,9 @@
-"""The neural tracker's per-scan feature path: compiled (`nnda.models.feature_kernels`) against numpy (issue 20).
+"""The neural tracker's per-scan feature path: compiled (`nnda.models.feature_kernels`) against numpy.
 
 Per scan the neural tracker gates its tracks' candidates (`candidate_pairs`),
-computes the seed's features (`pair_features`), the IMM-innovation columns
-(`innovation_features`) and the context columns (`with_context`). Until
-issue 20 these were numpy; that formulation is kept here (`numpy_*`) as the
+computes the three kinematic features (`pair_features`), the IMM-innovation columns
+(`innovation_features`) and the context columns (`with_context`). They
+were numpy before; that formulation is kept here (`numpy_*`) as the
 reference, and both run in this process on the same synthetic scans: K
 tracks 6-24 km out, one contact near each track's prediction and clutter
 uniform over 5-30 km. Printed: microseconds per scan of the whole path and
@@ -44,7 +44,7 @@ def numpy_gate(p2, t2, s2, c, tc, sc):
 
 
 def numpy_candidates(last, last_time, last_azimuth, contacts, contact_azimuth, time):
-    """`candidate_pairs` before issue 20: every pair's squared distance, or k-d trees beyond DENSE_PAIRS."""
+    """`candidate_pairs` before it was compiled: every pair's squared distance, or k-d trees beyond DENSE_PAIRS."""
     M, N = len(last), len(contacts)
     gap = time - last_time
     if M * N <= DENSE_PAIRS:
@@ -164,7 +164,7 @@ def best_us(fn, number: int) -> float:
 
 
 def main(sizes, search_sizes) -> None:
-    print("feature path per scan (candidates, seed features, IMM innovation, context), us, best of 5")
+    print("feature path per scan (candidates, kinematic features, IMM innovation, context), us, best of 5")
     print(f"{'tracks':>7s}{'contacts':>9s}{'pairs':>7s}{'numpy':>10s}{'compiled':>10s}{'speed-up':>9s}"
           f"{'search np':>11s}{'search':>9s}   max |diff| / column max")
     for K, N in sizes + search_sizes:

@@ -1,6 +1,6 @@
-"""IMM speed: microseconds per predict + update cycle for K = 1, 10, 1000 tracks (issue 4).
+"""IMM speed: microseconds per predict + update cycle for K = 1, 10, 1000 tracks.
 
-nnda's batched IMM (the spec's CV + CT models, polar EKF) is timed on K
+nnda's batched IMM (Vargas Avila (2015)'s CV + CT models, polar EKF) is timed on K
 tracks at once. The reference, timed in the same process on the same
 measurements, is filterpy's IMMEstimator running the same IMM one track at
 a time: CV written in five states with omega forced to 0 plus the CT EKF,
@@ -68,7 +68,7 @@ def nnda_cycle_us(k: int, scans: int) -> float:
 
 
 def filterpy_spec_us(scans: int) -> float:
-    """Microseconds per predict + update of one track, filterpy IMMEstimator with the spec's IMM."""
+    """Microseconds per predict + update of one track, filterpy IMMEstimator with the same IMM."""
     Z = measurements(FILTERPY_TRACKS, scans)
 
     def run() -> None:
@@ -110,7 +110,7 @@ def filterpy_linear_us(scans: int) -> float:
 
 
 def main(scans: int = 100) -> None:
-    print(f"IMM predict + update, spec CV + CT with polar EKF; best of {REPEATS} x {scans} scans")
+    print(f"IMM predict + update, CV + CT with polar EKF; best of {REPEATS} x {scans} scans")
     fp = filterpy_spec_us(scans)
     fp_lin = filterpy_linear_us(scans)
     print(f"filterpy IMMEstimator, same IMM (EKF glue), per track      {fp:9.1f} us per cycle")

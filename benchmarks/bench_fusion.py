@@ -1,4 +1,4 @@
-"""Fusion of local GM-PHD filters (issue 16): ms per scan of each fusion tracker, the local filters and the rule.
+"""Fusion of local GM-PHD filters: ms per scan of each fusion tracker, the local filters and the rule.
 
 Every scan of a fusion tracker updates one local GM-PHD (the sweeping radar's) and then fuses the local
 intensities at the centre (`nnda.tracking.phd.fusion`). Printed per tracker, in one process: the mean ms

@@ -1,4 +1,4 @@
-"""Generation speed: detections per second for a large Monte Carlo set (issue 3).
+"""Generation speed: detections per second for a large Monte Carlo set.
 
 Prints, for S6 x RUNS runs: in-memory generation on one process and on two
 processes, writing a collection to disk, and a per-scan Python-loop

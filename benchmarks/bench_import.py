@@ -1,13 +1,13 @@
-"""User data in and tracks out (issue 19): `nnda import-detections` rows per second, `nnda track` overhead.
+"""User data in and tracks out: `nnda import-detections` rows per second, `nnda track` overhead.
 
 Prints, for a CSV of ROWS detections (one radar, 500 per 2-s sweep, seeded
 uniform positions): the rate of `read_detections` (pyarrow's CSV reader,
-checks, grouping into scans: the issue asks >= 1 M rows/s) and of the whole
+checks, grouping into scans: target >= 1 M rows/s) and of the whole
 import to disk (`import_detections`, including the dataset writer's checks,
 Parquet files and digests). Then, for TRACKER on S6 (run 0, seed 0): the
 tracker's own time (the sum of `Tracker.step`, as a study measures it), and
 what `nnda.study.track.run_tracker` adds (building the tracker, the track
-table, the scores: the issue asks < 5%), and what writing the outputs adds
+table, the scores: target < 5%), and what writing the outputs adds
 (table file, PNG, HTML, scores.json).
 
 Usage: python benchmarks/bench_import.py [--rows N] [--tracker NAME] [--scans N]

@@ -2,11 +2,11 @@
 
 Prints figures, and ratios against reference runs in the same process:
 * training pairs of the 17 training presets: extraction time and pairs/s,
-  for the seed's features and for the IMM-extended ones (which run the
+  for the three kinematic features and for the IMM-extended ones (which run the
   trackers' IMM along every target's contacts);
 * the extended features of one scan as the neural tracker computes them
   (one call for every pair of K tracks), against one call per pair;
-* Levenberg-Marquardt on the full pair set (3-5-1, spec settings): the first
+* Levenberg-Marquardt on the full pair set (3-5-1, Vargas Avila (2015)'s settings): the first
   fit of the process (it pays torch.func's one-off start-up) and the median
   of warm fits over 10 seeds; target < 2 s on 2 cores;
 * gradient descent (1000 epochs) on the same problems, as the reference;
@@ -78,7 +78,7 @@ def main(seeds: range = SEEDS, batches: tuple[int, ...] = SCORER_BATCHES) -> Non
           f"from 17 datasets in {t_pairs * 1e3:.1f} ms = {len(pairs) / t_pairs:,.0f} pairs/s")
     t_ext = best_of(lambda: pairs_from_datasets(datasets, features=IMM_INNOVATION.name), 3)
     print(f"extended pairs ({IMM_INNOVATION.name}, IMM run along each history): {t_ext * 1e3:.1f} ms "
-          f"= {len(pairs) / t_ext:,.0f} pairs/s ({t_ext / t_pairs:.1f}x the seed set's time)")
+          f"= {len(pairs) / t_ext:,.0f} pairs/s ({t_ext / t_pairs:.1f}x the kinematic set's time)")
     extended_per_scan(datasets[0].scenario.sensor)
 
     t = time.perf_counter()

@@ -1,4 +1,4 @@
-"""Particle filter speed and memory (issue 17) on the seed-004 re-entry model, ratios in one process.
+"""Particle filter speed and memory on the re-entry model of Pavlov & Bruno (2003), ratios in one process.
 
 1. The bootstrap step (multinomial resampling every step, one run of N particles) in us per 1,000
    particles, against a plain numpy bootstrap written here (same model, same draws in kind: exponential

@@ -3,7 +3,7 @@
 Simulates WALKERS walkers for STEPS steps of 1 s on a 1 km x 1 km lawn with
 a gravel band, a row of buildings, a gate along the west edge and a door
 along the east edge (nobody reaches it in the run, so the crowd stays
-WALKERS strong), with seed-000's person set A and the leaf profile; prints
+WALKERS strong), with Frencl (2014)'s person set A and the leaf profile; prints
 the truth simulation alone (`nnda.data.pedestrian.walkers.simulate`) and
 the whole dataset with the ground radar (`walker_runs`), best of REPEAT
 (target >= 1 M walker-steps/s at 1,000 walkers).

@@ -1,4 +1,4 @@
-"""PHD tracker speed (issue 14): ms per scan on S1-S6 and at 10 / 100 / 1,000 clutter, against Stone Soup.
+"""PHD tracker speed: ms per scan on S1-S6 and at 10 / 100 / 1,000 clutter, against Stone Soup.
 
 Part 1: ``gmphd``, ``ekphd``, ``ukphd``, ``cphd`` and Stone Soup's GM-PHD (``stonesoup-gmphd``, when the
 peers extra is installed) on S1-S6 (100 clutter points per scan), mean ms per scan, and the speed ratio

@@ -1,4 +1,4 @@
-"""Scaling against Stone Soup: time per scan of our trackers and the Stone Soup peers (issue 8).
+"""Scaling against Stone Soup: time per scan of our trackers and the Stone Soup peers.
 
 The scenarios are bench_trackers' scaling set (`scaling_settings`): S6 with
 100 -> 1,000 -> 10,000 clutter points per scan, then 6 -> 50 -> 200 targets

@@ -29,7 +29,7 @@ from nnda.study.config import default_study, study_to_toml
 
 
 def train_models(directory: Path) -> None:
-    """GD and LM models on the seed's features and an LM model on the extended ones, from the training
+    """GD and LM models on the three kinematic features and an LM model on the extended ones, from the training
     presets (imports torch: kept out of the module, which the spawned worker processes import again)."""
     from nnda.data.generator import generate
     from nnda.data.presets import GROUPS, PRESETS

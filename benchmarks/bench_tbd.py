@@ -1,4 +1,4 @@
-"""Track-before-detect speed (issue 18, seed 003): the frame likelihood, the filters per frame, the study.
+"""Track-before-detect speed (Bruno, Araújo & Pavlov): the frame likelihood, the filters per frame, the study.
 
 1. Likelihood evaluations per second of `nnda.filters.frame_likelihood` (numba, parallel over particles),
    for nnda's 7 x 7 templates (the default aspects, their nonzero pixels read) and a full 7 x 7 block (all

@@ -1,10 +1,10 @@
-"""Tracker speed: ms per scan on S1-S6 and a scaling table (issue 6).
+"""Tracker speed: ms per scan on S1-S6 and a scaling table.
 
 Part 1: every registered tracker on S1-S6 (100 clutter points per scan),
 mean and 95th-percentile wall time per scan, with the GNN and MHT as the
 references run in the same process (ratio columns); every tracker first runs
 one scenario untimed, so loading the compiled kernels is not timed.
-Part 0 (issue 20): what numba bought: the IMM cycle of the contact trackers
+Part 0: what numba bought: the IMM cycle of the contact trackers
 (predict, gating prediction, update, estimate) compiled (`nnda.filters.imm_kernels`)
 against the batched numpy formulation it replaced (`numpy_cycle`, kept here as
 the reference), per call at tracking sizes, and the kernels' cold compile time
@@ -19,9 +19,9 @@ grows 100 -> 1,000 -> 10,000 per scan (S6's six targets) and as targets grow
 tracker is dropped from the bigger settings once it passes 10 s per scan.
 
 The neural tracker needs a model: pass ``--model PATH`` (a file written by
-``nnda train``), once per model to time (e.g. the seed-feature and the
+``nnda train``), once per model to time (e.g. the kinematic-feature and the
 IMM-extended one: rows ``nn:kinematic-3``, ``nn:imm-innovation-9``), each
-also with the life-cycle options of issue 20 (`LIFE`; rows ``nn:kinematic-3+life``
+also with the neural life-cycle options (`LIFE`; rows ``nn:kinematic-3+life``
 ...); without it the neural tracker is skipped with a note.
 Usage: python benchmarks/bench_trackers.py [--model PATH]... [--runs N] [--repeat R] [--scans N] [--no-scaling]
 """
@@ -52,7 +52,7 @@ from nnda.tracking.registry import TRACKERS, make_tracker
 
 SCALING_SCANS = 15
 GIVE_UP_S = 10.0
-#: the neural tracker's options of issue 20 (`nnda.tracking.neural.life5`, the demo's nn-life): its "+life" rows
+#: the neural tracker's life-cycle options (`nnda.tracking.neural.life5`, the demo's nn-life): its "+life" rows
 LIFE = life5()
 
 
@@ -145,7 +145,7 @@ def numpy_cycle(imm: IMM, state: IMMState, dt: np.ndarray, z: np.ndarray) -> tup
 
 
 def numpy_estimate(imm: IMM, state: IMMState) -> tuple[np.ndarray, np.ndarray]:
-    """The combined estimate (eqs. 4.54-4.55) in numpy, as `IMM.estimate` computed it before issue 20."""
+    """The combined estimate (eqs. 4.54-4.55) in numpy, as `IMM.estimate` computed it before it was compiled."""
     d, K = imm.output_dim, len(state)
     x, P, w = state.x[..., :d], state.P[..., :d, :d], state.mu[:, None, :]
     xc = (w @ x)[:, 0]
