@@ -56,4 +56,4 @@ def test_page_examples_run(page, tmp_path, monkeypatch):
                 assert done.returncode == 0, (
                     f"{where}: `{cmd}` exited {done.returncode}\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}")
         elif b.lang == "python":
-            exec(compile(b.text, where, "exec"), namespace)
+            exec(compile(b.text, where, "exec", dont_inherit=True), namespace)

@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 import pytest
-import spec_reference as ref
+import reference_filters as ref
 from scipy.stats import binom, chi2
 
 from nnda.data.generator import generate_runs

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 import pytest
-import spec_reference as ref
+import reference_filters as ref
 from filterpy.kalman import ExtendedKalmanFilter, IMMEstimator, KalmanFilter
 
 from nnda.data.scenario import Segment, Sensor, Target

@@ -1,7 +1,7 @@
 """The compiled IMM cycle (`nnda.filters.imm_kernels`, through `IMM`) against per-track references.
 
 The references are the spec's single-track IMM written out in numpy
-(`spec_reference.LoopIMM`) and brute-force loops over pairs; random states
+(`reference_filters.LoopIMM`) and brute-force loops over pairs; random states
 come from hypothesis. Agreement is to RTOL (other summation orders), and the
 kernels give the same bits when run twice.
 """
@@ -12,7 +12,7 @@ import hashlib
 
 import numpy as np
 import pytest
-import spec_reference as ref
+import reference_filters as ref
 from hypothesis import given, settings
 from hypothesis import strategies as st
 

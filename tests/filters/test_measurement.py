@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-import spec_reference as ref
+import reference_filters as ref
 
 from nnda.data.scenario import Sensor
 from nnda.data.sensor import cart_to_polar, measure, polar_to_cart, polar_to_cart_at

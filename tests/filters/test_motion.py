@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 from filterpy.common import Q_discrete_white_noise
-from spec_reference import ct_F, ct_f, ct_Q, cv_F, cv_Q
+from reference_filters import ct_F, ct_f, ct_Q, cv_F, cv_Q
 
 from nnda.errors import FilterError
 from nnda.filters.motion import ConstantVelocity, CoordinatedTurn

@@ -1,6 +1,6 @@
 """A whole job kind in one module: a scalar Kalman filter against the raw measurements on a random walk.
 
-The worked example of the extension guide (docs/extending.md): a study-file table, jobs over blocks of
+The smallest worked example of a study kind (docs/extending/study-kind.md): a study-file table, jobs over blocks of
 runs, a record per job, an aggregate with intervals from `nnda.study.stats`, a Parquet table. Registering
 it is one line, ``KINDS[KIND.name] = KIND`` (in nnda: one entry of the tuple in `nnda.study.kinds`).
 """

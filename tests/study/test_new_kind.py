@@ -1,5 +1,5 @@
 """A new job kind is one module and one registry line: the study file, plan, keys, resume, records, aggregates,
-checksums and a report section come with it (the kind of docs/extending.md)."""
+checksums and a report section come with it (the kind of docs/extending/study-kind.md)."""
 
 from __future__ import annotations
 

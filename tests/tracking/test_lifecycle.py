@@ -71,7 +71,7 @@ def test_batch_equals_single_tracks():
     assert [S(s) for s in final] == [_run(h, cfg) for h in histories]
 
 
-def test_window_matches_spec_values():
+def test_window_matches_published_tracking():
     assert LifecycleConfig().window(2.0, 30.0) == (50.0, 490.0)
     assert LifecycleConfig(v_min=50, v_max=500).window(2.0, 30.0) == (10.0, 1090.0)
 

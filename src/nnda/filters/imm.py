@@ -56,10 +56,10 @@ from nnda.validation import check_array, check_covariance, check_finite, check_n
 if TYPE_CHECKING:
     from nnda.data.scenario import Sensor
 
-#: transition probability matrix, rows = from, columns = to (eq. 5.61)
-SPEC_TPM = ((0.99, 0.01), (0.10, 0.90))
-#: initial mode probabilities (eqs. 5.62-5.63)
-SPEC_MU0 = (0.5, 0.5)
+#: transition probability matrix, rows = from, columns = to (Vargas Avila (2015), eq. 5.61)
+DEFAULT_TPM = ((0.99, 0.01), (0.10, 0.90))
+#: initial mode probabilities (Vargas Avila (2015), eqs. 5.62-5.63)
+DEFAULT_MU0 = (0.5, 0.5)
 #: tolerance on probabilities summing to one
 PROBABILITY_ATOL = 1e-9
 #: added to probabilities before a division or a log: leaves every value above 1e-284 unchanged,
@@ -123,8 +123,8 @@ class IMM:
 
     models: tuple[MotionModel, ...] = (ConstantVelocity(), CoordinatedTurn())
     measurement: MeasurementModel = PolarMeasurement()
-    tpm: tuple[tuple[float, ...], ...] = SPEC_TPM
-    mu0: tuple[float, ...] = SPEC_MU0
+    tpm: tuple[tuple[float, ...], ...] = DEFAULT_TPM
+    mu0: tuple[float, ...] = DEFAULT_MU0
     augment_variance: float = 0.0
 
     def __post_init__(self) -> None:

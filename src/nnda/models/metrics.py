@@ -38,7 +38,7 @@ class ClassifierMetrics:
 
 
 #: Vargas Avila (2015), Table 6.3: totals over all 2766 pairs, one run per method.
-SPEC_TABLE_6_3 = {
+PUBLISHED_TABLE_6_3 = {
     "gd": {"tp": 784, "fn": 47, "tn": 1819, "fp": 116, "sensitivity": 0.9434, "specificity": 0.94,
            "fpr": 0.0599, "accuracy": 0.941, "auc": 0.979, "epochs": 1000},
     "lm": {"tp": 824, "fn": 7, "tn": 1919, "fp": 16, "sensitivity": 0.9916, "specificity": 0.9917,

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from nnda.models.features import KINEMATIC
-from nnda.models.metrics import SPEC_TABLE_6_3, ClassifierMetrics
+from nnda.models.metrics import PUBLISHED_TABLE_6_3, ClassifierMetrics
 from nnda.reports.text_table import DASH, TextTable, interval
 from nnda.study.stats import bootstrap_indices, percentile_interval
 
@@ -44,7 +44,7 @@ METHOD_NAMES = {"gd": "Gradient descent", "lm": "Levenberg-Marquardt"}
 
 
 def _spec(method: str, key: str, fmt: str) -> str:
-    value = SPEC_TABLE_6_3[method].get(key)
+    value = PUBLISHED_TABLE_6_3[method].get(key)
     return "" if value is None else fmt.format(value)
 
 
@@ -68,7 +68,7 @@ def fit_table(result: FitResult) -> TextTable:
     """The metrics of one trained model on each subset, beside the thesis's figures for its method."""
     t = result.training
     note = (f"{t.epochs} epochs (weights of epoch {t.best_epoch}), stopped by {t.stop_reason}, "
-            f"{t.seconds:.3f} s; thesis: {SPEC_TABLE_6_3[result.method]['epochs']} epochs")
+            f"{t.seconds:.3f} s; thesis: {PUBLISHED_TABLE_6_3[result.method]['epochs']} epochs")
     n = result.scorer.weights.n_hidden
     title = f"{METHOD_NAMES[result.method]}, {result.scorer.weights.n_inputs}-{n}-1 tanh on " \
             f"{result.scorer.features.name}, seed {result.seed}"
@@ -179,7 +179,7 @@ def classifier_table(models: list[dict]) -> TextTable:
             value = m["evaluation"]["metrics"].get(key)
             row.append(DASH if value is None else fmt.format(value))
         for method in ("gd", "lm"):
-            value = SPEC_TABLE_6_3[method].get(key)
+            value = PUBLISHED_TABLE_6_3[method].get(key)
             row.append(DASH if value is None else fmt.format(value))
         rows.append(tuple(row))
     extra = (("Method", lambda m: METHOD_NAMES.get(m["method"], str(m["method"] or DASH))),

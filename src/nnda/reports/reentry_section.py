@@ -16,7 +16,7 @@ from nnda.reports.text_table import DASH, TextTable, interval, stat_cell
 from nnda.study.reentry import PRIOR, ReentrySetting, filter_entries
 
 #: an independent numpy reproduction's time-averaged RMSE x / y (m) at the paper's setting, 4,000 particles
-SPEC_B5 = {"bootstrap": (233.0, 424.0), "optimal": (217.0, 407.0)}
+INDEPENDENT_RMSE = {"bootstrap": (233.0, 424.0), "optimal": (217.0, 407.0)}
 #: every this many steps in the time-profile table
 PROFILE_EVERY = 5
 
@@ -120,7 +120,7 @@ def reentry_section(section, results: dict):
         profile = _profile(setting)
         if profile is not None:
             section.table(profile, f"reentry-{setting['name']}-profile")
-    section.text(_against_b5(results))
+    section.text(_against_independent(results))
     return section
 
 
@@ -129,12 +129,12 @@ def combined(f: dict) -> float:
     return float(np.hypot(f["time_avg"]["x"], f["time_avg"]["y"]))
 
 
-def _against_b5(results: dict) -> str:
-    """The paper setting's bootstrap and optimal figures against the independent reproduction (`SPEC_B5`)."""
+def _against_independent(results: dict) -> str:
+    """The paper setting's bootstrap and optimal figures against the independent reproduction (`INDEPENDENT_RMSE`)."""
     paper = next((s for s in results["settings"] if s["sigma_r"] == 200.0 and s["sigma_eps"] == 0.017), None)
     parts = []
     prior = paper["filters"].get(PRIOR) if paper else None
-    for name, (bx, by) in SPEC_B5.items():
+    for name, (bx, by) in INDEPENDENT_RMSE.items():
         f = paper["filters"].get(f"{name}@4000") if paper else None
         if f is not None:
             x, y = f["time_avg"]["x"], f["time_avg"]["y"]

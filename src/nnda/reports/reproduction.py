@@ -34,7 +34,7 @@ from nnda.reports.claims import Claim, Stat, difference
 from nnda.reports.pages import Section, StudyFiles, write_pages
 from nnda.reports.pedestrian_section import comparisons, in_study_order
 from nnda.reports.pedestrian_values import THESIS_RMS
-from nnda.reports.spec_values import SPEC_TRACKING
+from nnda.reports.published_tracking import PUBLISHED_TRACKING
 from nnda.reports.study_report import study_files
 from nnda.reports.text_table import TextTable
 from nnda.study.tbd import PAPER_DIVERGENCES
@@ -62,12 +62,12 @@ def _radar() -> list[Claim]:
     claims = []
     for column, label, name in (("classical", "mht", "IMM/TOMHT"), ("proposed", "nn-seed", "neural association")):
         claims += [Claim(RADAR, "radar", f"{s}: {name}'s hit rate", _metric(s, label, "hit_rate"),
-                         reference=SPEC_TRACKING[s][column]["hit_rate"], unit="%") for s in scenes]
+                         reference=PUBLISHED_TRACKING[s][column]["hit_rate"], unit="%") for s in scenes]
     claims += [Claim(RADAR, "radar", f"{s}: IMM/TOMHT loses two targets in the detection gaps",
                      _metric(s, "mht", "lost_targets"), reference=2.0, fmt="{:.1f}") for s in ("S3", "S5")]
     for column, label, name in (("classical", "mht", "IMM/TOMHT"), ("proposed", "nn-seed", "neural association")):
         claims += [Claim(RADAR, "radar", f"{s}: {name}'s confirmed tracks", _metric(s, label, "confirmed_tracks"),
-                         reference=SPEC_TRACKING[s][column]["confirmed_tracks"], fmt="{:.1f}") for s in scenes]
+                         reference=PUBLISHED_TRACKING[s][column]["confirmed_tracks"], fmt="{:.1f}") for s in scenes]
     claims.append(Claim(RADAR, "radar", "the neural association is faster per scan than IMM/TOMHT (S1-S6)",
                         lambda study: [difference(_time(study, s, "nn-seed"), _time(study, s, "mht")) for s in scenes],
                         sign=-1, unit="ms", fmt="{:+.2f}", scale=1e3))

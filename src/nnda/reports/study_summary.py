@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from nnda.reports.spec_values import SPEC_TRACKING
+from nnda.reports.published_tracking import PUBLISHED_TRACKING
 from nnda.reports.text_table import DASH, TextTable, stat_cell
 from nnda.study.measures import TIME, Measure, measure
 
@@ -91,7 +91,7 @@ def _time_ratios(summary: dict, timing: dict) -> list[tuple[str, str]]:
     mht = [t for t, k in kinds.items() if k == "mht"]
     lines = []
     for tsc in timing["scenarios"]:
-        spec = SPEC_TRACKING.get(tsc["name"])
+        spec = PUBLISHED_TRACKING.get(tsc["name"])
         for a in nn:
             for b in mht:
                 ta, tb = tsc["trackers"][a][TIME.key]["mean"], tsc["trackers"][b][TIME.key]["mean"]

@@ -11,7 +11,7 @@ association network's tables are `nnda.reports.classifier_tables`.
 from __future__ import annotations
 
 from nnda.data.presets import PRESETS
-from nnda.reports.spec_values import SPEC_COLUMN_TITLES, SPEC_TRACKING
+from nnda.reports.published_tracking import PUBLISHED_COLUMN_TITLES, PUBLISHED_TRACKING
 from nnda.reports.study_summary import stat
 from nnda.reports.text_table import DASH, TextTable, stat_cell
 from nnda.study.measures import TRACK_MEASURES
@@ -19,7 +19,7 @@ from nnda.study.measures import TRACK_MEASURES
 
 def is_thesis_scenario(name: str, scenario: dict) -> bool:
     """True when the scenario is the thesis's own (a preset S1-S6 with its config unchanged)."""
-    return name in SPEC_TRACKING and name in PRESETS and PRESETS[name].model_dump(mode="json") == scenario
+    return name in PUBLISHED_TRACKING and name in PRESETS and PRESETS[name].model_dump(mode="json") == scenario
 
 
 def scenario_table(scenario: dict, timing: dict, thesis: bool, confidence: float) -> TextTable:
@@ -27,9 +27,9 @@ def scenario_table(scenario: dict, timing: dict, thesis: bool, confidence: float
     measure of the registry, a column per tracker (and the thesis's columns)."""
     trackers = scenario["trackers"]
     header = ("Measure", *trackers)
-    spec = SPEC_TRACKING.get(scenario["name"]) if thesis else None
+    spec = PUBLISHED_TRACKING.get(scenario["name"]) if thesis else None
     if spec:
-        header += tuple(SPEC_COLUMN_TITLES[c] for c in spec)
+        header += tuple(PUBLISHED_COLUMN_TITLES[c] for c in spec)
     rows = []
     for m in TRACK_MEASURES:
         row = [m.title, *(stat_cell(stat(scenario, timing, name, m.key), m.fmt, m.scale) for name in trackers)]

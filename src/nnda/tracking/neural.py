@@ -124,9 +124,9 @@ NO_RECIPE = {"encounters": 0, "dagger": 0}
 
 
 def life4() -> dict:
-    """The neural tracker's settings for coasting tracks that the measurements kept ("life4" in
-    docs/neural-association.md and studies/neural-ablation.toml; `life5` adds to them), as `NeuralConfig`
-    fields (a new dict each call):
+    """The neural tracker's settings for coasting tracks that the measurements kept ("life4" in the
+    record docs/records/2026-12-01-neural-association.md and studies/neural-ablation.toml; `life5` adds to
+    them), as `NeuralConfig` fields (a new dict each call):
     a coasting confirmed track takes its nearest free contact in the IMM's 99 % gate, and after a miss a
     network pick only inside it; the confirmed tracks pick first, in one assignment with their
     re-acquisitions (``served``); the one-scan retrodiction; a track deleted in the scan it took a contact

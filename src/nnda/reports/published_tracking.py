@@ -11,10 +11,10 @@ lost one; for the classical method elsewhere the thesis gives no number.
 from __future__ import annotations
 
 #: metric keys of the rows of Tables 6.4-6.9, in the thesis's order
-SPEC_ROWS = ("target_contacts", "hits", "losses", "clutter_associated", "hit_rate", "mean_time_per_scan_s",
+PUBLISHED_ROWS = ("target_contacts", "hits", "losses", "clutter_associated", "hit_rate", "mean_time_per_scan_s",
              "confirmed_tracks")
 
-_TABLES = {  # scenario: (classical row values, proposed row values) in SPEC_ROWS order
+_TABLES = {  # scenario: (classical row values, proposed row values) in PUBLISHED_ROWS order
     "S1": ((266, 266, 0, 1, 99.63, 1.96281, 6), (266, 258, 8, 0, 96.99, 0.14504, 5)),
     "S2": ((281, 279, 2, 2, 98.59, 2.21144, 8), (281, 262, 18, 1, 93.24, 0.15713, 4)),
     "S3": ((265, 261, 4, 4, 97.03, 2.00664, 10), (265, 256, 8, 2, 96.24, 0.16002, 4)),
@@ -23,15 +23,15 @@ _TABLES = {  # scenario: (classical row values, proposed row values) in SPEC_ROW
     "S6": ((308, 307, 0, 4, 98.71, 2.20885, 9), (308, 305, 3, 0, 99.03, 0.174040, 6)),
 }
 
-#: the thesis's value of each row: SPEC_TRACKING[scenario][column][metric], column "classical" or "proposed"
-SPEC_TRACKING: dict[str, dict[str, dict[str, float]]] = {
-    name: {"classical": dict(zip(SPEC_ROWS, classical)), "proposed": dict(zip(SPEC_ROWS, proposed))}
+#: the thesis's value of each row: PUBLISHED_TRACKING[scenario][column][metric], column "classical" or "proposed"
+PUBLISHED_TRACKING: dict[str, dict[str, dict[str, float]]] = {
+    name: {"classical": dict(zip(PUBLISHED_ROWS, classical)), "proposed": dict(zip(PUBLISHED_ROWS, proposed))}
     for name, (classical, proposed) in _TABLES.items()
 }
-for _name in SPEC_TRACKING:
-    SPEC_TRACKING[_name]["proposed"]["lost_targets"] = 0
+for _name in PUBLISHED_TRACKING:
+    PUBLISHED_TRACKING[_name]["proposed"]["lost_targets"] = 0
 for _name in ("S3", "S5"):
-    SPEC_TRACKING[_name]["classical"]["lost_targets"] = 2
+    PUBLISHED_TRACKING[_name]["classical"]["lost_targets"] = 2
 
 #: column titles of the thesis's two methods in the per-scenario tables
-SPEC_COLUMN_TITLES = {"classical": "thesis: IMM/TOMHT", "proposed": "thesis: neural"}
+PUBLISHED_COLUMN_TITLES = {"classical": "thesis: IMM/TOMHT", "proposed": "thesis: neural"}
