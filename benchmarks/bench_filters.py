@@ -4,7 +4,7 @@ nnda's batched IMM (Vargas Avila (2015)'s CV + CT models, polar EKF) is timed on
 tracks at once. The reference, timed in the same process on the same
 measurements, is filterpy's IMMEstimator running the same IMM one track at
 a time: CV written in five states with omega forced to 0 plus the CT EKF,
-through the glue in tests/filters/spec_reference.py (the tests check that
+through the glue in tests/filters/reference_filters.py (the tests check that
 both give the same numbers to 1e-9). filterpy's cheapest two-model IMM (two
 linear CV Kalman filters on position fixes) is printed as well, as the
 lower bound of what an IMM cycle costs there.
@@ -23,7 +23,7 @@ import numpy as np
 from filterpy.kalman import IMMEstimator, KalmanFilter
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "filters"))
-import spec_reference as ref  # noqa: E402
+import reference_filters as ref  # noqa: E402
 
 from nnda.data.scenario import Sensor  # noqa: E402
 from nnda.data.sensor import measure  # noqa: E402
