@@ -67,3 +67,32 @@ def test_training_without_torch_names_the_extra(core):
     done = core("train", "--data", "t1", "--out", "m")
     assert done.returncode == 2
     assert 'pip install "nnda[train]"' in done.stderr and "Traceback" not in done.stderr
+
+
+def test_every_package_the_code_imports_is_declared():
+    """Each third-party package imported anywhere in src/nnda is a dependency of the core or of an extra (a
+    package that only arrives with another, as threadpoolctl did with scikit-learn, breaks a clean install)."""
+    import ast
+    import re
+    import tomllib
+    from importlib.metadata import packages_distributions
+
+    root = Path(__file__).resolve().parents[1]
+    project = tomllib.loads((root / "pyproject.toml").read_text())["project"]
+    declared = {re.split(r"[<>=\[;! ]", d, maxsplit=1)[0].lower().replace("_", "-")
+                for d in [*project["dependencies"], *sum(project["optional-dependencies"].values(), [])]}
+    dists = packages_distributions()
+    missing = {}
+    for path in sorted((root / "src" / "nnda").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                     else [node.module] if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module
+                     else [])
+            for name in names:
+                top = name.split(".")[0]
+                if top == "nnda" or top in sys.stdlib_module_names:
+                    continue
+                owners = {d.lower().replace("_", "-") for d in dists.get(top, [top])}
+                if not owners & declared:
+                    missing.setdefault(top, str(path.relative_to(root)))
+    assert not missing, f"imported but not declared in pyproject.toml: {missing}"
