@@ -7,6 +7,7 @@ The dated records (docs/records/) are a lab notebook: shown, never run.
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -57,3 +58,14 @@ def test_page_examples_run(page, tmp_path, monkeypatch):
                     f"{where}: `{cmd}` exited {done.returncode}\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}")
         elif b.lang == "python":
             exec(compile(b.text, where, "exec", dont_inherit=True), namespace)
+
+
+@pytest.mark.parametrize("page", [ROOT / "README.md", ROOT / "CONTRIBUTING.md", ROOT / "CHANGELOG.md"], ids=_id)
+def test_links_outside_the_site_lead_somewhere(page):
+    """The README, CONTRIBUTING and CHANGELOG are read on their own (mkdocs checks only docs/): every
+    relative link names a file of the repository."""
+    text = page.read_text(encoding="utf-8")
+    for target in re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", text):
+        if "://" in target or target.startswith("mailto:"):
+            continue
+        assert (page.parent / target).exists(), f"{_id(page)} links to {target}, which does not exist"
