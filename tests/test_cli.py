@@ -78,3 +78,16 @@ def test_usage_errors_are_one_plain_line_and_help_still_works(tmp_path):
     assert wrong.returncode == 2 and wrong.stderr.count("\n") == 1
     assert wrong.stderr.startswith("error: Invalid value for '--runs'") and "nnda generate --help" in wrong.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(("command", "shown"), [
+    ("import-detections", "[[sensors]]"), ("run", "nnda[dask]"), ("reentry", "[reentry]"), ("tbd", "[tbd]"),
+    ("pedestrian", "[pedestrian]")])
+def test_help_shows_brackets_as_written(command, shown):
+    """Square brackets in a help text reach the terminal (Rich would read "[dask]" as a style and drop it)."""
+    from typer.testing import CliRunner
+
+    from nnda.app.cli import app
+
+    out = CliRunner().invoke(app, [command, "--help"], terminal_width=200).output
+    assert shown in " ".join(out.split()), out

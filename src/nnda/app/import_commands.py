@@ -21,7 +21,7 @@ def import_detections_command(
     truth: Annotated[Path | None, typer.Option(
         help="truth file (.csv or .parquet): time, target_id, x, y, vx, vy")] = None,
     sensors: Annotated[Path | None, typer.Option(
-        help="TOML file of [[sensors]] tables (fields as in a scenario's sensors)")] = None,
+        help="TOML file of \\[\\[sensors]] tables (fields as in a scenario's sensors)")] = None,
     sensor: Annotated[list[str] | None, typer.Option(
         help="FIELD=VALUE of the one sensor (repeatable), e.g. scan_period_s=2, sigma_range_m=30")] = None,
     column: Annotated[list[str] | None, typer.Option(

@@ -90,7 +90,7 @@ def run_study(definition, out: Path, where: str, resume: bool = False, jobs: int
 
 Resume = Annotated[bool, typer.Option(help="continue an interrupted study in --out, skipping finished jobs")]
 Dask = Annotated[str | None, typer.Option(
-    help="run the jobs on Dask: a scheduler address, or 'local' for a LocalCluster (needs nnda[dask])")]
+    help="run the jobs on Dask: a scheduler address, or 'local' for a LocalCluster (needs nnda\\[dask])")]
 Jobs = Annotated[int, typer.Option(min=1, help="local worker processes (1: in this process); Dask workers with "
                                                "--dask local")]
 Overwrite = Annotated[bool, typer.Option(help="replace an earlier study directory at --out")]
@@ -139,7 +139,7 @@ def shipped_study(name: str, overrides: dict, seed: int | None = None, config: P
 
 def reentry(
     out: Annotated[Path, typer.Option(help="study directory for job results, aggregates and the report")],
-    config: Annotated[Path | None, typer.Option(help="the [reentry] table's fields (.toml or .json; default: the "
+    config: Annotated[Path | None, typer.Option(help="the \\[reentry] table's fields (.toml or .json; default: the "
                                                      "paper's setting, the particle sweep and the precise sensor)")
                       ] = None,
     runs: Annotated[int | None, typer.Option(min=1, help="Monte Carlo runs (overrides the config)")] = None,
@@ -158,7 +158,7 @@ def reentry(
 
 def tbd(
     out: Annotated[Path, typer.Option(help="study directory for job results, aggregates and the report")],
-    config: Annotated[Path | None, typer.Option(help="the [tbd] table's fields (.toml or .json; default: 100 runs x "
+    config: Annotated[Path | None, typer.Option(help="the \\[tbd] table's fields (.toml or .json; default: 100 runs x "
                                                      "20 frames at 6.5 and 8.1 dB, APF 5,000, RS 8,000, ...)")] = None,
     runs: Annotated[int | None, typer.Option(min=1, help="Monte Carlo runs (overrides the config)")] = None,
     seed: Annotated[int | None, typer.Option(min=0, help="seed (overrides the config)")] = None,
@@ -179,7 +179,7 @@ def tbd(
 def pedestrian(
     out: Annotated[Path, typer.Option(help="study directory for job results, aggregates and the report")],
     tests: Annotated[list[str] | None, typer.Argument(help="test1, test2, test3, test4 (default: all)")] = None,
-    config: Annotated[Path | None, typer.Option(help="the [pedestrian] table's fields (.toml or .json)")] = None,
+    config: Annotated[Path | None, typer.Option(help="the \\[pedestrian] table's fields (.toml or .json)")] = None,
     runs: Annotated[int | None, typer.Option(min=2, help="accuracy runs of Tests 2-3 (default 300)")] = None,
     test4_runs: Annotated[int | None, typer.Option(min=2, help="runs of Test 4 (default 600)")] = None,
     stress_runs: Annotated[int | None, typer.Option(min=2, help="runs of the stress scenes (default 25)")] = None,
