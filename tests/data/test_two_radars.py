@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import re
 import shutil
 from dataclasses import fields
 from pathlib import Path
@@ -24,7 +23,6 @@ from nnda.errors import ConfigError, DatasetError
 from nnda.files import file_digests
 
 V1_FIXTURE = Path(__file__).parent / "fixtures" / "dataset-v1"
-README = Path(__file__).resolve().parents[2] / "README.md"
 
 
 def _files(path: Path) -> dict[str, bytes]:
@@ -36,9 +34,40 @@ def two() -> object:
     return generate(PRESETS["two-radars"], seed=4)
 
 
-def test_readme_two_sensor_config_generates(tmp_path):
-    block = next(b for b in re.findall(r"```toml\n(.*?)```", README.read_text(), re.S) if "[[sensors]]" in b)
-    (tmp_path / "harbour.toml").write_text(block)
+TWO_SENSORS = """
+name = "harbour"
+duration_s = 120
+
+[[sensors]]
+name = "west"
+x_m = -10000
+boresight_deg = 30
+fov_deg = 120
+[sensors.clutter]
+law = "annulus"
+count = 50
+
+[[sensors]]
+name = "east"
+x_m = 10000
+boresight_deg = 330
+fov_deg = 120
+scan_offset_s = 1.0
+pd = 0.9
+
+[[targets]]
+name = "alpha"
+x_m = 0
+y_m = 25000
+heading_deg = 180
+speed_m_s = 120
+segments = [{ duration_s = 120 }]
+"""
+
+
+def test_a_two_sensor_config_generates(tmp_path):
+    """[[sensors]] tables, each with its clutter (east's none), interleaved sweeps (east 1 s after west)."""
+    (tmp_path / "harbour.toml").write_text(TWO_SENSORS)
     sc = load_scenario(tmp_path / "harbour.toml")
     assert [s.name for s in sc.sensors] == ["west", "east"] and sc.n_scans == 120
     ds = generate(sc)
