@@ -57,11 +57,15 @@ chromium:
 NPY_DISPATCHED := import numpy._core._multiarray_umath as m; \
   print(" ".join(f for f in m.__cpu_dispatch__ if m.__cpu_features__.get(f)))
 
+# The documentation's examples (tests/test_docs.py, ~3 min) run once, in `make test`: they check the pages
+# against the commands, not the arithmetic.
+CPU_PYTEST := $(BIN)/python -m pytest -q --ignore=tests/test_docs.py
+
 test-cpus: $(STAMP) chromium
-	env -u OPENBLAS_CORETYPE -u OPENBLAS_L2_SIZE $(BIN)/python -m pytest -q
+	env -u OPENBLAS_CORETYPE -u OPENBLAS_L2_SIZE $(CPU_PYTEST)
 	@features="$$(env -u NPY_DISABLE_CPU_FEATURES $(BIN)/python -c '$(NPY_DISPATCHED)')" && \
-	  echo "NPY_DISABLE_CPU_FEATURES=\"$$features\" $(BIN)/python -m pytest -q" && \
-	  NPY_DISABLE_CPU_FEATURES="$$features" $(BIN)/python -m pytest -q
+	  echo "NPY_DISABLE_CPU_FEATURES=\"$$features\" $(CPU_PYTEST)" && \
+	  NPY_DISABLE_CPU_FEATURES="$$features" $(CPU_PYTEST)
 
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -m slow
