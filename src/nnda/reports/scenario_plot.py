@@ -14,7 +14,7 @@ from matplotlib.patches import Circle, Patch, Wedge  # noqa: E402
 from nnda.data.dataset import Dataset  # noqa: E402
 from nnda.data.occlusion import hidden  # noqa: E402
 from nnda.data.scenario import Sensor  # noqa: E402
-from nnda.files import atomic_file  # noqa: E402
+from nnda.files import atomic_output  # noqa: E402
 
 KM = 1e-3
 
@@ -82,7 +82,7 @@ def plot_scenario(dataset: Dataset, out: str | Path, dpi: int = 120) -> Path:
     contacts) and tracks are black; black crosses (x, +, x, ... by sensor) mark a
     true position hidden from that sensor by a longer ship (occlusion,
     `nnda.data.occlusion`). Axes in km, x east, y north. The file
-    appears whole or not at all (`nnda.files.atomic_file`; a full or
+    appears whole or not at all (`nnda.files.atomic_output`; a full or
     read-only disk is an OutputError).
     """
     det, truth, sc = dataset.detections, dataset.truth, dataset.scenario
@@ -142,7 +142,7 @@ def plot_scenario(dataset: Dataset, out: str | Path, dpi: int = 120) -> Path:
     fig.suptitle(f"{sc.name}: {_timing(dataset)}, {n_clutter} clutter points ({n_clutter / sc.n_scans:.0f}/scan), "
                  f"seed {dataset.seed}, run {dataset.run}")
     try:
-        with atomic_file(out) as tmp:
+        with atomic_output(out, overwrite=True, directory=False) as tmp:
             fig.savefig(tmp, dpi=dpi, format="png", metadata={"Software": None})
     finally:
         plt.close(fig)
