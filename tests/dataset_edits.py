@@ -28,9 +28,11 @@ def edit_manifest(directory: Path, change: Callable[[dict], None], name: str = "
 
 def as_format(version: int) -> Callable[[dict], None]:
     """An `edit_manifest` change: the manifest as a writer of format ``version`` wrote it (the fields of later
-    versions gone)."""
+    versions gone, and the version of nnda that wrote such files: 0.2.0 and later write only format 4)."""
     def change(doc: dict) -> None:
         doc["format_version"] = version
+        if version < 4:
+            doc["nnda_version"] = "0.1.0"
         for field, since in (("sha256", 3), ("manifest_sha256", 4)):
             if version < since:
                 doc.pop(field, None)

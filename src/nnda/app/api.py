@@ -12,13 +12,16 @@ used, so ``import nnda`` stays light.
 
 from __future__ import annotations
 
+import numbers
+import os
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import pyarrow as pa
 
-from nnda.data.dataset import Dataset, read_dataset
+from nnda.data import dataset as _dataset
+from nnda.data.dataset import Dataset
 from nnda.data.generator import generate as _generate
 from nnda.data.presets import PRESETS
 from nnda.data.scenario import Scenario
@@ -26,25 +29,57 @@ from nnda.errors import ConfigError
 
 __all__ = ["generate", "read_dataset", "run_study", "track"]
 
+#: what each kind of argument accepts, as the error message says it
+_PATH = (str, os.PathLike)
+_PATH_TEXT = "a path (str or pathlib.Path)"
+
+
+def _argument(call: str, name: str, value: Any, types: tuple[type, ...], accepted: str) -> None:
+    """ConfigError naming the call, the argument, the value and its type, and what is accepted, unless
+    ``value`` is one of ``types`` (a bool is never taken for a number, nor an empty string for a name)."""
+    if isinstance(value, str) and not value:
+        raise ConfigError(f"nnda.{call}: argument {name!r} is an empty string; give {accepted}")
+    if not isinstance(value, types) or (isinstance(value, bool) and bool not in types):
+        shown = repr(value) if len(repr(value)) <= 60 else repr(value)[:57] + "..."
+        raise ConfigError(f"nnda.{call}: argument {name!r} is {shown} of type {type(value).__name__}; give "
+                          f"{accepted}")
+
 
 def track(dataset: Dataset | str | Path, tracker: str, config: Mapping[str, Any] | str | Path | None = None,
           model: str | Path | None = None) -> pa.Table:
     """The track table (`nnda.study.track.TRACK_SCHEMA`) of ``tracker`` (a registered name) on ``dataset`` (a
     `Dataset` or a dataset directory), stepped exactly as a study job steps it; ``config``: the tracker's params
-    (a mapping or a .toml/.json file), ``model``: the model file of ``nn``."""
-    from nnda.study.track import run_tracker  # the trackers load only when one runs
+    (a mapping or a .toml/.json file), ``model``: the model file of ``nn``. A wrong argument is a ConfigError
+    naming it; a config file's problems name the file."""
+    from nnda.study.track import run_tracker, tracker_params  # the trackers load only when one runs
+    from nnda.tracking.registry import check_config
 
-    return run_tracker(dataset, tracker, config, model, score=False).table
+    _argument("track", "dataset", dataset, (Dataset, *_PATH), f"a Dataset or a dataset directory as {_PATH_TEXT}")
+    _argument("track", "tracker", tracker, (str,), "a registered tracker's name (str), e.g. 'gnn'")
+    _argument("track", "config", config, (Mapping, *_PATH, type(None)),
+              f"a mapping of the tracker's options, a .toml or .json file as {_PATH_TEXT}, or None")
+    _argument("track", "model", model, (*_PATH, type(None)), f"the nn tracker's model file as {_PATH_TEXT}, or None")
+    params = tracker_params(config, model)
+    where = f"tracker config {os.fspath(config)}" if isinstance(config, _PATH) else "tracker config"
+    check_config(tracker, params, where)
+    return run_tracker(dataset, tracker, params, score=False).table
 
 
 def generate(scenario: Scenario | str, seed: int = 0, run: int = 0) -> Dataset:
     """Run ``run`` of ``scenario`` (a `Scenario` or a preset name, see ``nnda presets``) drawn with ``seed``: the
     same dataset ``nnda generate`` writes and a study's job sees."""
+    _argument("generate", "scenario", scenario, (Scenario, str), "a Scenario or a preset name (str), e.g. 'S3'")
     if isinstance(scenario, str):
         if scenario not in PRESETS:
             raise ConfigError(f"unknown preset {scenario!r}; presets: {', '.join(PRESETS)}")
         scenario = PRESETS[scenario]
     return _generate(scenario, seed, run)
+
+
+def read_dataset(path: str | Path) -> Dataset:
+    """The dataset directory at ``path`` (`nnda.data.dataset.read_dataset`: every file checked)."""
+    _argument("read_dataset", "path", path, _PATH, f"a dataset directory as {_PATH_TEXT}")
+    return _dataset.read_dataset(path)
 
 
 def run_study(study: str | Path, out: str | Path, resume: bool = False, jobs: int = 2, dask: str | None = None,
@@ -56,7 +91,15 @@ def run_study(study: str | Path, out: str | Path, resume: bool = False, jobs: in
     from nnda.study.compare import compare
     from nnda.study.config import load_study
 
-    compare(load_study(study), out, resume=resume, workers=jobs, dask=dask, where=str(study), overwrite=overwrite)
+    _argument("run_study", "study", study, _PATH, f"a study file (.toml or .json) as {_PATH_TEXT}")
+    _argument("run_study", "out", out, _PATH, f"the output directory as {_PATH_TEXT}")
+    for name, value in (("resume", resume), ("overwrite", overwrite), ("report", report)):
+        _argument("run_study", name, value, (bool,), "True or False")
+    _argument("run_study", "jobs", jobs, (numbers.Integral,), "a whole number of local processes >= 1")
+    if jobs < 1:
+        raise ConfigError(f"nnda.run_study: argument 'jobs' is {jobs}; give a whole number of local processes >= 1")
+    _argument("run_study", "dask", dask, (str, type(None)), "a Dask scheduler address (str), or None")
+    compare(load_study(study), out, resume=resume, workers=int(jobs), dask=dask, where=str(study), overwrite=overwrite)
     if report:
         write_report(out)
     return Path(out)

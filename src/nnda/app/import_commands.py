@@ -33,12 +33,23 @@ def import_detections_command(
         help="s subtracted from every time (nnda's scans lie at t > 0)")] = 0.0,
     name: Annotated[str | None, typer.Option(help="scenario name (default: the file's stem)")] = None,
     overwrite: Annotated[bool, typer.Option(help="replace an existing dataset at --out")] = False,
+    delimiter: Annotated[str, typer.Option(
+        help="CSV field separator: ',' ';' '|' or a tab ('\\t')")] = ",",
+    decimal: Annotated[str, typer.Option(
+        help="CSV decimal mark: '.' or ',' (with --delimiter ';', e.g.)")] = ".",
+    encoding: Annotated[str, typer.Option(
+        help="CSV text encoding, e.g. utf-8, latin-1, cp1252, utf-16")] = "utf-8",
 ) -> None:
     """Import recorded detections (CSV or Parquet) as an nnda dataset: scans grouped by sensor and sweep time.
 
     Columns: time (s); range (m) and azimuth, or x and y (m); optional sensor
     (name or index) and target_id (empty: clutter). A sensor's period, offset
     and range limits not given are inferred from the data.
+
+    A CSV is UTF-8 with ',' between fields and '.' in numbers unless
+    --encoding, --delimiter and --decimal say otherwise (a file with ';'
+    and decimal commas: --delimiter ';' --decimal ','); they apply to the
+    truth file too. Parquet files ignore them.
     """
     if sensors is not None and sensor:
         raise ConfigError("give the sensors either as --sensors FILE or as --sensor FIELD=VALUE, not both")
@@ -46,7 +57,8 @@ def import_detections_command(
     specs = load_sensors(sensors) if sensors is not None else [sensor_fields(sensor or [])]
     path, ds = import_detections(file, out, overwrite, sensors=specs, truth=truth, columns=column,
                                  azimuth_unit=azimuth_unit, scan_tolerance=scan_tolerance,
-                                 time_origin=time_origin, name=name)
+                                 time_origin=time_origin, name=name, delimiter=delimiter, decimal=decimal,
+                                 encoding=encoding)
     d = ds.detections
     labelled = int((~d.is_clutter).sum())
     Console().print(f"wrote {path} ({d.scan.size} detections, {labelled} of targets; {ds.n_scans} scans; "

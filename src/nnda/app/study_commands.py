@@ -94,6 +94,31 @@ Dask = Annotated[str | None, typer.Option(
 Jobs = Annotated[int, typer.Option(min=1, help="local worker processes (1: in this process); Dask workers with "
                                                "--dask local")]
 Overwrite = Annotated[bool, typer.Option(help="replace an earlier study directory at --out")]
+MaxMemory = Annotated[float | None, typer.Option(
+    help="the most memory (GiB) one job or the aggregation may need by the study's estimate (the study file's "
+         "max_memory_gib, at the top and in the \\[reentry], \\[tbd] and \\[pedestrian] tables; default 4): a bigger "
+         "study is refused before it runs")]
+#: the study-file tables whose kinds estimate their memory before they run (their field ``max_memory_gib``)
+MEMORY_TABLES = ("reentry", "tbd", "pedestrian")
+
+
+def memory_limit(gib: float | None) -> dict:
+    """The tables' field that ``--max-memory-gib`` sets (empty when not given); ConfigError unless > 0."""
+    if gib is None:
+        return {}
+    if not gib > 0:
+        raise ConfigError(f"--max-memory-gib is {gib:g}; give the memory in GiB (> 0) a job may need")
+    return {"max_memory_gib": gib}
+
+
+def with_memory_limit(study, gib: float | None):
+    """``study`` with ``--max-memory-gib`` set at its top level (the tracker and filter jobs) and in each of its
+    `MEMORY_TABLES` (unchanged when not given)."""
+    field = memory_limit(gib)
+    if not field:
+        return study
+    tables = {name: getattr(study, name) for name in MEMORY_TABLES if getattr(study, name, None) is not None}
+    return study.model_copy(update={**field, **{name: t.model_copy(update=field) for name, t in tables.items()}})
 
 
 def compare(
@@ -103,12 +128,13 @@ def compare(
     dask: Dask = None,
     jobs: Jobs = 2,
     overwrite: Overwrite = False,
+    max_memory_gib: MaxMemory = None,
 ) -> None:
     """Run a study file: every job of every kind it names (trackers, filters, particle-filter studies, ...),
     then write the report."""
     from nnda.study.config import load_study
 
-    run_study(load_study(study), out, str(study), resume, jobs, dask, overwrite)
+    run_study(with_memory_limit(load_study(study), max_memory_gib), out, str(study), resume, jobs, dask, overwrite)
 
 
 def reference_study(name: str) -> Path:
@@ -148,10 +174,11 @@ def reentry(
     dask: Dask = None,
     jobs: Jobs = 2,
     overwrite: Overwrite = False,
+    max_memory_gib: MaxMemory = None,
 ) -> None:
     """Run the ballistic re-entry filter study (Pavlov & Bruno 2003; the shipped studies/reentry.toml): every
     filter on the same runs, then its report."""
-    table = {} if runs is None else {"runs": runs}
+    table = ({} if runs is None else {"runs": runs}) | memory_limit(max_memory_gib)
     study, where = shipped_study("reentry", {"reentry": table}, seed, config, "reentry")
     run_study(study, out, where, resume, jobs, dask, overwrite)
 
@@ -168,10 +195,12 @@ def tbd(
     dask: Dask = None,
     jobs: Jobs = 2,
     overwrite: Overwrite = False,
+    max_memory_gib: MaxMemory = None,
 ) -> None:
     """Run the track-before-detect study (Bruno, Araújo & Pavlov; the shipped studies/tbd.toml): every filter
     on the same frames, the detector and the detect-then-track chain, then its report."""
-    table = ({} if runs is None else {"runs": runs}) | ({} if chain else {"chain": None})
+    table = (({} if runs is None else {"runs": runs}) | ({} if chain else {"chain": None})
+             | memory_limit(max_memory_gib))
     study, where = shipped_study("tbd", {"tbd": table}, seed, config, "tbd")
     run_study(study, out, where, resume, jobs, dask, overwrite)
 
@@ -190,6 +219,7 @@ def pedestrian(
     dask: Dask = None,
     jobs: Jobs = 2,
     overwrite: Overwrite = False,
+    max_memory_gib: MaxMemory = None,
 ) -> None:
     """Run the pedestrian study (Frencl 2014, Tests 1-4: PHD filters and motion models on walkers; the shipped
     studies/pedestrian.toml), then its report."""
@@ -198,7 +228,8 @@ def pedestrian(
         raise ConfigError(f"pedestrian: unknown test(s) {', '.join(map(repr, unknown))}; choose from "
                           f"{', '.join(PEDESTRIAN_TESTS)} or all")
     given = {"runs": runs, "test4_runs": test4_runs, "stress_runs": stress_runs, "birth": birth, "beyond": beyond,
-             "tests": None if not tests else (list(PEDESTRIAN_TESTS) if tests == ["all"] else list(tests))}
+             "tests": None if not tests else (list(PEDESTRIAN_TESTS) if tests == ["all"] else list(tests)),
+             **memory_limit(max_memory_gib)}
     study, where = shipped_study("pedestrian", {"pedestrian": {k: v for k, v in given.items() if v is not None}},
                                  seed, config, "pedestrian")
     run_study(study, out, where, resume, jobs, dask, overwrite)

@@ -80,6 +80,7 @@ def track(
     """Run one tracker on one dataset: tracks.parquet (or .csv), tracks.png, tracks.html, and scores.json where
     the dataset has truth (the study's measures)."""
     from nnda.study.track import load, run_tracker, scores_record, tracker_params
+    from nnda.tracking.registry import check_config
 
     if not (cutoff > 0 and math.isfinite(cutoff)):
         raise ConfigError(f"--cutoff {cutoff!r}: must be a positive number of metres")
@@ -88,6 +89,8 @@ def track(
         raise FileExistsError(f"{out}: already exists (pass --overwrite to replace it)")
     ds = load(dataset)
     params = tracker_params(config, model)
+    if config is not None:  # the file's fields checked against this tracker, the file named in any error
+        check_config(tracker, params, f"tracker config {config}")
     console = Console()
     bar = Progress(TextColumn(f"{tracker} on {ds.scenario.name}"), BarColumn(), MofNCompleteColumn(),
                    TimeElapsedColumn(), TimeRemainingColumn(), console=console, transient=True,

@@ -19,7 +19,12 @@ refused as edited; 2 has a
 ``sensor`` column in ``detections.parquet``, the index of the detecting
 sensor in the manifest's ``scenario.sensors``; 1 (one radar at the origin,
 the scenario in the one-sensor form) has no such column (read as all 0).
-Versions 1 and 2 still read, without the digest check.
+Versions 1 and 2 still read, without the digest check, and 3 without the
+seal, when their manifest's ``nnda_version`` is a release that wrote that
+format (`FIRST_WRITER`): a newer dataset relabelled as an older format, its
+digests or seal dropped, is refused rather than read unverified. The data
+files, and a collection's members, must lie in their directory (no symbolic
+link out of it).
 
 Every dataset read or written passes `check_dataset`: values a tracker or a
 trainer would take at face value must be plausible (positive ranges,
@@ -31,6 +36,7 @@ its manifest lists.
 
 from __future__ import annotations
 
+import re
 from collections import Counter
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -45,7 +51,16 @@ from nnda.data.checks import whole_number
 from nnda.data.scenario import Scenario, scenario_from_dict
 from nnda.data.sensor import TWO_PI, polar_to_cart
 from nnda.errors import ConfigError, DatasetError
-from nnda.files import atomic_directory, digest, dumps, file_digests, path_component, read_json, verify_digests
+from nnda.files import (
+    atomic_directory,
+    digest,
+    dumps,
+    file_digests,
+    listed_file,
+    path_component,
+    read_json,
+    verify_digests,
+)
 from nnda.version import __version__
 
 FORMAT = "nnda.dataset"
@@ -57,6 +72,9 @@ READABLE_VERSIONS = (1, 2, 3, 4)
 DIGESTS_SINCE = 3
 #: the manifest's own SHA-256 (``manifest_sha256``) since format 4
 SEALED_SINCE = 4
+#: the first nnda release that wrote each format version newer than 3 (those before wrote formats 1-3): a
+#: manifest of an older format that names such a writer in its field 'nnda_version' was relabelled
+FIRST_WRITER = {4: (0, 2)}
 COLLECTION_FORMAT_VERSION = 1
 MANIFEST = "scenario.json"
 COLLECTION_MANIFEST = "collection.json"
@@ -418,6 +436,32 @@ def _verify_files(path: Path, meta: dict) -> None:
     verify_digests(path, recorded)
 
 
+def _release(text: object) -> tuple[int, ...] | None:
+    """The leading release numbers of an nnda version string ("0.2.0" -> (0, 2, 0)), or None."""
+    found = re.match(r"\d+(\.\d+)*", text) if isinstance(text, str) else None
+    return tuple(int(n) for n in found.group().split(".")) if found else None
+
+
+def _check_not_relabelled(where: Path, meta: dict) -> None:
+    """A manifest of a format older than the one written now, hence with fewer checks on read, must come from
+    an nnda that wrote that format (field 'nnda_version'): a newer dataset relabelled as an old format (its
+    digests or seal dropped) would otherwise be read unverified."""
+    version = meta["format_version"]
+    if version >= FORMAT_VERSION:
+        return
+    writer = meta.get("nnda_version")
+    release = _release(writer)
+    if release is None:
+        raise DatasetError(f"{where}: field 'nnda_version' is {writer!r}, not an nnda version; a format-{version} "
+                           f"manifest names the nnda that wrote it, and this one cannot be verified: regenerate "
+                           f"or re-import the dataset")
+    later = [v for v, since in sorted(FIRST_WRITER.items()) if v > version and release >= since]
+    if later:
+        raise DatasetError(f"{where}: field 'format_version' is {version}, but field 'nnda_version' is {writer!r}, "
+                           f"which writes format version {later[-1]}: a relabelled (downgraded) manifest, whose "
+                           f"checks would be skipped; regenerate or re-import the dataset, or restore its manifest")
+
+
 def _check_later_fields(where: Path, meta: dict) -> None:
     """A manifest naming format version v holds no field that only a later version writes (an edited one)."""
     version = meta["format_version"]
@@ -453,8 +497,10 @@ def read_dataset(path: str | Path) -> Dataset:
     foreign manifest, a seed or run that is not a whole number >= 0, an
     invalid scenario, a data file whose SHA-256 differs from the manifest's
     (format 3 on: "corrupt file"), a manifest edited since it was written
-    (format 4: its own SHA-256; any format: a field of a later version), a
-    Parquet file of another schema, and values `check_dataset` refuses.
+    (format 4: its own SHA-256; any format: a field of a later version; an
+    older format than its ``nnda_version`` wrote: relabelled), a data file
+    that is a symbolic link out of the directory, a Parquet file of another
+    schema, and values `check_dataset` refuses.
     """
     path = Path(path)
     if not path.is_dir():
@@ -473,6 +519,9 @@ def read_dataset(path: str | Path) -> Dataset:
         raise DatasetError(str(exc)) from None
     version = meta["format_version"]
     _check_later_fields(path / MANIFEST, meta)
+    _check_not_relabelled(path / MANIFEST, meta)
+    for name in DATA_FILES:  # fixed names, but a symbolic link could still lead a read elsewhere
+        listed_file(path, name, path / MANIFEST, "data file")
     if version == 1 and not _one_radar_at_origin(scenario):
         raise DatasetError(f"{path / MANIFEST}: a format-1 dataset holds one radar at the origin, but field "
                            f"'scenario' describes other sensors")
@@ -514,6 +563,7 @@ def collection_members(path: str | Path) -> list[Path]:
             path_component(m, f"{where}: member")
         except ConfigError as exc:
             raise DatasetError(str(exc)) from None
+        listed_file(path, m, where, "member")  # and no symbolic link out of the collection
     twice = sorted({m for m, n in Counter(members).items() if n > 1})
     if twice:
         raise DatasetError(f"{where}: field 'members' lists {', '.join(twice)} more than once")

@@ -39,6 +39,15 @@ detection. nnda's scans lie at t > 0: ``time_origin`` (s) is subtracted
 from every time first (for clock times or a file that starts at 0). Rows of
 one sensor must not go back in time (in file order).
 
+A CSV (the detections and the truth file alike) is UTF-8 text with ","
+between fields and "." in numbers unless ``delimiter`` (``;``, ``|``, a
+tab), ``decimal`` (``,``) and ``encoding`` (a Python codec name, e.g.
+``latin-1``) say otherwise; a Parquet file ignores them. A byte that is not
+text in the encoding is refused with its line (as an editor counts) and
+column, never read as mangled text; a header that another delimiter splits
+is refused with the options to pass; a column name nnda reads must not
+repeat.
+
 Every problem names the file, the data row (1-based, the header not
 counted: line = row + 1 in a CSV with one header line) and the column, as a
 `DatasetError` (the file's content) or a `ConfigError` (the options); the
@@ -49,8 +58,13 @@ the output untouched.
 
 from __future__ import annotations
 
+import codecs
+import csv
+import io
 import math
+import re
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
 from typing import Any
@@ -65,7 +79,7 @@ from nnda.data.dataset import Dataset, Detections, Truth, write_dataset
 from nnda.data.scenario import Clutter, ProcessNoise, Scenario, Segment, Sensor, Target
 from nnda.data.sensor import TWO_PI, cart_to_polar_at, polar_to_cart_at
 from nnda.errors import ConfigError, DatasetError, validated
-from nnda.files import atomic_file, read_config
+from nnda.files import atomic_output, read_config
 
 #: columns nnda reads from a detections file, and from a truth file
 DETECTION_COLUMNS = ("time", "range", "azimuth", "x", "y", "sensor", "target_id")
@@ -75,54 +89,246 @@ AZIMUTH_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}
 SCAN_TOLERANCE_S = 1e-6
 #: an import refuses a schedule of more scans than this (a clock time without --time-origin)
 MAX_SCANS = 10_000_000
+#: an import refuses a range, x, y (m) or velocity (m/s) of a larger magnitude (a unit error; filters square them)
+MAX_MAGNITUDE = 1e12
 #: periods and offsets are compared and inferred to this resolution (s)
 TIME_RESOLUTION_S = 1e-6
 
 
 # ----------------------------------------------------------------------------- reading the files
 
-def _read_table(path: Path, what: str) -> pa.Table:
+#: --delimiter values a CSV may use (the spellings of a tab included), and the separators they stand for
+DELIMITERS = {",": ",", ";": ";", "|": "|", "\t": "\t", "\\t": "\t", "tab": "\t"}
+#: --decimal values: the decimal mark of the CSV's numbers
+DECIMAL_MARKS = (".", ",")
+#: bytes of a CSV read to guess its dialect when it does not parse
+_SNIFF_BYTES = 1 << 16
+
+
+@dataclass(frozen=True)
+class CsvDialect:
+    """How a CSV file is written: field separator, decimal mark, text encoding (a Python codec name)."""
+
+    delimiter: str = ","
+    decimal: str = "."
+    encoding: str = "utf-8"
+
+
+def csv_dialect(delimiter: str = ",", decimal: str = ".", encoding: str = "utf-8") -> CsvDialect:
+    """The checked dialect of the options ``--delimiter``, ``--decimal`` and ``--encoding``; ConfigError
+    otherwise."""
+    if delimiter not in DELIMITERS:
+        raise ConfigError(f"--delimiter {delimiter!r}: unknown delimiter; choose ',' ';' '|' or a tab ('\\t')")
+    if decimal not in DECIMAL_MARKS:
+        raise ConfigError(f"--decimal {decimal!r}: unknown decimal mark; choose '.' or ','")
+    sep = DELIMITERS[delimiter]
+    if sep == decimal:
+        raise ConfigError(f"--decimal {decimal!r} with --delimiter {_shown(sep)}: a decimal comma needs another "
+                          f"delimiter, e.g. --delimiter ';'")
+    try:
+        name = codecs.lookup(encoding).name
+        "time,x\n".encode(name).decode(name)  # a text encoding (not base64, rot13, ...)
+    except (LookupError, TypeError, ValueError):
+        raise ConfigError(f"--encoding {encoding!r}: unknown text encoding; give a Python codec name such as "
+                          f"utf-8, latin-1, cp1252 or utf-16") from None
+    return CsvDialect(sep, decimal, name)
+
+
+def _shown(delimiter: str) -> str:
+    """A delimiter as the user types it for --delimiter."""
+    return "'\\t'" if delimiter == "\t" else f"'{delimiter}'"
+
+
+def _read_table(path: Path, what: str, dialect: CsvDialect = CsvDialect()) -> pa.Table:
     if not path.is_file():
         raise DatasetError(f"{what} {path}: no such file")
     suffix = path.suffix.lower()
     try:
         if suffix == ".csv":
-            # only an empty cell is null: "nan" is a number (refused as not finite), "NA" text (not a number)
-            options = pacsv.ConvertOptions(null_values=[""], strings_can_be_null=True)
-            return pacsv.read_csv(path, convert_options=options)
+            return _read_csv(path, what, dialect)
         if suffix in (".parquet", ".pq"):
-            return pq.read_table(path)
+            return _named(pq.read_table(path), path, what)
     except (pa.ArrowException, OSError) as exc:
         raise DatasetError(f"{what} {path}: unreadable {suffix[1:]} file ({exc})") from None
     raise ConfigError(f"{what} {path}: unknown file type {suffix or '(no suffix)'!r}; give a .csv or .parquet file")
+
+
+def _named(table: pa.Table, path: Path, what: str) -> pa.Table:
+    """``table``, whose column names are text; DatasetError naming the first that is not."""
+    for i in range(table.num_columns):
+        try:
+            _ = table.field(i).name
+        except UnicodeDecodeError as exc:
+            raise DatasetError(f"{what} {path}: the name of column {i + 1} is not UTF-8 text ({exc}); rename the "
+                               f"column") from None
+    return table
+
+
+def _read_csv(path: Path, what: str, dialect: CsvDialect) -> pa.Table:
+    """The CSV at ``path`` in ``dialect``; DatasetError naming the first undecodable byte's line and column, or
+    the dialect the header suggests when the file does not parse in this one."""
+    # only an empty cell is null: "nan" is a number (refused as not finite), "NA" text (not a number)
+    convert = pacsv.ConvertOptions(null_values=[""], strings_can_be_null=True, decimal_point=dialect.decimal)
+    read = pacsv.ReadOptions(encoding="utf8" if dialect.encoding == "utf-8" else dialect.encoding)
+    with open(path, "rb") as f:
+        start = f.read(4)
+    for bom, name in ((codecs.BOM_UTF32_LE, "utf-32"), (codecs.BOM_UTF32_BE, "utf-32"),
+                      (codecs.BOM_UTF16_LE, "utf-16"), (codecs.BOM_UTF16_BE, "utf-16")):
+        if start.startswith(bom) and not dialect.encoding.startswith(name):
+            raise DatasetError(f"{what} {path}: line 1: the file starts with a {name.upper()} byte-order mark: it is "
+                               f"{name.upper()} text, not {dialect.encoding}: pass --encoding {name}")
+    try:
+        table = pacsv.read_csv(path, read_options=read, parse_options=pacsv.ParseOptions(delimiter=dialect.delimiter),
+                               convert_options=convert)
+    except UnicodeError:  # a header not in UTF-8, or any text not in the --encoding given (transcoded as read)
+        raise _undecodable(path, what, dialect) from None
+    except pa.ArrowInvalid as exc:
+        hint = _dialect_hint(path, what, dialect)
+        raise DatasetError(f"{what} {path}: unreadable csv file ({exc})" + (f"; {hint}" if hint else "")) from None
+    try:
+        _ = table.column_names  # pyarrow decodes the header's names when asked
+    except UnicodeDecodeError:
+        raise _undecodable(path, what, dialect) from None
+    if any(pa.types.is_binary(f.type) or pa.types.is_large_binary(f.type) for f in table.schema):
+        raise _undecodable(path, what, dialect)  # pyarrow keeps a column of invalid UTF-8 as bytes
+    if table.num_columns == 1 and (hint := _dialect_hint(path, what, dialect)):
+        raise DatasetError(f"{what} {path}: line 1 (the header) reads as one column, "
+                           f"{table.column_names[0]!r}; {hint}")
+    return table
+
+
+def _dialect_hint(path: Path, what: str, dialect: CsvDialect) -> str:
+    """What to pass when the header line is split by another delimiter than ``dialect``'s (and the first data
+    line has decimal commas), or ""."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(_SNIFF_BYTES).decode(dialect.encoding, errors="replace").lstrip("\ufeff")
+    except (OSError, UnicodeError, LookupError):
+        return ""
+    lines = [s for s in re.split(r"\r\n|\r|\n", head) if s.strip()]
+    if not lines or dialect.delimiter in lines[0]:
+        return ""
+    counts = {d: lines[0].count(d) for d in (",", ";", "\t", "|") if d != dialect.delimiter}
+    likely = max(counts, key=counts.__getitem__)
+    if not counts[likely]:
+        return ""
+    hint = f"the header line is separated by {_shown(likely)}, not {_shown(dialect.delimiter)}"
+    both = " (the options read the detections and the truth file alike)" if what == "truth" else ""
+    data = lines[1].split(likely) if len(lines) > 1 else []
+    if likely != "," and dialect.decimal == "." and any(_DECIMAL_COMMA.fullmatch(v.strip()) for v in data):
+        return hint + f", and line 2 has decimal commas: pass --delimiter {_shown(likely)} --decimal ','{both}"
+    return hint + f": pass --delimiter {_shown(likely)}{both}"
+
+
+def _undecodable(path: Path, what: str, dialect: CsvDialect) -> DatasetError:
+    """The error for a CSV with bytes that are not text in ``dialect.encoding``: the file, the line (1-based, as
+    an editor counts), the column of the first such byte, and what to do."""
+    encoding = "UTF-8" if dialect.encoding == "utf-8" else dialect.encoding
+    convert = (f"give the file's encoding with --encoding (e.g. --encoding latin-1, or cp1252), or convert the "
+               f"file to UTF-8, e.g. iconv -f cp1252 -t utf-8 {path.name} > {path.stem}-utf8.csv")
+    data = path.read_bytes()
+    try:
+        data.decode(dialect.encoding)
+    except UnicodeDecodeError as exc:
+        start, bad = exc.start, exc.object[exc.start:exc.end]
+    except UnicodeError as exc:
+        return DatasetError(f"{what} {path}: not readable as {encoding} text ({exc}); {convert}")
+    else:  # pyarrow and Python disagree: name no position
+        return DatasetError(f"{what} {path}: not readable as {encoding} text; {convert}")
+    text = data[:start].decode(dialect.encoding, errors="replace")
+    line = text.count("\n") + text.count("\r") - text.count("\r\n") + 1
+    shown = " ".join(f"0x{b:02x}" for b in bad[:4])
+    where = f"line {line}"
+    try:  # the record holding the byte, parsed as pyarrow parses (blank lines skipped)
+        records = [r for r in csv.reader(io.StringIO(text.lstrip("\ufeff") + "\ue000", newline=""),
+                                         delimiter=dialect.delimiter, quotechar='"', doublequote=True) if r]
+    except csv.Error:
+        records = []
+    if len(records) == 1:
+        where += f" (the header), column {len(records[0])}"
+    elif records:
+        field, header = len(records[-1]) - 1, records[0]
+        name = repr(header[field]) if field < len(header) else f"{field + 1} (beyond the header's {len(header)})"
+        where = f"data row {len(records) - 1} ({where}), column {name}"
+    return DatasetError(f"{what} {path}: {where}: byte {shown} is not {encoding} text; {convert}")
+
+
+def _decimal(path: Path, dialect: CsvDialect) -> str:
+    """The decimal mark of text numbers in the file at ``path``: the dialect's in a CSV, a point otherwise."""
+    return dialect.decimal if path.suffix.lower() == ".csv" else "."
 
 
 def _where(path: Path, row: int, column: str) -> str:
     return f"{path}: data row {row + 1} (line {row + 2}), column {column!r}"
 
 
-def _numeric(table: pa.Table, path: Path, name: str, column: str) -> np.ndarray:
+#: a number as text in a CSV: decimal point (or comma, ``{0}``), optional exponent; or nan/inf (refused later)
+_NUMBER = r"\s*[+-]?(?:(?:[0-9]+(?:{0}[0-9]*)?|{0}[0-9]+)(?:[eE][+-]?[0-9]+)?|inf|infinity|nan)\s*"
+_NUMBERS = {d: re.compile(_NUMBER.format(re.escape(d)), re.IGNORECASE) for d in DECIMAL_MARKS}
+_DECIMAL_COMMA = re.compile(r"[+-]?[0-9]*,[0-9]+(?:[eE][+-]?[0-9]+)?")
+
+
+def _not_a_number(v: Any, name: str, decimal: str) -> str:
+    """Why cell value ``v`` is not a number (nnda's column ``name``), with the --decimal option that may read
+    it."""
+    if v is None or v == "":
+        return f"an empty cell ({name} must be a number)"
+    if isinstance(v, str) and decimal == "." and _DECIMAL_COMMA.fullmatch(v.strip()):
+        return (f"{v!r}, not a number ({name} must be a number; for decimal commas pass --decimal ',' and a "
+                f"--delimiter other than ',')")
+    if isinstance(v, str) and decimal == "," and _NUMBERS["."].fullmatch(v):
+        return f"{v!r}, not a number ({name} must be a number; --decimal ',' reads decimal commas only)"
+    return f"{v!r}, not a number ({name} must be a number)"
+
+
+def _numeric(table: pa.Table, path: Path, name: str, column: str, decimal: str = ".") -> np.ndarray:
     """Column ``column`` (nnda's ``name``) as finite float64; DatasetError at the first empty, non-numeric,
-    NaN or infinite cell."""
+    NaN or infinite cell. Text cells are numbers written with the ``decimal`` mark."""
     col = table.column(column)
-    if not (pa.types.is_integer(col.type) or pa.types.is_floating(col.type)):
-        values = col.to_pylist()
-        for row, v in enumerate(values):
-            try:
-                float(v)
-            except (TypeError, ValueError):
-                got = "an empty cell" if v is None or v == "" else f"{v!r}, not a number"
-                raise DatasetError(f"{_where(path, row, column)}: {got} ({name} must be a number)") from None
+    if not len(col):
+        return np.empty(0)
+    if pa.types.is_decimal(col.type):
         col = pc.cast(col, pa.float64())
-    if col.null_count:
-        row = int(pc.index(pc.is_null(col), True).as_py())
-        raise DatasetError(f"{_where(path, row, column)}: an empty cell ({name} must be a number)")
-    a = col.to_numpy().astype(np.float64, copy=False)
+    if pa.types.is_string(col.type) or pa.types.is_large_string(col.type):
+        number = _NUMBERS[decimal]
+        values = col.to_pylist()
+        a = np.empty(len(values))
+        for row, v in enumerate(values):
+            if v is None or not number.fullmatch(v):
+                raise DatasetError(f"{_where(path, row, column)}: {_not_a_number(v, name, decimal)}")
+            a[row] = float(v.replace(decimal, "."))
+    elif pa.types.is_integer(col.type) or pa.types.is_floating(col.type):
+        if col.null_count:
+            row = int(pc.index(pc.is_null(col), True).as_py())
+            raise DatasetError(f"{_where(path, row, column)}: an empty cell ({name} must be a number)")
+        a = col.to_numpy().astype(np.float64, copy=False)
+    else:  # booleans, dates, bytes, all-empty columns: the first cell says what it is
+        v = col[0].as_py()
+        raise DatasetError(f"{_where(path, 0, column)}: {_not_a_number(v, name, decimal)[:-1]}; the column holds "
+                           f"{col.type})")
     bad = ~np.isfinite(a)
     if bad.any():
         row = int(np.argmax(bad))
         raise DatasetError(f"{_where(path, row, column)}: {float(a[row])!r} ({name} must be a finite number)")
+    unit = {"range": "m", "x": "m", "y": "m", "vx": "m/s", "vy": "m/s"}.get(name)
+    if unit and (bad := np.abs(a) > MAX_MAGNITUDE).any():
+        row = int(np.argmax(bad))
+        raise DatasetError(f"{_where(path, row, column)}: {name} {float(a[row])!r} {unit} is beyond "
+                           f"+-{MAX_MAGNITUDE:g} {unit} (another unit?)")
     return a
+
+
+def _texts(table: pa.Table, path: Path, column: str) -> list:
+    """Column ``column``'s values, bytes (a Parquet binary column) decoded as UTF-8; DatasetError at the first
+    that is not."""
+    values = table.column(column).to_pylist()
+    for row, v in enumerate(values):
+        if isinstance(v, bytes):
+            try:
+                values[row] = v.decode("utf-8")
+            except UnicodeDecodeError:
+                raise DatasetError(f"{_where(path, row, column)}: {v!r} is not UTF-8 text") from None
+    return values
 
 
 def _labels(table: pa.Table, path: Path, column: str) -> np.ndarray:
@@ -130,20 +336,27 @@ def _labels(table: pa.Table, path: Path, column: str) -> np.ndarray:
     (clutter)."""
     col = table.column(column)
     if pa.types.is_floating(col.type):
-        a = col.to_numpy(zero_copy_only=False)
-        bad = np.isfinite(a) & (a != np.round(a))
+        a = col.to_numpy(zero_copy_only=False)  # an empty cell is NaN
+        bad = np.isinf(a) | (np.isfinite(a) & (a != np.round(a)))
         if bad.any():
             row = int(np.argmax(bad))
             raise DatasetError(f"{_where(path, row, column)}: {float(a[row])!r} (a target id is a whole number or "
                                f"text)")
+        bad = np.abs(a) > 2.0 ** 53
+        if bad.any():  # read as a float, it is no longer the integer written
+            row = int(np.argmax(bad))
+            raise DatasetError(f"{_where(path, row, column)}: {float(a[row])!r} (a target id beyond +-2**53 is not "
+                               f"read exactly; use shorter ids, or text with a letter)")
         return np.array([None if not math.isfinite(v) or v < 0 else str(int(v)) for v in a.tolist()], dtype=object)
     if pa.types.is_integer(col.type):
         return np.array([None if v is None or v < 0 else str(v) for v in col.to_pylist()], dtype=object)
-    return np.array([None if v is None or str(v) == "" else str(v) for v in col.to_pylist()], dtype=object)
+    return np.array([None if v is None or str(v) == "" else str(v) for v in _texts(table, path, column)],
+                    dtype=object)
 
 
 def _columns(table: pa.Table, path: Path, names: Sequence[str], mapping: Mapping[str, str]) -> dict[str, str]:
-    """nnda column name -> the file's column name, for the ``names`` the file has."""
+    """nnda column name -> the file's column name, for the ``names`` the file has; DatasetError when one of
+    them is the name of several columns."""
     present = {}
     for name in names:
         column = mapping.get(name, name)
@@ -152,6 +365,12 @@ def _columns(table: pa.Table, path: Path, names: Sequence[str], mapping: Mapping
         elif name in mapping:
             raise DatasetError(f"{path}: column {column!r} (mapped to {name!r} by --column {name}={column}) is "
                                f"missing; the file has {', '.join(table.column_names)}")
+    repeated = {c: [i + 1 for i, f in enumerate(table.column_names) if f == c] for c in dict.fromkeys(present.values())}
+    repeated = {c: at for c, at in repeated.items() if len(at) > 1}
+    if repeated:
+        shown = "; ".join(f"{c!r} in columns {', '.join(map(str, at))}" for c, at in repeated.items())
+        raise DatasetError(f"{path}: line 1 (the header): column name(s) repeated: {shown}; nnda cannot tell which "
+                           f"to read: rename or remove the copies")
     return present
 
 
@@ -268,6 +487,12 @@ def _check_azimuth(path: Path, column: str, az: np.ndarray, unit: str) -> None:
         raise DatasetError(f"{_where(path, row, column)}: azimuth {float(shown)!r} {unit} is outside {limits}{hint}")
 
 
+def _wrapped(azimuth: np.ndarray) -> np.ndarray:
+    """``azimuth`` (rad) in [0, 2 pi): modulo 2 pi, and a tiny negative angle, which rounds to 2 pi, to 0."""
+    a = np.mod(azimuth, TWO_PI)
+    return np.where(a >= TWO_PI, 0.0, a)
+
+
 def _sensor_index(path: Path, column: str, table: pa.Table, names: list[str]) -> np.ndarray:
     col = table.column(column)
     n = len(names)
@@ -279,13 +504,13 @@ def _sensor_index(path: Path, column: str, table: pa.Table, names: list[str]) ->
             raise DatasetError(f"{_where(path, row, column)}: unknown sensor {int(idx[row])} (sensors: "
                                f"{', '.join(f'{i} {s!r}' for i, s in enumerate(names))})")
         return idx.astype(np.int32)
-    values = np.array(["" if v is None else str(v) for v in col.to_pylist()], dtype=object)
+    values = np.array(["" if v is None else str(v) for v in _texts(table, path, column)], dtype=object)
     uniq, inverse = np.unique(values, return_inverse=True)
     lookup = []
     for value in uniq:
         if value in names:
             lookup.append(names.index(value))
-        elif value.isdigit() and int(value) < n:
+        elif re.fullmatch(r"\d{1,9}", value) and int(value) < n:
             lookup.append(int(value))
         else:
             row = int(np.argmax(values == value))
@@ -300,9 +525,13 @@ def _uses_polar(kind: str, polar: bool, cart: bool) -> bool:
     return polar and (kind == "polar" or not cart)
 
 
+#: a label that is an integer (sorted as one)
+_INTEGER_LABEL = re.compile(r"-?\d{1,30}")
+
+
 def _target_order(labels: list[str]) -> list[str]:
     """Target labels in id order: numerically when every label is an integer, as text otherwise."""
-    if all(s.lstrip("-").isdigit() for s in labels):
+    if all(_INTEGER_LABEL.fullmatch(s) for s in labels):
         return sorted(labels, key=int)
     return sorted(labels)
 
@@ -316,7 +545,7 @@ def read_detections(
     path: str | Path, *, sensors: Sequence[Mapping[str, Any] | Sensor] | None = None,
     truth: str | Path | None = None, columns: Sequence[str] | Mapping[str, str] | None = None,
     azimuth_unit: str = "rad", scan_tolerance: float = SCAN_TOLERANCE_S, time_origin: float = 0.0,
-    name: str | None = None,
+    name: str | None = None, delimiter: str = ",", decimal: str = ".", encoding: str = "utf-8",
 ) -> Dataset:
     """The detections file at ``path`` (and its ``truth`` file) as a checked `Dataset` (see the module).
 
@@ -324,6 +553,9 @@ def read_detections(
     index order (default: one radar with the default fields); fields left out
     are inferred as the module docstring says. ``columns`` maps nnda's column
     names to the file's. ``name`` names the scenario (default: the file's stem).
+    ``delimiter`` (``,`` ``;`` ``|`` or a tab), ``decimal`` (``.`` or ``,``)
+    and ``encoding`` (a Python codec name) say how a CSV (detections and
+    truth) is written; a Parquet file ignores them.
     """
     path = Path(path)
     if azimuth_unit not in AZIMUTH_UNITS:
@@ -333,6 +565,7 @@ def read_detections(
     if not math.isfinite(time_origin):
         raise ConfigError(f"--time-origin {time_origin!r}: must be a finite number of seconds")
     mapping = column_mapping(columns)
+    dialect = csv_dialect(delimiter, decimal, encoding)
     specs = [s.model_dump(exclude_unset=True) if isinstance(s, Sensor) else dict(s) for s in (sensors or [{}])]
     for i, s in enumerate(specs):
         s.setdefault("name", "radar" if len(specs) == 1 else f"sensor{i}")
@@ -340,28 +573,29 @@ def read_detections(
     for j, s in enumerate(specs):  # the fields given, before anything is inferred (an offset needs its period)
         validated(Sensor, {k: v for k, v in s.items() if k != "scan_offset_s"}, f"sensor {j} ({names[j]!r})",
                   "sensor")
-    table = _read_table(path, "detections")
+    table = _read_table(path, "detections", dialect)
+    dec = _decimal(path, dialect)
     present = _columns(table, path, DETECTION_COLUMNS, mapping)
     _require(path, present, ["time"], mapping, table, "the time of each detection, s")
     n = table.num_rows
-    t = _numeric(table, path, "time", present["time"]) - time_origin
+    t = _numeric(table, path, "time", present["time"], dec) - time_origin
     polar, cart = {"range", "azimuth"} <= present.keys(), {"x", "y"} <= present.keys()
     if not (polar or cart):
         _require(path, present, ["range", "azimuth"] if "x" not in present and "y" not in present else ["x", "y"],
                  mapping, table, "a position: range and azimuth, or x and y")
     rng = az = x = y = None
     if polar:
-        rng = _numeric(table, path, "range", present["range"])
-        az = _numeric(table, path, "azimuth", present["azimuth"]) * AZIMUTH_UNITS[azimuth_unit]
+        rng = _numeric(table, path, "range", present["range"], dec)
+        az = _numeric(table, path, "azimuth", present["azimuth"], dec) * AZIMUTH_UNITS[azimuth_unit]
         _check_azimuth(path, present["azimuth"], az, azimuth_unit)
-        az = az % TWO_PI
+        az = _wrapped(az)
         bad = ~(rng > 0)
         if bad.any():
             row = int(np.argmax(bad))
             raise DatasetError(f"{_where(path, row, present['range'])}: range {float(rng[row])!r} m must be positive")
     if cart:
-        x = _numeric(table, path, "x", present["x"])
-        y = _numeric(table, path, "y", present["y"])
+        x = _numeric(table, path, "x", present["x"], dec)
+        y = _numeric(table, path, "y", present["y"], dec)
     if "sensor" in present:
         sensor = _sensor_index(path, present["sensor"], table, names)
     elif len(specs) > 1:
@@ -389,6 +623,12 @@ def read_detections(
         if tol >= period / 2:
             raise ConfigError(f"--scan-tolerance {tol:g} s: must be below half the scan period of sensor "
                               f"{names[j]!r} ({period:g} s)")
+        far = np.abs(tj - offset) > MAX_SCANS * period  # before the sweep index overflows
+        if far.any():
+            i = int(np.argmax(far))
+            raise DatasetError(f"{_where(path, int(rows[i]), tcol)}: time {float(tj[i] + time_origin)!r} s is more "
+                               f"than {MAX_SCANS:,} scan periods ({period:g} s) of sensor {names[j]!r} after t = "
+                               f"{time_origin:g} s; clock times? pass --time-origin with a time just before the first")
         k = np.round((tj - offset) / period).astype(np.int64)
         back = np.diff(k) < 0
         if back.any():
@@ -415,7 +655,7 @@ def read_detections(
     periods = [_fraction(p, f"sensor {names[j]!r}: scan_period_s") for j, (p, _) in enumerate(grids)]
     common = _lcm(periods)
     longest = max(Fraction(m) * p for m, p in zip(needed, periods))
-    truth_rows = _read_truth(Path(truth), mapping, time_origin) if truth is not None else None
+    truth_rows = _read_truth(Path(truth), mapping, time_origin, dialect) if truth is not None else None
     if truth_rows is not None and truth_rows["t"].size:  # the schedule reaches the last true state too
         longest = max(longest, Fraction(float(truth_rows["t"].max())))
     duration = common * math.ceil(longest / common)
@@ -471,6 +711,7 @@ def _assemble(path, truth_rows, mapping, scenario_name, sensors, duration, time_
         else:
             x_out[mine], y_out[mine] = x[mine], y[mine]
             r_out[mine], az_out[mine] = cart_to_polar_at(s.position, x[mine], y[mine])
+            az_out[mine] = _wrapped(az_out[mine])
     bad = ~(r_out > 0)
     if bad.any():
         row = int(np.argmax(bad))
@@ -516,13 +757,15 @@ def _scan_then_azimuth(scan: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
     return np.lexsort((azimuth, scan))
 
 
-def _read_truth(path: Path, mapping: Mapping[str, str], time_origin: float) -> dict:
+def _read_truth(path: Path, mapping: Mapping[str, str], time_origin: float, dialect: CsvDialect = CsvDialect()
+                ) -> dict:
     """The truth file's checked columns: time (after the origin), labels, state; its path and time column."""
-    table = _read_table(path, "truth")
+    table = _read_table(path, "truth", dialect)
+    dec = _decimal(path, dialect)
     present = _columns(table, path, TRUTH_COLUMNS, mapping)
     _require(path, present, TRUTH_COLUMNS, mapping, table, "a truth file has time, target_id, x, y, vx, vy")
-    t = _numeric(table, path, "time", present["time"]) - time_origin
-    values = {c: _numeric(table, path, c, present[c]) for c in ("x", "y", "vx", "vy")}
+    t = _numeric(table, path, "time", present["time"], dec) - time_origin
+    values = {c: _numeric(table, path, c, present[c], dec) for c in ("x", "y", "vx", "vy")}
     labels = _labels(table, path, present["target_id"])
     if any(v is None for v in labels):
         row = int(np.flatnonzero(np.array([v is None for v in labels]))[0])
@@ -638,7 +881,7 @@ def sensor_specs(scenario: Scenario) -> list[dict]:
 
 
 def _write(table: pa.Table, path: Path) -> None:
-    with atomic_file(path) as tmp:
+    with atomic_output(path, overwrite=True, directory=False) as tmp:  # a whole file, or none
         if path.suffix.lower() == ".csv":
             pacsv.write_csv(table, tmp)
         else:

@@ -60,7 +60,7 @@ from nnda.data.gmrf import check_gmrf
 from nnda.data.gmrf import sample as sample_gmrf
 from nnda.data.reentry import transition_matrices, white_noise_acceleration
 from nnda.errors import DatasetError
-from nnda.files import atomic_directory, file_digests, read_json, verify_digests, write_json
+from nnda.files import atomic_directory, file_digests, listed_file, read_json, verify_digests, write_json
 
 FORMAT = "nnda-frames"
 FORMAT_VERSION = 1
@@ -152,6 +152,21 @@ class FramesConfig(BaseModel):
     def amplitude(self) -> float:
         """The templates' peak value: sigma_c 10^(PTCR / 20)."""
         return self.sigma_c * 10.0 ** (self.ptcr_db / 20.0)
+
+
+#: bytes per pixel of every frame of a run that drawing and filtering it hold (the float64 frames, the copy less
+#: the background, the clutter draw's temporaries: measured 17 B on 50 frames)
+PIXEL_BYTES = 20
+#: bytes per pixel of one frame of a run that filtering holds while it works on that frame (the whitened and
+#: padded frame, the clutter estimate's neighbour sums)
+FRAME_WORK_BYTES = 64
+
+
+def frames_bytes(cfg: FramesConfig, runs: int) -> int:
+    """Bytes that drawing ``runs`` runs of ``cfg`` (`simulate`) and filtering them need: `PIXEL_BYTES` per pixel
+    of each of their frames and `FRAME_WORK_BYTES` per pixel of the frame being filtered. Arithmetic on the
+    config, for a caller to refuse a size before anything is allocated."""
+    return runs * cfg.rows * cfg.cols * (cfg.frames * PIXEL_BYTES + FRAME_WORK_BYTES)
 
 
 @dataclass(frozen=True)
@@ -331,6 +346,22 @@ def write_frames(fs: FrameSet, out: str | Path, overwrite: bool = False) -> Path
     return out
 
 
+def _listed_digests(path: Path, meta: dict) -> dict[str, str]:
+    """The manifest's field 'files' (name -> SHA-256), checked before any file is opened: exactly the data files
+    of a frame set (`FILES`), each a plain name resolving inside ``path`` (`nnda.files.listed_file`)."""
+    where = path / MANIFEST
+    recorded = meta["files"]
+    if not isinstance(recorded, dict) or not all(isinstance(v, str) for v in recorded.values()):
+        raise DatasetError(f"{where}: field 'files' must map each data file's name to its SHA-256, got "
+                           f"{type(recorded).__name__}; regenerate the frame set")
+    for name in recorded:
+        listed_file(path, name, where, "data file")
+    if sorted(recorded) != sorted(FILES.values()):
+        raise DatasetError(f"{where}: field 'files' lists {sorted(recorded)}; a frame set holds exactly "
+                           f"{sorted(FILES.values())}; regenerate the frame set")
+    return recorded
+
+
 def read_frames(path: str | Path) -> FrameSet:
     """The frame set at ``path``, its arrays memory-mapped read-only; DatasetError naming the file for a
     foreign or corrupt manifest, a data file whose digest, shape or dtype differs from the manifest's."""
@@ -343,7 +374,7 @@ def read_frames(path: str | Path) -> FrameSet:
         cfg = FramesConfig.model_validate(meta["config"])
     except ValueError as exc:
         raise DatasetError(f"{path / MANIFEST}: field 'config' is invalid ({exc})") from None
-    verify_digests(path, meta["files"])
+    verify_digests(path, _listed_digests(path, meta))
     arrays = {}
     for key, name in FILES.items():
         try:

@@ -211,6 +211,17 @@ class ReentryData:
                            self.impact[index], self.config)
 
 
+#: bytes per run and step that `simulate` needs at its peak: the arrays it returns (truth, z, polar, cov: 97 B)
+#: and its temporaries (the noise, the true range and elevation, the Cholesky factors of the "gaussian" mode)
+SIMULATE_BYTES = 208
+
+
+def simulate_bytes(cfg: ReentryConfig, runs: int) -> int:
+    """Bytes `simulate` needs for ``runs`` runs of ``cfg`` (all ``cfg.steps`` steps, before the cut at impact):
+    arithmetic on the config, for a caller to refuse a size before anything is allocated."""
+    return runs * cfg.steps * SIMULATE_BYTES
+
+
 def simulate(cfg: ReentryConfig, runs: int, seed: int | np.random.Generator) -> ReentryData:
     """``runs`` trajectories and their measurements, cut at the earliest ground impact.
 

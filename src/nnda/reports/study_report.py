@@ -4,8 +4,10 @@
 
 Built only from what the study wrote (``study.json``, then the files
 checked against ``checksums.json``), so ``nnda report DIR`` rebuilds it at
-any time. Each job kind the study ran (``study.json``'s ``kinds``) adds its
-sections through `SECTIONS`; a kind with no entry there gets
+any time. Every Parquet table ``checksums.json`` lists (and the directory
+holds) is opened first, so a damaged one is an error naming it before any
+section reads it. Each job kind the study ran (``study.json``'s ``kinds``)
+adds its sections through `SECTIONS`; a kind with no entry there gets
 `summary_sections`, a table of every number of its ``summary.json`` entry,
 so a new kind is reported from its first run. The HTML page inlines
 plotly.js when a section draws an interactive figure.
@@ -23,6 +25,7 @@ from nnda.reports.pages import Figure, Section, StudyFiles, html_page, markdown_
 from nnda.reports.text_table import TextTable
 from nnda.reports.track_report import track_sections
 from nnda.reports.trajectory_plot import plotly_js
+from nnda.study.checksums import listed, read_schema
 from nnda.study.plan import STUDY_FORMAT, STUDY_FORMAT_VERSION
 from nnda.study.results import read_summary
 from nnda.study.runner import MANIFEST
@@ -61,14 +64,36 @@ def summary_sections(kind: str, study: StudyFiles) -> list[Section]:
     return [sec]
 
 
+def _check_manifest(where: Path, manifest: dict) -> None:
+    """The fields of ``study.json`` the report starts from: ``fingerprint``, ``kinds`` and the study's name."""
+    study = manifest.get("study")
+    kinds = manifest.get("kinds")
+    for field, ok in (("fingerprint", isinstance(manifest.get("fingerprint"), str)),
+                      ("kinds", isinstance(kinds, list) and all(isinstance(k, str) for k in kinds)),
+                      ("study", isinstance(study, dict) and isinstance(study.get("name"), str))):
+        if not ok:
+            raise DatasetError(f"{where}: field {field!r} is missing or not of the form this nnda writes; "
+                               f"restore the file or run the study again")
+
+
 def study_files(out: str | Path) -> StudyFiles:
-    """A finished study directory's ``study.json`` and its checked ``summary.json`` and ``timing.json``."""
+    """A finished study directory's ``study.json`` and its checked ``summary.json`` and ``timing.json``; every
+    Parquet table of ``checksums.json`` present checked and its footer read (a damaged one is named here)."""
     out = Path(out)
     manifest = read_json(out / MANIFEST, STUDY_FORMAT, STUDY_FORMAT_VERSION)
-    summary, timing = read_summary(out)
-    if not summary["fingerprint"] == timing["fingerprint"] == manifest["fingerprint"]:
+    _check_manifest(out / MANIFEST, manifest)
+    try:
+        summary, timing = read_summary(out)
+    except (KeyError, TypeError, AttributeError) as exc:  # checked files, but not of the layout written
+        raise DatasetError(f"{out}: summary.json or timing.json does not have the layout this nnda writes "
+                           f"({type(exc).__name__}: {exc}); run the study again with --resume to rebuild "
+                           f"them") from None
+    if not summary.get("fingerprint") == timing.get("fingerprint") == manifest["fingerprint"]:
         raise DatasetError(f"{out}: study.json, summary.json and timing.json come from different studies; "
                            f"rerun `nnda run --resume` to rebuild them")
+    for name in listed(out):
+        if name.endswith(".parquet") and (out / name).exists():  # a missing table is its section's to explain
+            read_schema(out, name)
     return StudyFiles(out, manifest, summary, timing)
 
 

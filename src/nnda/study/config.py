@@ -121,7 +121,14 @@ Study = study_model()
 def study_from_dict(data: dict, source: str = "<study>", base: Path | None = None) -> Study:
     """Validate a mapping into a Study (relative paths against ``base``, default the cwd)."""
     study = validated(study_model(), data, source, "study")
-    return study.resolved(base if base is not None else Path.cwd())
+    for path in study.inputs():
+        if "\x00" in str(path):
+            raise ConfigError(f"{source}: path {str(path)!r} holds a NUL character; give a file or directory path")
+    try:
+        return study.resolved(base if base is not None else Path.cwd())
+    except (OSError, RuntimeError, ValueError) as exc:  # a symlink loop, a name too long, ...
+        raise ConfigError(f"{source}: a path of the study cannot be resolved ({exc}); give a file or directory "
+                          f"path") from None
 
 
 def load_study(path: str | Path) -> Study:

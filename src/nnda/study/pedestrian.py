@@ -118,8 +118,10 @@ class PedestrianStudyConfig(BaseModel):
     """The study: which ``tests`` and whether the comparison ``beyond`` the thesis, accuracy ``runs`` of Tests
     2-3 and ``test4_runs`` of Test 4,
     ``stress_runs`` of the stress scenes (target count, runtime), ``seed``, ``birth``, the cut-off
-    ``cutoff_m``, ``bootstrap`` resamples, the intervals' ``confidence`` and ``block_runs``, the runs one job
-    filters (the results do not depend on it)."""
+    ``cutoff_m``, ``bootstrap`` resamples, the intervals' ``confidence``, ``block_runs``, the runs one job
+    filters (the results do not depend on it), and ``max_memory_gib``, the most memory (GiB) a job or the
+    aggregation may need by the study's estimate (None: the default, `nnda.study.kinds.base.MAX_MEMORY_GIB`; a
+    bigger study is refused when it is planned)."""
 
     model_config = _STRICT
 
@@ -134,6 +136,7 @@ class PedestrianStudyConfig(BaseModel):
     bootstrap: Annotated[int, Field(ge=100)] = 1000
     confidence: Annotated[float, Field(gt=0, lt=1)] = 0.95
     block_runs: Annotated[int, Field(ge=1)] = 25
+    max_memory_gib: Annotated[float, Field(gt=0)] | None = None
 
 
 # ----------------------------------------------------------------------------- one run
@@ -274,7 +277,7 @@ def study_results(cfg: PedestrianStudyConfig, runs: dict[tuple[str, str], list[d
         else:
             test["stress_scene"] = g.scene
             test["stress"] = score_stress(group_runs(g), scene.n_scans, cfg.confidence)
-    out = {"config": cfg.model_dump(mode="json"), "tests": list(tests.values())}
+    out = {"config": cfg.model_dump(mode="json", exclude={"max_memory_gib"}), "tests": list(tests.values())}
     if test1 is not None:
         out["test1"] = test1
     if beyond is not None:

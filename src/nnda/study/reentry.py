@@ -82,7 +82,9 @@ class ReentryStudyConfig(BaseModel):
     """The study: ``runs`` Monte Carlo runs of ``steps`` steps (cut at ground impact), ``seed``, the data
     ``mode``, the settings, the particle filters' ``resampling`` and ``ess_threshold`` (None: every step, the
     paper), the converted KF's process noise ``converted_kf_sigma_w`` (m s^-3/2), ``chunk_particles`` (runs
-    x particles filtered at once; bounds memory) and the intervals' ``confidence``."""
+    x particles filtered at once; bounds memory), the intervals' ``confidence`` and ``max_memory_gib``, the most
+    memory (GiB) a job or the aggregation may need by the study's estimate (None: the default,
+    `nnda.study.kinds.base.MAX_MEMORY_GIB`; a bigger study is refused when it is planned)."""
 
     model_config = _STRICT
 
@@ -96,6 +98,7 @@ class ReentryStudyConfig(BaseModel):
     converted_kf_sigma_w: float = Field(30.0, ge=0)
     chunk_particles: int = Field(1_000_000, ge=1)
     confidence: float = Field(0.95, gt=0, lt=1)
+    max_memory_gib: float | None = Field(None, gt=0)
 
 
 def _label(name: str, n: int | None) -> str:

@@ -117,8 +117,10 @@ class TBDStudyConfig(BaseModel):
     its ``ptcr_db`` is replaced by each of them), the ``filters``, the filter side ``tbd``, the divergence
     rule (``divergence_px``, ``divergence_frames``), ``acquisition`` and ``steady_frames``, ``chunk_runs``
     (runs filtered at once; bounds memory), the intervals' ``confidence``, the ``exit_reentry`` scenario
-    (None: not run), the matched-filter detector's ``detector_pfa`` and the detect-then-track ``chain``
-    (None: the detector alone)."""
+    (None: not run), the matched-filter detector's ``detector_pfa``, the detect-then-track ``chain``
+    (None: the detector alone) and ``max_memory_gib``, the most memory (GiB) a job or the aggregation may need
+    by the study's estimate (None: the default, `nnda.study.kinds.base.MAX_MEMORY_GIB`; a bigger study is
+    refused when it is planned)."""
 
     model_config = _STRICT
 
@@ -137,6 +139,7 @@ class TBDStudyConfig(BaseModel):
     exit_reentry: ExitReentry | None = ExitReentry()
     detector_pfa: float = Field(1e-4, gt=0, lt=1)
     chain: ChainConfig | None = ChainConfig()
+    max_memory_gib: float | None = Field(None, gt=0)
 
     @model_validator(mode="after")
     def _check(self) -> TBDStudyConfig:

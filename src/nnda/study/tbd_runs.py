@@ -191,8 +191,9 @@ def study_results(cfg: TBDStudyConfig, settings: list[dict], exit_reentry: dict 
             for b in settings[i + 1:]:
                 da, db = a["filters"][f.label]["divergence"], b["filters"][f.label]["divergence"]
                 across.append({"filter": f.label, "a": a["ptcr_db"], "b": b["ptcr_db"], "fisher_p": fisher(da, db)})
-    return {"config": cfg.model_dump(mode="json"), "settings": settings, "across_ptcr": across,
-            "exit_reentry": exit_reentry, "runtime_s": runtime_s}
+    config = cfg.model_dump(mode="json", exclude={"max_memory_gib"})  # a limit, not a setting of the results
+    return {"config": config, "settings": settings, "across_ptcr": across, "exit_reentry": exit_reentry,
+            "runtime_s": runtime_s}
 
 
 #: the file, format and version of the study's snapshot of run 0 (`snapshot`)

@@ -10,6 +10,8 @@ is byte-identical between two runs of the same study.
 
 from __future__ import annotations
 
+from nnda.errors import DatasetError
+
 #: the wall-clock entries of a kind's results document (they change between two runs of the same study)
 TIMING_KEYS = ("runtime_s", "time_per_scan_s", "seconds", "ms_per_frame")
 
@@ -35,11 +37,16 @@ def split_timing(doc):
     return doc, {}
 
 
-def join_timing(doc, timing):
-    """The inverse of `split_timing`: ``doc`` with ``timing``'s entries put back."""
+def join_timing(doc, timing, where: str = ""):
+    """The inverse of `split_timing`: ``doc`` with ``timing``'s entries put back. Two documents that do not
+    nest alike (a list of another length) are a DatasetError naming the entry (``where``: its path so far)."""
     if isinstance(doc, dict) and isinstance(timing, dict):
-        out = {k: join_timing(v, timing.get(k, {})) for k, v in doc.items()}
+        out = {k: join_timing(v, timing.get(k, {}), f"{where}.{k}" if where else str(k)) for k, v in doc.items()}
         return out | {k: v for k, v in timing.items() if k in TIMING_KEYS}
     if isinstance(doc, list) and isinstance(timing, list):
-        return [join_timing(d, t) for d, t in zip(doc, timing, strict=True)]
+        if len(doc) != len(timing):
+            raise DatasetError(f"timing.json does not match summary.json at {where or 'the top level'}: "
+                               f"{len(timing)} timed entries for {len(doc)} results; run the study again with "
+                               f"--resume to rebuild them")
+        return [join_timing(d, t, f"{where}[{i}]") for i, (d, t) in enumerate(zip(doc, timing))]
     return doc

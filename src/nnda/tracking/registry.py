@@ -60,17 +60,49 @@ TRACKERS: dict[str, type[Tracker]] = _Registry(
                                FusionTracker, AAFusionTracker, CentralPHDTracker)})
 
 
+def _tracker_class(name: str, where: str) -> type[Tracker]:
+    if not isinstance(name, str) or name not in TRACKERS:
+        raise ConfigError(f"{where}: unknown tracker {name!r}; choose one of {', '.join([*TRACKERS, *PEERS])}")
+    try:
+        return TRACKERS[name]
+    except ConfigError as exc:
+        raise ConfigError(f"{where}: {exc}") from None
+
+
+def _owners(fields: set[str], name: str) -> list[str]:
+    """The built-in trackers other than ``name`` whose config has every one of ``fields``."""
+    return [other for other, cls in TRACKERS.items()  # the built-ins only: the peers are not imported here
+            if other != name and fields <= set(cls.config_type.model_fields)]
+
+
+def check_config(name: str, params: Mapping[str, Any] | None, where: str = "tracker config"):
+    """The config of tracker ``name`` validated from ``params``; ConfigError naming ``where`` (a file, a study
+    entry), the tracker and every problem, and, when the unknown fields are another tracker's, that tracker."""
+    cls = _tracker_class(name, where)
+    if params is not None and not isinstance(params, Mapping):
+        raise ConfigError(f"{where}: the {name} config must be a mapping of option names to values, got "
+                          f"{type(params).__name__}")
+    params = dict(params or {})
+    try:
+        return validated(cls.config_type, params, where, f"{name} config")
+    except ConfigError as exc:
+        extra = {k for k in params if isinstance(k, str)} - set(cls.config_type.model_fields)
+        owners = _owners(extra, name) if extra else []
+        if not owners:
+            raise
+        shown = ", ".join(owners[:4]) + (f" and {len(owners) - 4} more" if len(owners) > 4 else "")
+        raise ConfigError(f"{exc}\n  the field(s) {', '.join(sorted(extra))} are options of tracker(s) {shown}, "
+                          f"not of {name}: a config written for another tracker? Run it with that tracker, or "
+                          f"remove those fields") from None
+
+
 def make_tracker(name: str, sensors: Sensor | Sequence[Sensor], params: Mapping[str, Any] | None = None,
                  where: str = "tracker config") -> Tracker:
     """A tracker of kind ``name`` for ``sensors`` (a scenario's, or one) with its config validated from
-    ``params`` (defaults: each config's); a tracker that cannot use these sensors is a ConfigError."""
-    if name not in TRACKERS:
-        raise ConfigError(f"{where}: unknown tracker {name!r}; choose one of {', '.join([*TRACKERS, *PEERS])}")
-    try:
-        cls = TRACKERS[name]
-    except ConfigError as exc:
-        raise ConfigError(f"{where}: {exc}") from None
-    config = validated(cls.config_type, dict(params or {}), where, f"{name} config")
+    ``params`` (defaults: each config's; `check_config`); a tracker that cannot use these sensors is a
+    ConfigError."""
+    cls = _tracker_class(name, where)
+    config = check_config(name, params, where)
     try:
         return cls(sensors, config)
     except ConfigError as exc:

@@ -18,7 +18,7 @@ two radars' scans refine the same tracks. The single-hypothesis trackers
 (`SingleHypothesisTracker`: GNN, JPDA, neural) then differ in one hook
 only, `associate`; each scan:
 
-1. check the scan (time increasing, a known sensor, (N, 2) finite contacts);
+1. check the scan (time increasing, a known sensor, (N, 2) finite real contacts: `checked_scan`);
 2. predict every live track's filter to the scan time, over the time since
    its last update (a missed scan is not an update);
 3. **associate** (the method's part): decide which contact, if any, updates
@@ -40,6 +40,7 @@ own scan step over hypothesis trees.
 from __future__ import annotations
 
 import math
+import numbers
 import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
@@ -134,35 +135,67 @@ def only_sensor(name: str, sensors: Sensor | Sequence[Sensor], kind: str = "pola
     return found[0]
 
 
+#: a contact's row for each kind of measurement: polar [range m, azimuth rad], position fixes [x m, y m]
+CONTACT_ROW = {True: "[range m, azimuth rad]", False: "[x m, y m]"}
+
+
+def checked_contacts(name: str, scan: Scan, polar: bool, sensor: str) -> np.ndarray:
+    """The contacts of ``scan`` as a float (N, 2) array, one row `CONTACT_ROW` per contact (``polar``: range
+    and azimuth from the sweeping sensor, named ``sensor``; else Cartesian fixes), checked for tracker
+    ``name``: TrackingError naming the tracker, the scan and the sensor unless the measurements are real
+    numbers (integer or float dtype) of shape (N, 2), or an empty 1-D array for a scan without contacts,
+    each finite and, for a polar sensor, with a positive range. A vectorised check and one compiled pass per
+    scan, never a Python loop over contacts."""
+    what = CONTACT_ROW[polar]
+    kind = "polar sensor" if polar else "sensor of position fixes"
+    try:
+        z = np.asarray(scan.measurements)
+    except (ValueError, TypeError) as exc:  # a ragged nested list
+        raise TrackingError(f"{name}: scan {scan.index} of {kind} {sensor!r}: measurements must be an (N, 2) "
+                            f"array of real numbers, one row {what} per contact "
+                            f"({' '.join(str(exc).split())})") from None
+    if z.dtype.kind not in "iuf":
+        raise TrackingError(f"{name}: scan {scan.index} of {kind} {sensor!r}: measurements must be real numbers "
+                            f"(an integer or float array), one row {what} per contact; got dtype {z.dtype}")
+    if z.ndim == 1 and z.size == 0:
+        return np.empty((0, 2))
+    if z.ndim != 2 or z.shape[1] != 2:
+        raise TrackingError(f"{name}: scan {scan.index} of {kind} {sensor!r}: measurements must have shape "
+                            f"(N, 2) {what}, one row per contact, got {z.shape}")
+    z = z.astype(float, copy=False)
+    if not _valid(z, polar):
+        row = int(np.flatnonzero(~np.isfinite(z).all(axis=1) | (polar & ~(z[:, 0] > 0)))[0])
+        raise TrackingError(f"{name}: scan {scan.index}: contact {row} is invalid {z[row].tolist()} "
+                            f"({'non-finite or non-positive range' if polar else 'non-finite'}); give finite "
+                            f"values{', with a range > 0 m' if polar else ''}")
+    return z
+
+
 def checked_scan(name: str, scan: Scan, last_time: float, sensors: tuple[Sensor, ...]) -> tuple[np.ndarray, float]:
     """The contacts z (N, 2) and time (s) of ``scan``, checked for tracker ``name`` built for ``sensors``.
 
-    Raises TrackingError unless the time is finite and after ``last_time``,
-    the scan's sensor is one of ``sensors`` and every contact is finite
-    (with a positive range for a polar sensor: [range m, azimuth rad]).
+    Raises TrackingError unless ``scan`` is a scan (`nnda.data.dataset.Scan`: index, time, measurements,
+    sensor), its time is a finite number after ``last_time``, its sensor is one of ``sensors`` and its
+    measurements pass `checked_contacts` for that sensor's kind ([range m, azimuth rad], positive ranges, for
+    a polar sensor; [x m, y m] for a position sensor).
     """
+    if not all(hasattr(scan, field) for field in ("index", "time", "measurements", "sensor")):
+        raise TrackingError(f"{name}: step takes a scan (nnda.data.dataset.Scan: index, time, measurements, "
+                            f"sensor), got {type(scan).__name__}")
     sensor = scan.sensor
     if not (isinstance(sensor, (int, np.integer)) and 0 <= sensor < len(sensors)):
         raise TrackingError(f"{name}: scan {scan.index} comes from sensor {sensor!r}, but this tracker was built "
                             f"for {len(sensors)} sensor(s) ({', '.join(s.name for s in sensors)})")
-    polar = sensors[sensor].kind == "polar"
+    if isinstance(scan.time, (bool, np.bool_)) or not isinstance(scan.time, numbers.Real):
+        raise TrackingError(f"{name}: scan {scan.index} has time {scan.time!r} of type {type(scan.time).__name__}; "
+                            f"a scan's time is a number of seconds")
     time = float(scan.time)
     if not math.isfinite(time):
         raise TrackingError(f"{name}: scan {scan.index} has a non-finite time {scan.time}")
     if time <= last_time:
         raise TrackingError(f"{name}: scan {scan.index} at t = {time} s does not come after the "
                             f"previous scan (t = {last_time} s); scans must arrive in time order")
-    z = np.asarray(scan.measurements, dtype=float)
-    if z.size == 0:
-        return np.empty((0, 2)), time
-    if z.ndim != 2 or z.shape[1] != 2:
-        what = "[range m, azimuth rad]" if polar else "[x m, y m]"
-        raise TrackingError(f"{name}: scan {scan.index}: measurements must have shape (N, 2) {what}, got {z.shape}")
-    if not _valid(z, polar):
-        row = int(np.flatnonzero(~np.isfinite(z).all(axis=1) | (polar & ~(z[:, 0] > 0)))[0])
-        raise TrackingError(f"{name}: scan {scan.index}: contact {row} is invalid {z[row].tolist()} "
-                            f"({'non-finite or non-positive range' if polar else 'non-finite'})")
-    return z, time
+    return checked_contacts(name, scan, sensors[sensor].kind == "polar", sensors[sensor].name), time
 
 
 @numba.njit(cache=True, nogil=True)

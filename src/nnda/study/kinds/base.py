@@ -16,6 +16,10 @@ knows only this contract::
 
 The measures a kind's records hold are the registry's entries for the kind
 (`nnda.study.measures.for_kind`: a measure names the kinds it applies to).
+A kind whose table sets sizes (runs, particles, frame sizes, resamples)
+estimates its memory from them in ``plan``, before any job, and refuses a
+study whose largest job or aggregation would need more than the table's
+``max_memory_gib`` (`check_memory`; default `MAX_MEMORY_GIB`).
 Records hold no wall-clock time outside their ``timing`` entry, so
 everything but ``timing.json`` and ``timing.*`` tables is the same, byte
 for byte, for the same study and seed.
@@ -30,6 +34,7 @@ from typing import Annotated, Any, Protocol
 import pyarrow as pa
 from pydantic import ConfigDict, Field
 
+from nnda.errors import ConfigError
 from nnda.files import canonical, digest
 from nnda.version import __version__
 
@@ -109,3 +114,51 @@ class TablePlan:
 
     def manifest(self) -> dict:
         return {}  # the table is in the manifest's study
+
+
+#: the most memory (GiB) one job, or the aggregation of a study's records, may need by its kind's estimate
+#: (the tables' ``max_memory_gib``, ``--max-memory-gib``): a few GiB of working memory per job on a 24 GiB machine
+MAX_MEMORY_GIB = 4.0
+#: the field of a kind's table that raises it
+MEMORY_FIELD = "max_memory_gib"
+
+
+def human_bytes(n: float) -> str:
+    """``n`` bytes in binary units: '512 B', '3.2 MiB', '1.63 TiB'."""
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB", "PiB"):
+        if abs(n) < 1024 or unit == "PiB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.3g} {unit}"
+        n /= 1024
+    raise AssertionError("unreachable")
+
+
+@dataclass(frozen=True)
+class MemoryPart:
+    """One part of a kind's memory estimate: ``what`` needs it (a job, the aggregation), ``sizes`` the table's
+    fields and values it grows with ("runs = 100 x steps = 55"), ``lower`` what to lower to shrink it, and
+    ``bytes`` the estimate."""
+
+    what: str
+    sizes: str
+    lower: str
+    bytes: float
+
+
+def check_memory(where: str, table: str | None, parts: list[MemoryPart], limit_gib: float | None,
+                 command: str | None = None) -> None:
+    """ConfigError naming the study file, the table (None: the study's top-level fields) and its sizes, the
+    estimate and the limit when the largest of ``parts`` needs more than ``limit_gib`` GiB (None: the default,
+    `MAX_MEMORY_GIB`), and how to raise it (the table's `MEMORY_FIELD`, or ``--max-memory-gib`` of ``nnda run``
+    and of ``nnda <command>``). Arithmetic on the config: it runs when the study is planned, before anything is
+    allocated."""
+    limit_gib = MAX_MEMORY_GIB if limit_gib is None else limit_gib
+    worst = max(parts, key=lambda p: p.bytes)
+    if worst.bytes <= limit_gib * 2**30:
+        return
+    here = f"[{table}]: " if table is not None else ""
+    field = f"in the [{table}] table" if table is not None else "at the top of the study file"
+    commands = "nnda run" + (f", nnda {command}" if command is not None else "")
+    raise ConfigError(
+        f"{where}: {here}{worst.what} would need about {human_bytes(worst.bytes)} ({worst.sizes}), above the "
+        f"limit of {human_bytes(limit_gib * 2**30)} ({MEMORY_FIELD} = {limit_gib:g}); lower {worst.lower}, or raise "
+        f"the limit with {MEMORY_FIELD} {field} or --max-memory-gib ({commands}) if the machine has the memory")

@@ -27,8 +27,18 @@ from dataclasses import asdict, dataclass
 import pyarrow as pa
 from pydantic import Field
 
+from nnda.data.pedestrian.scenes import PEDESTRIAN_SCENES
 from nnda.data.sources import resolve_scenes
-from nnda.study.kinds.base import Job, JobKind, TablePlan, job_key, study_seed_only, study_table
+from nnda.study.kinds.base import (
+    Job,
+    JobKind,
+    MemoryPart,
+    TablePlan,
+    check_memory,
+    job_key,
+    study_seed_only,
+    study_table,
+)
 from nnda.study.pedestrian import FilterSpec, PedestrianStudyConfig, groups, run_block, study_results
 from nnda.study.pedestrian_scores import run_test1
 from nnda.study.timing import split_timing
@@ -54,8 +64,32 @@ def _slug(label: str) -> str:
     return re.sub(r"[^a-z0-9]+", "-", label.lower()).strip("-")
 
 
+#: bytes per run and scan of a filter's record in the aggregation (its per-scan sums, counts and weights as
+#: Python numbers; measured 320 B), and more for a run that keeps its estimates (Test 4's density map)
+RECORD_BYTES, ESTIMATE_BYTES = 400, 200
+#: bytes per bootstrap resample, run and scan of an accuracy table's paired bootstrap (the resampled per-scan
+#: sums of one filter at a time; measured 16 B)
+BOOTSTRAP_BYTES = 16
+
+
+def memory_parts(cfg: PedestrianStudyConfig) -> list[MemoryPart]:
+    """The study's memory estimate: the aggregation holds every filter's run records (runs x scans of its walker
+    scene) and, for an accuracy table, its paired bootstrap (``bootstrap`` resamples x runs x scans). A job
+    filters one run at a time of a shipped walker scene: its size is the scene's, bounded by the trackers'."""
+    records, boot, sizes = 0, 0, []
+    for g in groups(cfg):
+        S = PEDESTRIAN_SCENES[g.scene].n_scans
+        records += len(g.filters) * g.runs * S * (RECORD_BYTES + (ESTIMATE_BYTES if g.keeps_estimates else 0))
+        if g.role == "accuracy":
+            boot = max(boot, cfg.bootstrap * g.runs * S * BOOTSTRAP_BYTES)
+        sizes.append(f"{g.scene}: {g.runs:,} runs x {S} scans x {len(g.filters)} filters")
+    return [MemoryPart("the aggregation", f"{'; '.join(sizes)}; bootstrap = {cfg.bootstrap:,} resamples",
+                       "runs, test4_runs, stress_runs or bootstrap", records + boot)]
+
+
 def plan(study, where: str) -> TablePlan:
     cfg = study_table(study, "pedestrian")
+    check_memory(where, "pedestrian", memory_parts(cfg), cfg.max_memory_gib, "pedestrian")
     common = {"kind": "pedestrian", "seed": cfg.seed, "birth": cfg.birth, "cutoff_m": cfg.cutoff_m}
     jobs: dict[str, Job] = {}
     if "test1" in cfg.tests:

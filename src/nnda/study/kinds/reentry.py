@@ -28,9 +28,30 @@ from typing import Any
 import pyarrow as pa
 from pydantic import Field
 
+from nnda.data.reentry import simulate_bytes
 from nnda.files import path_component
-from nnda.study.kinds.base import Job, JobKind, TablePlan, job_key, study_seed_only, study_table
-from nnda.study.reentry import ReentrySetting, ReentryStudyConfig, filter_entries, run_filter, setting_results, source
+from nnda.study.kinds.base import (
+    MEMORY_FIELD,
+    Job,
+    JobKind,
+    MemoryPart,
+    TablePlan,
+    check_memory,
+    human_bytes,
+    job_key,
+    study_seed_only,
+    study_table,
+)
+from nnda.study.reentry import (
+    BOOTSTRAP_RESAMPLES,
+    PARTICLE_FILTERS,
+    ReentrySetting,
+    ReentryStudyConfig,
+    filter_entries,
+    run_filter,
+    setting_results,
+    source,
+)
 from nnda.study.timing import split_timing
 
 RESULTS_FILE = "reentry_results.parquet"
@@ -50,8 +71,40 @@ class ReentryJob:
     config: ReentryStudyConfig
 
 
+#: bytes per run and step of a job beside its data: the estimates, errors and ESS, and the record's lists (a
+#: Python float per run and step, then its JSON text)
+RECORD_BYTES = 200
+#: bytes per particle of the chunk a particle filter holds at once (the state, 4 float64, and its copies:
+#: proposal, resampled, weights, the transition's temporaries; resample-move needs the most, about 250 B)
+PARTICLE_BYTES = 256
+#: bytes per run and step of each filter's record in the aggregation (the Python floats of its squared
+#: position errors, then their array)
+AGGREGATE_BYTES = 48
+
+
+def memory_parts(cfg: ReentryStudyConfig) -> list[MemoryPart]:
+    """The study's memory estimate: the largest job (one filter on every run of a setting: the runs' data, its
+    record and the particle chunk) and the aggregation (every filter's records, and the paired bootstrap of an
+    RMSE ratio, `BOOTSTRAP_RESAMPLES` resamples x runs x steps)."""
+    R, K = cfg.runs, cfg.steps
+    runs = f"runs = {R:,} x steps = {K:,}"
+    counts = sorted({n for s in cfg.settings if set(s.filters) & set(PARTICLE_FILTERS) for n in s.particles})
+    chunk = max((min(R, max(1, cfg.chunk_particles // n)) * n for n in counts), default=0)
+    data = simulate_bytes(source(cfg.settings[0], cfg).config, R) + R * K * RECORD_BYTES
+    particles = chunk * PARTICLE_BYTES
+    labels = sum(len(filter_entries(s)) for s in cfg.settings)
+    return [
+        MemoryPart("a job", f"{runs}: {human_bytes(data)} of runs; {chunk:,} particles at once (chunk_particles = "
+                            f"{cfg.chunk_particles:,}, or one run's, of particles {counts}): {human_bytes(particles)}",
+                   "runs or steps" if data >= particles else "chunk_particles or particles", data + particles),
+        MemoryPart("the aggregation", f"{runs}, {labels} filter runs, {BOOTSTRAP_RESAMPLES:,} bootstrap resamples",
+                   "runs or steps", R * K * (labels * AGGREGATE_BYTES + BOOTSTRAP_RESAMPLES * 8)),
+    ]
+
+
 def plan(study, where: str) -> TablePlan:
     cfg = study_table(study, "reentry")
+    check_memory(where, "reentry", memory_parts(cfg), cfg.max_memory_gib, "reentry")
     names = [path_component(s.name, f"{where}: reentry setting name") for s in cfg.settings]
     if len(set(names)) != len(names):
         raise ValueError(f"{where}: reentry setting names {names} repeat one")
@@ -77,7 +130,7 @@ def run(job: ReentryJob) -> dict:
 def results(cfg: ReentryStudyConfig, records: list[dict]) -> dict:
     """The study's results document (every setting, runtimes included) from its records in plan order."""
     settings = [setting_results(s, cfg, [r for r in records if r["setting"] == s.name]) for s in cfg.settings]
-    return {"config": cfg.model_dump(mode="json"), "settings": settings,
+    return {"config": cfg.model_dump(mode="json", exclude={MEMORY_FIELD}), "settings": settings,
             "runtime_s": sum(r["timing"]["runtime_s"] for r in records)}
 
 

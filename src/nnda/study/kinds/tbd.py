@@ -24,11 +24,24 @@ from dataclasses import dataclass
 import pyarrow as pa
 from pydantic import Field
 
+from nnda.data.frames import frames_bytes
 from nnda.data.sources import FrameScenes
-from nnda.study.kinds.base import Job, JobKind, TablePlan, job_key, study_seed_only, study_table
+from nnda.study.kinds.base import (
+    MEMORY_FIELD,
+    Job,
+    JobKind,
+    MemoryPart,
+    TablePlan,
+    check_memory,
+    human_bytes,
+    job_key,
+    study_seed_only,
+    study_table,
+)
 from nnda.study.tbd import TBDStudyConfig
 from nnda.study.tbd_runs import (
     SNAPSHOT_FILE,
+    SNAPSHOT_FRAMES,
     assemble,
     estimators,
     exit_reentry_results,
@@ -58,11 +71,60 @@ class BlockJob:
     estimator: str | None
 
 
+#: bytes per aspect and extended-grid position of each run of a block that the matched-filter detector holds
+#: while it works on a frame (its log-likelihood ratios and energy tables)
+ASPECT_BYTES = 24
+#: bytes per particle of each run of a block (the state, 5 float64, and its copies: proposal, resampled,
+#: weights, the likelihood's temporaries; measured 260-320 B)
+PARTICLE_BYTES = 320
+#: bytes per pixel of each frame the report's snapshot keeps as JSON numbers
+SNAPSHOT_PIXEL_BYTES = 56
+#: bytes per run, frame and value of the records the aggregation reads (a Python float, then an array entry)
+AGGREGATE_BYTES = 40
+
+
+def memory_parts(cfg: TBDStudyConfig) -> list[MemoryPart]:
+    """The study's memory estimate: each setting's block job (a block of ``chunk_runs`` runs: its frames
+    (`nnda.data.frames.frames_bytes`), the detector's work on a frame, the particles of the largest filter), the
+    snapshot job and the aggregation (every run's truth and every estimator's estimates, the snapshot's frames)."""
+    n = max(f.particles for f in cfg.filters)
+    chain = len(cfg.chain.trackers) if cfg.chain is not None else 0
+    values = 5 + 4 * len(cfg.filters) + 3 * chain  # truth, each filter's and each chain tracker's per run and frame
+    parts, records = [], 0
+    settings = scenes(cfg)
+    for source, runs in settings:
+        scene = source.config
+        L, M, K, h = scene.rows, scene.cols, scene.frames, scene.template_half
+        c = min(cfg.chunk_runs, runs)
+        frames = frames_bytes(scene, c)
+        work = c * (len(scene.aspects) * (L + 2 * h) * (M + 2 * h) * ASPECT_BYTES + n * PARTICLE_BYTES)
+        k = "exit_reentry.frames" if source.name == "exit-reentry" else "scene.frames"
+        parts.append(MemoryPart(
+            f"a job on {source.name}", f"a block of {c:,} runs (chunk_runs = {cfg.chunk_runs:,}) of {K:,} frames "
+            f"({k}) of {L:,} x {M:,} pixels (scene.rows x scene.cols): {human_bytes(frames)}; the detector's and "
+            f"{n:,} particles' work: {human_bytes(work)}",
+            f"scene.rows, scene.cols, {k} or chunk_runs" if frames >= work else "chunk_runs or particles",
+            frames + work))
+        records += runs * K * values * AGGREGATE_BYTES
+    scene = settings[0][0].config
+    shown = len(SNAPSHOT_FRAMES) + 1
+    images = shown * scene.rows * scene.cols * SNAPSHOT_PIXEL_BYTES
+    parts.append(MemoryPart("the snapshot of run 0", f"{scene.rows:,} x {scene.cols:,} pixels x {scene.frames:,} "
+                            f"frames", "scene.rows or scene.cols",
+                            frames_bytes(scene, 1) + images + cfg.filters[0].particles * PARTICLE_BYTES))
+    runs = ", ".join(f"{source.name}: {runs:,} runs x {source.config.frames:,} frames" for source, runs in settings)
+    parts.append(MemoryPart("the aggregation", f"{runs}; {values} values per run and frame, the snapshot's {shown} "
+                            f"frames", "runs or scene.frames", records + images))
+    return parts
+
+
 def plan(study, where: str) -> TablePlan:
     cfg = study_table(study, "tbd")
+    check_memory(where, "tbd", memory_parts(cfg), cfg.max_memory_gib, "tbd")
     # what a record depends on beyond its scene and block (the scoring rules and the interval level do not enter)
     options = cfg.model_dump(mode="json", exclude={"ptcr_db", "scene", "runs", "exit_reentry", "confidence",
-                                                   "chunk_runs", "acquisition", "steady_frames", "divergence_frames"})
+                                                   "chunk_runs", "acquisition", "steady_frames", "divergence_frames",
+                                                   MEMORY_FIELD})
     first = scenes(cfg)[0][0]
     jobs = [Job("tbd", job_key({"kind": "tbd", "snapshot": True, "data": first.digest(0), **options}),
                 "jobs/tbd/snapshot.json", "TBD snapshot of run 0", BlockJob(cfg, 0, first, 0, 1, None))]

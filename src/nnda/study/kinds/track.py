@@ -51,7 +51,7 @@ from nnda.errors import ConfigError, DatasetError, ModelError
 from nnda.files import file_digest, path_component
 from nnda.models.scorer import MODEL_FILE, load_model
 from nnda.study.classifier import read_ablation
-from nnda.study.kinds.base import STRICT, Job, JobKind, Label, job_key
+from nnda.study.kinds.base import STRICT, Job, JobKind, Label, MemoryPart, check_memory, job_key
 from nnda.study.metrics import DEFAULT_CUTOFF_M, Ownership
 from nnda.study.track_job import run_job
 from nnda.study.track_results import aggregate
@@ -108,6 +108,10 @@ FIELDS = {
     "trackers": (dict[Label, TrackerSpec], Field(default_factory=dict)),
     "scenarios": (list[ScenarioSpec], Field(default_factory=list, description="the scenes of the tracker and "
                                             "filter jobs")),
+    "max_memory_gib": (Annotated[float, Field(gt=0)] | None, Field(
+        default=None, description="the most memory (GiB) the aggregation of the tracker and filter jobs may need "
+        "by the study's estimate (None: the default, nnda.study.kinds.base.MAX_MEMORY_GIB); a bigger study is "
+        "refused when it is planned")),
 }
 
 
@@ -289,6 +293,24 @@ def _trackers(study, models: tuple[ModelPlan, ...], sensors: list[tuple[Sensor, 
     return tuple(plans)
 
 
+#: bytes per scan of one run's record of a tracker or filter in the aggregation (its per-scan measures and
+#: tracks as Python objects: measured about 500 B on the presets, more with dense clutter's false tracks)
+RECORD_BYTES = 1024
+
+
+def memory_parts(study, scenarios: tuple[ScenarioPlan, ...]) -> list[MemoryPart]:
+    """The memory estimate of the tracker and filter jobs: a job holds one run (its size checked with the
+    scenario: `nnda.data.checks.check_size`); the aggregation every job's record, `RECORD_BYTES` per scan."""
+    scans = [sc.runs * sc.scenario.n_scans for sc in scenarios]
+    single = [n for n, sc in zip(scans, scenarios, strict=True) if len(sc.scenario.targets) == 1]
+    records = sum(scans) * len(study.trackers) + sum(single) * len(study.filters)
+    most = max((sc.scenario.n_scans for sc in scenarios), default=0)
+    return [MemoryPart("the aggregation", f"runs = {study.runs:,} of each generated scenario, {len(scenarios)} "
+                       f"scenario(s) of up to {most:,} scans, {len(study.trackers)} tracker(s), "
+                       f"{len(study.filters)} filter(s)", "runs, the scenarios or the trackers",
+                       records * RECORD_BYTES)]
+
+
 def plan(study, where: str) -> TrackPlan:
     """Check every input of the tracker jobs and list them; ``where`` names the study in error messages."""
     for label, spec in study.trackers.items():  # the cheapest check first
@@ -297,6 +319,7 @@ def plan(study, where: str) -> TrackPlan:
                               f"registered trackers: {', '.join([*TRACKERS, *PEERS])}")
     models = _models(study, where)
     scenarios = scenario_plans(study, where)
+    check_memory(where, None, memory_parts(study, scenarios), study.max_memory_gib)
     trackers = _trackers(study, models, sensor_setups(scenarios), where)
     model_digest = {m.label: m.sha256 for m in models}
     ids = {t.label: {"kind": t.kind, "model_sha256": model_digest.get(t.model),

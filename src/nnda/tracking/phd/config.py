@@ -63,6 +63,10 @@ HEADING_MOTIONS = ("ncsht", "hm-map")
 #: walk-test4) and Fig. 5.1's "+" (scenes walk-test3 and walk-test3-stress)
 HM_MAPS: dict[str, Callable[[], HMMap]] = {"corridor": corridor_hm_map, "plus": plus_hm_map}
 
+#: the (component, contact) pairs a scan's update forms at most by default (``max_pairs``: about 2 GB of pairs;
+#: the shipped studies' densest scans, 5,000 clutter contacts, form up to 5 million)
+MAX_PAIRS = 25_000_000
+
 #: a probability of these filters: in (0, 1]
 Probability = Annotated[float, Field(gt=0, le=1)]
 
@@ -202,6 +206,12 @@ class PHDConfig(CommonConfig):
     components_per_contact: Annotated[float | None, Field(
         gt=0, description="J_max grows with the scan: at most max(J_max, this x N) components are kept after "
         "a scan of N contacts, so dense clutter's newborns do not crowd out a target's; None: J_max")] = None
+    max_pairs: Annotated[int | None, Field(
+        ge=1, description="(component, contact) pairs a scan's update forms at most (the gate's candidates, "
+        "counted before any is formed): past it, the lightest predicted components are left out of that scan's "
+        "update, the heaviest kept (ties: the earlier), with a BoundWarning the first time in a run; the tracker "
+        "counts them (n_dropped_components, n_dropped_pairs). Bounds memory (about 80 B a pair) and time when "
+        "a scan holds far more contacts than the filter was made for; None: no bound")] = MAX_PAIRS
     extraction_scans: Annotated[int, Field(
         ge=1, description="report a label once it has been extracted (weight >= the threshold) in this many "
         "scans in a row, and while it stays extracted; 1: every extracted component")] = 1

@@ -103,18 +103,33 @@ class FusionTracker:
         self.local = tuple(CentralPHDTracker(s, CentralPHDConfig(**{**local, "pd": pd}))
                            for s, pd in zip(self.sensors, sensor_detection(self.name, cfg, self.sensors),
                                             strict=True))
+        for f, s in zip(self.local, self.sensors, strict=True):
+            f.label = f"{self.name} (the local filter of sensor {s.name!r})"
         self.reset()
 
     def reset(self) -> None:
         """Forget the local filters, the centre's ids and the last time (the start of a run)."""
+        bounds_hit: set[str] = set()  # a bound warns once per run of the fusion tracker, whichever filter it bit
         for f in self.local:
             f.reset()
+            f._bounds_hit = bounds_hit
         self.last_time = -np.inf
         self.known_keys = np.empty(0, np.int64)  # (sensor, local label) keys of the last fusion, sorted
         self.known_ids = np.empty(0, np.int64)  # their centre ids
         self.next_id = 0
         self.fused = Mixture.empty(self.config.state_dim)
         self.cardinality: Cardinality | None = None
+
+    @property
+    def n_dropped_components(self) -> int:
+        """The local filters' predicted components left out of their updates by ``max_pairs`` since the last
+        reset (`GMPHDTracker.n_dropped_components`)."""
+        return sum(f.n_dropped_components for f in self.local)
+
+    @property
+    def n_dropped_pairs(self) -> int:
+        """The candidate pairs those components would have formed."""
+        return sum(f.n_dropped_pairs for f in self.local)
 
     def _weights(self, sensor: np.ndarray, union: Mixture) -> np.ndarray:
         """The fusion weight of each local component (J,): 1 for the union and merge."""

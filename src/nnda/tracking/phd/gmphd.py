@@ -108,6 +108,15 @@ def candidates(z0: np.ndarray, centre: np.ndarray, half_width: np.ndarray) -> tu
     return j, order[start + np.arange(len(j))]
 
 
+def window_counts(z0: np.ndarray, centre: np.ndarray, half_width: np.ndarray) -> np.ndarray:
+    """How many pairs `candidates` forms for each component (J,), counted without forming them: the contacts'
+    first coordinates ``z0`` (N,) within ``half_width`` (J,) of the components' ``centre`` (J,)."""
+    zs = np.sort(z0)
+    lo = np.searchsorted(zs, centre - half_width, "left")
+    hi = np.searchsorted(zs, centre + half_width, "right")
+    return np.maximum(hi - lo, 0)
+
+
 def _gated(mp: MeasurementPrediction, z: np.ndarray, gate: float | None, noise_00: float
            ) -> tuple[np.ndarray, np.ndarray]:
     """Candidate pairs of components ``mp`` and contacts z (N, 2) for a chi-square ``gate`` (None: all).
@@ -145,6 +154,20 @@ class Linearisation(ABC):
     @abstractmethod
     def predict_measurement(self, x: np.ndarray, P: np.ndarray) -> MeasurementPrediction:
         """Measurement prediction of states x (J, n), P (J, n, n)."""
+
+    def noise_00(self, contact_R: np.ndarray | None) -> float:
+        """The bound on the contacts' own noise on the first coordinate that `pairs` adds to the window: none
+        (the components' S holds the measurement noise)."""
+        return 0.0
+
+    def pair_counts(self, mixture: Mixture, z: np.ndarray, contact_R: np.ndarray | None = None,
+                    gate: float | None = None) -> np.ndarray:
+        """The candidate pairs `pairs` forms for each component of ``mixture`` (J,) before the exact gate (the
+        first coordinate's window; with ``gate`` None, every contact), counted without forming them."""
+        if gate is None:
+            return np.full(len(mixture), len(z), np.int64)
+        mp = self.predict_measurement(mixture.means, mixture.covariances)
+        return window_counts(z[:, 0], mp.z[:, 0], np.sqrt(gate * (mp.S[:, 0, 0] + self.noise_00(contact_R))))
 
     def pairs(self, mixture: Mixture, z: np.ndarray, contact_R: np.ndarray | None = None,
               gate: float | None = None) -> Pairs:
@@ -210,11 +233,15 @@ class Linear(Linearisation):
         return kalman.measurement_prediction(x[..., at], PHt[..., at, :].copy(),
                                              np.broadcast_to(H, (*x.shape[:-1], *H.shape)), PHt)
 
+    def noise_00(self, contact_R):
+        """The largest of the contacts' own noise variances on x (their R_i, or the model's R)."""
+        return float(self.measurement.R[0, 0] if contact_R is None else contact_R[:, 0, 0].max(initial=0.0))
+
     def pairs(self, mixture, z, contact_R=None, gate=None):
         if contact_R is None:  # fixes with the model's own noise
             contact_R = np.broadcast_to(self.measurement.R, (len(z), 2, 2))
         mp = self.predict_measurement(mixture.means, mixture.covariances)
-        j, i = _gated(mp, z, gate, float(contact_R[:, 0, 0].max(initial=0.0)))
+        j, i = _gated(mp, z, gate, self.noise_00(contact_R))
         nu = z[i] - mp.z[j]
         S_inv, det = kalman.inverse_2x2(mp.S[j] + contact_R[i])
         d2 = kalman.mahalanobis_2x2(nu, S_inv)

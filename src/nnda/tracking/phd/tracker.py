@@ -19,7 +19,9 @@ scan (J components, N contacts):
    components, last scan's newborn components (predicted, without ps) and
    static births (`nnda.tracking.phd.gmphd`, `nnda.tracking.phd.birth`);
 2. update with every (component, contact) pair inside the chi-square gate
-   at once: GM-PHD weights (`gmphd.phd_weights`) or, for ``cphd``, the
+   at once (at most ``max_pairs`` candidate pairs: past it, the lightest
+   predicted components sit the scan out, counted, with a BoundWarning
+   the first time in a run): GM-PHD weights (`gmphd.phd_weights`) or, for ``cphd``, the
    cardinalised ones with the cardinality distribution
    (`nnda.tracking.phd.cphd`); only copies heavier than the prune threshold
    are built, and a newborn component's missed copy is dropped (a target is
@@ -53,6 +55,7 @@ gated pairs, not with J x N.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import ClassVar
@@ -62,7 +65,7 @@ import numpy as np
 from nnda.data.dataset import Scan
 from nnda.data.scenario import Sensor, sensor_tuple
 from nnda.data.sensor import observable
-from nnda.errors import ConfigError, TrackingError
+from nnda.errors import BoundWarning, ConfigError
 from nnda.filters.measurement import MeasurementModel, PositionMeasurement, measurement_model
 from nnda.filters.mixture import Mixture, cap, merge
 from nnda.filters.motion import POS
@@ -80,7 +83,7 @@ from nnda.tracking.phd.config import (
     UKPHDConfig,
 )
 from nnda.tracking.phd.extraction import above, heaviest, relabel_duplicates, streaks
-from nnda.tracking.tracker import TrackerConfig, checked_config, checked_scan
+from nnda.tracking.tracker import TrackerConfig, checked_config, checked_contacts, checked_scan
 
 
 @dataclass(frozen=True)
@@ -184,6 +187,7 @@ class GMPHDTracker:
             [c.weight for c in birth.components], [c.mean for c in birth.components],
             [c.covariance for c in birth.components], np.zeros(len(birth.components), np.int64))
         self.spawn_covariance = None if cfg.spawn is None else np.asarray(cfg.spawn.covariance, dtype=float)
+        self.label = self.name  # how its warnings name it (a fusion tracker's local filter: with its sensor)
         self.reset()
 
     def _view(self, sensor: Sensor, measurement: MeasurementModel | None, pd: float) -> SensorView:
@@ -211,6 +215,11 @@ class GMPHDTracker:
         self.next_label = 0
         self.last_time = -np.inf
         self.cardinality: Cardinality | None = None
+        #: predicted components left out of a scan's update by ``max_pairs`` since the last reset, and the
+        #: candidate pairs they would have formed (`_within_pairs`)
+        self.n_dropped_components = 0
+        self.n_dropped_pairs = 0
+        self._bounds_hit: set[str] = set()
         # labels extracted in the last scan (sorted) and for how many scans in a row (`extraction.streaks`)
         self.extraction_streaks = (np.empty(0, np.int64), np.empty(0, np.int64))
 
@@ -228,22 +237,15 @@ class GMPHDTracker:
         return labels
 
     def _checked(self, scan: Scan) -> tuple[np.ndarray, float]:
-        """The scan's contacts (N, 2) and time: polar contacts by `checked_scan`, Cartesian fixes finite."""
+        """The scan's contacts (N, 2) and time: the scan, its time and sensor by `checked_scan`, its contacts by
+        `checked_contacts` for this filter's measurement of that sensor (range and azimuth, or Cartesian fixes:
+        a polar radar's plots may be given to it as fixes)."""
+        if not hasattr(scan, "measurements"):
+            return checked_scan(self.name, scan, self.last_time, self.sensors)  # refused there, named
         _, time = checked_scan(self.name, Scan(scan.index, scan.time, np.empty((0, 2)), scan.sensor), self.last_time,
                                self.sensors)  # the time and the sensor index first
-        if not self.views[scan.sensor].cartesian:
-            return checked_scan(self.name, scan, self.last_time, self.sensors)
-        z = np.asarray(scan.measurements, dtype=float)
-        if z.size == 0:
-            return np.empty((0, 2)), time
-        if z.ndim != 2 or z.shape[1] != 2:
-            raise TrackingError(f"{self.name}: scan {scan.index}: position fixes must have shape (N, 2) [x m, y m], "
-                                f"got {z.shape}")
-        bad = ~np.isfinite(z).all(axis=1)
-        if bad.any():
-            row = int(np.flatnonzero(bad)[0])
-            raise TrackingError(f"{self.name}: scan {scan.index}: contact {row} is invalid {z[row].tolist()}")
-        return z, time
+        view = self.views[scan.sensor]
+        return checked_contacts(self.name, scan, not view.cartesian, view.sensor.name), time
 
     def _survival(self, time: float) -> float:
         """p_S from the last scan to ``time`` (s): ``ps`` per shortest scan period, ps^(dt / T)."""
@@ -266,11 +268,54 @@ class GMPHDTracker:
             if cfg.spawn is not None and len(old):
                 parts.append(gmphd.spawn(old, self.motion, dt, cfg.spawn.weight, self.spawn_covariance,
                                          self._fresh(len(old))))
-        if self.static is not None and (cfg.birth.every_scan or not np.isfinite(self.last_time)):
+        if self._static_births():
             s = self.static
             parts.append(Mixture(s.weights, s.means, s.covariances, self._fresh(len(s))))
             born += float(s.weights.sum())
         return (Mixture.concat(parts) if len(parts) > 1 else parts[0]), born, newborn
+
+    def _static_births(self) -> int:
+        """How many static birth components this scan's prediction adds (they end it): at every scan, or at the
+        first only."""
+        if self.static is None or not (self.config.birth.every_scan or not np.isfinite(self.last_time)):
+            return 0
+        return len(self.static)
+
+    def _within_pairs(self, pred: Mixture, born: float, newborn: slice | np.ndarray, view: SensorView,
+                      zc: np.ndarray, contact_R: np.ndarray | None, time: float
+                      ) -> tuple[Mixture, float, slice | np.ndarray]:
+        """Step 2's bound ``max_pairs``: the prediction, its birth weight and where last scan's newborn are in
+        it, as they are when the (component, contact) candidate pairs fit the bound (counted without forming
+        them, and only when J x N exceeds it); else its heaviest components whose pairs fit (ties: the earlier),
+        in their order, the left-out births' weight taken from ``born``, the newborn as indices. Each time
+        counted (``n_dropped_components``, ``n_dropped_pairs``); the first time in a run a BoundWarning."""
+        limit = self.config.max_pairs
+        if limit is None or len(pred) * len(zc) <= limit:
+            return pred, born, newborn
+        counts = view.linearisation.pair_counts(pred, zc, contact_R, self.config.gate)
+        total = int(counts.sum())
+        if total <= limit:
+            return pred, born, newborn
+        order = np.lexsort((np.arange(len(pred)), -pred.weights))  # heaviest first, ties: the earlier
+        keep = np.zeros(len(pred), bool)
+        keep[order[np.cumsum(counts[order]) <= limit]] = True
+        last_newborn = np.zeros(len(pred), bool)
+        last_newborn[newborn] = True
+        births = last_newborn.copy()
+        births[len(pred) - self._static_births():] = True
+        born = max(born - float(pred.weights[births & ~keep].sum()), 0.0)
+        kept = int(counts[keep].sum())
+        dropped = len(pred) - int(keep.sum())
+        self.n_dropped_components += dropped
+        self.n_dropped_pairs += total - kept
+        if "max_pairs" not in self._bounds_hit:
+            self._bounds_hit.add("max_pairs")
+            warnings.warn(f"{self.label}, t = {time} s: {len(pred):,} predicted components and {len(zc):,} contacts "
+                          f"would form {total:,} candidate pairs, above the bound of {limit:,}; the {dropped:,} "
+                          f"lightest components were left out of the update (config field max_pairs: raise it, "
+                          f"or None for no bound); later cases of this run are only counted "
+                          f"(n_dropped_components, n_dropped_pairs)", BoundWarning, stacklevel=3)
+        return pred.take(keep), born, np.flatnonzero(last_newborn[keep])
 
     def _detection(self, view: SensorView, scan_sensor: int, pred: Mixture) -> float | np.ndarray:
         """p_D of the predicted components for the scan's sensor: its ``pd`` with one sensor used; with
@@ -305,6 +350,7 @@ class GMPHDTracker:
         survival = self._survival(time)
         pred, born, newborn = self._predicted(time, survival)
         zc, contact_R = view.linearisation.contacts(z)
+        pred, born, newborn = self._within_pairs(pred, born, newborn, view, zc, contact_R, time)
         xy, cov = view.measurement.position(z)
         pairs = view.linearisation.pairs(pred, zc, contact_R, cfg.gate)
         pd = self._detection(view, scan.sensor, pred)
