@@ -72,7 +72,7 @@ def test_track_refuses_before_writing(user_files, refused, nnda):
     (user_files / "c.toml").write_text("gate = -1\n")
     before = snapshot(user_files)
     outcome = nnda("track", "imported", "--tracker", "gnn", "--config", "c.toml", "--out", "t2", cwd=user_files)
-    assert outcome.code == 2 and outcome.err.startswith("error: tracker config: invalid gnn config")
+    assert outcome.code == 2 and outcome.err.startswith("error: tracker config c.toml: invalid gnn config")
     assert "gate" in outcome.err and snapshot(user_files) == before
 
 
