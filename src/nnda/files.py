@@ -70,13 +70,31 @@ def _writer() -> str:
     return f"{_host()}-{os.getpid()}"
 
 
-def _temporaries(name: str) -> re.Pattern:
-    """Temporaries of output ``name`` written on this host: ``.<name>.<host>-<pid>.<random>.partial`` (or
-    ``.old``: an earlier output being replaced); groups ``pid`` and ``kind``."""
-    return re.compile(rf"\.{re.escape(name)}\.{re.escape(_host())}-(?P<pid>\d+)\.[a-z0-9_]+\.(?P<kind>partial|old)")
+def _temporaries(name: str | None = None, kinds: str = "partial|old") -> re.Pattern:
+    """Temporaries written on this host, of output ``name`` (None: of any output):
+    ``.<name>.<host>-<pid>.<random>.partial`` (or ``.old``: an earlier output being replaced); groups ``pid``
+    and ``kind``."""
+    named = ".+" if name is None else re.escape(name)
+    return re.compile(rf"\.{named}\.{re.escape(_host())}-(?P<pid>\d+)\.[a-z0-9_]+\.(?P<kind>{kinds})")
 
 
-_ANY_TEMPORARY = r"\.(?P<name>.+)\.{host}-(?P<pid>\d+)\.[a-z0-9_]+\.partial"
+def _temporary(path: Path, directory: bool) -> Path:
+    """A new, empty temporary sibling of ``path`` (a directory, or a file), named for this writer
+    (``.<name>.<host>-<pid>.<random>.partial``). OSError as raised."""
+    prefix = f".{path.name}.{_writer()}."
+    if directory:
+        tmp = Path(tempfile.mkdtemp(prefix=prefix, suffix=".partial", dir=path.parent))
+        tmp.chmod(0o777 & ~_umask())  # mkdtemp makes it private; the result is an ordinary directory
+        return tmp
+    fd, name = tempfile.mkstemp(prefix=prefix, suffix=".partial", dir=path.parent)
+    os.close(fd)
+    return Path(name)
+
+
+def _put_file(tmp: Path, path: Path) -> None:
+    """The finished temporary file ``tmp`` takes the place of ``path``, with an ordinary file's mode."""
+    tmp.chmod(0o666 & ~_umask())  # mkstemp makes it private
+    os.replace(tmp, path)
 
 
 def _alive(pid: int) -> bool:
@@ -140,7 +158,7 @@ def sweep_stale_within(directory: str | Path) -> list[Path]:
     whose writer is dead on this host: what a stopped study left in its directory. Every other file (a finished
     job's record above all) stays. Says on stderr what it removed; returns the paths removed."""
     directory = Path(directory)
-    pattern = re.compile(_ANY_TEMPORARY.format(host=re.escape(_host())))
+    pattern = _temporaries(kinds="partial")
     removed = []
     for root, dirs, files in os.walk(directory):
         for name in [*dirs, *files]:
@@ -200,15 +218,12 @@ def atomic_file(path: str | Path) -> Iterator[Path]:
     path = Path(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{_writer()}.", suffix=".partial", dir=path.parent)
+        tmp = _temporary(path, directory=False)
     except OSError as exc:
         raise _unwritable(path, exc) from None
-    os.close(fd)
-    tmp = Path(tmp)
     try:
         yield tmp
-        tmp.chmod(0o666 & ~_umask())  # mkstemp makes it private; the result is an ordinary file
-        os.replace(tmp, path)
+        _put_file(tmp, path)
     except OSError as exc:
         tmp.unlink(missing_ok=True)
         if isinstance(exc, NndaError):
@@ -297,13 +312,7 @@ def atomic_output(out: str | Path, overwrite: bool = False, *, directory: bool =
             check()  # the sweep may have put back an output a stopped writer had moved aside
         stack.enter_context(_termination_unwinds())
         try:
-            if directory:
-                tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.{_writer()}.", suffix=".partial", dir=out.parent))
-                tmp.chmod(0o777 & ~_umask())  # mkdtemp makes it private; the result is an ordinary directory
-            else:
-                fd, name = tempfile.mkstemp(prefix=f".{out.name}.{_writer()}.", suffix=".partial", dir=out.parent)
-                os.close(fd)
-                tmp = Path(name)
+            tmp = _temporary(out, directory)
         except OSError as exc:
             raise _unwritable(out, exc) from None
         try:
@@ -311,8 +320,7 @@ def atomic_output(out: str | Path, overwrite: bool = False, *, directory: bool =
             if directory:
                 _replace_directory(tmp, out)
             else:
-                tmp.chmod(0o666 & ~_umask())
-                os.replace(tmp, out)
+                _put_file(tmp, out)
         except OSError as exc:
             _remove(tmp)
             if isinstance(exc, NndaError):  # a nested write's error: name the output, not its temporary copy

@@ -77,7 +77,7 @@ import pyarrow.parquet as pq
 
 from nnda.data.dataset import Dataset, Detections, Truth, write_dataset
 from nnda.data.scenario import Clutter, ProcessNoise, Scenario, Segment, Sensor, Target
-from nnda.data.sensor import TWO_PI, cart_to_polar_at, polar_to_cart_at
+from nnda.data.sensor import TWO_PI, cart_to_polar_at, polar_to_cart_at, wrap_azimuth
 from nnda.errors import ConfigError, DatasetError, validated
 from nnda.files import atomic_output, read_config
 
@@ -487,12 +487,6 @@ def _check_azimuth(path: Path, column: str, az: np.ndarray, unit: str) -> None:
         raise DatasetError(f"{_where(path, row, column)}: azimuth {float(shown)!r} {unit} is outside {limits}{hint}")
 
 
-def _wrapped(azimuth: np.ndarray) -> np.ndarray:
-    """``azimuth`` (rad) in [0, 2 pi): modulo 2 pi, and a tiny negative angle, which rounds to 2 pi, to 0."""
-    a = np.mod(azimuth, TWO_PI)
-    return np.where(a >= TWO_PI, 0.0, a)
-
-
 def _sensor_index(path: Path, column: str, table: pa.Table, names: list[str]) -> np.ndarray:
     col = table.column(column)
     n = len(names)
@@ -588,7 +582,7 @@ def read_detections(
         rng = _numeric(table, path, "range", present["range"], dec)
         az = _numeric(table, path, "azimuth", present["azimuth"], dec) * AZIMUTH_UNITS[azimuth_unit]
         _check_azimuth(path, present["azimuth"], az, azimuth_unit)
-        az = _wrapped(az)
+        az = wrap_azimuth(az)
         bad = ~(rng > 0)
         if bad.any():
             row = int(np.argmax(bad))
@@ -711,7 +705,6 @@ def _assemble(path, truth_rows, mapping, scenario_name, sensors, duration, time_
         else:
             x_out[mine], y_out[mine] = x[mine], y[mine]
             r_out[mine], az_out[mine] = cart_to_polar_at(s.position, x[mine], y[mine])
-            az_out[mine] = _wrapped(az_out[mine])
     bad = ~(r_out > 0)
     if bad.any():
         row = int(np.argmax(bad))

@@ -27,9 +27,16 @@ def wrap_angle(a: np.ndarray | float) -> np.ndarray:
     return (np.asarray(a) + np.pi) % TWO_PI - np.pi
 
 
+def wrap_azimuth(a: np.ndarray | float) -> np.ndarray | float:
+    """Azimuths (rad) in [0, 2 pi): modulo 2 pi, and a tiny negative angle, which the modulo rounds to 2 pi
+    itself, to 0."""
+    a = np.mod(a, TWO_PI)
+    return a - TWO_PI * (a >= TWO_PI)  # exact: 2 pi - 2 pi = 0, a - 0 = a; a scalar stays a scalar
+
+
 def cart_to_polar(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(x, y) in m -> (range m, azimuth rad in [0, 2 pi), clockwise from north), about the origin."""
-    return np.hypot(x, y), np.arctan2(x, y) % TWO_PI
+    return np.hypot(x, y), wrap_azimuth(np.arctan2(x, y))
 
 
 def polar_to_cart(r: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -90,4 +97,4 @@ def measure(
     if sensor.kind == "position":
         return x + sensor.sigma_position_m * noise[0], y + sensor.sigma_position_m * noise[1]
     r, theta = cart_to_polar_at(sensor.position, x, y)
-    return r + sensor.sigma_range_m * noise[0], (theta + sensor.sigma_azimuth_rad * noise[1]) % TWO_PI
+    return r + sensor.sigma_range_m * noise[0], wrap_azimuth(theta + sensor.sigma_azimuth_rad * noise[1])

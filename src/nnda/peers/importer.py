@@ -28,7 +28,7 @@ from stonesoup.types.state import GaussianState
 
 from nnda.data.dataset import Dataset, Detections, Truth, write_dataset
 from nnda.data.scenario import Clutter, ProcessNoise, Scenario, Segment, Sensor, Target
-from nnda.data.sensor import TWO_PI, in_coverage_polar, polar_to_cart
+from nnda.data.sensor import in_coverage_polar, polar_to_cart, wrap_azimuth
 from nnda.errors import ConfigError
 from nnda.peers.adapter import measurement_model, to_datetime, to_seconds
 
@@ -99,7 +99,7 @@ def simulate(scene: StoneSoupScene = StoneSoupScene(), seed: int = 0, name: str 
             paths.setdefault(path, len(paths))
         seen = set()
         for d in detections:
-            az, r = float(d.state_vector[0, 0]) % TWO_PI, float(d.state_vector[1, 0])
+            az, r = float(wrap_azimuth(float(d.state_vector[0, 0]))), float(d.state_vector[1, 0])
             tid = paths[d.groundtruth_path] if isinstance(d, TrueDetection) else -1
             if not in_coverage_polar(sensor, np.array(r), np.array(az)):
                 continue
