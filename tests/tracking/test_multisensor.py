@@ -91,7 +91,7 @@ def test_a_phd_component_outside_the_sweeping_radars_sector_is_not_thinned(name)
                        segments=[Segment(duration_s=70.0)])
     sc = TWO.model_copy(update={"duration_s": 70.0, "targets": [west_only]})
     ds = generate(sc, 3)
-    tracker = make_tracker(name, ds.scenario.sensors, {"sensor_pd": [0.9, 0.85]})
+    tracker = make_tracker(name, ds.scenario.sensors, {"sensor_pd": [0.9, 0.85], "extraction_scans": 1})
     outs = [tracker.step(scan) for scan in ds.scans()]
     t = ds.truth
     near = [bool(len(o.state)) and np.hypot(o.state[:, 0] - x, o.state[:, 2] - y).min() < 300.0

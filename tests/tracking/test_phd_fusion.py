@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_phd_trackers import confirmed_after
 
 from nnda.data.dataset import Scan
 from nnda.data.generator import generate
@@ -77,8 +78,8 @@ def test_the_central_update_is_the_single_sensor_updates_in_turn():
         out = central.step(scan)
         f = alone[scan.sensor]
         if last is not None:
-            f.mixture, f.newborn, f.next_label, f.last_time = (last.mixture, last.newborn, last.next_label,
-                                                               last.last_time)
+            f.mixture, f.newborn, f.next_label, f.last_time, f.confirmed_labels = (
+                last.mixture, last.newborn, last.next_label, last.last_time, last.confirmed_labels)
         ref = f.step(Scan(scan.index, scan.time, scan.measurements, 0))
         last = f
         assert np.array_equal(out.track_id, ref.track_id)
@@ -135,3 +136,29 @@ def test_harbour_config_is_a_deprecated_alias_of_central_phd_config():
     assert old is phd_config.CentralPHDConfig
     assert CentralPHDTracker.config_type is phd_config.CentralPHDConfig
     assert phd_config.CentralPHDConfig().preset == "harbour"
+
+
+@pytest.mark.parametrize("name", ["ekphd", "cphd", "fusion-central", "fusion-merge", "fusion-aa"])
+def test_extraction_over_sweeps_counts_each_radars_sweeps_apart(name):
+    """With two radars in turn, the default (3 sweeps) reports at a sweep the ids a one-scan extraction
+    reports there that it has reported after three sweeps in a row of one radar (each radar's counted apart,
+    whatever the other's sweeps between them reported): the filter and its ids are those of
+    extraction_scans 1."""
+    dense = HARBOUR.model_copy(update={"duration_s": 40.0, "sensors": PRESETS["harbour-dense"].sensors})
+    ds = generate(dense, seed=4)
+    every, default = make_tracker(name, ds.scenario.sensors, {"extraction_scans": 1}), make_tracker(
+        name, ds.scenario.sensors)
+    assert default.config.extraction_scans == 3
+    seen: dict[int, list[set]] = {0: [], 1: []}
+    confirmed, confirmed_in_a_row = set(), set()
+    in_a_row: list[set] = []  # every scan, both radars'
+    fewer = differs = 0
+    for scan in ds.scans():
+        out, kept = every.step(scan), default.step(scan)
+        seen[scan.sensor].append(set(out.track_id.tolist()))
+        in_a_row.append(set(out.track_id.tolist()))
+        expected = confirmed_after(3, seen[scan.sensor], confirmed)
+        assert set(kept.track_id.tolist()) == expected
+        fewer += len(out) - len(kept)
+        differs += expected != confirmed_after(3, in_a_row, confirmed_in_a_row)  # a count over all scans
+    assert fewer > 0 and differs > 0

@@ -31,6 +31,7 @@ def _walk(n: int = 15, seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
 
 def _oracle_params(motion: str, first: np.ndarray, cov: np.ndarray, **extra) -> dict:
     return {"motion": motion, "pd": 1.0, "ps": 1.0, "clutter": 0.0, "gate": None, "prune_threshold": 1e-12,
+            "extraction_scans": 1,  # reported from the first scan
             "birth": {"kind": "static", "every_scan": False,
                       "components": [{"weight": 1.0, "mean": first.tolist(), "covariance": cov.tolist()}]},
             **extra}

@@ -17,7 +17,8 @@ from nnda.filters.measurement import PolarMeasurement, PositionMeasurement
 from nnda.filters.motion import ConstantVelocity
 from nnda.study.metrics import run_metrics
 from nnda.tracking.output import CONFIRMED, NO_CONTACT
-from nnda.tracking.phd.config import REDUCTION_PRESETS
+from nnda.tracking.phd.config import CONFIRMATION_PRESETS, REDUCTION_PRESETS, CommonConfig
+from nnda.tracking.phd.extraction import persistent
 from nnda.tracking.phd.tracker import CPHDTracker, GMPHDTracker
 from nnda.tracking.registry import TRACKERS, make_tracker
 from tolerances import assert_state
@@ -33,8 +34,9 @@ def lone_target() -> Scenario:
 
 
 def oracle_config(m0, P0, **extra) -> dict:
-    """p_D = p_S = 1, no clutter, one static birth of weight 1 at the first scan only (the oracle birth)."""
-    return {"pd": 1.0, "ps": 1.0, "clutter": 0.0,
+    """p_D = p_S = 1, no clutter, one static birth of weight 1 at the first scan only (the oracle birth),
+    every extracted component reported."""
+    return {"pd": 1.0, "ps": 1.0, "clutter": 0.0, "extraction_scans": 1,  # reported from the first scan
             "birth": {"kind": "static", "every_scan": False,
                       "components": [{"weight": 1.0, "mean": list(m0), "covariance": P0.tolist()}]}, **extra}
 
@@ -126,6 +128,17 @@ def test_presets_and_overrides():
         for preset, values in REDUCTION_PRESETS.items():
             cfg = make_tracker(name, Sensor(), {"preset": preset}).config
             assert {k: getattr(cfg, k) for k in values} == values
+            values = CONFIRMATION_PRESETS[preset]
+            assert {k: getattr(cfg, k) for k in values} == values
+    for name in PHD + ["fusion-merge", "fusion-aa", "fusion-central"]:  # the radar and harbour presets: on
+        cfg = make_tracker(name, PRESETS["harbour"].sensors).config
+        assert (cfg.components_per_contact, cfg.extraction_scans) == (1.0, 3)
+    cfg = make_tracker("ekphd", Sensor(), {"preset": "pedestrian", "linearisation": "linear"}).config
+    assert (cfg.components_per_contact, cfg.extraction_scans) == (None, 1)  # Frencl (2014)'s: off
+    cfg = make_tracker("cphd", Sensor(), {"components_per_contact": 0, "extraction_scans": 1}).config
+    assert (cfg.components_per_contact, cfg.extraction_scans) == (0, 1)  # explicit fields override the preset
+    assert "extraction_scans" not in CommonConfig.model_fields  # the peer's config takes no such preset field
+    assert CommonConfig(preset="radar").max_components == 100
     cfg = make_tracker("ekphd", Sensor(), {"preset": "harbour", "max_components": 200}).config
     assert (cfg.prune_threshold, cfg.merge_threshold, cfg.max_components, cfg.extraction_threshold) == (
         1e-6, 25.0, 200, 0.8)
@@ -238,7 +251,7 @@ def test_static_birth_every_scan_spawning_and_ct():
 
 def test_labels_are_unique_and_the_mixture_bounded():
     ds = generate(PRESETS["S6"], seed=4)
-    tracker = make_tracker("ekphd", ds.scenario.sensor, {"max_components": 40})
+    tracker = make_tracker("ekphd", ds.scenario.sensor, {"max_components": 40, "components_per_contact": None})
     for scan in ds.scans():
         out = tracker.step(scan)
         assert np.unique(tracker.mixture.labels).size == len(tracker.mixture) <= 40
@@ -248,7 +261,7 @@ def test_labels_are_unique_and_the_mixture_bounded():
 
 def test_map_extraction_reports_the_map_count():
     ds = generate(PRESETS["S1"], seed=3)
-    tracker = make_tracker("cphd", ds.scenario.sensor, {"extraction": "map"})
+    tracker = make_tracker("cphd", ds.scenario.sensor, {"extraction": "map", "extraction_scans": 1})
     for scan in ds.scans():
         out = tracker.step(scan)
         assert len(out) == min(tracker.cardinality.map, len(tracker.mixture))
@@ -256,6 +269,23 @@ def test_map_extraction_reports_the_map_count():
 
 def test_the_cphd_is_its_own_class():
     assert issubclass(CPHDTracker, GMPHDTracker) and CPHDTracker.name == "cphd"
+
+
+def test_persistence_counts_each_sensors_sweeps_apart():
+    """Label 7 is extracted after every sweep of sensor 0 and none of sensor 1's (sweeps in turn): it is
+    reported from sensor 0's third sweep on, though it was never extracted three scans in a row; label 9, at
+    every sweep of both, from the third sweep of either; a confirmed label that leaves the mixture is forgotten."""
+    records = [(np.empty(0, np.int64), np.empty(0, np.int64))] * 2
+    confirmed = np.empty(0, np.int64)
+    reported = []
+    for scan in range(8):
+        sensor = scan % 2
+        labels = np.array([7, 9] if scan < 6 else [9])
+        shown = np.array([0, 1]) if sensor == 0 and scan < 6 else np.flatnonzero(labels == 9)
+        kept, records[sensor], confirmed = persistent(labels, shown, records[sensor], confirmed, 3)
+        reported.append(labels[kept].tolist())
+    assert reported == [[], [], [], [], [7, 9], [9], [9], [9]]
+    assert confirmed.tolist() == [9]
 
 
 def test_streaks_against_a_loop_over_scans():
@@ -271,21 +301,31 @@ def test_streaks_against_a_loop_over_scans():
         last = (labels, got)
 
 
+def confirmed_after(k: int, reported: list[set], confirmed: set) -> set:
+    """The oracle of ``extraction_scans`` = k over one sensor's sweeps: ``confirmed`` (updated) with the labels
+    reported with k = 1 after each of the last k sweeps; returns the labels to report now (those of the last
+    sweep that are confirmed)."""
+    if len(reported) >= k:
+        confirmed |= set.intersection(*reported[-k:])
+    return reported[-1] & confirmed
+
+
 @pytest.mark.parametrize("name", ["ekphd", "cphd"])
-def test_extraction_over_scans_reports_labels_extracted_k_scans_in_a_row(name):
+def test_extraction_over_scans_reports_labels_once_extracted_k_scans_in_a_row(name):
     """extraction_scans = 3 leaves the filter as it is and reports, of the components a one-scan extraction
-    reports, the labels it reported in each of the last three scans."""
-    ds = generate(PRESETS["S1"], seed=3)
+    reports, the labels it has reported in three scans in a row, then whenever it reports them."""
+    ds = generate(PRESETS["S3"], seed=1)  # S3: targets missed for a few scans
     every, persistent = (make_tracker(name, ds.scenario.sensor, {"extraction_scans": k}) for k in (1, 3))
-    assert make_tracker(name, ds.scenario.sensor).config.extraction_scans == 1  # off by default
-    reported, fewer = [], 0
+    assert make_tracker(name, ds.scenario.sensor).config.extraction_scans == 3  # the radar preset's
+    reported, confirmed, fewer, back = [], set(), 0, 0
     for scan in ds.scans():
         out, kept = every.step(scan), persistent.step(scan)
         reported.append(set(out.track_id.tolist()))
-        expected = set.intersection(*reported[-3:]) if len(reported) >= 3 else set()
-        assert set(kept.track_id.tolist()) == expected
+        assert set(kept.track_id.tolist()) == confirmed_after(3, reported, confirmed)
         fewer += len(out) - len(kept)
-    assert fewer > 0
+        # a confirmed label back after a scan below the threshold: reported at once
+        back += len(reported) >= 2 and bool((reported[-1] - reported[-2]) & set(kept.track_id.tolist()))
+    assert fewer > 0 and back > 0
 
 
 def test_the_component_cap_grows_with_the_contacts():
@@ -298,3 +338,32 @@ def test_the_component_cap_grows_with_the_contacts():
         sizes.append(len(tracker.mixture))
         assert len(tracker.mixture) <= max(50, int(np.ceil(0.5 * len(scan.measurements))))
     assert max(sizes) > 50
+
+
+def test_no_component_cap_per_contact_is_off():
+    """components_per_contact 0 (what a TOML file can write) keeps J_max, as None does; the preset's 1 grows it."""
+    sc = PRESETS["S1"]
+    ds = generate(sc.model_copy(update={"clutter": sc.clutter.model_copy(update={"count": 400}),
+                                        "duration_s": 20.0}), 0)
+    sizes = {}
+    for c in (0, None, 1.0):
+        tracker = make_tracker("ekphd", ds.scenario.sensor, {"components_per_contact": c})
+        sizes[c] = [(tracker.step(scan).track_id.tolist(), len(tracker.mixture)) for scan in ds.scans()]
+    assert sizes[0] == sizes[None] and max(n for _, n in sizes[0]) == 100
+    assert max(n for _, n in sizes[1.0]) > 300
+
+
+@pytest.mark.parametrize("name", PHD)
+def test_the_default_extraction_keeps_the_validation_clutter_out(name):
+    """At the validation scenes' 100 clutter points a scan, the defaults (the radar preset: J_max grown with
+    the contacts, a label reported after 3 sweeps in a row) confirm no false track where reporting every
+    extracted component confirms several a run, and still follow every target."""
+    new = old = 0
+    for scene, seed in (("S1", 0), ("S3", 1)):
+        ds = generate(PRESETS[scene].model_copy(update={"duration_s": 100.0}), seed)
+        m, m_old = (run_metrics(ds, [t.step(scan) for scan in ds.scans()], ownership="position") for t in (
+            make_tracker(name, ds.scenario.sensor),
+            make_tracker(name, ds.scenario.sensor, {"components_per_contact": None, "extraction_scans": 1})))
+        new, old = new + m.false_tracks, old + m_old.false_tracks
+        assert m.lost_targets == 0 and m.mota > m_old.mota - 0.05
+    assert new <= 1 and old >= 6, (new, old)

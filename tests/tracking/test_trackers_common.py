@@ -139,10 +139,11 @@ def test_position_trackers_without_clutter_one_track_per_target(name):
     ds = generate(sc, seed=1)
     _, outs = run(name, ds)
     m = run_metrics(ds, outs, ownership="position")
-    assert (m.track_breaks, m.id_switches, m.false_tracks) == (0, 0, 0) and m.mota >= 0.95
+    assert (m.track_breaks, m.id_switches, m.false_tracks) == (0, 0, 0) and m.mota >= 0.92
     n_true = np.bincount(ds.truth.scan, minlength=ds.n_scans + 1)
-    # from the third scan one report per target (the CPHD may keep the last target one scan after it ends)
-    assert sum(len(o) != n_true[o.scan] for o in outs[2:]) <= 1
+    # from the fifth scan one report per target (a label extracted after 3 sweeps in a row, the radar preset's
+    # extraction_scans; the CPHD may keep the last target one scan after it ends)
+    assert sum(len(o) != n_true[o.scan] for o in outs[4:]) <= 1
 
 
 @pytest.mark.parametrize("name", POSITION)

@@ -19,10 +19,16 @@ whose four numbers an explicit field overrides:
 The previous version's preset and motion names are still read, mapped to
 these with a FutureWarning (`RENAMED_PRESETS`, `RENAMED_MOTIONS`).
 
-Two more reduction settings are off by default (measured in the README):
-``components_per_contact`` grows J_max with the scan's contact count, and
-``extraction_scans`` reports a label only after that many scans in a row
-above the extraction threshold.
+The preset also sets two PHDConfig fields (`CONFIRMATION_PRESETS`, which
+explicit fields override too; the Stone Soup peer has neither):
+``components_per_contact`` c grows J_max to c N after a scan of N contacts
+(so dense clutter's newborns do not crowd a target's components out), and
+``extraction_scans`` k reports a label once it has been extracted after k
+sweeps in a row of one sensor (each sensor's sweeps counted apart), then
+whenever it is extracted (`nnda.tracking.phd.extraction`). `radar` and
+`harbour`: c = 1, k = 3 (a clutter component rarely stays above the
+threshold for three sweeps, a target's does); `pedestrian`: off (c None,
+k = 1), as Frencl (2014).
 
 Clutter (``clutter``) is a Poisson number of false contacts per scan, of
 mean lambda, spread uniformly over the radar's coverage in measurement
@@ -78,6 +84,17 @@ REDUCTION_PRESETS: dict[str, dict[str, float]] = {
     "harbour": {"prune_threshold": 1e-6, "merge_threshold": 25.0, "max_components": 1000,
                 "extraction_threshold": 0.8},
 }
+
+#: the confirmation settings each preset gives a PHD filter (`PHDConfig`: not the Stone Soup peer, which has
+#: neither field); c None (or 0) and k 1: off (see the module docstring)
+CONFIRMATION_PRESETS: dict[str, dict[str, float | None]] = {
+    "radar": {"components_per_contact": 1.0, "extraction_scans": 3},
+    "pedestrian": {"components_per_contact": None, "extraction_scans": 1},
+    "harbour": {"components_per_contact": 1.0, "extraction_scans": 3},
+}
+#: the confirmation settings turned off, as the PHD filters ran before the presets set them (the studies that
+#: reproduce a reference work's numbers pin them: ``params = {**SINGLE_SCAN_EXTRACTION, ...}``)
+SINGLE_SCAN_EXTRACTION: dict[str, float] = {"components_per_contact": 0, "extraction_scans": 1}
 
 #: the preset and motion names of the previous version, read for one more version with a FutureWarning
 RENAMED_PRESETS = {"seed-000": "pedestrian", "seed-002": "harbour"}  # deprecated spelling
@@ -182,7 +199,8 @@ class CommonConfig(TrackerConfig):
         if isinstance(data, dict):
             preset = data.get("preset", cls.model_fields["preset"].default)
             preset = RENAMED_PRESETS.get(preset, preset) if isinstance(preset, str) else preset
-            data = {**REDUCTION_PRESETS.get(preset, {}), **data}
+            confirmation = {k: v for k, v in CONFIRMATION_PRESETS.get(preset, {}).items() if k in cls.model_fields}
+            data = {**REDUCTION_PRESETS.get(preset, {}), **confirmation, **data}
         return data
 
     @field_validator("preset", mode="before")
@@ -204,8 +222,9 @@ class PHDConfig(CommonConfig):
     """Settings of a GM-PHD tracker (see the module docstring for presets and clutter units)."""
 
     components_per_contact: Annotated[float | None, Field(
-        gt=0, description="J_max grows with the scan: at most max(J_max, this x N) components are kept after "
-        "a scan of N contacts, so dense clutter's newborns do not crowd out a target's; None: J_max")] = None
+        ge=0, description="J_max grows with the scan: at most max(J_max, this x N) components are kept after "
+        "a scan of N contacts, so dense clutter's newborns do not crowd out a target's; 0 or None: J_max alone "
+        "(default: the preset's, `CONFIRMATION_PRESETS`)")]
     max_pairs: Annotated[int | None, Field(
         ge=1, description="(component, contact) pairs a scan's update forms at most (the gate's candidates, "
         "counted before any is formed): past it, the lightest predicted components are left out of that scan's "
@@ -213,8 +232,9 @@ class PHDConfig(CommonConfig):
         "counts them (n_dropped_components, n_dropped_pairs). Bounds memory (about 80 B a pair) and time when "
         "a scan holds far more contacts than the filter was made for; None: no bound")] = MAX_PAIRS
     extraction_scans: Annotated[int, Field(
-        ge=1, description="report a label once it has been extracted (weight >= the threshold) in this many "
-        "scans in a row, and while it stays extracted; 1: every extracted component")] = 1
+        ge=1, description="report a label once it has been extracted (weight >= the threshold) after this many "
+        "sweeps in a row of one sensor (each sensor's sweeps counted apart), then whenever it is extracted; "
+        "1: every extracted component (default: the preset's, `CONFIRMATION_PRESETS`)")]
     merge_covariance: Literal["candidate", "heaviest"] = Field(
         "candidate", description="the covariance of the merge distance: each candidate's (Vo & Ma's Table II) "
         "or the heaviest's (`nnda.filters.mixture.merge`)")
@@ -334,7 +354,8 @@ class CentralPHDConfig(PHDConfig):
 class FusionConfig(CentralPHDConfig):
     """A fusion centre over one local GM-PHD per sensor (`nnda.tracking.phd.fusion`): every field of
     `CentralPHDConfig` sets the local filters (``sensor_pd`` gives each its own p_D); the centre merges with
-    ``merge_threshold`` and reports fused components of weight >= ``fused_extraction_threshold``."""
+    ``merge_threshold`` and reports fused components of weight >= ``fused_extraction_threshold`` (after
+    ``extraction_scans`` sweeps in a row of one sensor, as a local filter does)."""
 
     fused_extraction_threshold: Annotated[float, Field(gt=0, description="report fused components of weight "
                                                                          ">= this")] = 0.8

@@ -8,9 +8,15 @@ component updated by contacts too far apart to merge): `relabel_duplicates`
 keeps the label on the heaviest and gives the others fresh ones, so labels
 are unique and the extracted components are tracks with stable ids.
 Extraction reports each component once (no round(w) copies); with
-``extraction_scans`` = k > 1 only the labels extracted in each of their last
-k scans (`streaks`: a clutter component rarely stays heavy for long, a
-target's does).
+``extraction_scans`` = k > 1 a label is reported once it has been extracted
+after k sweeps in a row of one sensor (`streaks`: a clutter component rarely
+stays heavy for long, a target's does), and from then on whenever it is
+extracted (`persistent`): a target's miss, which drops its weight below the
+threshold for one scan, hides it for that scan only, as with k = 1. Each
+sensor's sweeps are counted apart: with two radars in turn, a target one of
+them cannot detect (occluded) drops below the threshold after that radar's
+sweeps only, which would restart a count over all scans at every such
+sweep and never let it reach k.
 """
 
 from __future__ import annotations
@@ -59,3 +65,16 @@ def streaks(labels: np.ndarray, last_labels: np.ndarray, last_streaks: np.ndarra
         return np.ones(len(labels), np.int64)
     at = np.minimum(np.searchsorted(last_labels, labels), len(last_labels) - 1)
     return 1 + np.where(last_labels[at] == labels, last_streaks[at], 0)
+
+
+def persistent(labels: np.ndarray, shown: np.ndarray, last: tuple[np.ndarray, np.ndarray], confirmed: np.ndarray,
+               scans: int) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray], np.ndarray]:
+    """The extracted components ``shown`` (indices into ``labels``, every label of the mixture; in label order)
+    to report after a sweep of one sensor: those whose label is ``confirmed`` (sorted), or has now been
+    extracted after ``scans`` of this sensor's sweeps in a row, given ``last``, the (labels, streaks) record
+    of its last sweep (`streaks`). Returns them, this sweep's record, and the confirmed labels still in
+    ``labels`` (sorted: a label that has left the mixture never comes back)."""
+    extracted = labels[shown]
+    run = streaks(extracted, *last)
+    confirmed = np.union1d(confirmed[np.isin(confirmed, labels)], extracted[run >= scans])
+    return shown[np.isin(extracted, confirmed)], (extracted, run), confirmed

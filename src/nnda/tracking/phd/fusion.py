@@ -35,8 +35,13 @@ Labels: every local component carries its filter's label; the centre keeps
 its own track ids. A fused group (the components merged into one) takes the
 oldest centre id among its members (a member's id is that of the group it
 joined at the last fusion), or a new one, so a ship handed from one radar's
-filter to the other's keeps its id. One fusion costs a merge over the
-union of the local mixtures (at most R J_max components).
+filter to the other's keeps its id. The centre reports a fused component
+of weight >= the fused extraction threshold once its id has been so after
+``extraction_scans`` sweeps in a row of one sensor (each sensor's sweeps
+counted apart), and from then on whenever it is
+(`nnda.tracking.phd.extraction.persistent`). One
+fusion costs a merge over the union of the local mixtures (at most R J_max
+components).
 """
 
 from __future__ import annotations
@@ -53,7 +58,7 @@ from nnda.filters.mixture import Mixture, cap, combine_groups, merge_groups
 from nnda.filters.motion import POS
 from nnda.tracking.output import CONFIRMED, NO_CONTACT, TrackerOutput
 from nnda.tracking.phd.config import AAFusionConfig, CentralPHDConfig, FusionConfig
-from nnda.tracking.phd.extraction import above
+from nnda.tracking.phd.extraction import above, persistent
 from nnda.tracking.phd.tracker import Cardinality, GMPHDTracker, sensor_detection
 from nnda.tracking.tracker import TrackerConfig, checked_config, checked_scan
 
@@ -119,6 +124,10 @@ class FusionTracker:
         self.next_id = 0
         self.fused = Mixture.empty(self.config.state_dim)
         self.cardinality: Cardinality | None = None
+        # per sensor: the centre ids extracted after its last sweep and after how many of its sweeps in a row;
+        # the ids confirmed so far (`nnda.tracking.phd.extraction.persistent`)
+        self.extraction_streaks = [(np.empty(0, np.int64), np.empty(0, np.int64)) for _ in self.sensors]
+        self.confirmed_labels = np.empty(0, np.int64)
 
     @property
     def n_dropped_components(self) -> int:
@@ -154,7 +163,8 @@ class FusionTracker:
 
     def step(self, scan: Scan) -> TrackerOutput:
         """Update the sweeping sensor's local filter with the scan, fuse every local intensity at its time
-        and report the fused components of weight >= ``fused_extraction_threshold`` as confirmed tracks."""
+        and report the fused components of weight >= ``fused_extraction_threshold`` as confirmed tracks, of
+        the centre ids once so after ``extraction_scans`` sweeps in a row of one sensor."""
         _, time = checked_scan(self.name, scan, self.last_time, self.sensors)
         cfg = self.config
         self.local[scan.sensor].step(Scan(scan.index, scan.time, scan.measurements, 0))
@@ -169,6 +179,8 @@ class FusionTracker:
         self.last_time = time
         shown = above(fused, cfg.fused_extraction_threshold)
         shown = shown[np.argsort(fused.labels[shown], kind="stable")]
+        shown, self.extraction_streaks[scan.sensor], self.confirmed_labels = persistent(
+            fused.labels, shown, self.extraction_streaks[scan.sensor], self.confirmed_labels, cfg.extraction_scans)
         self.cardinality = Cardinality(scan.index, time, float(fused.weights.sum()), None, None, len(shown))
         k = len(shown)
         return TrackerOutput(scan.index, time, fused.labels[shown], np.full(k, CONFIRMED, np.int8),

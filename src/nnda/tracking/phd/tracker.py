@@ -33,7 +33,8 @@ scan (J components, N contacts):
    by how little the filter explains them (measurement-driven birth);
 5. report the extracted components (weight >= the extraction threshold; or,
    ``cphd`` with ``extraction="map"``, its MAP count of heaviest ones; with
-   ``extraction_scans`` = k, only labels extracted in each of their last k scans) as
+   ``extraction_scans`` = k, only labels once extracted after k sweeps in a row of one sensor, each
+   sensor's sweeps counted apart: `nnda.tracking.phd.extraction`) as
    CONFIRMED tracks, id = label, state [x, vx, y, vy] (`MotionModel.to_cv`), no contact (a PHD
    associates none); the scan's target-count estimate is in
    ``tracker.cardinality``.
@@ -82,7 +83,7 @@ from nnda.tracking.phd.config import (
     StaticBirth,
     UKPHDConfig,
 )
-from nnda.tracking.phd.extraction import above, heaviest, relabel_duplicates, streaks
+from nnda.tracking.phd.extraction import above, heaviest, persistent, relabel_duplicates
 from nnda.tracking.tracker import TrackerConfig, checked_config, checked_contacts, checked_scan
 
 
@@ -220,8 +221,10 @@ class GMPHDTracker:
         self.n_dropped_components = 0
         self.n_dropped_pairs = 0
         self._bounds_hit: set[str] = set()
-        # labels extracted in the last scan (sorted) and for how many scans in a row (`extraction.streaks`)
-        self.extraction_streaks = (np.empty(0, np.int64), np.empty(0, np.int64))
+        # per sensor: the labels extracted after its last sweep (sorted) and after how many of its sweeps in a row
+        # (`extraction.streaks`); the labels confirmed so far (sorted: `extraction.persistent`)
+        self.extraction_streaks = [(np.empty(0, np.int64), np.empty(0, np.int64)) for _ in self.sensors]
+        self.confirmed_labels = np.empty(0, np.int64)
 
     def intensity_at(self, time: float) -> Mixture:
         """The posterior intensity predicted to ``time`` (s) without births (survivors, p_S per `_survival`):
@@ -346,7 +349,8 @@ class GMPHDTracker:
         cfg, view = self.config, self.views[scan.sensor]
         if not self.used[scan.sensor]:  # a scan this filter does not take: its prediction is the report
             pred = self.intensity_at(time)
-            return self._report(scan.index, time, pred, *self._predicted_count(pred, self._survival(time)))
+            return self._report(scan.index, scan.sensor, time, pred,
+                                *self._predicted_count(pred, self._survival(time)))
         survival = self._survival(time)
         pred, born, newborn = self._predicted(time, survival)
         zc, contact_R = view.linearisation.contacts(z)
@@ -377,28 +381,29 @@ class GMPHDTracker:
         else:
             self.newborn = Mixture.empty(cfg.state_dim)
         self.last_time = time
-        return self._report(scan.index, time, post, mean, map_count, dist)
+        return self._report(scan.index, scan.sensor, time, post, mean, map_count, dist)
 
     def _component_cap(self, contacts: int) -> int:
         """J_max after a scan of ``contacts`` contacts: ``max_components``, or with ``components_per_contact``
-        c at least ceil(c x contacts)."""
+        c (not 0 or None) at least ceil(c x contacts)."""
         cfg = self.config
         per = cfg.components_per_contact
-        return cfg.max_components if per is None else max(cfg.max_components, int(np.ceil(per * contacts)))
+        return cfg.max_components if not per else max(cfg.max_components, int(np.ceil(per * contacts)))
 
     def _predicted_count(self, pred: Mixture, survival: float) -> tuple[float, int | None, np.ndarray | None]:
         """(mean, MAP count, distribution) of the target count of the predicted intensity ``pred``."""
         return float(pred.weights.sum()), None, None
 
-    def _report(self, scan: int, time: float, mixture: Mixture, mean: float, map_count: int | None,
+    def _report(self, scan: int, sensor: int, time: float, mixture: Mixture, mean: float, map_count: int | None,
                 dist: np.ndarray | None) -> TrackerOutput:
         """The scan's output: the extracted components of ``mixture`` as confirmed tracks, id = label, in
-        label order; records the scan's `Cardinality`."""
+        label order, of the labels once extracted after ``extraction_scans`` sweeps in a row of one sensor
+        (this scan's: ``sensor``); records the scan's `Cardinality`."""
         shown = self._extracted(mixture, map_count)
         shown = shown[np.argsort(mixture.labels[shown], kind="stable")]
-        run = streaks(mixture.labels[shown], *self.extraction_streaks)
-        self.extraction_streaks = (mixture.labels[shown], run)
-        shown = shown[run >= self.config.extraction_scans]
+        shown, self.extraction_streaks[sensor], self.confirmed_labels = persistent(
+            mixture.labels, shown, self.extraction_streaks[sensor], self.confirmed_labels,
+            self.config.extraction_scans)
         self.cardinality = Cardinality(scan, time, mean, map_count, dist, len(shown))
         k = len(shown)
         x, P = self.motion.to_cv(mixture.means[shown], mixture.covariances[shown])
