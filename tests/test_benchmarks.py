@@ -24,6 +24,7 @@ SMALLEST = {
     "bench_fusion.py": ["--scans", "4", "--ships", "5", "--repeat", "1"],
     "bench_generate.py": ["2"],
     "bench_import.py": ["--rows", "2000", "--tracker", "gnn", "--scans", "3"],
+    "bench_lag.py": ["--seeds", "1", "--scenarios", "S1", "--trackers", "gnn"],
     "bench_models.py": ["--quick"],
     "bench_particle.py": ["--sizes", "500", "--steps", "2", "--repeat", "1", "--resample-size", "1000",
                           "--memory-size", "500", "--study-runs", "1"],

@@ -75,11 +75,11 @@ def test_no_section_without_a_sweep(tmp_path):
     assert "## Against clutter density" not in build_report(tmp_path / "out")[0]
 
 
-@pytest.mark.parametrize("rule", ["score", "existence"])
+@pytest.mark.parametrize("rule", ["adaptive", "score", "existence"])
 def test_the_delay_bound_of_a_scene_is_its_targets(rule):
     """One target 17.5 km north moving east inside a 4 km clutter square wholly in the coverage: the density
     there is the count over the square, and the scene's bound that target's at its first scan (t = 2 s, 200 m
-    east); M/N and false tracks at a rate have none."""
+    east); M/N and false tracks at a rate have none, and a tracker without a rule runs the default's."""
     target = Target(name="t", x_m=0.0, y_m=17_500.0, heading_deg=90.0, speed_m_s=100.0,
                     segments=[Segment(duration_s=20.0)])
     sc = Scenario(name="one", duration_s=20.0, targets=[target], seed=3,
@@ -92,5 +92,7 @@ def test_the_delay_bound_of_a_scene_is_its_targets(rule):
                                sensor.sigma_range_m, sensor.sigma_azimuth_rad, sensor.scan_period_s,
                                coverage_m2=area)
     assert scene_delay_bound(dump, params) == pytest.approx(want, rel=1e-9)
-    assert scene_delay_bound(dump, {}) is None
+    assert scene_delay_bound(dump, {"lifecycle": {"confirmation": "mn"}}) is None
+    assert (scene_delay_bound(dump, {}) == scene_delay_bound(dump, {"lifecycle": {"confirmation": "adaptive"}})
+            is not None)
     assert scene_delay_bound(dump, {"lifecycle": {"confirmation": "score", "false_tracks_per_scan": 0.01}}) is None

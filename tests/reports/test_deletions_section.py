@@ -35,10 +35,10 @@ def test_the_table_holds_the_mean_deletions_per_run(study):
     t = pq.read_table(study / "results.parquet").to_pydict()
     for label, (rule, per) in found.items():
         rows = [i for i, name in enumerate(t["tracker"]) if name == label]
-        assert rule == ("mn" if label == "gnn" else "score")
+        assert rule == ("adaptive" if label == "gnn" else "score")  # gnn: the default rule
         for r in DELETION_REASONS:
             assert per[r] == pytest.approx(np.mean([t[f"deleted_{r}"][i] for i in rows]))
     md = build_report(study)[0]
     section = md[md.index("## Track deletions"):]
     section = section[:section.index("\n## ", 5)]
-    assert "| gnn | M/N |" in section and "| gnn-score | track score |" in section and "ekphd" not in section
+    assert "| gnn | adaptive score |" in section and "| gnn-score | track score |" in section and "ekphd" not in section

@@ -9,6 +9,7 @@ import pytest
 from nnda.errors import ConfigError
 from nnda.study.config import default_study, load_study, study_from_dict, study_to_toml
 from nnda.study.kinds.base import study_table
+from nnda.tracking.lifecycle import THESIS_LIFECYCLE
 from nnda.tracking.neural import life5
 
 
@@ -28,7 +29,8 @@ def test_written_study_reads_back_equal(tmp_path):
     assert load_study(tmp_path / "s.toml") == study
     assert 'ablation = "models/ablation"' in text
     assert list(study.trackers) == ["mht", "nn-gd", "nn-seed", "nn-ext", "nn-life", "gnn", "jpda", "ekphd", "cphd"]
-    assert study.trackers["nn-ext"].params == {"feature_set": "imm-innovation-9"}
+    assert study.trackers["nn-ext"].params == {"feature_set": "imm-innovation-9", "lifecycle": THESIS_LIFECYCLE}
+    assert all(study.trackers[t].params["lifecycle"]["confirmation"] == "mn" for t in ("mht", "nn-seed", "gnn", "jpda"))
     assert study.trackers["nn-life"].params == {"feature_set": "imm-innovation-9", **life5()}
     assert study.scenarios[0].preset == "validation"
 

@@ -16,11 +16,14 @@ from nnda.models.innovation import IMM_INNOVATION
 from nnda.models.pairs import concatenate, pairs_from_datasets
 from nnda.models.scorer import save_model
 from nnda.tracking.harvest import balanced, dagger_pairs, harvest_pairs, track_targets
+from nnda.tracking.lifecycle import THESIS_LIFECYCLE, LifecycleConfig
 from nnda.tracking.neural import NeuralConfig, NeuralTracker
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
 from nnda.tracking.tracker import hard_update
 from tolerances import RTOL
+
+THESIS = LifecycleConfig(**THESIS_LIFECYCLE)
 
 
 def _crossing(clutter: int = 30, seed: int = 2):
@@ -79,7 +82,8 @@ class Planted(NeuralTracker):
 def test_harvested_pairs_carry_the_truth_labels(ext_model_file):
     ds = _crossing()
     origin, bounds = ds.detections.target_id, ds.scan_bounds()
-    tracker = Planted(ds.scenario.sensor, NeuralConfig(model=ext_model_file))
+    # the M/N rule keeps the victim through its planted miss
+    tracker = Planted(ds.scenario.sensor, NeuralConfig(model=ext_model_file, lifecycle=THESIS))
     tracker.at, tracker.origin, tracker.rows = 20, origin, bounds
     pairs = harvest_pairs(ds, tracker)
     assert tracker.harvest is None and len(pairs) and pairs.feature_set is IMM_INNOVATION

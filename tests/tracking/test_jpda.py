@@ -22,6 +22,7 @@ from nnda.filters.motion import ConstantVelocity
 from nnda.study.metrics import run_metrics
 from nnda.tracking import gating
 from nnda.tracking.jpda import JPDATracker, best_pairs, pair_likelihoods, pda_update
+from nnda.tracking.lifecycle import THESIS_LIFECYCLE
 from nnda.tracking.marginals import jpda_marginals, log_miss_weight
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
@@ -177,8 +178,8 @@ def test_clutter_density_estimates():
 
 def test_tracks_s1_with_the_enumeration_capped():
     ds = generate(PRESETS["S1"], seed=2)
-    full = make_tracker("jpda", ds.scenario.sensor)
-    capped = make_tracker("jpda", ds.scenario.sensor, {"max_joint_events": 2})
+    full = make_tracker("jpda", ds.scenario.sensor, {"lifecycle": THESIS_LIFECYCLE})
+    capped = make_tracker("jpda", ds.scenario.sensor, {"max_joint_events": 2, "lifecycle": THESIS_LIFECYCLE})
     metrics = [run_metrics(ds, [t.step(s) for s in ds.scans()]) for t in (full, capped)]
     assert full.n_approximated == 0 < capped.n_approximated <= capped.n_clusters
     for m in metrics:

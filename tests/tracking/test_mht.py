@@ -61,7 +61,7 @@ def test_global_hypothesis_is_the_best_compatible_set(seed):
 
 def test_hypothesis_tree_stays_within_its_bounds():
     # without the sanity rules, which would prune the branches to impossible speeds before the bound does
-    sane_off = LifecycleConfig(max_speed_m_s=1e9, max_position_sd_m=None, coverage_deletion=False)
+    sane_off = LifecycleConfig(confirmation="mn", max_speed_m_s=1e9, max_position_sd_m=None, coverage_deletion=False)
     cfg = MHTConfig(max_track_branches=2, max_hypotheses_per_track=4, n_scan=2, lifecycle=sane_off)
     ds = generate(PRESETS["train03"], seed=2)  # dense clutter: many branches to prune
     tracker = MHTTracker(ds.scenario.sensor, cfg)

@@ -234,10 +234,10 @@ def _scan_delays_and_nees(ds, outputs):
 @pytest.mark.parametrize("preset", ["S1", "S2"])
 def test_targets_confirmed_quickly_with_consistent_errors(model_file, preset):
     ds = generate(PRESETS[preset], seed=0)
-    tracker = make_tracker("nn", ds.scenario.sensor, {"model": str(model_file)})
+    tracker = make_tracker("nn", ds.scenario.sensor, {"model": str(model_file), "lifecycle": {"confirmation": "mn"}})
     outputs = [tracker.step(scan) for scan in ds.scans()]
     delays, nees = _scan_delays_and_nees(ds, outputs)
-    # initiator, preliminary track, then M = 3 detections: 4 scans at the earliest; in S2 the
+    # the thesis's M/N rule: initiator, preliminary track, then M = 3 detections: 4 scans at the earliest; in S2 the
     # pair T5/T7 starts 280 m apart and their preliminary tracks compete for a few scans
     assert all(d >= 4 for d in delays.values()), delays
     if preset == "S1":
@@ -396,7 +396,8 @@ def test_confirmed_tracks_pick_and_reacquire_before_the_preliminary_ones(model_f
 def _picks_outside_the_gate_after_a_miss(model_file, ds, gate_after_miss: bool) -> tuple[int, int]:
     """(picks of confirmed tracks that missed their last scan, those outside the IMM gate) over a run."""
     gate = 9.21
-    config = NeuralTracker.config_type(model=model_file, coast_gate=gate, gate_after_miss=gate_after_miss)
+    config = NeuralTracker.config_type(model=model_file, coast_gate=gate, gate_after_miss=gate_after_miss,
+                                       lifecycle={"confirmation": "mn"})  # coasting as M/N counts it
     tracker = RecordingPredictions(ds.scenario.sensor, config)
     for scan in ds.scans():
         tracker.step(scan)

@@ -167,7 +167,8 @@ def test_clutter_only_scene_confirms_nothing(kind, count, model_file):
 
 def test_the_rule_each_tracker_runs_is_named_for_the_study():
     from nnda.tracking.registry import confirmation_rule
-    assert confirmation_rule("gnn") == "mn" and confirmation_rule("nn", {"model": "m.json"}) == "mn"
+    assert confirmation_rule("gnn") == "adaptive" and confirmation_rule("nn", {"model": "m.json"}) == "adaptive"
+    assert confirmation_rule("jpda", {"lifecycle": {"confirmation": "mn"}}) == "mn"
     assert confirmation_rule("mht", {"lifecycle": {"confirmation": "score"}}) == "score"
     assert confirmation_rule("gmphd") is None and confirmation_rule("stonesoup-gnn") is None
 

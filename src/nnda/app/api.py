@@ -4,6 +4,7 @@
     ds = nnda.generate("S3", seed=0, run=0)                  # a Dataset of a preset (or a Scenario)
     ds = nnda.read_dataset("data/plots")                     # or one on disk (`nnda import-detections`)
     tracks = nnda.track(ds, "mht", config={"n_scan": 3})    # pyarrow Table, one row per track per scan
+    late = nnda.track(ds, "mht", lag=3)                      # the fixed-lag table: each scan revised 3 scans on
     result = nnda.run_study("studies/harbour.toml", "out/harbour")   # a study file, run and reported
 
 ``nnda`` itself imports this module only when one of these names is first
@@ -46,12 +47,15 @@ def _argument(call: str, name: str, value: Any, types: tuple[type, ...], accepte
 
 
 def track(dataset: Dataset | str | Path, tracker: str, config: Mapping[str, Any] | str | Path | None = None,
-          model: str | Path | None = None) -> pa.Table:
+          model: str | Path | None = None, lag: int = 0) -> pa.Table:
     """The track table (`nnda.study.track.TRACK_SCHEMA`) of ``tracker`` (a registered name) on ``dataset`` (a
     `Dataset` or a dataset directory), stepped exactly as a study job steps it; ``config``: the tracker's params
-    (a mapping or a .toml/.json file), ``model``: the model file of ``nn``. A wrong argument is a ConfigError
-    naming it; a config file's problems name the file."""
+    (a mapping or a .toml/.json file), ``model``: the model file of ``nn``. With ``lag`` L > 0 the table of the
+    fixed-lag output instead (`nnda.tracking.lag`: the same rows, each scan's tracks revised with the L scans
+    after it: confirmations back-filled, states smoothed, MHT's decided contacts). A wrong argument is a
+    ConfigError naming it; a config file's problems name the file."""
     from nnda.study.track import run_tracker, tracker_params  # the trackers load only when one runs
+    from nnda.tracking.lag import checked_lag
     from nnda.tracking.registry import check_config
 
     _argument("track", "dataset", dataset, (Dataset, *_PATH), f"a Dataset or a dataset directory as {_PATH_TEXT}")
@@ -59,10 +63,38 @@ def track(dataset: Dataset | str | Path, tracker: str, config: Mapping[str, Any]
     _argument("track", "config", config, (Mapping, *_PATH, type(None)),
               f"a mapping of the tracker's options, a .toml or .json file as {_PATH_TEXT}, or None")
     _argument("track", "model", model, (*_PATH, type(None)), f"the nn tracker's model file as {_PATH_TEXT}, or None")
+    _argument("track", "lag", lag, (numbers.Integral,), "a whole number of scans >= 0")
+    lag = checked_lag(lag, "nnda.track: argument 'lag'")
     params = tracker_params(config, model)
     where = f"tracker config {os.fspath(config)}" if isinstance(config, _PATH) else "tracker config"
     check_config(tracker, params, where)
+    if lag:
+        return lagged_runs(dataset, tracker, params, lag, score=False)[1].table
     return run_tracker(dataset, tracker, params, score=False).table
+
+
+def lagged_runs(dataset: Dataset | str | Path, tracker: str, params: Mapping[str, Any], lag: int,
+                cutoff_m: float | None = None, ownership: str = "auto", on_scan=None, score: bool = True):
+    """``tracker`` with ``params`` on ``dataset`` as a study job with a lag ``lag`` > 0 steps it
+    (`nnda.study.track_job.step_run`): its online `TrackRun` and its fixed-lag one (the revision's own time
+    per scan as ``step_seconds``), each scored where the dataset has truth and ``score`` is true."""
+    from threadpoolctl import threadpool_limits
+
+    from nnda.study.metrics import DEFAULT_CUTOFF_M, run_metrics
+    from nnda.study.track import TrackRun, has_truth, load, track_table
+    from nnda.study.track_job import step_run
+    from nnda.tracking.registry import make_tracker
+
+    dataset = load(dataset)
+    cutoff_m = DEFAULT_CUTOFF_M if cutoff_m is None else cutoff_m
+    with threadpool_limits(1):
+        stepped = make_tracker(tracker, dataset.scenario.sensors, dict(params))
+        outputs, lagged, seconds, lag_seconds, _ = step_run(stepped, dataset, lag, on_scan)
+        scored = score and has_truth(dataset)
+        runs = tuple(TrackRun(tracker, o, track_table(dataset, o), t,
+                              run_metrics(dataset, o, cutoff_m, ownership) if scored else None)
+                     for o, t in ((outputs, seconds), (lagged, lag_seconds)))
+    return runs
 
 
 def generate(scenario: Scenario | str, seed: int = 0, run: int = 0) -> Dataset:

@@ -213,6 +213,7 @@ def _recipe_pairs(pairs: PairSet, data: Path, options: dict, encounters: int, da
     from nnda.models.experiment import fit
     from nnda.models.pairs import concatenate, pairs_from_datasets
     from nnda.tracking.harvest import dagger_pairs
+    from nnda.tracking.lifecycle import THESIS_LIFECYCLE
 
     scenes = [generate(s, seed) for s in encounter_scenes(encounters, seed)]
     if scenes:
@@ -223,7 +224,8 @@ def _recipe_pairs(pairs: PairSet, data: Path, options: dict, encounters: int, da
     if dagger:
         method, hidden, fit_seed, init, starts = fit_args
         datasets = [*iter_datasets(data), *scenes]
-        params = {"feature_set": options["features"]}
+        # the harvesting tracker runs the M/N rule, as when the recipe was made: the same recipe, the same model
+        params = {"feature_set": options["features"], "lifecycle": THESIS_LIFECYCLE}
         work = tmp / "dagger"
         work.mkdir()
         console.print(f"DAgger: {dagger} round(s) on {len(datasets)} datasets", markup=False, highlight=False)

@@ -1,4 +1,10 @@
-"""CLI command that runs one tracker on one dataset and writes its tracks, plots and scores: ``nnda track``."""
+"""CLI command that runs one tracker on one dataset and writes its tracks, plots and scores: ``nnda track``.
+
+With ``--lag L`` (L > 0) it also writes the fixed-lag output (`nnda.tracking.lag`) beside the online one:
+``tracks_lag<L>.<format>`` (the same columns and rows as ``tracks.<format>``, each scan's tracks revised
+with the L scans after it) and, in ``scores.json``, ``lagged``: ``{"lag": L, "metrics": {...}}``, every run
+measure of the lagged output; the online ``metrics`` stay the headline.
+"""
 
 from __future__ import annotations
 
@@ -16,6 +22,7 @@ from rich.table import Table
 from nnda.errors import ConfigError, OutputError
 from nnda.files import atomic_directory, check_output_location, dumps
 from nnda.study.metrics import DEFAULT_CUTOFF_M, OWNERSHIP
+from nnda.tracking.output import MAX_LAG
 
 
 class TableFormat(str, enum.Enum):
@@ -27,28 +34,42 @@ OwnershipChoice = enum.Enum("OwnershipChoice", {o: o for o in OWNERSHIP}, type=s
 
 
 def write_track_outputs(out: Path, dataset, run, params: dict, cutoff_m: float, table_format: str = "parquet",
-                        overwrite: bool = False) -> Path:
+                        overwrite: bool = False, lagged=None, lag: int = 0) -> Path:
     """Write ``tracks.<format>``, ``tracks.png``, ``tracks.html`` and (with truth) ``scores.json`` into the
-    directory ``out``, atomically as a whole."""
+    directory ``out``, atomically as a whole; with ``lagged`` (the `TrackRun` of the fixed-lag output of
+    ``lag`` scans) also ``tracks_lag<lag>.<format>`` and the lagged scores in ``scores.json``."""
     import pyarrow.csv as pacsv
     import pyarrow.parquet as pq
 
     from nnda.reports.track_plot import track_html, track_png
-    from nnda.study.track import scores_record
 
     if out.exists() and not out.is_dir():
         raise OutputError(f"--out {out}: is a file; give a directory for the tracks, plots and scores")
     with atomic_directory(out, overwrite) as tmp:
-        with open(tmp / f"tracks.{table_format}", "wb") as f:
-            if table_format == "csv":
-                pacsv.write_csv(run.table, f)
-            else:
-                pq.write_table(run.table, f)
+        tables = [("tracks", run.table)] + ([] if lagged is None else [(f"tracks_lag{lag}", lagged.table)])
+        for name, table in tables:
+            with open(tmp / f"{name}.{table_format}", "wb") as f:
+                if table_format == "csv":
+                    pacsv.write_csv(table, f)
+                else:
+                    pq.write_table(table, f)
         (tmp / "tracks.png").write_bytes(track_png(dataset, run.table, run.tracker))
         (tmp / "tracks.html").write_text(track_html(dataset, run.table, run.tracker))
         if run.scores is not None:
-            (tmp / "scores.json").write_text(dumps(scores_record(run, dataset, params, cutoff_m)))
+            (tmp / "scores.json").write_text(dumps(_scores(run, dataset, params, cutoff_m, lagged, lag)))
     return out
+
+
+def _scores(run, dataset, params: dict, cutoff_m: float, lagged, lag: int) -> dict:
+    """``scores.json``'s record (`nnda.study.track.scores_record`), with ``lagged`` = {lag, metrics} of the
+    fixed-lag run when there is one."""
+    from nnda.study.track import scores_record
+    from nnda.study.track_job import scalars
+
+    record = scores_record(run, dataset, params, cutoff_m)
+    if lagged is not None and lagged.scores is not None:
+        record["lagged"] = {"lag": lag, "metrics": scalars(lagged.scores)}
+    return record
 
 
 def _scores_table(record: dict) -> Table:
@@ -57,9 +78,18 @@ def _scores_table(record: dict) -> Table:
     table = Table(title=f"{record['tracker']} on {record['scenario']} (ownership by {record['ownership']})")
     table.add_column("measure")
     table.add_column("value", justify="right")
+    late = record.get("lagged")
+    if late is not None:
+        table.add_column(f"lag {late['lag']}", justify="right")
+
+    def shown(m, v) -> str:
+        return "-" if v is None else (f"{v:d}" if isinstance(v, int) else m.fmt.format(v * m.scale))
+
     for m in RUN_MEASURES:
-        v = record["metrics"].get(m.key)
-        table.add_row(m.title, "-" if v is None else (f"{v:d}" if isinstance(v, int) else m.fmt.format(v * m.scale)))
+        row = [m.title, shown(m, record["metrics"].get(m.key))]
+        if late is not None:
+            row.append(shown(m, late["metrics"].get(m.key)))
+        table.add_row(*row)
     return table
 
 
@@ -74,12 +104,16 @@ def track(
                       ] = DEFAULT_CUTOFF_M,
     ownership: Annotated[OwnershipChoice, typer.Option(help="track ownership of the scores")
                          ] = OwnershipChoice("auto"),
+    lag: Annotated[int, typer.Option(min=0, max=MAX_LAG, help="also write and score the fixed-lag output, each "
+                                     "scan revised with the LAG scans after it (tracks_lag<LAG>.<format>); 0: "
+                                     "online only")] = 0,
     quiet: Annotated[bool, typer.Option(help="no progress bar and no score table")] = False,
     overwrite: Annotated[bool, typer.Option(help="replace an existing directory at --out")] = False,
 ) -> None:
     """Run one tracker on one dataset: tracks.parquet (or .csv), tracks.png, tracks.html, and scores.json where
-    the dataset has truth (the study's measures)."""
-    from nnda.study.track import load, run_tracker, scores_record, tracker_params
+    the dataset has truth (the study's measures); with --lag L also tracks_lag<L>.parquet and its scores."""
+    from nnda.app.api import lagged_runs
+    from nnda.study.track import load, run_tracker, tracker_params
     from nnda.tracking.registry import check_config
 
     if not (cutoff > 0 and math.isfinite(cutoff)):
@@ -98,9 +132,13 @@ def track(
     task = bar.add_task("scans", total=ds.n_scans)
     start = time.perf_counter()
     with bar:
-        run = run_tracker(ds, tracker, params, cutoff_m=cutoff, ownership=ownership.value,
-                          on_scan=lambda done, _total: bar.update(task, completed=done))
-    write_track_outputs(out, ds, run, params, cutoff, format.value, overwrite)
+        on_scan = lambda done, _total: bar.update(task, completed=done)  # noqa: E731
+        if lag:
+            run, late = lagged_runs(ds, tracker, params, lag, cutoff, ownership.value, on_scan)
+        else:
+            run, late = run_tracker(ds, tracker, params, cutoff_m=cutoff, ownership=ownership.value,
+                                    on_scan=on_scan), None
+    write_track_outputs(out, ds, run, params, cutoff, format.value, overwrite, late, lag)
     wall = time.perf_counter() - start
     own = float(run.step_seconds.sum())
 
@@ -108,7 +146,11 @@ def track(
         console.print(text, markup=False, highlight=False)
 
     if run.scores is not None and not quiet:
-        console.print(_scores_table(scores_record(run, ds, params, cutoff)))
+        console.print(_scores_table(_scores(run, ds, params, cutoff, late, lag)))
     say(f"{tracker}: {run.table.num_rows} track reports over {ds.n_scans} scans; tracker {own:.2f} s "
         f"({1e3 * own / max(ds.n_scans, 1):.2f} ms/scan), total {wall:.2f} s")
+    if late is not None:
+        extra = float(late.step_seconds.sum())
+        say(f"lag {lag}: tracks_lag{lag}.{format.value}, the revision {extra:.2f} s "
+            f"({extra / own if own > 0 else 0.0:.2f}x the tracker's time)")
     say(f"wrote {out}" + ("" if run.scores is not None else " (no truth in the dataset: no scores)"))

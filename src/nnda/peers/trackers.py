@@ -52,6 +52,7 @@ from nnda.filters.measurement import PolarMeasurement
 from nnda.filters.motion import ConstantVelocity as NndaConstantVelocity
 from nnda.peers.adapter import TrackBook, measurement_model, to_datetime, to_detections
 from nnda.tracking.clutter_density import local_density
+from nnda.tracking.lifecycle import LifecycleConfig
 from nnda.tracking.output import DELETED, TrackerOutput
 from nnda.tracking.phd.birth import measurement_births
 from nnda.tracking.phd.config import CommonConfig, MeasurementBirth
@@ -60,7 +61,10 @@ from nnda.tracking.tracker import ContactTrackerConfig, TrackerConfig, checked_c
 
 
 class PeerConfig(ContactTrackerConfig):
-    """Settings of a Stone Soup peer; ``lifecycle`` gives M, N, max_misses and v_max (see the module table)."""
+    """Settings of a Stone Soup peer; ``lifecycle`` gives M, N, max_misses and v_max (see the module table): Stone
+    Soup's initiator and deleter count, so a peer runs the M/N rule whatever ``lifecycle.confirmation`` says."""
+
+    lifecycle: LifecycleConfig = LifecycleConfig(confirmation="mn")
 
     sigma_q: Annotated[float, Field(ge=0, description="CV process noise (m/s^2); covers the presets' turns "
                                     "(see the module table)")] = 10.0

@@ -99,11 +99,13 @@ def curves(manifest: dict, summary: dict, timing: dict, key: str) -> dict[str, d
 
 
 def _bounded_rule(params: dict) -> str | None:
-    """The rule of a tracker's params whose clairvoyant bound the section gives: "score" or "existence";
-    None for M/N and for false tracks at a rate (its threshold needs the scans' initiator counts)."""
+    """The rule of a tracker's params whose clairvoyant bound the section gives: "adaptive", "score" or
+    "existence"; None for M/N and for false tracks at a rate (its threshold needs the scans' initiator
+    counts)."""
     lifecycle = params.get("lifecycle", {})
-    rule = lifecycle.get("confirmation", "mn")
-    return rule if rule in ("score", "existence") and lifecycle.get("false_tracks_per_scan") is None else None
+    rule = lifecycle.get("confirmation", LifecycleConfig().confirmation)
+    bounded = ("adaptive", "score", "existence")
+    return rule if rule in bounded and lifecycle.get("false_tracks_per_scan") is None else None
 
 
 def scene_delay_bound(scenario: dict, params: dict) -> float | None:

@@ -77,7 +77,8 @@ def _per_sensor(value: int | list[int]) -> str:
 
 
 #: how the report names a contact tracker's confirmation rule (`nnda.tracking.registry.confirmation_rule`)
-_RULES = {"mn": "M/N counts", "score": "track score (SPRT)", "existence": "probability of existence (IPDA/JIPDA)"}
+_RULES = {"adaptive": "track score (SPRT), clutter-adaptive threshold", "mn": "M/N counts",
+          "score": "track score (SPRT)", "existence": "probability of existence (IPDA/JIPDA)"}
 
 
 def _setup(manifest: dict, summary: dict, timing: dict) -> Section:

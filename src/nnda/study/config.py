@@ -39,7 +39,9 @@ from nnda.models.innovation import IMM_INNOVATION
 from nnda.study.kinds import KINDS
 from nnda.study.kinds.base import STRICT, Label
 from nnda.study.kinds.track import ScenarioSpec, TrackerSpec
+from nnda.tracking.lifecycle import THESIS_LIFECYCLE
 from nnda.tracking.neural import life5
+from nnda.tracking.phd.config import SINGLE_SCAN_EXTRACTION
 
 
 def _map_paths(value: Any, fn) -> Any:
@@ -147,7 +149,10 @@ def default_study(gd_model: str | Path, lm_model: str | Path, ext_model: str | P
 
     Model paths are kept as given (relative ones are resolved when the study is written and read).
     """
-    seed_set, ext_set = {"feature_set": KINEMATIC.name}, {"feature_set": IMM_INNOVATION.name}
+    thesis = {"lifecycle": THESIS_LIFECYCLE}  # the thesis's M/N rule, pinned: its comparison keeps its numbers
+    phd = dict(SINGLE_SCAN_EXTRACTION)  # and the PHD filters' extraction as measured then
+    seed_set = {"feature_set": KINEMATIC.name, **thesis}
+    ext_set = {"feature_set": IMM_INNOVATION.name, **thesis}
     return Study(
         name="thesis-comparison",
         description="IMM + track-oriented MHT against neural association (the thesis's three features with GD and LM "
@@ -156,13 +161,13 @@ def default_study(gd_model: str | Path, lm_model: str | Path, ext_model: str | P
         seed=seed, runs=runs,
         models={"gd": Path(gd_model), "lm": Path(lm_model), "ext": Path(ext_model)},
         ablation=None if ablation is None else Path(ablation),
-        trackers={"mht": TrackerSpec(kind="mht"),
+        trackers={"mht": TrackerSpec(kind="mht", params=thesis),
                   "nn-gd": TrackerSpec(kind="nn", model="gd", params=seed_set),
                   "nn-seed": TrackerSpec(kind="nn", model="lm", params=seed_set),
                   "nn-ext": TrackerSpec(kind="nn", model="ext", params=ext_set),
                   "nn-life": TrackerSpec(kind="nn", model="ext", params={**ext_set, **life5()}),
-                  "gnn": TrackerSpec(kind="gnn"), "jpda": TrackerSpec(kind="jpda"),
-                  "ekphd": TrackerSpec(kind="ekphd"), "cphd": TrackerSpec(kind="cphd")},
+                  "gnn": TrackerSpec(kind="gnn", params=thesis), "jpda": TrackerSpec(kind="jpda", params=thesis),
+                  "ekphd": TrackerSpec(kind="ekphd", params=phd), "cphd": TrackerSpec(kind="cphd", params=phd)},
         scenarios=[ScenarioSpec(preset="validation")],
     )
 

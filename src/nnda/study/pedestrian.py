@@ -46,6 +46,7 @@ from nnda.filters.ground_motion import DiagonalCV
 from nnda.filters.imm import IMM
 from nnda.filters.measurement import measurement_model
 from nnda.study.pedestrian_scores import Trace, density, score_accuracy, score_run, score_stress
+from nnda.tracking.lifecycle import THESIS_LIFECYCLE
 from nnda.tracking.output import CONFIRMED
 from nnda.tracking.registry import TRACKERS, make_tracker
 from nnda.tracking.tracker import Tracker
@@ -171,8 +172,10 @@ def filter_params(f: FilterSpec, scene: WalkerScene, birth: str, dataset: Datase
 
 def contact_tracker(f: FilterSpec, scene: WalkerScene, sensors: tuple) -> Tracker:
     """A contact tracker for walkers (the comparison beyond the thesis): the thesis's CV as a one-model IMM,
-    the ground radar's p_D and clutter density, an initiation window of 0-``WALKER_MAX_SPEED_M_S``."""
-    params: dict = {"lifecycle": {"v_min": 0.0, "v_max": WALKER_MAX_SPEED_M_S}, **dict(f.extra)}
+    the ground radar's p_D and clutter density, an initiation window of 0-``WALKER_MAX_SPEED_M_S``, and the
+    radar thesis's life cycle (M/N, no track-quality deletion: `THESIS_LIFECYCLE`), as measured before the
+    contact trackers' default changed."""
+    params: dict = {"lifecycle": {**THESIS_LIFECYCLE, "v_min": 0.0, "v_max": WALKER_MAX_SPEED_M_S}, **dict(f.extra)}
     if f.kind in ("jpda", "mht"):
         params |= {"pd": scene.radar.pd, "clutter_density": scene.radar.clutter_per_m2}
     cls = TRACKERS[f.kind]

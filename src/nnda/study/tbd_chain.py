@@ -88,6 +88,7 @@ from nnda.filters.imm import IMM
 from nnda.filters.measurement import PositionMeasurement
 from nnda.filters.motion import ConstantVelocity
 from nnda.filters.tbd import TBDModel
+from nnda.tracking.lifecycle import THESIS_LIFECYCLE
 from nnda.tracking.output import CONFIRMED, NO_CONTACT
 from nnda.tracking.registry import TRACKERS
 
@@ -185,7 +186,7 @@ def tracker_params(name: str, scene: FramesConfig, cfg: ChainConfig, n_aspects: 
     v_max = cfg.speed_sds * scene.birth_velocity_sd
     start_sd = math.sqrt(2.0) * cfg.measurement_sd / scene.dt
     pd = min(max(pd, PD_FLOOR), PD_CEILING)
-    lifecycle = {"v_min": 0.0, "v_max": v_max, "max_speed_m_s": v_max + cfg.speed_sds * start_sd,
+    lifecycle = {**THESIS_LIFECYCLE, "v_min": 0.0, "v_max": v_max, "max_speed_m_s": v_max + cfg.speed_sds * start_sd,
                  "max_position_sd_m": None, "m": CONFIRM_M, "n": CONFIRM_N,
                  "max_misses": math.ceil(math.log(COAST_RISK) / math.log1p(-pd) - 1e-9)}  # not 2 for 1 + ulp
     params: dict[str, Any] = {}

@@ -17,6 +17,15 @@ everything else is bit-identical for the same seed.
 A contact tracker's record also holds ``track_management``: the confirmation
 rule it used and its deletions of the run by reason
 (`nnda.tracking.tracker.ContactTracker.track_management`).
+
+A job with a lag L > 0 (the study file's ``lag`` of the tracker) steps the
+tracker through `nnda.tracking.lag.FixedLag` and scores its lagged outputs
+too: the record's ``lagged`` holds ``lag``, ``metrics`` and ``series``
+(every run measure and series of the lagged outputs, as ``metrics`` and
+``series`` hold the online ones), and ``timing`` also holds
+``lag_time_per_scan_s``, the time of the fixed-lag revision of each scan
+(the flush at the end of the run counted in the last scan's). Without a
+lag the record is what it was before the option existed.
 """
 
 from __future__ import annotations
@@ -34,8 +43,10 @@ from nnda.files import digest, finite_or_none
 from nnda.study.cardinality import count_record, snapshot
 from nnda.study.measures import RUN_MEASURES, SERIES_MEASURES
 from nnda.study.metrics import RunMetrics, run_metrics
-from nnda.tracking.output import TrackStatus
+from nnda.tracking.lag import FixedLag
+from nnda.tracking.output import TrackerOutput, TrackStatus
 from nnda.tracking.registry import make_tracker
+from nnda.tracking.tracker import Tracker
 
 if TYPE_CHECKING:
     from nnda.study.kinds.track import TrackJob
@@ -78,19 +89,48 @@ def _tracks(outputs, dataset: Dataset) -> dict:
     }
 
 
+def step_run(tracker: Tracker, dataset: Dataset, lag: int = 0, on_scan=None
+             ) -> tuple[list[TrackerOutput], list[TrackerOutput] | None, np.ndarray, np.ndarray | None, list]:
+    """Step ``tracker`` through every scan of ``dataset``, ``time.perf_counter`` around each ``step``; with
+    ``lag`` > 0 through `FixedLag`, its revision timed apart. Returns the online outputs, the lagged ones
+    (None without a lag; one per scan, in scan order), the seconds of each step (n_scans,), those of each
+    scan's lagged revision (None without a lag; the final flush in the last scan's) and the tracker's
+    count snapshot after each scan (`nnda.study.cardinality.snapshot`). ``on_scan(done, total)`` is called
+    after each scan."""
+    n = dataset.n_scans
+    outputs, seconds, counts = [], np.empty(n), []
+    lagged, lag_seconds = (None, None) if lag == 0 else ([], np.zeros(n))
+    fixed = None if lag == 0 else FixedLag(tracker, lag)
+    for i, scan in enumerate(dataset.scans()):
+        start = time.perf_counter()
+        outputs.append(tracker.step(scan))
+        seconds[i] = time.perf_counter() - start
+        counts.append(snapshot(tracker, scan.index))
+        if fixed is not None:
+            start = time.perf_counter()
+            late = fixed.revise(outputs[-1])
+            if late is not None:
+                lagged.append(late)
+            lag_seconds[i] = time.perf_counter() - start
+        if on_scan is not None:
+            on_scan(i + 1, n)
+    if fixed is not None:
+        start = time.perf_counter()
+        lagged += fixed.flush()
+        if n:
+            lag_seconds[-1] += time.perf_counter() - start
+    return outputs, lagged, seconds, lag_seconds, counts
+
+
 def run_job(job: TrackJob) -> dict:
     """Run one job and return its record (see the module docstring)."""
     with threadpool_limits(1):
         dataset = job.dataset()
         _warm_up(job, dataset)
         tracker = make_tracker(job.kind, dataset.scenario.sensors, job.params)
-        outputs, seconds, counts = [], np.empty(dataset.n_scans), []
-        for i, scan in enumerate(dataset.scans()):
-            start = time.perf_counter()
-            outputs.append(tracker.step(scan))
-            seconds[i] = time.perf_counter() - start
-            counts.append(snapshot(tracker, scan.index))
+        outputs, lagged, seconds, lag_seconds, counts = step_run(tracker, dataset, job.lag)
         m = run_metrics(dataset, outputs, job.cutoff_m, job.ownership)
+        late = None if lagged is None else run_metrics(dataset, lagged, job.cutoff_m, job.ownership)
     record = {
         "scenario": job.scenario, "tracker": job.tracker, "kind": job.kind, "run": job.run, "seed": job.seed,
         "dataset_digest": dataset_digest(dataset), "n_scans": dataset.n_scans,
@@ -103,6 +143,9 @@ def run_job(job: TrackJob) -> dict:
     management = getattr(tracker, "track_management", None)  # the contact trackers'
     if management is not None:
         record["track_management"] = management()
+    if late is not None:
+        record["lagged"] = {"lag": job.lag, "metrics": scalars(late), "series": series(late)}
+        record["timing"]["lag_time_per_scan_s"] = lag_seconds.tolist()
     if job.keeps_tracks:
         record.update(_tracks(outputs, dataset))
     return record
@@ -117,13 +160,12 @@ def _warm_up(job: TrackJob, dataset: Dataset) -> None:
     ``dataset`` untimed, its warnings silenced (the timed run gives them). The first call of each compiled
     kernel loads it from numba's cache (about 0.15 s for the neural tracker's) or, on a fresh install,
     compiles it (seconds): not a cost of the scan it falls in, and it would land on whichever scenario runs
-    first in each process."""
-    key = json.dumps([job.kind, job.params], sort_keys=True, default=str)
+    first in each process. A job with a lag warms its fixed-lag revision too (its lag is part of the key)."""
+    key = json.dumps([job.kind, job.params] + ([job.lag] if job.lag else []), sort_keys=True, default=str)
     if key in _WARM:
         return
     tracker = make_tracker(job.kind, dataset.scenario.sensors, job.params)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        for scan in dataset.scans():
-            tracker.step(scan)
+        step_run(tracker, dataset, job.lag)  # with a lag, the revision's kernels too
     _WARM.add(key)

@@ -12,17 +12,24 @@ they do not depend on the order jobs finished:
   (``<series name>_per_scan``). The series of
   ``false_tracks_per_scan`` is named ``false_tracks``, so its list column
   takes the name of the run value (its mean, which is left out): format
-  version 1 keeps that layout;
+  version 1 keeps that layout. A study with a tracker of lag L > 0
+  (`nnda.tracking.lag`) adds ``lag`` (int32: L, 0 for a tracker without)
+  and the lagged output's measures and series, ``lag_<measure>`` and
+  ``lag_<series name>_per_scan`` (null for a tracker without a lag); a
+  study without lags has none of these columns;
 * in ``summary.json``: per scenario and tracker, mean and t-interval over
   runs of every run measure (cut to the measure's ``bounds``), every
   per-scan series averaged over runs, and the ownership kinds its runs used;
+  for a tracker with a lag also ``lagged``: ``lag``, and the ``metrics`` and
+  ``series_mean`` of its lagged output (the online ones stay the headline);
 * ``trajectories.parquet``: run 0's truth and every confirmed track's
   reports (the report's trajectory plot);
 * ``cardinality.parquet``: one row per tracker job, the target count of every
   scan: true, confirmed tracks and the filter's own estimate
   (`nnda.study.cardinality`);
 * ``timing.parquet`` and, in ``timing.json``, the wall-clock time per scan
-  of every job and its aggregates;
+  of every job and its aggregates (for a tracker with a lag, ``lagged``: the
+  time of the fixed-lag revision alone, per scan);
 * ``classifier.json``: what the study's model files say of themselves and
   their ROC (`nnda.study.classifier`), and ``ablation.json``: the feature
   ablation the study names (none without one).
@@ -98,7 +105,24 @@ def results_table(records: list[dict]) -> pa.Table:
         kind = pa.int64() if m.integer else pa.float64()
         cols[f"{m.series_name}_per_scan"] = pa.array([r["series"][m.series_name] for r in records],
                                                      type=pa.list_(kind))
+    if any("lagged" in r for r in records):
+        cols.update(_lagged_columns(records))
     return pa.table(cols)
+
+
+def _lagged_columns(records: list[dict]) -> dict[str, pa.Array]:
+    """The lagged output's columns of `results_table` (module docstring): ``lag``, ``lag_<measure>``,
+    ``lag_<series name>_per_scan``; null in the rows of trackers without a lag."""
+    lagged = [r.get("lagged") for r in records]
+    cols = {"lag": _column([0 if g is None else g["lag"] for g in lagged], "int32")}
+    for m in sorted(RUN_MEASURES, key=lambda m: m.key):
+        kind = "int" if m.integer and not m.per_scan else "float"
+        cols[f"lag_{m.key}"] = _column([None if g is None else g["metrics"][m.key] for g in lagged], kind)
+    for m in SERIES_MEASURES:
+        kind = pa.int64() if m.integer else pa.float64()
+        cols[f"lag_{m.series_name}_per_scan"] = pa.array(
+            [None if g is None else g["series"][m.series_name] for g in lagged], type=pa.list_(kind))
+    return cols
 
 
 def timing_table(records: list[dict]) -> pa.Table:
@@ -163,6 +187,15 @@ def summarise(plan: TrackPlan, records: list[dict]) -> dict:
                 "series_mean": {m.series_name: ragged_mean([r["series"][m.series_name] for r in mine])
                                 for m in SERIES_MEASURES},
             }
+            if t.lag:
+                late = [r["lagged"] for r in mine]
+                trackers[t.label]["lagged"] = {
+                    "lag": t.lag,
+                    "metrics": {m.key: mean_ci([g["metrics"][m.key] for g in late], conf, *m.bounds)
+                                for m in RUN_MEASURES},
+                    "series_mean": {m.series_name: ragged_mean([g["series"][m.series_name] for g in late])
+                                    for m in SERIES_MEASURES},
+                }
         scenarios.append({"name": sc.name, "source": sc.description, "runs": sc.runs, "n_scans": sc.scenario.n_scans,
                           "targets": [tg.name for tg in sc.scenario.targets], "trackers": trackers})
     return {
@@ -183,6 +216,10 @@ def summarise_timing(plan: TrackPlan, records: list[dict]) -> dict:
                     and r["tracker"] == t.label]
             if runs:
                 found[t.label] = time_summary(runs, plan.study.confidence)
+            late = [r["timing"]["lag_time_per_scan_s"] for r in records if r["scenario"] == sc.name
+                    and r["tracker"] == t.label and "lag_time_per_scan_s" in r["timing"]]
+            if runs and late:  # the fixed-lag revision's own time per scan, beside the tracker's step
+                found[t.label]["lagged"] = time_summary(late, plan.study.confidence)
         scenarios.append({"name": sc.name, "trackers": found})
     return {"method": "time.perf_counter around each Tracker.step, one BLAS thread per job",
             "scenarios": scenarios}

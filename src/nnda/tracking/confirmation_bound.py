@@ -32,7 +32,8 @@ confirmation is at least (1 + E[N]) scan periods (`delay_bound_s`). Usage::
 
 The start and thresholds are the rule's (`clairvoyant_delay_s`): the score
 rule starts at the two-point ratio ln(P_D / (A_w rho)) and tests against
-Wald's thresholds; the existence rule adds the birth prior, loses ln s per
+Wald's thresholds (the adaptive rule: its threshold for the clutter density
+``density``); the existence rule adds the birth prior, loses ln s per
 scan to the survival (its exact loss at small existence, an upper bound
 on the drift) and confirms at ``existence_confirmation``.
 
@@ -45,7 +46,7 @@ from __future__ import annotations
 
 import math
 
-from nnda.tracking.lifecycle import LifecycleConfig, birth_log_odds, sprt_thresholds
+from nnda.tracking.lifecycle import LifecycleConfig, adaptive_threshold, birth_log_odds, sprt_thresholds
 from nnda.tracking.marginals import log_miss_weight
 
 
@@ -89,13 +90,16 @@ def clairvoyant_delay_s(rule: str, lifecycle: LifecycleConfig, density: float, r
                         gate: float = 9.21, pd_true: float = 1.0, coverage_m2: float = 1.0) -> float:
     """Least mean delay (s) from first detection to confirmation of a target at ``range_m`` from a polar
     radar of noise ``sigma_range_m``, ``sigma_azimuth_rad`` and ``scan_period`` (s) in clutter of area
-    density ``density`` (m^-2) under ``rule`` "score" or "existence" of ``lifecycle`` (module docstring);
+    density ``density`` (m^-2) under ``rule`` "adaptive", "score" or "existence" of ``lifecycle`` (module docstring);
     ``coverage_m2`` is the sensor's coverage area, for the existence rule's birth prior."""
     log_det_s = 2.0 * math.log(sigma_range_m * sigma_azimuth_rad * range_m)  # S = R, as a Cartesian area
     drift = scan_drift(pd_true, pd, gate, log_det_s, density)
     start = math.log(pd / (lifecycle.window_area(scan_period, sigma_range_m) * density))
     if rule == "score":
         lower, upper = lifecycle.score_thresholds
+    elif rule == "adaptive":
+        lower = lifecycle.score_thresholds[0]
+        upper = float(adaptive_threshold(lifecycle.false_track_rate, lifecycle.false_deletion, density, scan_period))
     elif rule == "existence":
         start += float(birth_log_odds(pd, lifecycle.new_targets_per_scan / coverage_m2, density))
         lower = start + sprt_thresholds(lifecycle.false_confirmation, lifecycle.preliminary_false_deletion)[0]
@@ -103,5 +107,5 @@ def clairvoyant_delay_s(rule: str, lifecycle: LifecycleConfig, density: float, r
         upper = math.log(c) - math.log1p(-c)
         drift += math.log(lifecycle.survival_probability)
     else:
-        raise ValueError(f"rule must be 'score' or 'existence', got {rule!r}")
+        raise ValueError(f"rule must be 'adaptive', 'score' or 'existence', got {rule!r}")
     return delay_bound_s(expected_tests(start, lower, upper, drift, lifecycle.false_deletion), scan_period)

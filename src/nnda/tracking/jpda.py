@@ -50,6 +50,13 @@ Each scan:
    where no contact beats beta_t0 the framework counts a miss and keeps the
    track's last posterior, so that scan's soft update is dropped.
 
+Track quality: the PDA update's spread-of-innovations term keeps a track that shares its gate with
+clutter vague, and such a track grows until the absolute limit (``lifecycle.max_position_sd_m``, 2 km)
+ends it; at 1,000 clutter contacts per scan under M/N, thousands of confirmed reports a run had a position
+sd over 1 km. The framework's sanity step deletes a confirmed track, reason "quality", once its gate is
+expected to hold more than ``lifecycle.max_gate_clutter`` (2) clutter contacts at the local clutter
+density (`nnda.tracking.lifecycle.gate_clutter`, the module docstring there says why 2).
+
 Under ``lifecycle.confirmation = "existence"`` this is JIPDA (Musicki &
 Evans 2004): each track's event terms are weighed by its predicted
 probability of existence rho (`nnda.tracking.lifecycle.jipda_log_ratio`:

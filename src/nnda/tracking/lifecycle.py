@@ -41,6 +41,23 @@ M/N logic.
   scan in expectation at any clutter density, and a lower threshold where clutter is sparse (fewer
   initiators: faster confirmation). Each track keeps the threshold of its birth (``Tracks.confirm_at``);
   the deletion thresholds are as above.
+* Clutter-adaptive (``confirmation = "adaptive"``, the default of every contact tracker): the score
+  rule's test with a confirmation threshold per track, set at its birth from the clutter where it was
+  born and a false-track rate per unit area and time, phi = ``false_track_rate`` (false tracks per hour
+  per 1,000 km^2). A two-point start in clutter of area density rho (m^-2 per scan) is one trial of Wald's
+  test; the clutter of an area A opens rho A such trials a scan, so confirming at alpha = phi T / rho
+  (T the scan period) allows phi T A false confirmations a scan in that area, whatever rho is: the
+  threshold ln((1 - beta) rho / (phi T)) (`adaptive_threshold`) rises by ln 10 where the clutter is ten
+  times denser, and falls where it is sparse, so a track born away from the clutter confirms sooner. It is
+  the existence rule's clutter cancellation (the prior odds P_D beta_NT / rho) on the track score,
+  without the survival's decay, so MHT can run it too. A confirmed track is deleted as under the score
+  rule, its score fallen ln(beta_k / (1 - alpha)) below its maximum, with beta_k = beta x min(1, rho /
+  rho_dense) set at its birth too (`adaptive_deletion`; rho_dense = ``dense_clutter_per_km2``, beta_k at
+  least beta / 100): a track that lost its target takes clutter in proportion to rho, so where clutter is
+  sparse it waits longer for a target that turns (its contacts then fit badly, each lowering the score) or
+  fades. A run of misses still ends it as the score rule's beta would: at ``max_misses`` + 1 misses in a
+  row (`miss_run`; with P_D 0.9 and beta 1e-3 the score rule too survives three and not four), so a target
+  that has gone is let go as soon as before.
 * Existence (``confirmation = "existence"``; IPDA, Musicki, Evans &
   Stankovic 1994, and JIPDA, Musicki & Evans 2004): the track carries the
   log-odds of its probability of existence rho, predicted each scan as
@@ -77,6 +94,32 @@ M/N logic.
   axis of its position covariance) beyond ``max_position_sd_m``.
   `sanity_reasons` gives each track's reason; the trackers count their
   deletions by reason (`DELETION_REASONS`) in ``tracker.deletions``.
+* Track quality (a sanity rule for confirmed tracks): a confirmed track is
+  deleted ("quality") when its gate is expected to hold more than
+  ``max_gate_clutter`` clutter contacts, n_c = rho x pi gamma sqrt(det(P_xy +
+  sigma^2 I)) (`gate_clutter`): rho the clutter's area density around the
+  track (the scan's contacts in the square of half-side ``clutter_radius_m``
+  around its predicted position, `nnda.tracking.clutter_density.local_density`,
+  whichever clutter model the tracker associates with), gamma the tracker's
+  chi-square gate, P_xy the reported position covariance and sigma the
+  sensors' least noise (m). Why this bound: against clutter, a target's
+  contact at Mahalanobis distance d has the likelihood ratio P_D l / lambda
+  = P_D gamma exp(-d^2 / 2) / (2 n_c); over the target's contacts (E
+  exp(-d^2 / 2) = 1/2 on 2 dof) its mean is P_D gamma / (4 n_c), which falls
+  below 1 (the target's own contact no likelier the target's than a clutter
+  contact: the association can no longer tell them apart) at n_c = P_D gamma
+  / 4 = 2.07 for P_D = 0.9 and gamma = 9.21; hence the default 2. The bound
+  is relative to the gate and the clutter, not a size: with 1,000 contacts
+  per scan over a 34 km square it deletes a confirmed track of round position
+  covariance past about 280 m sd, with 100 over the presets' 16.6 km square
+  past about 440 m, and where clutter is sparse only ``max_position_sd_m``
+  bites. The other form, the gate's radius against the distance to the
+  nearest confirmed track, is not used: at a crossing it meets the targets'
+  own tracks, which JPDA keeps apart by design (S1 at 1,000 clutter, one
+  run: 12 of 239 target-contact reports would meet it at half the distance,
+  none this rule). The reported covariance (after the update, not the next
+  prediction) and the least noise taken round give a lower bound on the next
+  gate, so the rule errs towards keeping a track.
 """
 
 from __future__ import annotations
@@ -96,8 +139,10 @@ from nnda.tracking.output import CONFIRMED, DELETED, PRELIMINARY
 
 
 class LifecycleConfig(BaseModel):
-    """Initiation window and confirmation/deletion counts; defaults are those of Vargas Avila (2015)'s proposed
-    (neural) method, Sec. 5.3 and 5.5."""
+    """Initiation window, confirmation and deletion. The window and the M/N counts are those of Vargas Avila
+    (2015)'s proposed (neural) method, Sec. 5.3 and 5.5; its rule is ``confirmation = "mn"``
+    (`THESIS_LIFECYCLE`). The default rule is the clutter-adaptive score test ("adaptive"), which keeps the
+    false tracks at a rate per area and time whatever the clutter density."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
@@ -115,11 +160,23 @@ class LifecycleConfig(BaseModel):
         "it, a scan opens only as many new tracks as there is room for, those whose implied speed is "
         "nearest the window's middle, with a BoundWarning. Bounds memory and time when clutter is far "
         "denser than the window was made for")] = 10_000
-    confirmation: Literal["mn", "score", "existence"] = Field(
-        "mn", description="how preliminary tracks are confirmed and tracks deleted: 'mn' (M/N counts, "
-        "max_misses), 'score' (Wald's test on the track score, thresholds from false_confirmation and "
+    confirmation: Literal["adaptive", "mn", "score", "existence"] = Field(
+        "adaptive", description="how preliminary tracks are confirmed and tracks deleted: 'adaptive' (Wald's "
+        "test on the track score, each track's confirmation threshold from the clutter density where it was "
+        "born and false_track_rate; deletion as 'score'), 'mn' (M/N counts, max_misses; the rule of Vargas "
+        "Avila (2015)), 'score' (Wald's test on the track score, thresholds from false_confirmation and "
         "false_deletion) or 'existence' (IPDA / JIPDA: the probability of target existence, its log-odds "
         "against the same thresholds; not for MHT)")
+    false_track_rate: Annotated[float, Field(
+        gt=0, description="adaptive rule: phi, the false tracks per hour per 1,000 km^2 of coverage the "
+        "confirmation allows in expectation (at most; each track confirms at Wald's threshold for alpha = "
+        "phi T / rho, rho the clutter's area density where it was born, T the scan period)")] = 2.0
+    dense_clutter_per_km2: Annotated[float, Field(
+        gt=0, description="adaptive rule: clutter contacts per km^2 per scan at and above which a confirmed track "
+        "is deleted at the score rule's false_deletion; where it was born in sparser clutter its beta falls in "
+        "proportion (down to false_deletion / 100): a track that has lost its target takes clutter in "
+        "proportion to the clutter's density, so in sparse clutter it can afford to wait longer for a "
+        "manoeuvring or fading target")] = 1.0
     survival_probability: Annotated[float, Field(
         gt=0, le=1, description="existence rule: probability that a target exists still at the next scan "
         "(the Markov chain of IPDA)")] = 0.995
@@ -151,6 +208,14 @@ class LifecycleConfig(BaseModel):
     max_position_sd_m: Annotated[float | None, Field(
         gt=0, description="delete a track whose position standard deviation (largest axis of its position "
         "covariance) exceeds this (m; None: no limit)")] = 2_000.0
+    max_gate_clutter: Annotated[float | None, Field(
+        gt=0, description="track quality: delete a confirmed track whose gate is expected to hold more than this "
+        "many clutter contacts (the local clutter density around it times its gate's area from its position "
+        "covariance and the measurement noise): it can no longer tell its target's contact from clutter. At 2 "
+        "the target's own contact is on average no likelier the target's than clutter (P_D x gate / 4 at P_D "
+        "= 0.9 and the 9.21 gate); None: no such rule")] = 2.0
+    quality_deletion: bool = Field(True, description="delete confirmed tracks by the track-quality rule "
+                                   "(max_gate_clutter); False: no such rule, as in Vargas Avila (2015)")
     coverage_deletion: bool = Field(True, description="delete a track outside every sensor's coverage by more "
                                     "than its gate")
 
@@ -183,6 +248,12 @@ class LifecycleConfig(BaseModel):
         return self.max_speed_m_s if self.max_speed_m_s is not None else 2.5 * self.v_max
 
     @property
+    def gate_clutter_bound(self) -> float | None:
+        """The track-quality rule's bound on the clutter contacts expected in a confirmed track's gate, or None
+        without the rule (``quality_deletion`` False or ``max_gate_clutter`` None)."""
+        return self.max_gate_clutter if self.quality_deletion else None
+
+    @property
     def score_thresholds(self) -> tuple[float, float]:
         """(deletion, confirmation) thresholds of the score rule (`sprt_thresholds`)."""
         return sprt_thresholds(self.false_confirmation, self.false_deletion)
@@ -198,12 +269,18 @@ class LifecycleConfig(BaseModel):
                 self.v_max * scan_period + 3 * sigma_range)
 
 
+#: the life-cycle settings of Vargas Avila (2015) beyond the defaults: its M/N rule and no track-quality deletion
+#: (the studies that reproduce the thesis pin them, e.g. ``params = {"lifecycle": THESIS_LIFECYCLE}``)
+THESIS_LIFECYCLE: dict[str, str | bool] = {"confirmation": "mn", "quality_deletion": False}
+
+
 #: why a track was deleted, the keys of ``tracker.deletions``: its confirmation test failed (a preliminary
-#: track), its misses (M/N) or its score (score rule) ended a confirmed track, a sanity rule
-#: (sanity), or the score rule's cap on live tracks dropped it for want of room
-DELETION_REASONS = ("unconfirmed", "misses", "score", "speed", "coverage", "covariance", "capped")
+#: track), its misses (M/N) or its score (score and adaptive rules) ended a confirmed track, a sanity rule
+#: (sanity: speed, coverage, covariance, or a confirmed track's quality), or the score rule's cap on live tracks
+#: dropped it for want of room
+DELETION_REASONS = ("unconfirmed", "misses", "score", "speed", "coverage", "covariance", "quality", "capped")
 #: codes of `sanity_reasons`: 0 sane, else 1 + the index of the reason in SANITY_REASONS
-SANITY_REASONS = ("speed", "coverage", "covariance")
+SANITY_REASONS = ("speed", "coverage", "covariance", "quality")
 
 
 def sprt_thresholds(alpha: float, beta: float) -> tuple[float, float]:
@@ -217,6 +294,27 @@ def rate_threshold(rate: float, beta: float, trials: int) -> float:
     when at most ``rate`` false confirmations per scan are allowed: Wald's ln((1 - beta) / alpha) at
     alpha = rate / trials, that is ln((1 - beta) trials / rate)."""
     return math.log((1.0 - beta) * trials / rate)
+
+
+#: square metres in 1,000 km^2 and seconds in an hour: ``false_track_rate``'s unit
+_PER_1000_KM2_HOUR = 1e9 * 3600.0
+
+
+def adaptive_threshold(rate: float, beta: float, density: np.ndarray, scan_period: float) -> np.ndarray:
+    """Confirmation thresholds (K,) of the adaptive rule (module docstring) for tracks born where the clutter's
+    area density is ``density`` (m^-2 per scan, (K,)) from a sensor of scan period ``scan_period`` (s), at
+    ``rate`` false tracks per hour per 1,000 km^2: Wald's ln((1 - beta) / alpha) at alpha = phi T / rho."""
+    phi = rate / _PER_1000_KM2_HOUR  # m^-2 s^-1
+    return math.log1p(-beta) + np.log(np.asarray(density, float)) - math.log(phi * scan_period)
+
+
+def adaptive_deletion(cfg: LifecycleConfig, density: np.ndarray) -> np.ndarray:
+    """Deletion thresholds (K,) of confirmed tracks under the adaptive rule (module docstring) for tracks born where
+    the clutter's area density is ``density`` (m^-2 per scan, (K,)): ln(beta_k / (1 - alpha)), beta_k =
+    ``false_deletion`` x min(1, density / ``dense_clutter_per_km2``), at least ``false_deletion`` / 100."""
+    dense = cfg.dense_clutter_per_km2 * 1e-6  # m^-2
+    share = np.clip(np.asarray(density, float) / dense, 0.01, 1.0)
+    return np.log(cfg.false_deletion * share) - math.log1p(-cfg.false_confirmation)
 
 
 def start_score(pd: float, window_area: float, density: np.ndarray) -> np.ndarray:
@@ -233,40 +331,60 @@ def birth_log_odds(pd: float, new_density: float, density: np.ndarray) -> np.nda
 
 
 def advance_score(status: np.ndarray, score: np.ndarray, max_score: np.ndarray, cfg: LifecycleConfig,
-                  observed: np.ndarray | None = None, confirm_at: np.ndarray | None = None) -> np.ndarray:
+                  observed: np.ndarray | None = None, confirm_at: np.ndarray | None = None,
+                  delete_at: np.ndarray | None = None, consecutive: np.ndarray | None = None) -> np.ndarray:
     """One scan of the score rule for K tracks whose ``score`` (K,) is already this scan's (and ``max_score``
     its maximum so far): the new status (module docstring). A track not ``observed`` keeps its status.
-    ``confirm_at`` (K,) is each track's confirmation threshold under ``false_tracks_per_scan`` (that of its
-    birth, `rate_threshold`); None: Wald's for ``false_confirmation``. One compiled loop over the tracks
-    (`advance_score_kernel`)."""
+    ``confirm_at`` (K,) is each track's confirmation threshold under ``false_tracks_per_scan`` or the adaptive
+    rule (that of its birth, `rate_threshold`, `adaptive_threshold`); None: Wald's for
+    ``false_confirmation``. ``delete_at`` (K,) is each confirmed track's deletion threshold under the
+    adaptive rule (`adaptive_deletion`), and ``consecutive`` (K,) its misses in a row (this scan's included), of
+    which it survives `miss_run`. One compiled loop over the tracks (`advance_score_kernel`)."""
     status = np.asarray(status)
-    lower, upper, early = score_bounds(cfg, status.size, confirm_at)
+    lower, upper, early = score_bounds(cfg, status.size, confirm_at, delete_at)
+    run = miss_run(cfg)
+    consecutive = np.zeros(status.size, np.int64) if consecutive is None else np.asarray(consecutive, np.int64)
     return advance_score_kernel(status, np.asarray(score, float), np.asarray(max_score, float),
                                 everywhere(observed, status.size), upper, lower, early,
-                                cfg.confirmation == "existence")
+                                cfg.confirmation == "existence", consecutive, run)
 
 
-def score_bounds(cfg: LifecycleConfig, K: int, confirm_at: np.ndarray | None = None
-                 ) -> tuple[float, np.ndarray, float]:
-    """The thresholds of `advance_score` for K tracks: (lower, upper (K,), early), on the score (Wald's,
-    ``confirm_at`` (K,) the upper one per track when given) or under the existence rule on the existence's
-    log-odds; early is the preliminary tracks' deletion threshold."""
+def miss_run(cfg: LifecycleConfig) -> int:
+    """The consecutive misses a confirmed track survives whatever its score under ``cfg``'s rule: ``max_misses``
+    under the adaptive rule (module docstring), no bound (2^62) under the others."""
+    return cfg.max_misses if cfg.confirmation == "adaptive" else 2**62
+
+
+def score_bounds(cfg: LifecycleConfig, K: int, confirm_at: np.ndarray | None = None,
+                 delete_at: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+    """The thresholds of `advance_score` for K tracks: (lower (K,), upper (K,), early), on the score (Wald's,
+    ``confirm_at`` (K,) the upper one per track when given, and under the adaptive rule ``delete_at`` (K,)
+    the lower one) or under the existence rule on the existence's log-odds; early is the preliminary tracks'
+    deletion threshold."""
     if cfg.confirmation == "existence":  # thresholds on the existence probability's log-odds
         lower, upper = (math.log(p) - math.log1p(-p) for p in (cfg.existence_deletion, cfg.existence_confirmation))
     else:
         lower, upper = cfg.score_thresholds
         if confirm_at is not None:
             upper = confirm_at
+        if delete_at is not None and cfg.confirmation == "adaptive":
+            lower = delete_at
     early = sprt_thresholds(cfg.false_confirmation, cfg.preliminary_false_deletion)[0]
-    return lower, np.asarray(upper, float) if np.ndim(upper) else np.full(K, float(upper)), early
+    return _per_track(lower, K), _per_track(upper, K), early
+
+
+def _per_track(value: float | np.ndarray, K: int) -> np.ndarray:
+    """A threshold for each of K tracks, (K,) floats."""
+    return np.asarray(value, float) if np.ndim(value) else np.full(K, float(value))
 
 
 @numba.njit(cache=True, nogil=True)
-def advance_score_kernel(status, score, max_score, observed, upper, lower, early, exist):
-    """`advance_score`'s loop over K tracks, all arrays (K,): a preliminary track is confirmed at ``upper``
+def advance_score_kernel(status, score, max_score, observed, upper, lower, early, exist, consecutive, run):
+    """`advance_score`'s loop over K tracks, all arrays (K,) but ``early``: a preliminary track is confirmed at
+    ``upper``
     and then deleted where its score (existence: its log-odds' fall from the maximum) is at most ``early``; a
     confirmed track is deleted where its score's fall from the maximum (existence: its log-odds) is at most
-    ``lower``; a track not ``observed`` keeps its status."""
+    ``lower``, or whose ``consecutive`` misses exceed ``run``; a track not ``observed`` keeps its status."""
     new = status.copy()
     for k in range(status.size):
         if not observed[k]:
@@ -279,7 +397,7 @@ def advance_score_kernel(status, score, max_score, observed, upper, lower, early
                 new[k] = CONFIRMED
             if (fallen if exist else score[k]) <= early:
                 new[k] = DELETED
-        elif status[k] == CONFIRMED and (score[k] if exist else fallen) <= lower:
+        elif status[k] == CONFIRMED and ((score[k] if exist else fallen) <= lower[k] or consecutive[k] > run):
             new[k] = DELETED
     return new
 
@@ -334,22 +452,35 @@ def gate_radius_m(P: np.ndarray, noise_m: float, gate: float) -> np.ndarray:
     return _each(_gate_radius_m, np.asarray(P, float), np.empty((0, 0)), float(noise_m), float(gate))
 
 
+def gate_clutter(P: np.ndarray, density: np.ndarray, noise_m: float, gate: float) -> np.ndarray:
+    """Clutter contacts expected inside the chi-square ``gate`` (2 dof) of K states of covariance P (K, 4, 4)
+    where the clutter's area density is ``density`` (K,) m^-2: density x pi gate sqrt(det(P_xy + noise_m^2 I)),
+    P_xy the position block (the track-quality rule's n_c, module docstring). Returns (K,)."""
+    P = np.asarray(P, float)
+    density = np.broadcast_to(np.asarray(density, float), P.shape[:1])
+    return _gate_clutter(P, np.ascontiguousarray(density), float(noise_m), float(gate))
+
+
 def sanity_reasons(x: np.ndarray, P: np.ndarray, sensors: tuple[Sensor, ...], gate: float,
-                   cfg: LifecycleConfig) -> np.ndarray:
+                   cfg: LifecycleConfig, density: np.ndarray | None = None) -> np.ndarray:
     """Which of K track states x (K, 4), P (K, 4, 4) are impossible, and why: (K,) int8 codes, 0 for a
     sane track, else 1 + the index in SANITY_REASONS of the first rule it breaks (module docstring).
-    ``gate`` is the tracker's chi-square gate (2 dof) for the coverage rule. One compiled loop over the
-    tracks (`sanity_kernel`)."""
-    return sanity_kernel(np.asarray(x, float), np.asarray(P, float), *sanity_args(sensors, gate, cfg))
+    ``gate`` is the tracker's chi-square gate (2 dof) for the coverage and quality rules; ``density`` (K,)
+    the clutter's area density (m^-2) around each track the quality rule judges (the confirmed ones; 0 for
+    the others), None: no quality rule. One compiled loop over the tracks (`sanity_kernel`)."""
+    x, P = np.asarray(x, float), np.asarray(P, float)
+    density = np.zeros(x.shape[0]) if density is None else np.broadcast_to(np.asarray(density, float), x.shape[:1])
+    return sanity_kernel(x, P, np.ascontiguousarray(density), *sanity_args(sensors, gate, cfg))
 
 
 def sanity_args(sensors: tuple[Sensor, ...], gate: float, cfg: LifecycleConfig) -> tuple:
-    """`sanity_kernel`'s settings after x and P: the sensors' coverage (`_coverage`), their least noise (m),
-    the gate, whether the coverage rule applies, the largest position sd (m; inf: no limit) and the speed
-    limit (m/s)."""
+    """`sanity_kernel`'s settings after x, P and the clutter density: the sensors' coverage (`_coverage`), their
+    least noise (m), the gate, whether the coverage rule applies, the largest position sd (m; inf: no limit),
+    the speed limit (m/s) and the clutter contacts a confirmed track's gate may hold (inf: no quality rule)."""
     max_sd = math.inf if cfg.max_position_sd_m is None else cfg.max_position_sd_m
+    max_clutter = math.inf if cfg.gate_clutter_bound is None else cfg.gate_clutter_bound
     return (_coverage(tuple(sensors)), min(sensor_noise_m(s) for s in sensors), float(gate), cfg.coverage_deletion,
-            max_sd, cfg.speed_limit)
+            max_sd, cfg.speed_limit, max_clutter)
 
 
 @functools.cache
@@ -407,10 +538,31 @@ def _each(one, a, coverage, noise_m, gate):
 
 
 @_kernel
-def sanity_kernel(x, P, coverage, noise_m, gate, coverage_deletion, max_sd, speed_limit):
+def _gate_area(P, k, noise_m, gate):
+    """Area (m^2) of the chi-square ``gate`` ellipse of track k of P (K, 4, 4) with the measurement noise
+    ``noise_m`` (m) on both axes: pi gate sqrt(det(P_xy + noise_m^2 I))."""
+    n2 = noise_m * noise_m
+    a, b, c = P[k, 0, 0] + n2, P[k, 0, 2], P[k, 2, 2] + n2
+    det = a * c - b * b
+    return math.pi * gate * math.sqrt(det if det > 0.0 else 0.0)
+
+
+@_kernel
+def _gate_clutter(P, density, noise_m, gate):
+    """`gate_clutter`'s loop over the K tracks of P (K, 4, 4), density (K,)."""
+    out = np.empty(P.shape[0])
+    for k in range(P.shape[0]):
+        out[k] = density[k] * _gate_area(P, k, noise_m, gate)
+    return out
+
+
+@_kernel
+def sanity_kernel(x, P, density, coverage, noise_m, gate, coverage_deletion, max_sd, speed_limit, max_clutter):
     """`sanity_reasons`' loop over K tracks x (K, 4), P (K, 4, 4): the coverage rule against the sensors'
     ``coverage`` (S, 7) (`_coverage`), then the position standard deviation against ``max_sd`` (m; inf: no
-    limit), then the speed against ``speed_limit`` (m/s), which overrides the other two."""
+    limit), then the track quality: the clutter expected in the gate at the area ``density`` (K,) m^-2 (0:
+    not judged) against ``max_clutter``; then the speed against ``speed_limit`` (m/s), which overrides the
+    other three."""
     K = x.shape[0]
     code = np.zeros(K, np.int8)
     xy = x[:, 0:3:2]
@@ -419,6 +571,8 @@ def sanity_kernel(x, P, coverage, noise_m, gate, coverage_deletion, max_sd, spee
             code[k] = 2
         if code[k] == 0 and _position_sd(P, k, coverage, noise_m, gate) > max_sd:
             code[k] = 3
+        if code[k] == 0 and density[k] > 0.0 and density[k] * _gate_area(P, k, noise_m, gate) > max_clutter:
+            code[k] = 4
         if math.hypot(x[k, 1], x[k, 3]) > speed_limit:
             code[k] = 1
     return code

@@ -33,13 +33,19 @@ half-side ``clutter_radius_m`` around the predicted position) times the predicte
    below ``min_branch_probability``, score fallen more than
    ``deletion_score_drop`` below its maximum, at most
    ``max_hypotheses_per_track`` leaves per family and ``max_hypotheses`` in
-   all (chosen leaves first, then by score), and merging of leaves that
+   all (chosen leaves first, then by score; the families this cap ends are
+   counted as "capped" deletions), and merging of leaves that
    share their last three contacts with a better leaf of any family.
 
 The chosen leaf of each family is what the tracker reports; new families are
 reported from their first scan, like the other trackers' preliminary tracks.
 A family that loses its last leaf is reported once as deleted if it was ever
-reported. Confirmation is M/N (3/4, as the neural method's; a new family's score starts at
+reported. The status reported is the family's: once reported confirmed, a family
+stays confirmed until it is deleted, even when the global hypothesis
+chooses one of its branches that is still preliminary (its confirmed branches'
+contacts given to another family, or outscored).
+
+Confirmation is M/N (3/4, as the neural method's; a new family's score starts at
 ln(beta_NT / beta_FT) = ln(``new_target_ratio``)) or, with
 ``lifecycle.confirmation = "score"``, the track score of every contact
 tracker (`nnda.tracking.lifecycle`): a new family starts at the two-point
@@ -132,8 +138,9 @@ class MHTTracker(ContactTracker):
     def reset(self) -> None:
         super().reset()
         self.leaves: Leaves | None = None
-        # last reported id, state and covariance of every family reported at least once and alive
-        self.known = (np.empty(0, np.int64), np.empty((0, 4)), np.empty((0, 4, 4)))
+        # last reported id, state and covariance of every family reported at least once and alive, and whether
+        # it was ever reported confirmed (it then stays so, whichever of its leaves is chosen)
+        self.known = (np.empty(0, np.int64), np.empty((0, 4)), np.empty((0, 4, 4)), np.empty(0, bool))
         self.n_clusters_solved = 0  # multi-family clusters solved exactly
         self.n_clusters_greedy = 0  # clusters above max_exact_leaves, chosen greedily
 
@@ -206,14 +213,18 @@ class MHTTracker(ContactTracker):
         if self.confirmation_rule != "mn":  # Wald's test on the leaf's score, M/N counts ignored
             tracks = replace(tracks, status=advance_score(tr.status[parent], score, max_score, cfg.lifecycle,
                                                           None if observed is None else observed[parent],
-                                                          tracks.confirm_at))
+                                                          tracks.confirm_at, tracks.delete_at, tracks.consecutive))
         status = tracks.status
         d1 = detected[:, None]
         hist = np.column_stack([leaves.hist[parent, 1:], contact])
         out = Leaves(tracks, score, max_score, hist)
         x_post, P_post = imm.estimate(filt)
         shown = _Shown(np.where(d1, x_post, x_pred[parent]), np.where(d1[:, :, None], P_post, P_pred[parent]))
-        code = sanity_reasons(shown.x, shown.P, self.sensors, self.gate_threshold, cfg.lifecycle)
+        quality = np.zeros(len(status))  # the clutter around the confirmed leaves, for the track-quality rule
+        judged = status == TrackStatus.CONFIRMED
+        if judged.any():
+            quality[judged] = self._quality_density(scan, x_pred[parent[judged]])
+        code = sanity_reasons(shown.x, shown.P, self.sensors, self.gate_threshold, cfg.lifecycle, quality)
         alive = (status != TrackStatus.DELETED) & (score >= max_score - cfg.deletion_score_drop) & (code == 0)
         self._count_lost(tracks.track_id, tr.status[parent], status, score, code, alive)
         return out.take(alive), _Shown(shown.x[alive], shown.P[alive])
@@ -232,7 +243,8 @@ class MHTTracker(ContactTracker):
         for i, reason in enumerate(SANITY_REASONS, start=1):
             self.deletions[reason] += int((code[best] == i).sum())
         ended = code[best] == 0
-        confirmed = before[best] == TrackStatus.CONFIRMED
+        ids, *_, shown_confirmed = self.known  # a family reported confirmed ends as a confirmed track
+        confirmed = (before[best] == TrackStatus.CONFIRMED) | np.isin(family[best], ids[shown_confirmed])
         self.deletions["unconfirmed"] += int((ended & ~confirmed).sum())
         by_misses = ended & confirmed & (status[best] == TrackStatus.DELETED) & (self.confirmation_rule == "mn")
         self.deletions["misses"] += int(by_misses.sum())
@@ -362,31 +374,77 @@ class MHTTracker(ContactTracker):
         if kept.size > cfg.max_hypotheses:
             self._bound_hit("max_hypotheses", f"{kept.size - cfg.max_hypotheses} hypotheses pruned past the cap",
                             self.last_time)
+            before = np.unique(family[kept])
             kept = kept[np.lexsort((-leaves.score[kept], ~is_chosen[kept]))][: cfg.max_hypotheses]
+            self.deletions["capped"] += int(before.size - np.unique(family[kept]).size)  # families cut whole
         kept = np.sort(kept)
         return leaves.take(kept) if kept.size else None
 
     # ---------------------------------------------------------------------- output
     def _report(self, scan: int, time: float, leaves: Leaves | None, shown: _Shown | None,
                 chosen: np.ndarray) -> TrackerOutput:
-        """Chosen leaves, then families that lost their last leaf (status DELETED, last reported state)."""
+        """Chosen leaves of the families still alive, then families that lost their last leaf (status DELETED,
+        last reported state), each family once. A family reported confirmed once is reported confirmed until it
+        is deleted, even when its chosen leaf is one of its branches that is still preliminary: the global
+        hypothesis may give a confirmed branch's contacts to another family, or a preliminary branch may come to
+        outscore the confirmed ones. A chosen family whose every leaf was pruned in this scan (the
+        ``max_hypotheses`` cap) is reported as deleted only, if it was reported before."""
         blocks = []
-        ids, x, P = self.known
+        ids, x, P, confirmed = self.known
+        alive_ids = self.leaves.tracks.track_id if self.leaves is not None else np.empty(0, np.int64)
         if leaves is not None and chosen.size:
+            chosen = chosen[np.isin(leaves.tracks.track_id[chosen], alive_ids)]
+        if chosen.size:
             tr = leaves.tracks.take(chosen)
-            blocks.append((tr.track_id, tr.status, shown.x[chosen], shown.P[chosen], leaves.hist[chosen, -1]))
+            status = np.where(np.isin(tr.track_id, ids[confirmed]), TrackStatus.CONFIRMED, tr.status).astype(np.int8)
+            blocks.append((tr.track_id, status, shown.x[chosen], shown.P[chosen], leaves.hist[chosen, -1]))
             stale = ~np.isin(ids, tr.track_id)
             ids = np.concatenate([ids[stale], tr.track_id])
             x = np.concatenate([x[stale], shown.x[chosen]])
             P = np.concatenate([P[stale], shown.P[chosen]])
-        alive = np.isin(ids, self.leaves.tracks.track_id) if self.leaves is not None else np.zeros(ids.size, bool)
+            confirmed = np.concatenate([confirmed[stale], status == TrackStatus.CONFIRMED])
+        alive = np.isin(ids, alive_ids)
         gone = ~alive
         if gone.any():
             blocks.append((ids[gone], np.full(gone.sum(), TrackStatus.DELETED, np.int8), x[gone], P[gone],
                            np.full(gone.sum(), NO_CONTACT)))
-        self.known = (ids[alive], x[alive], P[alive])
+        self.known = (ids[alive], x[alive], P[alive], confirmed[alive])
         return TrackerOutput.from_blocks(scan, time, blocks)
 
+    # ---------------------------------------------------------------------- fixed-lag output
+    def best_branch(self, reported: TrackerOutput) -> tuple[np.ndarray, np.ndarray]:
+        """The branch each family of ``reported`` (the output `step` just returned) is on in the global
+        hypothesis: the families' ids (K,) and their chosen leaves' contacts of the last ``n_scan`` scans
+        (K, n_scan), oldest first (NO_CONTACT a miss, UNKNOWN before the family); families without leaves
+        left (reported deleted) are not among them. Read-only (`nnda.tracking.lag.RevisesBranches`): the
+        chosen leaf is the family's leaf with the reported contact, and where several are, the one whose
+        estimate is the reported one (the posterior's for a contact, the prediction's for a miss)."""
+        n = self.config.n_scan
+        none = (np.empty(0, np.int64), np.empty((0, n), np.int64))
+        if self.leaves is None or not len(reported):
+            return none
+        leaves, tr = self.leaves, self.leaves.tracks
+        rows = np.flatnonzero(reported.status != TrackStatus.DELETED)
+        rows = rows[np.argsort(reported.track_id[rows], kind="stable")]
+        ids, contact = reported.track_id[rows], reported.contact[rows]
+        if not ids.size:
+            return none
+        at = np.minimum(np.searchsorted(ids, tr.track_id), ids.size - 1)
+        cand = np.flatnonzero((ids[at] == tr.track_id) & (contact[at] == leaves.hist[:, -1]))
+        owner = at[cand]  # the reported row (of ids) each candidate leaf may be
+        tie = np.bincount(owner, minlength=ids.size)[owner] > 1
+        gap = np.zeros(cand.size)
+        if tie.any():  # several leaves of a family with the reported contact: the one whose estimate was reported
+            tied = tr.take(cand[tie])
+            x, _ = self.filter.estimate(tied.filt)
+            missed = leaves.hist[cand[tie], -1] == NO_CONTACT
+            if missed.any():
+                moved = self.filter.predict(tied.filt, reported.time - tied.t2, check=False)
+                x = np.where(missed[:, None], moved.gating.x, x)
+            gap[tie] = np.abs(x - reported.state[rows[owner[tie]]]).sum(axis=1)
+        pick = np.lexsort((gap, owner))
+        first = pick[np.r_[True, np.diff(owner[pick]) != 0]] if pick.size else pick
+        return ids[owner[first]], leaves.hist[cand[first]]
 
 def _greedy_compatible(members: np.ndarray, fam: np.ndarray, rows: np.ndarray, res: np.ndarray,
                        score: np.ndarray) -> np.ndarray:

@@ -23,6 +23,9 @@ PRELIMINARY, CONFIRMED, DELETED = int(TrackStatus.PRELIMINARY), int(TrackStatus.
 
 #: the contact index of a track that used no contact in a scan (missed, or reported without one)
 NO_CONTACT = -1
+#: the largest fixed lag (scans) of `nnda.tracking.lag.FixedLag`: the window's outputs are held and revised
+#: every scan (here, so that the command line names it without loading the trackers)
+MAX_LAG = 100
 
 
 @dataclass(frozen=True)

@@ -110,8 +110,8 @@ def make_tracker(name: str, sensors: Sensor | Sequence[Sensor], params: Mapping[
 
 
 def confirmation_rule(name: str, params: Mapping[str, Any] | None = None) -> str | None:
-    """The confirmation rule ("mn", "score" or "existence") a contact tracker of kind ``name`` runs with ``params``
-    (a study states it), or None for a tracker without one (PHD filters, peers, unknown kinds)."""
+    """The confirmation rule ("adaptive", "mn", "score" or "existence") a contact tracker of kind ``name`` runs
+    with ``params`` (a study states it), or None for a tracker without one (PHD filters, peers, unknown kinds)."""
     if name in PEERS or name not in TRACKERS or not issubclass(TRACKERS[name], ContactTracker):
         return None
     lifecycle = dict(params or {}).get("lifecycle") or {}

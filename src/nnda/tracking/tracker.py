@@ -67,6 +67,8 @@ from nnda.tracking.lifecycle import (
     DELETION_REASONS,
     SANITY_REASONS,
     LifecycleConfig,
+    adaptive_deletion,
+    adaptive_threshold,
     advance_kernel,
     advance_score_kernel,
     birth_log_odds,
@@ -74,6 +76,7 @@ from nnda.tracking.lifecycle import (
     cap_per_initiator,
     everywhere,
     free_window_pairs,
+    miss_run,
     predicted_log_odds,
     rate_threshold,
     sanity_args,
@@ -106,7 +109,15 @@ class ContactTrackerConfig(TrackerConfig):
 
 @runtime_checkable
 class Tracker(Protocol):
-    """What a study runs: one scan in, every track out. Built as ``cls(sensors, config)``."""
+    """What a study runs: one scan in, every track out. Built as ``cls(sensors, config)``.
+
+    Optional capabilities, read where present (never by tracker name) by the fixed-lag output
+    (`nnda.tracking.lag.FixedLag`): a ``filter`` attribute that is an `IMM` (every `ContactTracker`: its
+    motion models smooth the lagged states, `nnda.tracking.lag.LagMotion`), and a ``best_branch(reported)``
+    method (`nnda.tracking.lag.RevisesBranches`: MHT) giving each reported track's contacts of its last
+    scans on the current best hypothesis's branch. A tracker without them gets the back-fill of
+    confirmations only.
+    """
 
     name: ClassVar[str]
     config_type: ClassVar[type[TrackerConfig]]
@@ -215,8 +226,9 @@ P1, T1, P2, T2, AZ2, T0 = slice(0, 2), 2, slice(3, 5), 5, 6, 7
 X1, X2 = P1.start, P2.start
 #: columns of `Tracks.counts`: the M/N counters
 HITS, MISSES, CONSECUTIVE = 0, 1, 2
-#: columns of `Tracks.scores`: the track score, its maximum so far, the score that confirms the track
-SCORE, MAX_SCORE, CONFIRM_AT = 0, 1, 2
+#: columns of `Tracks.scores`: the track score, its maximum so far, the score that confirms the track, the fall
+#: from the maximum that deletes it once confirmed (adaptive rule)
+SCORE, MAX_SCORE, CONFIRM_AT, DELETE_AT = 0, 1, 2, 3
 
 
 def _column(field: str, column: int | slice, doc: str) -> property:
@@ -240,13 +252,16 @@ class Tracks(Batch):
       ``t0`` (s), the track's first contact;
     - ``counts`` (K, 3) int64: ``hits``, ``misses`` and ``consecutive``,
       the M/N counters of `nnda.tracking.lifecycle`;
-    - ``scores`` (K, 3) float: ``score``, the track score (log-likelihood
+    - ``scores`` (K, 4) float: ``score``, the track score (log-likelihood
       ratio of target against clutter; kept under the score rule, 0
       otherwise; under the existence rule the log-odds of the track's
       existence), ``max_score`` its maximum so far and ``confirm_at`` the
       score at which a preliminary track confirms under the score rule
-      (Wald's threshold, or `lifecycle.rate_threshold` of its birth scan;
-      inf otherwise).
+      (Wald's threshold, or `lifecycle.rate_threshold` of its birth scan)
+      and the adaptive rule (`lifecycle.adaptive_threshold` of its birth
+      place); inf otherwise; ``delete_at``, under the adaptive rule the
+      fall below ``max_score`` that deletes a confirmed track
+      (`lifecycle.adaptive_deletion` of its birth place; 0 otherwise).
     """
 
     track_id: np.ndarray
@@ -268,6 +283,7 @@ class Tracks(Batch):
     score = _column("scores", SCORE, "(K,) the track score")
     max_score = _column("scores", MAX_SCORE, "(K,) its maximum so far")
     confirm_at = _column("scores", CONFIRM_AT, "(K,) the score that confirms a preliminary track")
+    delete_at = _column("scores", DELETE_AT, "(K,) the fall from max_score that deletes a confirmed track")
 
     def rescored(self, score: np.ndarray, *, restart: bool = False) -> Tracks:
         """These tracks with the score (K,) replaced, and its maximum too with ``restart`` (a new track's)."""
@@ -275,6 +291,13 @@ class Tracks(Batch):
         scores[:, SCORE] = score
         if restart:
             scores[:, MAX_SCORE] = score
+        return Tracks(self.track_id, self.status, self.filt, self.history, self.counts, scores)
+
+    def confirming_at(self, confirm_at: np.ndarray, delete_at: np.ndarray) -> Tracks:
+        """These tracks with the score that confirms them and the fall that deletes them (K,) replaced (a new
+        track's, adaptive rule)."""
+        scores = self.scores.copy()
+        scores[:, CONFIRM_AT], scores[:, DELETE_AT] = confirm_at, delete_at
         return Tracks(self.track_id, self.status, self.filt, self.history, self.counts, scores)
 
     def after_scan(self, contact: np.ndarray, filt: IMMState, z: np.ndarray, xy: np.ndarray, time: float,
@@ -296,11 +319,12 @@ class Tracks(Batch):
         K, cfg = len(contact), lifecycle
         score_rule = cfg.confirmation != "mn"
         confirm_at = self.scores[:, CONFIRM_AT]
-        lower, upper, early = score_bounds(cfg, K, confirm_at) if score_rule else (0.0, confirm_at, 0.0)
+        lower, upper, early = (score_bounds(cfg, K, confirm_at, self.scores[:, DELETE_AT]) if score_rule
+                               else (confirm_at, confirm_at, 0.0))
         return (contact, everywhere(observed, K), self.status, self.counts, cfg.m, cfg.n - cfg.m + 1,
                 cfg.max_misses, self.scores, np.zeros(K) if score_gain is None else score_gain,
                 score_gain is not None, score_rule, cfg.confirmation == "existence", lower, upper, early,
-                self.history, xy, z[:, 1], time)
+                miss_run(cfg), self.history, xy, z[:, 1], time)
 
     def joined(self, other: Tracks) -> Tracks:
         """These tracks, then ``other``'s: `Batch.concat` of the two in one compiled call (`_joined`; the
@@ -337,26 +361,27 @@ def _joined(a, b):
 
 @numba.njit(cache=True, nogil=True)
 def _scanned_moved(contact, observed, status, counts, m, misses_to_delete, max_misses, scores, gain, scored,
-                   score_rule, exist, lower, upper, early, history, xy, azimuth, time):
+                   score_rule, exist, lower, upper, early, run, history, xy, azimuth, time):
     """`_scanned`, then `_moved_history`: (status, counts, scores, history)."""
     return (_scanned(contact, observed, status, counts, m, misses_to_delete, max_misses, scores, gain, scored,
-                     score_rule, exist, lower, upper, early)
+                     score_rule, exist, lower, upper, early, run)
             + (_moved_history(contact, history, xy, azimuth, time),))
 
 
 @numba.njit(cache=True, nogil=True)
-def _finished(scan, ux, uP, umu, kx, kP, kmu, d, sanity, release, gx, gP, track_id, n_contacts):
+def _finished(scan, ux, uP, umu, kx, kP, kmu, d, sanity, density, release, gx, gP, track_id, n_contacts):
     """The end of a scan for K tracks after association, in one call (`SingleHypothesisTracker._finish`).
 
     ``scan`` holds `_scanned_moved`'s arguments (`Tracks._scan_args`: the contact each track used first);
     the filter state from then on is the updated one (ux, uP, umu) where a contact was used, else the last
     (kx, kP, kmu) (`_picked`); the estimate to report is the updated one's on the first ``d`` entries
     (`imm_kernels.estimate`); the sanity rules (`lifecycle.sanity_kernel` with ``sanity``, `sanity_args`)
-    then delete the live tracks they fail; with ``release`` a track deleted in this scan after it took a
+    then delete the live tracks they fail (the quality rule judges the confirmed tracks, at the clutter's
+    area ``density`` (K,) m^-2 around each); with ``release`` a track deleted in this scan after it took a
     contact gives it back and reports its prediction's estimate (gx (K, d), gP (K, d, d)) instead.
 
     Returns the status after the scan (K,), the estimate (x (K, d), P (K, d, d)) and the contacts used (K,) to
-    report, which of the scan's ``n_contacts`` they are, the scan's deletions (2 + 3 ints): preliminary tracks,
+    report, which of the scan's ``n_contacts`` they are, the scan's deletions (2 + 4 ints): preliminary tracks,
     confirmed tracks by their life cycle, then by each of `SANITY_REASONS`; and the surviving tracks' fields
     (`Tracks`: track_id (of ``track_id`` (K,)), status, (x, P, mu), history, counts, scores).
     """
@@ -364,8 +389,8 @@ def _finished(scan, ux, uP, umu, kx, kP, kmu, d, sanity, release, gx, gP, track_
     status, counts, scores, history = _scanned_moved(*scan)
     fx, fP, fmu = _picked(contact != NO_CONTACT, ux, uP, umu, kx, kP, kmu)
     x, P = estimate(ux, uP, umu, d)
-    deletions = np.zeros(5, np.int64)
-    code = sanity_kernel(x, P, *sanity)
+    deletions = np.zeros(2 + len(SANITY_REASONS), np.int64)
+    code = sanity_kernel(x, P, np.where(status == CONFIRMED, density, 0.0), *sanity)
     for k in range(status.size):
         if status[k] == DELETED and before[k] != DELETED:
             if before[k] == PRELIMINARY:
@@ -385,19 +410,20 @@ def _finished(scan, ux, uP, umu, kx, kP, kmu, d, sanity, release, gx, gP, track_
     alive = np.flatnonzero(status != DELETED)
     survivors = (track_id[alive], status[alive], (fx[alive], fP[alive], fmu[alive]), history[alive], counts[alive],
                  scores[alive])
-    counted = (deletions[0], deletions[1], deletions[2], deletions[3], deletions[4])  # ints: no array to box
+    counted = (deletions[0], deletions[1], deletions[2], deletions[3], deletions[4], deletions[5])  # ints: no array
     return status, x, P, contact, used, counted, survivors
 
 
 @numba.njit(cache=True, nogil=True)
 def _scanned(contact, observed, status, counts, m, misses_to_delete, max_misses, scores, gain, scored, score_rule,
-             exist, lower, upper, early):
+             exist, lower, upper, early, run):
     """`Tracks.after_scan`'s life cycle of K tracks in one call: the M/N counters ``counts`` (K, 3) and status
     (K,) (`lifecycle.advance`, from ``m``, ``misses_to_delete`` = n - m + 1 and ``max_misses``); if
-    ``scored``, the score (column `SCORE` of ``scores`` (K, 3)) moved by ``gain`` (K,) where ``observed``
+    ``scored``, the score (column `SCORE` of ``scores`` (K, 4)) moved by ``gain`` (K,) where ``observed``
     (K,), and its maximum; under the ``score_rule`` (or the existence rule, ``exist``) the status of
     `lifecycle.advance_score` instead, with its thresholds ``lower``, ``upper`` (K,) and ``early``
-    (`lifecycle.score_bounds`). Returns new (status, counts, scores)."""
+    (`lifecycle.score_bounds`) and the misses in a row a confirmed track survives, ``run``
+    (`lifecycle.miss_run`). Returns new (status, counts, scores)."""
     new, hits, misses, consecutive = advance_kernel(status, counts[:, HITS], counts[:, MISSES],
                                                     counts[:, CONSECUTIVE], contact != NO_CONTACT, observed, m,
                                                     misses_to_delete, max_misses)
@@ -411,7 +437,7 @@ def _scanned(contact, observed, status, counts, m, misses_to_delete, max_misses,
             scores[k, MAX_SCORE] = a if (a >= b or a != a) else b  # np.maximum, NaN and ties included
     if score_rule:
         new = advance_score_kernel(status, scores[:, SCORE], scores[:, MAX_SCORE], observed, upper, lower, early,
-                                   exist)
+                                   exist, consecutive, run)
     return new, counts, scores
 
 
@@ -524,7 +550,8 @@ class TwoPointInitiation:
         """The score at which the tracks born from a scan's ``initiators`` confirm under the score rule:
         Wald's threshold, or with ``false_tracks_per_scan`` `lifecycle.rate_threshold` for that many
         initiators (each one is an independent trial of the test: its pairs' start scores are its second
-        contact's likelihood ratio); inf under the other rules."""
+        contact's likelihood ratio); inf under the other rules (the adaptive rule sets each track's own,
+        `ContactTracker._start_scores`)."""
         cfg = self.lifecycle
         if cfg.confirmation != "score":
             return math.inf
@@ -553,7 +580,7 @@ def _opened(free, i, j, windowed, initiators, z, xy, first_id, before, time, con
     contact = free[j]
     k = contact.size
     history = np.zeros((k, 8))
-    scores = np.zeros((k, 3))
+    scores = np.zeros((k, 4))
     for t in range(k):
         history[t, X1], history[t, X1 + 1] = initiators[i[t], 0], initiators[i[t], 1]
         history[t, T1], history[t, T0], history[t, T2], history[t, AZ2] = before, before, time, z[contact[t], 1]
@@ -606,6 +633,14 @@ class ContactTracker(ABC):
         """The sanity rules' settings for this tracker's sensors, gate and life cycle (`sanity_args`)."""
         return sanity_args(self.sensors, self.gate_threshold, self.config.lifecycle)
 
+    def _quality_density(self, scan: ScanContacts, x: np.ndarray) -> np.ndarray:
+        """The track-quality rule's clutter density (m^-2) around K tracks at positions x (K, 4) ([x, vx, y,
+        vy]): the scan's contacts in the square of half-side ``clutter_radius_m`` (`local_density`); zeros
+        without the rule (`LifecycleConfig.gate_clutter_bound` None)."""
+        if self.config.lifecycle.gate_clutter_bound is None:
+            return np.zeros(len(x))
+        return local_density(scan.xy, x[:, 0:3:2], self._clutter_radius, self.sensors[scan.sensor])
+
     @property
     def _ended_reason(self) -> str:
         """The deletion reason of a confirmed track its life cycle ended."""
@@ -613,8 +648,8 @@ class ContactTracker(ABC):
 
     @property
     def confirmation_rule(self) -> str:
-        """The rule that confirms and deletes this tracker's tracks: "mn" (M/N counts), "score" (SPRT) or
-        "existence" (IPDA / JIPDA)."""
+        """The rule that confirms and deletes this tracker's tracks: "adaptive" (SPRT, clutter-adaptive
+        threshold), "mn" (M/N counts), "score" (SPRT) or "existence" (IPDA / JIPDA)."""
         return self.config.lifecycle.confirmation
 
     @cached_property
@@ -642,15 +677,21 @@ class ContactTracker(ABC):
         return float(getattr(self.config, "clutter_radius_m", CLUTTER_RADIUS_M))
 
     def _start_scores(self, born: Tracks, scan: ScanContacts, contact: np.ndarray) -> Tracks:
-        """``born`` with the score of its two-point start (`lifecycle.start_score`) under the score rule, and
-        under the existence rule also the initiators' prior (`lifecycle.birth_log_odds`; the clutter around
-        each initiator counted in this scan's contacts)."""
+        """``born`` with the score of its two-point start (`lifecycle.start_score`) under the score rule;
+        under the adaptive rule also each track's confirmation and deletion thresholds from the clutter
+        density at its second contact (`lifecycle.adaptive_threshold`, `lifecycle.adaptive_deletion`); under
+        the existence rule also the initiators' prior (`lifecycle.birth_log_odds`; the clutter around each
+        initiator counted in this scan's contacts)."""
         if self.confirmation_rule == "mn":
             return born
         sensor = self.sensors[scan.sensor]
         cfg = self.config.lifecycle
         area = cfg.window_area(sensor.scan_period_s, sensor_noise_m(sensor))
-        score = start_score(self.score_pd, area, self._contact_density(scan)[contact])
+        density = self._contact_density(scan)[contact]
+        score = start_score(self.score_pd, area, density)
+        if self.confirmation_rule == "adaptive":
+            born = born.confirming_at(adaptive_threshold(cfg.false_track_rate, cfg.false_deletion, density,
+                                                         sensor.scan_period_s), adaptive_deletion(cfg, density))
         if self.confirmation_rule == "existence":
             score += birth_log_odds(self.score_pd, cfg.new_targets_per_scan / coverage_area(sensor),
                                     local_density(scan.xy, born.p1, self._clutter_radius, sensor))
@@ -801,8 +842,9 @@ class SingleHypothesisTracker(ContactTracker):
         args = tracks._scan_args(assoc.contact, scan.z, scan.xy, scan.time, cfg, self._observed(scan, pred),
                                  self._score_gain(pred, scan, assoc))
         status, x, P, contact, used, deletions, survivors = _finished(
-            args, u.x, u.P, u.mu, k.x, k.P, k.mu, self.filter.output_dim, self._sanity_args,
-            bool(getattr(self.config, "release_on_deletion", False)), g.x, g.P, tracks.track_id, len(scan.z))
+            args, u.x, u.P, u.mu, k.x, k.P, k.mu, self.filter.output_dim, self._sanity_args, self._quality_density(
+                scan, g.x), bool(getattr(self.config, "release_on_deletion", False)), g.x, g.P, tracks.track_id,
+            len(scan.z))
         if any(deletions):
             for reason, n in zip(("unconfirmed", self._ended_reason, *SANITY_REASONS), deletions):
                 self.deletions[reason] += n

@@ -17,6 +17,7 @@ format, so every earlier study file reads as it did)::
     [trackers.gnn]
     kind = "gnn"
     params = { gate = 9.21 }  # the tracker's own validated config
+    lag = 3                   # optional: also score its fixed-lag output 3 scans behind (nnda.tracking.lag)
 
     [[scenarios]]
     preset = "validation"     # a preset, a preset group or a walker scene (S1-S6 here)
@@ -30,7 +31,7 @@ A job is one tracker over one run (`nnda.study.track_job`). Its *key* is a
 SHA-256 over what determines its record: the scenario's config or the
 dataset's bytes, the tracker kind and parameters with the model file's
 digest in place of its path, run, seed, GOSPA cut-off, track ownership when
-it is not the default "auto", the nnda version. The aggregates are
+it is not the default "auto", the tracker's lag when it is not 0, the nnda version. The aggregates are
 `nnda.study.track_results`'s tables and summaries, the models' classifier
 figures (`nnda.study.classifier`) and the ablation named by the study.
 """
@@ -55,6 +56,7 @@ from nnda.study.kinds.base import STRICT, Job, JobKind, Label, MemoryPart, check
 from nnda.study.metrics import DEFAULT_CUTOFF_M, Ownership
 from nnda.study.track_job import run_job
 from nnda.study.track_results import aggregate
+from nnda.tracking.lag import MAX_LAG
 from nnda.tracking.registry import PEERS, TRACKERS, make_tracker
 
 #: the tracker parameter that receives a model file's path
@@ -69,6 +71,9 @@ class TrackerSpec(BaseModel):
     kind: Annotated[str, Field(min_length=1, description="registered tracker name (nnda.tracking.registry)")]
     model: Label | None = Field(default=None, description="label of an entry of [models]")
     params: dict[str, Any] = Field(default_factory=dict, description="the tracker's config")
+    lag: Annotated[int, Field(ge=0, le=MAX_LAG, strict=True, description=(
+        "scans of fixed lag: besides the online output, score the output of scan k - lag revised with the "
+        "scans up to k (nnda.tracking.lag); 0: online only"), exclude_if=lambda lag: lag == 0)] = 0
 
     @model_validator(mode="after")
     def _model_given_once(self) -> TrackerSpec:
@@ -163,6 +168,7 @@ class TrackerPlan:
     kind: str
     params: dict
     model: str | None = None
+    lag: int = 0
 
 
 @dataclass(frozen=True)
@@ -178,6 +184,7 @@ class TrackJob:
     cutoff_m: float
     source: GeneratedScenes | StoredDatasets | WalkerScenes
     ownership: str = "auto"
+    lag: int = 0
 
     @property
     def keeps_tracks(self) -> bool:
@@ -230,7 +237,8 @@ class TrackPlan:
             "models": [{"label": m.label, "path": str(m.path), "sha256": m.sha256, "metadata": m.metadata}
                        for m in self.models],
             "trackers": [{"label": t.label, "kind": t.kind, "model": t.model,
-                          "params": {k: v for k, v in t.params.items() if k != MODEL_PARAM}}
+                          "params": {k: v for k, v in t.params.items() if k != MODEL_PARAM},
+                          **({"lag": t.lag} if t.lag else {})}
                          for t in self.trackers],
         }
 
@@ -289,7 +297,7 @@ def _trackers(study, models: tuple[ModelPlan, ...], sensors: list[tuple[Sensor, 
             params[MODEL_PARAM] = str(model_path[spec.model])
         for setup in sensors:  # builds each tracker once per distinct set of sensors: validates kind and params
             make_tracker(spec.kind, setup, params, where=f"{where}: tracker {label!r}")
-        plans.append(TrackerPlan(label, spec.kind, params, spec.model))
+        plans.append(TrackerPlan(label, spec.kind, params, spec.model, spec.lag))
     return tuple(plans)
 
 
@@ -303,7 +311,9 @@ def memory_parts(study, scenarios: tuple[ScenarioPlan, ...]) -> list[MemoryPart]
     scenario: `nnda.data.checks.check_size`); the aggregation every job's record, `RECORD_BYTES` per scan."""
     scans = [sc.runs * sc.scenario.n_scans for sc in scenarios]
     single = [n for n, sc in zip(scans, scenarios, strict=True) if len(sc.scenario.targets) == 1]
-    records = sum(scans) * len(study.trackers) + sum(single) * len(study.filters)
+    # a tracker with a lag records its lagged measures too
+    scored = sum(2 if spec.lag else 1 for spec in study.trackers.values())
+    records = sum(scans) * scored + sum(single) * len(study.filters)
     most = max((sc.scenario.n_scans for sc in scenarios), default=0)
     return [MemoryPart("the aggregation", f"runs = {study.runs:,} of each generated scenario, {len(scenarios)} "
                        f"scenario(s) of up to {most:,} scans, {len(study.trackers)} tracker(s), "
@@ -323,7 +333,8 @@ def plan(study, where: str) -> TrackPlan:
     trackers = _trackers(study, models, sensor_setups(scenarios), where)
     model_digest = {m.label: m.sha256 for m in models}
     ids = {t.label: {"kind": t.kind, "model_sha256": model_digest.get(t.model),
-                     "params": {k: v for k, v in t.params.items() if k != MODEL_PARAM}} for t in trackers}
+                     "params": {k: v for k, v in t.params.items() if k != MODEL_PARAM},
+                     **({"lag": t.lag} if t.lag else {})} for t in trackers}  # no lag: the keys of before
     # leaving the default ownership out keeps the keys of studies planned before the option existed
     ownership = {} if study.ownership == "auto" else {"ownership": study.ownership}
     jobs = []
@@ -335,7 +346,7 @@ def plan(study, where: str) -> TrackPlan:
                                **ownership})
                 spec = TrackJob(scenario=sc.name, tracker=t.label, run=run, kind=t.kind, params=t.params,
                                 seed=study.seed, cutoff_m=study.gospa_cutoff_m, source=sc.source,
-                                ownership=study.ownership)
+                                ownership=study.ownership, lag=t.lag)
                 jobs.append(Job("track", key, relpath(sc.name, t.label, run), f"{t.label} on {sc.name} run {run}",
                                 spec))
     ablation = read_ablation(study.ablation) if study.ablation is not None else None
