@@ -4,6 +4,8 @@
 registered tracker (``gnn``, ``jpda``, ``mht``, ``nn``); each consumes scans
 with ``step(scan)`` and returns a `nnda.tracking.output.TrackerOutput`.
 Modules: ``tracker`` (the protocol and the single-hypothesis framework),
-``lifecycle``, ``gating``, ``assignment``, ``clutter_density``, one module
-per method and ``registry``. Nothing is imported here.
+``lifecycle`` (confirmation and deletion rules, the sanity and track-quality
+deletions), ``lag`` (the fixed-lag output of any tracker), ``gating``,
+``assignment``, ``clutter_density``, one module per method, ``phd`` (the PHD
+family) and ``registry``. Nothing is imported here.
 """
