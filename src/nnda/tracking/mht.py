@@ -24,7 +24,7 @@ half-side ``clutter_radius_m`` around the predicted position) times the predicte
    score (a leaf with a score <= 0 is less likely than "no target" and is
    never chosen). Families sharing a contact form a cluster; a one-family
    cluster takes its best leaf, the larger clusters are solved exactly,
-   together, as one binary program (scipy's HiGHS `milp`). Families left out stay as
+   together, as one binary program (scipy's HiGHS `milp`; `nnda.tracking.global_hypothesis`). Families left out stay as
    hypotheses but are not reported;
 3. **initiation** from the contacts the global hypothesis leaves free;
 4. **pruning**: N-scan pruning (the decision ``n_scan`` scans back becomes
@@ -65,15 +65,13 @@ from typing import Annotated, ClassVar
 
 import numpy as np
 from pydantic import Field, model_validator
-from scipy.optimize import Bounds, LinearConstraint, milp
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 from nnda.data.dataset import Scan
 from nnda.filters.batch import Batch
 from nnda.filters.kalman import GATE_99
 from nnda.tracking.clutter_density import local_density
 from nnda.tracking.gating import gate
+from nnda.tracking.global_hypothesis import global_hypothesis
 from nnda.tracking.lifecycle import SANITY_REASONS, advance_score, sanity_reasons
 from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
@@ -269,63 +267,16 @@ class MHTTracker(ContactTracker):
 
     # ---------------------------------------------------------------------- global hypothesis
     def _global_hypothesis(self, leaves: Leaves) -> np.ndarray:
-        """Indices of the chosen leaves (at most one per family), ordered by family."""
-        if not len(leaves):
-            return np.empty(0, np.int64)
-        family = leaves.tracks.track_id
-        fam_ids, fam = np.unique(family, return_inverse=True)
-        F = fam_ids.size
-        rows, cols = np.nonzero(leaves.hist >= 0)
-        resource = (cols.astype(np.int64) << 32) | leaves.hist[rows, cols]
-        res_ids, res = np.unique(resource, return_inverse=True)
-        # families linked by a contact that leaves of two or more families use
-        pairs = np.unique(np.stack([fam[rows], res]), axis=1)
-        per_res = np.bincount(pairs[1], minlength=res_ids.size)
-        shared = per_res[pairs[1]] >= 2
-        graph = coo_matrix((np.ones(shared.sum()), (pairs[0][shared], F + pairs[1][shared])),
-                           shape=(F + res_ids.size,) * 2)
-        _, label = connected_components(graph, directed=False)
-        fam_label = label[:F]
-        cluster_size = np.bincount(fam_label)
-
-        order = np.lexsort((-leaves.score, fam))
-        best = order[np.r_[True, np.diff(fam[order]) != 0]]  # best leaf of each family, by family
-        chosen = best[(cluster_size[fam_label] == 1) & (leaves.score[best] > 0)]
-        leaf_cluster = fam_label[fam]
-        leaves_in = np.bincount(leaf_cluster)[leaf_cluster]
-        joint = cluster_size[leaf_cluster] > 1
-        exact = joint & (leaves_in <= self.config.max_exact_leaves)
-        if exact.any():  # every such cluster in one binary program (they are independent blocks)
-            members = np.flatnonzero(exact)
-            chosen = np.concatenate([chosen, self._solve_clusters(members, fam, rows, res, leaves.score)])
-            self.n_clusters_solved += int(np.unique(leaf_cluster[exact]).size)
-        if (joint & ~exact).any():  # clusters too large to solve exactly: greedy, as the thesis's global hypothesis
-            members = np.flatnonzero(joint & ~exact)
-            chosen = np.concatenate([chosen, _greedy_compatible(members, fam, rows, res, leaves.score)])
-            self.n_clusters_greedy += int(np.unique(leaf_cluster[joint & ~exact]).size)
+        """Indices of the chosen leaves (at most one per family), ordered by family (`global_hypothesis`);
+        the clusters solved exactly and greedily are counted, the first greedy one of a run warned of."""
+        chosen, solved, greedy = global_hypothesis(leaves.tracks.track_id, leaves.hist, leaves.score,
+                                                   self.config.max_exact_leaves)
+        self.n_clusters_solved += solved
+        self.n_clusters_greedy += greedy
+        if greedy:
             self._bound_hit("max_exact_leaves", "a cluster's global hypothesis chosen greedily, not exactly",
                             self.last_time)
-        return np.sort(chosen)
-
-    @staticmethod
-    def _solve_clusters(members: np.ndarray, fam: np.ndarray, rows: np.ndarray, res: np.ndarray,
-                        score: np.ndarray) -> np.ndarray:
-        """Exact best compatible set among the leaves ``members`` (binary program, HiGHS)."""
-        n = members.size
-        local = np.full(fam.size, -1)
-        local[members] = np.arange(n)
-        in_c = local[rows] >= 0
-        r_leaf, r_res = local[rows[in_c]], res[in_c]
-        res_u, r_idx = np.unique(r_res, return_inverse=True)
-        fam_u, f_idx = np.unique(fam[members], return_inverse=True)
-        A_res = coo_matrix((np.ones(r_leaf.size), (r_idx, r_leaf)), shape=(res_u.size, n))
-        A_fam = coo_matrix((np.ones(n), (f_idx, np.arange(n))), shape=(fam_u.size, n))
-        constraints = [LinearConstraint(A_fam, 0, 1), LinearConstraint(A_res, 0, 1)]
-        result = milp(-score[members], constraints=constraints,
-                      integrality=np.ones(n), bounds=Bounds(0, 1))
-        if not result.success:  # pragma: no cover - the all-zero point is always feasible
-            raise RuntimeError(f"MHT global hypothesis: {result.message}")
-        return members[(result.x > 0.5) & (score[members] > 0)]
+        return chosen
 
     # ---------------------------------------------------------------------- pruning
     def _prune(self, leaves: Leaves, chosen: np.ndarray) -> Leaves | None:
@@ -445,21 +396,3 @@ class MHTTracker(ContactTracker):
         pick = np.lexsort((gap, owner))
         first = pick[np.r_[True, np.diff(owner[pick]) != 0]] if pick.size else pick
         return ids[owner[first]], leaves.hist[cand[first]]
-
-def _greedy_compatible(members: np.ndarray, fam: np.ndarray, rows: np.ndarray, res: np.ndarray,
-                       score: np.ndarray) -> np.ndarray:
-    """Leaves ``members`` taken by descending score when compatible with those taken before
-    (one per family, no shared contact); leaves with a score <= 0 are never taken."""
-    bounds = np.searchsorted(rows, np.arange(fam.size + 1))  # rows is sorted: leaf of each resource
-    res_list = res.tolist()
-    used_fam, used_res, chosen = set(), set(), []
-    for leaf in members[np.argsort(-score[members], kind="stable")].tolist():
-        if score[leaf] <= 0:
-            break
-        mine = res_list[bounds[leaf]:bounds[leaf + 1]]
-        if fam[leaf] in used_fam or any(r in used_res for r in mine):
-            continue
-        chosen.append(leaf)
-        used_fam.add(fam[leaf])
-        used_res.update(mine)
-    return np.array(chosen, dtype=np.int64)
