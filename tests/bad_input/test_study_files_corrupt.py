@@ -12,7 +12,7 @@ from pathlib import Path
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
-from cli_run import assert_one_line_error, nnda_process
+from cli_run import TINY_TOML, assert_one_line_error, nnda_process
 
 from nnda.errors import DatasetError
 from nnda.files import file_digest, write_json
@@ -158,26 +158,13 @@ runs = 1
 [trackers.gnn]
 kind = "gnn"
 [[scenarios]]
-config = "one.toml"
-"""
-SCENARIO_TOML = """name = "one"
-duration_s = 8
-seed = 3
-[clutter]
-count = 3
-[[targets]]
-name = "a"
-x_m = -10000
-y_m = 10000
-heading_deg = 90
-speed_m_s = 100
-segments = [{duration_s = 8}]
+config = "tiny.toml"
 """
 
 
 @pytest.mark.slow
 def test_a_real_studys_damaged_tables_are_named(tmp_path):
-    (tmp_path / "one.toml").write_text(SCENARIO_TOML)
+    (tmp_path / "tiny.toml").write_text(TINY_TOML)
     (tmp_path / "study.toml").write_text(STUDY_TOML)
     done = nnda_process("run", "--study", "study.toml", "--out", "good", "--jobs", "1", cwd=tmp_path)
     assert done.code == 0, done.err

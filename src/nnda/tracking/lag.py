@@ -274,24 +274,30 @@ def _revised(ids, status, x, P, starts, times, basis, turn_var, smooth):
 
 
 @numba.njit(cache=True, nogil=True)
-def _negative_definite(A):
-    """Whether the symmetric (n, n) ``A`` is negative definite: the Cholesky factorisation of -A succeeds
-    with positive pivots."""
+def _cholesky(A):
+    """The lower Cholesky factor L (n, n) of the symmetric (n, n) ``A``, and whether it exists (every pivot
+    positive: A positive definite); L is incomplete when it does not."""
     n = A.shape[0]
     L = np.zeros((n, n))
     for j in range(n):
-        d = -A[j, j]
+        d = A[j, j]
         for m in range(j):
             d -= L[j, m] * L[j, m]
         if not d > 0.0:
-            return False
+            return L, False
         L[j, j] = np.sqrt(d)
         for i in range(j + 1, n):
-            v = -A[i, j]
+            v = A[i, j]
             for m in range(j):
                 v -= L[i, m] * L[j, m]
             L[i, j] = v / L[j, j]
-    return True
+    return L, True
+
+
+@numba.njit(cache=True, nogil=True)
+def _negative_definite(A):
+    """Whether the symmetric (n, n) ``A`` is negative definite: -A has a Cholesky factor."""
+    return _cholesky(-A)[1]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -364,19 +370,9 @@ def _solved(A, B):
     """A^-1 B for a symmetric positive definite A (4, 4) and B (4, 4), by A's Cholesky factor (a general solve
     where the factorisation fails)."""
     n = A.shape[0]
-    L = np.zeros((n, n))
-    for j in range(n):
-        d = A[j, j]
-        for m in range(j):
-            d -= L[j, m] * L[j, m]
-        if not d > 0.0:
-            return np.linalg.solve(A, B)
-        L[j, j] = np.sqrt(d)
-        for i in range(j + 1, n):
-            v = A[i, j]
-            for m in range(j):
-                v -= L[i, m] * L[j, m]
-            L[i, j] = v / L[j, j]
+    L, ok = _cholesky(A)
+    if not ok:
+        return np.linalg.solve(A, B)
     X = B.copy()
     for c in range(B.shape[1]):
         for i in range(n):  # L y = b

@@ -44,7 +44,7 @@ import numbers
 import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from typing import ClassVar, NamedTuple, Protocol, runtime_checkable
 
@@ -291,14 +291,14 @@ class Tracks(Batch):
         scores[:, SCORE] = score
         if restart:
             scores[:, MAX_SCORE] = score
-        return Tracks(self.track_id, self.status, self.filt, self.history, self.counts, scores)
+        return replace(self, scores=scores)
 
     def confirming_at(self, confirm_at: np.ndarray, delete_at: np.ndarray) -> Tracks:
         """These tracks with the score that confirms them and the fall that deletes them (K,) replaced (a new
         track's, adaptive rule)."""
         scores = self.scores.copy()
         scores[:, CONFIRM_AT], scores[:, DELETE_AT] = confirm_at, delete_at
-        return Tracks(self.track_id, self.status, self.filt, self.history, self.counts, scores)
+        return replace(self, scores=scores)
 
     def after_scan(self, contact: np.ndarray, filt: IMMState, z: np.ndarray, xy: np.ndarray, time: float,
                    lifecycle: LifecycleConfig, observed: np.ndarray | None = None,
