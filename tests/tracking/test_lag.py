@@ -93,13 +93,54 @@ def test_lag_0_gives_exactly_the_online_outputs(s3, kind):
 
 
 def test_the_api_returns_the_lagged_table_with_the_online_rows():
-    ds = generate(preset("S1").model_copy(update={"duration_s": 40.0}), 0, 0)
+    ds = generate(preset("S1").model_copy(update={"duration_s": 80.0}), 0, 0)  # a target ends at 60 s
     online, lagged = nnda.track(ds, "jpda"), nnda.track(ds, "jpda", lag=2)
     assert lagged.schema == online.schema
-    assert lagged.select(["scan", "track_id", "contact"]).equals(online.select(["scan", "track_id", "contact"]))
+    rows = lambda t: set(zip(t.column("scan").to_pylist(), t.column("track_id").to_pylist()))  # noqa: E731
+    dropped = rows(online) - rows(lagged)
+    assert rows(lagged) <= rows(online) and dropped  # the ended tracks' rows after their coasted tail's first
+    ended = {i: k for k, i, s in zip(lagged.column("scan").to_pylist(), lagged.column("track_id").to_pylist(),
+                                      lagged.column("status").to_pylist()) if s == "deleted"}
+    assert all(i in ended and k > ended[i] for k, i in dropped)
     assert not lagged.select(["x", "y"]).equals(online.select(["x", "y"]))
     confirmed = [sum(s == "confirmed" for s in t.column("status").to_pylist()) for t in (online, lagged)]
     assert confirmed[1] > confirmed[0]  # back-filled
+
+
+def _tail(contacts, deleted_at):
+    """One confirmed track (id 7) with ``contacts`` per scan from scan 1 and DELETED at ``deleted_at``."""
+    outs = [_out(k, [7], [CONFIRMED], contact=[c]) for k, c in enumerate(contacts, start=1)]
+    return outs + [_out(deleted_at, [7], [DELETED])] if deleted_at else outs
+
+
+@pytest.mark.parametrize("lag", [1, 3, 5])
+def test_a_track_that_coasts_to_its_deletion_ends_where_its_contacts_end(lag):
+    # contacts at scans 1-3, then coasting 4-6, deleted at 7: the lagged output reports it DELETED at the
+    # first coasted scan the window sees the deletion from, and drops its later rows
+    outs = _tail([0, 1, 2, NO_CONTACT, NO_CONTACT, NO_CONTACT], 7)
+    online, lagged = _run(Replay(outs), lag, 7)
+    assert [len(o) for o in online] == [1] * 7
+    first = max(4, 7 - lag)  # the window of scan k - lag reaches the deletion at 7 from scan 7 - lag on
+    status = {o.scan: int(o.status[0]) for o in lagged if len(o)}
+    assert status == {**{k: CONFIRMED for k in range(1, first)}, first: DELETED}
+    assert [len(o) for o in lagged] == [1] * first + [0] * (7 - first)
+
+
+def test_a_track_that_coasts_through_a_gap_is_not_touched():
+    outs = _tail([0, 1, NO_CONTACT, NO_CONTACT, NO_CONTACT, 5, NO_CONTACT], 8)
+    _, lagged = _run(Replay(outs), 3, 8)
+    assert [int(o.status[0]) for o in lagged[:7]] == [CONFIRMED] * 6 + [DELETED]
+    assert len(lagged[7]) == 0
+
+
+def test_ended_tracks_are_forgotten_on_reset():
+    fixed = FixedLag(Replay(_tail([0, NO_CONTACT], 3)), 1)
+    for k in (1, 2, 3):
+        fixed.step(_scan(k))
+    fixed.flush()
+    fixed.reset()
+    assert fixed.revise(_out(1, [7], [CONFIRMED], contact=[0])) is None
+    assert len(fixed.revise(_out(2, [7], [CONFIRMED], contact=[0]))) == 1
 
 
 def test_every_scan_gets_one_lagged_output_in_order():

@@ -34,9 +34,15 @@ the oldest one (Stone Soup's fixed-lag smoothers and MHT's N-scan decision are t
   ``n_scan`` scans back on, the decision is final and stays as it was made). MHT's reported states of
   earlier scans may belong to branches that lost since; the smoothing takes them as they were reported.
 
-The lagged output of a scan has the same tracks in the same order as its online output (no track is
-added or removed): only status, state, covariance and contact may differ. With lag 0 (or a window of one
-output, as for the last scan of `flush`) the online output itself is returned.
+* **ended tracks**: a track confirmed at k - L and reported DELETED within the window, with no contact from
+  k - L up to its deletion, was coasting on a target that had gone (or never was): it is reported DELETED
+  at k - L, the first scan of that coasted tail, and its rows in the later lagged outputs are dropped. A
+  confirmed track no longer outlives its target by the scans its deletion rule waits; a track that coasts
+  through a gap and then gets a contact again is not touched.
+
+The lagged output of a scan has the same tracks in the same order as its online output, but for the ended
+tracks' dropped rows (no track is added): only status, state, covariance and contact may differ. With lag 0
+(or a window of one output, as for the last scan of `flush`) the online output itself is returned.
 
 Cost: one compiled call per scan over the window's reports (`_revised`), no Python loop over tracks;
 MHT adds one vectorised look-up of its chosen leaves (`MHTTracker.best_branch`).
@@ -132,10 +138,12 @@ class FixedLag:
         self.motion = LagMotion.of(tracker)
         self.revises = isinstance(tracker, RevisesBranches)
         self._held: deque[tuple[TrackerOutput, np.ndarray | None]] = deque()
+        self._ended = np.empty(0, np.int64)  # ids of the ended tracks (module docstring), sorted
 
     def reset(self) -> None:
         self.tracker.reset()
         self._held.clear()
+        self._ended = np.empty(0, np.int64)
 
     def step(self, scan: Scan) -> tuple[TrackerOutput, TrackerOutput | None]:
         """The tracker's output of ``scan`` and the revised output of the scan ``lag`` scans before (None
@@ -167,7 +175,15 @@ class FixedLag:
         window = [o for o, _ in self._held]
         contact = self._held[0][1]
         self._held.popleft()
-        return revised(window, self.motion, contact)
+        out = revised(window, self.motion, contact)
+        keep = ~np.isin(out.track_id, self._ended)
+        ended = out.track_id[keep & (out.status == DELETED) & (window[0].status != DELETED)]
+        if ended.size:
+            self._ended = np.union1d(self._ended, ended)
+        if keep.all():
+            return out
+        return TrackerOutput(out.scan, out.time, out.track_id[keep], out.status[keep], out.state[keep],
+                             out.covariance[keep], out.contact[keep])
 
     def _decide(self, online: TrackerOutput) -> None:
         """The contacts of the held scans on the current best branch of each track (`RevisesBranches`): the
@@ -198,8 +214,8 @@ class FixedLag:
 def revised(window: list[TrackerOutput], motion: LagMotion | None, contact: np.ndarray | None = None
             ) -> TrackerOutput:
     """The revised output of ``window[0]`` given the outputs of the scans after it, ``window[1:]`` (module
-    docstring: back-fill and, with ``motion``, smoothing); ``contact`` (K,) replaces its contacts when given.
-    A window of one output, with no contacts given, is that output itself."""
+    docstring: back-fill, an ended track's status and, with ``motion``, smoothing); ``contact`` (K,) replaces
+    its contacts when given. A window of one output, with no contacts given, is that output itself."""
     first = window[0]
     if len(window) == 1 and contact is None:
         return first
@@ -213,19 +229,21 @@ def revised(window: list[TrackerOutput], motion: LagMotion | None, contact: np.n
     status = np.concatenate([o.status for o in window]).astype(np.int8, copy=False)
     x = np.concatenate([o.state for o in window]).astype(float, copy=False)
     P = np.concatenate([o.covariance for o in window]).astype(float, copy=False)
+    used = np.concatenate([contact, *(o.contact for o in window[1:])]).astype(np.int64, copy=False)
     times = np.array([o.time for o in window], float)
     smooth = motion is not None
     basis, turn_var = (motion.basis, motion.turn_var) if smooth else (np.zeros((3, 4, 4)), 0.0)
-    new_status, xs, Ps = _revised(ids, status, x, P, starts, times, basis, turn_var, smooth)
+    new_status, xs, Ps = _revised(ids, status, x, P, used, starts, times, basis, turn_var, smooth)
     return TrackerOutput(first.scan, first.time, first.track_id, new_status, xs, Ps, contact)
 
 
 @numba.njit(cache=True, nogil=True)
-def _revised(ids, status, x, P, starts, times, basis, turn_var, smooth):
+def _revised(ids, status, x, P, used, starts, times, basis, turn_var, smooth):
     """`revised`'s compiled part over a window of W outputs, output w in rows starts[w]:starts[w + 1] of
-    ids (N,), status (N,), x (N, 4), P (N, 4, 4), at times (W,) s. Returns the first output's status (K,)
-    after the back-fill and its states x (K, 4), P (K, 4, 4), RTS-smoothed with the CV transition and
-    the process noise of ``basis`` (3, 4, 4) and ``turn_var`` (`LagMotion`) when ``smooth``."""
+    ids (N,), status (N,), x (N, 4), P (N, 4, 4), the contacts used (N,), at times (W,) s. Returns the first
+    output's status (K,) after the back-fill and the ended tracks' DELETED, and its states x (K, 4),
+    P (K, 4, 4), RTS-smoothed with the CV transition and the process noise of ``basis`` (3, 4, 4) and
+    ``turn_var`` (`LagMotion`) when ``smooth``."""
     W = times.size
     K = starts[1]
     # where each track of the first output is in every later one (-1: absent)
@@ -245,14 +263,20 @@ def _revised(ids, status, x, P, starts, times, basis, turn_var, smooth):
     Ps = P[:K].copy()
     for k in range(K):
         deleted = False
+        coasting = status[k] == CONFIRMED  # a confirmed track with no contact so far in the window
         confirmed_later = False
         for w in range(W):
             r = where[k, w]
             if r >= 0:
                 if status[r] == DELETED:
+                    if coasting and not deleted:
+                        new_status[k] = DELETED
                     deleted = True
                 elif w > 0 and status[r] == CONFIRMED:
                     confirmed_later = True
+                coasting = coasting and used[r] == NO_CONTACT
+            else:
+                coasting = coasting and deleted
         if new_status[k] == PRELIMINARY and confirmed_later:
             new_status[k] = CONFIRMED
         if not smooth or deleted:
