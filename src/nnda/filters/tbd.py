@@ -10,7 +10,11 @@ unit; z the aspect, 0 = absent, stored as a float). `TBDModel` implements
 `nnda.filters.particle.ssm.StateSpaceModel` with the frames' own model
 (`nnda.data.frames`: NCV motion, eq. (1) with G and p_entry, birth f_0):
 
-- transition: s_n = F s_n-1 + u_n for every particle; a present particle
+- transition: s_n = F s_n-1 + u_n for every particle (u_n of the frames'
+  q, or of the filter's own ``q`` when set: a larger q lets a particle's
+  velocity move, where the frames' q = 6 pixels^2 per time unit^3 moves it
+  by sqrt(q dt) = 0.49 pixels per time unit a frame, so a cloud that has
+  collapsed onto one wrong velocity drifts off the target); a present particle
   whose new centroid is off the extended grid becomes absent, otherwise
   its aspect moves by G ("consistent" ``aspect_draw``), or, as the paper,
   z_n is drawn from eq. (1) with P_in the Gaussian probability that the
@@ -74,7 +78,8 @@ _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 class TBDConfig(BaseModel):
     """The filter side of track-before-detect (module docstring): ``gmrf`` known or estimated per frame,
-    ``aspect_draw``, ``prior_present``, the resample-move proposal's ``move_position_sd`` (pixels),
+    ``aspect_draw``, ``q`` the filter's acceleration-noise intensity (pixels^2 per time unit^3; None: the frames'
+    own), ``prior_present``, the resample-move proposal's ``move_position_sd`` (pixels),
     ``move_velocity_sd`` (pixels per time unit) and ``move_aspect``, resample-move's ``moves`` and the
     ``resampling`` scheme."""
 
@@ -82,6 +87,7 @@ class TBDConfig(BaseModel):
 
     gmrf: Literal["known", "estimated"] = "known"
     aspect_draw: Literal["consistent", "paper"] = "consistent"
+    q: float | None = Field(None, gt=0)
     prior_present: float = Field(0.5, ge=0, le=1)
     move_position_sd: float = Field(0.5, gt=0)
     move_velocity_sd: float = Field(1.0, ge=0)
@@ -119,8 +125,10 @@ class TBDModel:
                               f"{2 * model.template_half + 1} x {2 * model.template_half + 1} support")
         self.n_aspects = self.likelihood.n_aspects
         self.G = aspect_matrix(self.n_aspects, model.aspect_stay)
-        self.F, self.LQ = ncv_matrices(model.dt, model.q)
-        if model.q <= 0 or model.birth_velocity_sd <= 0:
+        #: the filter's acceleration-noise intensity: its own, else the frames'
+        self.q = model.q if cfg.q is None else cfg.q
+        self.F, self.LQ = ncv_matrices(model.dt, self.q)
+        if self.q <= 0 or model.birth_velocity_sd <= 0:
             raise FilterError("TBDModel: q and birth_velocity_sd must be > 0 (the transition needs a density)")
         Q = self.LQ @ self.LQ.T
         self._Q_inv_t = np.linalg.inv(self.LQ).T
@@ -232,9 +240,9 @@ class TBDModel:
 
     def _p_in(self, x: np.ndarray) -> np.ndarray:
         """P_in (R, N): the probability that the centroid predicted from x quantises onto the extended grid
-        (eq. 6; independent Gaussian positions of variance q dt^3 / 3 about x + dt v)."""
+        (eq. 6; independent Gaussian positions of variance q dt^3 / 3 about x + dt v, the filter's q)."""
         m, h = self.model, self.model.template_half
-        sd = np.sqrt(m.q * m.dt**3 / 3.0)
+        sd = np.sqrt(self.q * m.dt**3 / 3.0)
         p = np.ones(x.shape[:2])
         for pos, size in ((0, m.rows), (2, m.cols)):
             mu = x[..., pos] + m.dt * x[..., pos + 1]

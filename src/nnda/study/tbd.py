@@ -8,6 +8,12 @@ engine runs it as the ``tbd`` job kind (`nnda.study.kinds.tbd`), its jobs
 and the assembly of their records in `nnda.study.tbd_runs`; this module holds
 the study's configuration and its measures.
 
+The filters run on their own acceleration-noise intensity `FILTER_Q`
+(``tbd.q``), not the frames' q = 6 pixels^2 per time unit^3: under that q a
+particle's velocity hardly moves from frame to frame, so a filter without a
+move step keeps whatever velocity its cloud collapsed onto and drifts off
+the target, or loses it.
+
 Divergence rule: a frame is lost when the truth is present and the filter
 declares it absent or puts its conditional-mean position more than
 ``divergence_px`` pixels from the truth, or the truth is absent and the
@@ -54,7 +60,7 @@ runs declaring the target present.
 from __future__ import annotations
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from nnda.data.frames import FramesConfig
 from nnda.filters.tbd import FILTERS, TBDConfig
@@ -63,6 +69,11 @@ from nnda.study.tbd_chain import ChainConfig
 
 #: the paper's divergent runs out of 100, by PTCR and filter
 PAPER_DIVERGENCES = {6.5: {"apf": 3, "rs": 5}, 8.1: {"apf": 2, "rs": 3}}
+#: the filters' acceleration-noise intensity in the study (pixels^2 per time unit^3), against the frames' q = 6:
+#: with the frames' own q a particle's velocity moves by sqrt(q dt) = 0.49 pixels per time unit a frame, so the
+#: auxiliary filter (no move step) keeps the one velocity its cloud collapsed onto and drifts off the target
+#: (APF at 6.5 dB, 100 runs, seed 0: 14 divergent runs with q = 6, 0 with q = 150, 1 with q = 300)
+FILTER_Q = 150.0
 
 _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
@@ -114,7 +125,8 @@ class ExitReentry(BaseModel):
 
 class TBDStudyConfig(BaseModel):
     """The study (module docstring): ``runs``, ``seed``, the PTCRs ``ptcr_db``, the ``scene`` (frames config;
-    its ``ptcr_db`` is replaced by each of them), the ``filters``, the filter side ``tbd``, the divergence
+    its ``ptcr_db`` is replaced by each of them), the ``filters``, the filter side ``tbd`` (its ``q``
+    `FILTER_Q` unless the table gives one), the divergence
     rule (``divergence_px``, ``divergence_frames``), ``acquisition`` and ``steady_frames``, ``chunk_runs``
     (runs filtered at once; bounds memory), the intervals' ``confidence``, the ``exit_reentry`` scenario
     (None: not run), the matched-filter detector's ``detector_pfa``, the detect-then-track ``chain``
@@ -129,7 +141,7 @@ class TBDStudyConfig(BaseModel):
     ptcr_db: tuple[float, ...] = Field((6.5, 8.1), min_length=1)
     scene: FramesConfig = FramesConfig()
     filters: tuple[TBDFilter, ...] = Field(DEFAULT_FILTERS, min_length=1)
-    tbd: TBDConfig = TBDConfig()
+    tbd: TBDConfig = TBDConfig(q=FILTER_Q)
     divergence_px: float = Field(5.0, gt=0)
     divergence_frames: int = Field(5, ge=1)
     acquisition: int = Field(5, ge=0)
@@ -140,6 +152,12 @@ class TBDStudyConfig(BaseModel):
     detector_pfa: float = Field(1e-4, gt=0, lt=1)
     chain: ChainConfig | None = ChainConfig()
     max_memory_gib: float | None = Field(None, gt=0)
+
+    @field_validator("tbd", mode="before")
+    @classmethod
+    def _filter_q(cls, value: object) -> object:
+        """A ``tbd`` table without ``q`` gets the study's `FILTER_Q` (``q`` = the scene's q for the frames' own)."""
+        return {**value, "q": FILTER_Q} if isinstance(value, dict) and "q" not in value else value
 
     @model_validator(mode="after")
     def _check(self) -> TBDStudyConfig:
