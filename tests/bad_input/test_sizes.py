@@ -263,7 +263,7 @@ def test_the_heaviest_components_are_kept():
     assert np.hypot(x - 15_000 * np.sin(0.3), y - 15_000 * np.cos(0.3)) < 300
 
 
-@pytest.mark.parametrize("name", ["fusion-merge", "fusion-aa"])
+@pytest.mark.parametrize("name", ["fusion-merge", "fusion-aa", "fusion-gci"])
 def test_fusion_trackers_bound_their_local_filters(name):
     rng = np.random.default_rng(2)
     tracker = make_tracker(name, [Sensor(name="a"), Sensor(name="b", x_m=1_000.0)], {"max_pairs": 2_000})

@@ -60,3 +60,31 @@ def test_no_section_without_single_sensor_trackers(tmp_path):
     compare(load_study(tmp_path / "study.toml"), tmp_path / "out", workers=1)
     md, _, _ = build_report(tmp_path / "out")
     assert "## Fusion against single sensors" not in md
+
+
+def _records(covered: float, missed: float, localised: float) -> dict:
+    return {"metrics": {"tracked_undetected": {"mean": covered}, "gospa_missed": {"mean": missed},
+                        "gospa_localisation": {"mean": localised}}}
+
+
+def test_a_single_phd_filter_that_trails_the_union_is_explained_from_its_own_pd_and_threshold():
+    from nnda.reports.fusion_section import single_filter_reasons
+
+    manifest = {"study": {"trackers": {
+        "central": {"kind": "fusion-central", "params": {"extraction_scans": 1}},
+        "radar1": {"kind": "fusion-central", "params": {"use_sensors": ["radar1"]}},
+        "merge": {"kind": "fusion-merge", "params": {}},
+        "central-pd": {"kind": "fusion-central", "params": {"pd": 0.8, "extraction_threshold": 0.5}}}}}
+    trackers = {"radar1": _records(40.0, 1e5, 4_000.0), "merge": _records(85.3, 18_333.0, 2_779.0),
+                "central": _records(18.8, 85_781.0, 1_496.0), "central-pd": _records(90.0, 85_781.0, 1_496.0)}
+    lines = single_filter_reasons(manifest, trackers)
+    assert len(lines) == 1 and lines[0].startswith("- Why central (one PHD filter on every sensor's sweeps) trails "
+                                                   "merge: it covers 18.8% of the undetected target-scans "
+                                                   "against 85.3%, and GOSPA's missed-target part is 85,781 m² "
+                                                   "against 18,333 m²")
+    assert "1 - p_D = 0.10, which leaves any weight under 8.0 below the extraction threshold 0.80" in lines[0]
+    trackers["central-pd"] = _records(10.0, 9e4, 1_000.0)
+    assert "1 - p_D = 0.20, which leaves any weight under 2.5 below the extraction threshold 0.50" in (
+        single_filter_reasons(manifest, trackers)[1])
+    del manifest["study"]["trackers"]["merge"]
+    assert single_filter_reasons(manifest, trackers) == []

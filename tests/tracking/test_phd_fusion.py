@@ -11,6 +11,7 @@ from nnda.data.dataset import Scan
 from nnda.data.generator import generate
 from nnda.data.presets import PRESETS
 from nnda.data.scenario import Clutter
+from nnda.data.sensor import in_coverage
 from nnda.errors import ConfigError
 from nnda.filters.mixture import Mixture
 from nnda.study.metrics import run_metrics
@@ -64,6 +65,42 @@ def test_a_ship_only_one_radar_covers_keeps_its_whole_weight():
     assert coverage_shares(HARBOUR.sensors, np.array([0]), nowhere.means).tolist() == [0.5]
 
 
+def test_gci_counts_a_ship_both_radars_hold_once_and_one_radar_alone_holds_by_its_coverage_rule():
+    """The geometric mean of two identical Gaussians of weights 0.95 and 0.9 is that Gaussian at weight
+    sqrt(0.95 x 0.9), keyed by the first radar's component; a ship radar 2's intensity lacks is lost ("drop"),
+    or passes unchanged when it lies outside radar 2's coverage ("keep")."""
+    near = (6_000.0, 500.0)  # a mile from radar 1, beyond radar 2's 12 km
+    assert [bool(in_coverage(s, np.array([near[0]]), np.array([near[1]]))[0]) for s in HARBOUR.sensors] == [True,
+                                                                                                          False]
+    seen_by_both = (1_000.0, 5_000.0)
+    a = Mixture.concat([_ship(*seen_by_both, 0.95, 3), _ship(*near, 0.7, 4)])
+    b = _ship(*seen_by_both, 0.9, 7)
+    plain = make_tracker("fusion-gci", HARBOUR.sensors)
+    assert plain.config.omega == 0.5 and plain.config.fused_extraction_threshold == 0.1
+    fused = plain._combined([a, b])
+    assert len(fused) == 1 and fused.labels.tolist() == [3 * 2 + 0]
+    assert fused.weights[0] == pytest.approx(np.sqrt(0.95 * 0.9), rel=1e-12)
+    assert_close(fused.means[0], a.means[0])
+    keep = make_tracker("fusion-gci", HARBOUR.sensors, {"outside_coverage": "keep"})._combined([a, b])
+    order = np.argsort(keep.labels)
+    assert keep.labels[order].tolist() == [3 * 2, 4 * 2] and keep.weights[order][1] == 0.7
+    skewed = make_tracker("fusion-gci", HARBOUR.sensors, {"omega": 0.25})._combined([a, b])
+    assert skewed.weights[0] == pytest.approx(0.95 ** 0.25 * 0.9 ** 0.75, rel=1e-12)
+
+
+def test_gci_fusion_tracks_the_harbour_without_occlusion_or_clutter():
+    """40 s (every ship inside both radars' coverage): after 10 s most of the five ships reported at a sweep
+    (the fused weight, below either radar's, falls under 0.1 at some of their misses), none false."""
+    ships = [t.model_copy(update={"length_m": None}) for t in HARBOUR.targets]
+    radars = tuple(s.model_copy(update={"clutter": Clutter(law="none")}) for s in HARBOUR.sensors)
+    ds = generate(HARBOUR.model_copy(update={"targets": ships, "sensors": radars, "duration_s": 40.0}), seed=2)
+    tracker = make_tracker("fusion-gci", ds.scenario.sensors)
+    outs = [tracker.step(scan) for scan in ds.scans()]
+    m = run_metrics(ds, outs, ownership="position")
+    counts = np.array([len(o) for o in outs])[20:]
+    assert 4.3 < counts.mean() <= 5.0 and counts.max() == 5 and m.false_tracks == 0
+
+
 def test_the_central_update_is_the_single_sensor_updates_in_turn():
     """One GM-PHD on both radars equals a one-radar GM-PHD per radar handing its state to the other."""
     # both radars cover every component (one coverage): where one sensor cannot see, the central update
@@ -109,6 +146,10 @@ def test_fusion_configs_are_checked():
         make_tracker("fusion-aa", HARBOUR.sensors, {"sensor_pd": [0.9, 0.9, 0.9]})
     with pytest.raises(ConfigError, match="fused_extraction_threshold"):
         make_tracker("fusion-merge", HARBOUR.sensors, {"fused_extraction_threshold": 0.0})
+    with pytest.raises(ConfigError, match="omega"):
+        make_tracker("fusion-gci", HARBOUR.sensors, {"omega": 1.0})
+    with pytest.raises(ConfigError, match="outside_coverage"):
+        make_tracker("fusion-gci", HARBOUR.sensors, {"outside_coverage": "ignore"})
 
 
 @pytest.mark.parametrize("name", ["fusion-central", "cphd"])

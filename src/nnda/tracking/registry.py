@@ -22,7 +22,7 @@ from nnda.tracking.jpda import JPDATracker
 from nnda.tracking.lifecycle import LifecycleConfig
 from nnda.tracking.mht import MHTTracker
 from nnda.tracking.neural import NeuralTracker
-from nnda.tracking.phd.fusion import AAFusionTracker, CentralPHDTracker, FusionTracker
+from nnda.tracking.phd.fusion import AAFusionTracker, CentralPHDTracker, FusionTracker, GCIFusionTracker
 from nnda.tracking.phd.tracker import CPHDTracker, EKPHDTracker, GMPHDTracker, UKPHDTracker
 from nnda.tracking.tracker import ContactTracker, Tracker
 
@@ -57,7 +57,7 @@ class _Registry(dict):
 TRACKERS: dict[str, type[Tracker]] = _Registry(
     {cls.name: cls for cls in (GNNTracker, JPDATracker, MHTTracker, NeuralTracker,
                                GMPHDTracker, EKPHDTracker, UKPHDTracker, CPHDTracker,
-                               FusionTracker, AAFusionTracker, CentralPHDTracker)})
+                               FusionTracker, AAFusionTracker, GCIFusionTracker, CentralPHDTracker)})
 
 
 def _tracker_class(name: str, where: str) -> type[Tracker]:
