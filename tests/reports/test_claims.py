@@ -53,3 +53,19 @@ def test_a_claim_is_a_number_or_a_comparison():
     claim = Claim("W", "s", "t", lambda study: stat(1.0, 2.0), reference=1.5, unit="%", fmt="{:.1f}")
     assert claim.verdict(None) == AGREES and claim.reference_cell() == "1.5 %"
     assert claim.nnda_cell(None) == "1.5 [1.0, 2.0]"
+
+
+def test_the_generic_reason_names_the_side_the_gap_and_the_count_of_differences():
+    number = Claim("W", "s", "t", lambda study: {"mean": 3.0, "ci_low": 2.5, "ci_high": 3.5}, reference=2.0, unit="m",
+                   fmt="{:.1f}")
+    assert number.reason_text(None) == ("nnda's mean is 1.0 m above the reference's 2.0 m, and its whole interval "
+                                        "[2.5, 3.5] lies above it.")
+    inside = Claim("W", "s", "t", lambda study: {"mean": 2.1, "ci_low": 1.5, "ci_high": 2.5}, reference=2.0,
+                   fmt="{:.1f}")
+    assert inside.reason_text(None) == "the reference's 2.0 lies inside nnda's interval [1.5, 2.5]."
+    pair = Claim("W", "s", "t", lambda study: [stat(1.0, 2.0), stat(-3.0, -1.0)], sign=1, fmt="{:+.1f}")
+    assert pair.verdict(None) == REVERSED
+    assert pair.reason_text(None) == ("1 of 2 differences lie wholly above 0 as claimed, 1 wholly on the other side, "
+                                      "0 hold 0 (means +1.5, -2.0).")
+    custom = Claim("W", "s", "t", lambda study: stat(1.0, 2.0), sign=1, reason=lambda study: "planted.")
+    assert custom.reason_text(None) == "planted."

@@ -54,9 +54,10 @@ def test_thesis_columns_only_beside_the_thesis_scenario(study_dir):
     s4 = md[md.index("### S4:"):].split("\n\n")[1]
     pair = md[md.index("### pair:"):].split("\n\n")[1]
     # trackers in the study's order (gnn-tight first), then the thesis's two columns
-    assert s4.splitlines()[0] == "| Measure | gnn-tight | gnn | thesis: IMM/TOMHT | thesis: neural |"
+    thesis = "Vargas Avila (2015)"
+    assert s4.splitlines()[0] == f"| Measure | gnn-tight | gnn | {thesis}: IMM/TOMHT | {thesis}: neural |"
     assert "| Target contacts |" in s4 and " 201.0 | 201.0 |" in s4  # Table 6.7's contact counts
-    assert "thesis" not in pair.splitlines()[0]
+    assert "Vargas Avila" not in pair.splitlines()[0] and "thesis" not in pair.splitlines()[0]
 
 
 def test_classifier_figures_come_from_the_models_own_training_data(study_dir):

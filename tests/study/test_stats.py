@@ -78,3 +78,19 @@ def test_bootstrap_indices_are_seeded_draws_and_the_percentile_interval_brackets
     samples = np.arange(1001.0)
     assert percentile_interval(samples, 0.9) == pytest.approx((50.0, 950.0))
     assert percentile_interval(samples, 0.5) == pytest.approx((250.0, 750.0))
+
+
+def test_clip_interval_cuts_a_saved_record_to_the_measures_range_and_keeps_the_rest():
+    from nnda.study.stats import clip_interval
+
+    record = mean_ci([0.1, 6.0], 0.95)                  # two runs: the t-interval reaches far below 0
+    assert record["ci_low"] < 0
+    cut = clip_interval(record, 0.0)
+    assert cut["ci_low"] == 0.0 and cut["ci_high"] == record["ci_high"] and cut["mean"] == record["mean"]
+    assert record["ci_low"] < 0                          # a copy: the saved record is untouched
+    assert clip_interval({"mean": 0.5, "ci_low": -0.2, "ci_high": 1.3, "n": 3}, 0.0, 1.0) == \
+        {"mean": 0.5, "ci_low": 0.0, "ci_high": 1.0, "n": 3}
+    assert clip_interval({"mean": 2.0, "ci_low": None, "ci_high": None, "n": 1}, 0.0) == \
+        {"mean": 2.0, "ci_low": None, "ci_high": None, "n": 1}
+    assert clip_interval(None, 0.0) is None
+    assert clip_interval(record, 0.0) == mean_ci([0.1, 6.0], 0.95, low=0.0)   # the same cut mean_ci makes

@@ -18,6 +18,12 @@ Two kinds of claim:
 Either is *not measured* when nnda's interval is undefined (too few runs).
 A statistic is a mapping with ``mean``, ``ci_low`` and ``ci_high``
 (`nnda.study.stats.mean_ci`'s result and the like).
+
+Every verdict comes with a one-sentence **reason** computed from the
+numbers: a claim's own ``reason`` (a function of the study's files, for a
+claim whose reading needs more than its interval, such as the reference
+work's own figures beside nnda's) or `generic_reason` (which side of the
+reference and by how much; how many differences lie on which side).
 """
 
 from __future__ import annotations
@@ -69,6 +75,36 @@ def difference(a: Stat, b: Stat) -> Stat:
     return {"mean": a["mean"] - b["mean"], "ci_low": a["ci_low"] - b["ci_high"], "ci_high": a["ci_high"] - b["ci_low"]}
 
 
+def _mean(stat: Stat, fmt: str, scale: float) -> str:
+    return "-" if stat.get("mean") is None else fmt.format(stat["mean"] * scale)
+
+
+def generic_reason(verdict: str, stats: Sequence[Stat], reference: float | None, sign: int, fmt: str = "{:.2f}",
+                   scale: float = 1.0, unit: str = "") -> str:
+    """The sentence that says why ``verdict`` follows from ``stats``: for a number, which side of the reference
+    nnda's interval lies on and how far its mean is from it; for a comparison, how many differences lie on the
+    claimed side, how many on the other and how many hold 0."""
+    u = f" {unit}" if unit else ""
+    if verdict == NOT_MEASURED or not stats:
+        return "nnda has no interval here (a single run, or the entry is missing)."
+    if reference is not None:
+        s = stats[0]
+        ref = fmt.format(reference * scale)
+        low, high = fmt.format(s["ci_low"] * scale), fmt.format(s["ci_high"] * scale)
+        if verdict == AGREES:
+            return f"the reference's {ref}{u} lies inside nnda's interval [{low}, {high}]."
+        gap = (s["mean"] - reference) * scale
+        side = "above" if verdict == HIGHER else "below"
+        return (f"nnda's mean is {fmt.format(abs(gap))}{u} {side} the reference's {ref}{u}, and its whole interval "
+                f"[{low}, {high}] lies {side} it.")
+    side = [1 if s["ci_low"] > 0 else -1 if s["ci_high"] < 0 else 0 for s in stats]
+    claimed, other, zero = side.count(sign), side.count(-sign), side.count(0)
+    want = "above 0" if sign > 0 else "below 0"
+    means = ", ".join(_mean(s, fmt.replace("{:", "{:+") if "+" not in fmt else fmt, scale) for s in stats)
+    return (f"{claimed} of {len(stats)} differences lie wholly {want} as claimed, {other} wholly on the other side, "
+            f"{zero} hold 0 (means {means}{u}).")
+
+
 @dataclass(frozen=True)
 class Claim:
     """A claim of ``work`` that study ``study`` (a directory of the reproduction) checks: ``measured`` gives
@@ -83,6 +119,7 @@ class Claim:
     unit: str = ""
     fmt: str = "{:.2f}"
     scale: float = 1.0
+    reason: Callable[[StudyFiles], str] | None = None
 
     def __post_init__(self) -> None:
         if (self.reference is None) == (self.sign == 0):
@@ -97,6 +134,14 @@ class Claim:
         if self.reference is not None:
             return number_verdict(self.reference, stats[0])
         return sign_verdict(stats, self.sign)
+
+    def reason_text(self, study: StudyFiles) -> str:
+        """One sentence: why the verdict is what it is, from the measured values (the claim's own ``reason``,
+        or `generic_reason`)."""
+        if self.reason is not None:
+            return self.reason(study)
+        return generic_reason(self.verdict(study), self.stats(study), self.reference, self.sign, self.fmt,
+                              self.scale, self.unit)
 
     def reference_cell(self) -> str:
         if self.reference is None:

@@ -259,6 +259,13 @@ def _id_switches(r: ScoredRun) -> int:
 
 # ----------------------------------------------------------------------------- the registry
 
+#: the possible range of the per-run quantities kept outside the registry (the pedestrian study's per-run measures,
+#: its runtime per run and its estimate counts per run): a report cuts their intervals to it
+#: (`nnda.study.stats.clip_interval`); a key absent here (a bias) may take either sign
+PER_RUN_BOUNDS: dict[str, tuple[float, float]] = {
+    "ospa": _COUNT, "gospa": _COUNT, "count_error": _COUNT, "time_per_scan_s": _COUNT, "runtime_s": _COUNT,
+    "missed": (0.0, 1.0), "duplicates": _COUNT, "estimates_per_point": _COUNT}
+
 #: every measure, in the order of the report's per-scenario tables (the thesis's seven rows first)
 MEASURES: tuple[Measure, ...] = (
     Measure("target_contacts", "Target contacts", "", "none", _COUNT, False, {TRACK: _target_contacts}, "{:.1f}",

@@ -1,6 +1,7 @@
 """Intervals and tests over Monte Carlo runs: pure functions of arrays, used by every study and report section.
 
     mean_ci([1.0, 2.5, None, 3.0])                  # {"mean", "ci_low", "ci_high", "n"}, Student-t, 95%
+    clip_interval(record, 0.0)                      # a saved mean_ci record cut to a measure's range
     idx = bootstrap_indices([seed, 3], runs=R, resamples=1000)   # (1000, R) run indices, resampled
     percentile_interval(statistic_of_each_resample, 0.95)        # (low, high)
     clopper_pearson(3, 100, 0.95)                   # exact binomial interval of 3 in 100
@@ -41,6 +42,27 @@ def mean_ci(values, confidence: float = 0.95, low: float = -math.inf, high: floa
         return {"mean": mean, "ci_low": None, "ci_high": None, "n": 1}
     half = float(stats.t.ppf(0.5 + confidence / 2, n - 1) * x.std(ddof=1) / math.sqrt(n))
     return {"mean": mean, "ci_low": max(mean - half, low), "ci_high": min(mean + half, high), "n": n}
+
+
+def clip_interval(stat: dict | None, low: float = -math.inf, high: float = math.inf) -> dict | None:
+    """A ``mean_ci`` record with its interval cut to the measure's possible range [low, high] (a copy; None, an
+    undefined end and the mean are kept).
+
+    Why clipping and not a log-scale or bootstrap interval: the quantity's true mean lies in [low, high], so
+    cutting the t-interval there never drops it from an interval that held it (the coverage is unchanged),
+    and the printed mean stays the centre's estimate. A log-scale interval covers the geometric mean, not the
+    mean printed beside it, and a percentile bootstrap over 2-3 runs is the runs' range, narrower than the
+    t-interval and too short. `mean_ci` does the same when it is given the bounds; this is for a record
+    computed without them.
+    """
+    if stat is None:
+        return None
+    out = dict(stat)
+    if out.get("ci_low") is not None:
+        out["ci_low"] = min(max(out["ci_low"], low), high)
+    if out.get("ci_high") is not None:
+        out["ci_high"] = max(min(out["ci_high"], high), low)
+    return out
 
 
 def bootstrap_indices(seed: int | Sequence[int], runs: int, resamples: int) -> np.ndarray:
