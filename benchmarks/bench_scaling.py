@@ -10,13 +10,20 @@ crossed it is reported, larger settings are not run. A run still going after
 ``--hard-stop`` s in all (default 120 s: a scan that alone would take minutes,
 e.g. an exact JPDA on a huge cluster) is interrupted and counted as stopped;
 its time per scan is then only bounded below, by the hard stop over the
-scans begun ('>' in the tables, a triangle in the plot).
+scans begun ('>' in the tables, a triangle in the plot). Before any timing,
+every tracker runs each axis's smallest setting once, untimed, so loading
+its compiled kernels (numba's cache, function by function as a run first
+needs them: a few scans are not enough, the first confirmations and
+deletions load more) is not counted in its first setting.
 
 Output: a table of ms per scan and GOSPA (mean over scans, m; only for
 finished runs), the ratio of the nearest Stone Soup equivalent's time to
 ours (gnn <-> stonesoup-gnn, jpda <-> stonesoup-jpda; mht and nn against the
 fastest peer that finished), and a log-log plot (PNG) of time per scan
-against clutter and against targets, with the 2 s scan period marked.
+against clutter and against targets, with the 2 s scan period marked; then
+each tracker's slopes, the least-squares slope of log(time per scan) against
+log(clutter) and against log(targets) over the settings it finished (1: time
+grows in proportion, 2: with the square).
 
 The neural tracker needs a model: ``--model PATH`` (written by ``nnda
 train``); without it the neural tracker is skipped with a note. The peers
@@ -28,9 +35,12 @@ Usage: python benchmarks/bench_scaling.py [--model PATH] [--out scaling.png]
 from __future__ import annotations
 
 import argparse
+import math
 import signal
 from contextlib import contextmanager
 from typing import NamedTuple
+
+import numpy as np
 
 from bench_trackers import GIVE_UP_S, SCALING_SCANS, params_for, scaling_settings, time_run
 from nnda.data.generator import generate
@@ -38,7 +48,7 @@ from nnda.errors import ConfigError
 from nnda.peers import require_stonesoup
 from nnda.peers.parameters import EQUIVALENT
 from nnda.study.metrics import run_metrics
-from nnda.tracking.registry import PEERS
+from nnda.tracking.registry import PEERS, make_tracker
 
 OURS = ["gnn", "jpda", "mht", "nn"]
 
@@ -57,6 +67,11 @@ class Result(NamedTuple):
     stopped: bool
     lower_bound: bool = False
 
+    @property
+    def finished(self) -> bool:
+        """Every scan of the setting ran (the GOSPA is only computed then)."""
+        return self.gospa_m is not None
+
 
 @contextmanager
 def hard_stop(seconds: float):
@@ -73,8 +88,26 @@ def hard_stop(seconds: float):
         signal.signal(signal.SIGALRM, old)
 
 
+def warm_up(names, model, scans, hard) -> None:
+    """Run every tracker untimed over each axis's smallest setting (its ``scans`` scans)."""
+    first = {}
+    for axis, _, scenario in scaling_settings(scans):
+        first.setdefault(axis, scenario)
+    for scenario in first.values():
+        dataset = generate(scenario, seed=0)  # another realisation than the timed runs' (seed 1)
+        for name in names:
+            tracker = make_tracker(name, dataset.scenario.sensor, params_for(name, model))
+            try:
+                with hard_stop(hard):
+                    for scan in dataset.scans():
+                        tracker.step(scan)
+            except Interrupted:
+                print(f"  {name}: warm-up interrupted at the hard stop ({hard:g} s)", flush=True)
+
+
 def measure(names, model, scans, give_up, hard):
     """{(tracker, axis, value): Result}; along each axis a tracker stops as the module docstring says."""
+    warm_up(names, model, scans, hard)
     results = {}
     stopped = {(n, axis): False for n in names for axis in ("clutter", "targets")}
     for axis, value, scenario in scaling_settings(scans):
@@ -145,6 +178,39 @@ def table(names, peers, results, settings, scans) -> None:
             print(f"{name:<8s}{peer:<16s}" + "".join(cells))
 
 
+def slope(points: list[tuple[int, float]]) -> float | None:
+    """Least-squares slope of log(time) against log(setting) over (setting, s per scan) points; None under two."""
+    if len(points) < 2:
+        return None
+    x, y = np.log([v for v, _ in points]), np.log([t for _, t in points])
+    return float(np.polyfit(x, y, 1)[0])
+
+
+def slopes(names, results, settings) -> dict[tuple[str, str], float | None]:
+    """{(tracker, axis): slope} over the settings of that axis the tracker finished (`slope`)."""
+    out = {}
+    for name in names:
+        for axis in ("clutter", "targets"):
+            points = [(v, results[name, a, v].mean_s) for a, v in settings
+                      if a == axis and results[name, a, v].finished]
+            out[name, axis] = slope(points)
+    return out
+
+
+def slope_table(names, results, settings) -> None:
+    fitted = slopes(names, results, settings)
+    print("\nslope of log(time per scan) against log(clutter) and log(targets), least squares over the "
+          "settings finished (n); 1 = linear, 2 = quadratic")
+    print(f"{'tracker':<15s}{'vs clutter':>14s}{'vs targets':>14s}")
+    for name in names:
+        cells = []
+        for axis in ("clutter", "targets"):
+            n = sum(a == axis and results[name, a, v].finished for a, v in settings)
+            s = fitted[name, axis]
+            cells.append(f"{'-' if s is None or math.isnan(s) else f'{s:.2f}'} ({n})")
+        print(f"{name:<15s}" + "".join(f"{c:>14s}" for c in cells))
+
+
 def plot(names, peers, results, settings, path) -> None:
     import matplotlib
 
@@ -198,6 +264,7 @@ def main() -> None:
     print(f"trackers: {', '.join(names)}; {args.scans} scans per setting, stop past {args.give_up:g} s/scan")
     results = measure(names, args.model, args.scans, args.give_up, args.hard_stop)
     table(names, peers, results, settings, args.scans)
+    slope_table(names, results, settings)
     plot(names, peers, results, settings, args.out)
 
 

@@ -21,6 +21,7 @@ SMALLEST = {
     "bench_clutter.py": ["--clutter", "200", "--scans", "3", "--model", "{ext}"],
     "bench_features.py": ["--quick"],
     "bench_filters.py": ["2"],
+    "bench_floor.py": ["--runs", "1", "--scans", "5", "--model", "{seed}"],
     "bench_fusion.py": ["--scans", "4", "--ships", "5", "--repeat", "1"],
     "bench_generate.py": ["2"],
     "bench_import.py": ["--rows", "2000", "--tracker", "gnn", "--scans", "3"],
