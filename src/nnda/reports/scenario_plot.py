@@ -15,6 +15,7 @@ from nnda.data.dataset import Dataset  # noqa: E402
 from nnda.data.occlusion import hidden  # noqa: E402
 from nnda.data.scenario import Sensor  # noqa: E402
 from nnda.files import atomic_output  # noqa: E402
+from nnda.reports.trajectory_plot import edge_arrows, outside, robust_range  # noqa: E402
 
 KM = 1e-3
 
@@ -131,12 +132,23 @@ def plot_scenario(dataset: Dataset, out: str | Path, dpi: int = 120) -> Path:
         ax.grid(alpha=0.3)
     x, y = np.concatenate([_outline(s) for s in sc.sensors], axis=1)
     margin = 0.05 * max(s.max_range_m for s in sc.sensors)
-    axes[0].set(xlim=((x.min() - margin) * KM, (x.max() + margin) * KM),
-                ylim=((y.min() - margin) * KM, (y.max() + margin) * KM),
-                title="sensor coverage" if several else "radar coverage")
-    pad = 2.0
-    axes[1].set(xlim=(truth.x.min() * KM - pad, truth.x.max() * KM + pad),
-                ylim=(truth.y.min() * KM - pad, truth.y.max() * KM + pad), title="targets (zoom)")
+    whole = (((x.min() - margin) * KM, (x.max() + margin) * KM), ((y.min() - margin) * KM, (y.max() + margin) * KM))
+    pad = 2.0  # km
+    # the zoom: the targets' robust extent (`robust_range`), so one wild true position does not shrink it to a dot
+    zoom = (robust_range(truth.x * KM, pad), robust_range(truth.y * KM, pad))
+    if zoom[0] is None or zoom[1] is None:
+        zoom = whole
+    # points left outside a panel, drawn at its edge: the coverage panel's contacts and true positions, the zoom's
+    # true positions (it leaves the far clutter out by design)
+    everything = (np.concatenate([det.x, truth.x]) * KM, np.concatenate([det.y, truth.y]) * KM)
+    for ax, box, (px, py), title in ((axes[0], whole, everything, "sensor coverage" if several else "radar coverage"),
+                                     (axes[1], zoom, (truth.x * KM, truth.y * KM), "targets (zoom)")):
+        ax.set(xlim=box[0], ylim=box[1], title=title)
+        n_off = int(outside(px, py, box).sum())
+        if n_off:
+            edge_arrows(ax, box, px, py)
+            what = "contact(s) or true position(s)" if ax is axes[0] else "true position(s)"
+            ax.set_title(f"{title}: {n_off:,} {what} outside the view (drawn at the edge)")
     axes[1].legend(loc="best", fontsize=8, markerscale=4)
     n_clutter = int(det.is_clutter.sum())
     fig.suptitle(f"{sc.name}: {_timing(dataset)}, {n_clutter} clutter points ({n_clutter / sc.n_scans:.0f}/scan), "

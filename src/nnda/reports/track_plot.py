@@ -3,7 +3,11 @@
 Both show every contact (a grey dot; for very long files an evenly spaced
 subset of at most `MAX_CONTACTS`, said in the title), the true trajectories
 when the dataset has truth, and each ever-confirmed track as a line through
-its confirmed reports. The HTML page carries plotly.js inline (opens
+its confirmed reports. The view is the robust extent of all of them
+(`trajectory_plot.robust_box`, widened by 5%): a few wild positions (a bad
+fix thousands of km away) do not shrink the picture to a dot; the title
+counts the points outside the view, and the PNG draws each at the nearest
+edge as an arrow pointing its way. The HTML page carries plotly.js inline (opens
 offline); hovering a track point shows its id, status, scan and time. Both
 are byte-for-byte the same for the same inputs.
 """
@@ -22,7 +26,18 @@ import plotly.graph_objects as go  # noqa: E402
 import pyarrow as pa  # noqa: E402
 
 from nnda.data.dataset import Dataset  # noqa: E402
-from nnda.reports.trajectory_plot import PALETTE, figure_div, plotly_js  # noqa: E402
+from nnda.reports.trajectory_plot import (  # noqa: E402
+    PALETTE,
+    Box,
+    edge_arrows,
+    figure_div,
+    outside,
+    outside_note,
+    padded,
+    plotly_js,
+    robust_box,
+    squared,
+)
 
 KM = 1e-3
 #: contacts drawn at most (an even stride through the file beyond this)
@@ -54,21 +69,50 @@ def _truth(dataset: Dataset) -> list[tuple[str, np.ndarray, np.ndarray]]:
     return [(names[i], t.x[t.target_id == i], t.y[t.target_id == i]) for i in np.unique(t.target_id)]
 
 
+def _view(x: np.ndarray, y: np.ndarray, truth: list, tracks: list[dict[str, np.ndarray]]
+          ) -> tuple[Box | None, dict[str, tuple[np.ndarray, np.ndarray]]]:
+    """The view (x range, y range) in km of the contacts (x, y) m, the truth and the tracks: their robust extent
+    together, padded by 5% and made square about its centre (None without finite points); and per kind the
+    points (km) outside it."""
+    groups = {"contact(s)": (x, y),
+              "truth point(s)": (np.concatenate([t[1] for t in truth] or [np.empty(0)]),
+                               np.concatenate([t[2] for t in truth] or [np.empty(0)])),
+              "track point(s)": (np.concatenate([t["x"] for t in tracks] or [np.empty(0)]),
+                               np.concatenate([t["y"] for t in tracks] or [np.empty(0)]))}
+    groups = {k: (np.asarray(gx, float) * KM, np.asarray(gy, float) * KM) for k, (gx, gy) in groups.items()}
+    box = robust_box(np.concatenate([g[0] for g in groups.values()]), np.concatenate([g[1] for g in groups.values()]),
+                     0.0)
+    if box is None:
+        return None, {}
+    box = squared(padded(box))
+    return box, {k: (gx[off], gy[off]) for k, (gx, gy) in groups.items() if (off := outside(gx, gy, box)).any()}
+
+
 def track_png(dataset: Dataset, table: pa.Table, tracker: str) -> bytes:
-    """The PNG: contacts, truth and confirmed tracks in km (x east, y north)."""
+    """The PNG: contacts, truth and confirmed tracks in km (x east, y north), over their robust extent (`_view`)
+    with the points outside it drawn at the edge."""
     fig, ax = plt.subplots(figsize=(8, 8))
     x, y, note = _contacts(dataset)
     ax.scatter(x * KM, y * KM, s=5, c="0.6", lw=0, label="contacts", rasterized=True)
-    for i, (name, tx, ty) in enumerate(_truth(dataset)):
+    truth = _truth(dataset)
+    for i, (name, tx, ty) in enumerate(truth):
         ax.plot(tx * KM, ty * KM, color="0.35", lw=3, alpha=0.4, label="truth" if i == 0 else None)
     tracks = _confirmed_tracks(table)
     for i, tr in enumerate(tracks):
         ax.plot(tr["x"] * KM, tr["y"] * KM, "-", marker=".", ms=3, lw=1, color=PALETTE[i % len(PALETTE)])
-    ax.set_title(f"{dataset.scenario.name}: {tracker}, {len(tracks)} confirmed track(s) over contacts{note}",
-                 fontsize=10)
+    box, off = _view(x, y, truth, tracks)
+    if box is not None:
+        ax.set_xlim(*box[0])
+        ax.set_ylim(*box[1])
+        if off:
+            edge_arrows(ax, box, np.concatenate([g[0] for g in off.values()]),
+                        np.concatenate([g[1] for g in off.values()]))
+    off_note = outside_note({k: v[0].size for k, v in off.items()})
+    ax.set_title(f"{dataset.scenario.name}: {tracker}, {len(tracks)} confirmed track(s) over contacts{note}"
+                 f"{off_note}", fontsize=10, wrap=True)
     ax.set_xlabel("x east (km)")
     ax.set_ylabel("y north (km)")
-    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_aspect("equal", adjustable="box")  # the view is square (`_view`)
     ax.legend(loc="upper right", fontsize=8)
     ax.grid(alpha=0.3)
     buf = io.BytesIO()
@@ -87,6 +131,7 @@ def track_figure(dataset: Dataset, table: pa.Table, tracker: str) -> go.Figure:
         fig.add_trace(go.Scatter(x=tx * KM, y=ty * KM, mode="lines", name=f"truth {name}", legendgroup="truth",
                                  line={"color": "rgba(90,90,90,0.45)", "width": 5}, hoverinfo="name"))
     tracks = _confirmed_tracks(table)
+    box, off = _view(x, y, _truth(dataset), tracks)
     for i, tr in enumerate(tracks):
         fig.add_trace(go.Scatter(
             x=tr["x"] * KM, y=tr["y"] * KM, mode="lines+markers", name=f"track {tr['track_id'][0]}",
@@ -94,11 +139,15 @@ def track_figure(dataset: Dataset, table: pa.Table, tracker: str) -> go.Figure:
             customdata=np.column_stack([tr["track_id"], tr["scan"], tr["time"]]),
             hovertemplate="<b>track %{customdata[0]}</b> (confirmed)<br>scan %{customdata[1]}, "
                           "t = %{customdata[2]:.1f} s<br>x %{x:.2f} km, y %{y:.2f} km<extra></extra>"))
+    off_note = outside_note({k: v[0].size for k, v in off.items()}, "a zoom-out away")
     fig.update_layout(
-        title=f"{dataset.scenario.name}: {tracker}, {len(tracks)} confirmed track(s) over contacts{note}",
+        title=f"{dataset.scenario.name}: {tracker}, {len(tracks)} confirmed track(s) over contacts{note}{off_note}",
         xaxis_title="x east (km)", yaxis_title="y north (km)", height=720, template="plotly_white",
         hovermode="closest", margin={"l": 60, "r": 20, "t": 60, "b": 50})
     fig.update_yaxes(scaleanchor="x", scaleratio=1)
+    if box is not None:
+        fig.update_xaxes(range=list(box[0]))
+        fig.update_yaxes(range=list(box[1]))
     return fig
 
 

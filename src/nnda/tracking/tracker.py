@@ -75,8 +75,11 @@ from nnda.tracking.lifecycle import (
     cap_pairs,
     cap_per_initiator,
     everywhere,
+    fast_lines,
+    fast_tolerance_m,
     free_window_pairs,
     miss_run,
+    no_lines,
     predicted_log_odds,
     rate_threshold,
     sanity_args,
@@ -497,12 +500,25 @@ class TwoPointInitiation:
     over all sensors. At most ``lifecycle.max_tracks`` tracks live at once:
     ``n_refused`` counts the pairs refused for want of room since the last
     reset, and the first refusal of a run is a `BoundWarning`.
+
+    The window's ``v_max`` refuses faster targets: ``n_too_fast`` counts, since the last reset, the lines of
+    contacts of one sensor's consecutive scans, each pair of them refused beyond the window (initiator b, free
+    contact c, D_max < |c - b| <= 2 v_max T + 3 sigma, `LifecycleConfig.fast_window`) and each contact within
+    `lifecycle.fast_tolerance_m` of the line's extrapolation b + (b - a) from the two before, long enough that
+    clutter lines them up with a chance below 1/1000 (`lifecycle.fast_lines`; six contacts in S1-S6's
+    clutter): a target between v_max and 2 v_max that the window kept from starting a track. The first of a run
+    is a `BoundWarning` naming ``lifecycle.v_max`` and the ``tracker``; nothing else changes (the pairs open no
+    track).
     """
 
-    def __init__(self, filters: Sequence[IMM], lifecycle: LifecycleConfig, sensors: Sequence[Sensor]) -> None:
+    def __init__(self, filters: Sequence[IMM], lifecycle: LifecycleConfig, sensors: Sequence[Sensor],
+                 tracker: str = "tracker") -> None:
         self.filters = tuple(filters)
         self.lifecycle = lifecycle
+        self.tracker = tracker
         self.windows = tuple(lifecycle.window(s.scan_period_s, sensor_noise_m(s)) for s in sensors)
+        self.fast_windows = tuple(lifecycle.fast_window(s.scan_period_s, sensor_noise_m(s)) for s in sensors)
+        self.fast_tolerance = tuple(fast_tolerance_m(sensor_noise_m(s), s.scan_period_s) for s in sensors)
         self.reset()
 
     def reset(self) -> None:
@@ -513,6 +529,9 @@ class TwoPointInitiation:
         self.time = [-np.inf] * n
         self.next_id = 0
         self.n_refused = 0
+        #: lines of contacts refused for ``lifecycle.v_max`` since the last reset (class docstring)
+        self.n_too_fast = 0
+        self._fast = [no_lines()] * n  # per sensor: the lines of refused fast pairs to continue (`fast_lines`)
 
     def __call__(self, z: np.ndarray, xy: np.ndarray, used: np.ndarray, time: float, live: int, sensor: int = 0
                  ) -> tuple[Tracks | None, np.ndarray | None]:
@@ -535,6 +554,7 @@ class TwoPointInitiation:
         threshold = self._confirmation_threshold(len(init_xy)) if len(i) else math.inf
         rest_z, rest_xy, contact, fields = _opened(free, i, j, windowed, init_xy, z, xy, self.next_id, before, time,
                                                    threshold)
+        self._too_fast(init_xy, xy, free, windowed, before, time, sensor)
         self.contacts[sensor], self.xy[sensor], self.time[sensor] = rest_z, rest_xy, time
         if not contact.size:
             return None, None
@@ -545,6 +565,32 @@ class TwoPointInitiation:
                       counts, scores)
         self.next_id += len(contact)
         return born, contact
+
+    def _too_fast(self, init_xy: np.ndarray, xy: np.ndarray, free: np.ndarray, windowed: np.ndarray,
+                  before: float, time: float, sensor: int) -> None:
+        """Count this scan's lines of refused fast pairs (class docstring, ``n_too_fast``; a `BoundWarning` the
+        first time in a run) and keep those to continue at the sensor's next scan (`lifecycle.fast_lines`).
+        Reads the scan, changes no track."""
+        spoken = np.zeros(free.size, np.bool_)
+        spoken[windowed] = True
+        n, self._fast[sensor] = fast_lines(init_xy, xy, free, spoken, self._fast[sensor], *self.fast_windows[sensor],
+                                           self.fast_tolerance[sensor], time - before)
+        if n:
+            self._refuse_fast(n, time, sensor)
+
+    def _refuse_fast(self, n: int, time: float, sensor: int) -> None:
+        """Count ``n`` lines refused for ``lifecycle.v_max``; the first of a run is a `BoundWarning`."""
+        first = not self.n_too_fast
+        self.n_too_fast += n
+        if first:
+            cfg, (d_max, d_fast) = self.lifecycle, self.fast_windows[sensor]
+            warnings.warn(
+                f"{self.tracker}, t = {time} s: {self.n_too_fast} line(s) of contacts moving between v_max and "
+                f"2 v_max (pairs {d_max:.0f} to {d_fast:.0f} m apart a scan) refused by the initiation window: a "
+                f"target faster than lifecycle.v_max = {cfg.v_max:g} m/s (config field) never starts a track. Raise "
+                f"lifecycle.v_max above the fastest target's speed (tracks faster than lifecycle.max_speed_m_s, "
+                f"{cfg.speed_limit:g} m/s here, are deleted too); later cases of this run are only counted "
+                f"(initiation.n_too_fast)", BoundWarning, stacklevel=5)
 
     def _confirmation_threshold(self, initiators: int) -> float:
         """The score at which the tracks born from a scan's ``initiators`` confirm under the score rule:
@@ -610,7 +656,7 @@ class ContactTracker(ABC):
         self.config = checked_config(self, config)
         self.filter = track_filter if track_filter is not None else IMM.for_sensor(self.sensors[0])
         self.filters = (self.filter, *(self.filter.for_measurement(measurement_model(s)) for s in self.sensors[1:]))
-        self.initiation = TwoPointInitiation(self.filters, self.config.lifecycle, self.sensors)
+        self.initiation = TwoPointInitiation(self.filters, self.config.lifecycle, self.sensors, self.name)
         self.reset()
 
     def reset(self) -> None:
