@@ -19,6 +19,7 @@ BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 #: feature sets, for the benchmarks that time the neural tracker (`make bench` runs them without one)
 SMALLEST = {
     "bench_clutter.py": ["--clutter", "200", "--scans", "3", "--model", "{ext}"],
+    "bench_coverage_table.py": ["--range", "50", "--scans", "2"],
     "bench_features.py": ["--quick"],
     "bench_filters.py": ["2"],
     "bench_floor.py": ["--runs", "1", "--scans", "5", "--model", "{seed}"],

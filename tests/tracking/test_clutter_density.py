@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 from scipy.interpolate import RegularGridInterpolator
 
 from nnda.data.scenario import Sensor
-from nnda.tracking.clutter_density import _covered_table, covered_fraction, local_density
+from nnda.tracking.clutter_density import _covered_cells, _covered_table, _density, covered_fraction, local_density
 from tolerances import RTOL
 
 
@@ -127,8 +127,55 @@ def test_the_covered_part_is_shared_by_sensors_of_one_coverage():
     base = _covered_table(Sensor(), r)
     other = Sensor(name="other", sigma_range_m=50.0, pd=0.8, scan_period_s=4.0, clutter={"count": 1_000})
     assert _covered_table(other, r) is base
+    assert _covered_cells(other, r) is _covered_cells(Sensor(), r)  # and the lazily filled one
     for sensor in (Sensor(max_range_m=20_000.0), Sensor(fov_deg=90.0), Sensor(x_m=1_000.0)):
         table, lo = _covered_table(sensor, r)
         assert table.shape != base[0].shape or not np.array_equal(table, base[0]) or not np.array_equal(lo, base[1])
         centres = lo + (np.array([[3, 7], [40, 20], [10, 50]]) + 0.5) * (r / 4)
         np.testing.assert_allclose(table[[3, 40, 10], [7, 20, 50]], covered_fraction(sensor, centres, r), rtol=RTOL)
+
+
+def test_the_covered_part_is_filled_lazily_with_the_whole_tables_values():
+    """A first scan computes only the cells its points read, not the coverage's (a 1,000 km radar's whole
+    table would hold 7 million cells); filled over many scans, in any order, each cell holds the whole
+    table's value to the bit, and the densities are the whole table's, bit for bit (a 90-degree sector
+    offset from the origin, points inside and outside its coverage)."""
+    r = 3_000.0
+    far = Sensor(min_range_m=500.0, max_range_m=1_000_000.0)
+    xy = np.array([[0.0, 999_000.0], [10_000.0, 20_000.0], [-400_000.0, 0.0]])
+    local_density(xy, xy, r, far)
+    table = _covered_cells(far, r)[0]
+    assert table.size > 7_000_000 and np.count_nonzero(table) <= 4 * len(xy)
+    sensor = Sensor(fov_deg=90.0, boresight_deg=30.0, x_m=1_234.5, y_m=-700.0, max_range_m=20_000.0)
+    whole, lo = _covered_table(sensor, r)
+    rng = np.random.default_rng(3)
+    none = np.empty((0, 2))
+    for _ in range(20):
+        at = rng.uniform(-25_000.0, 25_000.0, (100, 2))
+        contacts = rng.uniform(-25_000.0, 25_000.0, (50, 2))
+        assert np.array_equal(local_density(contacts, at, r, sensor), _density(contacts, at, r, whole, lo))
+        assert np.array_equal(local_density(none, at, r, sensor), _density(none, at, r, whole, lo))
+    cells, corner, _ = _covered_cells(sensor, r)
+    filled = cells != 0
+    assert np.array_equal(corner, lo) and 0.3 < filled.mean() < 1.0
+    assert np.array_equal(cells[filled].astype(float), whole[filled])
+
+
+@settings(max_examples=200, deadline=None)
+@given(contacts=points, at=points, radius=st.floats(1_000.0, 8_000.0), grid_points=st.booleans(),
+       scale=st.sampled_from([1.0, 10.0]))
+def test_a_wide_scan_is_counted_by_strips_to_the_same_bits(contacts, at, radius, grid_points, scale):
+    """Counted by strips (a scan whose grid is far larger than its points: a wide coverage) or over the grid's
+    summed-area table, the same densities to the bit, with and without a covered-part table; the strips
+    are chosen by default for the scaled points (350 km: a grid of up to 870,000 cells for 120 points). (The
+    radius is at least 1 km here: a 50 m square's grid over 70 km would hold 31 million cells.)"""
+    contacts, at = np.array(contacts) * scale, np.array(at) * scale
+    radius = radius if scale == 1.0 else max(radius, 3_000.0)
+    if grid_points:
+        contacts, at = (np.round(p / (radius / 4)) * (radius / 4) for p in (contacts, at))
+    table, lo = _covered_table(Sensor(max_range_m=35_000.0), 3_000.0)
+    for t, c in ((table, lo), (np.empty((0, 0)), np.zeros(2))):
+        grid = _density(contacts, at, radius, t, c, 0)
+        assert np.array_equal(_density(contacts, at, radius, t, c, 1), grid)
+        assert np.array_equal(_density(contacts, at, radius, t, c), grid)
+

@@ -13,8 +13,15 @@ grid of `_EDGE_POINTS`^2 points of the square): near the maximum range half
 the square sees no clutter, and counting over the whole square halves the
 density there, doubles every contact's likelihood ratio and lets a track
 that follows the coverage edge on clutter alone confirm. That part is
-tabulated once per coverage and radius on the counting grid's cells
-(`_covered_table`, interpolated), so it too costs O(1) per query point.
+tabulated per coverage and radius on the counting grid's cells
+(interpolated), so it too costs O(1) per query point; the table is filled
+lazily, a cell the first time a query point needs it (`_covered_cells`,
+`_fill`), so a tracker's first scan costs its contacts' cells, not the
+coverage's (a 400 km radar's whole table took about 5 s and 2 GiB; its first
+scan's cells take milliseconds and a zeroed table of 4 bytes a cell:
+benchmarks/bench_coverage_table.py). A cell's value is the same number
+either way, computed by `covered_fraction` at its centre (`_covered_table`
+tabulates every cell at once, the reference).
 
 Why compiled: every tracker under the score rule counts once
 per scan, at ~100 contacts, and the numpy formulation spent ~110 us of a
@@ -25,7 +32,10 @@ same densities to the bit (8 us at 100 contacts). A direct count per query
 over binned contacts is a little faster at 100 (6 us) but grows with the
 contacts per square (1.0 ms against the table's 0.16 ms at 5,000); the
 table costs its grid (the points' extent over radius/4, squared) plus O(1)
-per point (benchmarks/bench_trackers.py, part 0, prints the comparison).
+per point (benchmarks/bench_trackers.py, part 0, prints the comparison):
+a scan whose grid holds far more cells than points (a wide coverage: 1.1
+million cells at 400 km) is counted by strips instead (`_strip_density`),
+the same integer counts at a cost that does not grow with the extent.
 """
 
 from __future__ import annotations
@@ -41,6 +51,10 @@ from nnda.data.sensor import TWO_PI, cart_to_polar_at, in_coverage, wrap_angle
 
 #: grid cells per ``radius``
 _CELLS = 4
+#: `_density` counts over a summed-area table of its grid unless the grid has more than _STRIP_GRID cells a
+#: point (contacts and query points) and _STRIP_FLOOR: then by strips (`_strip_density`), whose cost does not
+#: grow with the points' extent (a 400 km radar's scan: a grid of 1.1 million cells, 9 MB, a call)
+_STRIP_GRID, _STRIP_FLOOR = 64, 16_384
 #: points per side of the grid on which the part of a square inside the coverage is measured
 _EDGE_POINTS = 16
 #: `_density`'s covered-part table without a sensor (every square wholly covered), and its corner
@@ -66,16 +80,23 @@ def local_density(contacts: np.ndarray, at: np.ndarray, radius: float, sensor: S
     """Contacts per m^2 around each point of ``at`` (Q, 2); ``contacts`` (N, 2) in m, all of one scan of
     ``sensor`` when given (the area is then the square's part inside its coverage). Returns (Q,)."""
     radius = float(radius)
-    table, corner = (_NO_TABLE, _NO_CORNER) if sensor is None else _covered_table(sensor, radius)
-    return _density(np.ascontiguousarray(contacts, np.float64), np.ascontiguousarray(at, np.float64), radius,
-                    table, corner)
+    contacts, at = np.ascontiguousarray(contacts, np.float64), np.ascontiguousarray(at, np.float64)
+    if sensor is None:
+        table, corner = _NO_TABLE, _NO_CORNER
+    else:
+        table, corner, coverage = _covered_cells(sensor, radius)
+        missing = _missing(at, table, corner, radius / _CELLS)
+        if len(missing):
+            _fill(coverage, table, corner, missing, radius)
+    return _density(contacts, at, radius, table, corner)
 
 
 @_jit
-def _density(contacts, at, radius, table, corner):
+def _density(contacts, at, radius, table, corner, strips=-1):
     """`local_density`: contacts (N, 2) and points at (Q, 2) in m, the square's half-side ``radius`` m, the
     covered-part table (n, n) of `_covered_table` and its lower corner (2,) m, or a (0, 0) table for
-    squares wholly covered. Returns (Q,) m^-2.
+    squares wholly covered; counted over the grid's summed-area table or by strips (`_strip_density`):
+    ``strips`` 0 or 1, or -1 (the default) by the grid's size. Returns (Q,) m^-2.
 
     The counting grid has cells of radius/4 from ``lo``, the points' lower corner less radius and a cell;
     contact i lies in cell floor((c_i - lo) / cell), and the square around a point covers cells [a, b),
@@ -98,6 +119,8 @@ def _density(contacts, at, radius, table, corner):
     lo0, lo1 = lo0 - radius - cell, lo1 - radius - cell
     n0 = int(math.ceil((hi0 + radius + cell - lo0) / cell)) + 1
     n1 = int(math.ceil((hi1 + radius + cell - lo1) / cell)) + 1
+    if strips == 1 or (strips == -1 and n0 * n1 > _STRIP_GRID * (N + Q) + _STRIP_FLOOR):  # a wide scan
+        return _strip_density(contacts, at, radius, table, corner, lo0, lo1)
     table_sum = np.zeros((n0 + 1, n1 + 1), np.int64)  # [i, j]: the contacts in cells [0, i) x [0, j)
     for i in range(N):
         table_sum[int((contacts[i, 0] - lo0) // cell) + 1, int((contacts[i, 1] - lo1) // cell) + 1] += 1
@@ -116,16 +139,69 @@ def _density(contacts, at, radius, table, corner):
 
 
 @_jit
+def _strip_density(contacts, at, radius, table, corner, lo0, lo1):
+    """`_density` of a scan whose grid would be far larger than its points (a wide coverage): the same cells
+    and squares, the contacts in each point's square counted directly among those of its strip of cells
+    [a0, b0) along x (the contacts sorted by their x cell, the strip's ends found by bisection). Costs
+    O((N + Q) log N) plus the contacts in the points' strips, whatever the grid; the same integer counts."""
+    N, Q = contacts.shape[0], at.shape[0]
+    cell = radius / _CELLS
+    side = (2.0 * radius) ** 2
+    ix, iy = np.empty(N, np.int64), np.empty(N, np.int64)
+    for i in range(N):
+        ix[i], iy[i] = int((contacts[i, 0] - lo0) // cell), int((contacts[i, 1] - lo1) // cell)
+    order = np.argsort(ix, kind="mergesort")
+    sx, sy = ix[order], iy[order]
+    out = np.empty(Q)
+    for q in range(Q):
+        x, y = at[q, 0], at[q, 1]
+        a0, b0 = int(np.rint((x - radius - lo0) / cell)), int(np.rint((x + radius - lo0) / cell))
+        a1, b1 = int(np.rint((y - radius - lo1) / cell)), int(np.rint((y + radius - lo1) / cell))
+        n = 0
+        for k in range(np.searchsorted(sx, a0), np.searchsorted(sx, b0)):
+            n += a1 <= sy[k] < b1
+        out[q] = max(float(n), 1.0) / (side * _covered(x, y, table, corner, cell))
+    return out
+
+
+@_jit
+def _cell_of(x, y, table, corner, cell):
+    """The lower of the two cells per axis between whose centres `_covered` interpolates at (x, y) m, and
+    the weights of the upper ones: (a, b, wa, wb)."""
+    last = table.shape[0] - 2
+    u, v = (x - corner[0]) / cell - 0.5, (y - corner[1]) / cell - 0.5
+    a, b = min(max(int(math.floor(u)), 0), last), min(max(int(math.floor(v)), 0), last)
+    return a, b, min(max(u - a, 0.0), 1.0), min(max(v - b, 0.0), 1.0)
+
+
+@_jit
+def _missing(at, table, corner, cell):
+    """The cells (M, 2) of a lazily filled table (0: not computed yet) that `_covered` reads at the points
+    ``at`` (Q, 2) m and that are not computed yet (a cell that two points read: twice). The table is not
+    written here: a cell, once set, only ever holds its one value, so concurrent callers at worst compute a
+    cell twice."""
+    out = np.empty((4 * at.shape[0], 2), np.int64)
+    m = 0
+    if table.shape[0] == 0:
+        return out[:0]
+    for q in range(at.shape[0]):
+        a, b, _, _ = _cell_of(at[q, 0], at[q, 1], table, corner, cell)
+        for i in range(a, a + 2):
+            for j in range(b, b + 2):
+                if table[i, j] == 0.0:
+                    out[m, 0], out[m, 1] = i, j
+                    m += 1
+    return out[:m]
+
+
+@_jit
 def _covered(x, y, table, corner, cell):
     """`covered_fraction` at the point (x, y) m, interpolated bilinearly between the centres of the cells
     (side ``cell`` m, from ``corner``) of `_covered_table`'s ``table`` (n, n), clamped to its edge cells;
     1 for a (0, 0) table."""
     if table.shape[0] == 0:
         return 1.0
-    last = table.shape[0] - 2
-    u, v = (x - corner[0]) / cell - 0.5, (y - corner[1]) / cell - 0.5
-    a, b = min(max(int(math.floor(u)), 0), last), min(max(int(math.floor(v)), 0), last)
-    wa, wb = min(max(u - a, 0.0), 1.0), min(max(v - b, 0.0), 1.0)
+    a, b, wa, wb = _cell_of(x, y, table, corner, cell)
     return ((1 - wa) * ((1 - wb) * table[a, b] + wb * table[a, b + 1])
             + wa * ((1 - wb) * table[a + 1, b] + wb * table[a + 1, b + 1]))
 
@@ -158,9 +234,48 @@ _COVERAGE_FIELDS = ("x_m", "y_m", "boresight_deg", "fov_deg", "min_range_m", "ma
 
 def _covered_table(sensor: Sensor, radius: float) -> tuple[np.ndarray, np.ndarray]:
     """`covered_fraction` at the centres of the radius/_CELLS cells over the sensor's coverage and a radius
-    around it: (the table (n, n), its lower corner (2,) m). Cached by the coverage alone: sensors that differ
-    only in noise, clutter or timing (S1-S6's radars) share one table, which costs ~0.1 s to build."""
-    return _coverage_table(tuple(getattr(sensor, f) for f in _COVERAGE_FIELDS), float(radius))
+    around it: (the table (n, n), its lower corner (2,) m), every cell computed at once (the reference of the
+    lazily filled table `local_density` reads, `_covered_cells`: its cells hold the same values). Cached by
+    the coverage alone: sensors that differ only in noise, clutter or timing (S1-S6's radars) share one
+    table, which costs ~0.1 s to build for S1-S6's 30 km radar, and grows with the coverage's area (1.3 s and
+    0.5 GiB at 200 km)."""
+    return _coverage_table(_coverage_of(sensor), float(radius))
+
+
+def _coverage_of(sensor: Sensor) -> tuple[float, ...]:
+    """The values of `_COVERAGE_FIELDS` of ``sensor``: what its coverage depends on."""
+    return tuple(getattr(sensor, f) for f in _COVERAGE_FIELDS)
+
+
+def _table_grid(sensor: Sensor, radius: float) -> tuple[np.ndarray, int]:
+    """The covered-part table's lower corner (2,) m and side n (cells of radius/_CELLS): the sensor's coverage
+    and a radius around it."""
+    lo = np.asarray(sensor.position, float) - sensor.max_range_m - radius
+    return lo, int(np.ceil(2.0 * (sensor.max_range_m + radius) / (radius / _CELLS)))
+
+
+def _covered_cells(sensor: Sensor, radius: float) -> tuple[np.ndarray, np.ndarray, Sensor]:
+    """The lazily filled covered-part table of ``sensor``'s coverage and ``radius``: (the table (n, n), zero
+    where not computed yet (a covered part is at least 1/_EDGE_POINTS^2), float32, which holds its values
+    k / _EDGE_POINTS^2 exactly; its lower corner (2,) m; a sensor of that coverage). Cached by the coverage
+    alone, as `_covered_table`; the cache keeps at most 32 tables, each 4 bytes a cell (n = 8 (r_max + radius)
+    / radius: 4.6 MB for a 400 km radar at 3 km) and the cells filled so far."""
+    return _coverage_cells(_coverage_of(sensor), float(radius))
+
+
+@lru_cache(maxsize=32)
+def _coverage_cells(coverage: tuple[float, ...], radius: float) -> tuple[np.ndarray, np.ndarray, Sensor]:
+    """`_covered_cells` of the sensor with the coverage ``coverage`` (the values of `_COVERAGE_FIELDS`)."""
+    sensor = Sensor(**dict(zip(_COVERAGE_FIELDS, coverage, strict=True)))
+    lo, n = _table_grid(sensor, radius)
+    return np.zeros((n, n), np.float32), lo, sensor
+
+
+def _fill(sensor: Sensor, table: np.ndarray, corner: np.ndarray, cells: np.ndarray, radius: float) -> None:
+    """Compute the cells ``cells`` (M, 2) of ``sensor``'s lazily filled table ``table`` (corner ``corner``): the
+    covered part at their centres, as `_coverage_table` computes it (the same arithmetic, point by point)."""
+    centres = corner + (cells + 0.5) * (radius / _CELLS)
+    table[cells[:, 0], cells[:, 1]] = covered_fraction(sensor, centres, radius)
 
 
 @lru_cache(maxsize=32)
@@ -168,8 +283,7 @@ def _coverage_table(coverage: tuple[float, ...], radius: float) -> tuple[np.ndar
     """`_covered_table` of the sensor with the coverage ``coverage`` (the values of `_COVERAGE_FIELDS`)."""
     sensor = Sensor(**dict(zip(_COVERAGE_FIELDS, coverage, strict=True)))
     cell = radius / _CELLS
-    lo = np.asarray(sensor.position, float) - sensor.max_range_m - radius
-    n = int(np.ceil(2.0 * (sensor.max_range_m + radius) / cell))
+    lo, n = _table_grid(sensor, radius)
     centre = lo[:, None] + (np.arange(n) + 0.5) * cell  # (2, n)
     gx, gy = np.meshgrid(centre[0], centre[1], indexing="ij")
     return covered_fraction(sensor, np.column_stack([gx.ravel(), gy.ravel()]), radius).reshape(n, n), lo

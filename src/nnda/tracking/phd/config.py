@@ -19,16 +19,23 @@ whose four numbers an explicit field overrides:
 The previous version's preset and motion names are still read, mapped to
 these with a FutureWarning (`RENAMED_PRESETS`, `RENAMED_MOTIONS`).
 
-The preset also sets two PHDConfig fields (`CONFIRMATION_PRESETS`, which
-explicit fields override too; the Stone Soup peer has neither):
+The preset also sets three PHDConfig fields (`CONFIRMATION_PRESETS`, which
+explicit fields override too; the Stone Soup peer has none):
 ``components_per_contact`` c grows J_max to c N after a scan of N contacts
-(so dense clutter's newborns do not crowd a target's components out), and
+(so dense clutter's newborns do not crowd a target's components out),
+``components_per_target`` c_t to c_t times the scan's expected target count
+(the posterior intensity's mass before the cap: a fixed J_max of 100 holds
+some 50-90 targets' components, and past that the cap drops targets; at
+the radar thesis's few targets c_t = 2 stays far below J_max, so it changes
+nothing there), and
 ``extraction_scans`` k reports a label once it has been extracted after k
 sweeps in a row of one sensor (each sensor's sweeps counted apart), then
 whenever it is extracted (`nnda.tracking.phd.extraction`). `radar` and
-`harbour`: c = 1, k = 3 (a clutter component rarely stays above the
-threshold for three sweeps, a target's does); `pedestrian`: off (c None,
-k = 1), as Frencl (2014).
+`harbour`: c = 1, c_t = 2, k = 3 (a clutter component rarely stays above the
+threshold for three sweeps, a target's does); `pedestrian`: off (c and c_t
+None, k = 1), as Frencl (2014). When the cap still drops components, the
+tracker counts them (``n_capped_components``, ``capped_weight``) and warns
+once a run (BoundWarning).
 
 Clutter (``clutter``) is a Poisson number of false contacts per scan, of
 mean lambda, spread uniformly over the radar's coverage in measurement
@@ -88,9 +95,9 @@ REDUCTION_PRESETS: dict[str, dict[str, float]] = {
 #: the confirmation settings each preset gives a PHD filter (`PHDConfig`: not the Stone Soup peer, which has
 #: neither field); c None (or 0) and k 1: off (see the module docstring)
 CONFIRMATION_PRESETS: dict[str, dict[str, float | None]] = {
-    "radar": {"components_per_contact": 1.0, "extraction_scans": 3},
-    "pedestrian": {"components_per_contact": None, "extraction_scans": 1},
-    "harbour": {"components_per_contact": 1.0, "extraction_scans": 3},
+    "radar": {"components_per_contact": 1.0, "components_per_target": 2.0, "extraction_scans": 3},
+    "pedestrian": {"components_per_contact": None, "components_per_target": None, "extraction_scans": 1},
+    "harbour": {"components_per_contact": 1.0, "components_per_target": 2.0, "extraction_scans": 3},
 }
 #: the confirmation settings turned off, as the PHD filters ran before the presets set them (the studies that
 #: reproduce a reference work's numbers pin them: ``params = {**SINGLE_SCAN_EXTRACTION, ...}``)
@@ -225,6 +232,10 @@ class PHDConfig(CommonConfig):
         ge=0, description="J_max grows with the scan: at most max(J_max, this x N) components are kept after "
         "a scan of N contacts, so dense clutter's newborns do not crowd out a target's; 0 or None: J_max alone "
         "(default: the preset's, `CONFIRMATION_PRESETS`)")]
+    components_per_target: Annotated[float | None, Field(
+        ge=0, description="J_max grows with the targets too: at least this x the scan's expected target count "
+        "(the posterior intensity's mass before the cap) components are kept, so a scene of many targets keeps "
+        "each target's components; 0 or None: off (default: the preset's, `CONFIRMATION_PRESETS`)")]
     max_pairs: Annotated[int | None, Field(
         ge=1, description="(component, contact) pairs a scan's update forms at most (the gate's candidates, "
         "counted before any is formed): past it, the lightest predicted components are left out of that scan's "

@@ -27,8 +27,10 @@ scan (J components, N contacts):
    are built, and a newborn component's missed copy is dropped (a target is
    born detected) unless the scan's sensor cannot see it;
 3. merge and cap (`nnda.filters.mixture`; J_max, or with
-   ``components_per_contact`` c at least c N for N contacts), make labels unique
-   (`nnda.tracking.phd.extraction`);
+   ``components_per_contact`` c at least c N for N contacts, with
+   ``components_per_target`` c_t at least c_t times the expected target
+   count; what the cap drops is counted, with a BoundWarning the first time
+   in a run), make labels unique (`nnda.tracking.phd.extraction`);
 4. newborn components for the next scan from this scan's contacts, weighted
    by how little the filter explains them (measurement-driven birth);
 5. report the extracted components (weight >= the extraction threshold; or,
@@ -159,6 +161,10 @@ class SensorView:
     polar: bool
 
 
+#: a scan's weight dropped by the mixture cap from which the cap is said to bite (`GMPHDTracker._capped`)
+CAPPED_WEIGHT_WARNING = 0.1
+
+
 class GMPHDTracker:
     """Gaussian-mixture PHD tracker (Vo & Ma 2006) with tag propagation; see the module docstring."""
 
@@ -220,6 +226,9 @@ class GMPHDTracker:
         #: candidate pairs they would have formed (`_within_pairs`)
         self.n_dropped_components = 0
         self.n_dropped_pairs = 0
+        #: components the mixture cap dropped after merging since the last reset (`_capped`), and their weight
+        self.n_capped_components = 0
+        self.capped_weight = 0.0
         self._bounds_hit: set[str] = set()
         # per sensor: the labels extracted after its last sweep (sorted) and after how many of its sweeps in a row
         # (`extraction.streaks`); the labels confirmed so far (sorted: `extraction.persistent`)
@@ -368,8 +377,8 @@ class GMPHDTracker:
         else:
             mean, map_count = float(np.arange(len(dist)) @ dist), int(np.argmax(dist))
         post = gmphd.posterior(pred, pairs, missed, det, cfg.prune_threshold)
-        post = cap(merge(post, cfg.merge_threshold, cfg.merge_covariance, self.motion.angles),
-                   self._component_cap(len(z)))
+        post = merge(post, cfg.merge_threshold, cfg.merge_covariance, self.motion.angles)
+        post = self._capped(post, len(z), float(missed.sum() + det.sum()), time)
         post, self.next_label = relabel_duplicates(post, self.next_label)
         self.mixture = post
         birth = cfg.birth
@@ -383,12 +392,48 @@ class GMPHDTracker:
         self.last_time = time
         return self._report(scan.index, scan.sensor, time, post, mean, map_count, dist)
 
-    def _component_cap(self, contacts: int) -> int:
-        """J_max after a scan of ``contacts`` contacts: ``max_components``, or with ``components_per_contact``
-        c (not 0 or None) at least ceil(c x contacts)."""
+    def _component_cap(self, contacts: int, targets: float) -> int:
+        """J_max after a scan of ``contacts`` contacts whose posterior intensity has the mass ``targets`` (the
+        expected target count): ``max_components``, with ``components_per_contact`` c (not 0 or None) at least
+        ceil(c x contacts), with ``components_per_target`` c_t (not 0 or None) at least ceil(c_t x targets)."""
         cfg = self.config
+        limit = cfg.max_components
         per = cfg.components_per_contact
-        return cfg.max_components if not per else max(cfg.max_components, int(np.ceil(per * contacts)))
+        if per:
+            limit = max(limit, int(np.ceil(per * contacts)))
+        per = cfg.components_per_target
+        if per and np.isfinite(targets):
+            limit = max(limit, int(np.ceil(per * targets)))
+        return limit
+
+    def _capped(self, mixture: Mixture, contacts: int, targets: float, time: float) -> Mixture:
+        """Step 3's cap on the merged ``mixture`` of a scan of ``contacts`` contacts and the expected target count
+        ``targets``: its `_component_cap` heaviest components (`cap`); those it drops are counted
+        (``n_capped_components``, ``capped_weight``), with a BoundWarning the first time in a run that a scan's
+        dropped weight reaches `CAPPED_WEIGHT_WARNING` (a tenth of a target's expected mass: the cap routinely
+        drops a clutter tail of negligible weight, which loses no target)."""
+        limit = self._component_cap(contacts, targets)
+        if len(mixture) <= limit:
+            return mixture
+        kept = cap(mixture, limit)
+        dropped = len(mixture) - limit
+        weight = float(mixture.weights.sum() - kept.weights.sum())
+        self.n_capped_components += dropped
+        self.capped_weight += weight
+        if weight >= CAPPED_WEIGHT_WARNING and "max_components" not in self._bounds_hit:
+            self._bounds_hit.add("max_components")
+            cfg = self.config
+            heaviest = float(np.sort(mixture.weights)[::-1][limit])
+            warnings.warn(
+                f"{self.label}, t = {time} s: the mixture cap of {limit:,} components (config field max_components "
+                f"= {cfg.max_components}, grown by components_per_contact = {cfg.components_per_contact} x "
+                f"{contacts:,} contacts and components_per_target = {cfg.components_per_target} x {targets:.1f} "
+                f"expected targets) dropped the {dropped:,} lightest of {len(mixture):,} merged components, of "
+                f"weight {weight:.3g} in all, the heaviest {heaviest:.3g} (extraction threshold "
+                f"{cfg.extraction_threshold}): a target whose components it drops is lost; raise max_components or "
+                f"components_per_target. Later cases of this run are only counted (n_capped_components, "
+                f"capped_weight)", BoundWarning, stacklevel=3)
+        return kept
 
     def _predicted_count(self, pred: Mixture, survival: float) -> tuple[float, int | None, np.ndarray | None]:
         """(mean, MAP count, distribution) of the target count of the predicted intensity ``pred``."""
