@@ -22,12 +22,11 @@ from __future__ import annotations
 
 import argparse
 import math
-import time
 
 import numba
 import numpy as np
 
-from bench_trackers import params_for, time_run
+from bench_trackers import params_for, time_run, time_steps
 from nnda.data.generator import generate
 from nnda.data.presets import PRESETS
 from nnda.filters import imm_kernels
@@ -162,22 +161,15 @@ class FloorTracker:
                       np.empty(0, np.int64), np.empty(0, np.int8), np.empty(0, np.int64), np.empty(0, np.int64),
                       np.empty(0, np.int64), np.empty((0, 2)), -np.inf, 0)
 
-    def step(self, scan):
+    def step(self, scan) -> TrackerOutput:
         self.state, report = floor_scan(*self.state, scan.measurements, scan.time, *self.params)
-        return report
+        return TrackerOutput(scan.index, scan.time, *report)
 
 
 def floor_run(dataset, outputs: list | None = None) -> np.ndarray:
-    """Seconds per scan of the floor over ``dataset``; its reports appended to ``outputs`` as TrackerOutputs."""
-    tracker = FloorTracker(dataset.scenario.sensor)
-    times = []
-    for scan in dataset.scans():
-        t0 = time.perf_counter()
-        report = tracker.step(scan)
-        times.append(time.perf_counter() - t0)
-        if outputs is not None:
-            outputs.append(TrackerOutput(scan.index, scan.time, *report))
-    return np.array(times)
+    """Seconds per scan of the floor over ``dataset`` (its output built, as every tracker's); its outputs
+    appended to ``outputs``."""
+    return time_steps(FloorTracker(dataset.scenario.sensor), dataset, outputs=outputs)
 
 
 def shortened(scenario, scans: int | None):

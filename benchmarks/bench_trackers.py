@@ -46,7 +46,7 @@ from nnda.filters import kalman
 from nnda.filters.imm import _TINY, IMM, IMMState
 from nnda.filters.motion import process_noise
 from nnda.models.scorer import load_model
-from nnda.tracking.clutter_density import _covered, _covered_table, local_density
+from nnda.tracking.clutter_density import _covered, _covered_table, contact_cells, local_density, square_cells
 from nnda.tracking.neural import life5
 from nnda.tracking.registry import TRACKERS, make_tracker
 
@@ -65,7 +65,11 @@ def params_for(name: str, model: str | None) -> dict | None:
 def time_run(name: str, params: dict, dataset, give_up: float = math.inf, outputs: list | None = None) -> np.ndarray:
     """Seconds per scan of one tracker over one dataset (stops early past ``give_up`` s/scan);
     the tracker's outputs are appended to ``outputs`` when given."""
-    tracker = make_tracker(name, dataset.scenario.sensor, params)
+    return time_steps(make_tracker(name, dataset.scenario.sensor, params), dataset, give_up, outputs)
+
+
+def time_steps(tracker, dataset, give_up: float = math.inf, outputs: list | None = None) -> np.ndarray:
+    """`time_run` of a built ``tracker`` (anything with ``step(scan)``)."""
     times = []
     for scan in dataset.scans():
         t0 = time.perf_counter()
@@ -239,9 +243,7 @@ def direct_density(contacts, at, radius, table, corner):
     N, Q, cell, bins = contacts.shape[0], at.shape[0], radius / 4, 4
     lo0 = min(contacts[:, 0].min(), at[:, 0].min()) - radius - cell
     lo1 = min(contacts[:, 1].min(), at[:, 1].min()) - radius - cell
-    ix, iy = np.empty(N, np.int64), np.empty(N, np.int64)
-    for i in range(N):
-        ix[i], iy[i] = int((contacts[i, 0] - lo0) // cell), int((contacts[i, 1] - lo1) // cell)
+    ix, iy = contact_cells(contacts, lo0, lo1, cell)
     n0, n1 = ix.max() // bins + 1, iy.max() // bins + 1
     start = np.zeros(n0 * n1 + 1, np.int64)
     for i in range(N):
@@ -256,8 +258,7 @@ def direct_density(contacts, at, radius, table, corner):
     out = np.empty(Q)
     for q in range(Q):
         x, y = at[q, 0], at[q, 1]
-        a0, b0 = int(np.rint((x - radius - lo0) / cell)), int(np.rint((x + radius - lo0) / cell))
-        a1, b1 = int(np.rint((y - radius - lo1) / cell)), int(np.rint((y + radius - lo1) / cell))
+        a0, b0, a1, b1 = square_cells(x, y, radius, lo0, lo1, cell)
         n = 0
         for u in range(max(a0, 0) // bins, min((b0 - 1) // bins, n0 - 1) + 1):
             for v in range(max(a1, 0) // bins, min((b1 - 1) // bins, n1 - 1) + 1):

@@ -122,8 +122,9 @@ def _density(contacts, at, radius, table, corner, strips=-1):
     if strips == 1 or (strips == -1 and n0 * n1 > _STRIP_GRID * (N + Q) + _STRIP_FLOOR):  # a wide scan
         return _strip_density(contacts, at, radius, table, corner, lo0, lo1)
     table_sum = np.zeros((n0 + 1, n1 + 1), np.int64)  # [i, j]: the contacts in cells [0, i) x [0, j)
+    ix, iy = contact_cells(contacts, lo0, lo1, cell)
     for i in range(N):
-        table_sum[int((contacts[i, 0] - lo0) // cell) + 1, int((contacts[i, 1] - lo1) // cell) + 1] += 1
+        table_sum[ix[i] + 1, iy[i] + 1] += 1
     for i in range(1, n0 + 1):
         row = 0
         for j in range(1, n1 + 1):
@@ -131,11 +132,30 @@ def _density(contacts, at, radius, table, corner, strips=-1):
             table_sum[i, j] = table_sum[i - 1, j] + row
     for q in range(Q):
         x, y = at[q, 0], at[q, 1]
-        a0, b0 = int(np.rint((x - radius - lo0) / cell)), int(np.rint((x + radius - lo0) / cell))
-        a1, b1 = int(np.rint((y - radius - lo1) / cell)), int(np.rint((y + radius - lo1) / cell))
+        a0, b0, a1, b1 = square_cells(x, y, radius, lo0, lo1, cell)
         n = table_sum[b0, b1] - table_sum[a0, b1] - table_sum[b0, a1] + table_sum[a0, a1]
         out[q] = max(float(n), 1.0) / (side * _covered(x, y, table, corner, cell))
     return out
+
+
+@_jit
+def contact_cells(contacts, lo0, lo1, cell):
+    """The counting grid's cell of each contact (N, 2) m, cells of ``cell`` m from (lo0, lo1) m: (ix (N,), iy (N,)),
+    floor((c - lo) / cell)."""
+    N = contacts.shape[0]
+    ix, iy = np.empty(N, np.int64), np.empty(N, np.int64)
+    for i in range(N):
+        ix[i], iy[i] = int((contacts[i, 0] - lo0) // cell), int((contacts[i, 1] - lo1) // cell)
+    return ix, iy
+
+
+@_jit
+def square_cells(x, y, radius, lo0, lo1, cell):
+    """The cells [a0, b0) x [a1, b1) of the counting grid (cells of ``cell`` m from (lo0, lo1) m) that the square of
+    half-side ``radius`` m around (x, y) m covers, its edges to half a cell: a = rint((at - radius - lo) / cell),
+    b = rint((at + radius - lo) / cell)."""
+    return (int(np.rint((x - radius - lo0) / cell)), int(np.rint((x + radius - lo0) / cell)),
+            int(np.rint((y - radius - lo1) / cell)), int(np.rint((y + radius - lo1) / cell)))
 
 
 @_jit
@@ -144,19 +164,16 @@ def _strip_density(contacts, at, radius, table, corner, lo0, lo1):
     and squares, the contacts in each point's square counted directly among those of its strip of cells
     [a0, b0) along x (the contacts sorted by their x cell, the strip's ends found by bisection). Costs
     O((N + Q) log N) plus the contacts in the points' strips, whatever the grid; the same integer counts."""
-    N, Q = contacts.shape[0], at.shape[0]
+    Q = at.shape[0]
     cell = radius / _CELLS
     side = (2.0 * radius) ** 2
-    ix, iy = np.empty(N, np.int64), np.empty(N, np.int64)
-    for i in range(N):
-        ix[i], iy[i] = int((contacts[i, 0] - lo0) // cell), int((contacts[i, 1] - lo1) // cell)
+    ix, iy = contact_cells(contacts, lo0, lo1, cell)
     order = np.argsort(ix, kind="mergesort")
     sx, sy = ix[order], iy[order]
     out = np.empty(Q)
     for q in range(Q):
         x, y = at[q, 0], at[q, 1]
-        a0, b0 = int(np.rint((x - radius - lo0) / cell)), int(np.rint((x + radius - lo0) / cell))
-        a1, b1 = int(np.rint((y - radius - lo1) / cell)), int(np.rint((y + radius - lo1) / cell))
+        a0, b0, a1, b1 = square_cells(x, y, radius, lo0, lo1, cell)
         n = 0
         for k in range(np.searchsorted(sx, a0), np.searchsorted(sx, b0)):
             n += a1 <= sy[k] < b1
