@@ -2,7 +2,7 @@
 
 Tracking, importing data, studies and reports need only nnda's core; training the association network
 needs ``nnda[train]`` (torch, scikit-learn), a Dask cluster ``nnda[dask]``, Stone Soup's trackers
-``nnda[peers]``.
+``nnda[peers]``, the parameter search of ``nnda tune`` ``nnda[tune]``.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from types import ModuleType
 from nnda.errors import NndaError
 
 #: the extra that installs each optional top-level package
-EXTRA = {"torch": "train", "sklearn": "train", "dask": "dask", "distributed": "dask", "stonesoup": "peers"}
+EXTRA = {"torch": "train", "sklearn": "train", "dask": "dask", "distributed": "dask", "stonesoup": "peers", "optuna": "tune"}
 
 
 def require(module: str, purpose: str) -> ModuleType:
