@@ -99,3 +99,25 @@ def test_a_line_bent_beyond_the_tolerance_does_not_count():
                               tol, 2.0)
         total += n
     assert total == 0
+
+
+def test_the_count_reaches_the_scores_and_the_results_table(tmp_path):
+    """``too_fast_lines`` goes into ``nnda track``'s scores.json record and a study's results.parquet column."""
+    from nnda.study.track import run_tracker, scores_record
+    from nnda.study.track_job import scalars, series
+    from nnda.study.track_results import results_table
+
+    dataset = generate(_scene(320.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", BoundWarning)
+        run = run_tracker(dataset, "gnn")
+    record = scores_record(run, dataset, {}, 1_000.0)
+    lines = record["track_management"]["too_fast_lines"]
+    assert lines >= 1 and record["track_management"]["confirmation"] == run.management["confirmation"]
+    assert set(record["track_management"]["deletions"]) == set(run.management["deletions"])
+    base = {"scenario": "fast", "tracker": "gnn", "kind": "gnn", "run": 0, "seed": 0, "dataset_digest": "d",
+            "n_scans": dataset.n_scans, "n_targets": 1, "ownership": "contacts", "metrics": scalars(run.scores),
+            "series": series(run.scores)}
+    older = {k: v for k, v in run.management.items() if k != "too_fast_lines"}  # a record kept before the count
+    table = results_table([base | {"track_management": run.management}, base | {"track_management": older}, base])
+    assert table.column("too_fast_lines").to_pylist() == [lines, None, None]

@@ -44,7 +44,7 @@ from nnda.errors import ConfigError, DatasetError
 from nnda.files import read_config
 from nnda.study.kinds.track import MODEL_PARAM
 from nnda.study.metrics import DEFAULT_CUTOFF_M, Ownership, RunMetrics, run_metrics
-from nnda.study.track_job import dataset_digest, scalars
+from nnda.study.track_job import dataset_digest, management_record, scalars
 from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
 from nnda.tracking.registry import make_tracker
 
@@ -61,14 +61,17 @@ TRACK_SCHEMA = pa.schema(
 
 @dataclass(frozen=True)
 class TrackRun:
-    """A tracker's run on one dataset: its per-scan outputs, their table, the time of each ``step`` (s) and
-    the scores (None when the dataset has no truth)."""
+    """A tracker's run on one dataset: its per-scan outputs, their table, the time of each ``step`` (s), the
+    scores (None when the dataset has no truth) and a contact tracker's track management (the confirmation
+    rule, deletions by reason, lines refused as too fast: `nnda.study.track_job.management_record`; None for
+    other trackers)."""
 
     tracker: str
     outputs: list[TrackerOutput]
     table: pa.Table
     step_seconds: np.ndarray
     scores: RunMetrics | None
+    management: dict | None = None
 
 
 def tracker_params(config: Mapping[str, Any] | str | Path | None, model: str | Path | None) -> dict:
@@ -138,7 +141,7 @@ def run_tracker(dataset: Dataset | str | Path, tracker: str, config: Mapping[str
             if on_scan is not None:
                 on_scan(i + 1, dataset.n_scans)
         scores = run_metrics(dataset, outputs, cutoff_m, ownership) if score and has_truth(dataset) else None
-    return TrackRun(tracker, outputs, track_table(dataset, outputs), seconds, scores)
+    return TrackRun(tracker, outputs, track_table(dataset, outputs), seconds, scores, management_record(t))
 
 
 SCORES_FORMAT = "nnda.track-scores"
@@ -146,12 +149,13 @@ SCORES_FORMAT_VERSION = 1
 
 
 def scores_record(run: TrackRun, dataset: Dataset, params: Mapping[str, Any], cutoff_m: float) -> dict:
-    """``scores.json``: what was run on what, the ownership used and every run measure (`scalars`: a per-scan
-    measure's mean over scans, undefined ones null). No wall-clock time: the same inputs give the same bytes."""
+    """``scores.json``: what was run on what, the ownership used, every run measure (`scalars`: a per-scan
+    measure's mean over scans, undefined ones null) and, for a contact tracker, its ``track_management``
+    (the confirmation rule, deletions by reason, lines refused as too fast). No wall-clock time: the same inputs give the same bytes."""
     assert run.scores is not None
     return {
         "format": SCORES_FORMAT, "format_version": SCORES_FORMAT_VERSION, "tracker": run.tracker,
         "params": dict(params), "scenario": dataset.scenario.name, "dataset_digest": dataset_digest(dataset),
         "n_scans": dataset.n_scans, "n_targets": len(dataset.scenario.targets), "cutoff_m": cutoff_m,
         "ownership": run.scores.ownership, "metrics": scalars(run.scores),
-    }
+    } | ({} if run.management is None else {"track_management": run.management})

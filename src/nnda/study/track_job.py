@@ -89,6 +89,13 @@ def _tracks(outputs, dataset: Dataset) -> dict:
     }
 
 
+def management_record(tracker: Tracker) -> dict | None:
+    """The contact trackers' track management of the run so far (`ContactTracker.track_management`: the
+    confirmation rule, deletions by reason, lines refused as too fast), None for a tracker without one."""
+    management = getattr(tracker, "track_management", None)
+    return None if management is None else management()
+
+
 def step_run(tracker: Tracker, dataset: Dataset, lag: int = 0, on_scan=None
              ) -> tuple[list[TrackerOutput], list[TrackerOutput] | None, np.ndarray, np.ndarray | None, list]:
     """Step ``tracker`` through every scan of ``dataset``, ``time.perf_counter`` around each ``step``; with
@@ -140,9 +147,9 @@ def run_job(job: TrackJob) -> dict:
         "cardinality": count_record(*m.counts, counts),
         "timing": {"time_per_scan_s": seconds.tolist()},
     }
-    management = getattr(tracker, "track_management", None)  # the contact trackers'
+    management = management_record(tracker)
     if management is not None:
-        record["track_management"] = management()
+        record["track_management"] = management
     if late is not None:
         record["lagged"] = {"lag": job.lag, "metrics": scalars(late), "series": series(late)}
         record["timing"]["lag_time_per_scan_s"] = lag_seconds.tolist()

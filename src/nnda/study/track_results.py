@@ -6,9 +6,11 @@ they do not depend on the order jobs finished:
 * ``results.parquet``: one row per job: scenario, tracker, kind, run, seed,
   dataset digest, the track ownership used ("contacts" or "position"), the
   value of every run measure of `nnda.study.measures` (columns in key
-  order; counts as int64), the contact trackers' confirmation rule and
-  deletions by reason (``confirmation``, ``deleted_<reason>``; null for
-  other trackers), and the per-scan series as list columns
+  order; counts as int64), the contact trackers' confirmation rule,
+  deletions by reason and the lines of contacts refused as faster than
+  ``lifecycle.v_max`` (``confirmation``, ``deleted_<reason>``,
+  ``too_fast_lines``; null for other trackers, and ``too_fast_lines`` for
+  records written before it was kept), and the per-scan series as list columns
   (``<series name>_per_scan``). The series of
   ``false_tracks_per_scan`` is named ``false_tracks``, so its list column
   takes the name of the run value (its mean, which is left out): format
@@ -101,6 +103,7 @@ def results_table(records: list[dict]) -> pa.Table:
     cols["confirmation"] = _column([None if m is None else m["confirmation"] for m in managed], "str")
     for reason in DELETION_REASONS:
         cols[f"deleted_{reason}"] = _column([None if m is None else m["deletions"][reason] for m in managed], "int")
+    cols["too_fast_lines"] = _column([None if m is None else m.get("too_fast_lines") for m in managed], "int")
     for m in SERIES_MEASURES:  # false_tracks -> false_tracks_per_scan replaces that run value (module docstring)
         kind = pa.int64() if m.integer else pa.float64()
         cols[f"{m.series_name}_per_scan"] = pa.array([r["series"][m.series_name] for r in records],

@@ -763,8 +763,11 @@ class ContactTracker(ABC):
         return log_miss_weight(self.score_pd, self.gate_threshold)
 
     def track_management(self) -> dict:
-        """What a study records of the run so far: the confirmation rule and the deletions by reason."""
-        return {"confirmation": self.confirmation_rule, "deletions": dict(self.deletions)}
+        """What a study records of the run so far: the confirmation rule, the deletions by reason and the lines
+        of contacts the initiation window refused as faster than ``lifecycle.v_max`` (``too_fast_lines``,
+        `TwoPointInitiation.n_too_fast`)."""
+        return {"confirmation": self.confirmation_rule, "deletions": dict(self.deletions),
+                "too_fast_lines": self.initiation.n_too_fast}
 
     def _bound_hit(self, field: str, what: str, time: float) -> None:
         """A BoundWarning the first time in a run that the bound of config ``field`` bites (``what`` it did);
