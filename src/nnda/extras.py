@@ -13,7 +13,8 @@ from types import ModuleType
 from nnda.errors import NndaError
 
 #: the extra that installs each optional top-level package
-EXTRA = {"torch": "train", "sklearn": "train", "dask": "dask", "distributed": "dask", "stonesoup": "peers", "optuna": "tune"}
+EXTRA = {"torch": "train", "sklearn": "train", "dask": "dask", "distributed": "dask", "stonesoup": "peers",
+         "optuna": "tune"}
 
 
 def require(module: str, purpose: str) -> ModuleType:

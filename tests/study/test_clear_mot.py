@@ -142,3 +142,34 @@ def test_a_pair_at_the_threshold_is_no_match():
     m = match_scans(np.array([1]), np.array([0]), np.array([[0.0, 0.0]]), np.array([1]), np.array([0]),
                     np.array([[100.0, 0.0]]), 1, 1, 1, 100.0)
     assert m.scan.size == 0
+
+
+def test_the_close_pair_matching_equals_the_dense_one(monkeypatch):
+    """Scans of hundreds of targets are matched over the pairs closer than the threshold only: the same matches,
+    distances and identity switches as over the whole distance matrix (continuous positions: no ties)."""
+    import nnda.study.matching as module
+
+    rng = np.random.default_rng(4)
+    n, scans = 300, 6
+    start = rng.uniform(-50e3, 50e3, (n, 2))
+    truth_scan = np.repeat(np.arange(1, scans + 1), n)
+    truth_target = np.tile(np.arange(n), scans)
+    truth_xy = np.concatenate([start + 100.0 * k for k in range(scans)])
+    # tracks: a noisy copy of each target whose index is shuffled every other scan (switches), plus far ones
+    track_scan, track, track_xy = [], [], []
+    for k in range(scans):
+        ids = rng.permutation(n) if k % 2 else np.arange(n)
+        track_scan.append(np.full(n + 20, k + 1))
+        track.append(np.concatenate([ids, n + np.arange(20)]))
+        track_xy.append(np.concatenate([truth_xy[k * n:(k + 1) * n] + rng.normal(0, 300, (n, 2)),
+                                        rng.uniform(-50e3, 50e3, (20, 2))]))
+    args = (truth_scan, truth_target, truth_xy, np.concatenate(track_scan), np.concatenate(track),
+            np.concatenate(track_xy), scans, n, n + 20, 1_000.0)
+    monkeypatch.setattr(module, "DENSE_MAX_PAIRS", 0)
+    close = match_scans(*args)
+    monkeypatch.setattr(module, "DENSE_MAX_PAIRS", np.inf)
+    dense = match_scans(*args)
+    assert close.switch.sum() > 0 and close.target.size > n * scans // 2
+    for name in ("scan", "target", "track", "switch"):
+        np.testing.assert_array_equal(getattr(close, name), getattr(dense, name), err_msg=name)
+    np.testing.assert_allclose(close.distance, dense.distance, rtol=1e-9)

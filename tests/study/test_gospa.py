@@ -142,3 +142,42 @@ def test_the_set_measures_per_scan_and_per_run_equal_brute_force(phd_run):
     for key, expected in parts.items():
         np.testing.assert_allclose(m.series[key], expected, rtol=RTOL, atol=1e-9, err_msg=key)
         assert m.values[key] == pytest.approx(np.mean(expected), rel=RTOL), key
+
+
+def test_the_close_pair_path_equals_brute_force(monkeypatch):
+    """Above `DENSE_MAX_PAIRS` (forced here to 0) GOSPA and OSPA solve only the pairs closer than c: the same
+    values as the definitions."""
+    import nnda.study.gospa as module
+
+    monkeypatch.setattr(module, "DENSE_MAX_PAIRS", 0)
+    rng = np.random.default_rng(5)
+    for _ in range(150):
+        x, y = (rng.uniform(0, 3000, (rng.integers(0, 5), 2)) for _ in range(2))
+        c, p = rng.choice([200.0, 500.0, 1000.0]), rng.choice([1.0, 2.0])
+        g = gospa(x, y, c, p)
+        assert g.distance == pytest.approx(brute_gospa(x, y, c, p), rel=1e-9, abs=1e-9)
+        assert (g.localisation, g.missed, g.false) == pytest.approx(brute_gospa_parts(x, y, c, p), rel=1e-9,
+                                                                     abs=1e-9)
+        o = ospa_parts(x, y, c, p)
+        assert (o.distance, o.localisation, o.cardinality) == pytest.approx(brute_ospa_parts(x, y, c, p),
+                                                                            rel=1e-9, abs=1e-9)
+    same = np.array([[0.0, 0.0], [0.0, 0.0]])  # coincident points: distance 0 pairs are close pairs too
+    assert gospa(same, same, 100.0).distance == 0.0 and ospa(same, same, 100.0) == 0.0
+
+
+def test_the_close_pair_path_equals_the_dense_one_on_hundreds_of_targets(monkeypatch):
+    """2,000 targets against 1,900 estimates (90% of them near a target) and 200 far ones: the two paths agree
+    to 1e-9 and the close one runs by default at this size."""
+    import nnda.study.gospa as module
+
+    rng = np.random.default_rng(2)
+    truth = rng.uniform(-200e3, 200e3, (2_000, 2))
+    est = np.concatenate([truth[:1_900] + rng.normal(0, 400, (1_900, 2)), rng.uniform(-200e3, 200e3, (200, 2))])
+    assert truth.shape[0] * est.shape[0] > module.DENSE_MAX_PAIRS
+    close, close_ospa = gospa(truth, est, 1_000.0), ospa_parts(truth, est, 1_000.0)
+    monkeypatch.setattr(module, "DENSE_MAX_PAIRS", np.inf)
+    dense, dense_ospa = gospa(truth, est, 1_000.0), ospa_parts(truth, est, 1_000.0)
+    assert (close.n_missed, close.n_false) == (dense.n_missed, dense.n_false)
+    for a, b in ((close.distance, dense.distance), (close.localisation, dense.localisation),
+                 (close_ospa.distance, dense_ospa.distance), (close_ospa.localisation, dense_ospa.localisation)):
+        assert a == pytest.approx(b, rel=RTOL)

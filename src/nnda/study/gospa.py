@@ -18,7 +18,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
+from scipy.spatial import cKDTree
 from scipy.spatial.distance import cdist
+
+from nnda.tracking.assignment import least_cost_assignment
 
 
 @dataclass(frozen=True)
@@ -37,13 +40,51 @@ class Gospa:
     n_false: int
 
 
+#: problems of n truths x m estimates up to this many pairs are solved densely; larger ones (hundreds of
+#: targets) over their pairs closer than the cut-off only (`_close_assignment`), so the cost grows with the
+#: close pairs, not with n x m (benchmarks/bench_scoring.py)
+DENSE_MAX_PAIRS = 40_000
+
+
 def _assigned_distances(truth: np.ndarray, estimates: np.ndarray, c: float, p: float) -> np.ndarray:
     """Distances (m) of the optimally assigned pairs closer than c (with alpha = 2 a pair at
     c or beyond costs the same as leaving both unassigned, so it counts as missed + false)."""
+    if len(truth) * len(estimates) > DENSE_MAX_PAIRS:
+        return _close_assignment(truth, estimates, c, p)
     d = np.minimum(cdist(truth, estimates), c)
     rows, cols = linear_sum_assignment(d**p)
     pair = d[rows, cols]
     return pair[pair < c]
+
+
+def _close_assignment(truth: np.ndarray, estimates: np.ndarray, c: float, p: float) -> np.ndarray:
+    """`_assigned_distances` over the pairs closer than c only (`close_pairs`): a pair at c or beyond
+    costs c^p, as leaving both of its points unassigned does, so an optimal assignment of the whole n x m
+    problem is one of these pairs' optimal partial assignments, each pair gaining c^p - d^p over leaving its
+    points out (exact, `nnda.tracking.assignment.least_cost_assignment`). The same optimum as the dense
+    problem; its sum may differ in the last bits."""
+    i, j, d = close_pairs(truth, estimates, c)
+    if not d.size:
+        return d
+    rows, cols = least_cost_assignment(i, j, d**p - c**p, np.zeros(len(truth)))
+    return pair_values(i, j, d, rows, cols, len(estimates))
+
+
+def close_pairs(a: np.ndarray, b: np.ndarray, c: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The pairs of points of a (n, 2) and b (m, 2) closer than c (m): their rows in a and b and their
+    distances (m), (P,) each, sorted by row of a, then of b. Found by k-d trees: the cost grows with the
+    points and the close pairs, not with n x m."""
+    pairs = cKDTree(a).sparse_distance_matrix(cKDTree(b), c, output_type="ndarray")
+    pairs = pairs[pairs["v"] < c]
+    pairs = pairs[np.lexsort((pairs["j"], pairs["i"]))]
+    return pairs["i"].astype(np.int64), pairs["j"].astype(np.int64), pairs["v"].astype(np.float64)
+
+
+def pair_values(i: np.ndarray, j: np.ndarray, v: np.ndarray, rows: np.ndarray, cols: np.ndarray, m: int
+                ) -> np.ndarray:
+    """The values v of the pairs (rows, cols), each one of the pairs (i, j) sorted as `close_pairs` gives
+    them, with j < m."""
+    return v[np.searchsorted(i * m + j, np.asarray(rows, np.int64) * m + np.asarray(cols, np.int64))]
 
 
 def gospa(truth: np.ndarray, estimates: np.ndarray, c: float, p: float = 2.0) -> Gospa:
@@ -80,6 +121,10 @@ def ospa_parts(truth: np.ndarray, estimates: np.ndarray, c: float, p: float = 2.
         return Ospa(0.0, 0.0, 0.0)
     if m == 0:
         return Ospa(float(c), 0.0, float(c))
+    if m * n > DENSE_MAX_PAIRS:  # every point of the smaller set is assigned: far pairs at c^p each
+        close = _close_assignment(truth, estimates, c, p)
+        loc, card = float(np.sum(close**p)) + c**p * (m - close.size), c**p * (n - m)
+        return Ospa(float(((loc + card) / n) ** (1 / p)), float((loc / n) ** (1 / p)), float((card / n) ** (1 / p)))
     d = np.minimum(cdist(truth, estimates), c) ** p
     rows, cols = linear_sum_assignment(d)
     loc, card = d[rows, cols].sum(), c**p * (n - m)

@@ -151,7 +151,8 @@ SCORES_FORMAT_VERSION = 1
 def scores_record(run: TrackRun, dataset: Dataset, params: Mapping[str, Any], cutoff_m: float) -> dict:
     """``scores.json``: what was run on what, the ownership used, every run measure (`scalars`: a per-scan
     measure's mean over scans, undefined ones null) and, for a contact tracker, its ``track_management``
-    (the confirmation rule, deletions by reason, lines refused as too fast). No wall-clock time: the same inputs give the same bytes."""
+    (the confirmation rule, deletions by reason, lines refused as too fast). No wall-clock time: the same
+    inputs give the same bytes."""
     assert run.scores is not None
     return {
         "format": SCORES_FORMAT, "format_version": SCORES_FORMAT_VERSION, "tracker": run.tracker,
