@@ -127,3 +127,32 @@ def test_one_sensors_own_detection_probability_is_its_pd(name):
     runs = [[make_tracker(name, ds.scenario.sensors, cfg).step(scan) for scan in ds.scans()]
             for cfg in ({"pd": 0.8}, {"pd": 0.5, "sensor_pd": [0.8]})]
     assert all(np.array_equal(a.state, b.state) for a, b in zip(*runs))
+
+
+def _simultaneous(offset_s: float) -> Scenario:
+    """The two-radar scene with the second radar sweeping ``offset_s`` after the first (0: at the same instants)."""
+    return TWO.model_copy(update={"sensors": (TWO.sensors[0], TWO.sensors[1].model_copy(
+        update={"scan_offset_s": offset_s}))})
+
+
+@pytest.mark.parametrize("name", ["gnn", "jpda", "mht", "gmphd", "fusion-aa"])
+def test_two_sensors_sweeping_at_one_instant_are_tracked(name):
+    """Two radars whose sweeps fall at the same times: each scan at a time equal to the previous one's comes from
+    the other sensor, and the tracker takes it (no prediction over 0 s); the tracking is as good as with the
+    sweeps apart."""
+    together = generate(_simultaneous(0.0), 3)
+    assert (np.diff(together.scan_time) == 0).any()
+    at_once = _gospa(name, _simultaneous(0.0), seed=3)
+    apart = _gospa(name, _simultaneous(TWO.sensors[0].scan_period_s / 2), seed=3)
+    assert at_once < 1.25 * apart, (at_once, apart)
+
+
+@pytest.mark.parametrize("name", ["gnn", "gmphd", "fusion-aa"])
+def test_one_sensor_twice_at_one_instant_is_refused(name):
+    tracker = make_tracker(name, TWO.sensors)
+    tracker.step(Scan(1, 2.0, np.empty((0, 2)), 0))
+    tracker.step(Scan(2, 2.0, np.empty((0, 2)), 1))  # the other sensor at the same instant: taken
+    with pytest.raises(TrackingError, match=r"does not come after the previous scan \(t = 2.0 s, sensor 1\)"):
+        tracker.step(Scan(3, 2.0, np.empty((0, 2)), 1))
+    with pytest.raises(TrackingError, match="does not come after"):
+        tracker.step(Scan(3, 1.0, np.empty((0, 2)), 0))

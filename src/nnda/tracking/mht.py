@@ -146,7 +146,6 @@ class MHTTracker(ContactTracker):
     def step(self, scan: Scan) -> TrackerOutput:
         sc = self._checked(scan)
         z, xy, time = sc.z, sc.xy, sc.time
-        self.last_time = time  # the scan being processed, from here on (bound warnings name it)
         leaves, shown, chosen = None, None, np.empty(0, np.int64)
         used = np.zeros(len(z), bool)
         if self.leaves is not None and len(self.leaves):

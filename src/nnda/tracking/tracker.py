@@ -185,11 +185,14 @@ def checked_contacts(name: str, scan: Scan, polar: bool, sensor: str) -> np.ndar
     return z
 
 
-def checked_scan(name: str, scan: Scan, last_time: float, sensors: tuple[Sensor, ...]) -> tuple[np.ndarray, float]:
+def checked_scan(name: str, scan: Scan, last_time: float, sensors: tuple[Sensor, ...], last_sensor: int | None = None
+                 ) -> tuple[np.ndarray, float]:
     """The contacts z (N, 2) and time (s) of ``scan``, checked for tracker ``name`` built for ``sensors``.
 
     Raises TrackingError unless ``scan`` is a scan (`nnda.data.dataset.Scan`: index, time, measurements,
-    sensor), its time is a finite number after ``last_time``, its sensor is one of ``sensors`` and its
+    sensor), its time is a finite number after ``last_time`` (or equal to it when the tracker gives the
+    previous scan's sensor, ``last_sensor``, and this scan comes from another: two sensors' sweeps at one
+    instant), its sensor is one of ``sensors`` and its
     measurements pass `checked_contacts` for that sensor's kind ([range m, azimuth rad], positive ranges, for
     a polar sensor; [x m, y m] for a position sensor).
     """
@@ -206,9 +209,10 @@ def checked_scan(name: str, scan: Scan, last_time: float, sensors: tuple[Sensor,
     time = float(scan.time)
     if not math.isfinite(time):
         raise TrackingError(f"{name}: scan {scan.index} has a non-finite time {scan.time}")
-    if time <= last_time:
-        raise TrackingError(f"{name}: scan {scan.index} at t = {time} s does not come after the "
-                            f"previous scan (t = {last_time} s); scans must arrive in time order")
+    if time < last_time or (time == last_time and (last_sensor is None or sensor == last_sensor)):
+        raise TrackingError(f"{name}: scan {scan.index} at t = {time} s does not come after the previous scan "
+                            f"(t = {last_time} s{'' if last_sensor is None else f', sensor {last_sensor}'}); scans "
+                            f"must arrive in time order, those of two sensors at one instant in either order")
     return checked_contacts(name, scan, sensors[sensor].kind == "polar", sensors[sensor].name), time
 
 
@@ -662,7 +666,7 @@ class ContactTracker(ABC):
     def reset(self) -> None:
         """Forget every track and initiator (start of a new run)."""
         self.initiation.reset()
-        self.last_time = -np.inf
+        self.last_time, self.last_sensor = -np.inf, -1
         self._bounds_hit: set[str] = set()
         self._density_of: tuple[ScanContacts, np.ndarray] | None = None  # (scan, `_contact_density`)
         #: tracks deleted since the last reset, by reason (`nnda.tracking.lifecycle.DELETION_REASONS`)
@@ -782,7 +786,10 @@ class ContactTracker(ABC):
         """Process one sweep and report every track."""
 
     def _checked(self, scan: Scan) -> ScanContacts:
-        z, time = checked_scan(self.name, scan, self.last_time, self.sensors)
+        """The scan checked (`checked_scan`) and, from here on, the one being processed (``last_time``,
+        ``last_sensor``: bound warnings name its time)."""
+        z, time = checked_scan(self.name, scan, self.last_time, self.sensors, self.last_sensor)
+        self.last_time, self.last_sensor = time, int(scan.sensor)
         imm = self.filters[scan.sensor]
         return ScanContacts(scan.index, time, int(scan.sensor), imm, z, imm.measurement.cartesian(z))
 
@@ -874,7 +881,6 @@ class SingleHypothesisTracker(ContactTracker):
             shown.append(Shown(born.track_id, born.status, *self.filter.estimate(born.filt), born_contact))
             tracks = born if tracks is None else tracks.joined(born)
         self.tracks = tracks
-        self.last_time = time
         return TrackerOutput.from_blocks(scan.index, time, shown)
 
     def _finish(self, tracks: Tracks, pred: IMMPrediction, assoc: Association, scan: ScanContacts

@@ -189,7 +189,7 @@ class FusionTracker:
         for f in self.local:
             f.reset()
             f._bounds_hit = bounds_hit
-        self.last_time = -np.inf
+        self.last_time, self.last_sensor = -np.inf, -1
         self.known_keys = np.empty(0, np.int64)  # (sensor, local label) keys of the last fusion, sorted
         self.known_ids = np.empty(0, np.int64)  # their centre ids
         self.next_id = 0
@@ -244,14 +244,14 @@ class FusionTracker:
         """Update the sweeping sensor's local filter with the scan, fuse every local intensity at its time
         and report the fused components of weight >= ``fused_extraction_threshold`` as confirmed tracks, of
         the centre ids once so after ``extraction_scans`` sweeps in a row of one sensor."""
-        _, time = checked_scan(self.name, scan, self.last_time, self.sensors)
+        _, time = checked_scan(self.name, scan, self.last_time, self.sensors, self.last_sensor)
         cfg = self.config
         self.local[scan.sensor].step(Scan(scan.index, scan.time, scan.measurements, 0))
         union = self._combined([f.intensity_at(time) for f in self.local])
         fused, groups = fuse(union, cfg.merge_threshold, cfg.merge_covariance)
         fused = Mixture(fused.weights, fused.means, fused.covariances, self._ids(union.labels, groups, len(fused)))
         self.fused = fused = cap(fused, cfg.max_components)
-        self.last_time = time
+        self.last_time, self.last_sensor = time, scan.sensor
         shown = above(fused, cfg.fused_extraction_threshold)
         shown = shown[np.argsort(fused.labels[shown], kind="stable")]
         shown, self.extraction_streaks[scan.sensor], self.confirmed_labels = persistent(

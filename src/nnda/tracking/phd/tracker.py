@@ -220,7 +220,7 @@ class GMPHDTracker:
         self.mixture = Mixture.empty(n)
         self.newborn = Mixture.empty(n)
         self.next_label = 0
-        self.last_time = -np.inf
+        self.last_time, self.last_sensor = -np.inf, -1
         self.cardinality: Cardinality | None = None
         #: predicted components left out of a scan's update by ``max_pairs`` since the last reset, and the
         #: candidate pairs they would have formed (`_within_pairs`)
@@ -255,7 +255,7 @@ class GMPHDTracker:
         if not hasattr(scan, "measurements"):
             return checked_scan(self.name, scan, self.last_time, self.sensors)  # refused there, named
         _, time = checked_scan(self.name, Scan(scan.index, scan.time, np.empty((0, 2)), scan.sensor), self.last_time,
-                               self.sensors)  # the time and the sensor index first
+                               self.sensors, self.last_sensor)  # the time and the sensor index first
         view = self.views[scan.sensor]
         return checked_contacts(self.name, scan, not view.cartesian, view.sensor.name), time
 
@@ -389,7 +389,7 @@ class GMPHDTracker:
             self.next_label += len(self.newborn)
         else:
             self.newborn = Mixture.empty(cfg.state_dim)
-        self.last_time = time
+        self.last_time, self.last_sensor = time, scan.sensor
         return self._report(scan.index, scan.sensor, time, post, mean, map_count, dist)
 
     def _component_cap(self, contacts: int, targets: float) -> int:
