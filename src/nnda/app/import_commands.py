@@ -10,6 +10,7 @@ import typer
 from rich.console import Console
 
 from nnda.data.detections_import import SCAN_TOLERANCE_S, import_detections, load_sensors, sensor_fields
+from nnda.data.geodesy import parse_origin
 from nnda.errors import ConfigError
 from nnda.files import check_output_location
 from nnda.peers import require_stonesoup
@@ -39,12 +40,19 @@ def import_detections_command(
         help="CSV decimal mark: '.' or ',' (with --delimiter ';', e.g.)")] = ".",
     encoding: Annotated[str, typer.Option(
         help="CSV text encoding, e.g. utf-8, latin-1, cp1252, utf-16")] = "utf-8",
+    origin: Annotated[str | None, typer.Option(
+        help="LAT,LON[,ALT] (deg, deg, m): the origin of the local east-north plane for lat/lon input "
+             "(default: the first sensor's lat/lon site, else the reports' mean position)")] = None,
+    region: Annotated[str | None, typer.Option(
+        help="keep only reports inside: xmin,ymin,xmax,ymax (m), lat:LAT0,LAT1,lon:LON0,LON1 (deg), or a "
+             "polygon file (.csv/.parquet: x,y or lat,lon vertex columns)")] = None,
 ) -> None:
     """Import recorded detections (CSV or Parquet) as an nnda dataset: scans grouped by sensor and sweep time.
 
-    Columns: time (s); range (m) and azimuth, or x and y (m); optional sensor
-    (name or index) and target_id (empty: clutter). A sensor's period, offset
-    and range limits not given are inferred from the data.
+    Columns: time (s); range (m) and azimuth, x and y (m), or lat and lon
+    (deg; optional alt, m); optional sensor (name or index) and target_id
+    (empty: clutter). A sensor's period, offset and range limits not given
+    are inferred from the data; its site may be given as lat=, lon=.
 
     A CSV is UTF-8 with ',' between fields and '.' in numbers unless
     --encoding, --delimiter and --decimal say otherwise (a file with ';'
@@ -54,15 +62,23 @@ def import_detections_command(
     if sensors is not None and sensor:
         raise ConfigError("give the sensors either as --sensors FILE or as --sensor FIELD=VALUE, not both")
     check_output_location(out, [p for p in (file, truth, sensors) if p is not None])
+    if origin is not None:
+        parse_origin(origin)  # a malformed --origin is refused before any file is read
     specs = load_sensors(sensors) if sensors is not None else [sensor_fields(sensor or [])]
     path, ds = import_detections(file, out, overwrite, sensors=specs, truth=truth, columns=column,
                                  azimuth_unit=azimuth_unit, scan_tolerance=scan_tolerance,
                                  time_origin=time_origin, name=name, delimiter=delimiter, decimal=decimal,
-                                 encoding=encoding)
+                                 encoding=encoding, origin=origin, region=region)
     d = ds.detections
     labelled = int((~d.is_clutter).sum())
     Console().print(f"wrote {path} ({d.scan.size} detections, {labelled} of targets; {ds.n_scans} scans; "
                     f"{ds.truth.scan.size} truth rows)", markup=False, highlight=False)
+    if ds.geodetic_origin is not None:
+        Console().print(f"  geodetic origin: {ds.geodetic_origin} (x east, y north on its tangent plane)",
+                        markup=False, highlight=False)
+    if "--region" in ds.dropped_rows:
+        Console().print(f"  --region: {ds.dropped_rows['--region']} report(s) outside dropped", markup=False,
+                        highlight=False)
     for s in ds.scenario.sensors:
         Console().print(f"  sensor {s.name} ({s.kind}) at ({s.x_m:g}, {s.y_m:g}) m: period {s.scan_period_s:g} s, "
                         f"offset {s.scan_offset_s + time_origin:g} s, ranges {s.min_range_m:g}-{s.max_range_m:g} m",

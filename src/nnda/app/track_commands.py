@@ -37,7 +37,9 @@ def write_track_outputs(out: Path, dataset, run, params: dict, cutoff_m: float, 
                         overwrite: bool = False, lagged=None, lag: int = 0) -> Path:
     """Write ``tracks.<format>``, ``tracks.png``, ``tracks.html`` and (with truth) ``scores.json`` into the
     directory ``out``, atomically as a whole; with ``lagged`` (the `TrackRun` of the fixed-lag output of
-    ``lag`` scans) also ``tracks_lag<lag>.<format>`` and the lagged scores in ``scores.json``."""
+    ``lag`` scans) also ``tracks_lag<lag>.<format>`` and the lagged scores in ``scores.json``. A dataset with
+    a geodetic origin gets ``lat``, ``lon`` (deg, at the origin's height) after the state columns of each
+    table."""
     import pyarrow.csv as pacsv
     import pyarrow.parquet as pq
 
@@ -48,6 +50,7 @@ def write_track_outputs(out: Path, dataset, run, params: dict, cutoff_m: float, 
     with atomic_directory(out, overwrite) as tmp:
         tables = [("tracks", run.table)] + ([] if lagged is None else [(f"tracks_lag{lag}", lagged.table)])
         for name, table in tables:
+            table = _with_degrees(table, dataset.geodetic_origin)
             with open(tmp / f"{name}.{table_format}", "wb") as f:
                 if table_format == "csv":
                     pacsv.write_csv(table, f)
@@ -58,6 +61,19 @@ def write_track_outputs(out: Path, dataset, run, params: dict, cutoff_m: float, 
         if run.scores is not None:
             (tmp / "scores.json").write_text(dumps(_scores(run, dataset, params, cutoff_m, lagged, lag)))
     return out
+
+
+def _with_degrees(table, origin):
+    """``table`` with ``lat``, ``lon`` (deg) of its x, y (m) inserted after ``vy``; as it is without an
+    ``origin``."""
+    if origin is None:
+        return table
+    import pyarrow as pa
+
+    x, y = (table.column(c).to_numpy(zero_copy_only=False) for c in ("x", "y"))
+    lat, lon = origin.on_surface(x, y)
+    at = table.schema.get_field_index("vy") + 1
+    return table.add_column(at, "lat", pa.array(lat)).add_column(at + 1, "lon", pa.array(lon))
 
 
 def _scores(run, dataset, params: dict, cutoff_m: float, lagged, lag: int) -> dict:

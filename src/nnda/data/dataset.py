@@ -15,7 +15,8 @@ version) is refused rather than read; 3 is 2 plus the SHA-256 of
 ``detections.parquet`` and ``truth.parquet`` in the manifest's ``sha256``
 field, checked on read, so a flipped byte is a "corrupt file" error rather
 than data; a manifest holding a field of a later version than it names is
-refused as edited; 2 has a
+refused as edited (so are ``geodetic_origin`` and ``dropped_rows``, optional
+fields since format 4, in an older manifest); 2 has a
 ``sensor`` column in ``detections.parquet``, the index of the detecting
 sensor in the manifest's ``scenario.sensors``; 1 (one radar at the origin,
 the scenario in the one-sensor form) has no such column (read as all 0).
@@ -32,6 +33,12 @@ azimuths in [0, 2 pi), x/y agreeing with range/azimuth from the detecting
 sensor, times of the scan schedule, rows in scan order), each refusal naming
 the file, the column and the row. A collection must hold exactly the members
 its manifest lists.
+
+An imported dataset may record, in its manifest, the geodetic origin of its
+frame (``geodetic_origin``: lat_deg, lon_deg, alt_m and how it was chosen;
+`nnda.data.geodesy`: x east, y north on the tangent plane there) and the
+rows an import option dropped (``dropped_rows``: option -> count). Both
+are absent otherwise, so datasets without them read and write as before.
 """
 
 from __future__ import annotations
@@ -39,7 +46,7 @@ from __future__ import annotations
 import re
 from collections import Counter
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 
@@ -48,6 +55,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from nnda.data.checks import whole_number
+from nnda.data.geodesy import GeodeticOrigin
 from nnda.data.scenario import Scenario, scenario_from_dict
 from nnda.data.sensor import TWO_PI, polar_to_cart
 from nnda.errors import ConfigError, DatasetError
@@ -166,13 +174,20 @@ class Scan:
 
 @dataclass(frozen=True)
 class Dataset:
-    """One realisation of a scenario: its config, seed, run index, contacts and truth."""
+    """One realisation of a scenario: its config, seed, run index, contacts and truth.
+
+    ``geodetic_origin``: where the frame's origin lies on the Earth (an
+    import of geodetic data), else None; ``dropped_rows``: rows of the
+    imported file an import option dropped, by option (e.g. ``--region``).
+    """
 
     scenario: Scenario
     seed: int
     run: int
     detections: Detections
     truth: Truth
+    geodetic_origin: GeodeticOrigin | None = None
+    dropped_rows: dict[str, int] = field(default_factory=dict)
 
     @property
     def n_scans(self) -> int:
@@ -228,6 +243,10 @@ def manifest(dataset: Dataset, sha256: dict[str, str]) -> dict:
         "scenario": s.model_dump(mode="json"),
         "sha256": sha256,
     }
+    if dataset.geodetic_origin is not None:
+        head["geodetic_origin"] = dataset.geodetic_origin.record()
+    if dataset.dropped_rows:
+        head["dropped_rows"] = dict(dataset.dropped_rows)
     return head | {"manifest_sha256": manifest_seal(head)}
 
 
@@ -465,9 +484,10 @@ def _check_not_relabelled(where: Path, meta: dict) -> None:
 def _check_later_fields(where: Path, meta: dict) -> None:
     """A manifest naming format version v holds no field that only a later version writes (an edited one)."""
     version = meta["format_version"]
-    for field, since in (("sha256", DIGESTS_SINCE), ("manifest_sha256", SEALED_SINCE)):
-        if field in meta and version < since:
-            raise DatasetError(f"{where}: field {field!r} is written since format version {since}, but field "
+    for name, since in (("sha256", DIGESTS_SINCE), ("manifest_sha256", SEALED_SINCE),
+                        ("geodetic_origin", SEALED_SINCE), ("dropped_rows", SEALED_SINCE)):
+        if name in meta and version < since:
+            raise DatasetError(f"{where}: field {name!r} is written since format version {since}, but field "
                                f"'format_version' is {version}: an edited manifest; regenerate or re-import the "
                                f"dataset")
 
@@ -477,6 +497,33 @@ def _verifymanifest_seal(where: Path, meta: dict) -> None:
     if meta.get("manifest_sha256") != manifest_seal(meta):
         raise DatasetError(f"{where}: edited or corrupt (field 'manifest_sha256' does not match the manifest's "
                            f"content); regenerate or re-import the dataset")
+
+
+def _geodetic_origin(where: Path, meta: dict) -> GeodeticOrigin | None:
+    """The manifest's ``geodetic_origin``, checked, or None without one."""
+    record = meta.get("geodetic_origin")
+    if record is None:
+        return None
+    keys = ("lat_deg", "lon_deg", "alt_m", "source")
+    if (not isinstance(record, dict) or sorted(record) != sorted(keys)
+            or not all(isinstance(record[k], (int, float)) and not isinstance(record[k], bool) for k in keys[:3])
+            or not isinstance(record["source"], str)):
+        raise DatasetError(f"{where}: field 'geodetic_origin' must map lat_deg, lon_deg, alt_m to numbers and "
+                           f"source to text, got {record!r}; re-import the dataset")
+    try:
+        return GeodeticOrigin(**record)
+    except ConfigError as exc:
+        raise DatasetError(f"{where}: field 'geodetic_origin': {exc}; re-import the dataset") from None
+
+
+def _dropped_rows(where: Path, meta: dict) -> dict[str, int]:
+    """The manifest's ``dropped_rows`` (option -> count), checked; {} without it."""
+    record = meta.get("dropped_rows", {})
+    if not isinstance(record, dict) or not all(isinstance(k, str) and type(v) is int and v >= 0
+                                               for k, v in record.items()):
+        raise DatasetError(f"{where}: field 'dropped_rows' must map option names to counts >= 0, got {record!r}; "
+                           f"re-import the dataset")
+    return dict(record)
 
 
 def _check_counts(where: Path, meta: dict, dataset: Dataset) -> None:
@@ -498,7 +545,8 @@ def read_dataset(path: str | Path) -> Dataset:
     invalid scenario, a data file whose SHA-256 differs from the manifest's
     (format 3 on: "corrupt file"), a manifest edited since it was written
     (format 4: its own SHA-256; any format: a field of a later version; an
-    older format than its ``nnda_version`` wrote: relabelled), a data file
+    older format than its ``nnda_version`` wrote: relabelled), a malformed
+    ``geodetic_origin`` or ``dropped_rows``, a data file
     that is a symbolic link out of the directory, a Parquet file of another
     schema, and values `check_dataset` refuses.
     """
@@ -530,7 +578,8 @@ def read_dataset(path: str | Path) -> Dataset:
     schema = DETECTIONS_SCHEMA_V1 if version == 1 else DETECTIONS_SCHEMA
     detections = _read_table(path / DETECTIONS_FILE, schema, Detections)
     truth = _read_table(path / TRUTH_FILE, TRUTH_SCHEMA, Truth)
-    dataset = Dataset(scenario, seed, run, detections, truth)
+    dataset = Dataset(scenario, seed, run, detections, truth, _geodetic_origin(path / MANIFEST, meta),
+                      _dropped_rows(path / MANIFEST, meta))
     check_dataset(dataset, str(path / DETECTIONS_FILE), str(path / TRUTH_FILE))
     _check_counts(path / MANIFEST, meta, dataset)
     if version >= SEALED_SINCE:  # last: an edit the checks above name is named so

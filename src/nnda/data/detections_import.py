@@ -12,7 +12,9 @@ the file's name; the mapping applies to the truth file too):
 * ``time`` (s), required; and the position: ``range`` (m) and ``azimuth``
   (rad, or degrees with ``azimuth_unit="deg"``; clockwise from north, from
   the detecting sensor, in [-pi, 2 pi) and stored wrapped to [0, 2 pi)),
-  or ``x`` and ``y`` (m, x east, y north, scenario frame). A polar sensor's
+  or ``x`` and ``y`` (m, x east, y north, scenario frame), or ``lat`` and
+  ``lon`` (deg, WGS 84; optional ``alt``, m) placed on the local plane of
+  the geodetic origin (`nnda.data.geodetic_import`). A polar sensor's
   detections are taken from ``range``/``azimuth`` when the file has them,
   a position sensor's from ``x``/``y``; the other pair is derived from the
   sensor's position.
@@ -22,7 +24,8 @@ the file's name; the mapping applies to the truth file too):
   (or a negative integer) marks clutter. Without the column every detection
   is unlabelled, stored as the format stores clutter (target_id -1).
 * a truth file (optional, same formats): ``time``, ``target_id``, ``x``,
-  ``y``, ``vx``, ``vy`` (s, m, m/s), one row per target per time; each time
+  ``y`` (or ``lat``, ``lon``), ``vx``, ``vy`` (s, m or deg, m/s; velocities
+  east and north), one row per target per time; each time
   must be the time of a scan (within the tolerance), its row is stored for
   every scan at that time, and a detection's target must appear in it.
 
@@ -76,14 +79,24 @@ import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
 from nnda.data.dataset import Dataset, Detections, Truth, write_dataset
+from nnda.data.geodesy import GeodeticOrigin, check_geodetic
+from nnda.data.geodetic_import import (
+    SITE_FIELDS,
+    choose_origin,
+    keep_in_region,
+    local_positions,
+    place_sites,
+    sensor_sites,
+)
+from nnda.data.region import Region, parse_box, polygon
 from nnda.data.scenario import Clutter, ProcessNoise, Scenario, Segment, Sensor, Target
 from nnda.data.sensor import TWO_PI, cart_to_polar_at, polar_to_cart_at, wrap_azimuth
 from nnda.errors import ConfigError, DatasetError, validated
 from nnda.files import atomic_output, read_config
 
 #: columns nnda reads from a detections file, and from a truth file
-DETECTION_COLUMNS = ("time", "range", "azimuth", "x", "y", "sensor", "target_id")
-TRUTH_COLUMNS = ("time", "target_id", "x", "y", "vx", "vy")
+DETECTION_COLUMNS = ("time", "range", "azimuth", "x", "y", "lat", "lon", "alt", "sensor", "target_id")
+TRUTH_COLUMNS = ("time", "target_id", "x", "y", "vx", "vy", "lat", "lon", "alt")
 AZIMUTH_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}
 #: default grouping tolerance (s): a row is in a sweep when within this of the sweep's time
 SCAN_TOLERANCE_S = 1e-6
@@ -310,7 +323,7 @@ def _numeric(table: pa.Table, path: Path, name: str, column: str, decimal: str =
     if bad.any():
         row = int(np.argmax(bad))
         raise DatasetError(f"{_where(path, row, column)}: {float(a[row])!r} ({name} must be a finite number)")
-    unit = {"range": "m", "x": "m", "y": "m", "vx": "m/s", "vy": "m/s"}.get(name)
+    unit = {"range": "m", "x": "m", "y": "m", "vx": "m/s", "vy": "m/s", "alt": "m"}.get(name)
     if unit and (bad := np.abs(a) > MAX_MAGNITUDE).any():
         row = int(np.argmax(bad))
         raise DatasetError(f"{_where(path, row, column)}: {name} {float(a[row])!r} {unit} is beyond "
@@ -431,8 +444,8 @@ def sensor_fields(pairs: Sequence[str]) -> dict[str, Any]:
         name, value = name.strip(), value.strip()
         if not sep or not name:
             raise ConfigError(f"--sensor {p!r}: give FIELD=VALUE, e.g. scan_period_s=2")
-        if name not in Sensor.model_fields or name == "clutter":
-            fields_known = ", ".join(f for f in Sensor.model_fields if f != "clutter")
+        if (name not in Sensor.model_fields or name == "clutter") and name not in SITE_FIELDS:
+            fields_known = ", ".join([*(f for f in Sensor.model_fields if f != "clutter"), *SITE_FIELDS])
             raise ConfigError(f"--sensor {p!r}: unknown sensor field {name!r}; choose one of {fields_known}")
         try:
             fields[name] = float(value) if name not in ("name", "kind") else value
@@ -540,6 +553,7 @@ def read_detections(
     truth: str | Path | None = None, columns: Sequence[str] | Mapping[str, str] | None = None,
     azimuth_unit: str = "rad", scan_tolerance: float = SCAN_TOLERANCE_S, time_origin: float = 0.0,
     name: str | None = None, delimiter: str = ",", decimal: str = ".", encoding: str = "utf-8",
+    origin: str | Sequence[float] | GeodeticOrigin | None = None, region: str | Path | Region | None = None,
 ) -> Dataset:
     """The detections file at ``path`` (and its ``truth`` file) as a checked `Dataset` (see the module).
 
@@ -549,7 +563,9 @@ def read_detections(
     names to the file's. ``name`` names the scenario (default: the file's stem).
     ``delimiter`` (``,`` ``;`` ``|`` or a tab), ``decimal`` (``.`` or ``,``)
     and ``encoding`` (a Python codec name) say how a CSV (detections and
-    truth) is written; a Parquet file ignores them.
+    truth) is written; a Parquet file ignores them. ``origin`` (``"LAT,LON[,ALT]"``, deg, deg, m) fixes
+    the geodetic origin of the frame (default: chosen from the data, `nnda.data.geodetic_import`);
+    ``region`` (a box or a polygon file, `nnda.data.region`) drops the reports outside it.
     """
     path = Path(path)
     if azimuth_unit not in AZIMUTH_UNITS:
@@ -564,6 +580,9 @@ def read_detections(
     for i, s in enumerate(specs):
         s.setdefault("name", "radar" if len(specs) == 1 else f"sensor{i}")
     names = [str(s["name"]) for s in specs]
+    sites = sensor_sites(specs, names)
+    if isinstance(region, (str, Path)):
+        region = parse_box(str(region)) or _polygon_file(Path(region), mapping, dialect)
     for j, s in enumerate(specs):  # the fields given, before anything is inferred (an offset needs its period)
         validated(Sensor, {k: v for k, v in s.items() if k != "scan_offset_s"}, f"sensor {j} ({names[j]!r})",
                   "sensor")
@@ -574,9 +593,17 @@ def read_detections(
     n = table.num_rows
     t = _numeric(table, path, "time", present["time"], dec) - time_origin
     polar, cart = {"range", "azimuth"} <= present.keys(), {"x", "y"} <= present.keys()
-    if not (polar or cart):
+    geodetic = not cart and ({"lat", "lon"} <= present.keys() or not polar and ("lat" in present or "lon" in present))
+    if not (polar or cart or geodetic):
         _require(path, present, ["range", "azimuth"] if "x" not in present and "y" not in present else ["x", "y"],
-                 mapping, table, "a position: range and azimuth, or x and y")
+                 mapping, table, "a position: range and azimuth, x and y, or lat and lon")
+    lat = lon = alt = None
+    if geodetic:
+        _require(path, present, ["lat", "lon"], mapping, table, "a position in degrees: lat and lon")
+        lat, lon, alt = (_numeric(table, path, c, present[c], dec) if c in present else None for c in SITE_FIELDS)
+        check_geodetic(lat, lon, alt, where=lambda c, row: _where(path, row, present[c]), error=DatasetError)
+    frame = choose_origin(origin, sites, names, lat, lon)
+    place_sites(specs, sites, frame)
     rng = az = x = y = None
     if polar:
         rng = _numeric(table, path, "range", present["range"], dec)
@@ -590,6 +617,9 @@ def read_detections(
     if cart:
         x = _numeric(table, path, "x", present["x"], dec)
         y = _numeric(table, path, "y", present["y"], dec)
+    elif geodetic:
+        x, y = local_positions(path, present, frame, lat, lon, alt)
+        cart = True
     if "sensor" in present:
         sensor = _sensor_index(path, present["sensor"], table, names)
     elif len(specs) > 1:
@@ -649,7 +679,7 @@ def read_detections(
     periods = [_fraction(p, f"sensor {names[j]!r}: scan_period_s") for j, (p, _) in enumerate(grids)]
     common = _lcm(periods)
     longest = max(Fraction(m) * p for m, p in zip(needed, periods))
-    truth_rows = _read_truth(Path(truth), mapping, time_origin, dialect) if truth is not None else None
+    truth_rows = _read_truth(Path(truth), mapping, time_origin, dialect, frame) if truth is not None else None
     if truth_rows is not None and truth_rows["t"].size:  # the schedule reaches the last true state too
         longest = max(longest, Fraction(float(truth_rows["t"].max())))
     duration = common * math.ceil(longest / common)
@@ -678,12 +708,25 @@ def read_detections(
     labels = _labels(table, path, present["target_id"]) if "target_id" in present else None
     scenario_name = _scenario_name(name or path.stem)
     return _assemble(path, truth_rows, mapping, scenario_name, built, float(duration), time_origin, tol,
-                     t, sweep, sensor, rng, az, x, y, labels, polar)
+                     t, sweep, sensor, rng, az, x, y, labels, polar, frame, region)
+
+
+def _polygon_file(path: Path, mapping: Mapping[str, str], dialect: CsvDialect) -> Region:
+    """The polygon of the ``--region`` file at ``path``: one vertex a row, columns x, y (m) or lat, lon (deg)."""
+    table = _read_table(path, "--region", dialect)
+    present = _columns(table, path, ("x", "y", "lat", "lon"), {})
+    pair = ("x", "y") if {"x", "y"} <= present.keys() else ("lat", "lon")
+    _require(path, present, pair, {}, table, "a polygon's vertices: x, y (m) or lat, lon (deg), one a row")
+    a, b = (_numeric(table, path, c, present[c], _decimal(path, dialect)) for c in pair)
+    if pair[0] == "lat":
+        check_geodetic(a, b, where=lambda c, row: _where(path, row, present[c]), error=DatasetError)
+    return polygon(str(path), a, b, pair[0] == "lat", path)
 
 
 def _assemble(path, truth_rows, mapping, scenario_name, sensors, duration, time_origin, tol, t, sweep, sensor,
-              rng, az, x, y, labels, polar) -> Dataset:
-    """The dataset from the checked columns: scans, positions in both forms, targets, truth."""
+              rng, az, x, y, labels, polar, frame=None, region=None) -> Dataset:
+    """The dataset from the checked columns: scans, positions in both forms, targets, truth; the reports
+    outside ``region`` dropped."""
     n = t.size
     draft = Scenario(name=scenario_name, duration_s=duration, sensors=tuple(sensors),
                      targets=[_placeholder(duration)], process_noise=ProcessNoise(model="none"))
@@ -710,6 +753,11 @@ def _assemble(path, truth_rows, mapping, scenario_name, sensors, duration, time_
         row = int(np.argmax(bad))
         raise DatasetError(f"{_where(path, row, mapping.get('x', 'x'))}: the detection lies on sensor "
                            f"{sensors[sensor[row]].name!r} (range 0 m); nnda needs a positive range")
+    keep, n_dropped = keep_in_region(region, x_out, y_out, frame)
+    if keep is not None:
+        scan, r_out, az_out, x_out, y_out, sensor = (a[keep] for a in (scan, r_out, az_out, x_out, y_out, sensor))
+        labels = labels[keep] if labels is not None else None
+        n = int(keep.sum())
     # targets: the truth file's, else the labels'
     truth_table = _truth_scans(truth_rows, time_origin, tol, sched_time) if truth_rows is not None else None
     truth_path = truth_rows["path"] if truth_rows is not None else None
@@ -731,13 +779,15 @@ def _assemble(path, truth_rows, mapping, scenario_name, sensors, duration, time_
     targets = _targets(order, truth_table, det, sched_time, duration)
     truth_rec = _truth_record(truth_table, index, det)
     what = f"{n} detections from {path.name}" + (f", truth from {truth_path.name}" if truth_path else "")
+    what += f"; geodetic origin {frame}" if frame is not None else ""
+    what += f"; {n_dropped} outside --region {region.text} dropped" if region is not None else ""
     scenario = Scenario(
         name=scenario_name, duration_s=duration, sensors=tuple(sensors), targets=targets,
         process_noise=ProcessNoise(model="none"),
         description=(f"imported by nnda import-detections: {what}; times less the origin {time_origin:g} s, "
                      f"grouped into sweeps within {tol:g} s; targets give each one's first true state "
                      f"(a placeholder when unlabelled), the truth file its motion"))
-    return Dataset(scenario, 0, 0, det, truth_rec)
+    return Dataset(scenario, 0, 0, det, truth_rec, frame, {"--region": n_dropped} if region is not None else {})
 
 
 def _scan_then_azimuth(scan: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
@@ -750,15 +800,24 @@ def _scan_then_azimuth(scan: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
     return np.lexsort((azimuth, scan))
 
 
-def _read_truth(path: Path, mapping: Mapping[str, str], time_origin: float, dialect: CsvDialect = CsvDialect()
-                ) -> dict:
-    """The truth file's checked columns: time (after the origin), labels, state; its path and time column."""
+def _read_truth(path: Path, mapping: Mapping[str, str], time_origin: float, dialect: CsvDialect = CsvDialect(),
+                frame: GeodeticOrigin | None = None) -> dict:
+    """The truth file's checked columns: time (after the origin), labels, state (positions in lat/lon placed
+    on ``frame``'s plane); its path and time column."""
     table = _read_table(path, "truth", dialect)
     dec = _decimal(path, dialect)
     present = _columns(table, path, TRUTH_COLUMNS, mapping)
-    _require(path, present, TRUTH_COLUMNS, mapping, table, "a truth file has time, target_id, x, y, vx, vy")
+    position = ["lat", "lon"] if not {"x", "y"} & present.keys() and {"lat", "lon"} & present.keys() else ["x", "y"]
+    _require(path, present, ["time", "target_id", *position, "vx", "vy"], mapping, table,
+             "a truth file has time, target_id, x, y (or lat, lon), vx, vy")
     t = _numeric(table, path, "time", present["time"], dec) - time_origin
-    values = {c: _numeric(table, path, c, present[c], dec) for c in ("x", "y", "vx", "vy")}
+    values = {c: _numeric(table, path, c, present[c], dec) for c in ("vx", "vy")}
+    if position[0] == "x":
+        values |= {c: _numeric(table, path, c, present[c], dec) for c in ("x", "y")}
+    else:
+        lat, lon, alt = (_numeric(table, path, c, present[c], dec) if c in present else None for c in SITE_FIELDS)
+        check_geodetic(lat, lon, alt, where=lambda c, row: _where(path, row, present[c]), error=DatasetError)
+        values["x"], values["y"] = local_positions(path, present, frame, lat, lon, alt)
     labels = _labels(table, path, present["target_id"])
     if any(v is None for v in labels):
         row = int(np.flatnonzero(np.array([v is None for v in labels]))[0])
@@ -853,19 +912,30 @@ def import_detections(path: str | Path, out: str | Path, overwrite: bool = False
 
 def export_detections(dataset: Dataset, path: str | Path, truth: str | Path | None = None) -> None:
     """Write ``dataset``'s detections (and truth) in the import schema, CSV or Parquet by suffix: time, sensor
-    (name), range, azimuth (rad), x, y, target_id (the target's name; empty for clutter). `read_detections`
-    with the scenario's sensors (`sensor_specs`) reads them back into the same scans."""
+    (name), range, azimuth (rad), x, y, target_id (the target's name; empty for clutter); with a geodetic
+    origin also lat, lon (deg). `read_detections` with the scenario's sensors (`sensor_specs`) reads them back
+    into the same scans (x, y taken before lat, lon)."""
     d, sc = dataset.detections, dataset.scenario
     names = np.array([t.name for t in sc.targets], dtype=object)
     labels = np.where(d.target_id < 0, None, names[np.maximum(d.target_id, 0)])
     _write(pa.table({"time": d.time, "sensor": np.array([s.name for s in sc.sensors], dtype=object)[d.sensor],
-                     "range": d.range, "azimuth": d.azimuth, "x": d.x, "y": d.y,
+                     "range": d.range, "azimuth": d.azimuth, "x": d.x, "y": d.y, **_degrees(dataset, d.x, d.y),
                      "target_id": pa.array(labels.tolist(), pa.string())}), Path(path))
     if truth is not None:
         t = dataset.truth
         once = np.sort(np.unique(np.column_stack([t.time, t.target_id]), axis=0, return_index=True)[1])
         _write(pa.table({"time": t.time[once], "target_id": pa.array(names[t.target_id[once]].tolist(), pa.string()),
-                         "x": t.x[once], "y": t.y[once], "vx": t.vx[once], "vy": t.vy[once]}), Path(truth))
+                         "x": t.x[once], "y": t.y[once], **_degrees(dataset, t.x[once], t.y[once]),
+                         "vx": t.vx[once], "vy": t.vy[once]}), Path(truth))
+
+
+def _degrees(dataset: Dataset, x: np.ndarray, y: np.ndarray) -> dict[str, np.ndarray]:
+    """``lat``, ``lon`` (deg) of points x, y (m) at the height of the dataset's geodetic origin; {} without
+    one."""
+    if dataset.geodetic_origin is None:
+        return {}
+    lat, lon = dataset.geodetic_origin.on_surface(x, y)
+    return {"lat": lat, "lon": lon}
 
 
 def sensor_specs(scenario: Scenario) -> list[dict]:

@@ -108,8 +108,10 @@ def track_png(dataset: Dataset, table: pa.Table, tracker: str) -> bytes:
             edge_arrows(ax, box, np.concatenate([g[0] for g in off.values()]),
                         np.concatenate([g[1] for g in off.values()]))
     off_note = outside_note({k: v[0].size for k, v in off.items()})
+    o = dataset.geodetic_origin
+    where = f"\norigin lat {o.lat_deg:.6f} deg, lon {o.lon_deg:.6f} deg, alt {o.alt_m:g} m (WGS 84)" if o else ""
     ax.set_title(f"{dataset.scenario.name}: {tracker}, {len(tracks)} confirmed track(s) over contacts{note}"
-                 f"{off_note}", fontsize=10, wrap=True)
+                 f"{off_note}{where}", fontsize=10, wrap=True)
     ax.set_xlabel("x east (km)")
     ax.set_ylabel("y north (km)")
     ax.set_aspect("equal", adjustable="box")  # the view is square (`_view`)
