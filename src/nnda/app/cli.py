@@ -3,7 +3,7 @@
 Every command is defined in this package (`nnda.app`), one module per
 group: ``data_commands`` (presets, generate), ``import_commands`` (import-
 detections, import-stonesoup), ``model_commands`` (train, evaluate),
-``track_commands`` (track), ``study_commands`` (compare, report,
+``track_commands`` (track), ``tune_commands`` (tune), ``study_commands`` (compare, report,
 plot-scenario and the reference studies); they are registered on one
 typer app here.
 Errors from bad input (nnda.errors.NndaError) are printed without a
@@ -20,7 +20,15 @@ import typer
 from rich.console import Console
 from rich.text import Text
 
-from nnda.app import data_commands, import_commands, model_commands, reproduce, study_commands, track_commands
+from nnda.app import (
+    data_commands,
+    import_commands,
+    model_commands,
+    reproduce,
+    study_commands,
+    track_commands,
+    tune_commands,
+)
 from nnda.app.model_commands import train_thesis_models
 from nnda.data.dataset import collection_members
 from nnda.data.presets import GROUPS
@@ -63,6 +71,7 @@ app.command("report")(study_commands.report)
 app.command("import-stonesoup")(import_commands.import_stonesoup)
 app.command("import-detections")(import_commands.import_detections_command)
 app.command("track")(track_commands.track)
+app.command("tune")(tune_commands.tune)
 app.command("reentry")(study_commands.reentry)
 app.command("pedestrian")(study_commands.pedestrian)
 app.command("tbd")(study_commands.tbd)

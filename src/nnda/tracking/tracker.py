@@ -10,11 +10,12 @@ without an IMM or an initiator. `checked_scan` is the scan check every one
 of them can share; `nnda.data.scenario.sensor_tuple` and `only_sensor` read the sensors.
 
 **Framework.** `ContactTracker` holds what trackers that build tracks from
-contacts share: a per-track filter component (the IMM, `IMM.for_sensor` by
-default), one copy of it per sensor with that sensor's measurement model,
-and the two-point initiation (`TwoPointInitiation`). A scan is one sweep of
-one sensor: its contacts update the tracks through that sensor's filter, so
-two radars' scans refine the same tracks. The single-hypothesis trackers
+contacts share: a per-track filter component (the IMM of the config's
+``motion``, `MotionConfig`, by default), one copy of it per sensor with
+that sensor's measurement model, and the two-point initiation
+(`TwoPointInitiation`). A scan is one sweep of one sensor: its contacts
+update the tracks through that sensor's filter, so two radars' scans
+refine the same tracks. The single-hypothesis trackers
 (`SingleHypothesisTracker`: GNN, JPDA, neural) then differ in one hook
 only, `associate`; each scan:
 
@@ -46,21 +47,22 @@ from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from functools import cached_property
-from typing import ClassVar, NamedTuple, Protocol, runtime_checkable
+from typing import Annotated, ClassVar, NamedTuple, Protocol, runtime_checkable
 
 import numba
 import numpy as np
-from pydantic import BaseModel, ConfigDict
+from pydantic import BaseModel, ConfigDict, Field
 
 from nnda.data.dataset import Scan
 from nnda.data.scenario import Sensor, sensor_tuple
 from nnda.data.sensor import observable
 from nnda.errors import BoundWarning, ConfigError, TrackingError
 from nnda.filters.batch import Batch
-from nnda.filters.imm import IMM, IMMPrediction, IMMState
+from nnda.filters.imm import DEFAULT_TPM, IMM, IMMPrediction, IMMState
 from nnda.filters.imm_kernels import estimate, pair_log_likelihood
 from nnda.filters.kalman import GATE_99
-from nnda.filters.measurement import measurement_model
+from nnda.filters.measurement import MeasurementModel, measurement_model
+from nnda.filters.motion import ConstantVelocity, CoordinatedTurn
 from nnda.tracking.assignment import given
 from nnda.tracking.clutter_density import coverage_area, local_density
 from nnda.tracking.lifecycle import (
@@ -104,9 +106,37 @@ class TrackerConfig(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
-class ContactTrackerConfig(TrackerConfig):
-    """Settings of the trackers that build tracks from contacts: the initiation window and M/N life cycle."""
+class MotionConfig(BaseModel):
+    """The per-track IMM's motion models and mode switching (defaults: Vargas Avila (2015), Sec. 5.6, the
+    values `IMM.for_sensor` runs): the CV model's acceleration noise, the CT model's acceleration and
+    turn-rate noise, and the probabilities of switching mode between scans (the off-diagonal of the TPM)."""
 
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    cv_sigma_q: Annotated[float, Field(ge=0, description="CV model: acceleration noise (m/s^2)")] = (
+        ConstantVelocity().sigma_q)
+    ct_sigma_q: Annotated[float, Field(ge=0, description="CT model: acceleration noise (m/s^2)")] = (
+        CoordinatedTurn().sigma_q)
+    ct_sigma_omega: Annotated[float, Field(ge=0, description="CT model: turn-rate noise (rad/s)")] = (
+        CoordinatedTurn().sigma_omega)
+    p_cv_to_ct: Annotated[float, Field(gt=0, lt=1, description="probability that a CV track turns (CT) by the "
+                                       "next scan")] = DEFAULT_TPM[0][1]
+    p_ct_to_cv: Annotated[float, Field(gt=0, lt=1, description="probability that a CT track flies straight "
+                                       "(CV) by the next scan")] = DEFAULT_TPM[1][0]
+
+    def imm(self, measurement: MeasurementModel) -> IMM:
+        """The CV + CT IMM of these settings with ``measurement``; the defaults give `IMM.for_sensor`'s."""
+        cv = ConstantVelocity(sigma_q=self.cv_sigma_q)
+        ct = CoordinatedTurn(sigma_q=self.ct_sigma_q, sigma_omega=self.ct_sigma_omega)
+        tpm = ((1.0 - self.p_cv_to_ct, self.p_cv_to_ct), (self.p_ct_to_cv, 1.0 - self.p_ct_to_cv))
+        return IMM(models=(cv, ct), measurement=measurement, tpm=tpm)
+
+
+class ContactTrackerConfig(TrackerConfig):
+    """Settings of the trackers that build tracks from contacts: the per-track IMM's motion (unless the
+    tracker is given its own filter), the initiation window and M/N life cycle."""
+
+    motion: MotionConfig = MotionConfig()
     lifecycle: LifecycleConfig = LifecycleConfig()
 
 
@@ -645,10 +675,11 @@ class ContactTracker(ABC):
 
     Construct with the scenario's sensors (`nnda.data.scenario.Sensor`: kind,
     position, noise, coverage, scan period; or one sensor), a config and
-    optionally the per-track filter (default: the CV + CT IMM, `IMM.for_sensor`
-    of the first sensor); the other sensors get copies of it with their own
-    measurement models (`IMM.for_measurement`). ``step(scan)`` processes one
-    sweep of one of the sensors.
+    optionally the per-track filter (default: the CV + CT IMM of the config's
+    ``motion``, `MotionConfig.imm`, with the first sensor's measurement model);
+    the other sensors get copies of it with their own measurement models
+    (`IMM.for_measurement`). ``step(scan)`` processes one sweep of one of the
+    sensors.
     """
 
     name: ClassVar[str]
@@ -658,7 +689,8 @@ class ContactTracker(ABC):
                  track_filter: IMM | None = None) -> None:
         self.sensors = sensor_tuple(sensors)
         self.config = checked_config(self, config)
-        self.filter = track_filter if track_filter is not None else IMM.for_sensor(self.sensors[0])
+        self.filter = (track_filter if track_filter is not None
+                       else self.config.motion.imm(measurement_model(self.sensors[0])))
         self.filters = (self.filter, *(self.filter.for_measurement(measurement_model(s)) for s in self.sensors[1:]))
         self.initiation = TwoPointInitiation(self.filters, self.config.lifecycle, self.sensors, self.name)
         self.reset()
