@@ -238,31 +238,44 @@ def _start_values(space: tuple[Dimension, ...], base) -> dict[str, float | int]:
     return {d.path: v for d, v in values.items() if d.low <= v <= d.high}
 
 
-def tune(dataset: Dataset, tracker: str, params: Mapping[str, Any] | None = None, trials: int = 40,
-         seed: int = 0, fraction: float = FRACTION, cutoff_m: float = DEFAULT_CUTOFF_M,
-         where: str = "tracker config", on_trial: Callable[[int, int], None] | None = None) -> TuneResult:
-    """Search ``tracker``'s config on ``dataset`` from the base ``params`` (module docstring); ``where`` names
-    the base config in errors, ``on_trial(done, total)`` is called after each trial."""
-    from nnda.extras import require
+@dataclass(frozen=True)
+class Search:
+    """A search's trials, its best trial's number and values (by config path) and the best params (the base
+    params with those values set); ``seconds`` its wall time."""
 
+    space: tuple[Dimension, ...]
+    trials: tuple[TrialRecord, ...]
+    best_trial: int
+    best_values: dict[str, float | int]
+    best_params: dict[str, Any]
+    seconds: float
+
+
+def _checked_budget(trials: int, seed: int, cutoff_m: float) -> None:
     if isinstance(trials, bool) or not isinstance(trials, int) or trials < 1:
         raise ConfigError(f"--trials {trials!r}: give a whole number of trials, 1 or more (e.g. 40)")
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ConfigError(f"--seed {seed!r}: give a whole number >= 0")
     if not (isinstance(cutoff_m, (int, float)) and cutoff_m > 0 and math.isfinite(cutoff_m)):
         raise ConfigError(f"--cutoff {cutoff_m!r}: must be a positive number of metres")
+
+
+def search(datasets: list[Dataset], tracker: str, params: Mapping[str, Any] | None = None, trials: int = 40,
+           seed: int = 0, cutoff_m: float = DEFAULT_CUTOFF_M, where: str = "tracker config",
+           on_trial: Callable[[int, int], None] | None = None) -> Search:
+    """Search ``tracker``'s config from the base ``params`` with Optuna's seeded TPE sampler, minimising the
+    mean over ``datasets`` of the objective (module docstring: GOSPA with truth, else innovation
+    consistency); the first trial is the base config's values. ``where`` names the base config in errors,
+    ``on_trial(done, total)`` is called after each trial."""
+    from nnda.extras import require
+
+    _checked_budget(trials, seed, cutoff_m)
     params = dict(params or {})
     base = check_config(tracker, params, where)
     space = search_space(base)
     if not space:
         raise ConfigError(f"{where}: tracker {tracker!r}'s config has none of the fields nnda tune searches "
                           f"(motion noise, gate, initiation window, life-cycle or PHD thresholds)")
-    k = split_scans(dataset.n_scans, fraction)
-    if has_truth(dataset):  # the default runs here (a tracker that cannot use these sensors says so now)
-        make_tracker(tracker, dataset.scenario.sensors, params, where)
-    else:
-        _filters(dataset, tracker, params)
-    parts = {"tuning": scan_window(dataset, 1, k), "held-out": scan_window(dataset, k + 1, dataset.n_scans)}
     optuna = require("optuna", "nnda tune")
     optuna.logging.set_verbosity(optuna.logging.WARNING)
 
@@ -274,7 +287,7 @@ def tune(dataset: Dataset, tracker: str, params: Mapping[str, Any] | None = None
             check_config(tracker, trial_params, where)
             with warnings.catch_warnings():  # a trial's bounds hit are its score's business, not the user's
                 warnings.simplefilter("ignore", BoundWarning)
-                return _objective(_scored(parts["tuning"], tracker, trial_params, cutoff_m))
+                return float(np.mean([_objective(_scored(d, tracker, trial_params, cutoff_m)) for d in datasets]))
         except ConfigError as exc:  # an inconsistent combination: v_min >= v_max, m > n, ...
             raise optuna.TrialPruned(str(exc)) from None
 
@@ -289,9 +302,28 @@ def tune(dataset: Dataset, tracker: str, params: Mapping[str, Any] | None = None
         raise ConfigError(f"{where}: every one of the {trials} trials was refused by the {tracker} config "
                           f"(each a ConfigError): check the base config")
     best = min(done, key=lambda t: (t.value, t.number))
-    best_params = with_values(params, best.params)
-    scores = {(name, part): _scored(window, tracker, p, cutoff_m)
-              for name, p in (("default", params), ("tuned", best_params)) for part, window in parts.items()}
     records = tuple(TrialRecord(t.number, t.state.name, t.value, dict(t.params)) for t in study.trials)
+    return Search(space, records, best.number, dict(best.params), with_values(params, best.params), seconds)
+
+
+def tune(dataset: Dataset, tracker: str, params: Mapping[str, Any] | None = None, trials: int = 40,
+         seed: int = 0, fraction: float = FRACTION, cutoff_m: float = DEFAULT_CUTOFF_M,
+         where: str = "tracker config", on_trial: Callable[[int, int], None] | None = None) -> TuneResult:
+    """Search ``tracker``'s config on the first part of ``dataset`` from the base ``params`` (`search`, the
+    module docstring's split) and score the base and the best config on both parts; ``where`` names the base
+    config in errors, ``on_trial(done, total)`` is called after each trial."""
+    _checked_budget(trials, seed, cutoff_m)
+    params = dict(params or {})
+    check_config(tracker, params, where)
+    k = split_scans(dataset.n_scans, fraction)
+    if has_truth(dataset):  # the default runs here (a tracker that cannot use these sensors says so now)
+        make_tracker(tracker, dataset.scenario.sensors, params, where)
+    else:
+        _filters(dataset, tracker, params)
+    parts = {"tuning": scan_window(dataset, 1, k), "held-out": scan_window(dataset, k + 1, dataset.n_scans)}
+    found = search([parts["tuning"]], tracker, params, trials, seed, cutoff_m, where, on_trial)
+    scores = {(name, part): _scored(window, tracker, p, cutoff_m)
+              for name, p in (("default", params), ("tuned", found.best_params)) for part, window in parts.items()}
     return TuneResult(tracker, dataset.scenario.name, dataset.n_scans, k, has_truth(dataset), float(cutoff_m),
-                      space, records, best.number, dict(best.params), params, best_params, scores, seconds)
+                      found.space, found.trials, found.best_trial, found.best_values, params, found.best_params,
+                      scores, found.seconds)

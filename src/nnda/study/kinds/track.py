@@ -19,6 +19,9 @@ format, so every earlier study file reads as it did)::
     params = { gate = 9.21 }  # the tracker's own validated config
     lag = 3                   # optional: also score its fixed-lag output 3 scans behind (nnda.tracking.lag)
 
+    [tuning]                  # optional: every tracker also fitted to the scenes, as <label>-tuned
+    trials = 20               # (nnda.study.tuned_trackers)
+
     [[scenarios]]
     preset = "validation"     # a preset, a preset group or a walker scene (S1-S6 here)
     [[scenarios]]
@@ -56,6 +59,7 @@ from nnda.study.kinds.base import STRICT, Job, JobKind, Label, MemoryPart, check
 from nnda.study.metrics import DEFAULT_CUTOFF_M, Ownership
 from nnda.study.track_job import run_job
 from nnda.study.track_results import aggregate
+from nnda.study.tuned_trackers import TuningSpec, tuned_params
 from nnda.tracking.lag import MAX_LAG
 from nnda.tracking.registry import PEERS, TRACKERS, make_tracker
 
@@ -113,6 +117,8 @@ FIELDS = {
     "trackers": (dict[Label, TrackerSpec], Field(default_factory=dict)),
     "scenarios": (list[ScenarioSpec], Field(default_factory=list, description="the scenes of the tracker and "
                                             "filter jobs")),
+    "tuning": (TuningSpec | None, Field(default=None, description="fit every tracker to the scenes with the same "
+                                       "budget and compare the tuned twins too (nnda.study.tuned_trackers)")),
     "max_memory_gib": (Annotated[float, Field(gt=0)] | None, Field(
         default=None, description="the most memory (GiB) the aggregation of the tracker and filter jobs may need "
         "by the study's estimate (None: the default, nnda.study.kinds.base.MAX_MEMORY_GIB); a bigger study is "
@@ -301,6 +307,15 @@ def _trackers(study, models: tuple[ModelPlan, ...], sensors: list[tuple[Sensor, 
     return tuple(plans)
 
 
+def _tuned(study, trackers: tuple[TrackerPlan, ...], scenarios, where: str) -> tuple[TrackerPlan, ...]:
+    """The trackers, each followed by its tuned twin when the study has a ``tuning`` table."""
+    if study.tuning is None:
+        return trackers
+    twins = tuned_params(study, trackers, scenarios, where)
+    return tuple(p for t, (label, params) in zip(trackers, twins, strict=True)
+                 for p in (t, TrackerPlan(label, t.kind, params, t.model, t.lag)))
+
+
 #: bytes per scan of one run's record of a tracker or filter in the aggregation (its per-scan measures and
 #: tracks as Python objects: measured about 500 B on the presets, more with dense clutter's false tracks)
 RECORD_BYTES = 1024
@@ -312,7 +327,7 @@ def memory_parts(study, scenarios: tuple[ScenarioPlan, ...]) -> list[MemoryPart]
     scans = [sc.runs * sc.scenario.n_scans for sc in scenarios]
     single = [n for n, sc in zip(scans, scenarios, strict=True) if len(sc.scenario.targets) == 1]
     # a tracker with a lag records its lagged measures too
-    scored = sum(2 if spec.lag else 1 for spec in study.trackers.values())
+    scored = sum(2 if spec.lag else 1 for spec in study.trackers.values()) * (1 if study.tuning is None else 2)
     records = sum(scans) * scored + sum(single) * len(study.filters)
     most = max((sc.scenario.n_scans for sc in scenarios), default=0)
     return [MemoryPart("the aggregation", f"runs = {study.runs:,} of each generated scenario, {len(scenarios)} "
@@ -330,7 +345,7 @@ def plan(study, where: str) -> TrackPlan:
     models = _models(study, where)
     scenarios = scenario_plans(study, where)
     check_memory(where, None, memory_parts(study, scenarios), study.max_memory_gib)
-    trackers = _trackers(study, models, sensor_setups(scenarios), where)
+    trackers = _tuned(study, _trackers(study, models, sensor_setups(scenarios), where), scenarios, where)
     model_digest = {m.label: m.sha256 for m in models}
     ids = {t.label: {"kind": t.kind, "model_sha256": model_digest.get(t.model),
                      "params": {k: v for k, v in t.params.items() if k != MODEL_PARAM},
