@@ -70,11 +70,6 @@ def test_a_scan_from_an_unknown_sensor_is_refused():
         tracker.step(Scan(2, 2.0, np.array([[10_000.0, 0.5]]), sensor=2))
 
 
-def test_single_radar_trackers_refuse_two_radars(model_file):
-    with pytest.raises(ConfigError, match="tracker 'nn' works with one polar sensor; this scenario has west"):
-        make_tracker("nn", TWO.sensors, {"model": str(model_file)})
-
-
 def test_position_sensor_contacts_are_not_ranges():
     sensor = Sensor(kind="position", sigma_position_m=5.0, name="fixes")
     tracker = make_tracker("gnn", sensor)

@@ -84,6 +84,23 @@ Each scan, for all live tracks at once:
    extended set its prediction is also what the network reads.
 
 Contacts left over go to initiation, as for every tracker.
+
+**Sensors.** Any the contact trackers take: polar radars anywhere, position
+sensors, several at once; a scan updates the tracks through its sensor's
+IMM copy. The kinematic features are positions and times, whoever measured
+them; the sector gate's two azimuths are both bearings from the position of
+the sensor whose scan is associated (`_gate_azimuths`): the candidate's as
+measured (polar) or of the fix from the sensor's position, and P2's of its
+position from that same point, never two azimuths of different origins.
+With one polar radar this is the training's rule, and P2's azimuth is read
+as the radar measured it (the bearing without the polar-Cartesian round
+trip's rounding): outputs bit for bit those of the one-radar tracker. A
+pair needs time since the track's last contact (the speed gate refuses
+ΔT = 0) and between its last two: a track whose last two contacts share an
+instant (two sensors sweeping together) gets no network pair until a later
+one, only the IMM's gates (``coast_gate``, ``preliminary_gate``). The IMM
+feature sets read a polar radar's [range, azimuth] residuals: refused with
+a position sensor.
 """
 
 from __future__ import annotations
@@ -96,6 +113,7 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from nnda.data.scenario import Sensor
+from nnda.data.sensor import cart_to_polar_at
 from nnda.errors import ConfigError, ModelError, TrackingError
 from nnda.filters.imm import IMMPrediction
 from nnda.models.context import IMM_CONTEXT, with_context
@@ -114,7 +132,6 @@ from nnda.tracking.tracker import (
     TrackerConfig,
     Tracks,
     hard_update,
-    only_sensor,
 )
 
 #: no gate pairs (the gate is off)
@@ -204,19 +221,21 @@ class NeuralConfig(ContactTrackerConfig):
 class NeuralTracker(SingleHypothesisTracker):
     """IMM tracker whose associations are decided by the trained MLP scorer (the proposed method).
 
-    The scorer is loaded once, at construction, from ``config.model``;
+    Built on any sensors a `ContactTracker` takes (polar radars, position sensors, several at once; the
+    module docstring's *Sensors* says how the sector gate reads each). The scorer is loaded once, at
+    construction, from ``config.model``;
     a missing file, a foreign format, a model trained on a feature
     definition this nnda does not compute, or on another set than
     ``config.feature_set``, or with another training recipe than
-    ``config.recipe``, is refused with a ConfigError naming the field.
+    ``config.recipe``, or of an IMM feature set with a position sensor, is refused with a ConfigError
+    naming the field.
     """
 
     name: ClassVar[str] = "nn"
     config_type: ClassVar[type[TrackerConfig]] = NeuralConfig
 
     def __init__(self, sensors: Sensor | Sequence[Sensor], config: NeuralConfig) -> None:
-        # the pair features (azimuth sectors, speeds from two contacts) are those of one radar's contacts
-        super().__init__(only_sensor(self.name, sensors), config)
+        super().__init__(sensors, config)
         try:
             self.scorer: Scorer = load_model(self.config.model)
         except ModelError as exc:
@@ -235,6 +254,14 @@ class NeuralTracker(SingleHypothesisTracker):
                                   f"{ {k: self.config.recipe[k] for k in wrong} }; retrain it or change the field")
         self._extended = self.scorer.features in (IMM_INNOVATION, IMM_CONTEXT)
         self._context = self.scorer.features is IMM_CONTEXT
+        fixes = [s.name for s in self.sensors if s.kind != "polar"]
+        if self._extended and fixes:
+            raise ConfigError(f"{self.name} tracker config, field 'model': {self.config.model} was trained on "
+                              f"feature set {trained!r}, whose IMM columns are residuals in a polar radar's [range, "
+                              f"azimuth], but sensor(s) {', '.join(fixes)} give position fixes; use a model of "
+                              f"feature set 'kinematic-3' (nnda train --features kinematic-3) with these sensors")
+        #: one polar radar: the sector gate reads the azimuths the radar measured (`_gate_azimuths`)
+        self._one_radar = len(self.sensors) == 1 and not fixes
         self._rule = RULES[self.config.association]  # the code of the matching rule in the compiled stages
         #: if set, called each scan with (scan index, track id (P,), contact row (P,), features (P, F)) of
         #: every pair scored (`nnda.tracking.harvest`)
@@ -282,11 +309,17 @@ class NeuralTracker(SingleHypothesisTracker):
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The scan's candidate pairs (track, cand) (P,) (`candidate_pairs`) and the scorer's output (P,) for
         them, on the model's feature set (`scan_features`: the candidates and the kinematic or the IMM-extended
-        features in one call)."""
+        features in one call), less those of a track whose last two contacts share an instant (module docstring,
+        *Sensors*)."""
         ext = self._extended
+        az2, z = self._gate_azimuths(tracks, scan)
         track, cand, features = scan_features(
             scan.filter, pred, pred.gating.measurement if ext else None, tracks.p1, tracks.t1,
-            tracks.p2, tracks.t2, tracks.az2, tracks.t0, scan.xy, scan.z, scan.time, ext)
+            tracks.p2, tracks.t2, az2, tracks.t0, scan.xy, z, scan.time, ext)
+        if len(self.sensors) > 1:  # last two contacts of one instant (two sensors): no last speed or course
+            timed = tracks.t1[track] < tracks.t2[track]
+            if not timed.all():
+                track, cand, features = track[timed], cand[timed], features[timed]
         if not track.size:
             return track, cand, np.empty(0)
         if self._context:
@@ -299,6 +332,24 @@ class NeuralTracker(SingleHypothesisTracker):
                                 f"{int((~np.isfinite(score)).sum())} of {score.size} pairs as NaN; its "
                                 f"weights or normaliser are broken: retrain it")
         return track, cand, score
+
+    def _gate_azimuths(self, tracks: Tracks, scan: ScanContacts) -> tuple[np.ndarray, np.ndarray]:
+        """The sector gate's azimuths (rad clockwise from north), all from the position of the scan's sensor
+        (module docstring, *Sensors*): the tracks' last contacts' (K,), and the scan's contacts as
+        [range m, azimuth rad] (N, 2) from there, as `scan_features` reads them.
+
+        One polar radar: the stored azimuths of the last contacts and the scan's measurements, as the radar
+        measured them. Otherwise P2's bearing is computed from its position (it may come from another
+        sensor); a polar scan's contacts are its measurements, a position sensor's fixes are converted to
+        range and bearing from the sensor's position (read for the gate only: the kinematic features use
+        ``scan.xy``, and no IMM feature set runs with a position sensor)."""
+        if self._one_radar:
+            return tracks.az2, scan.z
+        origin = self.sensors[scan.sensor].position
+        az2 = cart_to_polar_at(origin, tracks.p2[:, 0], tracks.p2[:, 1])[1]
+        if scan.filter.polar:
+            return az2, scan.z
+        return az2, np.column_stack(cart_to_polar_at(origin, scan.xy[:, 0], scan.xy[:, 1]))
 
     def _retrodicted(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts, contact: np.ndarray,
                      lost: np.ndarray) -> tuple[Tracks, IMMPrediction, np.ndarray]:
