@@ -55,6 +55,9 @@ CANDIDATES: tuple[Dimension, ...] = (
     # initiation window, m/s
     Dimension("lifecycle.v_min", 0.0, 150.0),
     Dimension("lifecycle.v_max", 100.0, 800.0),
+    # the sanity limits of a confirmed track (m; expected clutter contacts in its gate)
+    Dimension("lifecycle.max_position_sd_m", 500.0, 20_000.0, log=True),
+    Dimension("lifecycle.max_gate_clutter", 0.5, 20.0, log=True),
     # the confirmation rule's thresholds
     Dimension("lifecycle.m", 1, 5, integer=True, when=_rule("mn")),
     Dimension("lifecycle.n", 2, 8, integer=True, when=_rule("mn")),
