@@ -23,7 +23,7 @@ from nnda.tracking.lifecycle import (
     sprt_thresholds,
 )
 from nnda.tracking.output import TrackStatus
-from nnda.tracking.registry import TRACKERS, make_tracker
+from nnda.tracking.registry import TRACKERS, confirmation_rule, make_tracker
 from nnda.tracking.tracker import CLUTTER_RADIUS_M, ContactTracker
 from tolerances import RTOL
 
@@ -47,7 +47,9 @@ def test_every_contact_tracker_runs_it_by_default_and_the_thesis_rule_is_one_set
     assert LifecycleConfig(**THESIS_LIFECYCLE).confirmation == "mn"
     for kind in CONTACT_KINDS:
         params = {"model": str(model_file)} if kind == "nn" else {}
-        assert make_tracker(kind, Sensor(), params).confirmation_rule == "adaptive", kind
+        own = TRACKERS[kind].own_confirmation  # a tracker confirming by its own posterior says which
+        assert make_tracker(kind, Sensor(), params).confirmation_rule == (own or "adaptive"), kind
+        assert confirmation_rule(kind, params) == (own or "adaptive"), kind
 
 
 def _polar(x, y):

@@ -24,6 +24,7 @@ from nnda.tracking.mht import MHTTracker
 from nnda.tracking.neural import NeuralTracker
 from nnda.tracking.phd.fusion import AAFusionTracker, CentralPHDTracker, FusionTracker, GCIFusionTracker
 from nnda.tracking.phd.tracker import CPHDTracker, EKPHDTracker, GMPHDTracker, UKPHDTracker
+from nnda.tracking.pmbm import PMBMTracker
 from nnda.tracking.tracker import ContactTracker, Tracker
 
 #: Stone Soup peer trackers: name -> "module:class", imported on first lookup
@@ -55,7 +56,7 @@ class _Registry(dict):
 
 
 TRACKERS: dict[str, type[Tracker]] = _Registry(
-    {cls.name: cls for cls in (GNNTracker, JPDATracker, MHTTracker, NeuralTracker,
+    {cls.name: cls for cls in (GNNTracker, JPDATracker, MHTTracker, PMBMTracker, NeuralTracker,
                                GMPHDTracker, EKPHDTracker, UKPHDTracker, CPHDTracker,
                                FusionTracker, AAFusionTracker, GCIFusionTracker, CentralPHDTracker)})
 
@@ -114,5 +115,7 @@ def confirmation_rule(name: str, params: Mapping[str, Any] | None = None) -> str
     with ``params`` (a study states it), or None for a tracker without one (PHD filters, peers, unknown kinds)."""
     if name in PEERS or name not in TRACKERS or not issubclass(TRACKERS[name], ContactTracker):
         return None
+    if TRACKERS[name].own_confirmation is not None:
+        return TRACKERS[name].own_confirmation
     lifecycle = dict(params or {}).get("lifecycle") or {}
     return str(lifecycle.get("confirmation", LifecycleConfig().confirmation))

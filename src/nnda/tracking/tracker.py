@@ -684,6 +684,9 @@ class ContactTracker(ABC):
 
     name: ClassVar[str]
     config_type: ClassVar[type[TrackerConfig]] = ContactTrackerConfig
+    #: the rule of a tracker that confirms its tracks by its own posterior whatever ``lifecycle.confirmation``
+    #: says (the labelled random-finite-set trackers: "existence"); None: the life cycle's rule
+    own_confirmation: ClassVar[str | None] = None
 
     def __init__(self, sensors: Sensor | Sequence[Sensor], config: ContactTrackerConfig | None = None,
                  track_filter: IMM | None = None) -> None:
@@ -731,8 +734,9 @@ class ContactTracker(ABC):
     @property
     def confirmation_rule(self) -> str:
         """The rule that confirms and deletes this tracker's tracks: "adaptive" (SPRT, clutter-adaptive
-        threshold), "mn" (M/N counts), "score" (SPRT) or "existence" (IPDA / JIPDA)."""
-        return self.config.lifecycle.confirmation
+        threshold), "mn" (M/N counts), "score" (SPRT) or "existence" (IPDA / JIPDA, or the tracker's own
+        posterior: `own_confirmation`)."""
+        return self.own_confirmation or self.config.lifecycle.confirmation
 
     @cached_property
     def score_pd(self) -> float:
