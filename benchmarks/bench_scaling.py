@@ -25,11 +25,19 @@ each tracker's slopes, the least-squares slope of log(time per scan) against
 log(clutter) and against log(targets) over the settings it finished (1: time
 grows in proportion, 2: with the square).
 
+``--trackers`` picks ours (default gnn, jpda, mht, nn; also nn-life, the
+neural tracker with the demo's life-cycle options, and the PHD filters
+gmphd, ekphd, cphd), ``--no-peers`` leaves the peers out, ``--clutter``
+sets the clutter axis (default 100,1000,10000; e.g. 1000,2000,5000 for the
+slope near the limit) and ``--targets`` the targets axis (0: not run).
+Below the slopes, each tracker's worst scan at each axis's largest setting.
+
 The neural tracker needs a model: ``--model PATH`` (written by ``nnda
 train``); without it the neural tracker is skipped with a note. The peers
 need Stone Soup (``pip install 'nnda[peers]'``); without it they are skipped
 with a note.
-Usage: python benchmarks/bench_scaling.py [--model PATH] [--out scaling.png]
+Usage: python benchmarks/bench_scaling.py [--model PATH] [--out scaling.png] [--trackers gnn,gmphd]
+       [--clutter 1000,2000,5000] [--targets 0] [--no-peers] [--scans N]
 """
 
 from __future__ import annotations
@@ -42,7 +50,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from bench_trackers import GIVE_UP_S, SCALING_SCANS, params_for, scaling_settings, time_run
+from bench_trackers import GIVE_UP_S, LIFE, SCALING_SCANS, many_targets, params_for, scaling_settings, time_run
 from nnda.data.generator import generate
 from nnda.errors import ConfigError
 from nnda.peers import require_stonesoup
@@ -51,6 +59,9 @@ from nnda.study.metrics import run_metrics
 from nnda.tracking.registry import PEERS, make_tracker
 
 OURS = ["gnn", "jpda", "mht", "nn"]
+#: what --trackers may name besides the registry's trackers: name -> (tracker, its options besides the model)
+ALIASES = {"nn-life": ("nn", LIFE)}
+NEURAL = {"nn", "nn-life"}
 
 
 class Interrupted(Exception):
@@ -66,6 +77,7 @@ class Result(NamedTuple):
     gospa_m: float | None
     stopped: bool
     lower_bound: bool = False
+    worst_s: float | None = None
 
     @property
     def finished(self) -> bool:
@@ -88,15 +100,32 @@ def hard_stop(seconds: float):
         signal.signal(signal.SIGALRM, old)
 
 
-def warm_up(names, model, scans, hard) -> None:
+def settings_for(scans: int, clutter: list[int], targets: list[int]):
+    """(axis, value, scenario) of the runs: `scaling_settings`' S6 with each of ``clutter`` points per scan, then
+    its many-target scene with each of ``targets`` (the defaults give `scaling_settings` itself)."""
+    base = next(scenario for axis, _, scenario in scaling_settings(scans) if axis == "clutter")
+    return ([("clutter", c, base.model_copy(update={"clutter": base.clutter.model_copy(update={"count": c})}))
+             for c in clutter] + [("targets", n, many_targets(n, seed=n, scans=scans)) for n in targets])
+
+
+def kind_params(name: str, model: str | None) -> tuple[str, dict | None]:
+    """The registry's tracker and options of a ``--trackers`` name (`ALIASES`)."""
+    if name in ALIASES:
+        kind, options = ALIASES[name]
+        return kind, {**options, **(params_for(kind, model) or {})}
+    return name, params_for(name, model)
+
+
+def warm_up(names, model, settings, hard) -> None:
     """Run every tracker untimed over each axis's smallest setting (its ``scans`` scans)."""
     first = {}
-    for axis, _, scenario in scaling_settings(scans):
+    for axis, _, scenario in settings:
         first.setdefault(axis, scenario)
     for scenario in first.values():
         dataset = generate(scenario, seed=0)  # another realisation than the timed runs' (seed 1)
         for name in names:
-            tracker = make_tracker(name, dataset.scenario.sensor, params_for(name, model))
+            kind, params = kind_params(name, model)
+            tracker = make_tracker(kind, dataset.scenario.sensor, params)
             try:
                 with hard_stop(hard):
                     for scan in dataset.scans():
@@ -105,12 +134,12 @@ def warm_up(names, model, scans, hard) -> None:
                 print(f"  {name}: warm-up interrupted at the hard stop ({hard:g} s)", flush=True)
 
 
-def measure(names, model, scans, give_up, hard):
+def measure(names, model, settings, give_up, hard):
     """{(tracker, axis, value): Result}; along each axis a tracker stops as the module docstring says."""
-    warm_up(names, model, scans, hard)
+    warm_up(names, model, settings, hard)
     results = {}
     stopped = {(n, axis): False for n in names for axis in ("clutter", "targets")}
-    for axis, value, scenario in scaling_settings(scans):
+    for axis, value, scenario in settings:
         dataset = generate(scenario, seed=1)
         for name in names:
             if stopped[name, axis]:
@@ -119,10 +148,10 @@ def measure(names, model, scans, give_up, hard):
             outputs = []
             try:
                 with hard_stop(hard):
-                    t = time_run(name, params_for(name, model), dataset, give_up, outputs)
+                    t = time_run(*kind_params(name, model), dataset, give_up, outputs)
                 done = len(t) == dataset.n_scans
                 gospa = float(run_metrics(dataset, outputs).gospa.mean()) if done else None
-                r = Result(float(t.mean()), gospa, bool(t.max() > give_up))
+                r = Result(float(t.mean()), gospa, bool(t.max() > give_up), worst_s=float(t.max()))
             except Interrupted:
                 r = Result(hard / (len(outputs) + 1), None, True, True)
             stopped[name, axis] = r.stopped
@@ -211,6 +240,18 @@ def slope_table(names, results, settings) -> None:
         print(f"{name:<15s}" + "".join(f"{c:>14s}" for c in cells))
 
 
+def worst_table(names, results, settings) -> None:
+    """Each tracker's worst scan (ms) at each axis's largest setting (- : not finished)."""
+    last = {}
+    for a, v in settings:
+        last[a] = max(v, last.get(a, v))
+    print("\nworst scan (ms) at the largest setting of each axis")
+    print(f"{'tracker':<15s}" + "".join(f"{f'{a}={v}':>16s}" for a, v in last.items()))
+    for name in names:
+        cells = [results[name, a, v] for a, v in last.items()]
+        print(f"{name:<15s}" + "".join(f"{'-' if r.worst_s is None else f'{r.worst_s * 1e3:.1f}':>16s}" for r in cells))
+
+
 def plot(names, peers, results, settings, path) -> None:
     import matplotlib
 
@@ -220,6 +261,8 @@ def plot(names, peers, results, settings, path) -> None:
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
     for ax, axis in zip(axes, ("clutter", "targets")):
         xs = [v for a, v in settings if a == axis]
+        if not xs:
+            continue
         for name in names:
             rs = [(v, results[name, axis, v]) for v in xs if results[name, axis, v].mean_s is not None]
             if not rs:
@@ -235,7 +278,7 @@ def plot(names, peers, results, settings, path) -> None:
                       "targets (100 clutter points per scan)")
         ax.grid(True, which="both", alpha=0.3)
     axes[0].set_ylabel("time per scan (s)")
-    axes[1].legend(fontsize=8)
+    axes[1 if any(a == "targets" for a, _ in settings) else 0].legend(fontsize=8)
     fig.suptitle("nnda trackers (solid) and Stone Soup peers (dashed): time per scan")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
@@ -249,22 +292,31 @@ def main() -> None:
     parser.add_argument("--give-up", type=float, default=GIVE_UP_S, help="s per scan that stops a tracker")
     parser.add_argument("--hard-stop", type=float, default=120.0, help="s after which one scan is interrupted")
     parser.add_argument("--out", default="bench_scaling.png", help="PNG of the log-log plot")
+    parser.add_argument("--trackers", default=",".join(OURS),
+                        help=f"our trackers, comma-separated: the registry's names or {', '.join(ALIASES)}")
+    parser.add_argument("--clutter", default="100,1000,10000", help="clutter points per scan of the clutter axis")
+    parser.add_argument("--targets", default="6,50,200", help="targets of the targets axis (0: not run)")
+    parser.add_argument("--no-peers", action="store_true", help="leave the Stone Soup peers out")
     args = parser.parse_args()
-    names = [n for n in OURS if n != "nn" or args.model]
-    if not args.model:
+    names = [n for n in args.trackers.split(",") if n not in NEURAL or args.model]
+    if not args.model and NEURAL & set(args.trackers.split(",")):
         print("note: the neural tracker is skipped (give --model PATH, a file written by `nnda train`)")
-    try:
-        require_stonesoup("bench_scaling's peers")
-        peers = list(PEERS)
-    except ConfigError as exc:
-        print(f"note: the Stone Soup peers are skipped: {exc}")
-        peers = []
+    peers = []
+    if not args.no_peers:
+        try:
+            require_stonesoup("bench_scaling's peers")
+            peers = list(PEERS)
+        except ConfigError as exc:
+            print(f"note: the Stone Soup peers are skipped: {exc}")
     names += peers
-    settings = [(a, v) for a, v, _ in scaling_settings(args.scans)]
+    full = settings_for(args.scans, [int(v) for v in args.clutter.split(",") if int(v)],
+                        [int(v) for v in args.targets.split(",") if int(v)])
+    settings = [(a, v) for a, v, _ in full]
     print(f"trackers: {', '.join(names)}; {args.scans} scans per setting, stop past {args.give_up:g} s/scan")
-    results = measure(names, args.model, args.scans, args.give_up, args.hard_stop)
+    results = measure(names, args.model, full, args.give_up, args.hard_stop)
     table(names, peers, results, settings, args.scans)
     slope_table(names, results, settings)
+    worst_table(names, results, settings)
     plot(names, peers, results, settings, args.out)
 
 

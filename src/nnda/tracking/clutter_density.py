@@ -120,7 +120,7 @@ def _density(contacts, at, radius, table, corner, strips=-1):
     n0 = int(math.ceil((hi0 + radius + cell - lo0) / cell)) + 1
     n1 = int(math.ceil((hi1 + radius + cell - lo1) / cell)) + 1
     if strips == 1 or (strips == -1 and n0 * n1 > _STRIP_GRID * (N + Q) + _STRIP_FLOOR):  # a wide scan
-        return _strip_density(contacts, at, radius, table, corner, lo0, lo1)
+        return _strip_density(contacts, at, radius, table, corner, lo0, lo1, n1)
     table_sum = np.zeros((n0 + 1, n1 + 1), np.int64)  # [i, j]: the contacts in cells [0, i) x [0, j)
     ix, iy = contact_cells(contacts, lo0, lo1, cell)
     for i in range(N):
@@ -149,6 +149,35 @@ def contact_cells(contacts, lo0, lo1, cell):
     return ix, iy
 
 
+#: grids over a scan's own points (`sorted_cells`, the initiation's window pairs) double their cells until neither
+#: axis has more than this many: a point's cell index, floor((p - lo) / cell), then stays far from float rounding (a
+#: point within a cell side of another is always in a neighbouring cell) and a cell key ix n1 + iy far from int64's
+#: range
+MAX_CELLS_PER_AXIS = 2.0**26
+
+
+@_jit
+def sorted_cells(points, lo0, lo1, cell, n1):
+    """The points (N, 2) m bucketed in the grid of `contact_cells` (cells of ``cell`` m from (lo0, lo1) m, ``n1``
+    along y, every point's iy in [0, n1)) by a cell key ix n1 + iy: (order (N,), the points sorted by key, stable
+    within a cell; keys (N,) int64, ascending). The points of the cells (ix, a1..b1) are those of the keys
+    [ix n1 + a1, ix n1 + b1], found by bisection: no table of cells, so the cost does not grow with the grid."""
+    ix, iy = contact_cells(points, lo0, lo1, cell)
+    key = ix * n1 + iy
+    order = np.argsort(key, kind="mergesort")
+    return order, key[order]
+
+
+@_jit
+def key_range(keys, column, a1, b1, n1):
+    """The positions [start, stop) in the ascending ``keys`` of `sorted_cells` of the points in the cells (column,
+    a1..b1) (inclusive; a1, b1 clamped to [0, n1); empty when a1 > b1 after it)."""
+    a1, b1 = max(a1, 0), min(b1, n1 - 1)
+    if a1 > b1:
+        return 0, 0
+    return np.searchsorted(keys, column * n1 + a1), np.searchsorted(keys, column * n1 + b1 + 1)
+
+
 @_jit
 def square_cells(x, y, radius, lo0, lo1, cell):
     """The cells [a0, b0) x [a1, b1) of the counting grid (cells of ``cell`` m from (lo0, lo1) m) that the square of
@@ -159,24 +188,23 @@ def square_cells(x, y, radius, lo0, lo1, cell):
 
 
 @_jit
-def _strip_density(contacts, at, radius, table, corner, lo0, lo1):
+def _strip_density(contacts, at, radius, table, corner, lo0, lo1, n1):
     """`_density` of a scan whose grid would be far larger than its points (a wide coverage): the same cells
-    and squares, the contacts in each point's square counted directly among those of its strip of cells
-    [a0, b0) along x (the contacts sorted by their x cell, the strip's ends found by bisection). Costs
-    O((N + Q) log N) plus the contacts in the points' strips, whatever the grid; the same integer counts."""
+    and squares (``n1`` cells along y), the contacts in each point's square counted among those of its cells,
+    column by column of [a0, b0) (`sorted_cells`: the contacts sorted by cell key, each column's run of cells
+    [a1, b1) found by bisection). Costs O((N + Q) log N), whatever the grid; the same integer counts."""
     Q = at.shape[0]
     cell = radius / _CELLS
     side = (2.0 * radius) ** 2
-    ix, iy = contact_cells(contacts, lo0, lo1, cell)
-    order = np.argsort(ix, kind="mergesort")
-    sx, sy = ix[order], iy[order]
+    _, keys = sorted_cells(contacts, lo0, lo1, cell, n1)
     out = np.empty(Q)
     for q in range(Q):
         x, y = at[q, 0], at[q, 1]
         a0, b0, a1, b1 = square_cells(x, y, radius, lo0, lo1, cell)
         n = 0
-        for k in range(np.searchsorted(sx, a0), np.searchsorted(sx, b0)):
-            n += a1 <= sy[k] < b1
+        for column in range(a0, b0):
+            start, stop = key_range(keys, column, a1, b1 - 1, n1)
+            n += stop - start
         out[q] = max(float(n), 1.0) / (side * _covered(x, y, table, corner, cell))
     return out
 

@@ -135,6 +135,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from nnda.data.scenario import Sensor
 from nnda.data.sensor import TWO_PI
 from nnda.filters.imm_kernels import wrap_angle_kernel
+from nnda.tracking.clutter_density import MAX_CELLS_PER_AXIS, contact_cells
 from nnda.tracking.output import CONFIRMED, DELETED, PRELIMINARY
 
 
@@ -595,10 +596,11 @@ def window_pairs(initiators: np.ndarray, contacts: np.ndarray, d_min: float, d_m
 
     ``initiators`` (I, 2) and ``contacts`` (J, 2) are Cartesian positions in m.
     Returns two int64 arrays of equal length, sorted by initiator then contact.
-    The contacts are binned by x into strips about ``d_max`` wide (a counting
-    sort), and each initiator tests only those of the strips its band |dx| <=
-    d_max overlaps, in one compiled loop (`_band_pairs`): the work grows with
-    the contacts in the bands, linear in the contacts.
+    The contacts are bucketed by their square cell about ``d_max`` wide (a
+    spatial hash), and each initiator tests only those of its own cell and
+    the 8 around it, in one compiled loop (`_cell_pairs`): the work grows
+    linearly with the contacts at a given density, whatever the coverage's
+    extent.
     """
     return free_window_pairs(initiators, contacts, np.zeros(len(contacts), np.bool_), d_min, d_max)[1:]
 
@@ -608,7 +610,7 @@ def free_window_pairs(initiators: np.ndarray, contacts: np.ndarray, used: np.nda
     """`window_pairs` of the ``initiators`` (I, 2) with the ``contacts`` (N, 2) m that no track ``used`` (N,),
     in one compiled call: the free contacts' indices (F,) ascending, and the pairs (i, j) (P,), j indexing
     them."""
-    # the margin over d_max keeps rounding at the bands' edges from dropping a pair
+    # the margin over d_max keeps rounding at the cells' edges from dropping a pair
     reach = d_max + 1e-6 * (1.0 + d_max)
     return _free_pairs(np.ascontiguousarray(initiators, float), np.ascontiguousarray(contacts, float),
                        np.asarray(used, np.bool_), float(d_min), float(d_max), reach)
@@ -616,69 +618,87 @@ def free_window_pairs(initiators: np.ndarray, contacts: np.ndarray, used: np.nda
 
 @numba.njit(cache=True, nogil=True)
 def _free_pairs(initiators, contacts, used, d_min, d_max, reach):
-    """`free_window_pairs`: the free contacts, then `_band_pairs` with them (none without initiators)."""
+    """`free_window_pairs`: the free contacts, then `_cell_pairs` with them (none without initiators)."""
     free = np.flatnonzero(~used)
     if not initiators.shape[0] or not free.size:
         return free, np.empty(0, np.int64), np.empty(0, np.int64)
-    i, j = _band_pairs(initiators, contacts[free], d_min, d_max, reach)
+    i, j = _cell_pairs(initiators, contacts[free], d_min, d_max, reach)
     return free, i, j
 
 
-#: `_band_pairs` makes at most this many strips per contact (plus `_MIN_STRIPS`): memory grows with the contacts
-_STRIPS_PER_CONTACT = 2
-_MIN_STRIPS = 64
+@numba.njit(cache=True, nogil=True)
+def _bucket(ix, iy, mask):
+    """The hash table bucket of the cell (ix, iy): Teschner et al. (2003)'s spatial hash, ``mask`` + 1 buckets (a
+    power of two)."""
+    return ((ix * 73856093) ^ (iy * 19349663)) & mask
 
 
 @numba.njit(cache=True, nogil=True)
-def _band_pairs(initiators, contacts, d_min, d_max, reach):
-    """`window_pairs`' loop: the contacts binned by x into strips of width ``reach`` (> 0), doubled until there
-    are at most 2 per contact plus 64 (a counting sort, contact order within a strip); per initiator, the
-    contacts of the strips its [x - reach, x + reach] overlaps whose squared distance lies in [d_min^2,
-    d_max^2], in contact order."""
+def _cell_pairs(initiators, contacts, d_min, d_max, reach):
+    """`window_pairs`' loop: the contacts bucketed by their square cell of side ``reach`` (> d_max; doubled while
+    an axis would have more than `clutter_density.MAX_CELLS_PER_AXIS`; `clutter_density.contact_cells`) in a hash
+    table of 2 to 4 buckets a contact (`_bucket`, a counting sort: contact order within a bucket), so the grid's
+    extent costs nothing; per initiator, the contacts of the buckets of its cell and the 8 around it (each bucket
+    once) whose squared distance lies in [d_min^2, d_max^2], in contact order. Costs O(N) plus, per initiator,
+    nine look-ups and the contacts of its buckets: linear in the contacts at a given density."""
     n = contacts.shape[0]
-    x0, x1 = contacts[0, 0], contacts[0, 0]
+    lo0, hi0, lo1, hi1 = contacts[0, 0], contacts[0, 0], contacts[0, 1], contacts[0, 1]
     for b in range(1, n):
-        x0, x1 = min(x0, contacts[b, 0]), max(x1, contacts[b, 0])
-    width = reach
-    while (x1 - x0) / width + 1.0 > _STRIPS_PER_CONTACT * n + _MIN_STRIPS:
-        width *= 2.0
-    strips = int((x1 - x0) / width) + 1
-    start = np.zeros(strips + 1, np.int64)
-    strip = np.empty(n, np.int64)
+        lo0, hi0 = min(lo0, contacts[b, 0]), max(hi0, contacts[b, 0])
+        lo1, hi1 = min(lo1, contacts[b, 1]), max(hi1, contacts[b, 1])
+    cell = reach
+    while max(hi0 - lo0, hi1 - lo1) / cell > MAX_CELLS_PER_AXIS:
+        cell *= 2.0
+    n0, n1 = int((hi0 - lo0) // cell) + 1, int((hi1 - lo1) // cell) + 1
+    size = 64
+    while size < 2 * n:
+        size *= 2
+    mask = size - 1
+    ix, iy = contact_cells(contacts, lo0, lo1, cell)
+    start = np.zeros(size + 1, np.int64)
     for b in range(n):
-        strip[b] = min(int((contacts[b, 0] - x0) / width), strips - 1)
-        start[strip[b] + 1] += 1
-    for k in range(strips):
+        start[_bucket(ix[b], iy[b], mask) + 1] += 1
+    for k in range(size):
         start[k + 1] += start[k]
     fill = start[:-1].copy()
     order = np.empty(n, np.int64)
     for b in range(n):
-        order[fill[strip[b]]] = b
-        fill[strip[b]] += 1
-    first = np.zeros(len(initiators), np.int64)  # per initiator, its first and last strip + 1 (none: equal)
-    last = np.zeros(len(initiators), np.int64)
+        h = _bucket(ix[b], iy[b], mask)
+        order[fill[h]] = b
+        fill[h] += 1
+    n_init = len(initiators)
+    near = np.full((n_init, 9), -1, np.int64)  # per initiator, the distinct buckets of its 3 x 3 cells (-1: none)
     most = 0
-    for a in range(len(initiators)):
-        lo = max(0.0, math.floor((initiators[a, 0] - reach - x0) / width))
-        hi = min(strips - 1.0, math.floor((initiators[a, 0] + reach - x0) / width))
-        if lo <= hi:
-            first[a], last[a] = int(lo), int(hi) + 1
-            most += start[last[a]] - start[first[a]]
+    for a in range(n_init):
+        u, v = (initiators[a, 0] - lo0) // cell, (initiators[a, 1] - lo1) // cell  # as `contact_cells`
+        if not (-1.0 <= u <= n0 and -1.0 <= v <= n1):
+            continue
+        k = 0
+        for cx in range(max(int(u) - 1, 0), min(int(u) + 1, n0 - 1) + 1):
+            for cy in range(max(int(v) - 1, 0), min(int(v) + 1, n1 - 1) + 1):
+                h = _bucket(cx, cy, mask)
+                if h not in near[a, :k]:
+                    near[a, k] = h
+                    k += 1
+                    most += start[h + 1] - start[h]
     i = np.empty(most, np.int64)
     j = np.empty(most, np.int64)
     lo2, hi2 = d_min * d_min, d_max * d_max
     m = 0
-    for a in range(len(initiators)):
+    for a in range(n_init):
         begin = m
-        for t in range(start[first[a]], start[last[a]]):
-            b = order[t]
-            dx = initiators[a, 0] - contacts[b, 0]
-            dy = initiators[a, 1] - contacts[b, 1]
-            d2 = dx * dx + dy * dy
-            if lo2 <= d2 <= hi2:
-                i[m], j[m] = a, b
-                m += 1
-        if m - begin > 1:  # most initiators have no pair or one
+        for h in near[a]:
+            if h < 0:
+                break
+            for t in range(start[h], start[h + 1]):
+                b = order[t]
+                dx = initiators[a, 0] - contacts[b, 0]
+                dy = initiators[a, 1] - contacts[b, 1]
+                d2 = dx * dx + dy * dy
+                if lo2 <= d2 <= hi2:
+                    i[m], j[m] = a, b
+                    m += 1
+        if m - begin > 1:
             j[begin:m] = np.sort(j[begin:m])
     return i[:m], j[:m]
 
@@ -730,13 +750,13 @@ def no_lines() -> tuple:
 @numba.njit(cache=True, nogil=True)
 def _fast_lines(initiators, contacts, free, spoken, after, at, velocity, length, evidence, told, d_max, d_fast,
                 reach, tol, dt, share, enough, contacts_min):
-    """`fast_lines`: the pairs from `_band_pairs` over (d_max, d_fast], each matched against the lines of its
+    """`fast_lines`: the pairs from `_cell_pairs` over (d_max, d_fast], each matched against the lines of its
     initiator (``after`` ascending), in one pass; of the lines a pair continues, the one of most evidence."""
     if not initiators.shape[0] or not free.size:
         return 0, (np.empty(0, np.int64), np.empty((0, 2)), np.empty((0, 2)), np.empty(0, np.int64), np.empty(0),
                    np.empty(0, np.bool_))
     xy = contacts[free]
-    i, j = _band_pairs(initiators, xy, d_max, d_fast, reach)
+    i, j = _cell_pairs(initiators, xy, d_max, d_fast, reach)
     rank = np.cumsum(~spoken) - 1  # a free contact's index among the next initiators
     tol2, lo2 = tol * tol, d_max * d_max
     beyond = np.zeros(i.size, np.bool_)

@@ -10,16 +10,19 @@ One scan, with J predicted components and N contacts (shapes on the right):
 
 `posterior` builds the J (1 + N) components of Proposition 2 when every
 pair is formed (``gate=None``); the chi-square gate leaves out the pairs
-whose likelihood is negligible (found without forming them: a window on
-the first measurement coordinate, then the exact distance), and
-``prune_above`` drops the light copies before they are built. The three
+whose likelihood is negligible (found without forming them: each
+component examines only the contacts in its gate's bounding box, binned in
+cells, then the exact distance; the cost grows with the pairs near each
+component, not with J x N), and ``prune_above`` drops the light copies
+before they are built. The three
 linearisations give the same `Pairs`: `Linear` (Cartesian position fixes,
 one noise covariance per contact: a radar's contacts converted with their
 own covariance), `EKF` and `UKF` (the polar radar measurement through the
 EKF's Jacobian or the unscented transform). All the pairs' likelihoods
 come from 2 x 2 closed forms; the Kalman correction of the pairs that are
 kept is `nnda.filters.kalman.correct` (covariance P - K S K^T, symmetrised);
-nothing loops over components or contacts.
+nothing loops over components or contacts in Python (the binning is one
+compiled call, `_box_pairs`).
 The CPHD filter (`nnda.tracking.phd.cphd`) reuses all of this and replaces
 `phd_weights` only.
 
@@ -34,14 +37,18 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
+from typing import NamedTuple
 
+import numba
 import numpy as np
 
+from nnda.data.sensor import TWO_PI
 from nnda.filters import kalman, unscented
 from nnda.filters.kalman import MeasurementPrediction
-from nnda.filters.measurement import MeasurementModel
+from nnda.filters.measurement import MeasurementModel, PolarMeasurement
 from nnda.filters.mixture import Mixture
 from nnda.filters.motion import POS, MotionModel
+from nnda.tracking.clutter_density import MAX_CELLS_PER_AXIS, key_range, sorted_cells
 
 
 def predict(mixture: Mixture, motion: MotionModel, dt: float, ps: float | np.ndarray,
@@ -94,50 +101,168 @@ class Pairs:
         return kalman.measurement_prediction(c.z[j], c.S[j] + self.contact_R[self.i[k]], c.H[j], c.PHt[j])
 
 
-def candidates(z0: np.ndarray, centre: np.ndarray, half_width: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Every (j, i) with |z0[i] - centre[j]| <= half_width[j]: contacts' first coordinates ``z0`` (N,),
-    components' predicted ones ``centre`` (J,) and windows ``half_width`` (J,); one sort and two binary
-    searches, the pairs expanded without a loop. Returns component and contact indices (P,)."""
-    order = np.argsort(z0, kind="stable")
-    zs = z0[order]
-    lo = np.searchsorted(zs, centre - half_width, "left")
-    hi = np.searchsorted(zs, centre + half_width, "right")
-    counts = np.maximum(hi - lo, 0)
-    j = np.repeat(np.arange(len(centre)), counts)
-    start = np.repeat(lo - (np.cumsum(counts) - counts), counts)
-    return j, order[start + np.arange(len(j))]
+class Contacts(NamedTuple):
+    """A scan's contacts as `candidates` bins them: z (N, 2) and the period of their second coordinate (2 pi: an
+    azimuth, whose residual is wrapped; 0: none)."""
+
+    z: np.ndarray
+    period: float
+
+
+#: `candidates` widens the second coordinate's windows by this part (and 1e-12 absolute), so that rounding never
+#: leaves out a pair the exact gate keeps (the first coordinate's window is the one the gate was always applied in)
+_MARGIN = 1e-9
+
+
+def candidates(contacts: Contacts, centre: np.ndarray, half_width: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every (j, i) with |z_i0 - centre_j0| <= half_width_j0 and |z_i1 - centre_j1| <= half_width_j1 (the
+    second difference wrapped when ``contacts.period``), up to the margin `_MARGIN` on the second: the
+    ``contacts`` (N, 2) binned in cells of about the components' median window (`_box_pairs`), each component
+    ``centre`` (J, 2) examining only the contacts of the cells its window ``half_width`` (J, 2) overlaps.
+    Returns component and contact indices (P,), by contact, then component."""
+    z = np.ascontiguousarray(contacts.z, float)
+    J, N = len(centre), len(z)
+    if not J or not N:
+        return np.empty(0, np.int64), np.empty(0, np.int64)
+    extent = np.array([np.ptp(z[:, 0]), contacts.period or np.ptp(z[:, 1])])
+    cell = np.maximum(np.median(2.0 * half_width, axis=0), extent / (4 * N + 64))
+    cell = np.where(np.isfinite(cell) & (cell > 0), cell, 1.0)
+    return _box_pairs(z, float(contacts.period), np.ascontiguousarray(centre, float),
+                      np.ascontiguousarray(half_width, float), float(cell[0]), float(cell[1]))
+
+
+@numba.njit(cache=True, nogil=True)
+def _box_pairs(z, period, centre, half_width, cell0, cell1):
+    """`candidates`' loop. The contacts z (N, 2) go into the cells of `clutter_density.sorted_cells`, the second
+    coordinate (taken modulo ``period`` when > 0) scaled by cell0 / cell1 so that one side ``cell0`` serves both
+    axes (doubled while an axis would have more than `clutter_density.MAX_CELLS_PER_AXIS`); each component tests
+    the contacts of the cells its window [centre - half_width, centre + half_width] overlaps (on a period, its one
+    or two runs of rows; the whole period from half a period on): the first coordinate exactly as
+    `window_counts`' window, the second's difference (wrapped) against half_width (1 + `_MARGIN`) + 1e-12; the
+    pairs found component by component are then ordered by contact (a stable counting sort). Costs O(N log N)
+    plus, per component, its cells' bisections and contacts, plus O(N) for the order."""
+    N, J = z.shape[0], centre.shape[0]
+    k = cell0 / cell1
+    pts = np.empty((N, 2))
+    for i in range(N):
+        pts[i, 0] = z[i, 0]
+        pts[i, 1] = (z[i, 1] % period if period > 0 else z[i, 1]) * k
+    lo0, hi0, lo1, hi1 = pts[0, 0], pts[0, 0], pts[0, 1], pts[0, 1]
+    for i in range(1, N):
+        lo0, hi0 = min(lo0, pts[i, 0]), max(hi0, pts[i, 0])
+        lo1, hi1 = min(lo1, pts[i, 1]), max(hi1, pts[i, 1])
+    if period > 0:
+        lo1, hi1 = 0.0, period * k
+    cell = cell0
+    while max(hi0 - lo0, hi1 - lo1) / cell > MAX_CELLS_PER_AXIS:
+        cell *= 2.0
+    n0, n1 = int((hi0 - lo0) // cell) + 1, int((hi1 - lo1) // cell) + 1
+    order, keys = sorted_cells(pts, lo0, lo1, cell, n1)
+    # per component: its columns [runs 0, runs 1] and up to two runs of rows, [runs 2, runs 3] and [runs 4, runs 5]
+    # (none: an end below its start)
+    runs = np.full((J, 6), -1, np.int64)
+    runs[:, 0] = 0
+    wide = np.empty(J)
+    most = 0
+    for j in range(J):
+        a, b = centre[j, 0] - half_width[j, 0], centre[j, 0] + half_width[j, 0]
+        u0, u1 = (a - lo0) // cell, (b - lo0) // cell  # as `contact_cells`
+        w = half_width[j, 1] * (1.0 + _MARGIN) + 1e-12
+        wide[j] = w
+        if not (u1 >= 0.0 and u0 <= n0 - 1.0 and w >= 0.0):  # also NaN
+            continue
+        runs[j, 0], runs[j, 1] = int(max(u0, 0.0)), int(min(u1, n0 - 1.0))
+        if period > 0 and w >= 0.5 * period:
+            runs[j, 2], runs[j, 3] = 0, n1 - 1
+        else:
+            c = centre[j, 1] % period if period > 0 else centre[j, 1]
+            y0, y1 = c - w, c + w
+            at_end = period > 0 and y0 < 0.0  # the window's wrapped part: at the period's end, or its start
+            if at_end:
+                runs[j, 4], runs[j, 5] = int(min((y0 + period) * k // cell, n1 - 1.0)), n1 - 1
+                y0 = 0.0
+            elif period > 0 and y1 > period:
+                runs[j, 4], runs[j, 5] = 0, int(max((y1 - period) * k // cell, 0.0))
+                y1 = period
+            r0, r1 = (y0 * k - lo1) // cell, (y1 * k - lo1) // cell
+            if r1 >= 0.0 and r0 <= n1 - 1.0:
+                runs[j, 2], runs[j, 3] = int(max(r0, 0.0)), int(min(r1, n1 - 1.0))
+                if at_end:  # a row holding both parts is examined once, in the first run
+                    runs[j, 4] = max(runs[j, 4], runs[j, 3] + 1)
+                else:
+                    runs[j, 5] = min(runs[j, 5], runs[j, 2] - 1)
+        for column in range(runs[j, 0], runs[j, 1] + 1):
+            for r in (2, 4):
+                start, stop = key_range(keys, column, runs[j, r], runs[j, r + 1], n1)
+                most += stop - start
+    jj = np.empty(most, np.int64)
+    ii = np.empty(most, np.int64)
+    m = 0
+    half = 0.5 * period
+    for j in range(J):
+        a, b = centre[j, 0] - half_width[j, 0], centre[j, 0] + half_width[j, 0]
+        c = centre[j, 1] % period if period > 0 else centre[j, 1]
+        for column in range(runs[j, 0], runs[j, 1] + 1):
+            for r in (2, 4):
+                start, stop = key_range(keys, column, runs[j, r], runs[j, r + 1], n1)
+                for t in range(start, stop):
+                    i = order[t]
+                    if not a <= z[i, 0] <= b:
+                        continue
+                    d = (pts[i, 1] / k if period > 0 else z[i, 1]) - c
+                    if period > 0 and d > half:
+                        d -= period
+                    elif period > 0 and d < -half:
+                        d += period
+                    if abs(d) <= wide[j]:
+                        jj[m], ii[m] = j, i
+                        m += 1
+    start = np.zeros(N + 1, np.int64)  # by contact: a counting sort, stable, so by component within a contact
+    for p in range(m):
+        start[ii[p] + 1] += 1
+    for i in range(N):
+        start[i + 1] += start[i]
+    j_out, i_out = np.empty(m, np.int64), np.empty(m, np.int64)
+    for p in range(m):
+        q = start[ii[p]]
+        j_out[q], i_out[q] = jj[p], ii[p]
+        start[ii[p]] += 1
+    return j_out, i_out
 
 
 def window_counts(z0: np.ndarray, centre: np.ndarray, half_width: np.ndarray) -> np.ndarray:
-    """How many pairs `candidates` forms for each component (J,), counted without forming them: the contacts'
-    first coordinates ``z0`` (N,) within ``half_width`` (J,) of the components' ``centre`` (J,)."""
+    """How many contacts' first coordinates ``z0`` (N,) lie within ``half_width`` (J,) of each component's
+    ``centre`` (J,): (J,), counted without forming the pairs (one sort, two binary searches); a bound on the pairs
+    `candidates` forms, whose window on the first coordinate is this one."""
     zs = np.sort(z0)
     lo = np.searchsorted(zs, centre - half_width, "left")
     hi = np.searchsorted(zs, centre + half_width, "right")
     return np.maximum(hi - lo, 0)
 
 
-def _gated(mp: MeasurementPrediction, z: np.ndarray, gate: float | None, noise_00: float
+def _gated(mp: MeasurementPrediction, z: np.ndarray, gate: float | None, noise: np.ndarray, period: float
            ) -> tuple[np.ndarray, np.ndarray]:
-    """Candidate pairs of components ``mp`` and contacts z (N, 2) for a chi-square ``gate`` (None: all).
+    """Candidate pairs (j, i) of components ``mp`` and contacts z (N, 2) for a chi-square ``gate`` (None: all), by
+    contact, then component.
 
-    d^2 = nu^T S^-1 nu >= nu_0^2 / S_00 for any positive definite S, so a
-    pair with |nu_0| > sqrt(gate S_00) is outside the gate: a window on the
-    first coordinate (range, or x) prefilters exactly; ``noise_00`` bounds
-    the contacts' own noise on it (added to the components' S_00).
+    d^2 = nu^T S^-1 nu >= nu_k^2 / S_kk for any positive definite S and
+    either coordinate k, so a pair with |nu_k| > sqrt(gate S_kk) is outside
+    the gate: a window on each coordinate (range and azimuth, or x and y,
+    the gate ellipse's bounding box) prefilters exactly; ``noise`` (2,)
+    bounds the contacts' own noise on each (added to the components' S_kk),
+    ``period`` is the second coordinate's (`Contacts`).
     """
     J, N = len(mp.z), len(z)
     if gate is None:
-        return np.repeat(np.arange(J), N), np.tile(np.arange(N), J)
-    return candidates(z[:, 0], mp.z[:, 0], np.sqrt(gate * (mp.S[:, 0, 0] + noise_00)))
+        return np.tile(np.arange(J), N), np.repeat(np.arange(N), J)
+    half_width = np.column_stack([np.sqrt(gate * (mp.S[:, 0, 0] + noise[0])),
+                                  np.sqrt(gate * (mp.S[:, 1, 1] + noise[1]))])
+    return candidates(Contacts(z, period), mp.z, half_width)
 
 
-def _contact_major(j, i, *arrays, keep=None):
-    """Pairs (and their arrays) restricted to ``keep`` and sorted by contact, then component."""
-    if keep is not None:
-        j, i, arrays = j[keep], i[keep], [a[keep] for a in arrays]
-    order = np.argsort(i * (j.max(initial=0) + 1) + j, kind="stable")
-    return (j[order], i[order], *(a[order] for a in arrays))
+def _kept(keep, *arrays):
+    """The pairs' arrays restricted to ``keep`` (None: all); `_gated`'s order, by contact then component, stays."""
+    return arrays if keep is None else tuple(a[keep] for a in arrays)
 
 
 class Linearisation(ABC):
@@ -155,10 +280,16 @@ class Linearisation(ABC):
     def predict_measurement(self, x: np.ndarray, P: np.ndarray) -> MeasurementPrediction:
         """Measurement prediction of states x (J, n), P (J, n, n)."""
 
-    def noise_00(self, contact_R: np.ndarray | None) -> float:
-        """The bound on the contacts' own noise on the first coordinate that `pairs` adds to the window: none
+    def noise(self, contact_R: np.ndarray | None) -> np.ndarray:
+        """The bound on the contacts' own noise on each coordinate (2,) that `pairs` adds to its windows: none
         (the components' S holds the measurement noise)."""
-        return 0.0
+        return np.zeros(2)
+
+    @property
+    def period(self) -> float:
+        """The period of the second coordinate of what `contacts` returns (2 pi: a polar measurement's azimuth,
+        whose residual wraps; else 0)."""
+        return TWO_PI if isinstance(self.measurement, PolarMeasurement) else 0.0
 
     def pair_counts(self, mixture: Mixture, z: np.ndarray, contact_R: np.ndarray | None = None,
                     gate: float | None = None) -> np.ndarray:
@@ -167,18 +298,18 @@ class Linearisation(ABC):
         if gate is None:
             return np.full(len(mixture), len(z), np.int64)
         mp = self.predict_measurement(mixture.means, mixture.covariances)
-        return window_counts(z[:, 0], mp.z[:, 0], np.sqrt(gate * (mp.S[:, 0, 0] + self.noise_00(contact_R))))
+        return window_counts(z[:, 0], mp.z[:, 0], np.sqrt(gate * (mp.S[:, 0, 0] + self.noise(contact_R)[0])))
 
     def pairs(self, mixture: Mixture, z: np.ndarray, contact_R: np.ndarray | None = None,
               gate: float | None = None) -> Pairs:
         """The pairs of the predicted ``mixture`` and the contacts z (N, 2) (from `contacts`) with squared
         Mahalanobis distance <= ``gate`` (None: all J x N pairs)."""
         mp = self.predict_measurement(mixture.means, mixture.covariances)
-        j, i = _gated(mp, z, gate, 0.0)
+        j, i = _gated(mp, z, gate, self.noise(None), self.period)
         nu = self.measurement.residual(z[i], mp.z[j])
         d2 = kalman.mahalanobis_2x2(nu, mp.S_inv[j])
         log_det = mp.log_det_S[j]
-        j, i, nu, d2, log_det = _contact_major(j, i, nu, d2, log_det, keep=None if gate is None else d2 <= gate)
+        j, i, nu, d2, log_det = _kept(None if gate is None else d2 <= gate, j, i, nu, d2, log_det)
         return Pairs(j, i, nu, kalman.gaussian_log_likelihood(d2, log_det), len(z), mp)
 
 
@@ -233,19 +364,26 @@ class Linear(Linearisation):
         return kalman.measurement_prediction(x[..., at], PHt[..., at, :].copy(),
                                              np.broadcast_to(H, (*x.shape[:-1], *H.shape)), PHt)
 
-    def noise_00(self, contact_R):
-        """The largest of the contacts' own noise variances on x (their R_i, or the model's R)."""
-        return float(self.measurement.R[0, 0] if contact_R is None else contact_R[:, 0, 0].max(initial=0.0))
+    def noise(self, contact_R):
+        """The largest of the contacts' own noise variances on x and on y (their R_i, or the model's R): (2,)."""
+        if contact_R is None:
+            return np.diagonal(self.measurement.R).copy()
+        return np.array([contact_R[:, 0, 0].max(initial=0.0), contact_R[:, 1, 1].max(initial=0.0)])
+
+    @property
+    def period(self) -> float:
+        """0: Cartesian fixes."""
+        return 0.0
 
     def pairs(self, mixture, z, contact_R=None, gate=None):
         if contact_R is None:  # fixes with the model's own noise
             contact_R = np.broadcast_to(self.measurement.R, (len(z), 2, 2))
         mp = self.predict_measurement(mixture.means, mixture.covariances)
-        j, i = _gated(mp, z, gate, self.noise_00(contact_R))
+        j, i = _gated(mp, z, gate, self.noise(contact_R), self.period)
         nu = z[i] - mp.z[j]
         S_inv, det = kalman.inverse_2x2(mp.S[j] + contact_R[i])
         d2 = kalman.mahalanobis_2x2(nu, S_inv)
-        j, i, nu, d2, det = _contact_major(j, i, nu, d2, det, keep=None if gate is None else d2 <= gate)
+        j, i, nu, d2, det = _kept(None if gate is None else d2 <= gate, j, i, nu, d2, det)
         return Pairs(j, i, nu, kalman.gaussian_log_likelihood(d2, np.log(det)), len(z), mp, contact_R)
 
 
