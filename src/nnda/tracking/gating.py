@@ -3,8 +3,9 @@
 Gating returns the pairs inside the gate in sparse form (track row, contact
 column, squared Mahalanobis distance), so association scales with the pairs
 that matter rather than with tracks x contacts. For small problems every pair
-is tested at once; for large ones a k-d tree over the contacts first keeps,
-per track, those within a circle that encloses its gate ellipse.
+is tested at once; for large ones the contacts are binned in cells
+(`nnda.tracking.box_pairs`) and each track keeps those within a circle that
+encloses its gate ellipse.
 
 A track whose polar linearisation does not hold (`nnda.tracking.linearisation`:
 a prediction whose spread is comparable to its range) gates a contact only
@@ -17,11 +18,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from nnda.filters import kalman
 from nnda.filters.imm import IMM, IMMPrediction
 from nnda.filters.kalman import MeasurementPrediction
+from nnda.tracking.box_pairs import Contacts, candidates
 from nnda.tracking.linearisation import LINEARISATION_LIMIT_RAD, cartesian_d2, poor_pairs
 
 #: below this many track-contact pairs the dense test is faster than building a k-d tree
@@ -71,10 +72,11 @@ def gate(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, xy: np.ndarray, thr
     measurement = imm.measurement
     radius = np.sqrt(limit * measurement.spread(mp.z[tracks], mp.S[tracks])) + 1.0
     centre = measurement.cartesian(mp.z[tracks])
-    near = cKDTree(xy).query_ball_point(centre, radius, return_sorted=True)
-    counts = np.fromiter((len(c) for c in near), np.int64, tracks.size)
-    rows = np.repeat(tracks, counts)
-    cols = np.fromiter((j for c in near for j in c), np.int64, int(counts.sum()))
+    j, cols = candidates(Contacts(xy, 0.0), centre, np.repeat(radius[:, None], 2, axis=1))
+    near = np.sum((xy[cols] - centre[j]) ** 2, axis=1) <= radius[j] ** 2  # the circle in the square
+    j, cols = j[near], cols[near]
+    order = np.lexsort((cols, j))  # by track, then contact
+    rows, cols = tracks[j[order]], cols[order]
     nu = imm.measurement.residual(z[cols], mp.z[rows])
     d2 = kalman.mahalanobis_2x2(nu, mp.S_inv[rows])
     inside = d2 <= (by_track[rows] if by_track.ndim else by_track)

@@ -37,9 +37,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import NamedTuple
 
-import numba
 import numpy as np
 
 from nnda.data.sensor import TWO_PI
@@ -48,7 +46,7 @@ from nnda.filters.kalman import MeasurementPrediction
 from nnda.filters.measurement import MeasurementModel, PolarMeasurement
 from nnda.filters.mixture import Mixture
 from nnda.filters.motion import POS, MotionModel
-from nnda.tracking.clutter_density import MAX_CELLS_PER_AXIS, key_range, sorted_cells
+from nnda.tracking.box_pairs import Contacts, candidates
 
 
 def predict(mixture: Mixture, motion: MotionModel, dt: float, ps: float | np.ndarray,
@@ -99,135 +97,6 @@ class Pairs:
         if self.contact_R is None:
             return c.take(j)
         return kalman.measurement_prediction(c.z[j], c.S[j] + self.contact_R[self.i[k]], c.H[j], c.PHt[j])
-
-
-class Contacts(NamedTuple):
-    """A scan's contacts as `candidates` bins them: z (N, 2) and the period of their second coordinate (2 pi: an
-    azimuth, whose residual is wrapped; 0: none)."""
-
-    z: np.ndarray
-    period: float
-
-
-#: `candidates` widens the second coordinate's windows by this part (and 1e-12 absolute), so that rounding never
-#: leaves out a pair the exact gate keeps (the first coordinate's window is the one the gate was always applied in)
-_MARGIN = 1e-9
-
-
-def candidates(contacts: Contacts, centre: np.ndarray, half_width: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Every (j, i) with |z_i0 - centre_j0| <= half_width_j0 and |z_i1 - centre_j1| <= half_width_j1 (the
-    second difference wrapped when ``contacts.period``), up to the margin `_MARGIN` on the second: the
-    ``contacts`` (N, 2) binned in cells of about the components' median window (`_box_pairs`), each component
-    ``centre`` (J, 2) examining only the contacts of the cells its window ``half_width`` (J, 2) overlaps.
-    Returns component and contact indices (P,), by contact, then component."""
-    z = np.ascontiguousarray(contacts.z, float)
-    J, N = len(centre), len(z)
-    if not J or not N:
-        return np.empty(0, np.int64), np.empty(0, np.int64)
-    extent = np.array([np.ptp(z[:, 0]), contacts.period or np.ptp(z[:, 1])])
-    cell = np.maximum(np.median(2.0 * half_width, axis=0), extent / (4 * N + 64))
-    cell = np.where(np.isfinite(cell) & (cell > 0), cell, 1.0)
-    return _box_pairs(z, float(contacts.period), np.ascontiguousarray(centre, float),
-                      np.ascontiguousarray(half_width, float), float(cell[0]), float(cell[1]))
-
-
-@numba.njit(cache=True, nogil=True)
-def _box_pairs(z, period, centre, half_width, cell0, cell1):
-    """`candidates`' loop. The contacts z (N, 2) go into the cells of `clutter_density.sorted_cells`, the second
-    coordinate (taken modulo ``period`` when > 0) scaled by cell0 / cell1 so that one side ``cell0`` serves both
-    axes (doubled while an axis would have more than `clutter_density.MAX_CELLS_PER_AXIS`); each component tests
-    the contacts of the cells its window [centre - half_width, centre + half_width] overlaps (on a period, its one
-    or two runs of rows; the whole period from half a period on): the first coordinate exactly as
-    `window_counts`' window, the second's difference (wrapped) against half_width (1 + `_MARGIN`) + 1e-12; the
-    pairs found component by component are then ordered by contact (a stable counting sort). Costs O(N log N)
-    plus, per component, its cells' bisections and contacts, plus O(N) for the order."""
-    N, J = z.shape[0], centre.shape[0]
-    k = cell0 / cell1
-    pts = np.empty((N, 2))
-    for i in range(N):
-        pts[i, 0] = z[i, 0]
-        pts[i, 1] = (z[i, 1] % period if period > 0 else z[i, 1]) * k
-    lo0, hi0, lo1, hi1 = pts[0, 0], pts[0, 0], pts[0, 1], pts[0, 1]
-    for i in range(1, N):
-        lo0, hi0 = min(lo0, pts[i, 0]), max(hi0, pts[i, 0])
-        lo1, hi1 = min(lo1, pts[i, 1]), max(hi1, pts[i, 1])
-    if period > 0:
-        lo1, hi1 = 0.0, period * k
-    cell = cell0
-    while max(hi0 - lo0, hi1 - lo1) / cell > MAX_CELLS_PER_AXIS:
-        cell *= 2.0
-    n0, n1 = int((hi0 - lo0) // cell) + 1, int((hi1 - lo1) // cell) + 1
-    order, keys = sorted_cells(pts, lo0, lo1, cell, n1)
-    # per component: its columns [runs 0, runs 1] and up to two runs of rows, [runs 2, runs 3] and [runs 4, runs 5]
-    # (none: an end below its start)
-    runs = np.full((J, 6), -1, np.int64)
-    runs[:, 0] = 0
-    wide = np.empty(J)
-    most = 0
-    for j in range(J):
-        a, b = centre[j, 0] - half_width[j, 0], centre[j, 0] + half_width[j, 0]
-        u0, u1 = (a - lo0) // cell, (b - lo0) // cell  # as `contact_cells`
-        w = half_width[j, 1] * (1.0 + _MARGIN) + 1e-12
-        wide[j] = w
-        if not (u1 >= 0.0 and u0 <= n0 - 1.0 and w >= 0.0):  # also NaN
-            continue
-        runs[j, 0], runs[j, 1] = int(max(u0, 0.0)), int(min(u1, n0 - 1.0))
-        if period > 0 and w >= 0.5 * period:
-            runs[j, 2], runs[j, 3] = 0, n1 - 1
-        else:
-            c = centre[j, 1] % period if period > 0 else centre[j, 1]
-            y0, y1 = c - w, c + w
-            at_end = period > 0 and y0 < 0.0  # the window's wrapped part: at the period's end, or its start
-            if at_end:
-                runs[j, 4], runs[j, 5] = int(min((y0 + period) * k // cell, n1 - 1.0)), n1 - 1
-                y0 = 0.0
-            elif period > 0 and y1 > period:
-                runs[j, 4], runs[j, 5] = 0, int(max((y1 - period) * k // cell, 0.0))
-                y1 = period
-            r0, r1 = (y0 * k - lo1) // cell, (y1 * k - lo1) // cell
-            if r1 >= 0.0 and r0 <= n1 - 1.0:
-                runs[j, 2], runs[j, 3] = int(max(r0, 0.0)), int(min(r1, n1 - 1.0))
-                if at_end:  # a row holding both parts is examined once, in the first run
-                    runs[j, 4] = max(runs[j, 4], runs[j, 3] + 1)
-                else:
-                    runs[j, 5] = min(runs[j, 5], runs[j, 2] - 1)
-        for column in range(runs[j, 0], runs[j, 1] + 1):
-            for r in (2, 4):
-                start, stop = key_range(keys, column, runs[j, r], runs[j, r + 1], n1)
-                most += stop - start
-    jj = np.empty(most, np.int64)
-    ii = np.empty(most, np.int64)
-    m = 0
-    half = 0.5 * period
-    for j in range(J):
-        a, b = centre[j, 0] - half_width[j, 0], centre[j, 0] + half_width[j, 0]
-        c = centre[j, 1] % period if period > 0 else centre[j, 1]
-        for column in range(runs[j, 0], runs[j, 1] + 1):
-            for r in (2, 4):
-                start, stop = key_range(keys, column, runs[j, r], runs[j, r + 1], n1)
-                for t in range(start, stop):
-                    i = order[t]
-                    if not a <= z[i, 0] <= b:
-                        continue
-                    d = (pts[i, 1] / k if period > 0 else z[i, 1]) - c
-                    if period > 0 and d > half:
-                        d -= period
-                    elif period > 0 and d < -half:
-                        d += period
-                    if abs(d) <= wide[j]:
-                        jj[m], ii[m] = j, i
-                        m += 1
-    start = np.zeros(N + 1, np.int64)  # by contact: a counting sort, stable, so by component within a contact
-    for p in range(m):
-        start[ii[p] + 1] += 1
-    for i in range(N):
-        start[i + 1] += start[i]
-    j_out, i_out = np.empty(m, np.int64), np.empty(m, np.int64)
-    for p in range(m):
-        q = start[ii[p]]
-        j_out[q], i_out[q] = jj[p], ii[p]
-        start[ii[p]] += 1
-    return j_out, i_out
 
 
 def window_counts(z0: np.ndarray, centre: np.ndarray, half_width: np.ndarray) -> np.ndarray:
