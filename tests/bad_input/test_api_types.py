@@ -68,8 +68,8 @@ def test_a_config_file_for_another_tracker_names_the_file_and_that_tracker(tiny_
 
 
 def test_a_config_mapping_of_another_tracker_names_that_tracker(tiny_dataset):
-    with pytest.raises(ConfigError, match=r"(?s)tracker config: invalid jpda config.*options of tracker\(s\) mht, "
-                                          r"not of jpda"):
+    with pytest.raises(ConfigError, match=r"(?s)tracker config: invalid jpda config.*options of tracker\(s\) "
+                                          r"mht(, [a-z]+)*, not of jpda"):
         make_tracker("jpda", Sensor(), {"n_scan": 2})
     with pytest.raises(ConfigError, match=r"invalid gnn config \(1 problem\(s\)\)\n  - bogus: Extra inputs") as err:
         make_tracker("gnn", Sensor(), {"bogus": 1})
