@@ -64,7 +64,7 @@ def test_a_config_file_for_another_tracker_names_the_file_and_that_tracker(tiny_
     text = str(err.value)
     assert text.startswith(f"tracker config {config}: invalid gnn config (2 problem(s))"), text
     assert "n_scan: Extra inputs are not permitted" in text
-    assert "the field(s) max_hypotheses, n_scan are options of tracker(s) mht, not of gnn" in text
+    assert "the field(s) max_hypotheses, n_scan are options of tracker(s) mht, glmb, lmb, not of gnn" in text
 
 
 def test_a_config_mapping_of_another_tracker_names_that_tracker(tiny_dataset):

@@ -56,28 +56,22 @@ says (`ContactTracker.confirmation_rule` is "existence").
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Annotated, ClassVar
 
 import numpy as np
 from pydantic import Field, model_validator
 
 from nnda.data.dataset import Scan
-from nnda.filters.batch import Batch
-from nnda.filters.kalman import GATE_99
-from nnda.tracking.clutter_density import coverage_area, local_density
-from nnda.tracking.gating import gate
-from nnda.tracking.lifecycle import birth_log_odds, sensor_noise_m, start_score
-from nnda.tracking.linearisation import update as linearised_update
-from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
+from nnda.tracking.labelled import LabelledConfig, LabelledMixture, LabelledTable, merged, normalised
+from nnda.tracking.output import TrackerOutput
 from nnda.tracking.pmbm_hypotheses import scan_hypotheses
-from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts, TrackerConfig, Tracks
+from nnda.tracking.tracker import ScanContacts, TrackerConfig, Tracks
 
 #: history entry of a scan before the Bernoulli existed (a miss is NO_CONTACT)
 UNKNOWN = -2
 
 
-class PMBMConfig(ContactTrackerConfig):
+class PMBMConfig(LabelledConfig):
     """PMBM settings (module docstring); probabilities per scan of the sensor."""
 
     @model_validator(mode="after")
@@ -87,16 +81,8 @@ class PMBMConfig(ContactTrackerConfig):
                              f"{self.existence_threshold:g}: a Bernoulli would be pruned before it is confirmed")
         return self
 
-    pd: Annotated[float, Field(gt=0, le=1, description="P_D, probability that a target is detected in a scan")] = 0.9
-    survival_probability: Annotated[float, Field(gt=0, lt=1, description="p_S, probability that a target "
-                                                 "exists still at the next scan")] = 0.99
     birth_rate: Annotated[float, Field(gt=0, description="beta_NT: targets expected to appear per scan in the "
                                        "sensor's coverage (the Poisson birth intensity, uniform over it)")] = 0.5
-    clutter_density: Annotated[float | None, Field(gt=0, description="clutter per m^2; None: the local "
-                                                   "estimate around each contact")] = None
-    clutter_radius_m: Annotated[float, Field(gt=0, description="half-side (m) of the local estimate's "
-                                             "square")] = 3_000.0
-    gate: Annotated[float, Field(gt=0, description="chi-square gate, 2 dof (9.21: P_G = 0.99)")] = GATE_99
     max_global_hypotheses: Annotated[int, Field(ge=1, description="global hypotheses kept, best weights "
                                                 "first")] = 50
     n_scan: Annotated[int, Field(ge=1, description="N-scan pruning depth (scans of ambiguity kept)")] = 3
@@ -108,51 +94,27 @@ class PMBMConfig(ContactTrackerConfig):
                                                   "normalised weight are dropped")] = 1e-4
 
 
-@dataclass(frozen=True)
-class STH(Batch):
-    """S single-target hypotheses: track records (``tracks.track_id`` = the Bernoulli's label; filter state
-    at the last update, at ``tracks.t2``), existence ``r`` (S,), ``hist`` (S, n_scan) the contact of each of
-    the last n_scan scans (oldest first; NO_CONTACT a miss, UNKNOWN before birth), and the estimate reported
-    for the last scan, ``x`` (S, 4), ``P`` (S, 4, 4)."""
-
-    tracks: Tracks
-    r: np.ndarray
-    hist: np.ndarray
-    x: np.ndarray
-    P: np.ndarray
-
-
-class PMBMTracker(ContactTracker):
-    """IMM + track-oriented Poisson multi-Bernoulli mixture (module docstring)."""
+class PMBMTracker(LabelledMixture):
+    """IMM + track-oriented Poisson multi-Bernoulli mixture (module docstring). Its table (`LabelledTable`)
+    holds the single-target hypotheses (STHs), ``hist`` UNKNOWN before a Bernoulli's birth."""
 
     name: ClassVar[str] = "pmbm"
     config_type: ClassVar[type[TrackerConfig]] = PMBMConfig
-    own_confirmation: ClassVar[str | None] = "existence"
+    cap_field: ClassVar[str] = "max_global_hypotheses"
+    hypotheses: ClassVar[str] = "global hypotheses"
 
-    def reset(self) -> None:
-        super().reset()
-        self.sth: STH | None = None
-        self.labels = np.empty(0, np.int64)  # (L,) live Bernoullis' labels
-        self.hyp = np.zeros((1, 0), np.int64)  # (H, L) STH of each Bernoulli per global hypothesis, -1 absent
-        self.log_w = np.zeros(1)  # (H,) normalised log weights
-        self.known = (np.empty(0, np.int64), np.empty((0, 4)), np.empty((0, 4, 4)))  # reported labels, last x, P
-        self.confirmed = np.empty(0, np.int64)  # labels reported confirmed
-        self.n_capped = 0  # scans where max_global_hypotheses bit
+    @property
+    def sth(self) -> LabelledTable | None:
+        """The single-target hypotheses the global hypotheses index (``table``)."""
+        return self.table
 
     # ---------------------------------------------------------------------- one scan
     def step(self, scan: Scan) -> TrackerOutput:
         sc = self._checked(scan)
-        self.last_time = sc.time
-        if self.sth is not None:
+        if self.table is not None:
             self._update(sc)
-            self._prune()
-        best = int(np.argmax(self.log_w))
-        used = np.zeros(len(sc.z), bool)
-        if self.sth is not None:
-            chosen = self.hyp[best][self.hyp[best] >= 0]
-            now = self.sth.hist[chosen, -1]
-            used[now[now >= 0]] = True
-        born, contact = self.initiation(sc.z, sc.xy, used, sc.time, self.labels.size, sc.sensor)
+            self._prune_sths()
+        born, contact = self._births(sc)
         if born is not None:
             self._birth(born, contact, sc)
         return self._report(scan.index, sc.time)
@@ -161,41 +123,15 @@ class PMBMTracker(ContactTracker):
     def _update(self, scan: ScanContacts) -> None:
         """Predict and update every STH in one batch, then the k best associations of each global
         hypothesis (module docstring, steps 1-2)."""
-        cfg, imm, old = self.config, scan.filter, self.sth
-        z, xy, time, S = scan.z, scan.xy, scan.time, len(old)
-        tr = old.tracks
+        cfg, old = self.config, self.table
+        S = len(old)
+        u = self._predict_update(scan)
+        pl, pj, pd = u.pl, u.pj, u.pd
         r = cfg.survival_probability * old.r
-        pred = imm.predict(tr.filt, time - tr.t2, check=False)
-        pd = np.full(S, cfg.pd)
-        observed = self._observed(scan, pred)
-        if observed is not None:
-            pd = np.where(observed, pd, 0.0)
         log_miss = np.log1p(-r * pd)
-        pl = pj = np.empty(0, np.int64)
-        gain = np.empty(0)
-        if len(z):
-            g = pred.gating
-            gated = gate(imm, g.measurement, z, xy, cfg.gate, (g.x, g.P), check=False)
-            ok = pd[gated.rows] > 0
-            pl, pj = gated.rows[ok], gated.cols[ok]
-            if pl.size:
-                ll = imm.pair_log_likelihood(pred, pl, z[pj], check=False)
-                clutter = self._clutter(scan, pj)
-                gain = np.log(r[pl] * pd[pl]) + ll - np.log(clutter) - log_miss[pl]
-        # children: the S miss children (index s), then one detection child per gated pair
-        parent = np.concatenate([np.arange(S), pl])
-        contact = np.concatenate([np.full(S, NO_CONTACT, np.int64), pj])
-        children = tr.take(parent)
-        filt = children.filt
-        if pl.size:
-            updated = linearised_update(imm, pred.take(pl), z[pj], np.ones(pl.size, bool))
-            filt = type(filt).concat([tr.filt, updated])
-        tracks = children.after_scan(contact, filt, z, xy, time, cfg.lifecycle)
+        gain = np.log(r[pl] * pd[pl]) + u.ll - np.log(u.clutter) - log_miss[pl]
         r_miss = r * (1.0 - pd) / np.exp(log_miss)
-        x_post, P_post = imm.estimate(updated) if pl.size else (np.empty((0, 4)), np.empty((0, 4, 4)))
-        self.sth = STH(tracks, np.concatenate([r_miss, np.ones(pl.size)]),
-                       np.column_stack([old.hist[parent, 1:], contact]),
-                       np.concatenate([pred.gating.x, x_post]), np.concatenate([pred.gating.P, P_post]))
+        self.table = LabelledTable(u.tracks, np.concatenate([r_miss, np.ones(pl.size)]), u.hist, u.x, u.P)
         pair_child = S + np.arange(pl.size)
         hyps, weights = [], []
         for h in range(len(self.log_w)):
@@ -205,107 +141,39 @@ class PMBMTracker(ContactTracker):
             hyps.append(kids)
             weights.append(self.log_w[h] + log_miss[present].sum() + gains)
         self.hyp = np.concatenate(hyps)
-        self.log_w = _normalised(np.concatenate(weights))
-
-    def _clutter(self, scan: ScanContacts, at: np.ndarray) -> np.ndarray:
-        """Clutter density in the scan's measurement space at its contacts ``at`` (M,): the fixed
-        ``clutter_density`` or the local estimate (`ContactTracker.clutter_density`), times the area
-        Jacobian."""
-        if self.config.clutter_density is None:
-            return self.clutter_density(scan, at)
-        return self.config.clutter_density * scan.filter.measurement.area_jacobian(scan.z[at])
+        self.log_w = normalised(np.concatenate(weights))
 
     # ---------------------------------------------------------------------- pruning
-    def _prune(self) -> None:
-        """Step 3 of the module docstring; keeps only the STHs and Bernoullis some global hypothesis uses."""
-        cfg, sth = self.config, self.sth
-        hyp = np.where((self.hyp >= 0) & (sth.r[np.maximum(self.hyp, 0)] >= cfg.min_existence), self.hyp, -1)
-        hyp, log_w = _merged(hyp, self.log_w)
-        best = int(np.argmax(log_w))
-        keep = log_w >= math.log(cfg.min_hypothesis_weight) if cfg.min_hypothesis_weight > 0 else np.ones_like(
-            log_w, bool)
-        keep &= _n_scan_agrees(hyp, sth.hist[np.maximum(hyp, 0), 0], best)
-        keep[best] = True
-        idx = np.flatnonzero(keep)
-        if idx.size > cfg.max_global_hypotheses:
-            if not self.n_capped:
-                self._bound_hit("max_global_hypotheses", f"{idx.size - cfg.max_global_hypotheses} global "
-                                f"hypotheses pruned past the cap", self.last_time)
-            self.n_capped += 1
-            idx = idx[np.argsort(-log_w[idx], kind="stable")[: cfg.max_global_hypotheses]]
-        hyp, log_w = hyp[np.sort(idx)], _normalised(log_w[np.sort(idx)])
-        live = (hyp >= 0).any(axis=0)
-        hyp = hyp[:, live]
-        used = np.unique(hyp[hyp >= 0])
-        remap = np.full(len(sth), -1, np.int64)
-        remap[used] = np.arange(used.size)
-        self.hyp, self.log_w, self.labels = np.where(hyp >= 0, remap[np.maximum(hyp, 0)], -1), log_w, self.labels[live]
-        self.sth = sth.take(used) if used.size else None
+    def _prune_sths(self) -> None:
+        """Step 3 of the module docstring: the STHs below ``min_existence`` dropped, equal global hypotheses
+        merged, then `LabelledMixture._prune`."""
+        table = self.table
+        hyp = np.where((self.hyp >= 0) & (table.r[np.maximum(self.hyp, 0)] >= self.config.min_existence), self.hyp,
+                       -1)
+        self._prune(*merged(hyp, self.log_w))
+
+    def _n_scan_keep(self, hyp: np.ndarray, best: int) -> np.ndarray:
+        return _n_scan_agrees(hyp, self.table.hist[np.maximum(hyp, 0), 0], best)
 
     # ---------------------------------------------------------------------- birth
     def _birth(self, born: Tracks, contact: np.ndarray, scan: ScanContacts) -> None:
         """New Bernoullis from the Poisson component (module docstring), added to every global hypothesis."""
-        cfg, sensor = self.config, self.sensors[scan.sensor]
-        area = cfg.lifecycle.window_area(sensor.scan_period_s, sensor_noise_m(sensor))
-        if cfg.clutter_density is None:
-            rho2 = self._contact_density(scan)[contact]
-            rho1 = local_density(scan.xy, born.p1, cfg.clutter_radius_m, sensor)
-        else:
-            rho2 = rho1 = np.full(len(born), cfg.clutter_density)
-        log_odds = start_score(cfg.pd, area, rho2) + birth_log_odds(cfg.pd, cfg.birth_rate / coverage_area(sensor),
-                                                                    rho1)
-        r = np.exp(-np.logaddexp(0.0, -log_odds))
-        hist = np.full((len(born), cfg.n_scan), UNKNOWN, np.int64)
+        r, log_odds = self._birth_existence(born, contact, scan)
+        hist = np.full((len(born), self.config.n_scan), UNKNOWN, np.int64)
         hist[:, -1] = contact
         x, P = self.filter.estimate(born.filt)
-        new = STH(born, r, hist, x, P)
-        first = 0 if self.sth is None else len(self.sth)
-        self.sth = new if self.sth is None else STH.concat([self.sth, new])
+        new = LabelledTable(born, r, hist, x, P)
+        first = 0 if self.table is None else len(self.table)
+        self.table = new if self.table is None else LabelledTable.concat([self.table, new])
         taken = np.zeros((len(self.log_w), len(scan.z) + 1), bool)  # contacts detected, per global hypothesis
         rows, cols = np.nonzero(self.hyp >= 0)
         if rows.size:
-            last = self.sth.hist[self.hyp[rows, cols], -1]
+            last = self.table.hist[self.hyp[rows, cols], -1]
             taken[rows, last] = True  # a miss (-1) marks the spare last column
         free = ~taken[:, contact]  # (H, B)
         self.hyp = np.column_stack([self.hyp, np.where(free, first + np.arange(len(born)), -1)])
-        self.log_w = _normalised(self.log_w + (free * np.logaddexp(0.0, log_odds)).sum(axis=1))
+        self.log_w = normalised(self.log_w + (free * np.logaddexp(0.0, log_odds)).sum(axis=1))
         self.labels = np.concatenate([self.labels, born.track_id])
-
-    # ---------------------------------------------------------------------- output
-    def existence(self) -> np.ndarray:
-        """Marginal existence probability (L,) of each live Bernoulli (``labels``) over the global hypotheses."""
-        if self.sth is None:
-            return np.zeros(self.labels.size)
-        r = np.where(self.hyp >= 0, self.sth.r[np.maximum(self.hyp, 0)], 0.0)
-        return np.exp(self.log_w) @ r
-
-    def _report(self, scan: int, time: float) -> TrackerOutput:
-        """The best global hypothesis's Bernoullis, then the reported ones deleted in this scan (docstring)."""
-        blocks = []
-        ids, x, P = self.known
-        if self.sth is not None and self.labels.size:
-            chosen = self.hyp[int(np.argmax(self.log_w))]
-            shown = np.flatnonzero(chosen >= 0)
-            s = chosen[shown]
-            label = self.labels[shown]
-            confirmed = self.existence()[shown] >= self.config.existence_threshold
-            self.confirmed = np.union1d(self.confirmed, label[confirmed])
-            status = np.where(np.isin(label, self.confirmed), TrackStatus.CONFIRMED, TrackStatus.PRELIMINARY)
-            blocks.append((label, status, self.sth.x[s], self.sth.P[s], self.sth.hist[s, -1]))
-            stale = ~np.isin(ids, label)
-            ids = np.concatenate([ids[stale], label])
-            x = np.concatenate([x[stale], self.sth.x[s]])
-            P = np.concatenate([P[stale], self.sth.P[s]])
-        gone = ~np.isin(ids, self.labels)
-        if gone.any():
-            blocks.append((ids[gone], np.full(gone.sum(), TrackStatus.DELETED, np.int8), x[gone], P[gone],
-                           np.full(gone.sum(), NO_CONTACT)))
-            was = np.isin(ids[gone], self.confirmed)
-            self.deletions["score"] += int(was.sum())
-            self.deletions["unconfirmed"] += int((~was).sum())
-            self.confirmed = self.confirmed[~np.isin(self.confirmed, ids[gone])]
-        self.known = (ids[~gone], x[~gone], P[~gone])
-        return TrackerOutput.from_blocks(scan, time, blocks)
 
 
 def _n_scan_agrees(hyp: np.ndarray, oldest: np.ndarray, best: int) -> np.ndarray:
@@ -324,19 +192,3 @@ def _n_scan_agrees(hyp: np.ndarray, oldest: np.ndarray, best: int) -> np.ndarray
     key = oldest * L + np.arange(L)
     other = took & np.isin(oldest, owned) & ~np.isin(key, pairs)
     return same & ~other.any(axis=1)
-
-
-def _normalised(log_w: np.ndarray) -> np.ndarray:
-    """Log weights (H,) shifted so that their exponentials sum to one."""
-    return log_w - np.logaddexp.reduce(log_w)
-
-
-def _merged(hyp: np.ndarray, log_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Equal global hypotheses (rows of ``hyp``) as one, their weights summed."""
-    if not hyp.shape[1]:
-        return hyp[:1], np.logaddexp.reduce(log_w, keepdims=True)
-    rows, inverse = np.unique(hyp, axis=0, return_inverse=True)
-    inverse = inverse.ravel()
-    order = np.argsort(inverse, kind="stable")
-    starts = np.r_[0, np.flatnonzero(np.diff(inverse[order])) + 1]
-    return rows, np.logaddexp.reduceat(log_w[order], starts)

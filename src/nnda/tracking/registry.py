@@ -17,9 +17,11 @@ from typing import Any
 
 from nnda.data.scenario import Sensor
 from nnda.errors import ConfigError, validated
+from nnda.tracking.glmb import GLMBTracker
 from nnda.tracking.gnn import GNNTracker
 from nnda.tracking.jpda import JPDATracker
 from nnda.tracking.lifecycle import LifecycleConfig
+from nnda.tracking.lmb import LMBTracker
 from nnda.tracking.mht import MHTTracker
 from nnda.tracking.neural import NeuralTracker
 from nnda.tracking.phd.fusion import AAFusionTracker, CentralPHDTracker, FusionTracker, GCIFusionTracker
@@ -56,7 +58,8 @@ class _Registry(dict):
 
 
 TRACKERS: dict[str, type[Tracker]] = _Registry(
-    {cls.name: cls for cls in (GNNTracker, JPDATracker, MHTTracker, PMBMTracker, NeuralTracker,
+    {cls.name: cls for cls in (GNNTracker, JPDATracker, MHTTracker, PMBMTracker, GLMBTracker, LMBTracker,
+                               NeuralTracker,
                                GMPHDTracker, EKPHDTracker, UKPHDTracker, CPHDTracker,
                                FusionTracker, AAFusionTracker, GCIFusionTracker, CentralPHDTracker)})
 

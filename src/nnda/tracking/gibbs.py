@@ -1,0 +1,157 @@
+"""Sampled and enumerated assignments of the GLMB joint prediction-update (Vo, Vo & Hoang 2017).
+
+    assignments, log_weight = gibbs_assignments(cost, n_samples, seed, group)
+    assignments, log_weight = all_assignments(cost, group)
+
+``cost`` (n, 2 + m) float holds minus the log weight of each of n tracks' options in one scan: column 0
+the track dies (or, a birth, is absent), column 1 it survives and is missed, column 2 + j it survives and
+takes contact j of m; ``np.inf`` forbids an option (a contact outside the gate, a miss of weight 0). An
+*assignment* gives every track one column, no contact (column >= 2) to two tracks; its log weight is minus
+the sum of its entries. Column 0 must be finite in every row (a track can always die), so every problem has
+an assignment. ``group`` (n,) int64, optional, ties rows that exclude each other: of the rows of one group
+(>= 0; -1 none) at most one takes a column other than 0 (the births of one contact: one target made it).
+
+`gibbs_assignments` draws ``n_samples`` assignments by the Gibbs sampler of Vo, Vo & Hoang (2017): each
+sample sweeps the rows in order and redraws row i's column from its weights given the other rows' columns
+(a contact another row holds has weight 0, and so has every column but 0 of a row whose group another row
+holds). The chain starts at the contact-free assignment, every track its better of columns 0 and 1 (in
+row order, column 0 for a row whose group is held already), which is the first sample; it and its
+contact-free neighbours (one row switched between columns 0 and 1, where allowed) are always returned, so a
+track of low existence keeps both its death and its miss however few draws leave the start. The draws come from
+numba's generator seeded with ``seed`` (an int in [0, 2^32), e.g. drawn from a numpy Generator): the same
+seed gives the same samples. Returned: the distinct assignments sampled, ``assignments`` (A, n) int64 the
+column of each track, and their ``log_weight`` (A,), descending (ties in lexicographic order of the
+assignment). The chain is stationary on the assignments' weights, so with enough samples the heavy ones are
+all found; their weights are exact, not estimates.
+
+`all_assignments` enumerates every assignment (the exact GLMB update of small problems: tests, and the
+tracker's ``sampler = "exhaustive"``), in the same form.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numba
+import numpy as np
+
+
+def gibbs_assignments(cost: np.ndarray, n_samples: int, seed: int, group: np.ndarray | None = None
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct assignments of ``n_samples`` Gibbs draws on ``cost`` (n, 2 + m) with the exclusive
+    ``group`` of each row, and their log weights (module docstring)."""
+    cost = _checked(cost)
+    if not cost.shape[0]:
+        return _ranked(cost, np.zeros((1, 0), np.int64))
+    group = _groups(group, cost.shape[0])
+    samples = _sampled(cost, group, max(int(n_samples), 1), int(seed))
+    return _ranked(cost, np.unique(np.concatenate([samples, _neighbours(cost, group, samples[0])]), axis=0))
+
+
+def all_assignments(cost: np.ndarray, group: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Every assignment of ``cost`` (n, 2 + m) with the exclusive ``group`` of each row and its log weight
+    (module docstring), by enumeration."""
+    cost = _checked(cost)
+    group = _groups(group, cost.shape[0])
+    options = [np.flatnonzero(np.isfinite(row)) for row in cost]
+    found = []
+    for pick in itertools.product(*options):
+        held = [g for g, c in zip(group, pick) if g >= 0 and c > 0]
+        if len({c for c in pick if c >= 2}) == sum(c >= 2 for c in pick) and len(set(held)) == len(held):
+            found.append(pick)
+    return _ranked(cost, np.array(found, np.int64).reshape(len(found), cost.shape[0]))
+
+
+def _neighbours(cost: np.ndarray, group: np.ndarray, start: np.ndarray) -> np.ndarray:
+    """The contact-free assignments (k, n) one row away from ``start`` (n,), each column 0 or 1: row i
+    switched to the other, where its cost is finite and, to column 1, its group has no other row off 0."""
+    n = start.size
+    rows = np.arange(n)
+    other = 1 - start
+    held = np.bincount(group[(group >= 0) & (start > 0)], minlength=max(int(group.max()) + 1, 1))
+    free = (group < 0) | (other == 0) | (held[np.maximum(group, 0)] == 0)
+    ok = np.isfinite(cost[rows, other]) & free
+    out = np.tile(start, (n, 1))
+    out[rows, rows] = other
+    return out[ok]
+
+
+def _groups(group: np.ndarray | None, n: int) -> np.ndarray:
+    """The rows' groups (n,) int64, renumbered 0..G-1 (-1: none)."""
+    if group is None:
+        return np.full(n, -1, np.int64)
+    group = np.asarray(group, np.int64)
+    if group.shape != (n,):
+        raise ValueError(f"assignment groups must be one per row, shape ({n},), got {group.shape}")
+    out = np.full(n, -1, np.int64)
+    some = group >= 0
+    out[some] = np.unique(group[some], return_inverse=True)[1].ravel()
+    return out
+
+
+def _checked(cost: np.ndarray) -> np.ndarray:
+    cost = np.asarray(cost, np.float64)
+    if cost.ndim != 2 or cost.shape[1] < 2:
+        raise ValueError(f"assignment cost must be (n tracks, 2 + m contacts), got shape {cost.shape}")
+    if np.isnan(cost).any() or (cost == -np.inf).any() or not np.isfinite(cost[:, 0]).all():
+        raise ValueError("assignment cost: entries must be finite or +inf (forbidden), column 0 (death) finite")
+    return cost
+
+
+def _ranked(cost: np.ndarray, assignments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``assignments`` (A, n) and their log weights, descending by weight (stable on the given order)."""
+    if not cost.shape[0]:
+        return np.zeros((1, 0), np.int64), np.zeros(1)
+    log_weight = -cost[np.arange(cost.shape[0]), assignments].sum(axis=1)
+    order = np.argsort(-log_weight, kind="stable")
+    return assignments[order], log_weight[order]
+
+
+@numba.njit(cache=True, nogil=True)
+def _sampled(cost, group, n_samples, seed):
+    """``n_samples`` Gibbs draws (n_samples, n) on ``cost`` (n, 2 + m) with the rows' exclusive ``group``
+    (n,) (0..G-1, -1 none), the first the contact-free start."""
+    np.random.seed(seed)
+    n, C = cost.shape
+    out = np.empty((n_samples, n), np.int64)
+    held = np.zeros(C, np.int64)  # rows holding each column (only contacts' counts are read)
+    taken = np.zeros(max(group.max() + 1, 1), np.int64)  # rows of each group off column 0
+    pick = np.empty(n, np.int64)
+    for i in range(n):
+        free = group[i] < 0 or taken[group[i]] == 0
+        pick[i] = 1 if (free and cost[i, 1] < cost[i, 0]) else 0
+        held[pick[i]] += 1
+        if group[i] >= 0 and pick[i] > 0:
+            taken[group[i]] += 1
+    w = np.empty(C)
+    out[0] = pick
+    for t in range(1, n_samples):
+        for i in range(n):
+            held[pick[i]] -= 1
+            if group[i] >= 0 and pick[i] > 0:
+                taken[group[i]] -= 1
+            only_absent = group[i] >= 0 and taken[group[i]] > 0
+            low = math.inf
+            for j in range(C):
+                if (j < 2 or held[j] == 0) and not (only_absent and j > 0):
+                    low = min(low, cost[i, j])
+            total = 0.0
+            for j in range(C):
+                ok = (j < 2 or held[j] == 0) and not (only_absent and j > 0)
+                w[j] = math.exp(low - cost[i, j]) if ok else 0.0
+                total += w[j]
+            u = np.random.random() * total
+            j = 0
+            acc = w[0]
+            while acc <= u and j < C - 1:
+                j += 1
+                acc += w[j]
+            while w[j] == 0.0:  # rounding past the last option of weight: step back to it
+                j -= 1
+            pick[i] = j
+            held[j] += 1
+            if group[i] >= 0 and j > 0:
+                taken[group[i]] += 1
+        out[t] = pick
+    return out

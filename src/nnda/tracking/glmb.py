@@ -1,0 +1,204 @@
+"""δ-GLMB tracker with the joint prediction-update and Gibbs sampling (Vo & Vo 2013; Vo, Vo & Hoang 2017),
+the IMM of every contact tracker as single-target density.
+
+    tracker = make_tracker("glmb", scenario.sensors, {"pd": 0.9, "max_hypotheses": 50})
+    outputs = [tracker.step(scan) for scan in dataset.scans()]
+
+**Density.** A mixture of hypotheses h, each a set of labelled tracks (a track: a label, the nnda track id,
+and its association history, held as one IMM density) with a weight w_h. Tracks are shared: every
+hypothesis indexes one table of tracks (``hyp`` (H, L): the track of each of the L live labels, -1 where
+the label is absent), so the IMM predict and update run once per distinct track and history, in one batch.
+
+**Joint prediction-update** (one scan). Every track s present in a hypothesis, with existence e_s (1 for a
+track of the mixture, below 1 for a birth, `nnda.tracking.lmb` for the LMB's labels), has the options
+(the columns of `nnda.tracking.gibbs`): it dies, weight 1 - p_S e; it survives and is missed,
+p_S e (1 - P_D); it survives and takes a gated contact z, p_S e P_D l(z) / lambda_c(z) (l the IMM
+likelihood of the prediction, lambda_c the clutter density in measurement space: the fixed
+``clutter_density`` m^-2 or the local estimate, times the area Jacobian; a contact left to clutter weighs
+1 relative). Per hypothesis the assignments of its tracks (a contact to one track at most) are drawn by
+`gibbs_assignments` (``gibbs_samples`` draws) or, ``sampler = "exhaustive"``, all enumerated
+(`all_assignments`: small problems only); each gives a child hypothesis of weight w_h times its weight.
+Equal children are merged, the weights normalised, those below ``min_hypothesis_weight`` dropped, N-scan
+pruning applied as in `nnda.tracking.pmbm` (the contact each label took ``n_scan`` scans back in the best
+hypothesis becomes final; a label absent from a hypothesis counts there as NO_CONTACT, so where a label
+took a contact n_scan scans back, the hypotheses in which it has died since are pruned if the best holds it,
+and those holding it if the best has it dead: an approximation that holds a track through short gaps, as
+a track score would, and settles a label's fate by the best hypothesis) and at most
+``max_hypotheses`` kept (a `BoundWarning` the first time the cap bites, ``n_capped`` counts the scans).
+The draws always include the contact-free start and its one-row neighbours (`gibbs_assignments`), so a
+track of low existence keeps its miss beside its death. A miss child keeps its track's posterior
+(predicted again from its last update); a label in no hypothesis is deleted.
+
+**Birth: measurement-driven**, as `nnda.tracking.pmbm`'s: the contacts the best hypothesis left free pair
+with the sensor's initiators inside the initiation window (`TwoPointInitiation`), each pair a new label
+with the two-point start's state and existence r_B, the posterior probability that the pair is a target
+rather than clutter (odds P_D beta_NT / rho_1 times P_D / (A_w rho_2): ``birth_rate`` per scan over the
+coverage, rho_1 and rho_2 the clutter at the two contacts, A_w the window's area). As in the adaptive
+birth of Reuter, Vo, Vo & Dietmayer (2014), a pair formed at scan k joins every hypothesis at scan k + 1
+as a track of existence r_B, so the joint update decides its presence with the other tracks; the births of
+one contact (paired with several initiators) exclude each other there, one target having made the contact
+(the sampler's row groups).
+
+**Output.** The tracks of the highest-weight hypothesis are reported with their estimate (the
+prediction after a miss) and contact, by label, then the births waiting for the next scan (PRELIMINARY,
+their two-point start's estimate). A label is CONFIRMED once its existence (the summed
+weights of the hypotheses holding it) reaches ``existence_threshold`` and stays so; before, PRELIMINARY.
+A reported label that is deleted is reported once more as DELETED with its last estimate. The life
+cycle's initiation window, v_max and ``max_tracks`` (live labels) apply; its confirmation rule, M/N counts
+and sanity rules do not: status comes from existence alone, whatever ``lifecycle.confirmation`` says
+(`ContactTracker.confirmation_rule` is "existence").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Annotated, ClassVar, Literal
+
+import numpy as np
+from pydantic import Field
+
+from nnda.data.dataset import Scan
+from nnda.tracking.gibbs import all_assignments, gibbs_assignments
+from nnda.tracking.labelled import LabelledConfig, LabelledMixture, LabelledTable, merged, normalised
+from nnda.tracking.output import NO_CONTACT, TrackerOutput
+from nnda.tracking.tracker import ScanContacts, TrackerConfig
+
+
+class GLMBConfig(LabelledConfig):
+    """δ-GLMB settings (module docstring); probabilities per scan of the sensor."""
+
+    max_hypotheses: Annotated[int, Field(ge=1, description="hypotheses kept, best weights first")] = 50
+    n_scan: Annotated[int, Field(ge=1, description="N-scan pruning depth (scans of ambiguity kept)")] = 3
+    gibbs_samples: Annotated[int, Field(ge=1, description="Gibbs draws per hypothesis and scan")] = 50
+    sampler: Annotated[Literal["gibbs", "exhaustive"], Field(description="gibbs: sample the assignments; "
+                                                             "exhaustive: enumerate them all (exponential: "
+                                                             "tiny scenes and tests only)")] = "gibbs"
+    seed: Annotated[int, Field(ge=0, description="seed of the Gibbs sampler's draws (reset with the "
+                                                 "tracker)")] = 0
+    existence_threshold: Annotated[float, Field(gt=0, lt=1, description="existence probability at which a "
+                                                "label is confirmed")] = 0.99
+    min_hypothesis_weight: Annotated[float, Field(ge=0, lt=1, description="hypotheses of lower normalised "
+                                                  "weight are dropped")] = 1e-4
+
+
+@dataclass(frozen=True)
+class LabelledTracks(LabelledTable):
+    """S tracks (a label and one association history; `LabelledTable`: ``r`` the existence each enters the
+    next update with, ``hist`` NO_CONTACT also before the label's first contact) and ``group`` (S,) a birth's
+    contact until its first update (births of one contact exclude each other; -1 for every other track)."""
+
+    group: np.ndarray
+
+    @property
+    def contact(self) -> np.ndarray:
+        """(S,) the contact taken in the last scan (NO_CONTACT: missed)."""
+        return self.hist[:, -1]
+
+
+class GLMBTracker(LabelledMixture):
+    """IMM + δ-GLMB with joint prediction-update by Gibbs sampling (module docstring)."""
+
+    name: ClassVar[str] = "glmb"
+    config_type: ClassVar[type[TrackerConfig]] = GLMBConfig
+    cap_field: ClassVar[str] = "max_hypotheses"
+    hypotheses: ClassVar[str] = "hypotheses"
+
+    def reset(self) -> None:
+        super().reset()
+        self.born: LabelledTracks | None = None  # births waiting for the next scan
+        self.rng = np.random.default_rng(self.config.seed)
+
+    @property
+    def trk(self) -> LabelledTracks | None:
+        """The tracks the hypotheses index (``table``)."""
+        return self.table
+
+    def step(self, scan: Scan) -> TrackerOutput:
+        sc = self._checked(scan)
+        if self.born is not None:
+            self._admit()
+        if self.table is not None:
+            self._update(sc)
+            self._prune(self.hyp, self.log_w)
+        born, contact = self._births(sc)
+        if born is not None:
+            x, P = self.filter.estimate(born.filt)
+            hist = np.full((len(born), self.config.n_scan), NO_CONTACT, np.int64)
+            hist[:, -1] = contact
+            self.born = LabelledTracks(born, self._birth_existence(born, contact, sc)[0], hist, x, P, contact)
+        out = self._report(scan.index, sc.time)
+        self._collapse()
+        return out
+
+    def _collapse(self) -> None:
+        """After the scan's report: nothing here (the LMB filter collapses the mixture, `nnda.tracking.lmb`)."""
+
+    # ---------------------------------------------------------------------- births
+    def _admit(self) -> None:
+        """The waiting births join every hypothesis as new labels."""
+        born, first = self.born, 0 if self.table is None else len(self.table)
+        self.table = born if self.table is None else LabelledTracks.concat([self.table, born])
+        self.hyp = np.column_stack([self.hyp, np.tile(first + np.arange(len(born)), (len(self.log_w), 1))])
+        self.labels = np.concatenate([self.labels, born.tracks.track_id])
+        self.born = None
+
+    def _waiting(self) -> LabelledTracks | None:
+        """The births waiting for the next scan (reported PRELIMINARY with their two-point start)."""
+        return self.born
+
+    # ---------------------------------------------------------------------- joint prediction-update
+    def _update(self, scan: ScanContacts) -> None:
+        """Predict, gate and update every track in one batch (`LabelledMixture._predict_update`), then each
+        hypothesis's assignments (module docstring). The new track table: the S miss children (index s), then
+        one child per gated pair."""
+        cfg, old = self.config, self.table
+        u = self._predict_update(scan)
+        pl, pj, pd = u.pl, u.pj, u.pd
+        alive = cfg.survival_probability * old.r
+        die = -np.log1p(-alive)
+        with np.errstate(divide="ignore"):
+            miss = -np.log(alive * (1.0 - pd))
+        cost = np.log(u.clutter) - np.log(alive[pl] * pd[pl]) - u.ll
+        n = len(u.tracks)
+        self.table = LabelledTracks(u.tracks, np.ones(n), u.hist, u.x, u.P, np.full(n, -1, np.int64))
+        hyps, weights = [], []
+        for h in range(len(self.log_w)):
+            kids, log_gain = self._children(self.hyp[h], die, miss, old.group, pl, pj, cost)
+            hyps.append(kids)
+            weights.append(self.log_w[h] + log_gain)
+        self.hyp, self.log_w = merged(np.concatenate(hyps), np.concatenate(weights))
+        self.log_w = normalised(self.log_w)
+
+    def _children(self, parents: np.ndarray, die: np.ndarray, miss: np.ndarray, group: np.ndarray, pl: np.ndarray,
+                  pj: np.ndarray, cost: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """One hypothesis's children: its tracks ``parents`` (L,) (-1 absent), the tracks' death and miss costs
+        and exclusive groups (S,), the gated pairs (track ``pl``, contact ``pj``, ``cost`` (P,)); the child
+        track of each label (A, L) and each child's log weight over its parent (A,)."""
+        S = die.size
+        where = np.flatnonzero(parents >= 0)
+        s = parents[where]
+        row_of = np.full(S, -1, np.int64)
+        row_of[s] = np.arange(s.size)
+        sel = np.flatnonzero(row_of[pl] >= 0)
+        contacts, col = np.unique(pj[sel], return_inverse=True)
+        table = np.full((s.size, 2 + contacts.size), np.inf)
+        table[:, 0], table[:, 1] = die[s], miss[s]
+        table[row_of[pl[sel]], 2 + col] = cost[sel]
+        pair = np.zeros((s.size, 2 + contacts.size), np.int64)
+        pair[row_of[pl[sel]], 2 + col] = S + sel
+        if self.config.sampler == "exhaustive":
+            assign, log_gain = all_assignments(table, group[s])
+        else:
+            assign, log_gain = gibbs_assignments(table, self.config.gibbs_samples, int(self.rng.integers(2**32)),
+                                                 group[s])
+        child = np.where(assign == 0, -1, np.where(assign == 1, s[None, :], pair[np.arange(s.size), assign]))
+        kids = np.full((len(assign), parents.size), -1, np.int64)
+        kids[:, where] = child
+        return kids, log_gain
+
+    # ---------------------------------------------------------------------- pruning
+    def _n_scan_keep(self, hyp: np.ndarray, best: int) -> np.ndarray:
+        """N-scan pruning (module docstring): the contact each label took ``n_scan`` scans back in the best
+        hypothesis, NO_CONTACT where it missed or was absent, becomes final."""
+        oldest = np.where(hyp >= 0, self.table.hist[np.maximum(hyp, 0), 0], NO_CONTACT)
+        return (oldest == oldest[best]).all(axis=1)

@@ -1,0 +1,274 @@
+"""A mixture of global hypotheses over labelled tracks: what the labelled RFS trackers share
+(`nnda.tracking.pmbm`, `nnda.tracking.glmb` and, through the latter, `nnda.tracking.lmb`).
+
+    class PMBMTracker(LabelledMixture): ...
+
+**The mixture.** ``table`` (a `LabelledTable`, S rows) holds the tracks the hypotheses index: one row per
+label and association history, with its existence and the estimate reported for the last scan. ``labels``
+(L,) are the live labels (nnda track ids), ``hyp`` (H, L) the row of each label in each global hypothesis
+(-1 where the label is absent) and ``log_w`` (H,) the hypotheses' normalised log weights.
+
+**Shared here.** The first config fields (`LabelledConfig`), one scan's prediction, gating and children
+(`LabelledMixture._predict_update`: a miss child per row, a detection child per gated pair, in one batch), the
+clutter density at the contacts, the existence of a two-point start (odds P_D beta_NT / rho_1 times P_D / (A_w
+rho_2), the pmbm module docstring), the births' free contacts (those no label took in the best hypothesis),
+the pruning (light hypotheses dropped, N-scan pruning by the tracker's own rule
+`LabelledMixture._n_scan_keep`, the cap, the rows and labels no hypothesis holds removed), the existence
+marginals, and the report of the best hypothesis with the confirmed / DELETED bookkeeping (a tracker may
+report more rows after it: `LabelledMixture._waiting`).
+"""
+
+from __future__ import annotations
+
+import math
+from abc import abstractmethod
+from dataclasses import dataclass
+from typing import Annotated, ClassVar
+
+import numpy as np
+from pydantic import Field
+
+from nnda.filters.batch import Batch
+from nnda.filters.kalman import GATE_99
+from nnda.tracking.clutter_density import coverage_area, local_density
+from nnda.tracking.gating import gate
+from nnda.tracking.lifecycle import birth_log_odds, sensor_noise_m, start_score
+from nnda.tracking.linearisation import update as linearised_update
+from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
+from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts, Tracks
+
+
+class LabelledConfig(ContactTrackerConfig):
+    """The settings every labelled RFS tracker has (the first of its config's fields); probabilities per scan
+    of the sensor."""
+
+    pd: Annotated[float, Field(gt=0, le=1, description="P_D, probability that a target is detected in a scan")] = 0.9
+    survival_probability: Annotated[float, Field(gt=0, lt=1, description="p_S, probability that a target "
+                                                 "exists still at the next scan")] = 0.99
+    birth_rate: Annotated[float, Field(gt=0, description="beta_NT: targets expected to appear per scan in the "
+                                       "sensor's coverage")] = 0.05
+    clutter_density: Annotated[float | None, Field(gt=0, description="clutter per m^2; None: the local "
+                                                   "estimate around each contact")] = None
+    clutter_radius_m: Annotated[float, Field(gt=0, description="half-side (m) of the local estimate's "
+                                             "square")] = 3_000.0
+    gate: Annotated[float, Field(gt=0, description="chi-square gate, 2 dof (9.21: P_G = 0.99)")] = GATE_99
+
+
+@dataclass(frozen=True)
+class LabelledTable(Batch):
+    """S labelled tracks: ``tracks`` their records (``tracks.track_id`` the label; the filter state at the
+    last update, at ``tracks.t2``), existence ``r`` (S,), ``hist`` (S, n_scan) the contact of each of the last
+    n_scan scans (oldest first; NO_CONTACT a miss), and the estimate reported for the last scan, ``x`` (S, 4)
+    m, m/s and ``P`` (S, 4, 4)."""
+
+    tracks: Tracks
+    r: np.ndarray
+    hist: np.ndarray
+    x: np.ndarray
+    P: np.ndarray
+
+
+@dataclass(frozen=True)
+class ScanUpdate:
+    """One scan's children of S rows (`LabelledMixture._predict_update`): ``pd`` (S,) each row's detection
+    probability (0 where the sensor cannot see it), the gated pairs (row ``pl``, contact ``pj``, IMM log
+    likelihood ``ll`` and clutter density in measurement space ``clutter``, each (P,)), and the S + P
+    children (the S miss children, row s, then one per pair): ``tracks``, ``hist`` (S + P, n_scan), ``x``
+    (S + P, 4) and ``P`` (S + P, 4, 4) (the prediction after a miss)."""
+
+    pd: np.ndarray
+    pl: np.ndarray
+    pj: np.ndarray
+    ll: np.ndarray
+    clutter: np.ndarray
+    tracks: Tracks
+    hist: np.ndarray
+    x: np.ndarray
+    P: np.ndarray
+
+
+class LabelledMixture(ContactTracker):
+    """A contact tracker whose density is a mixture of global hypotheses over labelled tracks (module
+    docstring). ``cap_field`` names the config field capping the hypotheses, ``hypotheses`` what the bound
+    warning calls them."""
+
+    cap_field: ClassVar[str]
+    hypotheses: ClassVar[str]
+    own_confirmation: ClassVar[str | None] = "existence"  # status from existence alone (module docstrings)
+
+    def reset(self) -> None:
+        super().reset()
+        self.table: LabelledTable | None = None  # the tracks the hypotheses index
+        self.labels = np.empty(0, np.int64)  # (L,) live labels
+        self.hyp = np.zeros((1, 0), np.int64)  # (H, L) row of each label per hypothesis, -1 absent
+        self.log_w = np.zeros(1)  # (H,) normalised log weights
+        self.known = (np.empty(0, np.int64), np.empty((0, 4)), np.empty((0, 4, 4)))  # reported labels, last x, P
+        self.confirmed = np.empty(0, np.int64)  # labels reported confirmed
+        self.n_capped = 0  # scans where the hypothesis cap bit
+
+    # ---------------------------------------------------------------------- one scan
+    def _predict_update(self, scan: ScanContacts) -> ScanUpdate:
+        """Predict and gate every row in one batch, the detection children updated in one batch
+        (`nnda.tracking.linearisation.update`), the miss children keeping their posterior."""
+        cfg, imm, old = self.config, scan.filter, self.table
+        z, xy, time, S = scan.z, scan.xy, scan.time, len(old)
+        tr = old.tracks
+        pred = imm.predict(tr.filt, time - tr.t2, check=False)
+        pd = np.full(S, cfg.pd)
+        observed = self._observed(scan, pred)
+        if observed is not None:
+            pd = np.where(observed, pd, 0.0)
+        pl = pj = np.empty(0, np.int64)
+        ll = clutter = np.empty(0)
+        if len(z):
+            g = pred.gating
+            gated = gate(imm, g.measurement, z, xy, cfg.gate, (g.x, g.P), check=False)
+            ok = pd[gated.rows] > 0
+            pl, pj = gated.rows[ok], gated.cols[ok]
+            if pl.size:
+                ll = imm.pair_log_likelihood(pred, pl, z[pj], check=False)
+                clutter = self._clutter(scan, pj)
+        parent = np.concatenate([np.arange(S), pl])
+        contact = np.concatenate([np.full(S, NO_CONTACT, np.int64), pj])
+        filt, x, P = tr.filt, pred.gating.x, pred.gating.P
+        if pl.size:
+            updated = linearised_update(imm, pred.take(pl), z[pj], np.ones(pl.size, bool))
+            filt = type(filt).concat([filt, updated])
+            x_up, P_up = imm.estimate(updated)
+            x, P = np.concatenate([x, x_up]), np.concatenate([P, P_up])
+        tracks = tr.take(parent).after_scan(contact, filt, z, xy, time, cfg.lifecycle)
+        return ScanUpdate(pd, pl, pj, ll, clutter, tracks, np.column_stack([old.hist[parent, 1:], contact]), x, P)
+
+    def _clutter(self, scan: ScanContacts, at: np.ndarray) -> np.ndarray:
+        """Clutter density in the scan's measurement space at its contacts ``at`` (M,): the fixed
+        ``clutter_density`` or the local estimate (`ContactTracker.clutter_density`), times the area
+        Jacobian."""
+        if self.config.clutter_density is None:
+            return self.clutter_density(scan, at)
+        return self.config.clutter_density * scan.filter.measurement.area_jacobian(scan.z[at])
+
+    # ---------------------------------------------------------------------- births
+    def _births(self, scan: ScanContacts) -> tuple[Tracks | None, np.ndarray | None]:
+        """Two-point starts (`TwoPointInitiation`) with the contacts no label took in the best hypothesis."""
+        used = np.zeros(len(scan.z), bool)
+        if self.table is not None:
+            best = self.hyp[int(np.argmax(self.log_w))]
+            now = self.table.hist[best[best >= 0], -1]
+            used[now[now >= 0]] = True
+        return self.initiation(scan.z, scan.xy, used, scan.time, self.labels.size, scan.sensor)
+
+    def _birth_existence(self, born: Tracks, contact: np.ndarray, scan: ScanContacts
+                         ) -> tuple[np.ndarray, np.ndarray]:
+        """Existence (B,) of each new pair and its log odds (B,), new target against clutter (module
+        docstring)."""
+        cfg, sensor = self.config, self.sensors[scan.sensor]
+        area = cfg.lifecycle.window_area(sensor.scan_period_s, sensor_noise_m(sensor))
+        if cfg.clutter_density is None:
+            rho2 = self._contact_density(scan)[contact]
+            rho1 = local_density(scan.xy, born.p1, cfg.clutter_radius_m, sensor)
+        else:
+            rho2 = rho1 = np.full(len(born), cfg.clutter_density)
+        log_odds = start_score(cfg.pd, area, rho2) + birth_log_odds(cfg.pd, cfg.birth_rate / coverage_area(sensor),
+                                                                    rho1)
+        return np.exp(-np.logaddexp(0.0, -log_odds)), log_odds
+
+    # ---------------------------------------------------------------------- pruning
+    @abstractmethod
+    def _n_scan_keep(self, hyp: np.ndarray, best: int) -> np.ndarray:
+        """N-scan pruning (H,): which hypotheses of ``hyp`` (H, L) to keep given the best one, ``best``."""
+
+    def _prune(self, hyp: np.ndarray, log_w: np.ndarray) -> None:
+        """The mixture ``hyp`` (H, L), ``log_w`` (H,) without the hypotheses lighter than
+        ``min_hypothesis_weight`` or N-scan pruned (`_n_scan_keep`), at most the cap's heaviest (a
+        `BoundWarning` the first time in a run, ``n_capped`` counts the scans), renormalised (`_keep`)."""
+        cfg = self.config
+        best = int(np.argmax(log_w))
+        keep = log_w >= math.log(cfg.min_hypothesis_weight) if cfg.min_hypothesis_weight > 0 else np.ones(
+            log_w.size, bool)
+        keep &= self._n_scan_keep(hyp, best)
+        keep[best] = True
+        idx = np.flatnonzero(keep)
+        cap = getattr(cfg, self.cap_field)
+        if idx.size > cap:
+            self._bound_hit(self.cap_field, f"{idx.size - cap} {self.hypotheses} pruned past the cap", self.last_time)
+            self.n_capped += 1
+            idx = idx[np.argsort(-log_w[idx], kind="stable")[:cap]]
+        idx = np.sort(idx)
+        self._keep(hyp[idx], normalised(log_w[idx]))
+
+    def _keep(self, hyp: np.ndarray, log_w: np.ndarray) -> None:
+        """The mixture ``hyp`` (H, L), ``log_w`` (H,), without the labels and rows no hypothesis holds."""
+        live = (hyp >= 0).any(axis=0)
+        hyp = hyp[:, live]
+        used = np.unique(hyp[hyp >= 0])
+        remap = np.full(len(self.table), -1, np.int64)
+        remap[used] = np.arange(used.size)
+        self.hyp, self.log_w, self.labels = np.where(hyp >= 0, remap[np.maximum(hyp, 0)], -1), log_w, self.labels[live]
+        self.table = self.table.take(used) if used.size else None
+
+    # ---------------------------------------------------------------------- output
+    def existence(self) -> np.ndarray:
+        """Existence probability (L,) of each live label (``labels``): the weights of the hypotheses holding it,
+        times its row's existence there."""
+        if self.table is None:
+            return np.zeros(self.labels.size)
+        r = np.where(self.hyp >= 0, self.table.r[np.maximum(self.hyp, 0)], 0.0)
+        return np.exp(self.log_w) @ r
+
+    def _waiting(self) -> LabelledTable | None:
+        """Rows reported PRELIMINARY after the best hypothesis's, live though in no hypothesis yet (none)."""
+        return None
+
+    def _report(self, scan: int, time: float) -> TrackerOutput:
+        """The best hypothesis's labels with their row's estimate and contact, CONFIRMED once their existence
+        has reached ``existence_threshold``; then the waiting rows (`_waiting`); then the reported labels
+        deleted in this scan, DELETED with their last estimate."""
+        blocks = []
+        ids, x, P = self.known
+        table = self.table
+        if table is not None and self.labels.size:
+            chosen = self.hyp[int(np.argmax(self.log_w))]
+            shown = np.flatnonzero(chosen >= 0)
+            s = chosen[shown]
+            label = self.labels[shown]
+            confirmed = self.existence()[shown] >= self.config.existence_threshold
+            self.confirmed = np.union1d(self.confirmed, label[confirmed])
+            status = np.where(np.isin(label, self.confirmed), TrackStatus.CONFIRMED, TrackStatus.PRELIMINARY)
+            blocks.append((label, status, table.x[s], table.P[s], table.hist[s, -1]))
+            stale = ~np.isin(ids, label)
+            ids = np.concatenate([ids[stale], label])
+            x = np.concatenate([x[stale], table.x[s]])
+            P = np.concatenate([P[stale], table.P[s]])
+        live, waiting = self.labels, self._waiting()
+        if waiting is not None:
+            new = waiting.tracks.track_id
+            blocks.append((new, np.full(len(waiting), TrackStatus.PRELIMINARY, np.int8), waiting.x, waiting.P,
+                           waiting.hist[:, -1]))
+            ids, x, P = np.concatenate([ids, new]), np.concatenate([x, waiting.x]), np.concatenate([P, waiting.P])
+            live = np.concatenate([live, new])
+        gone = ~np.isin(ids, live)
+        if gone.any():
+            blocks.append((ids[gone], np.full(gone.sum(), TrackStatus.DELETED, np.int8), x[gone], P[gone],
+                           np.full(gone.sum(), NO_CONTACT)))
+            was = np.isin(ids[gone], self.confirmed)
+            self.deletions["score"] += int(was.sum())
+            self.deletions["unconfirmed"] += int((~was).sum())
+            self.confirmed = self.confirmed[~np.isin(self.confirmed, ids[gone])]
+        self.known = (ids[~gone], x[~gone], P[~gone])
+        return TrackerOutput.from_blocks(scan, time, blocks)
+
+
+def normalised(log_w: np.ndarray) -> np.ndarray:
+    """Log weights (H,) shifted so that their exponentials sum to one."""
+    return log_w - np.logaddexp.reduce(log_w)
+
+
+def merged(hyp: np.ndarray, log_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Equal global hypotheses (rows of ``hyp`` (H, L)) as one, their log weights (H,) summed."""
+    if not hyp.shape[1]:
+        return hyp[:1], np.logaddexp.reduce(log_w, keepdims=True)
+    rows, inverse = np.unique(hyp, axis=0, return_inverse=True)
+    inverse = inverse.ravel()
+    order = np.argsort(inverse, kind="stable")
+    starts = np.r_[0, np.flatnonzero(np.diff(inverse[order])) + 1]
+    return rows, np.logaddexp.reduceat(log_w[order], starts)

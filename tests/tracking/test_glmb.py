@@ -1,0 +1,174 @@
+"""δ-GLMB and LMB trackers: the single-target filter, the exact posterior of the hypotheses, LMB against GLMB,
+the config, the seed and the hypothesis cap."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from tests.tracking import labelled_helpers as lab
+
+from nnda.data.dataset import Scan
+from nnda.data.generator import generate
+from nnda.data.presets import PRESETS
+from nnda.data.scenario import Clutter, Scenario, Segment, Sensor, Target
+from nnda.errors import ConfigError
+from nnda.tracking.output import TrackStatus
+from nnda.tracking.registry import make_tracker
+
+
+@pytest.mark.parametrize("name", ["glmb", "lmb"])
+def test_one_target_without_clutter_is_the_imm_run_on_its_contacts(name):
+    """P_D 1, no clutter: once confirmed, the reported state is the IMM's two-point start and updates on the
+    same contacts (1e-9); one track, confirmed within a few scans."""
+    sensor, scans = lab.one_target()
+    tracker = make_tracker(name, sensor, {"pd": 1.0, "clutter_density": 1e-8, "gate": 30.0})
+    confirmed = 0
+    for scan, start, estimate in lab.imm_on_contacts(sensor, scans):
+        out = tracker.step(scan)
+        if start:
+            assert out.status.tolist() == [TrackStatus.PRELIMINARY]  # the birth, waiting for the next scan
+        elif estimate is not None:
+            assert len(out) == 1 and out.contact.tolist() == [0]
+            confirmed += lab.confirmed_as_the_imm(out, *estimate)
+    assert confirmed >= len(scans) - 4
+
+
+def enumerate_posterior(tracker, scans: list[Scan]) -> dict[tuple, float]:
+    """The exact δ-GLMB posterior after ``scans`` from the tracker's waiting births (its mixture is empty), by
+    enumerating every assignment of every scan: per track present with existence e, death (weight 1 - p_S e,
+    the label absent), a miss (p_S e (1 - P_D)) or one contact no other track takes (p_S e P_D l(z) /
+    lambda_c(z), the IMM updated); a contact left over weighs 1 (lambda_c relative); a track present
+    afterwards has e = 1; two births of one contact are not both present. Keyed by each label's contacts (or
+    -1) over ``scans``, None for an absent label."""
+    cfg, imm, born = tracker.config, tracker.filter, tracker.born
+    assert tracker.trk is None and born is not None
+    n = len(born)
+
+    def grow(w, tracks, scan, z, lam):
+        keys = list(tracks)
+        preds = {i: imm.predict(tracks[i][0], scan.time - tracks[i][1]) for i in keys}
+        for pick in lab.associations(len(keys), len(z), (-2, -1)):
+            births = [born.group[i] for i, c in zip(keys, pick) if c != -2 and tracks[i][3] == ()]
+            if len(births) != len(set(births)):
+                continue
+            nw, nt = w, {}
+            for i, c in zip(keys, pick):
+                filt, t2, e, seq = tracks[i]
+                alive = cfg.survival_probability * e
+                if c == -2:
+                    nw += math.log1p(-alive)
+                elif c == -1:
+                    nw += math.log(alive * (1 - cfg.pd))
+                    nt[i] = (filt, t2, 1.0, (*seq, -1))
+                else:
+                    ll = imm.pair_log_likelihood(preds[i], np.array([0]), z[c:c + 1])[0]
+                    nw += math.log(alive * cfg.pd) + ll - math.log(lam[c])
+                    nt[i] = (imm.update(preds[i], z[c:c + 1]), scan.time, 1.0, (*seq, c))
+            yield nw, nt
+
+    start = {i: (born.tracks.filt.take([i]), born.tracks.t2[i], born.r[i], ()) for i in range(n)}
+    branches = lab.enumerated(tracker, [(0.0, start)], scans, grow)
+    return lab.posterior(branches, n)
+
+
+EXACT = {"clutter_density": 2e-8, "gate": 1e9, "max_hypotheses": 10**9, "n_scan": 10, "sampler": "exhaustive",
+         "min_hypothesis_weight": 0.0}
+
+
+def test_two_targets_match_the_enumerated_posterior():
+    """Unlimited budget, every assignment enumerated: the hypotheses and weights after the births' two
+    ambiguous scans equal the exact enumeration (1e-9)."""
+    tracker = make_tracker("glmb", lab.POSITION, EXACT)
+    scans = lab.two_scans()
+    tracker.step(scans[0])
+    tracker.step(scans[1])
+    labels = tracker.born.tracks.track_id.tolist()
+    assert len(labels) == 4 and sorted(tracker.born.group.tolist()) == [0, 0, 1, 1]
+    want = enumerate_posterior(tracker, scans[2:])
+    for scan in scans[2:]:
+        tracker.step(scan)
+    assert tracker.born is None and tracker.labels.tolist() == labels
+    lab.check_the_posterior(tracker, want)
+
+
+def test_the_sampler_finds_the_exact_update_when_it_has_draws_enough():
+    """The Gibbs sampler with many draws finds every hypothesis of non-negligible weight of the exact update."""
+    exact = make_tracker("glmb", lab.POSITION, EXACT)
+    sampled = make_tracker("glmb", lab.POSITION, {**EXACT, "sampler": "gibbs", "gibbs_samples": 3_000})
+    for scan in lab.two_scans()[:3]:
+        exact.step(scan)
+        sampled.step(scan)
+    weight = lambda t: {tuple(None if s < 0 else tuple(t.trk.hist[s]) for s in row): math.exp(w)  # noqa: E731
+                        for row, w in zip(t.hyp, t.log_w)}
+    a, b = weight(exact), weight(sampled)
+    heavy = {k for k, w in a.items() if w > 1e-3}
+    assert heavy and heavy <= set(b)
+    norm = sum(a[k] for k in b)  # the sampled mixture is the exact one restricted to what it found
+    for k in heavy:
+        assert b[k] == pytest.approx(a[k] / norm, rel=1e-9)
+
+
+def test_lmb_equals_glmb_where_the_targets_never_share_a_gate():
+    """Two targets 20 km apart, no clutter: the LMB's collapse loses nothing the report shows."""
+    sensor = Sensor(pd=0.9, clutter=Clutter(law="none"))
+    targets = [Target(name="a", x_m=-10_000.0, y_m=12_000.0, heading_deg=90.0, speed_m_s=150.0,
+                      segments=[Segment(duration_s=60.0)]),
+               Target(name="b", x_m=10_000.0, y_m=-8_000.0, heading_deg=200.0, speed_m_s=120.0,
+                      segments=[Segment(duration_s=30.0), Segment(duration_s=30.0, normal_accel=3.0)])]
+    ds = generate(Scenario(name="apart", duration_s=60.0, targets=targets, sensors=(sensor,)), seed=3)
+    params = {"clutter_density": 1e-8}
+    glmb, lmb = make_tracker("glmb", sensor, params), make_tracker("lmb", sensor, params)
+    confirmed = 0
+    for scan in ds.scans():
+        a, b = glmb.step(scan), lmb.step(scan)
+        np.testing.assert_array_equal(a.track_id, b.track_id)
+        np.testing.assert_array_equal(a.status, b.status)
+        np.testing.assert_array_equal(a.contact, b.contact)
+        np.testing.assert_allclose(a.state, b.state, rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(a.covariance, b.covariance, rtol=1e-9, atol=1e-9)
+        confirmed = max(confirmed, int((a.status == TrackStatus.CONFIRMED).sum()))
+    assert confirmed == 2 and len(lmb.log_w) == 1
+
+
+@pytest.mark.parametrize("name", ["glmb", "lmb"])
+@pytest.mark.parametrize("field, value", [("pd", 0.0), ("pd", 1.5), ("survival_probability", 1.0),
+                                          ("birth_rate", -1.0), ("max_hypotheses", 0), ("gibbs_samples", 0),
+                                          ("n_scan", 0), ("sampler", "murty"), ("seed", -1),
+                                          ("existence_threshold", 1.0), ("gate", 0.0), ("clutter_density", 0.0),
+                                          ("min_hypothesis_weight", 1.0), ("bogus", 1)])
+def test_bad_config_values_are_refused_by_name(name, field, value):
+    with pytest.raises(ConfigError, match=field):
+        make_tracker(name, Sensor(), {field: value})
+
+
+def test_lmb_pruning_before_confirmation_is_refused():
+    with pytest.raises(ConfigError, match="min_existence = 0.5 must be below existence_threshold = 0.4"):
+        make_tracker("lmb", Sensor(), {"min_existence": 0.5, "existence_threshold": 0.4})
+    with pytest.raises(ConfigError, match="min_existence"):
+        make_tracker("glmb", Sensor(), {"min_existence": 0.1})
+
+
+@pytest.mark.parametrize("name", ["glmb", "lmb"])
+def test_the_seed_fixes_the_samples(name):
+    """The same seed gives the same run (the labels' existence too); another seed draws other samples."""
+    ds = generate(PRESETS["S3"].model_copy(update={"duration_s": 40.0}), seed=2)
+    runs = []
+    for seed in (5, 5, 6):
+        tracker = make_tracker(name, ds.scenario.sensor, {"seed": seed})
+        outs, mixtures = [], []
+        for scan in ds.scans():
+            outs.append(tracker.step(scan))
+            mixtures.append(tracker.existence())
+        runs.append((outs, mixtures))
+    (a, ma), (b, mb), (_, mc) = runs
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x.track_id, y.track_id)
+        np.testing.assert_array_equal(x.state, y.state)
+    assert all(np.array_equal(p, q) for p, q in zip(ma, mb))
+    assert not all(p.shape == q.shape and np.array_equal(p, q) for p, q in zip(ma, mc))
+
+
+def test_the_hypothesis_cap_is_respected_and_warned_once():
+    lab.check_the_cap("glmb", "max_hypotheses")
