@@ -35,6 +35,7 @@ SMALLEST = {
     "bench_phd.py": ["--runs", "1", "--repeat", "1", "--scans", "2", "--peer-scans", "2"],
     "bench_scaling.py": ["--scans", "2", "--give-up", "1", "--hard-stop", "5", "--out", "scaling.png",
                          "--model", "{seed}"],
+    "bench_scoring.py": ["--targets", "20", "60"],
     "bench_study.py": ["1"],
     "bench_tbd.py": ["--particles", "2000", "--repeat", "1", "--frames", "2", "--study-runs", "1"],
     "bench_trackers.py": ["--runs", "1", "--scans", "2", "--model", "{seed}", "--model", "{ext}"],
