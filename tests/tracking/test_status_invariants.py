@@ -37,12 +37,15 @@ RULES = get_args(LifecycleConfig.model_fields["confirmation"].annotation)
 #: (tracker, rule) pairs a tracker's config refuses by design
 REFUSED = {("mht", "existence")}
 #: (tracker, confirmation rule or None: a tracker without one, run with its defaults)
-CASES = [(name, rule) for name in TRACKERS if issubclass(TRACKERS[name], ContactTracker)
-         for rule in RULES if (name, rule) not in REFUSED]
+CONTACT_CASES = [(name, rule) for name in TRACKERS if issubclass(TRACKERS[name], ContactTracker)
+                 for rule in RULES if (name, rule) not in REFUSED]
+#: a tracker that confirms by its own posterior whatever the rule (`ContactTracker.own_confirmation`) runs once,
+#: with its defaults: under the other rules it would repeat the same run
+CASES = [(name, rule) for name, rule in CONTACT_CASES if TRACKERS[name].own_confirmation is None]
 CASES += [(name, None) for name in [*TRACKERS, *PEERS]
-          if name in PEERS or not issubclass(TRACKERS[name], ContactTracker)]
+          if name in PEERS or not issubclass(TRACKERS[name], ContactTracker)
+          or TRACKERS[name].own_confirmation is not None]
 IDS = [name if rule is None else f"{name}-{rule}" for name, rule in CASES]
-CONTACT_CASES = [(name, rule) for name, rule in CASES if rule is not None]
 #: the cases of nnda's own trackers (not the peers)
 OWN_CASES = [(name, rule) for name, rule in CASES if name not in PEERS]
 OWN_IDS = [i for i, (name, _) in zip(IDS, CASES) if name not in PEERS]
