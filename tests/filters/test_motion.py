@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from filterpy.common import Q_discrete_white_noise
+from filterpy.common import Q_continuous_white_noise, Q_discrete_white_noise
 from reference_filters import ct_F, ct_f, ct_Q, cv_F, cv_Q
 
 from nnda.errors import FilterError
@@ -97,8 +97,21 @@ def test_from_cv_extends_with_zero_turn_rate():
     assert (x5[:, 4] == 0).all() and (P5[:, 4, 4] == 0.0076).all() and (P5[:, 4, :4] == 0).all()
 
 
+def test_continuous_noise_is_filterpys_and_grows_linearly_in_velocity():
+    """White-noise acceleration in continuous time: filterpy's Q for spectral density sigma_q^2, on both axes
+    of CV and of CT's [x, vx, y, vy], and sigma_omega^2 T on CT's turn rate."""
+    cv = ConstantVelocity(sigma_q=0.3, noise_kind="continuous")
+    ct = CoordinatedTurn(sigma_q=0.3, sigma_omega=0.01, noise_kind="continuous")
+    for k, T in enumerate(DTS):
+        fp = Q_continuous_white_noise(dim=2, dt=T, spectral_density=0.09, block_size=2, order_by_dim=True)
+        np.testing.assert_allclose(cv.noise(DTS)[k], fp, rtol=RTOL)
+        np.testing.assert_allclose(ct.noise(DTS)[k][:4, :4], fp, rtol=RTOL)
+        assert ct.noise(DTS)[k][4, 4] == pytest.approx(1e-4 * T, rel=RTOL)
+    assert ConstantVelocity(sigma_q=0.3).noise(np.array([100.0]))[0, 1, 1] == pytest.approx(0.09 * 100.0**2)
+
+
 @pytest.mark.parametrize("kwargs", [dict(sigma_q=-1.0), dict(sigma_q=float("nan")), dict(omega_max=0.0),
-                                    dict(noise_variant="exact")])
+                                    dict(noise_variant="exact"), dict(noise_kind="brownian")])
 def test_bad_parameters(kwargs):
     with pytest.raises(FilterError):
         CoordinatedTurn(**kwargs)

@@ -28,10 +28,15 @@ def import_detections_command(
     column: Annotated[list[str] | None, typer.Option(
         help="NAME=COLUMN: read nnda's column NAME from the file's COLUMN (repeatable), e.g. time=t_sec")] = None,
     azimuth_unit: Annotated[str, typer.Option(help="unit of the azimuth column: rad or deg")] = "rad",
+    distance_unit: Annotated[str, typer.Option(
+        help="unit of the range, x, y, alt columns (both files): m, km, nmi or ft; stored in m")] = "m",
+    speed_unit: Annotated[str, typer.Option(
+        help="unit of the truth's vx, vy columns: m/s, kn or km/h; stored in m/s")] = "m/s",
     scan_tolerance: Annotated[float, typer.Option(
         help="s: a detection belongs to the sweep within this of its time")] = SCAN_TOLERANCE_S,
-    time_origin: Annotated[float, typer.Option(
-        help="s subtracted from every time (nnda's scans lie at t > 0)")] = 0.0,
+    time_origin: Annotated[float | None, typer.Option(
+        help="s subtracted from every time (nnda's scans lie at t > 0; default 0, or for dates and times a "
+             "window or period before the first; dates and times: seconds since 1970 UTC)")] = None,
     name: Annotated[str | None, typer.Option(help="scenario name (default: the file's stem)")] = None,
     overwrite: Annotated[bool, typer.Option(help="replace an existing dataset at --out")] = False,
     delimiter: Annotated[str, typer.Option(
@@ -49,10 +54,13 @@ def import_detections_command(
 ) -> None:
     """Import recorded detections (CSV or Parquet) as an nnda dataset: scans grouped by sensor and sweep time.
 
-    Columns: time (s); range (m) and azimuth, x and y (m), or lat and lon
+    Columns: time (s, or dates and times: ISO 8601 text, UTC without a
+    zone); range (m) and azimuth, x and y (m), or lat and lon
     (deg; optional alt, m); optional sensor (name or index) and target_id
     (empty: clutter). A sensor's period, offset and range limits not given
-    are inferred from the data; its site may be given as lat=, lon=.
+    are inferred from the data; its site may be given as lat=, lon=. A
+    sensor with reports=true (AIS, ADS-B) keeps each report's own time and
+    groups them into windows of its scan_period_s (which it must give).
 
     A CSV is UTF-8 with ',' between fields and '.' in numbers unless
     --encoding, --delimiter and --decimal say otherwise (a file with ';'
@@ -68,20 +76,26 @@ def import_detections_command(
     path, ds = import_detections(file, out, overwrite, sensors=specs, truth=truth, columns=column,
                                  azimuth_unit=azimuth_unit, scan_tolerance=scan_tolerance,
                                  time_origin=time_origin, name=name, delimiter=delimiter, decimal=decimal,
-                                 encoding=encoding, origin=origin, region=region)
+                                 encoding=encoding, origin=origin, region=region, distance_unit=distance_unit,
+                                 speed_unit=speed_unit)
     d = ds.detections
     labelled = int((~d.is_clutter).sum())
     Console().print(f"wrote {path} ({d.scan.size} detections, {labelled} of targets; {ds.n_scans} scans; "
                     f"{ds.truth.scan.size} truth rows)", markup=False, highlight=False)
+    if ds.time_origin_utc is not None:
+        Console().print(f"  time origin: {ds.time_origin_utc} (times are seconds after it)", markup=False,
+                        highlight=False)
     if ds.geodetic_origin is not None:
         Console().print(f"  geodetic origin: {ds.geodetic_origin} (x east, y north on its tangent plane)",
                         markup=False, highlight=False)
     if "--region" in ds.dropped_rows:
         Console().print(f"  --region: {ds.dropped_rows['--region']} report(s) outside dropped", markup=False,
                         highlight=False)
+    shift = 0.0 if ds.time_origin_utc is not None else time_origin or 0.0  # offsets in the file's clock
     for s in ds.scenario.sensors:
-        Console().print(f"  sensor {s.name} ({s.kind}) at ({s.x_m:g}, {s.y_m:g}) m: period {s.scan_period_s:g} s, "
-                        f"offset {s.scan_offset_s + time_origin:g} s, ranges {s.min_range_m:g}-{s.max_range_m:g} m",
+        timing = (f"reports in windows of {s.scan_period_s:g} s" if s.reports else f"period {s.scan_period_s:g} s")
+        Console().print(f"  sensor {s.name} ({s.kind}) at ({s.x_m:g}, {s.y_m:g}) m: {timing}, "
+                        f"offset {s.scan_offset_s + shift:g} s, ranges {s.min_range_m:g}-{s.max_range_m:g} m",
                         markup=False, highlight=False)
 
 

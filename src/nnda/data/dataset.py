@@ -37,8 +37,10 @@ its manifest lists.
 An imported dataset may record, in its manifest, the geodetic origin of its
 frame (``geodetic_origin``: lat_deg, lon_deg, alt_m and how it was chosen;
 `nnda.data.geodesy`: x east, y north on the tangent plane there) and the
-rows an import option dropped (``dropped_rows``: option -> count). Both
-are absent otherwise, so datasets without them read and write as before.
+rows an import option dropped (``dropped_rows``: option -> count), and the
+instant t = 0 stands for when the imported times were dates and times
+(``time_origin_utc``, ISO 8601 text in UTC). All are absent otherwise, so
+datasets without them read and write as before.
 """
 
 from __future__ import annotations
@@ -102,7 +104,9 @@ class Detections:
     """All contacts of a dataset, one entry per detection; arrays of shape (N,).
 
     Rows are ordered by scan, then by azimuth (the order a rotating antenna
-    reports them). ``sensor`` is the index of the detecting sensor in
+    reports them), or by time (stable) in a report sensor's scan. ``time``
+    is the scan's time, or a report sensor's own time of each report (s;
+    scan k's within (t_k - scan_period_s, t_k]). ``sensor`` is the index of the detecting sensor in
     ``scenario.sensors`` (None, the default, means sensor 0 for every row);
     ``range`` m and ``azimuth`` rad in [0, 2 pi) clockwise from north are
     measured from that sensor's position; ``x``/``y`` m are the detection's
@@ -164,12 +168,17 @@ class Scan:
     ``sensor`` is the sweeping sensor's index in ``scenario.sensors``. A polar
     sensor's measurements are [range m, azimuth rad] from that sensor's
     position; a position sensor's are [x m, y m] in the scenario frame.
+    ``times``: for a report sensor (`nnda.data.scenario.Sensor.reports`),
+    each contact's own time (s), shape (N,) float64, non-decreasing, all in
+    (time - scan_period_s, time]; ``time`` is then the window's end. None
+    for a sweep (every contact at ``time``).
     """
 
     index: int
     time: float
     measurements: np.ndarray
     sensor: int = 0
+    times: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -178,7 +187,9 @@ class Dataset:
 
     ``geodetic_origin``: where the frame's origin lies on the Earth (an
     import of geodetic data), else None; ``dropped_rows``: rows of the
-    imported file an import option dropped, by option (e.g. ``--region``).
+    imported file an import option dropped, by option (e.g. ``--region``);
+    ``time_origin_utc``: the instant (ISO 8601 text, UTC) that t = 0 stands
+    for, when the imported times were absolute (dates and times), else None.
     """
 
     scenario: Scenario
@@ -188,6 +199,7 @@ class Dataset:
     truth: Truth
     geodetic_origin: GeodeticOrigin | None = None
     dropped_rows: dict[str, int] = field(default_factory=dict)
+    time_origin_utc: str | None = None
 
     @property
     def n_scans(self) -> int:
@@ -208,13 +220,17 @@ class Dataset:
         return np.searchsorted(self.detections.scan, np.arange(1, self.n_scans + 2))
 
     def scans(self) -> Iterator[Scan]:
-        """The sweeps in time order, including empty ones, each with its sensor's measurements (see `Scan`)."""
+        """The sweeps in time order, including empty ones, each with its sensor's measurements (see `Scan`); a
+        report sensor's scans with each report's time."""
         b = self.scan_bounds()
         d = self.detections
         by_kind = {"polar": np.column_stack([d.range, d.azimuth]), "position": np.column_stack([d.x, d.y])}
         measurements = [by_kind[s.kind] for s in self.scenario.sensors]
+        reports = [s.reports for s in self.scenario.sensors]
+        time_of = np.asarray(d.time, dtype=np.float64)
         for k, (time, sensor) in enumerate(zip(self.scan_time.tolist(), self.scan_sensor.tolist()), start=1):
-            yield Scan(k, time, measurements[sensor][b[k - 1]:b[k]], sensor)
+            times = time_of[b[k - 1]:b[k]] if reports[sensor] else None
+            yield Scan(k, time, measurements[sensor][b[k - 1]:b[k]], sensor, times)
 
 
 # ----------------------------------------------------------------------------- writing
@@ -247,6 +263,8 @@ def manifest(dataset: Dataset, sha256: dict[str, str]) -> dict:
         head["geodetic_origin"] = dataset.geodetic_origin.record()
     if dataset.dropped_rows:
         head["dropped_rows"] = dict(dataset.dropped_rows)
+    if dataset.time_origin_utc is not None:
+        head["time_origin_utc"] = dataset.time_origin_utc
     return head | {"manifest_sha256": manifest_seal(head)}
 
 
@@ -321,8 +339,11 @@ def _first(bad: np.ndarray) -> int | None:
     return int(rows[0]) if rows.size else None
 
 
-def _check_record(where: str, record, schema: pa.Schema, scan_time: np.ndarray, n_targets: int) -> None:
-    """Checks shared by detections and truth: shapes, dtypes, finite floats, scans, times, target ids."""
+def _check_record(where: str, record, schema: pa.Schema, scan_time: np.ndarray, n_targets: int,
+                  window: np.ndarray | None = None) -> None:
+    """Checks shared by detections and truth: shapes, dtypes, finite floats, scans, times, target ids.
+    ``window`` (s, one per row, or None: all 0): how far before its scan's time a row's time may lie (a
+    report sensor's window); such rows' times must not decrease within a scan."""
     columns = {f.name: np.asarray(getattr(record, f.name)) for f in schema}
     n = columns["scan"].shape
     for f in schema:
@@ -340,9 +361,18 @@ def _check_record(where: str, record, schema: pa.Schema, scan_time: np.ndarray, 
         raise DatasetError(f"{where}: column 'scan' is not in increasing order: {scan[row + 1]} at row {row + 1} "
                            f"follows {scan[row]}")
     time, scheduled = columns["time"], scan_time[scan - 1]
-    if (row := _first(np.abs(time - scheduled) > TIME_RTOL * np.maximum(1.0, np.abs(scheduled)))) is not None:
-        raise DatasetError(f"{where}: column 'time' is {float(time[row])!r} s at row {row}, but scan {scan[row]} is at "
-                           f"{float(scheduled[row])!r} s in the scenario's scan schedule")
+    slack = TIME_RTOL * np.maximum(1.0, np.abs(scheduled))
+    before = np.zeros_like(scheduled) if window is None else window
+    if (row := _first((time < scheduled - before - slack) | (time - scheduled > slack))) is not None:
+        span = (f"in ({float(scheduled[row] - before[row])!r}, {float(scheduled[row])!r}] s, its report window"
+                if before[row] > 0 else f"at {float(scheduled[row])!r} s")
+        raise DatasetError(f"{where}: column 'time' is {float(time[row])!r} s at row {row}, but scan {scan[row]} is "
+                           f"{span} in the scenario's scan schedule")
+    back = (np.diff(time) < 0) & (np.diff(scan) == 0) & (before[1:] > 0)
+    if (row := _first(back)) is not None:
+        raise DatasetError(f"{where}: column 'time' goes back from {float(time[row])!r} s to "
+                           f"{float(time[row + 1])!r} s at row {row + 1} within report scan {scan[row]}; a report "
+                           f"scan's rows are in time order")
     tid, low = columns["target_id"], -1 if "is_clutter" in schema.names else 0
     if (row := _first((tid < low) | (tid >= n_targets))) is not None:
         raise DatasetError(f"{where}: column 'target_id' leaves the range {low}..{n_targets - 1}: {tid[row]} at "
@@ -396,7 +426,8 @@ def check_dataset(dataset: Dataset, detections: str, truth: str) -> None:
     files, when the dataset was read from disk). Both: columns of one shape
     (N,) and the schema's dtypes, finite floats, scans in 1..n_scans in
     increasing order, times those of `Scenario.scan_schedule` (to
-    `TIME_RTOL` x max(1 s, |t|)), target ids of the scenario's targets
+    `TIME_RTOL` x max(1 s, |t|); a report sensor's detections within its
+    scan's window (t_k - scan_period_s, t_k], in time order), target ids of the scenario's targets
     (or -1, clutter, in the detections). Detections also: ``is_clutter``
     exactly where ``target_id`` is -1, each row's ``sensor`` the one
     sweeping its scan, ranges > 0 m, azimuths in [0, 2 pi) rad, and (x, y)
@@ -404,8 +435,13 @@ def check_dataset(dataset: Dataset, detections: str, truth: str) -> None:
     point at (range, azimuth) from that sensor. Truth also: one row per
     (scan, target), ordered by scan then target.
     """
-    scan_time, n_targets = dataset.scan_time, len(dataset.scenario.targets)
-    _check_record(detections, dataset.detections, DETECTIONS_SCHEMA, scan_time, n_targets)
+    scan_time, n_targets, sensors = dataset.scan_time, len(dataset.scenario.targets), dataset.scenario.sensors
+    window = None
+    if any(s.reports for s in sensors):
+        per_sensor = np.array([s.scan_period_s if s.reports else 0.0 for s in sensors])
+        sensor = np.clip(np.asarray(dataset.detections.sensor), 0, len(sensors) - 1)  # checked below
+        window = per_sensor[sensor]
+    _check_record(detections, dataset.detections, DETECTIONS_SCHEMA, scan_time, n_targets, window)
     _check_record(truth, dataset.truth, TRUTH_SCHEMA, scan_time, n_targets)
     _check_detections(detections, dataset)
     _check_truth(truth, dataset)
@@ -485,7 +521,8 @@ def _check_later_fields(where: Path, meta: dict) -> None:
     """A manifest naming format version v holds no field that only a later version writes (an edited one)."""
     version = meta["format_version"]
     for name, since in (("sha256", DIGESTS_SINCE), ("manifest_sha256", SEALED_SINCE),
-                        ("geodetic_origin", SEALED_SINCE), ("dropped_rows", SEALED_SINCE)):
+                        ("geodetic_origin", SEALED_SINCE), ("dropped_rows", SEALED_SINCE),
+                        ("time_origin_utc", SEALED_SINCE)):
         if name in meta and version < since:
             raise DatasetError(f"{where}: field {name!r} is written since format version {since}, but field "
                                f"'format_version' is {version}: an edited manifest; regenerate or re-import the "
@@ -526,6 +563,19 @@ def _dropped_rows(where: Path, meta: dict) -> dict[str, int]:
     return dict(record)
 
 
+def _time_origin_utc(where: Path, meta: dict) -> str | None:
+    """The manifest's ``time_origin_utc`` (ISO 8601 text), checked, or None without one."""
+    text = meta.get("time_origin_utc")
+    if text is not None and not (isinstance(text, str) and _UTC.fullmatch(text)):
+        raise DatasetError(f"{where}: field 'time_origin_utc' must be a UTC time such as 2016-01-12T13:02:10Z, got "
+                           f"{text!r}; re-import the dataset")
+    return text
+
+
+#: a manifest's ``time_origin_utc``
+_UTC = re.compile(r"\d{4}-\d{2}-\d{2}T\d{2}:\d{2}:\d{2}(\.\d{1,9})?Z")
+
+
 def _check_counts(where: Path, meta: dict, dataset: Dataset) -> None:
     """The manifest's summary fields, where present, describe the data read."""
     d, sc = dataset.detections, dataset.scenario
@@ -546,7 +596,7 @@ def read_dataset(path: str | Path) -> Dataset:
     (format 3 on: "corrupt file"), a manifest edited since it was written
     (format 4: its own SHA-256; any format: a field of a later version; an
     older format than its ``nnda_version`` wrote: relabelled), a malformed
-    ``geodetic_origin`` or ``dropped_rows``, a data file
+    ``geodetic_origin``, ``dropped_rows`` or ``time_origin_utc``, a data file
     that is a symbolic link out of the directory, a Parquet file of another
     schema, and values `check_dataset` refuses.
     """
@@ -579,7 +629,7 @@ def read_dataset(path: str | Path) -> Dataset:
     detections = _read_table(path / DETECTIONS_FILE, schema, Detections)
     truth = _read_table(path / TRUTH_FILE, TRUTH_SCHEMA, Truth)
     dataset = Dataset(scenario, seed, run, detections, truth, _geodetic_origin(path / MANIFEST, meta),
-                      _dropped_rows(path / MANIFEST, meta))
+                      _dropped_rows(path / MANIFEST, meta), _time_origin_utc(path / MANIFEST, meta))
     check_dataset(dataset, str(path / DETECTIONS_FILE), str(path / TRUTH_FILE))
     _check_counts(path / MANIFEST, meta, dataset)
     if version >= SEALED_SINCE:  # last: an edit the checks above name is named so

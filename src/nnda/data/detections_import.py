@@ -9,7 +9,8 @@ Usage sketch::
 The file's schema (names as here, or mapped with ``columns``: nnda name ->
 the file's name; the mapping applies to the truth file too):
 
-* ``time`` (s), required; and the position: ``range`` (m) and ``azimuth``
+* ``time`` (s), required: numbers, or dates and times (ISO 8601 text or a
+  timestamp column, UTC without a zone; `nnda.data.time_columns`); and the position: ``range`` (m) and ``azimuth``
   (rad, or degrees with ``azimuth_unit="deg"``; clockwise from north, from
   the detecting sensor, in [-pi, 2 pi) and stored wrapped to [0, 2 pi)),
   or ``x`` and ``y`` (m, x east, y north, scenario frame), or ``lat`` and
@@ -18,8 +19,10 @@ the file's name; the mapping applies to the truth file too):
   detections are taken from ``range``/``azimuth`` when the file has them,
   a position sensor's from ``x``/``y``; the other pair is derived from the
   sensor's position.
-* ``sensor`` (optional): a sensor's name or its index in the sensor list;
-  without it every row belongs to the only sensor.
+* ``sensor`` (optional): a sensor's name, matched first (an integer 12 finds
+  a sensor named "12"); when not every sensor was given a name, a whole
+  number that names none is its index in the sensor list. Without the
+  column every row belongs to the only sensor.
 * ``target_id`` (optional truth label): any integer or text; an empty cell
   (or a negative integer) marks clutter. Without the column every detection
   is unlabelled, stored as the format stores clutter (target_id -1).
@@ -28,6 +31,10 @@ the file's name; the mapping applies to the truth file too):
   east and north), one row per target per time; each time
   must be the time of a scan (within the tolerance), its row is stored for
   every scan at that time, and a detection's target must appear in it.
+
+Distances (range, x, y, alt) are in ``distance_unit`` and the truth's
+velocities in ``speed_unit`` (`DISTANCE_UNITS`, `SPEED_UNITS`), stored
+in metres and m/s.
 
 Scans: a scan is one sensor's detections at one sweep time. Each sensor
 sweeps at ``scan_offset_s + k scan_period_s`` (`nnda.data.scenario.Sensor`);
@@ -40,7 +47,15 @@ times (rounded to 1 us) and its offset the first time modulo the period;
 range limits not given are widened from the default 5-30 km to hold every
 detection. nnda's scans lie at t > 0: ``time_origin`` (s) is subtracted
 from every time first (for clock times or a file that starts at 0). Rows of
-one sensor must not go back in time (in file order).
+one sensor must not go back in time (in file order). A report sensor
+(``reports = True``: AIS, ADS-B) instead keeps each row's own time and puts
+it in the window (t_k - scan_period_s, t_k] that holds it
+(`nnda.data.report_import`); its ``scan_period_s`` must be given. Absolute
+times (dates) become seconds after an origin: ``time_origin`` (seconds
+since 1970 UTC) when given, else the start of the window holding the first
+report (a report sensor; windows counted from 1970-01-01 00:00 UTC) or the
+first time less one period (a sweep sensor), the earliest over the
+sensors; the dataset records it (``time_origin_utc``).
 
 A CSV (the detections and the truth file alike) is UTF-8 text with ","
 between fields and "." in numbers unless ``delimiter`` (``;``, ``|``, a
@@ -89,8 +104,18 @@ from nnda.data.geodetic_import import (
     sensor_sites,
 )
 from nnda.data.region import Region, parse_box, polygon
+from nnda.data.report_import import report_grid, report_windows, scan_order
 from nnda.data.scenario import Clutter, ProcessNoise, Scenario, Segment, Sensor, Target
 from nnda.data.sensor import TWO_PI, cart_to_polar_at, polar_to_cart_at, wrap_azimuth
+from nnda.data.time_columns import (
+    NS,
+    absolute_ns,
+    default_origin_ns,
+    is_absolute,
+    origin_ns_of,
+    seconds_after,
+    utc_text,
+)
 from nnda.errors import ConfigError, DatasetError, validated
 from nnda.files import atomic_output, read_config
 
@@ -98,6 +123,9 @@ from nnda.files import atomic_output, read_config
 DETECTION_COLUMNS = ("time", "range", "azimuth", "x", "y", "lat", "lon", "alt", "sensor", "target_id")
 TRUTH_COLUMNS = ("time", "target_id", "x", "y", "vx", "vy", "lat", "lon", "alt")
 AZIMUTH_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}
+#: --distance-unit (range, x, y, alt of both files) and --speed-unit (the truth's vx, vy): metres, m/s per unit
+DISTANCE_UNITS = {"m": 1.0, "km": 1000.0, "nmi": 1852.0, "ft": 0.3048}
+SPEED_UNITS = {"m/s": 1.0, "kn": 1852.0 / 3600.0, "km/h": 1.0 / 3.6}
 #: default grouping tolerance (s): a row is in a sweep when within this of the sweep's time
 SCAN_TOLERANCE_S = 1e-6
 #: an import refuses a schedule of more scans than this (a clock time without --time-origin)
@@ -150,6 +178,40 @@ def csv_dialect(delimiter: str = ",", decimal: str = ".", encoding: str = "utf-8
 def _shown(delimiter: str) -> str:
     """A delimiter as the user types it for --delimiter."""
     return "'\\t'" if delimiter == "\t" else f"'{delimiter}'"
+
+
+class InMemory:
+    """A table given in memory (a pyarrow Table or a pandas DataFrame) in place of a file: what messages call
+    it (``str``, ``name``), and the stem a scenario is named after."""
+
+    suffix = ""
+    stem = "imported"
+
+    def __init__(self, what: str) -> None:
+        self.name = f"the {what} table" if what != "detections" else "the table"
+
+    def __str__(self) -> str:
+        return self.name
+
+
+Source = str | Path | pa.Table | Any  # a file's path, a pyarrow Table or a pandas DataFrame
+
+
+def _source(source: Source, what: str, dialect: CsvDialect = CsvDialect()) -> tuple[Path | InMemory, pa.Table]:
+    """The label and the table of a file (path) or of a table given in memory (pyarrow or pandas)."""
+    if isinstance(source, (str, Path)):
+        path = Path(source)
+        return path, _read_table(path, what, dialect)
+    label = InMemory(what)
+    if isinstance(source, pa.Table):
+        return label, _named(source, label, what)
+    if type(source).__module__.split(".")[0] == "pandas" and hasattr(source, "columns"):
+        try:  # pyarrow converts the DataFrame (pandas is the caller's; nnda does not import it)
+            return label, pa.Table.from_pandas(source, preserve_index=False)
+        except (pa.ArrowException, TypeError, ValueError) as exc:
+            raise DatasetError(f"{label}: the DataFrame does not convert to columns nnda reads ({exc}); give "
+                               f"each column one type") from None
+    raise ConfigError(f"{what}: {type(source).__name__} is not a file path, a pyarrow Table or a pandas DataFrame")
 
 
 def _read_table(path: Path, what: str, dialect: CsvDialect = CsvDialect()) -> pa.Table:
@@ -266,12 +328,14 @@ def _undecodable(path: Path, what: str, dialect: CsvDialect) -> DatasetError:
     return DatasetError(f"{what} {path}: {where}: byte {shown} is not {encoding} text; {convert}")
 
 
-def _decimal(path: Path, dialect: CsvDialect) -> str:
+def _decimal(path: Path | InMemory, dialect: CsvDialect) -> str:
     """The decimal mark of text numbers in the file at ``path``: the dialect's in a CSV, a point otherwise."""
     return dialect.decimal if path.suffix.lower() == ".csv" else "."
 
 
-def _where(path: Path, row: int, column: str) -> str:
+def _where(path: Path | InMemory, row: int, column: str) -> str:
+    if isinstance(path, InMemory):
+        return f"{path}: row {row + 1} (1-based), column {column!r}"
     return f"{path}: data row {row + 1} (line {row + 2}), column {column!r}"
 
 
@@ -436,6 +500,10 @@ def load_sensors(path: str | Path) -> list[dict]:
     return sensors
 
 
+#: --sensor reports=VALUE spellings
+_BOOLEANS = {"true": True, "false": False, "1": True, "0": False, "yes": True, "no": False}
+
+
 def sensor_fields(pairs: Sequence[str]) -> dict[str, Any]:
     """``["scan_period_s=2", "kind=position"]`` as a Sensor field mapping (numbers parsed; validated later)."""
     fields: dict[str, Any] = {}
@@ -447,6 +515,11 @@ def sensor_fields(pairs: Sequence[str]) -> dict[str, Any]:
         if (name not in Sensor.model_fields or name == "clutter") and name not in SITE_FIELDS:
             fields_known = ", ".join([*(f for f in Sensor.model_fields if f != "clutter"), *SITE_FIELDS])
             raise ConfigError(f"--sensor {p!r}: unknown sensor field {name!r}; choose one of {fields_known}")
+        if name == "reports":
+            if value.lower() not in _BOOLEANS:
+                raise ConfigError(f"--sensor {p!r}: reports must be true or false")
+            fields[name] = _BOOLEANS[value.lower()]
+            continue
         try:
             fields[name] = float(value) if name not in ("name", "kind") else value
         except ValueError:
@@ -500,10 +573,13 @@ def _check_azimuth(path: Path, column: str, az: np.ndarray, unit: str) -> None:
         raise DatasetError(f"{_where(path, row, column)}: azimuth {float(shown)!r} {unit} is outside {limits}{hint}")
 
 
-def _sensor_index(path: Path, column: str, table: pa.Table, names: list[str]) -> np.ndarray:
+def _sensor_index(path: Path, column: str, table: pa.Table, names: list[str], named: bool) -> np.ndarray:
+    """Each row's sensor index from column ``column``: a value is a sensor's name, else (unless every sensor
+    was ``named`` by the user) its index in the list; an integer column is matched as text (a sensor named
+    "12", value 12)."""
     col = table.column(column)
     n = len(names)
-    if pa.types.is_integer(col.type) and not col.null_count:
+    if pa.types.is_integer(col.type) and not col.null_count and not named and not any(s.isdigit() for s in names):
         idx = col.to_numpy().astype(np.int64)
         bad = (idx < 0) | (idx >= n)
         if bad.any():
@@ -517,7 +593,7 @@ def _sensor_index(path: Path, column: str, table: pa.Table, names: list[str]) ->
     for value in uniq:
         if value in names:
             lookup.append(names.index(value))
-        elif re.fullmatch(r"\d{1,9}", value) and int(value) < n:
+        elif not named and re.fullmatch(r"\d{1,9}", value) and int(value) < n:
             lookup.append(int(value))
         else:
             row = int(np.argmax(values == value))
@@ -549,13 +625,19 @@ def _scenario_name(name: str) -> str:
 
 
 def read_detections(
-    path: str | Path, *, sensors: Sequence[Mapping[str, Any] | Sensor] | None = None,
-    truth: str | Path | None = None, columns: Sequence[str] | Mapping[str, str] | None = None,
-    azimuth_unit: str = "rad", scan_tolerance: float = SCAN_TOLERANCE_S, time_origin: float = 0.0,
+    path: Source, *, sensors: Sequence[Mapping[str, Any] | Sensor] | None = None,
+    truth: Source | None = None, columns: Sequence[str] | Mapping[str, str] | None = None,
+    azimuth_unit: str = "rad", scan_tolerance: float = SCAN_TOLERANCE_S, time_origin: float | None = None,
     name: str | None = None, delimiter: str = ",", decimal: str = ".", encoding: str = "utf-8",
     origin: str | Sequence[float] | GeodeticOrigin | None = None, region: str | Path | Region | None = None,
+    distance_unit: str = "m", speed_unit: str = "m/s",
 ) -> Dataset:
     """The detections file at ``path`` (and its ``truth`` file) as a checked `Dataset` (see the module).
+
+    ``path`` and ``truth`` may also be tables in memory, a pyarrow Table or a
+    pandas DataFrame (its index ignored), with the columns a file has;
+    messages then name "the table" (or "the truth table") and its row
+    (1-based) and column, and the scenario is named "imported" by default.
 
     ``sensors``: one mapping of Sensor fields (or a Sensor) per sensor, in
     index order (default: one radar with the default fields); fields left out
@@ -566,17 +648,26 @@ def read_detections(
     truth) is written; a Parquet file ignores them. ``origin`` (``"LAT,LON[,ALT]"``, deg, deg, m) fixes
     the geodetic origin of the frame (default: chosen from the data, `nnda.data.geodetic_import`);
     ``region`` (a box or a polygon file, `nnda.data.region`) drops the reports outside it.
+    ``distance_unit`` (`DISTANCE_UNITS`: m, km, nmi, ft) is the unit of the
+    files' range, x, y and alt, ``speed_unit`` (`SPEED_UNITS`: m/s, kn,
+    km/h) of the truth's vx, vy; the dataset holds metres and m/s (the
+    sensors' fields stay in metres).
     """
-    path = Path(path)
     if azimuth_unit not in AZIMUTH_UNITS:
         raise ConfigError(f"--azimuth-unit {azimuth_unit!r}: unknown unit; choose one of {', '.join(AZIMUTH_UNITS)}")
+    for option, unit, known in (("--distance-unit", distance_unit, DISTANCE_UNITS), ("--speed-unit", speed_unit,
+                                                                                      SPEED_UNITS)):
+        if unit not in known:
+            raise ConfigError(f"{option} {unit!r}: unknown unit; choose one of {', '.join(known)}")
+    metres = DISTANCE_UNITS[distance_unit]
     if not (math.isfinite(scan_tolerance) and scan_tolerance >= 0):
         raise ConfigError(f"--scan-tolerance {scan_tolerance!r}: must be a finite number of seconds >= 0")
-    if not math.isfinite(time_origin):
+    if time_origin is not None and not math.isfinite(time_origin):
         raise ConfigError(f"--time-origin {time_origin!r}: must be a finite number of seconds")
     mapping = column_mapping(columns)
     dialect = csv_dialect(delimiter, decimal, encoding)
     specs = [s.model_dump(exclude_unset=True) if isinstance(s, Sensor) else dict(s) for s in (sensors or [{}])]
+    given = [dict(s) for s in specs]  # as the user gave them (names before the defaults)
     for i, s in enumerate(specs):
         s.setdefault("name", "radar" if len(specs) == 1 else f"sensor{i}")
     names = [str(s["name"]) for s in specs]
@@ -586,12 +677,18 @@ def read_detections(
     for j, s in enumerate(specs):  # the fields given, before anything is inferred (an offset needs its period)
         validated(Sensor, {k: v for k, v in s.items() if k != "scan_offset_s"}, f"sensor {j} ({names[j]!r})",
                   "sensor")
-    table = _read_table(path, "detections", dialect)
+    path, table = _source(path, "detections", dialect)
     dec = _decimal(path, dialect)
     present = _columns(table, path, DETECTION_COLUMNS, mapping)
     _require(path, present, ["time"], mapping, table, "the time of each detection, s")
     n = table.num_rows
-    t = _numeric(table, path, "time", present["time"], dec) - time_origin
+    tcol = present["time"]
+    absolute = is_absolute(table.column(tcol))
+    if absolute:
+        t_ns = absolute_ns(table.column(tcol), lambda row: _where(path, row, tcol))
+    else:
+        time_origin = 0.0 if time_origin is None else float(time_origin)
+        t = _numeric(table, path, "time", tcol, dec) - time_origin
     polar, cart = {"range", "azimuth"} <= present.keys(), {"x", "y"} <= present.keys()
     geodetic = not cart and ({"lat", "lon"} <= present.keys() or not polar and ("lat" in present or "lon" in present))
     if not (polar or cart or geodetic):
@@ -601,12 +698,13 @@ def read_detections(
     if geodetic:
         _require(path, present, ["lat", "lon"], mapping, table, "a position in degrees: lat and lon")
         lat, lon, alt = (_numeric(table, path, c, present[c], dec) if c in present else None for c in SITE_FIELDS)
+        alt = alt * metres if alt is not None else None
         check_geodetic(lat, lon, alt, where=lambda c, row: _where(path, row, present[c]), error=DatasetError)
     frame = choose_origin(origin, sites, names, lat, lon)
     place_sites(specs, sites, frame)
     rng = az = x = y = None
     if polar:
-        rng = _numeric(table, path, "range", present["range"], dec)
+        rng = _numeric(table, path, "range", present["range"], dec) * metres
         az = _numeric(table, path, "azimuth", present["azimuth"], dec) * AZIMUTH_UNITS[azimuth_unit]
         _check_azimuth(path, present["azimuth"], az, azimuth_unit)
         az = wrap_azimuth(az)
@@ -615,20 +713,24 @@ def read_detections(
             row = int(np.argmax(bad))
             raise DatasetError(f"{_where(path, row, present['range'])}: range {float(rng[row])!r} m must be positive")
     if cart:
-        x = _numeric(table, path, "x", present["x"], dec)
-        y = _numeric(table, path, "y", present["y"], dec)
+        x = _numeric(table, path, "x", present["x"], dec) * metres
+        y = _numeric(table, path, "y", present["y"], dec) * metres
     elif geodetic:
         x, y = local_positions(path, present, frame, lat, lon, alt)
         cart = True
     if "sensor" in present:
-        sensor = _sensor_index(path, present["sensor"], table, names)
+        sensor = _sensor_index(path, present["sensor"], table, names, all("name" in s for s in given))
     elif len(specs) > 1:
         raise DatasetError(f"{path}: {len(specs)} sensors are given but the file has no column "
                            f"{mapping.get('sensor', 'sensor')!r} saying which one made each detection")
     else:
         sensor = np.zeros(n, dtype=np.int32)
     tol = float(scan_tolerance)
-    tcol = present["time"]
+    origin_ns = None
+    if absolute:
+        origin_ns = (_default_origin(specs, names, sensor, t_ns, tol) if time_origin is None
+                     else origin_ns_of(time_origin))
+        time_origin, t = origin_ns / NS, seconds_after(t_ns, origin_ns)
     bad = ~(t > 0)
     if bad.any():
         row = int(np.argmax(bad))
@@ -643,8 +745,10 @@ def read_detections(
     for j, spec in enumerate(specs):
         rows = np.flatnonzero(sensor == j)
         tj = t[rows]
-        period, offset = _sweep_grid(spec, tj, tol, time_origin)
-        if tol >= period / 2:
+        reports = bool(spec.get("reports", False))
+        period, offset = (report_grid(spec, names[j], j, time_origin) if reports
+                          else _sweep_grid(spec, tj, tol, time_origin))
+        if tol >= period / 2 and not reports:
             raise ConfigError(f"--scan-tolerance {tol:g} s: must be below half the scan period of sensor "
                               f"{names[j]!r} ({period:g} s)")
         far = np.abs(tj - offset) > MAX_SCANS * period  # before the sweep index overflows
@@ -653,6 +757,13 @@ def read_detections(
             raise DatasetError(f"{_where(path, int(rows[i]), tcol)}: time {float(tj[i] + time_origin)!r} s is more "
                                f"than {MAX_SCANS:,} scan periods ({period:g} s) of sensor {names[j]!r} after t = "
                                f"{time_origin:g} s; clock times? pass --time-origin with a time just before the first")
+        if reports:
+            first = 1 if offset == 0 else 0  # t > 0 lies in window k >= first
+            sweep[rows] = report_windows(tj, rows, period, offset, lambda row: _where(path, row, tcol),
+                                         lambda time: float(time + time_origin), names[j]) - first
+            grids.append((period, offset))
+            needed.append(int(sweep[rows].max()) + 1 if rows.size else 1)
+            continue
         k = np.round((tj - offset) / period).astype(np.int64)
         back = np.diff(k) < 0
         if back.any():
@@ -679,7 +790,8 @@ def read_detections(
     periods = [_fraction(p, f"sensor {names[j]!r}: scan_period_s") for j, (p, _) in enumerate(grids)]
     common = _lcm(periods)
     longest = max(Fraction(m) * p for m, p in zip(needed, periods))
-    truth_rows = _read_truth(Path(truth), mapping, time_origin, dialect, frame) if truth is not None else None
+    truth_rows = (_read_truth(truth, mapping, time_origin, dialect, frame, origin_ns,
+                              (metres, SPEED_UNITS[speed_unit])) if truth is not None else None)
     if truth_rows is not None and truth_rows["t"].size:  # the schedule reaches the last true state too
         longest = max(longest, Fraction(float(truth_rows["t"].max())))
     duration = common * math.ceil(longest / common)
@@ -708,7 +820,28 @@ def read_detections(
     labels = _labels(table, path, present["target_id"]) if "target_id" in present else None
     scenario_name = _scenario_name(name or path.stem)
     return _assemble(path, truth_rows, mapping, scenario_name, built, float(duration), time_origin, tol,
-                     t, sweep, sensor, rng, az, x, y, labels, polar, frame, region)
+                     t, sweep, sensor, rng, az, x, y, labels, polar, frame, region,
+                     None if origin_ns is None else utc_text(origin_ns))
+
+
+def _default_origin(specs: Sequence[Mapping[str, Any]], names: list[str], sensor: np.ndarray, t_ns: np.ndarray,
+                    tol: float) -> int:
+    """The time origin (ns since 1970 UTC) of absolute times ``t_ns`` (`nnda.data.time_columns.default_origin_ns`):
+    a report sensor's window, a sweep sensor's period given or inferred from its times."""
+    firsts, periods, reports = [], [], []
+    for j, spec in enumerate(specs):
+        tj = t_ns[sensor == j]
+        report = bool(spec.get("reports", False))
+        if report:
+            period = report_grid(spec, names[j], j, 0.0)[0]
+        elif spec.get("scan_period_s") is not None:
+            period = float(spec["scan_period_s"])
+        else:  # the gaps between its times: the offset (and so the origin) does not change them
+            period = _sweep_grid({}, seconds_after(tj, int(tj[0])) if tj.size else np.empty(0), tol, 0.0)[0]
+        firsts.append(int(tj.min()) if tj.size else None)
+        periods.append(period)
+        reports.append(report)
+    return default_origin_ns(firsts, periods, reports)
 
 
 def _polygon_file(path: Path, mapping: Mapping[str, str], dialect: CsvDialect) -> Region:
@@ -724,7 +857,7 @@ def _polygon_file(path: Path, mapping: Mapping[str, str], dialect: CsvDialect) -
 
 
 def _assemble(path, truth_rows, mapping, scenario_name, sensors, duration, time_origin, tol, t, sweep, sensor,
-              rng, az, x, y, labels, polar, frame=None, region=None) -> Dataset:
+              rng, az, x, y, labels, polar, frame=None, region=None, origin_utc=None) -> Dataset:
     """The dataset from the checked columns: scans, positions in both forms, targets, truth; the reports
     outside ``region`` dropped."""
     n = t.size
@@ -755,7 +888,8 @@ def _assemble(path, truth_rows, mapping, scenario_name, sensors, duration, time_
                            f"{sensors[sensor[row]].name!r} (range 0 m); nnda needs a positive range")
     keep, n_dropped = keep_in_region(region, x_out, y_out, frame)
     if keep is not None:
-        scan, r_out, az_out, x_out, y_out, sensor = (a[keep] for a in (scan, r_out, az_out, x_out, y_out, sensor))
+        scan, t, r_out, az_out, x_out, y_out, sensor = (a[keep] for a in (scan, t, r_out, az_out, x_out, y_out,
+                                                                          sensor))
         labels = labels[keep] if labels is not None else None
         n = int(keep.sum())
     # targets: the truth file's, else the labels'
@@ -772,8 +906,10 @@ def _assemble(path, truth_rows, mapping, scenario_name, sensors, duration, time_
     index = {lab: i for i, lab in enumerate(order)}
     tid = (np.array([-1 if v is None else index[v] for v in labels.tolist()], dtype=np.int32)
            if labels is not None else np.full(n, -1, dtype=np.int32))
-    rows = _scan_then_azimuth(scan, az_out)
-    det = Detections(scan=scan[rows], time=sched_time[scan[rows] - 1], range=r_out[rows], azimuth=az_out[rows],
+    report = np.array([s.reports for s in sensors])[sensor]
+    rows = scan_order(scan, az_out, t, report) if report.any() else _scan_then_azimuth(scan, az_out)
+    time = np.where(report[rows], t[rows], sched_time[scan[rows] - 1])
+    det = Detections(scan=scan[rows], time=time, range=r_out[rows], azimuth=az_out[rows],
                      x=x_out[rows], y=y_out[rows], is_clutter=tid[rows] < 0, target_id=tid[rows],
                      sensor=sensor[rows].astype(np.int32))
     targets = _targets(order, truth_table, det, sched_time, duration)
@@ -784,10 +920,14 @@ def _assemble(path, truth_rows, mapping, scenario_name, sensors, duration, time_
     scenario = Scenario(
         name=scenario_name, duration_s=duration, sensors=tuple(sensors), targets=targets,
         process_noise=ProcessNoise(model="none"),
-        description=(f"imported by nnda import-detections: {what}; times less the origin {time_origin:g} s, "
-                     f"grouped into sweeps within {tol:g} s; targets give each one's first true state "
-                     f"(a placeholder when unlabelled), the truth file its motion"))
-    return Dataset(scenario, 0, 0, det, truth_rec, frame, {"--region": n_dropped} if region is not None else {})
+        description=(f"imported by nnda import-detections: {what}; times less the origin "
+                     f"{origin_utc or f'{time_origin:g} s'}, "
+                     f"grouped into sweeps within {tol:g} s"
+                     + (", a report sensor's into windows of its scan period" if report.any() else "")
+                     + "; targets give each one's first true state "
+                     "(a placeholder when unlabelled), the truth file its motion"))
+    return Dataset(scenario, 0, 0, det, truth_rec, frame, {"--region": n_dropped} if region is not None else {},
+                   origin_utc)
 
 
 def _scan_then_azimuth(scan: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
@@ -800,22 +940,34 @@ def _scan_then_azimuth(scan: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
     return np.lexsort((azimuth, scan))
 
 
-def _read_truth(path: Path, mapping: Mapping[str, str], time_origin: float, dialect: CsvDialect = CsvDialect(),
-                frame: GeodeticOrigin | None = None) -> dict:
-    """The truth file's checked columns: time (after the origin), labels, state (positions in lat/lon placed
-    on ``frame``'s plane); its path and time column."""
-    table = _read_table(path, "truth", dialect)
+def _read_truth(path: Source, mapping: Mapping[str, str], time_origin: float, dialect: CsvDialect = CsvDialect(),
+                frame: GeodeticOrigin | None = None, origin_ns: int | None = None,
+                units: tuple[float, float] = (1.0, 1.0)) -> dict:
+    """The truth file's checked columns: time (after the origin; absolute times, after ``origin_ns``, when the
+    detections' are absolute), labels, state (positions in lat/lon placed on ``frame``'s plane); its path and
+    time column. ``units``: metres per distance unit (x, y, alt), m/s per speed unit (vx, vy)."""
+    path, table = _source(path, "truth", dialect)
     dec = _decimal(path, dialect)
     present = _columns(table, path, TRUTH_COLUMNS, mapping)
     position = ["lat", "lon"] if not {"x", "y"} & present.keys() and {"lat", "lon"} & present.keys() else ["x", "y"]
     _require(path, present, ["time", "target_id", *position, "vx", "vy"], mapping, table,
              "a truth file has time, target_id, x, y (or lat, lon), vx, vy")
-    t = _numeric(table, path, "time", present["time"], dec) - time_origin
-    values = {c: _numeric(table, path, c, present[c], dec) for c in ("vx", "vy")}
+    tcol = present["time"]
+    if is_absolute(table.column(tcol)) != (origin_ns is not None):
+        kinds = ("absolute times (date and time)", "seconds (numbers)")
+        truth_kind, det_kind = kinds if origin_ns is None else kinds[::-1]
+        raise DatasetError(f"{_where(path, 0, tcol)}: the truth file's times are {truth_kind} but the detections' "
+                           f"are {det_kind}; write both files' times alike")
+    if origin_ns is not None:
+        t = seconds_after(absolute_ns(table.column(tcol), lambda row: _where(path, row, tcol)), origin_ns)
+    else:
+        t = _numeric(table, path, "time", tcol, dec) - time_origin
+    values = {c: _numeric(table, path, c, present[c], dec) * units[1] for c in ("vx", "vy")}
     if position[0] == "x":
-        values |= {c: _numeric(table, path, c, present[c], dec) for c in ("x", "y")}
+        values |= {c: _numeric(table, path, c, present[c], dec) * units[0] for c in ("x", "y")}
     else:
         lat, lon, alt = (_numeric(table, path, c, present[c], dec) if c in present else None for c in SITE_FIELDS)
+        alt = alt * units[0] if alt is not None else None
         check_geodetic(lat, lon, alt, where=lambda c, row: _where(path, row, present[c]), error=DatasetError)
         values["x"], values["y"] = local_positions(path, present, frame, lat, lon, alt)
     labels = _labels(table, path, present["target_id"])
@@ -902,7 +1054,7 @@ def _truth_record(truth: dict | None, index: Mapping[str, int], det: Detections)
                  detected=np.isin(k, seen))
 
 
-def import_detections(path: str | Path, out: str | Path, overwrite: bool = False, **options) -> tuple[Path, Dataset]:
+def import_detections(path: Source, out: str | Path, overwrite: bool = False, **options) -> tuple[Path, Dataset]:
     """`read_detections` (``options`` as there), then write the dataset atomically at ``out``."""
     dataset = read_detections(path, **options)
     return write_dataset(dataset, out, overwrite), dataset

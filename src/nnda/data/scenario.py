@@ -19,7 +19,15 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    SerializerFunctionWrapHandler,
+    field_validator,
+    model_serializer,
+    model_validator,
+)
 
 from nnda.errors import ConfigError, validated
 from nnda.files import path_component, read_config
@@ -144,6 +152,13 @@ class Sensor(BaseModel):
     ring). The sensor sweeps at the times scan_offset_s + k scan_period_s
     (k integer) in (0, duration], sees each target with probability ``pd``
     (unless the target overrides it) and adds its own ``clutter``.
+
+    A sensor with ``reports = True`` (AIS, ADS-B, a tracker's plot stream)
+    reports each contact at its own time: its scan k holds the reports with
+    time in (t_k - scan_period_s, t_k], t_k = scan_offset_s + k scan_period_s,
+    so ``scan_period_s`` is a grouping window, not a sweep period. The field
+    is left out of a dump while False, so the manifests of sweep sensors keep
+    their bytes.
     """
 
     model_config = _STRICT
@@ -163,6 +178,18 @@ class Sensor(BaseModel):
     max_range_m: PositiveFloat = 30_000.0
     pd: Probability = Field(default=1.0, description="detection probability outside scripted gaps")
     clutter: Clutter = Clutter()
+    reports: bool = Field(
+        default=False, description="asynchronous reports: each detection keeps its own time; scan k holds this "
+        "sensor's reports with time in (t_k - scan_period_s, t_k], where t_k = scan_offset_s + k scan_period_s is "
+        "its k-th window's end")
+
+    @model_serializer(mode="wrap")
+    def _reports_only_when_set(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        """The fields as pydantic dumps them, without ``reports`` while it is False (older manifests' bytes)."""
+        data = handler(self)
+        if not self.reports:
+            data.pop("reports", None)
+        return data
 
     @field_validator("x_m", "y_m")
     @classmethod

@@ -58,8 +58,8 @@ def _wrap(a: np.ndarray) -> np.ndarray:
 
 
 def _constant_basis(q_diag: tuple[float, ...]) -> np.ndarray:
-    basis = np.zeros((3, len(q_diag), len(q_diag)))
-    basis[0] = np.diag(q_diag)
+    basis = np.zeros((4, len(q_diag), len(q_diag)))
+    basis[1] = np.diag(q_diag)  # T^2
     return basis
 
 
@@ -80,7 +80,7 @@ class DiagonalCV(ConstantVelocity):
 
     @cached_property
     def noise_basis(self) -> np.ndarray:
-        """Q(1 s) = diag(sigma_p^2, sigma_v^2, sigma_p^2, sigma_v^2) as the T^2 matrix, (3, 4, 4)."""
+        """Q(1 s) = diag(sigma_p^2, sigma_v^2, sigma_p^2, sigma_v^2) as the T^2 matrix, (4, 4, 4)."""
         p, v = self.sigma_position_m**2, self.sigma_velocity_m_s**2
         return _constant_basis((p, v, p, v))
 

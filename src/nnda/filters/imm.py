@@ -176,8 +176,8 @@ class IMM:
 
     @cached_property
     def _noise_basis(self) -> np.ndarray:
-        """(3, r, n, n) every model's process-noise basis in the padded layout."""
-        basis = np.zeros((3, self.n_models, self.dim, self.dim))
+        """(4, r, n, n) every model's process-noise basis in the padded layout."""
+        basis = np.zeros((4, self.n_models, self.dim, self.dim))
         for j, m in enumerate(self.models):
             basis[:, j, : m.dim, : m.dim] = m.noise_basis
         return basis

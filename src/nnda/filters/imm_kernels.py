@@ -14,8 +14,8 @@
 Shapes: x (K, r, n), P (K, r, n, n) in the IMM's padded layout (model j's
 state in its first ``dims[j]`` entries, zeros beyond), mu (K, r), dt (K,) s;
 ``kinds`` (r,) names each model's transition (`CV` or `CT`, Vargas Avila (2015),
-eqs. 5.7-5.18, CT's turn rate limited to ``omega_max[j]`` rad/s), ``basis`` (3, r,
-n, n) the process-noise matrices of Q(T) = T^2 B0 + T^3 B1 + T^4 B2 and
+eqs. 5.7-5.18, CT's turn rate limited to ``omega_max[j]`` rad/s), ``basis`` (4, r,
+n, n) the process-noise matrices of Q(T) = T B0 + T^2 B1 + T^3 B2 + T^4 B3 and
 ``augment`` (r, n, n) the variance added to a model's padding before mixing.
 The measurement is polar (range m, azimuth rad clockwise from north, from
 ``origin``; azimuth residuals wrapped to [-pi, pi)) or, with ``polar``
@@ -139,8 +139,8 @@ def mix_predict(x, P, mu, dt, tpm, kinds, dims, omega_max, basis, augment):
             _product(FP, F, d, True, FPF)
             for a in range(d):
                 for b in range(d):
-                    Pp[k, j, a, b] = FPF[a, b] + (T2 * basis[0, j, a, b] + T3 * basis[1, j, a, b]
-                                                  + T4 * basis[2, j, a, b])
+                    Pp[k, j, a, b] = FPF[a, b] + (T * basis[0, j, a, b] + T2 * basis[1, j, a, b]
+                                                  + T3 * basis[2, j, a, b] + T4 * basis[3, j, a, b])
             for a in range(d):
                 for b in range(a + 1, d):
                     m = 0.5 * (Pp[k, j, a, b] + Pp[k, j, b, a])

@@ -12,9 +12,15 @@ omega < 0). Each model's first four components are the CV state, so a
 two-point CV estimate extends to any model (`from_cv`).
 
 Process noise is ``Q = Gamma diag(sigma^2) Gamma^T`` with the thesis's noise
-gains; both models write it as ``Q(T) = T^2 Q2 + T^3 Q3 + T^4 Q4`` with
-constant matrices (``noise_basis``), which is how it is evaluated for a batch
-of intervals (and how the IMM evaluates all its models' noise in one product).
+gains (``noise_kind = "discrete"``: an acceleration held constant over each
+interval, whose velocity variance grows as T^2; right for one fixed scan
+period), or the continuous white-noise acceleration of spectral density
+sigma^2 (``noise_kind = "continuous"``, m^2/s^3: velocity variance sigma^2 T,
+consistent for any interval, as asynchronous reports need; Bar-Shalom, Li and
+Kirubarajan (2001), Sec. 6.2.2). Every model writes it as
+``Q(T) = T Q1 + T^2 Q2 + T^3 Q3 + T^4 Q4`` with constant matrices
+(``noise_basis``), which is how it is evaluated for a batch of intervals (and
+how the IMM evaluates all its models' noise in one product).
 """
 
 from __future__ import annotations
@@ -50,7 +56,7 @@ class MotionModel(Protocol):
 
     @property
     def noise_basis(self) -> np.ndarray:
-        """(3, n, n) constant matrices Q2, Q3, Q4 of Q(T) = T^2 Q2 + T^3 Q3 + T^4 Q4."""
+        """(4, n, n) constant matrices Q1, Q2, Q3, Q4 of Q(T) = T Q1 + T^2 Q2 + T^3 Q3 + T^4 Q4."""
         ...
 
     def transition(self, x: np.ndarray, dt: np.ndarray, out: np.ndarray | None = None
@@ -97,36 +103,52 @@ def standing_newborn(model: MotionModel, xy: np.ndarray, cov: np.ndarray, speed_
     return x, P, np.arange(k)
 
 
-def process_noise(dt: np.ndarray, basis: np.ndarray) -> np.ndarray:
-    """Q(T) = T^2 basis[0] + T^3 basis[1] + T^4 basis[2] for T (s) of shape (...).
+#: how the process noise grows with the interval (module docstring)
+NOISE_KINDS = ("discrete", "continuous")
 
-    ``basis`` (3, *M) holds the constant matrices (``MotionModel.noise_basis``,
+
+def process_noise(dt: np.ndarray, basis: np.ndarray) -> np.ndarray:
+    """Q(T) = T basis[0] + T^2 basis[1] + T^3 basis[2] + T^4 basis[3] for T (s) of shape (...).
+
+    ``basis`` (4, *M) holds the constant matrices (``MotionModel.noise_basis``,
     or several models' stacked, M = (r, n, n)); returns (..., *M).
     """
     T = np.asarray(dt, dtype=float)
     T2 = T * T
-    flat = basis.reshape(3, -1)
-    # sums of broadcast products, not (..., 3) @ (3, M): that tall product is multithreaded by BLAS,
+    flat = basis.reshape(4, -1)
+    # sums of broadcast products, not (..., 4) @ (4, M): that tall product is multithreaded by BLAS,
     # which on a busy machine made the IMM's predict twice as slow at 10,000 tracks
-    Q = T2[..., None] * flat[0]
-    Q += (T2 * T)[..., None] * flat[1]
-    Q += (T2 * T2)[..., None] * flat[2]
+    Q = T[..., None] * flat[0]
+    Q += T2[..., None] * flat[1]
+    Q += (T2 * T)[..., None] * flat[2]
+    Q += (T2 * T2)[..., None] * flat[3]
     return Q.reshape(*T.shape, *basis.shape[1:])
 
 
-def _wna_basis(dim: int, sigma_q: float, velocity_power: float) -> np.ndarray:
-    """Noise basis (3, dim, dim) of white-noise acceleration on both axes.
+def _wna_basis(dim: int, sigma_q: float, velocity_power: float, noise: str = "discrete") -> np.ndarray:
+    """Noise basis (4, dim, dim) of white-noise acceleration on both axes.
 
-    Per axis the block is sigma_q^2 [[T^4/4, T^3/2], [T^3/2, c T^2]] with
-    c = 1 from Gamma diag Gamma^T and c = 1/2 in the CT matrix as printed.
+    Discrete: per axis the block is sigma_q^2 [[T^4/4, T^3/2], [T^3/2, c T^2]]
+    with c = 1 from Gamma diag Gamma^T and c = 1/2 in the CT matrix as
+    printed. Continuous: sigma_q^2 [[T^3/3, T^2/2], [T^2/2, T]].
     """
-    basis = np.zeros((3, dim, dim))
+    basis = np.zeros((4, dim, dim))
     q2 = sigma_q**2
     for p, v in zip(POS, VEL):
-        basis[2, p, p] = q2 / 4.0  # T^4
-        basis[1, p, v] = basis[1, v, p] = q2 / 2.0  # T^3
-        basis[0, v, v] = q2 * velocity_power  # T^2
+        if noise == "continuous":
+            basis[2, p, p] = q2 / 3.0  # T^3
+            basis[1, p, v] = basis[1, v, p] = q2 / 2.0  # T^2
+            basis[0, v, v] = q2  # T
+        else:
+            basis[3, p, p] = q2 / 4.0  # T^4
+            basis[2, p, v] = basis[2, v, p] = q2 / 2.0  # T^3
+            basis[1, v, v] = q2 * velocity_power  # T^2
     return basis
+
+
+def _check_noise(model: str, noise: str) -> None:
+    if noise not in NOISE_KINDS:
+        raise FilterError(f"{model}.noise_kind: 'discrete' or 'continuous', got {noise!r}")
 
 
 @dataclass(frozen=True)
@@ -135,21 +157,25 @@ class ConstantVelocity:
 
     Transition F (eq. 5.8), noise gain Gamma (eq. 5.9) and
     Q = sigma_q^2 Gamma Gamma^T (eq. 5.10). ``sigma_q`` (m/s^2) defaults to the
-    thesis's 0.7 a_max = 3.5.
+    thesis's 0.7 a_max = 3.5. With ``noise_kind = "continuous"`` the noise is the
+    continuous white-noise acceleration of spectral density sigma_q^2
+    (m^2/s^3; module docstring).
     """
 
     sigma_q: float = 3.5
+    noise_kind: str = "discrete"
     dim: ClassVar[int] = 4
     position: ClassVar[np.ndarray] = POS
     angles: ClassVar[tuple[int, ...]] = ()
 
     def __post_init__(self) -> None:
         check_nonnegative("ConstantVelocity.sigma_q", self.sigma_q, error=FilterError)
+        _check_noise("ConstantVelocity", self.noise_kind)
 
     @cached_property
     def noise_basis(self) -> np.ndarray:
-        """Q2, Q3, Q4 (3, 4, 4) of eq. 5.10."""
-        return _wna_basis(4, self.sigma_q, 1.0)
+        """Q1, Q2, Q3, Q4 (4, 4, 4) of eq. 5.10 (or of the continuous noise)."""
+        return _wna_basis(4, self.sigma_q, 1.0, self.noise_kind)
 
     def transition(self, x: np.ndarray, dt: np.ndarray, out: np.ndarray | None = None
                    ) -> tuple[np.ndarray, np.ndarray]:
@@ -196,7 +222,10 @@ class CoordinatedTurn:
     determinant, so it is not a covariance on its own.
 
     ``omega_var0`` (rad/s)^2 is the initial turn-rate variance P_omega of
-    eq. 5.56; the initial turn rate is 0 (eq. 5.31).
+    eq. 5.56; the initial turn rate is 0 (eq. 5.31). With ``noise_kind =
+    "continuous"`` the noise is continuous white noise of spectral densities
+    sigma_q^2 (m^2/s^3) and sigma_omega^2 ((rad/s)^2/s): the turn rate's
+    variance grows as sigma_omega^2 T (module docstring).
     """
 
     sigma_q: float = 5.0
@@ -204,6 +233,7 @@ class CoordinatedTurn:
     omega_max: float = math.radians(5.0)
     omega_var0: float = 0.0076
     noise_variant: Literal["derived", "printed"] = "derived"
+    noise_kind: str = "discrete"
     dim: ClassVar[int] = 5
     position: ClassVar[np.ndarray] = POS
     angles: ClassVar[tuple[int, ...]] = ()
@@ -215,13 +245,18 @@ class CoordinatedTurn:
         check_positive("CoordinatedTurn.omega_var0", self.omega_var0, error=FilterError)
         if self.noise_variant not in ("derived", "printed"):
             raise FilterError(f"CoordinatedTurn.noise_variant: 'derived' or 'printed', got {self.noise_variant!r}")
+        _check_noise("CoordinatedTurn", self.noise_kind)
 
     @cached_property
     def noise_basis(self) -> np.ndarray:
-        """Q2, Q3, Q4 (3, 5, 5) of eqs. 5.14-5.15 (variant per ``noise_variant``)."""
+        """Q1, Q2, Q3, Q4 (4, 5, 5) of eqs. 5.14-5.15 (variant per ``noise_variant``), or of the continuous
+        noise."""
         c = 1.0 if self.noise_variant == "derived" else 0.5
-        basis = _wna_basis(5, self.sigma_q, c)
-        basis[0, 4, 4] = c * self.sigma_omega**2
+        basis = _wna_basis(5, self.sigma_q, c, self.noise_kind)
+        if self.noise_kind == "continuous":
+            basis[0, 4, 4] = self.sigma_omega**2
+        else:
+            basis[1, 4, 4] = c * self.sigma_omega**2
         return basis
 
     def transition(self, x: np.ndarray, dt: np.ndarray, out: np.ndarray | None = None

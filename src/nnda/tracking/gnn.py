@@ -48,6 +48,7 @@ class GNNTracker(SingleHypothesisTracker):
     """IMM tracker with global nearest neighbour association."""
 
     name: ClassVar[str] = "gnn"
+    takes_reports: ClassVar[bool] = True
     config_type: ClassVar[type[TrackerConfig]] = GNNConfig
 
     def reset(self) -> None:

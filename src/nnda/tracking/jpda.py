@@ -213,6 +213,7 @@ class JPDATracker(SingleHypothesisTracker):
     """IMM tracker with joint probabilistic data association (baseline)."""
 
     name: ClassVar[str] = "jpda"
+    takes_reports: ClassVar[bool] = True
     config_type: ClassVar[type[TrackerConfig]] = JPDAConfig
 
     def reset(self) -> None:

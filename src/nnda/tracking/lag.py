@@ -82,7 +82,7 @@ class RevisesBranches(Protocol):
 @dataclass(frozen=True)
 class LagMotion:
     """The motion model of the reported [x, vx, y, vy] the smoothing uses: the constant-velocity transition
-    F(T) and the process noise Q(T) = T^2 B0 + T^3 B1 + T^4 B2 of ``basis`` (3, 4, 4), plus ``turn_var``
+    F(T) and the process noise Q(T) = T B0 + T^2 B1 + T^3 B2 + T^4 B3 of ``basis`` (4, 4, 4), plus ``turn_var``
     (rad/s)^2 J J^T, the spread of a turn-rate uncertainty: J = d f / d omega at omega = 0, (-vy T^2 / 2,
     -vy T, vx T^2 / 2, vx T) at the estimate's velocity (0 for a model without turns)."""
 
@@ -232,7 +232,7 @@ def revised(window: list[TrackerOutput], motion: LagMotion | None, contact: np.n
     used = np.concatenate([contact, *(o.contact for o in window[1:])]).astype(np.int64, copy=False)
     times = np.array([o.time for o in window], float)
     smooth = motion is not None
-    basis, turn_var = (motion.basis, motion.turn_var) if smooth else (np.zeros((3, 4, 4)), 0.0)
+    basis, turn_var = (motion.basis, motion.turn_var) if smooth else (np.zeros((4, 4, 4)), 0.0)
     new_status, xs, Ps = _revised(ids, status, x, P, used, starts, times, basis, turn_var, smooth)
     return TrackerOutput(first.scan, first.time, first.track_id, new_status, xs, Ps, contact)
 
@@ -242,7 +242,7 @@ def _revised(ids, status, x, P, used, starts, times, basis, turn_var, smooth):
     """`revised`'s compiled part over a window of W outputs, output w in rows starts[w]:starts[w + 1] of
     ids (N,), status (N,), x (N, 4), P (N, 4, 4), the contacts used (N,), at times (W,) s. Returns the first
     output's status (K,) after the back-fill and the ended tracks' DELETED, and its states x (K, 4),
-    P (K, 4, 4), RTS-smoothed with the CV transition and the process noise of ``basis`` (3, 4, 4) and
+    P (K, 4, 4), RTS-smoothed with the CV transition and the process noise of ``basis`` (4, 4, 4) and
     ``turn_var`` (`LagMotion`) when ``smooth``."""
     W = times.size
     K = starts[1]
@@ -347,7 +347,7 @@ def _rts_step(xf, Pf, nxt, T, basis, turn_var, x_s, P_s):
         Pp[i, 3] = FP[i, 3]
     for i in range(4):
         for j in range(4):
-            Pp[i, j] += T2 * basis[0, i, j] + T2 * T * basis[1, i, j] + T2 * T2 * basis[2, i, j] \
+            Pp[i, j] += T * basis[0, i, j] + T2 * basis[1, i, j] + T2 * T * basis[2, i, j] + T2 * T2 * basis[3, i, j] \
                 + turn_var * J[i] * J[j]
     short = np.empty((4, 4))
     for i in range(4):

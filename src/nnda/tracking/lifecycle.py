@@ -219,6 +219,11 @@ class LifecycleConfig(BaseModel):
                                    "(max_gate_clutter); False: no such rule, as in Vargas Avila (2015)")
     coverage_deletion: bool = Field(True, description="delete a track outside every sensor's coverage by more "
                                     "than its gate")
+    report_gap_s: Annotated[float, Field(
+        gt=0, description="asynchronous reports (a sensor with reports = true): the longest a track may go "
+        "without a report (s) before each window's end counts as a miss for it (a report of one target says "
+        "nothing of the others, so no other miss is counted), and how long an unused report waits for a later "
+        "one to start a track with")] = 60.0
 
     @model_validator(mode="after")
     def _order(self) -> LifecycleConfig:

@@ -75,6 +75,7 @@ from nnda.tracking.global_hypothesis import global_hypothesis
 from nnda.tracking.lifecycle import SANITY_REASONS, advance_score, sanity_reasons
 from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
+from nnda.tracking.reports import Phase
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts, TrackerConfig, Tracks
 
 #: history entry of a scan before the family existed, or whose contact is not known (a miss is NO_CONTACT)
@@ -131,6 +132,7 @@ class MHTTracker(ContactTracker):
     """IMM + track-oriented MHT (the classical method of Vargas Avila 2015)."""
 
     name: ClassVar[str] = "mht"
+    takes_reports: ClassVar[bool] = True
     config_type: ClassVar[type[TrackerConfig]] = MHTConfig
 
     def reset(self) -> None:
@@ -143,9 +145,9 @@ class MHTTracker(ContactTracker):
         self.n_clusters_greedy = 0  # clusters above max_exact_leaves, chosen greedily
 
     # ---------------------------------------------------------------------- one scan
-    def step(self, scan: Scan) -> TrackerOutput:
-        sc = self._checked(scan)
-        z, xy, time = sc.z, sc.xy, sc.time
+    def _step(self, scan: Scan, phase: Phase) -> TrackerOutput:
+        sc = self._checked(scan, phase)
+        z, time = sc.z, sc.time
         leaves, shown, chosen = None, None, np.empty(0, np.int64)
         used = np.zeros(len(z), bool)
         if self.leaves is not None and len(self.leaves):
@@ -154,7 +156,7 @@ class MHTTracker(ContactTracker):
             now = leaves.hist[chosen, -1]
             used[now[now >= 0]] = True
         families = 0 if leaves is None else np.unique(leaves.tracks.track_id).size
-        born, contact = self.initiation(z, xy, used, time, families, sc.sensor)
+        born, contact = self._initiate(sc, used, families)
         if born is not None:
             new = self._new_leaves(self._start_scores(born, sc, contact), contact)
             x, P = self.filter.estimate(born.filt)
@@ -175,7 +177,7 @@ class MHTTracker(ContactTracker):
         x_pred, P_pred, mp = pred.gating.x, pred.gating.P, pred.gating.measurement
         p_gate = 1.0 - math.exp(-cfg.gate / 2.0)  # chi-square cdf, 2 dof
         miss_score = leaves.score + math.log(1.0 - cfg.pd * p_gate)
-        observed = self._observed(scan, pred)  # a leaf its sensor cannot see keeps its score and counters
+        observed = self._observed(scan, pred, tr.t2)  # a leaf the scan does not observe keeps its score and counters
         if observed is not None:
             miss_score = np.where(observed, miss_score, leaves.score)
 
@@ -204,12 +206,13 @@ class MHTTracker(ContactTracker):
         if dp.size:
             updated = linearised_update(imm, pred.take(dp), z[dc], np.ones(dp.size, bool))
             filt = type(filt).concat([filt.take(~detected), updated])  # misses come first
-        tracks = children.after_scan(contact, filt, z, xy, time, cfg.lifecycle,
-                                     None if observed is None else observed[parent])
+        # the leaves the scan observed: with reports, those that took one
+        seen = detected if scan.phase is Phase.REPORTS else None if observed is None else observed[parent]
+        tracks = children.after_scan(contact, filt, z, xy, time, cfg.lifecycle, seen)
         max_score = np.maximum(leaves.max_score[parent], score)
         if self.confirmation_rule != "mn":  # Wald's test on the leaf's score, M/N counts ignored
             tracks = replace(tracks, status=advance_score(tr.status[parent], score, max_score, cfg.lifecycle,
-                                                          None if observed is None else observed[parent],
+                                                          seen,
                                                           tracks.confirm_at, tracks.delete_at, tracks.consecutive))
         status = tracks.status
         d1 = detected[:, None]

@@ -15,7 +15,7 @@ import importlib
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from nnda.data.scenario import Sensor
+from nnda.data.scenario import Sensor, sensor_tuple
 from nnda.errors import ConfigError, validated
 from nnda.tracking.glmb import GLMBTracker
 from nnda.tracking.gnn import GNNTracker
@@ -27,7 +27,7 @@ from nnda.tracking.neural import NeuralTracker
 from nnda.tracking.phd.fusion import AAFusionTracker, CentralPHDTracker, FusionTracker, GCIFusionTracker
 from nnda.tracking.phd.tracker import CPHDTracker, EKPHDTracker, GMPHDTracker, UKPHDTracker
 from nnda.tracking.pmbm import PMBMTracker
-from nnda.tracking.tracker import ContactTracker, Tracker
+from nnda.tracking.tracker import ContactTracker, Tracker, reporting_trackers
 
 #: Stone Soup peer trackers: name -> "module:class", imported on first lookup
 PEERS: dict[str, str] = {
@@ -106,6 +106,11 @@ def make_tracker(name: str, sensors: Sensor | Sequence[Sensor], params: Mapping[
     ``params`` (defaults: each config's; `check_config`); a tracker that cannot use these sensors is a
     ConfigError."""
     cls = _tracker_class(name, where)
+    reporting = [s.name for s in sensor_tuple(sensors) if s.reports]
+    if reporting and not getattr(cls, "takes_reports", False):
+        raise ConfigError(f"{where}: tracker {name!r} does not take asynchronous reports (sensor "
+                          f"{', '.join(map(repr, reporting))} has reports = true); trackers that do: "
+                          f"{', '.join(reporting_trackers())}")
     config = check_config(name, params, where)
     try:
         return cls(sensors, config)

@@ -47,7 +47,7 @@ from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from functools import cached_property
-from typing import Annotated, ClassVar, NamedTuple, Protocol, runtime_checkable
+from typing import Annotated, ClassVar, Literal, NamedTuple, Protocol, runtime_checkable
 
 import numba
 import numpy as np
@@ -93,6 +93,7 @@ from nnda.tracking.lifecycle import (
 from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.marginals import log_miss_weight
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
+from nnda.tracking.reports import Phase, report_pairs, report_times, step_window
 
 #: detection probability of the track score for a tracker whose config has none (MHT's default)
 SCORE_PD = 0.9
@@ -123,11 +124,18 @@ class MotionConfig(BaseModel):
                                        "next scan")] = DEFAULT_TPM[0][1]
     p_ct_to_cv: Annotated[float, Field(gt=0, lt=1, description="probability that a CT track flies straight "
                                        "(CV) by the next scan")] = DEFAULT_TPM[1][0]
+    noise: Literal["discrete", "continuous"] = Field("discrete", description=(
+        "how the process noise grows with the time since a track's last update: 'discrete' (an acceleration "
+        "of sd sigma_q held over the interval, velocity variance sigma_q^2 T^2: the model of Vargas Avila "
+        "(2015), made for one fixed scan period) or 'continuous' (white-noise acceleration of spectral density "
+        "sigma_q^2 in m^2/s^3, velocity variance sigma_q^2 T: consistent whatever the interval, for "
+        "asynchronous reports whose gaps range from seconds to minutes)"))
 
     def imm(self, measurement: MeasurementModel) -> IMM:
         """The CV + CT IMM of these settings with ``measurement``; the defaults give `IMM.for_sensor`'s."""
-        cv = ConstantVelocity(sigma_q=self.cv_sigma_q)
-        ct = CoordinatedTurn(sigma_q=self.ct_sigma_q, sigma_omega=self.ct_sigma_omega)
+        cv = ConstantVelocity(sigma_q=self.cv_sigma_q, noise_kind=self.noise)
+        ct = CoordinatedTurn(sigma_q=self.ct_sigma_q, sigma_omega=self.ct_sigma_omega,
+                             noise_kind=self.noise)
         tpm = ((1.0 - self.p_cv_to_ct, self.p_cv_to_ct), (self.p_ct_to_cv, 1.0 - self.p_ct_to_cv))
         return IMM(models=(cv, ct), measurement=measurement, tpm=tpm)
 
@@ -215,14 +223,15 @@ def checked_contacts(name: str, scan: Scan, polar: bool, sensor: str) -> np.ndar
     return z
 
 
-def checked_scan(name: str, scan: Scan, last_time: float, sensors: tuple[Sensor, ...], last_sensor: int | None = None
-                 ) -> tuple[np.ndarray, float]:
+def checked_scan(name: str, scan: Scan, last_time: float, sensors: tuple[Sensor, ...], last_sensor: int | None = None,
+                 reports: bool = False) -> tuple[np.ndarray, float]:
     """The contacts z (N, 2) and time (s) of ``scan``, checked for tracker ``name`` built for ``sensors``.
 
     Raises TrackingError unless ``scan`` is a scan (`nnda.data.dataset.Scan`: index, time, measurements,
     sensor), its time is a finite number after ``last_time`` (or equal to it when the tracker gives the
     previous scan's sensor, ``last_sensor``, and this scan comes from another: two sensors' sweeps at one
-    instant), its sensor is one of ``sensors`` and its
+    instant), its sensor is one of ``sensors`` (and sweeps, unless the tracker takes asynchronous ``reports``:
+    `nnda.tracking.reports`) and its
     measurements pass `checked_contacts` for that sensor's kind ([range m, azimuth rad], positive ranges, for
     a polar sensor; [x m, y m] for a position sensor).
     """
@@ -233,6 +242,10 @@ def checked_scan(name: str, scan: Scan, last_time: float, sensors: tuple[Sensor,
     if not (isinstance(sensor, (int, np.integer)) and 0 <= sensor < len(sensors)):
         raise TrackingError(f"{name}: scan {scan.index} comes from sensor {sensor!r}, but this tracker was built "
                             f"for {len(sensors)} sensor(s) ({', '.join(s.name for s in sensors)})")
+    if sensors[sensor].reports and not reports:
+        raise TrackingError(f"{name}: scan {scan.index} comes from sensor {sensors[sensor].name!r} of asynchronous "
+                            f"reports, which this tracker does not take; trackers that do: "
+                            f"{', '.join(reporting_trackers())}")
     if isinstance(scan.time, (bool, np.bool_)) or not isinstance(scan.time, numbers.Real):
         raise TrackingError(f"{name}: scan {scan.index} has time {scan.time!r} of type {type(scan.time).__name__}; "
                             f"a scan's time is a number of seconds")
@@ -244,6 +257,17 @@ def checked_scan(name: str, scan: Scan, last_time: float, sensors: tuple[Sensor,
                             f"(t = {last_time} s{'' if last_sensor is None else f', sensor {last_sensor}'}); scans "
                             f"must arrive in time order, those of two sensors at one instant in either order")
     return checked_contacts(name, scan, sensors[sensor].kind == "polar", sensors[sensor].name), time
+
+
+def reporting_trackers() -> list[str]:
+    """The names of the contact trackers defined so far that take asynchronous reports (``takes_reports``)."""
+    found, todo = set(), [ContactTracker]
+    while todo:
+        cls = todo.pop()
+        todo.extend(cls.__subclasses__())
+        if cls.takes_reports and hasattr(cls, "name"):
+            found.add(cls.name)
+    return sorted(found)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -553,6 +577,7 @@ class TwoPointInitiation:
         self.windows = tuple(lifecycle.window(s.scan_period_s, sensor_noise_m(s)) for s in sensors)
         self.fast_windows = tuple(lifecycle.fast_window(s.scan_period_s, sensor_noise_m(s)) for s in sensors)
         self.fast_tolerance = tuple(fast_tolerance_m(sensor_noise_m(s), s.scan_period_s) for s in sensors)
+        self.noise = tuple(sensor_noise_m(s) for s in sensors)
         self.reset()
 
     def reset(self) -> None:
@@ -566,6 +591,8 @@ class TwoPointInitiation:
         #: lines of contacts refused for ``lifecycle.v_max`` since the last reset (class docstring)
         self.n_too_fast = 0
         self._fast = [no_lines()] * n  # per sensor: the lines of refused fast pairs to continue (`fast_lines`)
+        #: per sensor of asynchronous reports: the unused reports waiting for a pair, (z, xy, time (s))
+        self.waiting = [(np.empty((0, 2)), np.empty((0, 2)), np.empty(0))] * n
 
     def __call__(self, z: np.ndarray, xy: np.ndarray, used: np.ndarray, time: float, live: int, sensor: int = 0
                  ) -> tuple[Tracks | None, np.ndarray | None]:
@@ -592,13 +619,49 @@ class TwoPointInitiation:
         self.contacts[sensor], self.xy[sensor], self.time[sensor] = rest_z, rest_xy, time
         if not contact.size:
             return None, None
+        return self._born(z, contact, fields, time - before, sensor)
+
+    def _born(self, z: np.ndarray, contact: np.ndarray, fields: tuple, dt: float | np.ndarray, sensor: int
+              ) -> tuple[Tracks, np.ndarray]:
+        """The preliminary tracks of `_opened`'s ``fields`` with their second ``contact`` (K,) of z, ``dt`` (s,
+        scalar or (K,)) after their first, started by the sensor's filter (two-point start); ids move on."""
         track_id, status, history, counts, scores = fields
         p2, cov2 = self.filters[sensor].measurement.position(z[contact])
         history[:, P2] = p2
-        born = Tracks(track_id, status, self.filters[sensor].start(history[:, P1], p2, cov2, time - before), history,
+        born = Tracks(track_id, status, self.filters[sensor].start(history[:, P1], p2, cov2, dt), history,
                       counts, scores)
         self.next_id += len(contact)
         return born, contact
+
+    def reports(self, z: np.ndarray, xy: np.ndarray, used: np.ndarray, time: float, live: int, sensor: int = 0
+                ) -> tuple[Tracks | None, np.ndarray | None]:
+        """`__call__` for asynchronous reports (`nnda.tracking.reports`): the reports z (N, 2), xy (N, 2) m at
+        ``time`` that no track ``used`` (N,) pair with ``sensor``'s unused reports of the last
+        ``lifecycle.report_gap_s`` inside the speed window of each pair's own time difference
+        (`reports.report_pairs`); each pair opens a preliminary track, whose first contact leaves the waiting
+        reports; the reports in no pair wait in turn. The window's middle and fast lines are the sweeps'
+        (``max_tracks_per_initiator`` and ``n_too_fast`` do not apply); ``max_tracks`` does, keeping the pairs
+        of shortest wait."""
+        cfg = self.lifecycle
+        wz, wxy, wt = self.waiting[sensor]
+        recent = wt >= time - cfg.report_gap_s
+        wz, wxy, wt = wz[recent], wxy[recent], wt[recent]
+        free, i, j = report_pairs(wxy, time - wt, xy, used, cfg, self.noise[sensor])
+        room = max(cfg.max_tracks - live, 0)
+        if len(i) > room:
+            self._refuse(len(i) - room, live, time)
+            keep = np.sort(np.argsort(-wt[i], kind="stable")[:room])
+            i, j = i[keep], j[keep]
+        threshold = self._confirmation_threshold(len(wxy)) if len(i) else math.inf
+        rest_z, rest_xy, contact, fields = _opened(free, i, j, j, wxy, z, xy, self.next_id, time, time, threshold)
+        spent = np.zeros(len(wt), bool)
+        spent[i] = True
+        self.waiting[sensor] = (np.concatenate([wz[~spent], rest_z]), np.concatenate([wxy[~spent], rest_xy]),
+                                np.concatenate([wt[~spent], np.full(len(rest_z), time)]))
+        if not contact.size:
+            return None, None
+        fields[2][:, T1] = fields[2][:, T0] = wt[i]  # the history's first contact: each pair's own
+        return self._born(z, contact, fields, time - wt[i], sensor)
 
     def _too_fast(self, init_xy: np.ndarray, xy: np.ndarray, free: np.ndarray, windowed: np.ndarray,
                   before: float, time: float, sensor: int) -> None:
@@ -684,6 +747,8 @@ class ContactTracker(ABC):
 
     name: ClassVar[str]
     config_type: ClassVar[type[TrackerConfig]] = ContactTrackerConfig
+    #: whether the tracker takes a sensor of asynchronous reports (`nnda.tracking.reports`; it implements `_step`)
+    takes_reports: ClassVar[bool] = False
     #: the rule of a tracker that confirms its tracks by its own posterior whatever ``lifecycle.confirmation``
     #: says (the labelled random-finite-set trackers: "existence"); None: the life cycle's rule
     own_confirmation: ClassVar[str | None] = None
@@ -817,25 +882,55 @@ class ContactTracker(ABC):
             warnings.warn(f"{self.name}, t = {time} s: {what} (config field {field}); later cases of this run are "
                           f"only counted", BoundWarning, stacklevel=3)
 
-    @abstractmethod
     def step(self, scan: Scan) -> TrackerOutput:
-        """Process one sweep and report every track."""
+        """Process one scan and report every track: a sweep in one pass of `_step`, a window of asynchronous
+        reports (a sensor with ``reports``) report time by report time (`nnda.tracking.reports`)."""
+        sensor = getattr(scan, "sensor", None)
+        if not (isinstance(sensor, (int, np.integer)) and 0 <= sensor < len(self.sensors)
+                and self.sensors[sensor].reports):
+            return self._step(scan, Phase.SWEEP)  # also for a scan `checked_scan` refuses
+        z, _ = checked_scan(self.name, scan, self.last_time, self.sensors, self.last_sensor, True)
+        return step_window(self._step, scan, report_times(self.name, scan, self.last_time, len(z)))
 
-    def _checked(self, scan: Scan) -> ScanContacts:
+    def _step(self, scan: Scan, phase: Phase) -> TrackerOutput:
+        """One pass of the tracker's scan step over ``scan`` in ``phase`` (`nnda.tracking.reports.Phase`); a
+        tracker that takes no asynchronous reports (``takes_reports`` False) overrides `step` instead."""
+        raise NotImplementedError(f"{self.name}: a contact tracker implements _step or step")
+
+    def _checked(self, scan: Scan, phase: Phase = Phase.SWEEP) -> ScanContacts:
         """The scan checked (`checked_scan`) and, from here on, the one being processed (``last_time``,
-        ``last_sensor``: bound warnings name its time)."""
-        z, time = checked_scan(self.name, scan, self.last_time, self.sensors, self.last_sensor)
+        ``last_sensor``: bound warnings name its time). A report window's end (`Phase.DUE`) may fall at the
+        time of its last report (`nnda.tracking.reports.report_times` checked it is not earlier)."""
+        last = -np.inf if phase is Phase.DUE else self.last_time
+        z, time = checked_scan(self.name, scan, last, self.sensors, self.last_sensor, self.takes_reports)
         self.last_time, self.last_sensor = time, int(scan.sensor)
         imm = self.filters[scan.sensor]
-        return ScanContacts(scan.index, time, int(scan.sensor), imm, z, imm.measurement.cartesian(z))
+        return ScanContacts(scan.index, time, int(scan.sensor), imm, z, imm.measurement.cartesian(z), phase)
 
-    def _observed(self, scan: ScanContacts, pred: IMMPrediction) -> np.ndarray | None:
-        """Which tracks the scan's sensor can see at their predicted positions: inside its coverage, or
-        outside every sensor's (a track nobody sees still misses). None (all) with one sensor."""
+    def _observed(self, scan: ScanContacts, pred: IMMPrediction, since: np.ndarray | None = None,
+                  contact: np.ndarray | None = None) -> np.ndarray | None:
+        """Which tracks the scan observed (K,); None: all. A sweep: those its sensor can see at their predicted
+        positions, inside its coverage or outside every sensor's (a track nobody sees still misses; None with
+        one sensor). Asynchronous reports (`nnda.tracking.reports`): those that took a report (``contact``
+        (K,), before association none); at a window's end, those last updated (``since`` (K,), s) more than
+        ``lifecycle.report_gap_s`` ago."""
+        if scan.phase is Phase.REPORTS:
+            return np.zeros(len(pred.state.x), bool) if contact is None else contact != NO_CONTACT
+        if scan.phase is Phase.DUE:
+            return scan.time - since > self.config.lifecycle.report_gap_s
         if len(self.sensors) == 1:
             return None
         x = self.filter.estimate(pred.state)[0]
         return observable(self.sensors, scan.sensor, x[:, 0], x[:, 2])
+
+    def _initiate(self, scan: ScanContacts, used: np.ndarray, live: int) -> tuple[Tracks | None, np.ndarray | None]:
+        """New preliminary tracks from the scan's contacts no track ``used`` (N,), ``live`` tracks held already
+        (`TwoPointInitiation`): a sweep's with the sensor's last sweep, reports with the sensor's unused
+        reports of the last ``lifecycle.report_gap_s``; none at a report window's end."""
+        if scan.phase is Phase.DUE:
+            return None, None
+        start = self.initiation.reports if scan.phase is Phase.REPORTS else self.initiation
+        return start(scan.z, scan.xy, used, scan.time, live, scan.sensor)
 
 
 @dataclass(frozen=True)
@@ -845,7 +940,9 @@ class ScanContacts:
     ``sensor`` indexes the tracker's sensors and ``filter`` is the per-track
     filter with that sensor's measurement model; ``z`` (N, 2) holds the
     contacts in its measurement space (polar: [range m, azimuth rad] from the
-    sensor) and ``xy`` (N, 2) their positions (m, scenario frame).
+    sensor) and ``xy`` (N, 2) their positions (m, scenario frame); ``phase``
+    says whether they are a sweep's or asynchronous reports'
+    (`nnda.tracking.reports.Phase`).
     """
 
     index: int
@@ -854,6 +951,7 @@ class ScanContacts:
     filter: IMM
     z: np.ndarray
     xy: np.ndarray
+    phase: Phase = Phase.SWEEP
 
 
 def hard_update(track_filter: IMM, pred: IMMPrediction, z: np.ndarray, contact: np.ndarray) -> Association:
@@ -887,15 +985,16 @@ class SingleHypothesisTracker(ContactTracker):
         a contact; see `hard_update`).
         """
 
-    def step(self, scan: Scan) -> TrackerOutput:
-        """Process one sweep and report every track."""
-        sc = self._checked(scan)
-        z, xy, time = sc.z, sc.xy, sc.time
+    def _step(self, scan: Scan, phase: Phase) -> TrackerOutput:
+        """One pass of the scan step (module docstring) in ``phase``."""
+        sc = self._checked(scan, phase)
+        z, time = sc.z, sc.time
         used = None  # the contacts the tracks reported (N,); None: no track, none
         shown: list[Shown] = []  # the output's blocks: old tracks, new ones
         tracks = self.tracks
         if tracks is not None:
-            if self.confirmation_rule == "existence":  # IPDA's Markov prediction of the existence probability
+            # IPDA's Markov prediction of the existence probability, once a sweep or a report window
+            if self.confirmation_rule == "existence" and phase is not Phase.REPORTS:
                 survival = self.config.lifecycle.survival_probability
                 tracks = tracks.rescored(predicted_log_odds(tracks.score, survival))
             pred = sc.filter.predict(tracks.filt, time - tracks.t2, check=False)
@@ -907,8 +1006,7 @@ class SingleHypothesisTracker(ContactTracker):
         score_rule = self.confirmation_rule != "mn"
         # under the score rule only confirmed tracks take room from new ones: the cap then keeps the best scores
         held = 0 if tracks is None else int((tracks.status == CONFIRMED).sum()) if score_rule else len(tracks)
-        born, born_contact = self.initiation(z, xy, np.zeros(len(z), bool) if used is None else used, time, held,
-                                             sc.sensor)
+        born, born_contact = self._initiate(sc, np.zeros(len(z), bool) if used is None else used, held)
         if born is not None:
             born = self._start_scores(born, sc, born_contact)
             if score_rule:
@@ -930,7 +1028,8 @@ class SingleHypothesisTracker(ContactTracker):
         by reason. Returns the tracks that live on (None: none), the K tracks' report and which of the scan's
         contacts it holds (N,)."""
         cfg, u, k, g = self.config.lifecycle, assoc.filt, tracks.filt, pred.gating
-        args = tracks._scan_args(assoc.contact, scan.z, scan.xy, scan.time, cfg, self._observed(scan, pred),
+        args = tracks._scan_args(assoc.contact, scan.z, scan.xy, scan.time, cfg,
+                                 self._observed(scan, pred, tracks.t2, assoc.contact),
                                  self._score_gain(pred, scan, assoc))
         status, x, P, contact, used, deletions, survivors = _finished(
             args, u.x, u.P, u.mu, k.x, k.P, k.mu, self.filter.output_dim, self._sanity_args, self._quality_density(
