@@ -31,8 +31,8 @@ from nnda.tracking.registry import make_tracker
 SCANS, PERIOD_S, RANGE_M = 30, 10.0, 250_000.0
 
 
-def scene(n: int, seed: int = 0) -> Scenario:
-    """n aircraft over a 250 km radar's coverage, 100 clutter points a scan."""
+def scene(n: int, seed: int = 0, scans: int = SCANS) -> Scenario:
+    """n aircraft over a 250 km radar's coverage, 100 clutter points a scan, ``scans`` scans of 10 s."""
     rng = np.random.default_rng(seed)
     radar = Sensor(scan_period_s=PERIOD_S, max_range_m=RANGE_M, min_range_m=5_000.0, sigma_range_m=50.0,
                    sigma_azimuth_mrad=1.5, pd=0.9, clutter=Clutter(law="annulus", count=100))
@@ -42,8 +42,8 @@ def scene(n: int, seed: int = 0) -> Scenario:
         turn = {"normal_accel": float(rng.uniform(-2, 2))} if i % 2 else {}
         targets.append(Target(name=f"a{i}", x_m=r * np.sin(b), y_m=r * np.cos(b),
                               heading_deg=float(rng.uniform(0, 360)), speed_m_s=float(rng.uniform(70, 200)),
-                              segments=[Segment(duration_s=SCANS * PERIOD_S, **turn)]))
-    return Scenario(name=f"aircraft{n}", duration_s=SCANS * PERIOD_S, targets=targets, sensors=[radar])
+                              segments=[Segment(duration_s=scans * PERIOD_S, **turn)]))
+    return Scenario(name=f"aircraft{n}", duration_s=scans * PERIOD_S, targets=targets, sensors=[radar])
 
 
 def scored(dataset, outputs, dense: bool) -> tuple[float, dict]:

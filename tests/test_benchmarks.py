@@ -33,6 +33,7 @@ SMALLEST = {
     "bench_pedestrian.py": ["--walkers", "20", "--steps", "5", "--repeat", "1", "--phd-runs", "1", "--test4-runs", "2",
                             "--jobs", "1"],
     "bench_phd.py": ["--runs", "1", "--repeat", "1", "--scans", "2", "--peer-scans", "2"],
+    "bench_scale.py": ["--targets", "20", "--scans", "3", "--model", "{seed}"],
     "bench_scaling.py": ["--scans", "2", "--give-up", "1", "--hard-stop", "5", "--out", "scaling.png",
                          "--model", "{seed}"],
     "bench_scoring.py": ["--targets", "20", "60"],

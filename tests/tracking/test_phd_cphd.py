@@ -10,6 +10,7 @@ from decimal import Decimal, getcontext
 
 import numpy as np
 import pytest
+from scipy.special import gammaln
 from scipy.stats import binom, poisson
 from test_phd_recursion import scene
 
@@ -47,6 +48,25 @@ def test_esf_over_a_huge_range_against_high_precision():
         for k in range(40, 0, -1):
             e[k] += x * e[k - 1]
     np.testing.assert_allclose(got, [float(x.ln()) for x in e], rtol=1e-9)
+
+
+def test_esf_of_a_thousand_contacts_spans_more_than_a_float():
+    """1,500 equal Lambda = 1: e_k = C(1500, k) runs from 1 to ~1e450, past a float's range within one set; every
+    degree still exact (the log of the binomial coefficient), none lost to underflow."""
+    m = 1_500
+    k = np.arange(m + 1)
+    np.testing.assert_allclose(cphd.log_esf(np.zeros(m), m), gammaln(m + 1) - gammaln(k + 1) - gammaln(m - k + 1),
+                               rtol=1e-9, atol=1e-9)
+
+
+def test_leave_one_out_of_a_thousand_contacts_keeps_the_low_degrees():
+    """1,500 equal Lambda = 1 with b at degree 3 (and a negligible b at 750): every leave-one-out sum is
+    C(1499, 3), though the prefix ESFs at degree 3 sit ~1e300 below their largest degree."""
+    m = 1_500
+    log_b = np.full(751, -np.inf)
+    log_b[3], log_b[750] = 0.0, -2_000.0
+    expected = gammaln(m) - gammaln(4) - gammaln(m - 3)  # log C(1499, 3); C(1499, 750) e^-2000 adds < 1e-300
+    np.testing.assert_allclose(cphd.log_leave_one_out(np.zeros(m), log_b), expected, rtol=1e-12)
 
 
 @pytest.mark.parametrize("seed", range(3))

@@ -337,7 +337,13 @@ class UKPHDConfig(PHDConfig):
 class CPHDConfig(PHDConfig):
     """``cphd``: the cardinalised PHD, EK linearisation by default; no spawning (the CPHD has none)."""
 
-    max_cardinality: Annotated[int, Field(ge=1, description="N_max, the cardinality support 0..N_max")] = 100
+    max_cardinality: Annotated[int, Field(ge=1, description="N_max, the cardinality support 0..N_max (at the "
+                                                          "start of a run: see cardinality_per_target)")] = 100
+    cardinality_per_target: Annotated[float, Field(ge=1)] | None = Field(
+        1.5, description="the support grows with the targets: once this x the expected target count (the "
+        "posterior's mean) passes N_max, N_max doubles until it holds it, so a scene of more targets than "
+        "max_cardinality keeps its count; None: N_max fixed, the scans whose posterior piles up at N_max "
+        "counted (n_cardinality_capped) with a BoundWarning the first time in a run")
     extraction: Literal["threshold", "map"] = Field(
         "threshold", description="threshold: as the PHD; map: the MAP count's heaviest components")
 

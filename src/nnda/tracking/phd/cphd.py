@@ -28,29 +28,31 @@ and the copy of component j updated by z weighs
 ``p_D w_j q_j(z) / c(z) <Upsilon^1[Z \\ {z}], p> / <Upsilon^0[Z], p>``.
 
 Numerics. The elementary symmetric functions e_k span hundreds of orders
-of magnitude, so every sum runs on logarithms (the factors above) or on
-rescaled values with their scale kept as a logarithm. e_k(Lambda) comes
-from Vieta's recursion on Lambda / max(Lambda); the N values
+of magnitude, and at a thousand contacts more than a float's range between
+degrees of one contact set, so every sum runs on logarithms. e_k(Lambda)
+comes from Vieta's recursion in the log domain; the N values
 ``<Upsilon^1[Z \\ {z}], p>`` come from one forward pass (prefix ESFs) and one
 backward pass (the prefix's partner, a correlation of the Upsilon^1
 coefficients with the suffix ESFs), both sums of non-negative terms only
-(no subtraction, so no cancellation), renormalised every 64 contacts. Only
-the N_g contacts with a gated pair enter them (a contact without one has
-Lambda = 0: it counts in |Z| only): O(N_g min(N_g, N_max)) work in 2 N_g
-vectorised steps (the recursion is sequential in the contacts; each step is
-a vector operation over the degrees).
+(no subtraction, so no cancellation), compiled (numba). Only the N_g
+contacts with a gated pair enter them (a contact without one has Lambda =
+0: it counts in |Z| only): O(N_g min(N_g, N_max)) work.
 """
 
 from __future__ import annotations
 
+import math
 from functools import lru_cache
 
+import numba
 import numpy as np
 from scipy.special import gammaln, xlogy
 from scipy.stats import binom, poisson
 
 from nnda.errors import TrackingError
 from nnda.tracking.phd.gmphd import Pairs, per_contact_logsumexp
+
+_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 
 
 def predict_cardinality(p: np.ndarray, ps: float, birth_mean: float) -> np.ndarray:
@@ -59,6 +61,18 @@ def predict_cardinality(p: np.ndarray, ps: float, birth_mean: float) -> np.ndarr
     the mass past N_max is cut and the rest renormalised."""
     out = np.convolve(_thinning(len(p), ps) @ p, poisson.pmf(np.arange(len(p)), birth_mean))[:len(p)]
     return out / out.sum()
+
+
+def support_for(p: np.ndarray, minimum: int, per_target: float) -> np.ndarray:
+    """``p`` (N_max+1,) on a support 0..N' that holds ``per_target`` times its mean: ``p`` itself when N_max
+    does, else padded with zeros to the smallest N' = ``minimum`` x 2^k that does (doubling keeps the few
+    support sizes `_thinning` caches)."""
+    need = per_target * float(np.arange(len(p)) @ p)
+    size = len(p) - 1
+    if size >= need:
+        return p
+    size = minimum * 2 ** int(np.ceil(np.log2(need / minimum)))
+    return np.pad(p, (0, size + 1 - len(p)))
 
 
 @lru_cache(maxsize=8)
@@ -77,107 +91,90 @@ def _logsumexp(a: np.ndarray, axis: int | None = None) -> np.ndarray:
     return out.squeeze(axis) if axis is not None else out.reshape(())
 
 
-#: the recursions renormalise every this many contacts: with every scaled Lambda <= 1 a value at most
-#: doubles per step, so it stays below 2^64 times its last norm in between
-_RENORM = 64
+@_jit
+def _log_add(a: float, b: float) -> float:
+    """log(e^a + e^b), either of them -inf (a zero)."""
+    if a < b:
+        a, b = b, a
+    if b == -np.inf:
+        return a
+    return a + math.log1p(math.exp(b - a))
 
 
-def _scaled(log_lam: np.ndarray) -> tuple[np.ndarray, float]:
-    """Lambda / s and log s with s = max(Lambda) (s = 1 when every Lambda is 0)."""
-    shift = float(log_lam.max()) if len(log_lam) and np.isfinite(log_lam).any() else 0.0
-    return np.exp(log_lam - shift), shift
-
-
-def _prefix(lam: np.ndarray, degree: int) -> tuple[np.ndarray, np.ndarray]:
-    """Prefix ESFs of ``lam`` (m,) in [0, 1] (Vieta's recursion e_k += lam_z e_(k-1)), truncated at
-    ``degree``: rows (m+1, degree+1), row z the ESFs of lam[:z] divided by exp(``scale[z]``) (m+1,)."""
-    m = len(lam)
-    rows = np.zeros((m + 1, degree + 1))
-    scale = np.zeros(m + 1)
-    rows[0, 0] = 1.0
+@_jit
+def _log_prefix(log_lam: np.ndarray, degree: int) -> np.ndarray:
+    """Prefix ESFs of Lambda = exp(``log_lam``) (m,), truncated at ``degree``, as logarithms: rows (m+1, degree+1),
+    row z log e_k(Lambda[:z]) (Vieta's recursion e_k += Lambda_z e_(k-1); -inf where e_k = 0, as for k > z)."""
+    m = len(log_lam)
+    rows = np.full((m + 1, degree + 1), -np.inf)
+    rows[0, 0] = 0.0
     for z in range(m):
-        row = rows[z + 1]
-        row[:] = rows[z]
-        row[1:] += lam[z] * rows[z, :-1]
-        scale[z + 1] = scale[z]
-        if z % _RENORM == _RENORM - 1:
-            top = row.max()
-            row /= top
-            scale[z + 1] += np.log(top)
-    return rows, scale
+        rows[z + 1, 0] = 0.0
+        for k in range(1, min(z + 1, degree) + 1):
+            rows[z + 1, k] = _log_add(rows[z, k], log_lam[z] + rows[z, k - 1])
+    return rows
 
 
 def log_esf(log_lam: np.ndarray, degree: int) -> np.ndarray:
     """log e_k(Lambda), k = 0..degree, of Lambda = exp(``log_lam``) (m,) (-inf entries are zeros);
     e_k = 0 (log -inf) for k > m."""
-    lam, shift = _scaled(log_lam)
-    rows, scale = _prefix(lam, degree)
-    return _log_last(rows, scale, shift)
-
-
-def _log_last(rows: np.ndarray, scale: np.ndarray, shift: float) -> np.ndarray:
-    """log e_k of the whole set from `_prefix`'s rows of Lambda / exp(shift)."""
-    with np.errstate(divide="ignore"):
-        return np.log(rows[-1]) + scale[-1] + shift * np.arange(rows.shape[1])
+    return _log_prefix(np.asarray(log_lam, np.float64), degree)[-1]
 
 
 def log_leave_one_out(log_lam: np.ndarray, log_b: np.ndarray) -> np.ndarray:
     """log sum_k b_k e_k(Lambda without Lambda_z) for every z: (m,) from ``log_lam`` (m,) and the
     coefficients ``log_b`` (L+1,) (degrees past L are not needed: their b is 0)."""
-    lam, shift = _scaled(log_lam)
-    pre, pre_scale = _prefix(lam, len(log_b) - 1)
-    return _leave_one_out(lam, shift, pre, pre_scale, log_b)
+    log_lam = np.asarray(log_lam, np.float64)
+    return _leave_one_out(_log_prefix(log_lam, len(log_b) - 1), log_lam, np.asarray(log_b, np.float64))
 
 
-def _leave_one_out(lam: np.ndarray, shift: float, pre: np.ndarray, pre_scale: np.ndarray, log_b: np.ndarray
-                   ) -> np.ndarray:
-    """`log_leave_one_out` from `_prefix`'s rows (truncated to len(log_b) columns) of lam = Lambda / e^shift.
+@_jit
+def _leave_one_out(pre: np.ndarray, log_lam: np.ndarray, log_b: np.ndarray) -> np.ndarray:
+    """`log_leave_one_out` from `_log_prefix`'s rows of Lambda (at least len(log_b) columns).
 
     Backward over the contacts: g[a] = sum_c b[a + c] (ESFs of the contacts after z)[c], so that
     sum_k b_k e_k(Lambda without z) = sum_a (prefix ESFs before z)[a] g[a]; taking z into the suffix is
-    g[a] += lam_z g[a + 1]. Every term is non-negative.
+    g[a] += Lambda_z g[a + 1]. Every term is non-negative, and every value a logarithm.
     """
-    m, degree = len(lam), len(log_b) - 1
-    pre = pre[:, :degree + 1]
-    log_bs = log_b + shift * np.arange(degree + 1)  # b_k e_k(Lambda) = b_k s^k e_k(Lambda / s)
-    top = log_bs.max()
-    if not np.isfinite(top):  # every coefficient zero
-        return np.full(m, -np.inf)
-    g = np.exp(log_bs - top)
-    g_scale = top
-    dot = np.empty(m)
-    scale = np.empty(m)
-    for step, z in enumerate(range(m - 1, -1, -1)):
-        dot[z] = pre[z] @ g
-        scale[z] = pre_scale[z] + g_scale
-        g[:-1] += lam[z] * g[1:]
-        if step % _RENORM == _RENORM - 1:
-            peak = g.max()
-            g /= peak
-            g_scale += np.log(peak)
-    with np.errstate(divide="ignore"):
-        return np.log(dot) + scale
+    m, degree = len(log_lam), len(log_b) - 1
+    g = log_b.copy()
+    out = np.empty(m)
+    for z in range(m - 1, -1, -1):
+        top = -np.inf
+        for a in range(degree + 1):
+            top = max(top, pre[z, a] + g[a])
+        if top == -np.inf:
+            out[z] = -np.inf
+        else:
+            total = 0.0
+            for a in range(degree + 1):
+                total += math.exp(pre[z, a] + g[a] - top)
+            out[z] = top + math.log(total)
+        for a in range(degree):
+            g[a] = _log_add(g[a], log_lam[z] + g[a + 1])
+    return out
 
 
 @lru_cache(maxsize=64)
-def _falling(u: int, n_max: int, degree: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The parts of Upsilon^u's factor that depend on (n, k) only, (n_max+1, degree+1) each: where
-    k + u <= n, log n! / (n-k-u)!, and r = n - k - u (0 elsewhere)."""
-    n = np.arange(n_max + 1)[:, None]
+def _falling(u: int, n_lo: int, n_hi: int, degree: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The parts of Upsilon^u's factor that depend on (n, k) only, (n_hi-n_lo+1, degree+1) each, rows n = n_lo..n_hi:
+    where k + u <= n, log n! / (n-k-u)!, and r = n - k - u (0 elsewhere)."""
+    log_factorial = gammaln(np.arange(n_hi + 1) + 1.0)  # log n!, gathered below (the same values, far faster)
+    n = np.arange(n_lo, n_hi + 1)[:, None]
     k = np.arange(degree + 1)[None, :]
     r = n - k - u
     ok = r >= 0
     rr = np.maximum(r, 0)
-    return ok, np.where(ok, gammaln(n + 1.0) - gammaln(rr + 1.0), 0.0), rr
+    return ok, np.where(ok, log_factorial[n] - log_factorial[rr], 0.0), rr
 
 
-def _log_coefficients(u: int, m: int, n_max: int, degree: int, clutter_rate: float, miss: float, W: float
+def _log_coefficients(u: int, m: int, rows: slice, degree: int, clutter_rate: float, miss: float, W: float
                       ) -> np.ndarray:
-    """log of Upsilon^u's factor (n_max+1, degree+1) at (n, k), for ESFs of the normalised Lambda / W:
-    e^-lambda lambda^(m-k) n! / (n-k-u)! q^(n-k-u) W^-u for k <= m and k + u <= n, else -inf, with
-    ``miss`` q = <1 - p_D, v> / <1, v> (1 - p_D for a constant p_D):
+    """log of Upsilon^u's factor (rows, degree+1) at (n, k), n in ``rows`` (a slice of 0..N_max), for ESFs of the
+    normalised Lambda / W: e^-lambda lambda^(m-k) n! / (n-k-u)! q^(n-k-u) W^-u for k <= m and k + u <= n, else
+    -inf, with ``miss`` q = <1 - p_D, v> / <1, v> (1 - p_D for a constant p_D):
     (<1 - p_D, v>^(n-k-u) / W^n e_k(Lambda) = q^(n-k-u) W^-u e_k(Lambda / W))."""
-    ok, log_falling, r = _falling(u, n_max, degree)
+    ok, log_falling, r = _falling(u, rows.start, rows.stop - 1, degree)
     k = np.arange(degree + 1)
     with np.errstate(divide="ignore", invalid="ignore"):
         clutter = np.where(k <= m, -clutter_rate + xlogy(m - k, clutter_rate), -np.inf)
@@ -211,10 +208,14 @@ def cphd_weights(weights: np.ndarray, pairs: Pairs, pd: float | np.ndarray, clut
     seen = np.unique(pairs.i) if W > 0 else np.empty(0, np.int64)
     log_lam = per_contact_logsumexp(log_psi, pairs.i, m, np.full(m, -np.inf))[seen] - (np.log(W) if W > 0 else 0.0)
     degree = min(len(seen), n_max)  # e_k = 0 past the number of contacts with Lambda > 0
-    lam, shift = _scaled(log_lam)
-    pre, pre_scale = _prefix(lam, degree)  # one forward pass: the ESFs and the leave-one-out sums
-    log_e = _log_last(pre, pre_scale, shift)
-    ups0 = _logsumexp(_log_coefficients(0, m, n_max, degree, clutter_rate, miss, 1.0) + log_e, axis=1)
+    pre = _log_prefix(log_lam, degree)  # one forward pass: the ESFs and the leave-one-out sums
+    log_e = pre[-1]
+    # the counts the prediction gives a probability: a count of p(n) = 0 has none after the update either, and adds
+    # nothing to a sum over the counts, so only these rows of the (count, degree) tables are formed
+    support = np.flatnonzero(cardinality)
+    rows = slice(int(support[0]), int(support[-1]) + 1)
+    ups0 = np.full(n_max + 1, -np.inf)
+    ups0[rows] = _logsumexp(_log_coefficients(0, m, rows, degree, clutter_rate, miss, 1.0) + log_e, axis=1)
     den = _logsumexp(ups0 + log_p)
     if not np.isfinite(den):
         raise TrackingError(f"CPHD: no target count up to max_cardinality = {n_max} explains a scan of {m} "
@@ -224,15 +225,17 @@ def cphd_weights(weights: np.ndarray, pairs: Pairs, pd: float | np.ndarray, clut
     posterior /= posterior.sum()
     if W == 0:
         return np.zeros(len(pairs.j)), np.zeros(J), posterior
-    ups1 = _logsumexp(_log_coefficients(1, m, n_max, degree, clutter_rate, miss, W) + log_e, axis=1)
+    ups1 = np.full(n_max + 1, -np.inf)
+    ups1[rows] = _logsumexp(_log_coefficients(1, m, rows, degree, clutter_rate, miss, W) + log_e, axis=1)
     missed = (1.0 - pd) * weights * np.exp(_logsumexp(ups1 + log_p) - den)
     if not len(seen):
         return np.zeros(0), missed, posterior
     loo_degree = min(len(seen) - 1, n_max - 1)
-    log_b = _logsumexp(_log_coefficients(1, m - 1, n_max, loo_degree, clutter_rate, miss, W) + log_p[:, None], axis=0)
+    log_b = _logsumexp(_log_coefficients(1, m - 1, rows, loo_degree, clutter_rate, miss, W) + log_p[rows, None],
+                       axis=0)
     log_r = np.full(m, -np.inf)
     # log <Upsilon^1[Z \ z], p> / <Upsilon^0[Z], p>
-    log_r[seen] = _leave_one_out(lam, shift, pre, pre_scale, log_b) - den
+    log_r[seen] = _leave_one_out(pre, log_lam, log_b) - den
     with np.errstate(invalid="ignore"):
         detected = np.exp(log_psi + log_r[pairs.i])
     return np.nan_to_num(detected, nan=0.0), missed, posterior

@@ -163,6 +163,9 @@ class SensorView:
 
 #: a scan's weight dropped by the mixture cap from which the cap is said to bite (`GMPHDTracker._capped`)
 CAPPED_WEIGHT_WARNING = 0.1
+#: the probability of the CPHD's largest count N_max from which a fixed support is said to bite
+#: (`CPHDTracker._report`)
+CAPPED_CARDINALITY_WARNING = 0.01
 
 
 class GMPHDTracker:
@@ -472,7 +475,8 @@ class UKPHDTracker(GMPHDTracker):
 
 class CPHDTracker(GMPHDTracker):
     """Cardinalised PHD tracker (Vo, Vo & Cantoni 2007): the intensity and the distribution of the target
-    count on 0..max_cardinality; EK linearisation by default."""
+    count on 0..N_max, N_max = max_cardinality at the start of a run, doubled before a scan whose last
+    posterior mean times ``cardinality_per_target`` passes it (`cphd.support_for`); EK linearisation by default."""
 
     name: ClassVar[str] = "cphd"
     config_type: ClassVar[type[TrackerConfig]] = CPHDConfig
@@ -481,9 +485,20 @@ class CPHDTracker(GMPHDTracker):
         super().reset()
         self.distribution = np.zeros(self.config.max_cardinality + 1)
         self.distribution[0] = 1.0  # no target before the first scan
+        #: scans since the last reset whose cardinality put `CAPPED_CARDINALITY_WARNING` or more on N_max with
+        #: the support fixed (``cardinality_per_target`` None; `_report`)
+        self.n_cardinality_capped = 0
+
+    def _supported(self) -> np.ndarray:
+        """The last posterior cardinality on the support this scan needs: grown to hold ``cardinality_per_target``
+        times its mean (`cphd.support_for`); with that None, as it is."""
+        cfg = self.config
+        if cfg.cardinality_per_target is None:
+            return self.distribution
+        return cphd.support_for(self.distribution, cfg.max_cardinality, cfg.cardinality_per_target)
 
     def _weights(self, pred, pairs, rate, log_c, born, pd, survival):
-        p = cphd.predict_cardinality(self.distribution, survival, born)  # births: Poisson of the birth weight
+        p = cphd.predict_cardinality(self._supported(), survival, born)  # births: Poisson of the birth weight
         det, missed, p = cphd.cphd_weights(pred.weights, pairs, pd, rate, log_c, p)
         self.distribution = p
         return det, missed, p
@@ -491,6 +506,23 @@ class CPHDTracker(GMPHDTracker):
     def _predicted_count(self, pred, survival):
         p = cphd.predict_cardinality(self.distribution, survival, 0.0)
         return float(np.arange(len(p)) @ p), int(np.argmax(p)), p
+
+    def _report(self, scan, sensor, time, mixture, mean, map_count, dist):
+        """As the PHD's; with the support fixed (``cardinality_per_target`` None), a scan whose cardinality puts
+        `CAPPED_CARDINALITY_WARNING` or more on N_max is counted (``n_cardinality_capped``), with a BoundWarning
+        the first time in a run (a growing support holds the count from the next scan on)."""
+        if self.config.cardinality_per_target is None and dist[-1] >= CAPPED_CARDINALITY_WARNING:
+            self.n_cardinality_capped += 1
+            if "max_cardinality" not in self._bounds_hit:
+                self._bounds_hit.add("max_cardinality")
+                warnings.warn(
+                    f"{self.label}, t = {time} s: the cardinality support 0..{len(dist) - 1} (config field "
+                    f"max_cardinality = {self.config.max_cardinality}, cardinality_per_target = None) puts "
+                    f"p = {dist[-1]:.3g} on its largest count: more targets than it holds are counted as "
+                    f"{len(dist) - 1}; raise max_cardinality or set cardinality_per_target (e.g. 1.5) to let it "
+                    f"grow. Later cases of this run are only counted (n_cardinality_capped)", BoundWarning,
+                    stacklevel=3)
+        return super()._report(scan, sensor, time, mixture, mean, map_count, dist)
 
     def _extracted(self, post, map_count):
         if self.config.extraction == "map":
