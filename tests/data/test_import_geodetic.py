@@ -4,6 +4,7 @@ in the outputs of ``nnda track`` and `export_detections`."""
 from __future__ import annotations
 
 import json
+import math
 import warnings
 from types import SimpleNamespace
 
@@ -20,9 +21,10 @@ from nnda.app.track_commands import write_track_outputs
 from nnda.data.dataset import MANIFEST, manifest_seal, read_dataset, write_dataset
 from nnda.data.detections_import import export_detections, import_detections, read_detections
 from nnda.data.generator import generate
-from nnda.data.geodesy import GeodeticOrigin
+from nnda.data.geodesy import GeodeticOrigin, mean_position
 from nnda.data.presets import preset
 from nnda.data.region import in_polygon
+from nnda.data.scenario import Sensor
 from nnda.errors import BoundWarning, ConfigError, DatasetError
 from nnda.reports.track_plot import track_png
 from nnda.study.track import TRACK_SCHEMA
@@ -199,6 +201,50 @@ def test_a_geodetic_box_and_a_polygon_file_keep_the_same_reports(tmp_path):
         kept.append(ds.detections.scan.size)
         assert ds.dropped_rows["--region"] > 0
     assert len(set(kept)) == 1  # the box's edges are (almost) meridians and parallels: the same reports
+
+
+def test_what_is_inferred_comes_from_the_reports_a_region_keeps(tmp_path):
+    """A report far away (another continent) outside the region moves neither the range limits nor the
+    origin chosen from the reports' mean: both are the kept reports'. Without --region the origin stays the
+    mean of every report."""
+    _scene(tmp_path)
+    lines = (tmp_path / "fixes.csv").read_text().splitlines()
+    (tmp_path / "fixes.csv").write_text("\n".join([*lines, "24.0,50.3,54.8,"]) + "\n")  # data row 25
+    position = [{"kind": "position", "scan_period_s": 2.0, "sigma_position_m": SIGMA_M}]
+    with pytest.warns(BoundWarning, match=r"1 of 25 report\(s\) outside the region dropped"):
+        ds = read_detections(tmp_path / "fixes.csv", sensors=position, region="lat:51,52,lon:-1,0")
+    table = pacsv.read_csv(tmp_path / "fixes.csv")
+    lat, lon = (table.column(c).to_numpy() for c in ("lat", "lon"))
+    o = ds.geodetic_origin
+    assert (o.lat_deg, o.lon_deg) == mean_position(lat[:-1], lon[:-1]) != mean_position(lat, lon)
+    far = float(np.hypot(ds.detections.x, ds.detections.y).max())
+    radar = ds.scenario.sensors[0]
+    assert radar.max_range_m == max(Sensor().max_range_m, math.ceil(far)) < 100e3
+    every = read_detections(tmp_path / "fixes.csv", sensors=position)
+    assert (every.geodetic_origin.lat_deg, every.geodetic_origin.lon_deg) == mean_position(lat, lon)
+    assert every.scenario.sensors[0].max_range_m > 1e6
+
+
+def test_a_sweep_sensors_period_and_offset_come_from_the_rows_a_region_keeps(tmp_path):
+    """A stray row at 0.7 s outside the region would set the inferred offset (and then every sweep at 2 k s
+    would be 1.3 s from the grid); the kept rows alone give period 2 s, offset 0."""
+    rows = ["time,x,y", "0.7,90000,0"] + [f"{2 * k},{100 * k},12000" for k in range(1, 8)]
+    (tmp_path / "xy.csv").write_text("\n".join(rows) + "\n")
+    with pytest.warns(BoundWarning, match=r"1 of 8 report\(s\)"):
+        ds = read_detections(tmp_path / "xy.csv", region="-1000,0,1000,20000")
+    radar = ds.scenario.sensors[0]
+    assert (radar.scan_period_s, radar.scan_offset_s, ds.detections.scan.size) == (2.0, 0.0, 7)
+    assert radar.max_range_m == Sensor().max_range_m
+
+
+def test_the_time_origin_of_dates_comes_from_the_reports_a_region_keeps(tmp_path):
+    rows = ["time,x,y", "2016-01-12 12:00:03,90000,0", "2016-01-12 13:02:11.2,100,12000",
+            "2016-01-12 13:02:25.5,140,12010"]
+    (tmp_path / "dates.csv").write_text("\n".join(rows) + "\n")
+    ais = [{"kind": "position", "reports": True, "scan_period_s": 10.0}]
+    with pytest.warns(BoundWarning, match=r"1 of 3 report\(s\)"):
+        ds = read_detections(tmp_path / "dates.csv", sensors=ais, region="-1000,0,1000,20000")
+    assert ds.time_origin_utc == "2016-01-12T13:02:10Z" and ds.n_scans == 2
 
 
 def test_a_region_that_excludes_everything_names_the_option_and_the_extent(tmp_path):

@@ -9,8 +9,9 @@ from typing import Annotated
 import typer
 from rich.console import Console
 
-from nnda.data.detections_import import SCAN_TOLERANCE_S, import_detections, load_sensors, sensor_fields
+from nnda.data.detections_import import SCAN_TOLERANCE_S, import_detections
 from nnda.data.geodesy import parse_origin
+from nnda.data.import_sensors import load_sensors, sensor_fields
 from nnda.errors import ConfigError
 from nnda.files import check_output_location
 from nnda.peers import require_stonesoup
@@ -20,7 +21,8 @@ def import_detections_command(
     file: Annotated[Path, typer.Argument(help="detections file: .csv or .parquet")],
     out: Annotated[Path, typer.Option(help="dataset directory to write")],
     truth: Annotated[Path | None, typer.Option(
-        help="truth file (.csv or .parquet): time, target_id, x, y, vx, vy")] = None,
+        help="truth file (.csv or .parquet): time, target_id, x, y (or lat, lon), vx, vy (optional: derived "
+             "from each target's positions)")] = None,
     sensors: Annotated[Path | None, typer.Option(
         help="TOML file of \\[\\[sensors]] tables (fields as in a scenario's sensors)")] = None,
     sensor: Annotated[list[str] | None, typer.Option(

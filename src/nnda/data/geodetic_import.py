@@ -9,7 +9,9 @@ decides the frame and what falls outside the region:
   `place_sites` writes the site's x_m, y_m on the local plane;
 * the origin (`choose_origin`): the ``origin`` given (``--origin``), else
   the first sensor's site when it is geodetic, else the mean of the
-  reports' latitudes and longitudes rounded to 1e-4 deg (height 0 m);
+  reports' latitudes and longitudes rounded to 1e-4 deg (height 0 m): of
+  the reports kept when a region in degrees drops some (a region in metres
+  is read on the plane of all the reports, which then stays);
 * altitudes place each point on the plane (its east and north), then the
   2-D dataset drops them: `warn_altitude` says so once, counting the rows;
 * `keep_in_region`: the rows inside ``--region``, with one BoundWarning

@@ -3,7 +3,7 @@
 A region is a box in the local frame (``xmin,ymin,xmax,ymax``, m), a box in
 latitude and longitude (``lat:LAT0,LAT1,lon:LON0,LON1``, deg; LON1 < LON0
 crosses the 180th meridian), or a polygon (its vertices in order, from a
-file the importer reads: x, y in m or lat, lon in deg). A geodetic region
+file, `polygon_file`: x, y in m or lat, lon in deg). A geodetic region
 needs the dataset's geodetic origin (`nnda.data.geodesy`); a polygon's
 edges are straight lines in the local plane. Points on the boundary are
 inside.
@@ -13,10 +13,20 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from nnda.data.geodesy import GeodeticOrigin, check_geodetic
+from nnda.data.table_reading import (
+    CsvDialect,
+    decimal_mark,
+    find_columns,
+    numbers_of,
+    read_table,
+    require_columns,
+    where_in,
+)
 from nnda.errors import ConfigError, DatasetError
 
 #: ``lat:LAT0,LAT1,lon:LON0,LON1``
@@ -131,6 +141,24 @@ def polygon(text: str, a: np.ndarray, b: np.ndarray, geodetic: bool, path) -> Re
         raise DatasetError(f"--region {path}: a polygon needs at least {MIN_VERTICES} distinct vertices, the file "
                            f"has {distinct}; give one vertex per row, in order around the area")
     return Region(text, geodetic, vertices=vertices)
+
+
+def parse_region(text: str | Path, dialect: CsvDialect = CsvDialect()) -> Region:
+    """The region ``--region`` gives: a box (`parse_box`), else the polygon of the file at ``text``
+    (`polygon_file`, a CSV read in ``dialect``)."""
+    return parse_box(str(text)) or polygon_file(Path(text), dialect)
+
+
+def polygon_file(path: Path, dialect: CsvDialect = CsvDialect()) -> Region:
+    """The polygon of the ``--region`` file at ``path``: one vertex a row, columns x, y (m) or lat, lon (deg)."""
+    table = read_table(path, "--region", dialect)
+    present = find_columns(table, path, ("x", "y", "lat", "lon"), {})
+    pair = ("x", "y") if {"x", "y"} <= present.keys() else ("lat", "lon")
+    require_columns(path, present, pair, {}, table, "a polygon's vertices: x, y (m) or lat, lon (deg), one a row")
+    a, b = (numbers_of(table, path, c, present[c], decimal_mark(path, dialect)) for c in pair)
+    if pair[0] == "lat":
+        check_geodetic(a, b, where=lambda c, row: where_in(path, row, present[c]), error=DatasetError)
+    return polygon(str(path), a, b, pair[0] == "lat", path)
 
 
 def extent(x: np.ndarray, y: np.ndarray, origin: GeodeticOrigin | None) -> str:
