@@ -10,6 +10,7 @@ from filterpy.common import Q_continuous_white_noise, Q_discrete_white_noise
 from reference_filters import ct_F, ct_f, ct_Q, cv_F, cv_Q
 
 from nnda.errors import FilterError
+from nnda.filters.imm import IMM
 from nnda.filters.motion import ConstantVelocity, CoordinatedTurn
 from tolerances import RTOL
 
@@ -42,8 +43,9 @@ def test_ct_transition_is_the_printed_second_order_form():
         np.testing.assert_allclose(J[k], ct_F(STATES[k], T), rtol=RTOL, atol=1e-9)
 
 
-def test_ct_jacobian_is_the_derivative_of_the_transition():
-    ct = CoordinatedTurn(omega_max=1.0)  # keep the limit out of the way of the finite differences
+@pytest.mark.parametrize("form", ["second-order", "exact"])
+def test_ct_jacobian_is_the_derivative_of_the_transition(form):
+    ct = CoordinatedTurn(omega_max=1.0, form=form)  # keep the limit out of the way of the finite differences
     x = STATES.copy()
     _, J = ct.transition(x, DTS)
     steps = np.array([1e-3, 1e-4, 1e-3, 1e-4, 1e-7])
@@ -97,6 +99,37 @@ def test_from_cv_extends_with_zero_turn_rate():
     assert (x5[:, 4] == 0).all() and (P5[:, 4, 4] == 0.0076).all() and (P5[:, 4, :4] == 0).all()
 
 
+def test_the_exact_turn_keeps_the_speed_over_any_interval_and_meets_its_series():
+    ct, second = CoordinatedTurn(form="exact"), CoordinatedTurn()
+    x = np.array([[0.0, 10.0, 0.0, 5.0, 0.05]])
+    for T in (2.0, 60.0, 300.0):
+        fx = ct.transition(x, np.array([T]))[0][0]
+        assert np.hypot(fx[1], fx[3]) == pytest.approx(np.hypot(10.0, 5.0), rel=1e-12)
+    # the thesis's second-order form gains speed on a long coast: 6.2 times at w T = 5
+    grown = second.transition(np.array([[0.0, 10.0, 0.0, 5.0, 0.05]]), np.array([100.0]))[0][0]
+    assert np.hypot(grown[1], grown[3]) > 6 * np.hypot(10.0, 5.0)
+    # just below w T = 1e-3 the series give the closed form
+    w, T = 0.99e-4, 10.0
+    fx = ct.transition(np.array([[0.0, 10.0, 0.0, 5.0, w]]), np.array([T]))[0][0]
+    s, c = math.sin(w * T), math.cos(w * T)
+    np.testing.assert_allclose(fx[:4], [10 * s / w - 5 * (1 - c) / w, 10 * c - 5 * s, 10 * (1 - c) / w + 5 * s / w,
+                                        10 * s + 5 * c], rtol=1e-12)
+    # no turn: the constant-velocity transition
+    fx, F = ct.transition(np.array([[1.0, 10.0, 2.0, 5.0, 0.0]]), np.array([7.0]))
+    np.testing.assert_allclose(fx[0, :4], cv_F(7.0) @ [1.0, 10.0, 2.0, 5.0], rtol=RTOL)
+
+
+def test_the_imm_cycle_runs_the_exact_turn_as_the_model_does():
+    """The compiled IMM prediction of an exact-turn model is f(x) and J P J^T + Q of `CoordinatedTurn` (1e-9)."""
+    ct = CoordinatedTurn(form="exact", omega_max=1.0)
+    imm = IMM(models=(ct,), tpm=((1.0,),), mu0=(1.0,))
+    P = np.diag([400.0, 25.0, 400.0, 25.0, 1e-4])[None].repeat(len(STATES), 0)
+    pred = imm.predict(imm.make_state(STATES[:, None], P[:, None], np.ones((len(STATES), 1))), DTS)
+    fx, J = ct.transition(STATES, DTS)
+    np.testing.assert_allclose(pred.state.x[:, 0], fx, rtol=RTOL, atol=1e-9)
+    np.testing.assert_allclose(pred.state.P[:, 0], J @ P @ J.swapaxes(1, 2) + ct.noise(DTS), rtol=RTOL, atol=1e-9)
+
+
 def test_continuous_noise_is_filterpys_and_grows_linearly_in_velocity():
     """White-noise acceleration in continuous time: filterpy's Q for spectral density sigma_q^2, on both axes
     of CV and of CT's [x, vx, y, vy], and sigma_omega^2 T on CT's turn rate."""
@@ -111,7 +144,7 @@ def test_continuous_noise_is_filterpys_and_grows_linearly_in_velocity():
 
 
 @pytest.mark.parametrize("kwargs", [dict(sigma_q=-1.0), dict(sigma_q=float("nan")), dict(omega_max=0.0),
-                                    dict(noise_variant="exact"), dict(noise_kind="brownian")])
+                                    dict(noise_variant="exact"), dict(noise_kind="brownian"), dict(form="sin")])
 def test_bad_parameters(kwargs):
     with pytest.raises(FilterError):
         CoordinatedTurn(**kwargs)

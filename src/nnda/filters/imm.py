@@ -193,8 +193,9 @@ class IMM:
 
     @cached_property
     def _kinds(self) -> np.ndarray:
-        """(r,) each model's transition in the compiled cycle (`imm_kernels.CV` or `CT`)."""
-        return np.array([imm_kernels.CT if isinstance(m, CoordinatedTurn) else imm_kernels.CV
+        """(r,) each model's transition in the compiled cycle (`imm_kernels.CV`, `CT` or `CT_EXACT`)."""
+        return np.array([(imm_kernels.CT_EXACT if m.form == "exact" else imm_kernels.CT)
+                         if isinstance(m, CoordinatedTurn) else imm_kernels.CV
                          for m in self.models], dtype=np.int64)
 
     @cached_property

@@ -14,8 +14,8 @@
 Shapes: x (K, r, n), P (K, r, n, n) in the IMM's padded layout (model j's
 state in its first ``dims[j]`` entries, zeros beyond), mu (K, r), dt (K,) s;
 ``kinds`` (r,) names each model's transition (`CV` or `CT`, Vargas Avila (2015),
-eqs. 5.7-5.18, CT's turn rate limited to ``omega_max[j]`` rad/s), ``basis`` (4, r,
-n, n) the process-noise matrices of Q(T) = T B0 + T^2 B1 + T^3 B2 + T^4 B3 and
+eqs. 5.7-5.18, or `CT_EXACT`, the turn of `exact_turn`; a turn's rate limited to
+``omega_max[j]`` rad/s), ``basis`` (4, r, n, n) the process-noise matrices of Q(T) = T B0 + T^2 B1 + T^3 B2 + T^4 B3 and
 ``augment`` (r, n, n) the variance added to a model's padding before mixing.
 The measurement is polar (range m, azimuth rad clockwise from north, from
 ``origin``; azimuth residuals wrapped to [-pi, pi)) or, with ``polar``
@@ -39,7 +39,7 @@ import numba
 import numpy as np
 
 #: transition kinds of `mix_predict`: nearly constant velocity (dim 4), coordinated turn (dim 5)
-CV, CT = 0, 1
+CV, CT, CT_EXACT = 0, 1, 2
 #: added to probabilities before a division or a log (as `nnda.filters.imm`)
 TINY = 1e-300
 LOG_2PI = math.log(2.0 * math.pi)
@@ -63,6 +63,34 @@ def _product(A, B, d, transpose_b, out):
             for c in range(d):
                 s += A[a, c] * (B[b, c] if transpose_b else B[c, b])
             out[a, b] = s
+
+
+@_jit
+def exact_turn(w, T, vx, vy, F):
+    """The coordinated turn at the constant rate w (rad/s, counter-clockwise) over T (s), exactly, into F
+    (n, n): its CV block (4, 4), with sin(wT) / w and (1 - cos(wT)) / w on the positions, and its column 4
+    the derivative of f(x) in w at the velocity (vx, vy) (Bar-Shalom, Li and Kirubarajan (2001), Sec.
+    11.7); as series in wT below 1e-3 (error of order (wT)^4). Unlike the second-order form it keeps the
+    speed over any interval."""
+    wT = w * T
+    if abs(wT) < 1e-3:
+        a = T * (1.0 - wT * wT / 6.0)  # sin(wT) / w
+        b = 0.5 * wT * T * (1.0 - wT * wT / 12.0)  # (1 - cos(wT)) / w
+        da = -w * T * T * T / 3.0  # d/dw of sin(wT) / w
+        db = 0.5 * T * T * (1.0 - wT * wT / 4.0)  # d/dw of (1 - cos(wT)) / w
+        sn, cs = wT * (1.0 - wT * wT / 6.0), 1.0 - 0.5 * wT * wT
+    else:
+        sn, cs = math.sin(wT), math.cos(wT)
+        a, b = sn / w, (1.0 - cs) / w
+        da, db = (T * cs - a) / w, (T * sn - b) / w
+    F[0, 1], F[0, 3] = a, -b
+    F[1, 1], F[1, 3] = cs, -sn
+    F[2, 1], F[2, 3] = b, a
+    F[3, 1], F[3, 3] = sn, cs
+    F[0, 4] = vx * da - vy * db
+    F[1, 4] = -T * (sn * vx + cs * vy)
+    F[2, 4] = vx * db + vy * da
+    F[3, 4] = T * (cs * vx - sn * vy)
 
 
 @_jit
@@ -122,11 +150,22 @@ def mix_predict(x, P, mu, dt, tpm, kinds, dims, omega_max, basis, augment):
                 F[2, 1] = om * half_T2
                 F[3, 1] = wT
                 F[3, 3] = c
-            for a in range(d):
-                s = 0.0
-                for b in range(d):
-                    s += F[a, b] * x0[b]
-                xp[k, j, a] = s
+            elif kinds[j] == CT_EXACT:
+                om = min(max(x0[4], -omega_max[j]), omega_max[j])
+                exact_turn(om, T, x0[1], x0[3], F)
+            if kinds[j] == CT_EXACT:  # f(x) = F x on the CV part (F's last column is df/dw), the limited w
+                for a in range(4):
+                    s = 0.0
+                    for b in range(4):
+                        s += F[a, b] * x0[b]
+                    xp[k, j, a] = s
+                xp[k, j, 4] = om
+            else:
+                for a in range(d):
+                    s = 0.0
+                    for b in range(d):
+                        s += F[a, b] * x0[b]
+                    xp[k, j, a] = s
             if kinds[j] == CT:
                 xp[k, j, 4] = om
                 vx, vy = x0[1], x0[3]

@@ -105,6 +105,8 @@ def standing_newborn(model: MotionModel, xy: np.ndarray, cov: np.ndarray, speed_
 
 #: how the process noise grows with the interval (module docstring)
 NOISE_KINDS = ("discrete", "continuous")
+#: the coordinated turn's transition: the thesis's second-order form, or the exact turn
+TURN_FORMS = ("second-order", "exact")
 
 
 def process_noise(dt: np.ndarray, basis: np.ndarray) -> np.ndarray:
@@ -234,6 +236,7 @@ class CoordinatedTurn:
     omega_var0: float = 0.0076
     noise_variant: Literal["derived", "printed"] = "derived"
     noise_kind: str = "discrete"
+    form: str = "second-order"
     dim: ClassVar[int] = 5
     position: ClassVar[np.ndarray] = POS
     angles: ClassVar[tuple[int, ...]] = ()
@@ -246,6 +249,8 @@ class CoordinatedTurn:
         if self.noise_variant not in ("derived", "printed"):
             raise FilterError(f"CoordinatedTurn.noise_variant: 'derived' or 'printed', got {self.noise_variant!r}")
         _check_noise("CoordinatedTurn", self.noise_kind)
+        if self.form not in TURN_FORMS:
+            raise FilterError(f"CoordinatedTurn.form: 'second-order' or 'exact', got {self.form!r}")
 
     @cached_property
     def noise_basis(self) -> np.ndarray:
@@ -261,11 +266,14 @@ class CoordinatedTurn:
 
     def transition(self, x: np.ndarray, dt: np.ndarray, out: np.ndarray | None = None
                    ) -> tuple[np.ndarray, np.ndarray]:
-        """f(X) of eq. 5.17 and its Jacobian (eq. 5.18) for states (..., 5), dt in s.
+        """f(X) of eq. 5.17 and its Jacobian (eq. 5.18) for states (..., 5), dt in s (``form =
+        "second-order"``), or the exact turn's (``form = "exact"``, `exact_turn`).
 
         With w the limited turn rate, f(X) = F(w) X (eq. 5.13) and the Jacobian
         is F(w) with its last column replaced by df/dw; it goes into ``out`` if given.
         """
+        if self.form == "exact":
+            return self._exact(x, dt, out)
         T = dt
         vx, vy = x[..., 1], x[..., 3]
         w = np.minimum(np.maximum(x[..., 4], -self.omega_max), self.omega_max)
@@ -290,6 +298,34 @@ class CoordinatedTurn:
         F[..., 1, 4] = -vy * T - vx * wT2
         F[..., 2, 4] = vx * half_T2
         F[..., 3, 4] = vx * T - vy * wT2
+        return fx, F
+
+    def _exact(self, x: np.ndarray, dt: np.ndarray, out: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """The exact turn at the limited rate w over T: f(X) and its Jacobian for states (..., 5) and dt (s),
+        the arithmetic of `nnda.filters.imm_kernels.exact_turn` on the whole batch (series in wT below 1e-3)."""
+        T = np.broadcast_to(np.asarray(dt, float), x.shape[:-1])
+        vx, vy = x[..., 1], x[..., 3]
+        w = np.minimum(np.maximum(x[..., 4], -self.omega_max), self.omega_max)
+        wT = w * T
+        small = np.abs(wT) < 1e-3
+        ws = np.where(small, 1.0, w)  # no division by a small rate: the series serve there
+        sn = np.where(small, wT * (1.0 - wT * wT / 6.0), np.sin(wT))
+        cs = np.where(small, 1.0 - 0.5 * wT * wT, np.cos(wT))
+        a = np.where(small, T * (1.0 - wT * wT / 6.0), sn / ws)  # sin(wT) / w
+        b = np.where(small, 0.5 * wT * T * (1.0 - wT * wT / 12.0), (1.0 - cs) / ws)  # (1 - cos(wT)) / w
+        da = np.where(small, -w * T**3 / 3.0, (T * cs - a) / ws)
+        db = np.where(small, 0.5 * T * T * (1.0 - wT * wT / 4.0), (T * sn - b) / ws)
+        F = np.empty((*x.shape[:-1], 5, 5)) if out is None else out
+        F[...] = _EYE5
+        F[..., 0, 1], F[..., 0, 3], F[..., 1, 1], F[..., 1, 3] = a, -b, cs, -sn
+        F[..., 2, 1], F[..., 2, 3], F[..., 3, 1], F[..., 3, 3] = b, a, sn, cs
+        F[..., 0, 4] = vx * da - vy * db
+        F[..., 1, 4] = -T * (sn * vx + cs * vy)
+        F[..., 2, 4] = vx * db + vy * da
+        F[..., 3, 4] = T * (cs * vx - sn * vy)
+        fx = np.empty_like(x)
+        fx[..., :4] = (F[..., :4, :4] @ x[..., :4, None])[..., 0]
+        fx[..., 4] = w
         return fx, F
 
     def noise(self, dt: np.ndarray) -> np.ndarray:
