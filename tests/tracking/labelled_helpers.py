@@ -9,11 +9,13 @@ from collections.abc import Callable, Iterator
 import numpy as np
 import pytest
 
-from nnda.data.dataset import Scan
+from nnda.data.dataset import Dataset, Scan
 from nnda.data.generator import generate
+from nnda.data.presets import PRESETS
 from nnda.data.scenario import Clutter, Scenario, Segment, Sensor, Target
 from nnda.errors import BoundWarning
 from nnda.filters.imm import IMM
+from nnda.study.metrics import run_metrics
 from nnda.tracking.output import TrackerOutput, TrackStatus
 from nnda.tracking.registry import make_tracker
 
@@ -46,6 +48,23 @@ def one_target() -> tuple[Sensor, list[Scan]]:
     return sensor, scans
 
 
+def dense_clutter() -> Dataset:
+    """S6's radar with 1,000 clutter a scan and S6's first two targets, 60 s."""
+    s6 = PRESETS["S6"]
+    radar = s6.sensors[0].model_copy(update={"clutter": s6.sensors[0].clutter.model_copy(update={"count": 1000})})
+    return generate(s6.model_copy(update={"duration_s": 60.0, "targets": s6.targets[:2], "sensors": (radar,)}),
+                    seed=1)
+
+
+def check_dense_clutter(name: str) -> None:
+    """Tracker ``name`` on `dense_clutter`: both targets confirmed (hit rate 80 % or more, none lost), no false
+    track."""
+    ds = dense_clutter()
+    tracker = make_tracker(name, ds.scenario.sensors, {})
+    m = run_metrics(ds, [tracker.step(scan) for scan in ds.scans()])
+    assert m.false_tracks == 0 and m.hit_rate >= 80.0 and m.lost_targets == 0
+
+
 def mixture(tracker) -> dict[tuple, float]:
     """The tracker's hypotheses as weights keyed by each live label's contacts in the last two scans (None
     where the label is absent)."""
@@ -53,10 +72,11 @@ def mixture(tracker) -> dict[tuple, float]:
             for row, log_w in zip(tracker.hyp, tracker.log_w)}
 
 
-def check_the_cap(name: str, field: str) -> None:
-    """Tracker ``name`` with its hypothesis cap ``field`` at 5 on `TWO`: never more, one warning, counted."""
+def check_the_cap(name: str, field: str, **params) -> None:
+    """Tracker ``name`` (and its ``params``) with its hypothesis cap ``field`` at 5 on `TWO`: never more, one
+    warning, counted."""
     tracker = make_tracker(name, POSITION, {"clutter_density": 2e-8, "gate": 1e9, field: 5,
-                                            "min_hypothesis_weight": 0.0})
+                                            "min_hypothesis_weight": 0.0, **params})
     with pytest.warns(BoundWarning, match=rf"config field {field}") as caught:
         for scan in two_scans():
             tracker.step(scan)

@@ -39,9 +39,21 @@ as a track of existence r_B, so the joint update decides its presence with the o
 one contact (paired with several initiators) exclude each other there, one target having made the contact
 (the sampler's row groups).
 
+**Tentative labels.** In dense clutter r_B is small (~1e-4 at 1,000 clutter a scan) and the births many (hundreds
+a scan): in the mixture, each would multiply the hypotheses while its existence, a sum over at most
+``max_hypotheses`` of them, could not grow. So a birth below ``admission_existence`` joins no hypothesis;
+it is a tentative label, a Bernoulli updated alone (after the joint update, in one batch for all of them) on
+the contacts the best hypothesis left free, as an LMB label of its own: with a = p_S r, its existence
+becomes a (1 - P_D + sum_z P_D l(z) / lambda_c(z)) / (1 - a + a (1 - P_D + sum_z P_D l(z) / lambda_c(z))), its
+track the heaviest of its miss (1 - P_D) and its gated contacts (P_D l(z) / lambda_c(z)); contacts are not
+exclusive between tentative labels. A tentative label reaching ``admission_existence`` joins every
+hypothesis at the next scan, as a birth does; one below ``min_tentative_existence`` is dropped. The
+contacts the tentative labels take open no birth. ``admission_existence`` 0 puts every birth in the
+hypotheses at once.
+
 **Output.** The tracks of the highest-weight hypothesis are reported with their estimate (the
-prediction after a miss) and contact, by label, then the births waiting for the next scan (PRELIMINARY,
-their two-point start's estimate). A label is CONFIRMED once its existence (the summed
+prediction after a miss) and contact, by label, then the births waiting for the next scan and the tentative
+labels (PRELIMINARY, their two-point start's or last estimate). A label is CONFIRMED once its existence (the summed
 weights of the hypotheses holding it) reaches ``existence_threshold`` and stays so; before, PRELIMINARY.
 A reported label that is deleted is reported once more as DELETED with its last estimate. The life
 cycle's initiation window, v_max and ``max_tracks`` (live labels) apply; its confirmation rule, M/N counts
@@ -120,12 +132,16 @@ class GLMBTracker(LabelledMixture):
         if self.table is not None:
             self._update(sc)
             self._prune(self.hyp, self.log_w)
-        born, contact = self._births(sc)
+        waiting = [] if self.tentative is None else self._tentative_update(sc)
+        tent = [*waiting, *([] if self.tentative is None else [self.tentative])]  # the tentative labels updated
+        taken = np.concatenate([t.contact for t in tent]) if tent else None
+        born, contact = self._births(sc, taken, sum(len(t) for t in tent))
         if born is not None:
             x, P = self.filter.estimate(born.filt)
             hist = np.full((len(born), self.config.n_scan), NO_CONTACT, np.int64)
             hist[:, -1] = contact
-            self.born = LabelledTracks(born, self._birth_existence(born, contact, sc)[0], hist, x, P, contact)
+            waiting.insert(0, LabelledTracks(born, self._birth_existence(born, contact, sc)[0], hist, x, P, contact))
+        self.born = LabelledTracks.concat(waiting) if waiting else None
         out = self._report(scan.index, sc.time)
         self._collapse()
         return out
@@ -135,16 +151,36 @@ class GLMBTracker(LabelledMixture):
 
     # ---------------------------------------------------------------------- births
     def _admit(self) -> None:
-        """The waiting births join every hypothesis as new labels."""
-        born, first = self.born, 0 if self.table is None else len(self.table)
+        """The waiting births of existence ``admission_existence`` or more join every hypothesis as new labels;
+        the others become tentative labels."""
+        born, self.born = self.born, None
+        join = born.r >= self.config.admission_existence
+        if not join.all():
+            rest = born.take(np.flatnonzero(~join))
+            self.tentative = rest if self.tentative is None else LabelledTracks.concat([self.tentative, rest])
+            if not join.any():
+                return
+            born = born.take(np.flatnonzero(join))
+        first = 0 if self.table is None else len(self.table)
         self.table = born if self.table is None else LabelledTracks.concat([self.table, born])
         self.hyp = np.column_stack([self.hyp, np.tile(first + np.arange(len(born)), (len(self.log_w), 1))])
         self.labels = np.concatenate([self.labels, born.tracks.track_id])
-        self.born = None
+
+    def _tentative_update(self, scan: ScanContacts) -> list[LabelledTracks]:
+        """The tentative labels updated (`LabelledMixture._tentative_children`); returns those that reached
+        ``admission_existence`` (as one table, or none), to join at the next scan; keeps the others of
+        existence ``min_tentative_existence`` or more in ``tentative``."""
+        u, best, r = self._tentative_children(scan, self.tentative)
+        n = len(u.tracks)
+        kids = LabelledTracks(u.tracks, np.ones(n), u.hist, u.x, u.P, np.full(n, -1, np.int64)).take(best)
+        ready, self.tentative = self._sorted_tentative(kids.replaced(r=r))
+        return [] if ready is None else [ready]
 
     def _waiting(self) -> LabelledTracks | None:
-        """The births waiting for the next scan (reported PRELIMINARY with their two-point start)."""
-        return self.born
+        """The births waiting for the next scan, then the tentative labels (reported PRELIMINARY with their
+        two-point start or last estimate)."""
+        rows = [t for t in (self.born, self.tentative) if t is not None]
+        return LabelledTracks.concat(rows) if len(rows) > 1 else (rows[0] if rows else None)
 
     # ---------------------------------------------------------------------- joint prediction-update
     def _update(self, scan: ScanContacts) -> None:

@@ -12,10 +12,12 @@ label and association history, with its existence and the estimate reported for 
 (`LabelledMixture._predict_update`: a miss child per row, a detection child per gated pair, in one batch), the
 clutter density at the contacts, the existence of a two-point start (odds P_D beta_NT / rho_1 times P_D / (A_w
 rho_2), the pmbm module docstring), the births' free contacts (those no label took in the best hypothesis),
-the pruning (light hypotheses dropped, N-scan pruning by the tracker's own rule
-`LabelledMixture._n_scan_keep`, the cap, the rows and labels no hypothesis holds removed), the existence
-marginals, and the report of the best hypothesis with the confirmed / DELETED bookkeeping (a tracker may
-report more rows after it: `LabelledMixture._waiting`).
+the tentative labels (births below ``admission_existence``, each updated alone on the free contacts:
+`LabelledMixture._tentative_children`, the glmb module docstring), the pruning (light hypotheses dropped,
+N-scan pruning by the tracker's own rule `LabelledMixture._n_scan_keep`, the cap, the rows and labels no
+hypothesis holds removed), the existence marginals, and the report of the best hypothesis with the confirmed
+/ DELETED bookkeeping (a tracker may report more rows after it: `LabelledMixture._waiting`, the tentative
+labels).
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from dataclasses import dataclass
 from typing import Annotated, ClassVar
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from nnda.filters.batch import Batch
 from nnda.filters.kalman import GATE_99
@@ -52,6 +54,20 @@ class LabelledConfig(ContactTrackerConfig):
     clutter_radius_m: Annotated[float, Field(gt=0, description="half-side (m) of the local estimate's "
                                              "square")] = 3_000.0
     gate: Annotated[float, Field(gt=0, description="chi-square gate, 2 dof (9.21: P_G = 0.99)")] = GATE_99
+    admission_existence: Annotated[float, Field(ge=0, lt=1, description="existence at which a birth joins the "
+                                                "hypotheses; below it the birth is a tentative label, updated "
+                                                "alone on the contacts the best hypothesis leaves free; 0: every "
+                                                "birth joins at once")] = 0.5
+    min_tentative_existence: Annotated[float, Field(ge=0, lt=1, description="a tentative label of lower "
+                                                    "existence is dropped")] = 1e-5
+
+    @model_validator(mode="after")
+    def _tentative_order(self) -> LabelledConfig:
+        if 0 < self.admission_existence <= self.min_tentative_existence:
+            raise ValueError(f"min_tentative_existence = {self.min_tentative_existence:g} must be below "
+                             f"admission_existence = {self.admission_existence:g}: a tentative label would be "
+                             f"dropped before it could join the hypotheses")
+        return self
 
 
 @dataclass(frozen=True)
@@ -105,12 +121,14 @@ class LabelledMixture(ContactTracker):
         self.known = (np.empty(0, np.int64), np.empty((0, 4)), np.empty((0, 4, 4)))  # reported labels, last x, P
         self.confirmed = np.empty(0, np.int64)  # labels reported confirmed
         self.n_capped = 0  # scans where the hypothesis cap bit
+        self.tentative: LabelledTable | None = None  # births below admission_existence, each updated alone
 
     # ---------------------------------------------------------------------- one scan
-    def _predict_update(self, scan: ScanContacts) -> ScanUpdate:
-        """Predict and gate every row in one batch, the detection children updated in one batch
-        (`nnda.tracking.linearisation.update`), the miss children keeping their posterior."""
-        cfg, imm, old = self.config, scan.filter, self.table
+    def _predict_update(self, scan: ScanContacts, table: LabelledTable | None = None) -> ScanUpdate:
+        """Predict and gate every row of ``table`` (default the mixture's) in one batch, the detection children
+        updated in one batch (`nnda.tracking.linearisation.update`), the miss children keeping their
+        posterior."""
+        cfg, imm, old = self.config, scan.filter, self.table if table is None else table
         z, xy, time, S = scan.z, scan.xy, scan.time, len(old)
         tr = old.tracks
         pred = imm.predict(tr.filt, time - tr.t2, check=False)
@@ -148,14 +166,23 @@ class LabelledMixture(ContactTracker):
         return self.config.clutter_density * scan.filter.measurement.area_jacobian(scan.z[at])
 
     # ---------------------------------------------------------------------- births
-    def _births(self, scan: ScanContacts) -> tuple[Tracks | None, np.ndarray | None]:
-        """Two-point starts (`TwoPointInitiation`) with the contacts no label took in the best hypothesis."""
+    def _births(self, scan: ScanContacts, taken: np.ndarray | None = None, live: int = 0
+                ) -> tuple[Tracks | None, np.ndarray | None]:
+        """Two-point starts (`TwoPointInitiation`) with the contacts no label took in the best hypothesis nor
+        ``taken`` (indices into the scan's contacts), given ``live`` labels besides the mixture's."""
+        used = self._used(scan)
+        if taken is not None:
+            used[taken[taken >= 0]] = True
+        return self.initiation(scan.z, scan.xy, used, scan.time, self.labels.size + live, scan.sensor)
+
+    def _used(self, scan: ScanContacts) -> np.ndarray:
+        """(N,) bool: the scan's contacts a label took in the best hypothesis."""
         used = np.zeros(len(scan.z), bool)
         if self.table is not None:
             best = self.hyp[int(np.argmax(self.log_w))]
             now = self.table.hist[best[best >= 0], -1]
             used[now[now >= 0]] = True
-        return self.initiation(scan.z, scan.xy, used, scan.time, self.labels.size, scan.sensor)
+        return used
 
     def _birth_existence(self, born: Tracks, contact: np.ndarray, scan: ScanContacts
                          ) -> tuple[np.ndarray, np.ndarray]:
@@ -171,6 +198,36 @@ class LabelledMixture(ContactTracker):
         log_odds = start_score(cfg.pd, area, rho2) + birth_log_odds(cfg.pd, cfg.birth_rate / coverage_area(sensor),
                                                                     rho1)
         return np.exp(-np.logaddexp(0.0, -log_odds)), log_odds
+
+    def _tentative_children(self, scan: ScanContacts, tent: LabelledTable
+                            ) -> tuple[ScanUpdate, np.ndarray, np.ndarray]:
+        """The T tentative labels ``tent`` each updated alone, in one batch, on the contacts the best hypothesis
+        left free (`nnda.tracking.glmb`, tentative labels): the scan's children of ``tent``, the heaviest child
+        of each label (T,) (its miss or a gated contact) and the label's new existence (T,)."""
+        T = len(tent)
+        u = self._predict_update(scan, tent)
+        ok = ~self._used(scan)[u.pj]
+        pl = u.pl[ok]
+        with np.errstate(divide="ignore"):  # P_D 1: a miss weighs 0
+            log_w = np.concatenate([np.log1p(-u.pd), np.log(u.pd[pl]) + u.ll[ok] - np.log(u.clutter[ok])])
+        owner = np.concatenate([np.arange(T), pl])
+        child = np.concatenate([np.arange(T), T + np.flatnonzero(ok)])
+        total = np.full(T, -np.inf)
+        np.logaddexp.at(total, owner, log_w)  # ln of (1 - P_D + sum of P_D l / lambda_c) per label
+        alive = self.config.survival_probability * tent.r
+        log_odds = np.log(alive) - np.log1p(-alive) + total
+        order = np.lexsort((-log_w, owner))
+        best = child[order[np.r_[True, np.diff(owner[order]) != 0]]]
+        return u, best, np.exp(-np.logaddexp(0.0, -log_odds))
+
+    def _sorted_tentative(self, kids: LabelledTable) -> tuple[LabelledTable | None, LabelledTable | None]:
+        """Updated tentative labels ``kids`` split: those of existence ``admission_existence`` or more (to join
+        the hypotheses) and those of ``min_tentative_existence`` or more (tentative still), each None when
+        empty; the rest are dropped."""
+        cfg = self.config
+        ready = kids.r >= cfg.admission_existence
+        stay = ~ready & (kids.r >= cfg.min_tentative_existence)
+        return tuple(kids.take(np.flatnonzero(m)) if m.any() else None for m in (ready, stay))
 
     # ---------------------------------------------------------------------- pruning
     @abstractmethod
@@ -216,8 +273,9 @@ class LabelledMixture(ContactTracker):
         return np.exp(self.log_w) @ r
 
     def _waiting(self) -> LabelledTable | None:
-        """Rows reported PRELIMINARY after the best hypothesis's, live though in no hypothesis yet (none)."""
-        return None
+        """Rows reported PRELIMINARY after the best hypothesis's, live though in no hypothesis yet: the tentative
+        labels."""
+        return self.tentative
 
     def _report(self, scan: int, time: float) -> TrackerOutput:
         """The best hypothesis's labels with their row's estimate and contact, CONFIRMED once their existence
@@ -244,7 +302,9 @@ class LabelledMixture(ContactTracker):
             new = waiting.tracks.track_id
             blocks.append((new, np.full(len(waiting), TrackStatus.PRELIMINARY, np.int8), waiting.x, waiting.P,
                            waiting.hist[:, -1]))
-            ids, x, P = np.concatenate([ids, new]), np.concatenate([x, waiting.x]), np.concatenate([P, waiting.P])
+            stale = ~np.isin(ids, new)
+            ids, x, P = (np.concatenate([ids[stale], new]), np.concatenate([x[stale], waiting.x]),
+                         np.concatenate([P[stale], waiting.P]))
             live = np.concatenate([live, new])
         gone = ~np.isin(ids, live)
         if gone.any():

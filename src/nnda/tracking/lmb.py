@@ -9,7 +9,8 @@ holding every label with its r (a label's death option then weighs 1 - p_S r: it
 GLMB collapses to one LMB again: per label r = the summed weights of the hypotheses holding it, and the
 density the track (association history) of the largest summed weight among them (the best, not the
 moment-matched mixture: an IMM state is a mixture of models already). A label whose r falls below
-``min_existence`` is deleted. Labels are the nnda track ids, births as in `nnda.tracking.glmb`.
+``min_existence`` is deleted. Labels are the nnda track ids, births and tentative labels as in
+`nnda.tracking.glmb`.
 """
 
 from __future__ import annotations

@@ -25,7 +25,9 @@ m^-2, or the local estimate every contact tracker uses, times the area Jacobian)
    N-scan pruning (the best hypothesis's assignment ``n_scan`` scans back becomes final: `_n_scan_agrees`)
    and at most ``max_global_hypotheses`` kept (a `BoundWarning` the first time in a run, ``n_capped``
    counts the scans); a Bernoulli absent from every global hypothesis is deleted;
-4. birth from the Poisson component (below), into every global hypothesis that leaves the contact free.
+4. the tentative Bernoullis updated (below); birth from the Poisson component (below), into every global
+   hypothesis that leaves the contact free, of the new Bernoullis and the tentative ones that reached
+   ``admission_existence``.
 
 **Poisson component: measurement-driven.** A Gaussian mixture of undetected targets over a 2 s radar's
 coverage (tens of km, speeds up to v_max in any direction) would need thousands of components to give a
@@ -43,10 +45,21 @@ contact the best hypothesis gives to a Bernoulli opens none, as in the other con
 contact paired with several initiators opens a Bernoulli per pair (the initiation's rule; PMBM proper
 opens one, its density a mixture over the pairs): both are the approximations of this formulation.
 
+**Tentative Bernoullis.** A new Bernoulli whose existence is below ``admission_existence`` (in dense clutter
+nearly all of them: ~1e-4 at 1,000 clutter a scan, hundreds a scan) joins no global hypothesis, where its
+clusters would take the hypothesis budget from the targets' (the ``max_global_hypotheses`` best sums over
+all clusters keep almost no alternatives of any one); it is a tentative label, updated alone on the contacts
+the best global hypothesis leaves free, as `nnda.tracking.glmb` describes (its existence from its miss and
+every gated contact, its STH the heaviest of them). Once its existence reaches ``admission_existence`` it
+joins, in that scan, every global hypothesis leaving its last contact free, as a birth does with r its
+existence; below ``min_tentative_existence`` it is dropped. The contacts the tentative labels take open no
+Bernoulli. ``admission_existence`` 0 puts every new Bernoulli in the global hypotheses at once.
+
 **Output.** The Bernoullis present in the highest-weight global hypothesis are reported with their STH's
 estimate there (the prediction after a miss) and contact, by label (the track id, stable for the
-Bernoulli's life). A Bernoulli is CONFIRMED once its marginal existence (r summed over the global
-hypotheses by weight) reaches ``existence_threshold`` and stays so; before, it is reported PRELIMINARY.
+Bernoulli's life), then the tentative labels (PRELIMINARY). A Bernoulli is CONFIRMED once its marginal
+existence (r summed over the global hypotheses by weight) reaches ``existence_threshold`` and stays so;
+before, it is reported PRELIMINARY.
 A reported Bernoulli that is deleted is reported once more as DELETED with its last estimate. The life
 cycle's initiation window, v_max and ``max_tracks`` (live Bernoullis) apply; its confirmation rule,
 M/N counts and sanity rules do not: status comes from existence alone, whatever ``lifecycle.confirmation``
@@ -65,7 +78,7 @@ from nnda.data.dataset import Scan
 from nnda.tracking.labelled import LabelledConfig, LabelledMixture, LabelledTable, merged, normalised
 from nnda.tracking.output import TrackerOutput
 from nnda.tracking.pmbm_hypotheses import scan_hypotheses
-from nnda.tracking.tracker import ScanContacts, TrackerConfig, Tracks
+from nnda.tracking.tracker import ScanContacts, TrackerConfig
 
 #: history entry of a scan before the Bernoulli existed (a miss is NO_CONTACT)
 UNKNOWN = -2
@@ -114,9 +127,28 @@ class PMBMTracker(LabelledMixture):
         if self.table is not None:
             self._update(sc)
             self._prune_sths()
-        born, contact = self._births(sc)
+        ready, taken = None, None
+        if self.tentative is not None:
+            u, best, r = self._tentative_children(sc, self.tentative)
+            kids = LabelledTable(u.tracks, np.ones(len(u.tracks)), u.hist, u.x, u.P).take(best).replaced(r=r)
+            taken = kids.hist[:, -1]
+            ready, self.tentative = self._sorted_tentative(kids)
+        live = sum(len(t) for t in (ready, self.tentative) if t is not None)
+        born, contact = self._births(sc, taken, live)
         if born is not None:
-            self._birth(born, contact, sc)
+            r, log_odds = self._birth_existence(born, contact, sc)
+            hist = np.full((len(born), self.config.n_scan), UNKNOWN, np.int64)
+            hist[:, -1] = contact
+            x, P = self.filter.estimate(born.filt)
+            new = LabelledTable(born, r, hist, x, P)
+            wait = r < self.config.admission_existence
+            if wait.any():
+                rest = new.take(np.flatnonzero(wait))
+                self.tentative = rest if self.tentative is None else LabelledTable.concat([self.tentative, rest])
+            if not wait.all():
+                self._birth(new.take(np.flatnonzero(~wait)), log_odds[~wait], len(sc.z))
+        if ready is not None:
+            self._birth(ready, np.log(ready.r) - np.log1p(-ready.r), len(sc.z))
         return self._report(scan.index, sc.time)
 
     # ---------------------------------------------------------------------- update
@@ -156,21 +188,19 @@ class PMBMTracker(LabelledMixture):
         return _n_scan_agrees(hyp, self.table.hist[np.maximum(hyp, 0), 0], best)
 
     # ---------------------------------------------------------------------- birth
-    def _birth(self, born: Tracks, contact: np.ndarray, scan: ScanContacts) -> None:
-        """New Bernoullis from the Poisson component (module docstring), added to every global hypothesis."""
-        r, log_odds = self._birth_existence(born, contact, scan)
-        hist = np.full((len(born), self.config.n_scan), UNKNOWN, np.int64)
-        hist[:, -1] = contact
-        x, P = self.filter.estimate(born.filt)
-        new = LabelledTable(born, r, hist, x, P)
+    def _birth(self, new: LabelledTable, log_odds: np.ndarray, n_contacts: int) -> None:
+        """New Bernoullis ``new`` (B rows, of this scan's contact ``new.hist[:, -1]``) with their existence's log
+        odds (B,) added to every global hypothesis that leaves the contact free (module docstring); the scan
+        has ``n_contacts`` contacts."""
+        born, contact = new.tracks, new.hist[:, -1]
         first = 0 if self.table is None else len(self.table)
         self.table = new if self.table is None else LabelledTable.concat([self.table, new])
-        taken = np.zeros((len(self.log_w), len(scan.z) + 1), bool)  # contacts detected, per global hypothesis
+        taken = np.zeros((len(self.log_w), n_contacts + 1), bool)  # contacts detected, per global hypothesis
         rows, cols = np.nonzero(self.hyp >= 0)
         if rows.size:
             last = self.table.hist[self.hyp[rows, cols], -1]
             taken[rows, last] = True  # a miss (-1) marks the spare last column
-        free = ~taken[:, contact]  # (H, B)
+        free = ~taken[:, contact] | (contact < 0)  # (H, B); a tentative Bernoulli's miss takes nothing
         self.hyp = np.column_stack([self.hyp, np.where(free, first + np.arange(len(born)), -1)])
         self.log_w = normalised(self.log_w + (free * np.logaddexp(0.0, log_odds)).sum(axis=1))
         self.labels = np.concatenate([self.labels, born.track_id])
