@@ -14,6 +14,17 @@ the same whether generated alone or inside a Monte Carlo set, changing the
 clutter law leaves the target noise as it was, a one-sensor scenario draws
 what it drew before scenarios had several sensors, and a sensor's draws do
 not depend on the other sensors.
+
+A sensor of asynchronous reports (`nnda.data.scenario.Sensor.reports`)
+draws the same four streams and one more, its report times
+(`report_stream`): each (window, target) row and each clutter point gets a
+time uniform in its window (t_{k-1}, t_k], cut to after the target's start
+(and t > 0), and its measurement is of the target's noise-free position at
+that time plus the window's process-noise perturbation (the jitter of the
+window's truth row, which stands for the whole window). Truth rows stay at
+the windows' ends, and a hull hides a ship from such a sensor as it stands
+at the window's end (`nnda.data.occlusion`). A sweep sensor draws nothing from that stream, so every
+sweep sensor's draws are what they were before report sensors existed.
 """
 
 from __future__ import annotations
@@ -35,6 +46,8 @@ from nnda.data.trajectory import evaluate
 #: spawn-key entry under a run's root SeedSequence that leads to the streams of sensors 1, 2, ...
 #: (the first sensor's four streams are the root's children 0-3)
 FURTHER_SENSORS_KEY = 4
+#: spawn-key entry under a sensor's root SeedSequence that leads to a report sensor's report-time stream
+REPORT_TIMES_KEY = 5
 
 
 @dataclass(frozen=True)
@@ -105,12 +118,58 @@ def _clutter_centre(clutter: Clutter, x: np.ndarray, y: np.ndarray) -> np.ndarra
     return np.array([(x.min() + x.max()) / 2, (y.min() + y.max()) / 2])
 
 
+def _sensor_key(scenario: Scenario, run: int, sensor: int) -> tuple[int, ...]:
+    """Spawn key of one sensor's root SeedSequence in one run (module docstring)."""
+    key = zlib.crc32(scenario.name.encode())
+    return (key, run) if sensor == 0 else (key, run, FURTHER_SENSORS_KEY, sensor)
+
+
 def run_streams(scenario: Scenario, seed: int, run: int, sensor: int = 0) -> list[np.random.Generator]:
     """Independent generators (process noise, detection, measurement, clutter) of one sensor in one run."""
-    key = zlib.crc32(scenario.name.encode())
-    spawn_key = (key, run) if sensor == 0 else (key, run, FURTHER_SENSORS_KEY, sensor)
-    root = np.random.SeedSequence(seed, spawn_key=spawn_key)
+    root = np.random.SeedSequence(seed, spawn_key=_sensor_key(scenario, run, sensor))
     return [np.random.default_rng(child) for child in root.spawn(4)]
+
+
+def report_stream(scenario: Scenario, seed: int, run: int, sensor: int) -> np.random.Generator:
+    """The report-time generator of a report sensor in one run, independent of its `run_streams`."""
+    spawn_key = (*_sensor_key(scenario, run, sensor), REPORT_TIMES_KEY)
+    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=spawn_key))
+
+
+def _in_windows(end: np.ndarray, start: np.ndarray, g: np.random.Generator) -> np.ndarray:
+    """Times (s) uniform in (start, end] (shapes (n,)), one draw of ``g`` each; ``end`` itself where start >= end.
+
+    Rounding never puts a time on ``start`` (the previous window's end, which belongs to that window)."""
+    t = end - g.random(end.size) * (end - start)
+    return np.minimum(np.maximum(t, np.nextafter(start, np.inf)), end)
+
+
+def _report_times(plan: Plan, sensor: int, rows: np.ndarray, clutter_scans: np.ndarray,
+                  g: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Times (s) of a report sensor's plan ``rows`` and clutter points (their scans ``clutter_scans``), shapes
+    (rows.size,) and (clutter_scans.size,): uniform in their windows (t_{k-1}, t_k], a row's after its
+    target's start; the first window opens at max(0, t_1 - scan_period_s). ``g``: rows first, then clutter."""
+    sweeps = np.flatnonzero(plan.scan_sensor == sensor)
+    ends = plan.scan_time[sweeps]
+    first = max(0.0, float(ends[0]) - plan.scenario.sensors[sensor].scan_period_s)
+    opens = np.concatenate([[first], ends[:-1]])
+    born = np.array([t.start_time_s for t in plan.scenario.targets])[plan.target_id[rows]]
+    row_end = plan.time[rows]
+    row_open = np.minimum(np.maximum(opens[np.searchsorted(sweeps, plan.scan[rows] - 1)], born), row_end)
+    clutter_window = np.searchsorted(sweeps, clutter_scans - 1)
+    return _in_windows(row_end, row_open, g), _in_windows(ends[clutter_window], opens[clutter_window], g)
+
+
+def _positions_at(scenario: Scenario, target_id: np.ndarray, time: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Noise-free positions (x, y in m, shapes (n,)) of targets ``target_id`` at scenario times ``time`` (s), each
+    inside its target's life."""
+    x, y = np.empty(time.size), np.empty(time.size)
+    for tid in np.unique(target_id):
+        at = target_id == tid
+        target = scenario.targets[tid]
+        state = evaluate(target, np.clip(time[at] - target.start_time_s, 0.0, target.duration_s))
+        x[at], y[at] = state.x, state.y
+    return x, y
 
 
 def realise(plan: Plan, seed: int, run: int) -> Dataset:
@@ -118,7 +177,7 @@ def realise(plan: Plan, seed: int, run: int) -> Dataset:
     sc = plan.scenario
     jitter = sc.process_noise.model == "jitter" and sc.process_noise.sigma_accel > 0
     x, y, detected = np.empty_like(plan.x), np.empty_like(plan.y), np.empty(plan.x.size, dtype=bool)
-    parts = []  # per sensor: (scan, range, azimuth, x, y, target_id, sensor) of its detections, unsorted
+    parts = []  # per sensor: (scan, time, range, azimuth, x, y, target_id, sensor) of its detections, unsorted
     for j, sensor in enumerate(sc.sensors):
         g_process, g_detect, g_measure, g_clutter = run_streams(sc, seed, run, j)
         rows = np.flatnonzero(plan.sensor == j)
@@ -128,18 +187,26 @@ def realise(plan: Plan, seed: int, run: int) -> Dataset:
             w = g_process.standard_normal((2, rows.size)) * scale
             xj, yj = xj + w[0], yj + w[1]
         x[rows], y[rows] = xj, yj
+        sweeps = np.flatnonzero(plan.scan_sensor == j) + 1
+        counts = clutter_counts(sensor.clutter, sweeps.size, g_clutter)
+        clutter_scan = np.repeat(sweeps, counts)
+        at_x, at_y, t_row, t_clutter = xj, yj, plan.time[rows], plan.scan_time[clutter_scan - 1]  # seen where, when
+        if sensor.reports:
+            t_row, t_clutter = _report_times(plan, j, rows, clutter_scan, report_stream(sc, seed, run, j))
+            at_x, at_y = _positions_at(sc, plan.target_id[rows], t_row)
+            if jitter:  # the window's perturbation, as its truth row's
+                at_x, at_y = at_x + w[0], at_y + w[1]
 
-        za, zb = measure(sensor, xj, yj, g_measure)
+        za, zb = measure(sensor, at_x, at_y, g_measure)
         covered = in_coverage(sensor, za, zb) if sensor.kind == "position" else in_coverage_polar(sensor, za, zb)
         seen = ~plan.missed[rows] & (g_detect.random(rows.size) < plan.pd[rows]) & covered
         if plan.length.any():  # ships hide the shorter ships behind them (nnda.data.occlusion)
             seen &= ~hidden(sensor.position, plan.scan[rows], xj, yj, plan.length[rows])
         detected[rows] = seen
 
-        sweeps = np.flatnonzero(plan.scan_sensor == j) + 1
-        counts = clutter_counts(sensor.clutter, sweeps.size, g_clutter)
         cx, cy = clutter_positions(sensor.clutter, sensor, plan.clutter_centre[j], int(counts.sum()), g_clutter)
-        scan = np.concatenate([plan.scan[rows][seen], np.repeat(sweeps, counts)])
+        scan = np.concatenate([plan.scan[rows][seen], clutter_scan])
+        time = np.concatenate([t_row[seen], t_clutter])
         tid = np.concatenate([plan.target_id[rows][seen], np.full(cx.size, -1, dtype=np.int32)])
         if sensor.kind == "position":
             mx, my = np.concatenate([za[seen], cx]), np.concatenate([zb[seen], cy])
@@ -148,13 +215,14 @@ def realise(plan: Plan, seed: int, run: int) -> Dataset:
             cr, caz = cart_to_polar_at(sensor.position, cx, cy)
             r, az = np.concatenate([za[seen], cr]), np.concatenate([zb[seen], caz])
             mx, my = polar_to_cart_at(sensor.position, r, az)
-        parts.append((scan, r, az, mx, my, tid, np.full(scan.size, j, dtype=np.int32)))
+        parts.append((scan, time, r, az, mx, my, tid, np.full(scan.size, j, dtype=np.int32)))
 
-    scan, r, az, mx, my, tid, sensor_of = (np.concatenate(c) for c in zip(*parts))
-    order = np.lexsort((az, scan))
-    scan, r, az, mx, my, tid, sensor_of = (a[order] for a in (scan, r, az, mx, my, tid, sensor_of))
+    scan, time, r, az, mx, my, tid, sensor_of = (np.concatenate(c) for c in zip(*parts))
+    by_time = np.array([s.reports for s in sc.sensors])[sensor_of]
+    order = np.lexsort((az, np.where(by_time, time, az), scan))  # a sweep's rows by azimuth, reports by time
+    scan, time, r, az, mx, my, tid, sensor_of = (a[order] for a in (scan, time, r, az, mx, my, tid, sensor_of))
     scan = scan.astype(np.int32)
-    detections = Detections(scan, plan.scan_time[scan - 1], r, az, mx, my, tid < 0, tid, sensor_of)
+    detections = Detections(scan, time, r, az, mx, my, tid < 0, tid, sensor_of)
     truth = Truth(plan.scan, plan.time, plan.target_id, x, y, plan.vx, plan.vy, detected)
     return Dataset(sc, seed, run, detections, truth)
 

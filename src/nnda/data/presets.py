@@ -9,7 +9,9 @@
   with overlapping 120-degree sectors and four targets crossing both;
 * ``harbour``, ``harbour-dense``: the two radars of Lima (2022) over a
   harbour and its five ships, one hidden from a radar by a larger one (2 and
-  50 clutter points per sweep).
+  50 clutter points per sweep);
+* ``ais-harbour`` (ours): ten ships seen by a stream of asynchronous
+  position reports (AIS), grouped in 10 s windows.
 
 Training presets use our calibrated clutter (100 points per scan, uniform
 in a 16.6 km square on the target's bounding box, which gives the thesis's
@@ -267,6 +269,36 @@ def _harbour(name: str, clutter_count: int) -> Scenario:
                                 "per sweep")
 
 
+#: (name, x0 m, y0 m, heading deg, speed kn, turn rate deg/s or None): ten ships of an approach, two turning
+AIS_SHIPS: list[tuple[str, float, float, float, float, float | None]] = [
+    ("inbound1", -6_000.0, 4_000.0, 110.0, 12.0, None),
+    ("inbound2", -5_000.0, -3_000.0, 60.0, 10.0, None),
+    ("outbound1", 2_000.0, 1_000.0, 300.0, 14.0, None),
+    ("outbound2", 3_000.0, -2_000.0, 250.0, 8.0, None),
+    ("ferry", -1_000.0, -5_000.0, 0.0, 15.0, None),
+    ("pilot", 1_000.0, 3_000.0, 180.0, 6.0, 0.4),
+    ("tug", -2_000.0, 2_000.0, 90.0, 5.0, -0.3),
+    ("anchored", 4_000.0, 4_000.0, 45.0, 1.0, None),
+    ("fisher", 5_000.0, -4_000.0, 330.0, 7.0, None),
+    ("yacht", -4_000.0, 0.0, 135.0, 9.0, None),
+]
+#: the AIS stream: position fixes with 10 m noise per axis, PD 0.95 per (window, ship), a Poisson mean of one
+#: false report per 10 s window; no range limit inside 30 km
+AIS_STREAM = Sensor(name="ais", kind="position", reports=True, scan_period_s=10.0, sigma_position_m=10.0,
+                    min_range_m=0.0, max_range_m=30_000.0, pd=0.95, clutter=Clutter(count=1, count_law="poisson"))
+AIS_DURATION_S = 600.0
+
+
+def _ais_harbour() -> Scenario:
+    targets = [Target(name=ship, x_m=x, y_m=y, heading_deg=heading, speed_m_s=knots * KNOT_M_S,
+                      segments=[Segment(duration_s=AIS_DURATION_S, turn_rate_deg_s=turn)])
+               for ship, x, y, heading, knots, turn in AIS_SHIPS]
+    return Scenario(name="ais-harbour", duration_s=AIS_DURATION_S, targets=targets, sensors=(AIS_STREAM,), seed=503,
+                    process_noise=ProcessNoise(sigma_accel=0.05),
+                    description="ten ships (two turning) seen by AIS: each position report (10 m noise, PD 0.95) at "
+                                "its own time, grouped in 10 s windows; 1 false report per window on average")
+
+
 def _build() -> dict[str, Scenario]:
     presets = {s.name: s for s in (_training(i) for i in range(1, len(TRAINING_SCENARIOS) + 1))}
     presets.update({n: _trajectory(n) for n in VALIDATION_TRAJECTORIES})
@@ -274,6 +306,7 @@ def _build() -> dict[str, Scenario]:
     presets["two-radars"] = _two_radars()
     presets["harbour"] = _harbour("harbour", 2)
     presets["harbour-dense"] = _harbour("harbour-dense", 50)
+    presets["ais-harbour"] = _ais_harbour()
     return presets
 
 
