@@ -134,3 +134,21 @@ def test_a_window_before_the_last_is_refused():
     tracker.step(Scan(1, WINDOW, np.zeros((1, 2)), 0, np.array([5.0])))
     with pytest.raises(TrackingError, match="does not come after the previous scan"):
         tracker.step(Scan(2, WINDOW, np.zeros((1, 2)), 0, np.array([9.0])))
+
+
+def test_a_radar_sweeping_at_the_windows_ends_is_fused_with_the_reports():
+    """At one time a window of reports comes before the sweeps (its reports lie before), whichever sensor is
+    listed first; both sensors update the same tracks."""
+    from nnda.data.generator import generate
+    from nnda.data.presets import PRESETS
+
+    scene = PRESETS["ais-harbour"]
+    ais = scene.sensors[0]
+    radar = Sensor(name="radar", kind="position", scan_period_s=ais.scan_period_s, sigma_position_m=20.0,
+                   min_range_m=0.0, max_range_m=ais.max_range_m, x_m=ais.x_m, y_m=ais.y_m)
+    both = scene.model_copy(update={"sensors": (radar, ais)})
+    data = generate(both, 0)
+    assert data.scan_sensor[:2].tolist() == [1, 0] and data.scan_time[0] == data.scan_time[1]
+    tracker = make_tracker("gnn", both.sensors, {"lifecycle": LIFE})
+    outs = [tracker.step(scan) for scan in data.scans()]
+    assert outs[-1].confirmed.sum() == len(scene.targets)

@@ -334,11 +334,14 @@ class Scenario(BaseModel):
         return sum(s.n_sweeps(self.duration_s) for s in self.sensors)
 
     def scan_schedule(self) -> tuple[np.ndarray, np.ndarray]:
-        """Time (s, float64) and sensor index (int32) of each scan k = 1..n_scans; shapes (n_scans,)."""
+        """Time (s, float64) and sensor index (int32) of each scan k = 1..n_scans; shapes (n_scans,). Scans at
+        one time come in the sensors' order, a window of asynchronous reports (``reports``) before the sweeps:
+        its reports lie at or before that time, so a sweep there must not be taken first."""
         times = np.concatenate([s.sweep_times(self.duration_s) for s in self.sensors])
         sensor = np.repeat(np.arange(len(self.sensors), dtype=np.int32),
                            [s.n_sweeps(self.duration_s) for s in self.sensors])
-        order = np.lexsort((sensor, times))
+        sweeps = np.array([not s.reports for s in self.sensors])[sensor]
+        order = np.lexsort((sensor, sweeps, times))
         return times[order], sensor[order]
 
     @property
