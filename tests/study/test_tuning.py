@@ -18,7 +18,7 @@ from nnda.filters.measurement import measurement_model
 from nnda.study import tuning
 from nnda.study.track import run_tracker
 from nnda.study.tuning import MIN_WINDOW_SCANS, NO_UPDATES, scan_window, split_scans, tune
-from nnda.study.tuning_space import Dimension, search_space, with_values
+from nnda.study.tuning_space import CANDIDATES, Dimension, search_space, with_values
 from nnda.tracking.registry import check_config, make_tracker
 from nnda.tracking.tracker import MotionConfig
 
@@ -69,6 +69,16 @@ def test_the_space_follows_the_config_fields_not_the_tracker_name():
     assert "clutter" in {d.path for d in search_space(check_config("gmphd", {"clutter": 5.0}))}
 
 
+def test_a_range_widens_to_hold_the_base_and_the_report_gap_is_searched_on_reports_only():
+    ships = check_config("gnn", {"lifecycle": {"v_min": 0.0, "v_max": 20.0, "max_misses": 12, "confirmation": "mn"}})
+    space = {d.path: d for d in search_space(ships)}
+    assert (space["lifecycle.v_max"].low, space["lifecycle.v_max"].high) == (5.0, 800.0)  # not 100 m/s and up
+    assert (space["lifecycle.max_misses"].low, space["lifecycle.max_misses"].high) == (1, 48)
+    assert space["motion.cv_sigma_q"] == next(d for d in CANDIDATES if d.path == "motion.cv_sigma_q")  # held: kept
+    assert "lifecycle.report_gap_s" not in space
+    assert "lifecycle.report_gap_s" in {d.path for d in search_space(ships, reports=True)}
+
+
 def test_with_values_sets_nested_paths_and_keeps_the_base():
     base = {"lifecycle": {"m": 2}, "gate": 9.0}
     out = with_values(base, {"lifecycle.v_max": 300.0, "motion.cv_sigma_q": 2.0})
@@ -116,7 +126,7 @@ def test_without_truth_a_tracker_without_contacts_or_filters_is_refused(fast):
 def test_an_inconsistent_trial_is_pruned_not_fatal(fast, monkeypatch):
     # a window whose ends overlap: the trials with v_min >= v_max are refused by the config and pruned
     space = (Dimension("lifecycle.v_min", 150.0, 400.0), Dimension("lifecycle.v_max", 210.0, 500.0))
-    monkeypatch.setattr(tuning, "search_space", lambda config: space)
+    monkeypatch.setattr(tuning, "search_space", lambda config, reports=False: space)
     result = tune(fast, "gnn", trials=8, seed=0)
     pruned = [t for t in result.trials if t.state == "PRUNED"]
     assert pruned and all(t.params["lifecycle.v_min"] >= t.params["lifecycle.v_max"] for t in pruned)

@@ -272,7 +272,7 @@ def search(datasets: list[Dataset], tracker: str, params: Mapping[str, Any] | No
     _checked_budget(trials, seed, cutoff_m)
     params = dict(params or {})
     base = check_config(tracker, params, where)
-    space = search_space(base)
+    space = search_space(base, reports=any(s.reports for d in datasets for s in d.scenario.sensors))
     if not space:
         raise ConfigError(f"{where}: tracker {tracker!r}'s config has none of the fields nnda tune searches "
                           f"(motion noise, gate, initiation window, life-cycle or PHD thresholds)")

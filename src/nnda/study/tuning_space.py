@@ -7,16 +7,19 @@ the base config, never by the tracker's name: the contact trackers' IMM (``motio
 switching), gate, initiation window (``lifecycle.v_min`` / ``v_max``) and the thresholds of the life cycle's
 confirmation rule (M/N counts, the score rule's error probabilities, the adaptive rule's false-track rate,
 the existence rule's thresholds); the PHD filters' motion noise, survival, detection, birth rate, a
-numeric clutter rate and the extraction threshold. A combination a config refuses (v_min >= v_max, m > n)
-is a pruned trial, not an error.
+numeric clutter rate and the extraction threshold; with a sensor of asynchronous reports, the life cycle's
+``report_gap_s``. A range that does not hold the base config's value (ships' speeds below the window's range
+made for aircraft) is widened to four times beyond it on that side. A combination a config refuses
+(v_min >= v_max, m > n) is a pruned trial, not an error.
 """
 
 from __future__ import annotations
 
 import copy
+import math
 import numbers
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from pydantic import BaseModel
@@ -26,7 +29,8 @@ from pydantic import BaseModel
 class Dimension:
     """One tuned field: its dotted config ``path``, range [low, high] (the field's unit), searched on a log
     scale when ``log``, as an integer when ``integer``; ``when(config)`` tells whether the base config uses
-    the field (None: whenever the field holds a number)."""
+    the field (None: whenever the field holds a number); ``reports``: only for data of asynchronous
+    reports."""
 
     path: str
     low: float
@@ -34,6 +38,15 @@ class Dimension:
     log: bool = False
     integer: bool = False
     when: Callable[[BaseModel], bool] | None = None
+    reports: bool = False
+
+    def around(self, base: float) -> Dimension:
+        """This dimension with its range widened to hold ``base``: to base / 4 below, 4 base above."""
+        low = self.low if base >= self.low else (base / 4 if base > 0 else base)
+        high = self.high if base <= self.high else 4 * base
+        if self.integer:
+            low, high = math.floor(low), math.ceil(high)
+        return self if (low, high) == (self.low, self.high) else replace(self, low=low, high=high)
 
 
 def _rule(*rules: str) -> Callable[[BaseModel], bool]:
@@ -67,6 +80,8 @@ CANDIDATES: tuple[Dimension, ...] = (
     Dimension("lifecycle.false_deletion", 1e-5, 0.1, log=True, when=_rule("score", "adaptive")),
     Dimension("lifecycle.existence_confirmation", 0.5, 0.99, when=_rule("existence")),
     Dimension("lifecycle.existence_deletion", 1e-3, 0.2, log=True, when=_rule("existence")),
+    # how long a track of asynchronous reports may go unreported (s)
+    Dimension("lifecycle.report_gap_s", 10.0, 3_600.0, log=True, reports=True),
     # the PHD filters (`nnda.tracking.phd.config`)
     Dimension("sigma_q", 0.1, 50.0, log=True),
     Dimension("sigma_omega", 1e-3, 0.5, log=True, when=lambda config: getattr(config, "motion", None) == "ct"),
@@ -89,15 +104,17 @@ def field_value(config: BaseModel, path: str) -> Any:
     return value
 
 
-def search_space(config: BaseModel) -> tuple[Dimension, ...]:
+def search_space(config: BaseModel, reports: bool = False) -> tuple[Dimension, ...]:
     """The `CANDIDATES` a validated tracker config (the base of the search) has: the field exists, holds a
-    real number (not None, not a rule's name such as clutter "local") and its ``when`` holds."""
+    real number (not None, not a rule's name such as clutter "local"), its ``when`` holds and, for a
+    report-only dimension, the data has ``reports``; each range widened to hold the base value
+    (`Dimension.around`)."""
     def tuned(d: Dimension) -> bool:
         value = field_value(config, d.path)
         number = isinstance(value, numbers.Real) and not isinstance(value, bool)
-        return number and (d.when is None or d.when(config))
+        return number and (d.when is None or d.when(config)) and (reports or not d.reports)
 
-    return tuple(d for d in CANDIDATES if tuned(d))
+    return tuple(d.around(field_value(config, d.path)) for d in CANDIDATES if tuned(d))
 
 
 def with_values(params: Mapping[str, Any], values: Mapping[str, Any]) -> dict:
