@@ -8,24 +8,14 @@ import warnings
 
 import numpy as np
 import pytest
+from test_phd_cap import many_targets
 
 from nnda.data.generator import generate
 from nnda.data.presets import PRESETS
-from nnda.data.scenario import Clutter, Scenario, Segment, Sensor, Target
+from nnda.data.scenario import Sensor
 from nnda.errors import BoundWarning, ConfigError
 from nnda.tracking.phd import cphd
 from nnda.tracking.registry import make_tracker
-
-
-def many_targets(n: int, scans: int = 10) -> Scenario:
-    """``n`` straight targets spread over a 100 km radar's ring, P_D 0.9, 20 clutter points a scan."""
-    rng = np.random.default_rng(0)
-    r, az = np.sqrt(rng.uniform(20e3**2, 90e3**2, n)), rng.uniform(0.0, 2 * np.pi, n)
-    targets = [Target(name=f"t{i}", x_m=float(r[i] * np.sin(az[i])), y_m=float(r[i] * np.cos(az[i])),
-                      heading_deg=float(rng.uniform(0, 360)), speed_m_s=200.0,
-                      segments=[Segment(duration_s=2.0 * scans)]) for i in range(n)]
-    sensor = Sensor(max_range_m=100e3, pd=0.9, clutter=Clutter(law="annulus", count=20))
-    return Scenario(name="many", duration_s=2.0 * scans, targets=targets, sensors=(sensor,))
 
 
 def test_the_support_doubles_until_it_holds_the_expected_count():
@@ -44,7 +34,7 @@ def test_the_support_doubles_until_it_holds_the_expected_count():
 def test_the_support_follows_more_targets_than_max_cardinality():
     """40 targets against max_cardinality = 20: held fixed, the count stops at 20, with one BoundWarning naming the
     field and every such scan counted; grown (the default), it passes 20 without a warning."""
-    ds = generate(many_targets(40), 0)
+    ds = generate(many_targets(40, scans=10), 0)
     means = {}
     for per_target in (None, 1.5):
         tracker = make_tracker("cphd", ds.scenario.sensor, {"max_cardinality": 20, "clutter": "scan",
