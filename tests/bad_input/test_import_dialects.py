@@ -182,3 +182,65 @@ def test_a_semicolon_file_as_a_user_meets_it(files):
     outcome = nnda_process("import-detections", "semi.csv", "--out", "new", cwd=files)
     assert_one_line_error(outcome, "semi.csv", "pass --delimiter ';' --decimal ','")
     assert not (files / "new").exists()
+
+
+# ----------------------------------------------------------------------------- compressed files
+
+def _compressed(path, suffix: str, data: bytes):
+    """``data`` written compressed at ``path`` + ``suffix`` (.gz, .bz2 or .zst)."""
+    import bz2
+    import gzip
+
+    out = path.with_name(path.name + suffix)
+    if suffix == ".zst":
+        with pa.output_stream(str(out), compression="zstd") as f:
+            f.write(data)
+    else:
+        out.write_bytes(gzip.compress(data) if suffix == ".gz" else bz2.compress(data))
+    return out.name
+
+
+def test_compressed_csvs_import_as_the_plain_file(files, nnda):
+    plain = _imported(nnda, files, "plain", "plots.csv", "--truth", "truth.csv")
+    for suffix in (".gz", ".bz2", ".zst"):
+        det = _compressed(files / "plots.csv", suffix, COMMA.encode())
+        truth = _compressed(files / "truth.csv", suffix, TRUTH.encode())
+        ds = _imported(nnda, files, f"c{suffix[1:]}", det, "--truth", truth)
+        _same(ds, plain)
+        assert ds.scenario.name == "plots"
+    # the dialect options and the encoding apply to the decompressed text
+    semi = _compressed(files / "semi.csv", ".gz", SEMICOLON.encode())
+    _same(_imported(nnda, files, "semi", semi, "--truth", "semi-truth.csv", "--delimiter", ";", "--decimal", ","),
+          plain)
+    latin = _compressed(files / "latin.csv", ".bz2", COMMA.replace("101", "K\xf6ln").encode("latin-1"))
+    assert [t.name for t in _imported(nnda, files, "latin", latin, "--encoding", "latin-1").scenario.targets] == [
+        "Köln"]
+
+
+def test_a_compressed_file_is_diagnosed_as_the_plain_one(files, refused):
+    semi = _compressed(files / "semi.csv", ".gz", SEMICOLON.encode())
+    refused(files, "import-detections", semi, "--out", "ds", "--overwrite",
+            fragments=("semi.csv.gz", "separated by ';', not ','", "pass --delimiter ';' --decimal ','"))
+    bad = _compressed(files / "enc.csv", ".zst",
+                      b"time,range,azimuth,target_id\n2,15012.5,0.502,101\n4,15100,0.5,1\xff01\n")
+    refused(files, "import-detections", bad, "--out", "ds", "--overwrite",
+            fragments=("enc.csv.zst: data row 2 (line 3), column 'target_id'", "byte 0xff is not UTF-8 text",
+                       "zstd -dc enc.csv.zst | iconv -f cp1252 -t utf-8 > enc-utf8.csv"))
+
+
+def test_a_corrupt_or_mislabelled_compressed_file_is_refused_naming_it(files, refused):
+    whole = (files / _compressed(files / "plots.csv", ".gz", COMMA.encode())).read_bytes()
+    (files / "cut.csv.gz").write_bytes(whole[: len(whole) // 2])
+    refused(files, "import-detections", "cut.csv.gz", "--out", "ds", "--overwrite",
+            fragments=("detections cut.csv.gz: not readable as gzip-compressed CSV", "damaged or not gzip data",
+                       "gzip -t cut.csv.gz"))
+    (files / "text.csv.bz2").write_text(COMMA)
+    refused(files, "import-detections", "plots.csv", "--truth", "text.csv.bz2", "--out", "ds", "--overwrite",
+            fragments=("truth text.csv.bz2: not readable as bz2-compressed CSV", "bzip2 -t text.csv.bz2"))
+    (files / "plots.parquet.gz").write_bytes(whole)
+    refused(files, "import-detections", "plots.parquet.gz", "--out", "ds", "--overwrite",
+            fragments=("plots.parquet.gz: a compressed Parquet file is not read",))
+    refused(files, "import-detections", "cut.csv.lz", "--out", "ds", "--overwrite", fragments=("no such file",))
+    (files / "plots.csv.xz").write_bytes(whole)
+    refused(files, "import-detections", "plots.csv.xz", "--out", "ds", "--overwrite",
+            fragments=("unknown file type '.xz'", ".csv.gz, .csv.bz2, .csv.zst"))

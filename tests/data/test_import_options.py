@@ -42,3 +42,27 @@ def test_values_are_names_when_every_sensor_is_named_and_indices_otherwise():
     with pytest.raises(DatasetError, match=r"the table: row 1 \(1-based\), column 'sensor': unknown sensor '0' "
                                            r"\(sensors: 0 'a', 1 'b'\)"):
         read_detections(det, sensors=named)
+
+
+def test_a_sensor_of_no_given_kind_measures_positions_when_the_file_has_no_range_and_azimuth(tmp_path, monkeypatch):
+    from typer.testing import CliRunner
+
+    from nnda.app.cli import app
+
+    cart = pa.table({"time": [2.0, 4.0], "x": [100.0, 110.0], "y": [9000.0, 9010.0]})
+    geo = pa.table({"time": [2.0, 4.0], "lat": [51.5, 51.5001], "lon": [-0.4, -0.4001]})
+    both = cart.append_column("range", pa.array([9000.0, 9010.0])).append_column("azimuth", pa.array([0.01, 0.01]))
+    kinds = lambda table, sensors=None: [s.kind for s in read_detections(table, sensors=sensors).scenario.sensors]  # noqa: E731
+    assert kinds(cart) == kinds(geo) == ["position"]
+    assert kinds(cart, [{"kind": "polar"}]) == kinds(both) == ["polar"]  # asked for, or measured as range/azimuth
+    assert kinds(cart.append_column("sensor", pa.array(["north", "camp"])),
+                 [{"name": "north", "kind": "polar", "scan_period_s": 2.0}, {"name": "camp"}]) == ["polar", "position"]
+    # the command's summary line says the kind was not given
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "xy.csv").write_text("time,x,y\n2,100,9000\n4,110,9010\n")
+    done = CliRunner().invoke(app, ["import-detections", "xy.csv", "--out", "ds"])
+    assert done.exit_code == 0, done.output
+    assert "sensor radar (position: no kind given, no range/azimuth columns) at (0, 0) m" in " ".join(
+        done.output.split())
+    done = CliRunner().invoke(app, ["import-detections", "xy.csv", "--out", "ds2", "--sensor", "kind=polar"])
+    assert "sensor radar (polar) at" in done.output

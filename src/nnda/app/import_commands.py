@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 from rich.console import Console
 
@@ -18,11 +19,14 @@ from nnda.peers import require_stonesoup
 
 
 def import_detections_command(
-    file: Annotated[Path, typer.Argument(help="detections file: .csv or .parquet")],
+    file: Annotated[Path, typer.Argument(help="detections file: .csv (or .csv.gz, .csv.bz2, .csv.zst) or .parquet")],
     out: Annotated[Path, typer.Option(help="dataset directory to write")],
     truth: Annotated[Path | None, typer.Option(
         help="truth file (.csv or .parquet): time, target_id, x, y (or lat, lon), vx, vy (optional: derived "
              "from each target's positions)")] = None,
+    truth_from_labels: Annotated[float | None, typer.Option(
+        metavar="GAP_S", help="without --truth: the truth at the scan times from the labelled reports (target_id), "
+        "each label's position interpolated between its reports at most GAP_S s apart")] = None,
     sensors: Annotated[Path | None, typer.Option(
         help="TOML file of \\[\\[sensors]] tables (fields as in a scenario's sensors)")] = None,
     sensor: Annotated[list[str] | None, typer.Option(
@@ -79,7 +83,7 @@ def import_detections_command(
                                  azimuth_unit=azimuth_unit, scan_tolerance=scan_tolerance,
                                  time_origin=time_origin, name=name, delimiter=delimiter, decimal=decimal,
                                  encoding=encoding, origin=origin, region=region, distance_unit=distance_unit,
-                                 speed_unit=speed_unit)
+                                 speed_unit=speed_unit, truth_from_labels=truth_from_labels)
     d = ds.detections
     labelled = int((~d.is_clutter).sum())
     Console().print(f"wrote {path} ({d.scan.size} detections, {labelled} of targets; {ds.n_scans} scans; "
@@ -94,9 +98,16 @@ def import_detections_command(
         Console().print(f"  --region: {ds.dropped_rows['--region']} report(s) outside dropped", markup=False,
                         highlight=False)
     shift = 0.0 if ds.time_origin_utc is not None else time_origin or 0.0  # offsets in the file's clock
-    for s in ds.scenario.sensors:
+    if truth_from_labels is not None:
+        labelled = len({t.name for t in ds.scenario.targets})
+        Console().print(f"  truth from the labels: {np.unique(ds.truth.target_id).size} of the {labelled} labels "
+                        f"have truth rows (between reports at most {truth_from_labels:g} s apart)", markup=False,
+                        highlight=False)
+    for spec, s in zip(specs, ds.scenario.sensors):
         timing = (f"reports in windows of {s.scan_period_s:g} s" if s.reports else f"period {s.scan_period_s:g} s")
-        Console().print(f"  sensor {s.name} ({s.kind}) at ({s.x_m:g}, {s.y_m:g}) m: {timing}, "
+        # a sensor whose kind is not given measures positions when the file has no range/azimuth
+        kind = s.kind if "kind" in spec or s.kind == "polar" else "position: no kind given, no range/azimuth columns"
+        Console().print(f"  sensor {s.name} ({kind}) at ({s.x_m:g}, {s.y_m:g}) m: {timing}, "
                         f"offset {s.scan_offset_s + shift:g} s, ranges {s.min_range_m:g}-{s.max_range_m:g} m",
                         markup=False, highlight=False)
 

@@ -18,7 +18,8 @@ the file's name; the mapping applies to the truth file too):
   the geodetic origin (`nnda.data.geodetic_import`). A polar sensor's
   detections are taken from ``range``/``azimuth`` when the file has them,
   a position sensor's from ``x``/``y``; the other pair is derived from the
-  sensor's position.
+  sensor's position. A sensor whose ``kind`` is not given is polar when the
+  file has ``range`` and ``azimuth``, a position sensor otherwise.
 * ``sensor`` (optional): a sensor's name, matched first (an integer 12 finds
   a sensor named "12"); when not every sensor was given a name, a whole
   number that names none is its index in the sensor list. Without the
@@ -32,6 +33,8 @@ the file's name; the mapping applies to the truth file too):
   when absent), one row per target per time; each time
   must be the time of a scan (within the tolerance), its row is stored for
   every scan at that time, and a detection's target must appear in it.
+  Without one, ``truth_from_labels`` takes the truth from the labelled
+  detections (`nnda.data.truth_import.labelled_truth`).
 
 Distances (range, x, y, alt) are in ``distance_unit`` and the truth's
 velocities in ``speed_unit`` (`DISTANCE_UNITS`, `SPEED_UNITS`), stored
@@ -61,7 +64,8 @@ report (a report sensor; windows counted from 1970-01-01 00:00 UTC) or the
 first time less one period (a sweep sensor), the earliest over the
 sensors; the dataset records it (``time_origin_utc``).
 
-A CSV (the detections and the truth file alike; `nnda.data.table_reading`) is UTF-8 text with ","
+A CSV (the detections and the truth file alike; `nnda.data.table_reading`; compressed when named .csv.gz,
+.csv.bz2 or .csv.zst) is UTF-8 text with ","
 between fields and "." in numbers unless ``delimiter`` (``;``, ``|``, a
 tab), ``decimal`` (``,``) and ``encoding`` (a Python codec name, e.g.
 ``latin-1``) say otherwise; a Parquet file ignores them. A byte that is not
@@ -121,6 +125,7 @@ from nnda.data.table_reading import (
     numbers_of,
     read_source,
     require_columns,
+    table_stem,
     texts_of,
     where_in,
 )
@@ -132,7 +137,14 @@ from nnda.data.time_columns import (
     seconds_after,
     utc_text,
 )
-from nnda.data.truth_import import TRUTH_COLUMNS, read_truth, truth_record, truth_scans
+from nnda.data.truth_import import (
+    TRUTH_COLUMNS,
+    check_truth_gap,
+    labelled_truth,
+    read_truth,
+    truth_record,
+    truth_scans,
+)
 from nnda.errors import ConfigError, DatasetError, validated
 
 #: columns nnda reads from a detections file (a truth file's: `TRUTH_COLUMNS`)
@@ -241,7 +253,7 @@ def read_detections(
     azimuth_unit: str = "rad", scan_tolerance: float = SCAN_TOLERANCE_S, time_origin: float | None = None,
     name: str | None = None, delimiter: str = ",", decimal: str = ".", encoding: str = "utf-8",
     origin: str | Sequence[float] | GeodeticOrigin | None = None, region: str | Path | Region | None = None,
-    distance_unit: str = "m", speed_unit: str = "m/s",
+    distance_unit: str = "m", speed_unit: str = "m/s", truth_from_labels: float | None = None,
 ) -> Dataset:
     """The detections file at ``path`` (and its ``truth`` file) as a checked `Dataset` (see the module).
 
@@ -262,7 +274,10 @@ def read_detections(
     ``distance_unit`` (`DISTANCE_UNITS`: m, km, nmi, ft) is the unit of the
     files' range, x, y and alt, ``speed_unit`` (`SPEED_UNITS`: m/s, kn,
     km/h) of the truth's vx, vy; the dataset holds metres and m/s (the
-    sensors' fields stay in metres).
+    sensors' fields stay in metres). ``truth_from_labels`` (s), in place of
+    a ``truth`` file, takes the truth at the scan times from the labelled
+    reports, interpolated across gaps of at most that many seconds
+    (`nnda.data.truth_import.labelled_truth`).
     """
     if azimuth_unit not in AZIMUTH_UNITS:
         raise ConfigError(f"--azimuth-unit {azimuth_unit!r}: unknown unit; choose one of {', '.join(AZIMUTH_UNITS)}")
@@ -275,6 +290,7 @@ def read_detections(
         raise ConfigError(f"--scan-tolerance {scan_tolerance!r}: must be a finite number of seconds >= 0")
     if time_origin is not None and not math.isfinite(time_origin):
         raise ConfigError(f"--time-origin {time_origin!r}: must be a finite number of seconds")
+    gap_s = check_truth_gap(truth_from_labels, truth)
     mapping = column_mapping(columns)
     dialect = csv_dialect(delimiter, decimal, encoding)
     specs = [s.model_dump(exclude_unset=True) if isinstance(s, Sensor) else dict(s) for s in (sensors or [{}])]
@@ -302,6 +318,9 @@ def read_detections(
         t = numbers_of(table, path, "time", tcol, dec) - time_origin
     polar, cart = {"range", "azimuth"} <= present.keys(), {"x", "y"} <= present.keys()
     geodetic = not cart and ({"lat", "lon"} <= present.keys() or not polar and ("lat" in present or "lon" in present))
+    if not polar:  # positions only: a sensor of no given kind measures positions (a radar is asked for)
+        for s in specs:
+            s.setdefault("kind", "position")
     if not (polar or cart or geodetic):
         pair = ["range", "azimuth"] if "x" not in present and "y" not in present else ["x", "y"]
         require_columns(path, present, pair, mapping, table, "a position: range and azimuth, x and y, or lat and lon")
@@ -448,10 +467,10 @@ def read_detections(
         built.append(validated(Sensor, full, f"sensor {j} ({names[j]!r})", "sensor"))
 
     labels = labels_of(table, path, present["target_id"])[rows_kept] if "target_id" in present else None
-    scenario_name = _scenario_name(name or path.stem)
+    scenario_name = _scenario_name(name or table_stem(path))
     return _assemble(path, truth_rows, mapping, scenario_name, built, float(duration), time_origin, tol,
                      t, sweep, sensor, forms, labels, rows_kept, frame, region, n_dropped,
-                     None if origin_ns is None else utc_text(origin_ns))
+                     None if origin_ns is None else utc_text(origin_ns), gap_s)
 
 
 def _both_forms(path: Path, mapping: Mapping[str, str], specs: Sequence[Mapping[str, Any]], names: list[str],
@@ -482,9 +501,11 @@ def _both_forms(path: Path, mapping: Mapping[str, str], specs: Sequence[Mapping[
 
 
 def _assemble(path, truth_rows, mapping, scenario_name, sensors, duration, time_origin, tol, t, sweep, sensor,
-              forms, labels, rows_kept, frame=None, region=None, n_dropped=0, origin_utc=None) -> Dataset:
+              forms, labels, rows_kept, frame=None, region=None, n_dropped=0, origin_utc=None,
+              gap_s=None) -> Dataset:
     """The dataset from the checked columns of the rows kept (``rows_kept``: their file rows): scans,
-    positions in both forms (``forms``: range, azimuth, x, y), targets, truth."""
+    positions in both forms (``forms``: range, azimuth, x, y), targets, truth (the truth file's, or with
+    ``gap_s`` the labels')."""
     n = t.size
     draft = Scenario(name=scenario_name, duration_s=duration, sensors=tuple(sensors),
                      targets=[_placeholder(duration)], process_noise=ProcessNoise(model="none"))
@@ -496,11 +517,14 @@ def _assemble(path, truth_rows, mapping, scenario_name, sensors, duration, time_
         scan[mine] = scans_j[sweep[mine]]
     r_out, az_out, x_out, y_out = forms
     # targets: the truth file's, else the labels'
-    truth_table = truth_scans(truth_rows, time_origin, tol, sched_time) if truth_rows is not None else None
     truth_path = truth_rows["path"] if truth_rows is not None else None
+    if gap_s is not None:
+        truth_rows = labelled_truth(t, x_out, y_out, labels, np.unique(sched_time), gap_s, path,
+                                    mapping.get("target_id", "target_id"))
+    truth_table = truth_scans(truth_rows, time_origin, tol, sched_time) if truth_rows is not None else None
     known = set(truth_table["label"]) if truth_table is not None else set()
     found = {v for v in labels if v is not None} if labels is not None else set()
-    if truth_table is not None and found - known:
+    if truth_path is not None and found - known:
         unknown = found - known
         row = int(np.flatnonzero(np.isin(labels, list(unknown)))[0])
         raise DatasetError(f"{where_in(path, int(rows_kept[row]), mapping.get('target_id', 'target_id'))}: target "
@@ -518,6 +542,7 @@ def _assemble(path, truth_rows, mapping, scenario_name, sensors, duration, time_
     targets = _targets(order, truth_table, det, sched_time, duration)
     truth_rec = truth_record(truth_table, index, det)
     what = f"{n} detections from {path.name}" + (f", truth from {truth_path.name}" if truth_path else "")
+    what += f", truth from the labels across gaps up to {gap_s:g} s" if gap_s is not None else ""
     what += f"; geodetic origin {frame}" if frame is not None else ""
     what += f"; {n_dropped} outside --region {region.text} dropped" if region is not None else ""
     scenario = Scenario(
@@ -528,7 +553,8 @@ def _assemble(path, truth_rows, mapping, scenario_name, sensors, duration, time_
                      f"grouped into sweeps within {tol:g} s"
                      + (", a report sensor's into windows of its scan period" if report.any() else "")
                      + "; targets give each one's first true state "
-                     "(a placeholder when unlabelled), the truth file its motion"))
+                     f"(a placeholder when unlabelled), the {'labels' if gap_s is not None else 'truth file'} its "
+                     "motion"))
     return Dataset(scenario, 0, 0, det, truth_rec, frame, {"--region": n_dropped} if region is not None else {},
                    origin_utc)
 
@@ -556,8 +582,8 @@ def _targets(order: list[str], truth: dict | None, det: Detections, sched_time: 
     targets = []
     labels = np.array(truth["label"], dtype=object) if truth is not None else None
     for i, name in enumerate(order):
-        if labels is not None:
-            rows = np.flatnonzero(labels == name)
+        rows = np.flatnonzero(labels == name) if labels is not None else np.empty(0, np.int64)
+        if rows.size:  # a label of the truth; without a row in it (truth from labels), its first detection
             r0 = rows[np.argmin(truth["scan"][rows])]
             x0, y0, vx, vy = (float(truth[c][r0]) for c in ("x", "y", "vx", "vy"))
             times = sched_time[truth["scan"][rows] - 1]

@@ -35,6 +35,9 @@ DELIMITERS = {",": ",", ";": ";", "|": "|", "\t": "\t", "\\t": "\t", "tab": "\t"
 DECIMAL_MARKS = (".", ",")
 #: bytes of a CSV read to guess its dialect when it does not parse
 _SNIFF_BYTES = 1 << 16
+#: a compressed CSV's last suffix -> pyarrow's codec (the file is read as it is decompressed) and the command-line
+#: tool that tests (-t) and decompresses (-dc) such a file
+COMPRESSIONS = {".gz": ("gzip", "gzip"), ".bz2": ("bz2", "bzip2"), ".zst": ("zstd", "zstd")}
 
 
 @dataclass(frozen=True)
@@ -105,18 +108,58 @@ def read_source(source: Source, what: str, dialect: CsvDialect = CsvDialect()) -
     raise ConfigError(f"{what}: {type(source).__name__} is not a file path, a pyarrow Table or a pandas DataFrame")
 
 
+def table_kind(path: Path | InMemory) -> tuple[str, str]:
+    """The table format of ``path`` by its suffixes (".csv", ".parquet", ...; lower case) and its compression
+    suffix (".gz", ".bz2", ".zst"; "" for none): "plots.csv.gz" -> (".csv", ".gz")."""
+    suffix = path.suffix.lower()
+    if suffix in COMPRESSIONS:
+        return Path(path.stem).suffix.lower(), suffix
+    return suffix, ""
+
+
+def table_stem(path: Path | InMemory) -> str:
+    """The name of ``path`` without its table and compression suffixes: "plots.csv.gz" -> "plots"."""
+    return Path(path.stem).stem if table_kind(path)[1] else path.stem
+
+
+def _text_stream(path: Path) -> pa.NativeFile:
+    """The bytes of the CSV at ``path``, decompressed as read when its suffix names a compression."""
+    packed = table_kind(path)[1]
+    return pa.input_stream(str(path), compression=COMPRESSIONS[packed][0] if packed else None)
+
+
+def _to_utf8(path: Path) -> str:
+    """A shell command that writes the CSV at ``path`` (decompressed), read as cp1252, as UTF-8."""
+    packed, out = table_kind(path)[1], f"{table_stem(path)}-utf8.csv"
+    if packed:
+        return f"{COMPRESSIONS[packed][1]} -dc {path.name} | iconv -f cp1252 -t utf-8 > {out}"
+    return f"iconv -f cp1252 -t utf-8 {path.name} > {out}"
+
+
 def read_table(path: Path, what: str, dialect: CsvDialect = CsvDialect()) -> pa.Table:
+    """The table of the CSV (plain, .gz, .bz2 or .zst) or Parquet file at ``path`` (``what`` names it in
+    messages); DatasetError when it cannot be read, ConfigError for another kind of file."""
     if not path.is_file():
         raise DatasetError(f"{what} {path}: no such file")
-    suffix = path.suffix.lower()
+    suffix, packed = table_kind(path)
     try:
         if suffix == ".csv":
             return _read_csv(path, what, dialect)
-        if suffix in (".parquet", ".pq"):
+        if suffix in (".parquet", ".pq") and not packed:
             return _named(pq.read_table(path), path, what)
     except (pa.ArrowException, OSError) as exc:
+        if packed:  # a damaged or mislabelled compressed file fails as it is decompressed
+            codec, tool = COMPRESSIONS[packed]
+            raise DatasetError(f"{what} {path}: not readable as {codec}-compressed CSV ({exc}); the file is damaged "
+                               f"or not {codec} data: check it with {tool} -t {path.name}, or give the CSV "
+                               f"uncompressed") from None
         raise DatasetError(f"{what} {path}: unreadable {suffix[1:]} file ({exc})") from None
-    raise ConfigError(f"{what} {path}: unknown file type {suffix or '(no suffix)'!r}; give a .csv or .parquet file")
+    if packed and suffix in (".parquet", ".pq"):
+        raise ConfigError(f"{what} {path}: a compressed Parquet file is not read (Parquet compresses its columns "
+                          f"itself); give the {suffix} file uncompressed")
+    shown = suffix + packed or "(no suffix)"
+    raise ConfigError(f"{what} {path}: unknown file type {shown!r}; give a .csv (or .csv.gz, .csv.bz2, .csv.zst) "
+                      f"or .parquet file")
 
 
 def _named(table: pa.Table, path: Path, what: str) -> pa.Table:
@@ -131,12 +174,13 @@ def _named(table: pa.Table, path: Path, what: str) -> pa.Table:
 
 
 def _read_csv(path: Path, what: str, dialect: CsvDialect) -> pa.Table:
-    """The CSV at ``path`` in ``dialect``; DatasetError naming the first undecodable byte's line and column, or
-    the dialect the header suggests when the file does not parse in this one."""
+    """The CSV at ``path`` (decompressed as read when compressed) in ``dialect``; DatasetError naming the first
+    undecodable byte's line and column, or the dialect the header suggests when the file does not parse in this
+    one. OSError when a compressed file does not decompress."""
     # only an empty cell is null: "nan" is a number (refused as not finite), "NA" text (not a number)
     convert = pacsv.ConvertOptions(null_values=[""], strings_can_be_null=True, decimal_point=dialect.decimal)
     read = pacsv.ReadOptions(encoding="utf8" if dialect.encoding == "utf-8" else dialect.encoding)
-    with open(path, "rb") as f:
+    with _text_stream(path) as f:
         start = f.read(4)
     for bom, name in ((codecs.BOM_UTF32_LE, "utf-32"), (codecs.BOM_UTF32_BE, "utf-32"),
                       (codecs.BOM_UTF16_LE, "utf-16"), (codecs.BOM_UTF16_BE, "utf-16")):
@@ -144,8 +188,9 @@ def _read_csv(path: Path, what: str, dialect: CsvDialect) -> pa.Table:
             raise DatasetError(f"{what} {path}: line 1: the file starts with a {name.upper()} byte-order mark: it is "
                                f"{name.upper()} text, not {dialect.encoding}: pass --encoding {name}")
     try:
-        table = pacsv.read_csv(path, read_options=read, parse_options=pacsv.ParseOptions(delimiter=dialect.delimiter),
-                               convert_options=convert)
+        with _text_stream(path) as f:
+            table = pacsv.read_csv(f, read_options=read, convert_options=convert,
+                                   parse_options=pacsv.ParseOptions(delimiter=dialect.delimiter))
     except UnicodeError:  # a header not in UTF-8, or any text not in the --encoding given (transcoded as read)
         raise _undecodable(path, what, dialect) from None
     except pa.ArrowInvalid as exc:
@@ -167,9 +212,9 @@ def _dialect_hint(path: Path, what: str, dialect: CsvDialect) -> str:
     """What to pass when the header line is split by another delimiter than ``dialect``'s (and the first data
     line has decimal commas), or ""."""
     try:
-        with open(path, "rb") as f:
+        with _text_stream(path) as f:
             head = f.read(_SNIFF_BYTES).decode(dialect.encoding, errors="replace").lstrip("\ufeff")
-    except (OSError, UnicodeError, LookupError):
+    except (OSError, UnicodeError, LookupError, pa.ArrowException):
         return ""
     lines = [s for s in re.split(r"\r\n|\r|\n", head) if s.strip()]
     if not lines or dialect.delimiter in lines[0]:
@@ -191,8 +236,9 @@ def _undecodable(path: Path, what: str, dialect: CsvDialect) -> DatasetError:
     an editor counts), the column of the first such byte, and what to do."""
     encoding = "UTF-8" if dialect.encoding == "utf-8" else dialect.encoding
     convert = (f"give the file's encoding with --encoding (e.g. --encoding latin-1, or cp1252), or convert the "
-               f"file to UTF-8, e.g. iconv -f cp1252 -t utf-8 {path.name} > {path.stem}-utf8.csv")
-    data = path.read_bytes()
+               f"file to UTF-8, e.g. {_to_utf8(path)}")
+    with _text_stream(path) as f:
+        data = f.read()
     try:
         data.decode(dialect.encoding)
     except UnicodeDecodeError as exc:
@@ -221,7 +267,7 @@ def _undecodable(path: Path, what: str, dialect: CsvDialect) -> DatasetError:
 
 def decimal_mark(path: Path | InMemory, dialect: CsvDialect) -> str:
     """The decimal mark of text numbers in the file at ``path``: the dialect's in a CSV, a point otherwise."""
-    return dialect.decimal if path.suffix.lower() == ".csv" else "."
+    return dialect.decimal if table_kind(path)[0] == ".csv" else "."
 
 
 def where_in(path: Path | InMemory, row: int, column: str) -> str:

@@ -7,10 +7,18 @@ velocity columns `derived_velocities` takes them from each target's
 positions: central differences in time (second order on uneven steps, as
 `numpy.gradient`), one-sided at a target's first and last row, 0 for a
 target with one row (one BoundWarning counts those targets).
+
+Without a truth file, `labelled_truth` (``--truth-from-labels GAP_S``)
+takes the truth from the labelled reports themselves (AIS, ADS-B: each
+report names its transmitter): at a scan time T a label's position is
+linearly interpolated between its last report at or before T and its
+next after T, when they are at most GAP_S apart, and its velocity is their
+difference quotient; elsewhere the label has no truth row.
 """
 
 from __future__ import annotations
 
+import numbers
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
@@ -33,7 +41,7 @@ from nnda.data.table_reading import (
     where_in,
 )
 from nnda.data.time_columns import absolute_ns, is_absolute, seconds_after
-from nnda.errors import BoundWarning, DatasetError
+from nnda.errors import BoundWarning, ConfigError, DatasetError
 
 #: columns nnda reads from a truth file
 TRUTH_COLUMNS = ("time", "target_id", "x", "y", "vx", "vy", "lat", "lon", "alt")
@@ -136,12 +144,85 @@ def truth_scans(truth: dict, time_origin: float, tol: float, sched_time: np.ndar
                            f"rows must be at the sweeps' times")
     first_scan = np.searchsorted(sched_time, times[near], side="left")
     last_scan = np.searchsorted(sched_time, times[near], side="right")
-    reps = last_scan - first_scan
-    src = np.repeat(np.arange(t.size), reps)
-    scan = (np.concatenate([np.arange(a, b) for a, b in zip(first_scan, last_scan)]) + 1 if t.size
-            else np.empty(0, np.int64))
+    src, scan = _spread(first_scan, last_scan)
+    scan += 1
     return {"scan": scan.astype(np.int32), "label": labels[src].tolist(), "row": src, "path": path,
             "time_column": present["time"], "sched_time": sched_time, **{c: v[src] for c, v in values.items()}}
+
+
+def _spread(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every (i, j) with lo[i] <= j < hi[i], as two int64 arrays (shape (sum(hi - lo),)), i ascending, then j."""
+    counts = hi - lo
+    i = np.repeat(np.arange(lo.size), counts)
+    starts = np.cumsum(counts) - counts
+    return i, (np.arange(i.size) - starts[i] + lo[i]).astype(np.int64)
+
+
+def check_truth_gap(gap_s: object, truth: object) -> float | None:
+    """``--truth-from-labels`` checked: None, or the longest gap (s) across which a label's position is
+    interpolated; ConfigError for a gap that is not a positive finite number, or one given with ``truth``."""
+    if gap_s is None:
+        return None
+    number = isinstance(gap_s, numbers.Real) and not isinstance(gap_s, bool)
+    what = f"--truth-from-labels {float(gap_s):g}" if number else f"--truth-from-labels {gap_s!r}"
+    if not number or not (0 < float(gap_s) < float("inf")):
+        raise ConfigError(f"{what}: must be a positive number of seconds, the longest gap between a label's two "
+                          f"reports across which its position is interpolated, e.g. --truth-from-labels 60")
+    if truth is not None:
+        raise ConfigError(f"{what} with --truth {truth}: give one source of truth: the truth file, or the "
+                          f"labels (without --truth)")
+    return float(gap_s)
+
+
+def labelled_truth(t: np.ndarray, x: np.ndarray, y: np.ndarray, labels: np.ndarray | None, times: np.ndarray,
+                   gap_s: float, path: Path | InMemory, column: str) -> dict:
+    """The truth (as `read_truth` gives it) taken from labelled reports: at each scan time in ``times`` (s,
+    sorted, unique) and for each label, the position linearly interpolated between the label's last report at
+    or before the time and its next after it (or, at the time of a report with no next close enough, that report
+    and the one before), when the two are at most ``gap_s`` (s) apart, and the velocity their difference quotient
+    (m/s); no row otherwise.
+
+    ``t`` (s), ``x``, ``y`` (m): the reports, shape (N,); ``labels`` (object (N,), None for clutter) their
+    labels (``column``, the file's target_id column, names them in messages). Of a label's reports at one time
+    the first counts. ConfigError when no report is labelled.
+    """
+    known = np.zeros(t.size, bool) if labels is None else np.not_equal(labels, None)
+    if not known.any():
+        raise ConfigError(f"--truth-from-labels {gap_s:g}: {path} has no labelled reports (column {column!r}"
+                          f"{' is missing' if labels is None else ' is empty or negative in every row'}); the truth "
+                          f"is taken from the labels (e.g. --column target_id=MMSI): give a file with labels, or "
+                          f"a truth file with --truth")
+    rows = np.flatnonzero(known)
+    names, label = np.unique(labels[rows].astype(str), return_inverse=True)
+    order = np.lexsort((t[rows], label))  # by label, then time (stable: the file's first of equal times)
+    rows, label = rows[order], label.ravel()[order]
+    ts = t[rows]
+    keep = np.concatenate([[True], (label[1:] != label[:-1]) | (ts[1:] != ts[:-1])])
+    rows, label, ts = rows[keep], label[keep], ts[keep]
+    # pair i: reports i and i + 1 of one label, at most gap_s apart; it covers the times in [t_i, t_i+1), and
+    # t_i+1 too when no pair starts there (the label's last report, or one before a longer gap)
+    pair = (label[1:] == label[:-1]) & (ts[1:] - ts[:-1] <= gap_s)
+    closes = pair & ~np.concatenate([pair[1:], [False]])
+    a = np.flatnonzero(pair)
+    lo = np.searchsorted(times, ts[a], side="left")
+    hi = np.searchsorted(times, ts[a + 1], side="left") + (closes[a] & np.isin(ts[a + 1], times))
+    which, at = _spread(lo, hi)
+    if not which.size:
+        same = label[1:] == label[:-1]
+        gaps = (ts[1:] - ts[:-1])[same]
+        typical = f"the median gap between a label's reports is {np.median(gaps):g} s" if gaps.size else (
+            "no label has two reports at distinct times")
+        raise ConfigError(f"--truth-from-labels {gap_s:g}: no label has two reports at most {gap_s:g} s apart around "
+                          f"a scan time in {path} ({typical}); give a larger GAP_S, or a truth file with --truth")
+    i, tq = a[which], times[at]
+    dt = ts[i + 1] - ts[i]
+    w = (tq - ts[i]) / dt
+    values = {}
+    for c, p in (("x", x[rows]), ("y", y[rows])):
+        step = p[i + 1] - p[i]
+        values[c], values[f"v{c}"] = p[i] + w * step, step / dt
+    return {"t": tq, "labels": names[label[i]].astype(object), "values": values, "path": path,
+            "time_column": column}
 
 
 def truth_record(truth: dict | None, index: Mapping[str, int], det: Detections) -> Truth:
