@@ -6,8 +6,18 @@ import itertools
 
 import numpy as np
 import pytest
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
-from nnda.tracking.marginals import Marginals, clusters, jpda_marginals, log_miss_weight, loopy_marginals
+from nnda.tracking.marginals import (
+    Marginals,
+    _event_weights,
+    _listed,
+    clusters,
+    jpda_marginals,
+    log_miss_weight,
+    loopy_marginals,
+)
 from tolerances import RTOL
 
 
@@ -186,6 +196,79 @@ def test_exactly_the_clusters_over_the_cap_are_approximated(seed):
         if within:
             np.testing.assert_allclose(got[tracks], beta[tracks], atol=RTOL)
     assert m.approximated.any() and not m.approximated.all()
+
+
+def breadth_first(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float, tracks: np.ndarray
+                  ) -> tuple[int, list[float]]:
+    """The partial events a cluster of ``tracks`` lists (every option of every event, counted before
+    dropping those that reuse a contact) and the log weights of its complete events, summed depth by depth
+    from 0, in the order of a breadth-first listing."""
+    events, listed = [((), 0.0)], 0
+    for t in tracks:
+        options = [-1, *np.flatnonzero(gate[t])]
+        listed += len(events) * len(options)
+        events = [(e + (j,), w + (log_miss if j < 0 else log_ratio[t, j]))
+                  for e, w in events for j in options if j < 0 or j not in e]
+    return listed, [w for _, w in events]
+
+
+def random_cluster(rng: np.random.Generator, K: int = 6, N: int = 6):
+    """A random gate (K, N), its log ratios and the pairs in `jpda_marginals`' form, for `_listed` and
+    `_event_weights`: track, contact, n_gated, first_gated."""
+    gate = rng.random((K, N)) < rng.uniform(0.2, 0.8)
+    log_ratio = rng.normal(0.0, 1.0, (K, N))
+    t, c = np.nonzero(gate)
+    n_gated = np.bincount(t, minlength=K)
+    return gate, log_ratio, t, c, n_gated, np.cumsum(n_gated) - n_gated
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_listed_decides_the_cap_as_the_breadth_first_count(seed):
+    # caps below, at and above each cluster's count: the depth-first walk, stopped past the cap, agrees
+    # with the breadth-first count, and every contact it held is free again afterwards
+    rng = np.random.default_rng(500 + seed)
+    for _ in range(5):
+        gate, log_ratio, t, c, n_gated, first = random_cluster(rng)
+        tracks = rng.permutation(gate.shape[0])
+        count, _ = breadth_first(gate, log_ratio, -2.0, tracks)
+        used = np.zeros(gate.shape[1], bool)
+        scratch = np.empty((2, tracks.size), np.int64)
+        for cap in (count // 3, count - 1, count, count + 1, 10 * count):
+            got = _listed(tracks, n_gated, first, c, used, scratch[0], scratch[1], cap)
+            assert (got > cap) == (count > cap)
+            assert not used.any()
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_events_are_listed_in_breadth_first_order(seed):
+    # the order (and so the rounding) of every sum over events is the breadth-first listing's
+    rng = np.random.default_rng(700 + seed)
+    gate, log_ratio, t, c, n_gated, first = random_cluster(rng)
+    K = gate.shape[0]
+    order = rng.permutation(K)
+    count, expected = breadth_first(gate, log_ratio, -2.0, order)
+    one = np.array([0])
+    ev_cluster, ev_logw, over = _event_weights(one, order, one, np.array([K]), n_gated, first, c,
+                                               log_ratio[t, c], -2.0, count)
+    assert not over.any() and (ev_cluster == 0).all()
+    assert ev_logw.tolist() == expected  # equal, not close
+    assert _event_weights(one, order, one, np.array([K]), n_gated, first, c, log_ratio[t, c], -2.0,
+                          count - 1)[2].tolist() == [True]
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_clusters_are_the_connected_components_of_the_gate_graph(seed):
+    rng = np.random.default_rng(900 + seed)
+    K, N = 40, 50
+    gate = rng.random((K, N)) < 0.04
+    t, c = np.nonzero(gate)
+    n, label = clusters(t, c, K)
+    graph = coo_matrix((np.ones(t.size), (t, K + c)), shape=(K + N, K + N))
+    expected = connected_components(graph, directed=False)[1][:K]
+    first = {}
+    for lab in expected:  # numbered in order of each cluster's first track
+        first.setdefault(lab, len(first))
+    assert n == len(first) and label.tolist() == [first[lab] for lab in expected]
 
 
 def test_miss_weight():

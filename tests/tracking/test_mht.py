@@ -11,6 +11,7 @@ import pytest
 from nnda.data.generator import generate
 from nnda.data.presets import PRESETS
 from nnda.study.metrics import run_metrics
+from nnda.tracking.global_hypothesis import global_hypothesis
 from nnda.tracking.lifecycle import LifecycleConfig
 from nnda.tracking.mht import MHTConfig, MHTTracker
 
@@ -57,6 +58,17 @@ def test_global_hypothesis_is_the_best_compatible_set(seed):
     used = [(c, leaves.hist[i, c]) for i in chosen for c in range(3) if leaves.hist[i, c] >= 0]
     assert len(used) == len(set(used))  # no shared contact
     assert leaves.score[chosen].sum() == pytest.approx(brute_force(leaves), abs=1e-9)
+
+
+def test_global_hypothesis_never_chooses_a_leaf_without_a_positive_score():
+    # two families sharing contact 0 of the last scan: a cluster solved exactly, whatever its scores
+    family, hist = np.array([7, 7, 9]), np.array([[-1, 0], [-1, 1], [-1, 0]])
+    chosen, solved, greedy = global_hypothesis(family, hist, np.array([-1.0, 0.0, -0.5]), 5_000)
+    assert chosen.size == 0 and (solved, greedy) == (1, 0)
+    chosen, solved, greedy = global_hypothesis(family, hist, np.array([2.0, 0.0, 1.5]), 5_000)
+    assert chosen.tolist() == [0] and (solved, greedy) == (1, 0)
+    chosen, _, _ = global_hypothesis(family, hist, np.array([0.5, 0.0, 1.5]), 5_000)
+    assert chosen.tolist() == [2]  # the leaf of score 0 could join it, but is never chosen
 
 
 def test_hypothesis_tree_stays_within_its_bounds():

@@ -5,7 +5,7 @@
 ``family`` (L,) is each leaf's family id, ``hist`` (L, n) the contact it used in each of the last n scans
 (a negative entry is a miss or unknown: no contact), ``score`` (L,) its log-likelihood ratio. Families that
 share no contact with another family's leaves take their best leaf when its score is positive. The rest form
-clusters (families linked by shared contacts, `scipy.sparse.csgraph.connected_components`): every cluster of
+clusters (families linked by shared contacts, `nnda.tracking.marginals.clusters`): every cluster of
 at most ``max_exact_leaves`` leaves is solved exactly, all of them in one binary program (`solve_clusters`,
 HiGHS through `scipy.optimize.milp`: they are independent blocks), larger ones greedily by descending score
 (`greedy_compatible`, as the thesis's global hypothesis). A leaf whose score is not positive is never chosen.
@@ -16,7 +16,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import Bounds, LinearConstraint, milp
 from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
+
+from nnda.tracking.marginals import clusters
 
 
 def global_hypothesis(family: np.ndarray, hist: np.ndarray, score: np.ndarray, max_exact_leaves: int
@@ -29,15 +30,8 @@ def global_hypothesis(family: np.ndarray, hist: np.ndarray, score: np.ndarray, m
     F = fam_ids.size
     rows, cols = np.nonzero(hist >= 0)
     resource = (cols.astype(np.int64) << 32) | hist[rows, cols]
-    res_ids, res = np.unique(resource, return_inverse=True)
-    # families linked by a contact that leaves of two or more families use
-    pairs = np.unique(np.stack([fam[rows], res]), axis=1)
-    per_res = np.bincount(pairs[1], minlength=res_ids.size)
-    shared = per_res[pairs[1]] >= 2
-    graph = coo_matrix((np.ones(shared.sum()), (pairs[0][shared], F + pairs[1][shared])),
-                       shape=(F + res_ids.size,) * 2)
-    _, label = connected_components(graph, directed=False)
-    fam_label = label[:F]
+    res = np.unique(resource, return_inverse=True)[1]
+    _, fam_label = clusters(fam[rows], res, F)  # families linked by a contact that leaves of both use
     cluster_size = np.bincount(fam_label)
 
     order = np.lexsort((-score, fam))
@@ -60,8 +54,13 @@ def global_hypothesis(family: np.ndarray, hist: np.ndarray, score: np.ndarray, m
 def solve_clusters(members: np.ndarray, fam: np.ndarray, rows: np.ndarray, res: np.ndarray,
                    score: np.ndarray) -> np.ndarray:
     """Exact best compatible set among the leaves ``members`` (binary program, HiGHS): ``fam`` (L,) each leaf's
-    family index, (``rows``, ``res``) each (leaf, contact resource) pair with ``rows`` sorted, ``score`` (L,)."""
+    family index, (``rows``, ``res``) each (leaf, contact resource) pair with ``rows`` sorted, ``score`` (L,).
+    A leaf whose score is not positive is never chosen (taking it never raises the summed score): the program
+    holds the others only."""
+    members = members[score[members] > 0]
     n = members.size
+    if not n:
+        return members
     local = np.full(fam.size, -1)
     local[members] = np.arange(n)
     in_c = local[rows] >= 0
@@ -74,7 +73,7 @@ def solve_clusters(members: np.ndarray, fam: np.ndarray, rows: np.ndarray, res: 
     result = milp(-score[members], constraints=constraints, integrality=np.ones(n), bounds=Bounds(0, 1))
     if not result.success:  # pragma: no cover - the all-zero point is always feasible
         raise RuntimeError(f"MHT global hypothesis: {result.message}")
-    return members[(result.x > 0.5) & (score[members] > 0)]
+    return members[result.x > 0.5]
 
 
 def greedy_compatible(members: np.ndarray, fam: np.ndarray, rows: np.ndarray, res: np.ndarray,

@@ -88,6 +88,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Annotated, ClassVar, Literal
 
+import numba
 import numpy as np
 from pydantic import Field
 
@@ -201,12 +202,16 @@ def given_existence(log_odds: np.ndarray, beta: np.ndarray, beta0: np.ndarray, t
     return given, np.maximum(1.0 - np.bincount(track, given, minlength=rho.size), 0.0)
 
 
+@numba.njit(cache=True, nogil=True)
 def best_pairs(track: np.ndarray, beta: np.ndarray) -> np.ndarray:
     """Index of each track's most probable pair (ties: its first); ``track`` (P,) sorted, every track
-    0..K-1 present. Returns (K,)."""
-    top = np.maximum.reduceat(beta, runs(track)[0])
-    hit = np.flatnonzero(beta == top[track])
-    return hit[runs(track[hit])[0]]
+    0..K-1 present, ``beta`` (P,) without NaN. Returns (K,)."""
+    best = np.empty(track[-1] + 1 if track.size else 0, np.int64)
+    for p in range(track.size):
+        t = track[p]
+        if p == 0 or t != track[p - 1] or beta[p] > beta[best[t]]:
+            best[t] = p
+    return best
 
 
 class JPDATracker(SingleHypothesisTracker):
@@ -254,7 +259,7 @@ class JPDATracker(SingleHypothesisTracker):
                 continue
             start, track = runs(g.rows[sel])  # the stage's tracks with pairs, numbered 0, 1, ...
             rows, cols = g.rows[sel[start]], g.cols[sel]
-            log_ratio = (np.log(cfg.pd) + imm.pair_log_likelihood(pred, rows[track], z[cols])
+            log_ratio = (np.log(cfg.pd) + imm.pair_log_likelihood(pred, rows[track], z[cols], check=False)
                          - log_density[cols])
             jipda = self.confirmation_rule == "existence"
             if jipda:  # JIPDA: each track's events weighed by its predicted existence

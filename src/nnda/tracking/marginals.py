@@ -13,9 +13,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import connected_components
 
 #: loopy belief propagation stops when no message (a probability ratio in (0, 1]) moves by more than this ...
 BP_TOLERANCE = 1e-10
@@ -42,13 +41,35 @@ def clusters(track: np.ndarray, contact: np.ndarray, n_tracks: int) -> tuple[int
     K = n_tracks
     if contact.size == 0 or np.bincount(contact).max() <= 1:  # no shared contact: one cluster per track
         return K, np.arange(K)
-    used, c = np.unique(contact, return_inverse=True)
-    graph = csr_matrix((np.ones(track.size, bool), (track, K + c)), shape=(K + used.size, K + used.size))
-    labels = connected_components(graph, directed=False)[1][:K]
-    found, first = np.unique(labels, return_index=True)
-    rank = np.empty(found.size, np.int64)
-    rank[np.argsort(first)] = np.arange(found.size)
-    return found.size, rank[np.searchsorted(found, labels)]
+    return _components(track, contact, K)
+
+
+@numba.njit(cache=True, nogil=True)
+def _components(track, contact, K):
+    """`clusters` by union-find over the pairs (P,): the count and the labels (K,)."""
+    parent = np.arange(K)
+    owner = np.full(contact.max() + 1, -1)  # the first track seen with each contact
+    for p in range(track.size):
+        a, b = track[p], owner[contact[p]]
+        if b < 0:
+            owner[contact[p]] = a
+            continue
+        while parent[a] != a:  # the roots, halving the paths on the way
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        while parent[b] != b:
+            parent[b] = parent[parent[b]]
+            b = parent[b]
+        parent[max(a, b)] = min(a, b)
+    label = np.empty(K, np.int64)
+    n = 0
+    for t in range(K):  # a root is its cluster's first track: clusters numbered in that order
+        if parent[t] == t:
+            label[t] = n
+            n += 1
+        else:
+            label[t] = label[parent[t]]
+    return n, label
 
 
 @dataclass(frozen=True)
@@ -79,7 +100,8 @@ def jpda_marginals(track: np.ndarray, contact: np.ndarray, log_ratio: np.ndarray
     listed, never with tracks x contacts.
 
     Joint events are enumerated exactly per cluster of tracks sharing
-    contacts, one track after the other. The work is bounded: once the
+    contacts, one track after the other (compiled and depth-first, in the
+    order of a breadth-first listing: `_walk`). The work is bounded: once the
     partial events listed for a cluster, summed over its tracks (and counted
     before dropping those that reuse a contact), would exceed ``max_events``,
     the cluster gets its marginals from `loopy_marginals` instead. Since a
@@ -101,54 +123,14 @@ def jpda_marginals(track: np.ndarray, contact: np.ndarray, log_ratio: np.ndarray
     start = np.cumsum(size) - size  # order[start[c] + d], for d < size[c]
     n_gated = np.bincount(track, minlength=K)
     first_gated = np.cumsum(n_gated) - n_gated
-    pair_contact = np.append(contact, -1)  # a sentinel keeps the look-ups below in range
-    pair_ratio = np.append(log_ratio, 0.0)
-
-    # events of the clusters being enumerated, grouped by cluster (in label order): their pair and
-    # contact per depth (-1: none) and log weight; a cluster's events leave once its last track is done
-    ev_cluster = np.flatnonzero(exact)
-    ev_pair = np.empty((ev_cluster.size, 0), np.int64)  # both grow by one column per depth
-    ev_contact = np.empty((ev_cluster.size, 0), np.int64)
-    ev_logw = np.zeros(ev_cluster.size)
-    listed = np.zeros(n_clusters)  # partial events listed so far per cluster, all depths together
-    complete = []  # (tracks (E, d), pairs (E, d), weights (E,)) of the events of finished clusters
-    d = 0
-    while ev_cluster.size:
-        done = size[ev_cluster] == d
-        if done.any():
-            tracks = order[start[ev_cluster[done], None] + np.arange(d)]
-            complete.append((tracks, ev_pair[done], _normalised(ev_cluster[done], ev_logw[done])))
-            live = ~done
-            ev_cluster, ev_pair, ev_contact, ev_logw = (a[live] for a in (ev_cluster, ev_pair, ev_contact, ev_logw))
-        at = order[start[ev_cluster] + d]  # each event's cluster's track at this depth
-        n_options = 1 + n_gated[at]  # option 0: no contact for this track
-        listed += np.bincount(ev_cluster, n_options, minlength=n_clusters)
-        over = exact & (listed > max_events)
-        if over.any():  # give up on these clusters before listing their events
-            exact &= ~over
-            alive = ~over[ev_cluster]
-            ev_cluster, ev_pair, ev_contact, ev_logw, at, n_options = (
-                a[alive] for a in (ev_cluster, ev_pair, ev_contact, ev_logw, at, n_options))
-        parent = np.repeat(np.arange(ev_cluster.size), n_options)
-        option = np.arange(parent.size) - np.repeat(np.cumsum(n_options) - n_options, n_options)
-        pair = np.where(option > 0, first_gated[at[parent]] + option - 1, P)  # P: no pair
-        c = pair_contact[pair]
-        keep = (c < 0) | ~(ev_contact[parent] == c[:, None]).any(axis=1)  # drop a contact used twice
-        parent = parent[keep]
-        ev_cluster = ev_cluster[parent]
-        ev_pair = np.column_stack([ev_pair[parent], np.where(pair < P, pair, -1)[keep]])
-        ev_contact = np.column_stack([ev_contact[parent], c[keep]])
-        ev_logw = ev_logw[parent] + np.where(option > 0, pair_ratio[pair], log_miss)[keep]
-        d += 1
-
+    listing = np.flatnonzero(exact)
+    ev_cluster, ev_logw, over = _event_weights(listing, order, start, size, n_gated, first_gated, contact,
+                                               log_ratio, log_miss, max_events)
+    exact[listing[over]] = False
     beta, beta0 = np.zeros(P), np.zeros(K)
-    if complete:
-        tracks = np.concatenate([t.ravel() for t, _, _ in complete])  # event by event, depth by depth
-        pairs = np.concatenate([p.ravel() for _, p, _ in complete])
-        w = np.concatenate([np.repeat(w, t.shape[1]) for t, _, w in complete])
-        hit = pairs >= 0
-        beta = np.bincount(pairs[hit], w[hit], minlength=P).astype(float, copy=False)
-        beta0 = np.bincount(tracks[~hit], w[~hit], minlength=K).astype(float, copy=False)
+    if ev_cluster.size:  # the events again, each adding its normalised weight to its pairs' (tracks') marginals
+        _event_sums(listing[~over], order, start, size, n_gated, first_gated, contact,
+                    _normalised(ev_cluster, ev_logw), beta, beta0)
     if not exact.all():
         sel = ~exact[label[track]]
         rows = np.flatnonzero(~exact[label])
@@ -162,6 +144,159 @@ def _normalised(cluster: np.ndarray, log_weight: np.ndarray) -> np.ndarray:
     first, group = runs(cluster)
     w = np.exp(log_weight - np.maximum.reduceat(log_weight, first)[group])
     return w / np.add.reduceat(w, first)[group]
+
+
+@numba.njit(cache=True, nogil=True)
+def _event_weights(listing, order, start, size, n_gated, first_gated, contact, log_ratio, log_miss, max_events):
+    """The joint events of the clusters ``listing`` (ascending): the cluster (E,) and log weight (E,) of each
+    (`_walk`), cluster by cluster, and which of ``listing`` were given up (over ``max_events``, `_listed`)."""
+    used = np.zeros(contact.max() + 1 if contact.size else 1, np.bool_)
+    over = np.zeros(listing.size, np.bool_)
+    ev_cluster = np.empty(0, np.int64)
+    ev_logw = np.empty(0)
+    E = 0
+    depth_max = size[listing].max() if listing.size else 0
+    option, chosen = np.empty(depth_max, np.int64), np.empty(depth_max, np.int64)
+    logw = np.zeros(depth_max + 1)
+    no_weights = np.empty(0)
+    for i in range(listing.size):
+        c = listing[i]
+        tracks = order[start[c]:start[c] + size[c]]
+        listed = _listed(tracks, n_gated, first_gated, contact, used, option, chosen, max_events)
+        if listed > max_events:
+            over[i] = True
+            continue
+        if E + listed > ev_logw.size:  # a cluster has fewer events than it lists partial ones
+            ev_logw = _grown(ev_logw, max(2 * ev_logw.size, E + listed))
+        n = _walk(tracks, n_gated, first_gated, contact, log_ratio, log_miss, used, option, chosen, logw,
+                  ev_logw[E:], no_weights, no_weights, no_weights)
+        if E + n > ev_cluster.size:
+            ev_cluster = _grown(ev_cluster, ev_logw.size)
+        ev_cluster[E:E + n] = c
+        E += n
+    return ev_cluster[:E], ev_logw[:E], over
+
+
+@numba.njit(cache=True, nogil=True)
+def _event_sums(listing, order, start, size, n_gated, first_gated, contact, weight, beta, beta0):
+    """Add each joint event's normalised ``weight`` (E,) (the events of `_event_weights` for the clusters
+    ``listing``, none given up) to ``beta`` (P,) at its pairs and ``beta0`` (K,) at its tracks without one, in
+    the events' order."""
+    used = np.zeros(contact.max() + 1 if contact.size else 1, np.bool_)
+    depth_max = size[listing].max() if listing.size else 0
+    option, chosen = np.empty(depth_max, np.int64), np.empty(depth_max, np.int64)
+    logw = np.zeros(depth_max + 1)
+    no_log_ratio = np.zeros(0)
+    E = 0
+    for c in listing:
+        E += _walk(order[start[c]:start[c] + size[c]], n_gated, first_gated, contact, no_log_ratio, 0.0, used,
+                   option, chosen, logw, no_log_ratio, weight[E:], beta, beta0)
+
+
+@numba.njit(cache=True, nogil=True)
+def _walk(tracks, n_gated, first_gated, contact, log_ratio, log_miss, used, option, chosen, logw, out_logw,
+          weight, beta, beta0):
+    """List the joint events of one cluster of ``tracks`` (s,) depth-first, one track after the other (option
+    0 of track t is no contact, then its pairs ``first_gated[t] ..`` in order), an option that reuses a contact
+    dropped; returns their number E. The events come in lexicographic order of their options, the order of a
+    breadth-first listing that extends every event by each option of the next track.
+
+    Without ``weight`` (size 0), writes each event's log weight (summed depth by depth from 0: log_ratio of
+    a pair, ``log_miss`` for none) to ``out_logw`` (>= E,); with it (>= E,), adds the event's weight to
+    ``beta`` at its pairs and ``beta0`` at its tracks without one. ``used`` (contacts,) all False comes back so;
+    ``option``, ``chosen`` (>= s,) and ``logw`` (> s,) are scratch.
+    """
+    s, summing = tracks.size, weight.size > 0
+    E = d = 0
+    option[0] = -1
+    while d >= 0:
+        option[d] += 1
+        t = tracks[d]
+        if option[d] > n_gated[t]:  # every option of this depth tried: back up one track
+            d -= 1
+            if d >= 0 and chosen[d] >= 0:
+                used[contact[chosen[d]]] = False
+            continue
+        pair = -1
+        if option[d] > 0:
+            pair = first_gated[t] + option[d] - 1
+            if used[contact[pair]]:
+                continue
+        chosen[d] = pair
+        if not summing:
+            logw[d + 1] = logw[d] + (log_ratio[pair] if pair >= 0 else log_miss)
+        if d + 1 < s:  # a partial event: go one track deeper
+            if pair >= 0:
+                used[contact[pair]] = True
+            d += 1
+            option[d] = -1
+            continue
+        if summing:
+            for k in range(s):
+                if chosen[k] >= 0:
+                    beta[chosen[k]] += weight[E]
+                else:
+                    beta0[tracks[k]] += weight[E]
+        else:
+            out_logw[E] = logw[s]
+        E += 1
+    return E
+
+
+@numba.njit(cache=True, nogil=True)
+def _listed(tracks, n_gated, first_gated, contact, used, option, chosen, cap):
+    """Whether a cluster of ``tracks`` (s,) lists more than ``cap`` partial events (`jpda_marginals`: each
+    partial event of depth d < s counts the 1 + n_gated options of track d): a number above ``cap`` if so,
+    else one at most ``cap``. ``used`` (contacts,) all False comes back so; ``option`` and ``chosen`` (>= s,)
+    are scratch.
+
+    A bound that takes every option as valid settles most clusters; the others are walked depth-first up
+    to depth s - 1 until past ``cap`` (the complete events need no walk: their count is not needed).
+    """
+    s = tracks.size
+    bound, events = 0.0, 1.0
+    for d in range(s):
+        bound += events * (1 + n_gated[tracks[d]])
+        events *= 1 + n_gated[tracks[d]]
+        if bound > cap:
+            break
+    if bound <= cap:
+        return int(bound)
+    listed = 1 + n_gated[tracks[0]]
+    d = 0
+    option[0] = -1
+    while d >= 0 and listed <= cap and s > 1:
+        option[d] += 1
+        t = tracks[d]
+        if option[d] > n_gated[t]:
+            d -= 1
+            if d >= 0 and chosen[d] >= 0:
+                used[contact[chosen[d]]] = False
+            continue
+        pair = -1
+        if option[d] > 0:
+            pair = first_gated[t] + option[d] - 1
+            if used[contact[pair]]:
+                continue
+        listed += 1 + n_gated[tracks[d + 1]]  # a valid partial event of depth d + 1 < s
+        if d + 2 < s:  # its own options only matter below depth s - 1
+            chosen[d] = pair
+            if pair >= 0:
+                used[contact[pair]] = True
+            d += 1
+            option[d] = -1
+    for k in range(max(d, 0)):  # stopped past the cap: free the contacts still held
+        if chosen[k] >= 0:
+            used[contact[chosen[k]]] = False
+    return listed
+
+
+@numba.njit(cache=True, nogil=True)
+def _grown(a, n):
+    """``a`` copied into a new array of length ``n`` >= its own."""
+    out = np.empty(n, a.dtype)
+    out[:a.size] = a
+    return out
 
 
 def runs(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
