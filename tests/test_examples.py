@@ -1,4 +1,5 @@
-"""The shipped example scripts run: examples/adsb_radar.py on a small file of OpenSky-format states."""
+"""The shipped examples run: examples/adsb_radar.py on a small file of OpenSky-format states, and the Solent AIS
+recording (examples/data) with examples/ais.toml."""
 
 from __future__ import annotations
 
@@ -57,3 +58,32 @@ def test_adsb_radar_writes_plots_that_import_and_track(tmp_path):
     assert len(dataset.scenario.targets) == 3
     run = run_tracker(dataset, "gnn", {"lifecycle": {"v_max": 300.0}})
     assert run.scores.values["hit_rate"] > 80.0 and run.scores.values["false_tracks"] == 0
+
+
+AIS = Path(__file__).resolve().parents[1] / "examples" / "data" / "solent_ais.csv.gz"
+AIS_CONFIG = Path(__file__).resolve().parents[1] / "examples" / "ais.toml"
+
+
+def test_the_shipped_ais_recording_imports_as_it_is_and_gnn_keeps_one_track_a_ship():
+    """The Solent recording (asynchronous reports at their own millisecond times) imports with no rounding; gnn
+    with examples/ais.toml never holds more confirmed tracks than 1.1 times the ships present (a report in the
+    last report_gap_s), and has no false track."""
+    import tomllib
+
+    from nnda.data.detections_import import read_detections
+    from nnda.tracking.output import CONFIRMED
+
+    data = read_detections(AIS, sensors=[{"kind": "position", "reports": True, "scan_period_s": 10.0,
+                                          "sigma_position_m": 10.0}],
+                           columns={"time": "Time", "target_id": "MMSI", "lat": "Latitude_degrees",
+                                    "lon": "Longitude_degrees"},
+                           region="lat:50.5,50.9,lon:-1.45,-0.7", truth_from_labels=200.0)
+    d = data.detections
+    assert d.time.size == 18_622 and np.unique(d.target_id).size == 91
+    params = tomllib.loads(AIS_CONFIG.read_text())
+    gap = params["lifecycle"]["report_gap_s"]
+    run = run_tracker(data, "gnn", params)
+    for out in run.outputs:
+        recent = (d.time > out.time - gap) & (d.time <= out.time)
+        assert (out.status == CONFIRMED).sum() <= max(1.1 * np.unique(d.target_id[recent]).size, 1)
+    assert run.scores.values["false_tracks"] == 0 and run.scores.values["mota"] > 0.4
