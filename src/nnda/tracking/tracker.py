@@ -35,7 +35,9 @@ only, `associate`; each scan:
 
 Track records are batched arrays (`Tracks`), so steps 2-6 have no Python
 loop over tracks. MHT (`nnda.tracking.mht`) is a `ContactTracker` with its
-own scan step over hypothesis trees.
+own scan step over hypothesis trees. A window of asynchronous reports (a
+sensor with ``reports``) runs these steps once per report time and once at
+the window's end (`nnda.tracking.reports`) in the trackers that take it.
 """
 
 from __future__ import annotations
