@@ -7,7 +7,7 @@ import itertools
 import numpy as np
 import pytest
 
-from nnda.tracking.gibbs import all_assignments, gibbs_assignments
+from nnda.tracking.gibbs import _sampled, all_assignments, gibbs_assignments, unique_rows
 
 
 def random_cost(rng: np.random.Generator, n: int, m: int) -> np.ndarray:
@@ -90,3 +90,59 @@ def test_bad_costs_are_refused():
         all_assignments(np.zeros((2, 1)))
     with pytest.raises(ValueError, match="one per row"):
         gibbs_assignments(np.zeros((2, 3)), 5, 1, np.array([0]))
+
+
+def dense_draws(cost: np.ndarray, group: np.ndarray, n_samples: int, seed: int) -> np.ndarray:
+    """The module docstring's sampler, every column of every row visited, with the same generator (numpy's
+    legacy Mersenne Twister, as numba's): the reference of the compiled one."""
+    rand = np.random.RandomState(seed)
+    n, C = cost.shape
+    pick = np.zeros(n, np.int64)
+    for i in range(n):
+        free = group[i] < 0 or not any(pick[r] > 0 for r in range(i) if group[r] == group[i])
+        pick[i] = 1 if free and cost[i, 1] < cost[i, 0] else 0
+    out = [pick.copy()]
+    for _ in range(1, n_samples):
+        for i in range(n):
+            held = {pick[r] for r in range(n) if r != i and pick[r] >= 2}
+            only_absent = group[i] >= 0 and any(pick[r] > 0 for r in range(n) if r != i and group[r] == group[i])
+            ok = np.array([(j < 2 or j not in held) and not (only_absent and j > 0) for j in range(C)])
+            low = cost[i][ok].min()
+            w = np.where(ok, np.exp(low - cost[i]), 0.0)
+            u, acc, j = rand.random_sample() * w.sum(), w[0], 0
+            while acc <= u and j < C - 1:
+                j += 1
+                acc += w[j]
+            while w[j] == 0.0:
+                j -= 1
+            pick[i] = j
+        out.append(pick.copy())
+    return np.array(out)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_compiled_sampler_visits_only_the_allowed_columns_and_draws_the_same(seed):
+    """Wide sparse problems (12 tracks, 30 contacts, a few gated each; some rows in groups): the compiled
+    sampler, which visits each row's allowed columns only, draws exactly what visiting every column draws."""
+    rng = np.random.default_rng(seed)
+    cost = random_cost(rng, 12, 30)
+    cost[:, 2:][rng.random((12, 30)) > 0.1] = np.inf
+    group = rng.integers(-1, 3, 12)
+    rows, cols = np.nonzero(np.isfinite(cost))
+    start = np.searchsorted(rows, np.arange(13))
+    got = _sampled(cost, start, cols, cost[rows, cols], group, 40, 1234 + seed)
+    np.testing.assert_array_equal(got, dense_draws(cost, group, 40, 1234 + seed))
+
+
+def test_unique_rows_are_numpys():
+    """Random integer rows with repeats and negative entries, 0 to 40 rows of 0 to 6 columns: the distinct
+    rows, in order, and each row's place among them equal ``np.unique(axis=0, return_inverse=True)``."""
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        a = rng.integers(-2, 3, (rng.integers(0, 40), rng.integers(0, 7)))
+        if len(a):
+            a = a[rng.integers(0, len(a), len(a))]
+        rows, inverse = unique_rows(a)
+        want, want_inverse = np.unique(a, axis=0, return_inverse=True)
+        np.testing.assert_array_equal(rows, want)
+        np.testing.assert_array_equal(inverse, want_inverse.ravel())

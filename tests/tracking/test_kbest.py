@@ -85,3 +85,36 @@ def test_bad_matrices_are_refused():
         k_best_assignments(np.ones(3), 2)
     with pytest.raises(ValueError, match="NaN"):
         k_best_assignments(np.array([[np.nan, 1.0]]), 2)
+
+
+def test_a_child_may_shift_another_row_into_the_freed_column():
+    """Second best of a rectangular problem: row 0 leaves column 0 for column 2 and row 1 moves from column 1
+    into column 0 (both in one child, found from the best assignment without a new solve)."""
+    cost = np.array([[0.0, np.inf, 100.0], [0.0, 10.0, np.inf]])
+    got, costs = k_best_assignments(cost, 3)
+    assert got.tolist() == [[0, 1], [2, 0], [2, 1]] and costs.tolist() == [10.0, 100.0, 110.0]
+
+
+def test_children_are_solved_from_their_parent_by_shortest_paths(monkeypatch):
+    """A sparse 60-row problem, 20 best: only the first assignment calls the full solver (each child is its
+    parent's assignment changed along shortest paths), and the ranking equals the one solving every child in
+    full (same costs, same assignments: no ties)."""
+    import nnda.tracking.kbest as kbest
+
+    rng = np.random.default_rng(3)
+    R = 60
+    cost = np.full((R, 2 * R), np.inf)
+    for i in range(R):  # each row: its own miss column (0) and two or three contacts near it
+        cost[i, R + i] = 0.0
+        cost[i, (i + rng.integers(0, 4, 3)) % R] = rng.normal(-2.0, 1.0, 3)
+    calls = []
+    solver = kbest.linear_sum_assignment
+    monkeypatch.setattr(kbest, "linear_sum_assignment", lambda m: calls.append(1) or solver(m))
+    got, costs = k_best_assignments(cost, 20)
+    assert len(calls) == 1
+    monkeypatch.setattr(kbest, "_reassigned", lambda cost, *a: (np.full(a[-1].size, -1), np.zeros(
+        (a[-1].size, cost.shape[0]), np.int64)))  # every child by the full solver
+    want, want_costs = k_best_assignments(cost, 20)
+    assert len(calls) > 20 * R / 2
+    np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(costs, want_costs)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -12,6 +13,7 @@ from nnda.data.dataset import Scan
 from nnda.data.scenario import Sensor
 from nnda.errors import ConfigError
 from nnda.tracking.pmbm import PMBMTracker, _n_scan_agrees
+from nnda.tracking.pmbm_hypotheses import scan_hypotheses
 from nnda.tracking.registry import make_tracker
 
 
@@ -135,3 +137,41 @@ def test_n_scan_pruning_decides_the_oldest_scan_only_where_it_is_known():
                     [9, -1, -1]])   # agrees
     oldest = np.array([[5, -1, -1], [-1, -1, -1], [5, -1, 8], [-1, 5, -1], [5, -1, -1]])
     np.testing.assert_array_equal(_n_scan_agrees(hyp, oldest, 0), [True, False, True, False, True])
+
+
+@pytest.mark.parametrize("k", [1, 2, 5, 40])
+def test_the_k_best_sums_over_many_clusters_are_the_enumerated_ones(k):
+    """Eight Bernoullis each alone with its contacts (eight clusters, 1-3 contacts each, random gains): the k
+    best associations are the k best of every combination (miss or one contact each), with their sums."""
+    rng = np.random.default_rng(k)
+    n_pairs = rng.integers(1, 4, 8)
+    sth = np.repeat(np.arange(8), n_pairs)
+    gain = rng.normal(0.0, 2.0, sth.size)
+    got, log_gain, parent = scan_hypotheses(np.arange(8)[None, :], np.array([k]), sth, np.arange(sth.size),
+                                            100 + np.arange(sth.size), gain)
+    options = [[(s, 0.0)] + [(100 + p, gain[p]) for p in np.flatnonzero(sth == s)] for s in range(8)]
+    every = sorted((-sum(g for _, g in pick), [c for c, _ in pick]) for pick in itertools.product(*options))
+    assert parent.tolist() == [0] * min(k, len(every))
+    np.testing.assert_allclose(log_gain, [-w for w, _ in every[:k]], rtol=1e-12)
+    assert got.tolist() == [c for _, c in every[:k]]
+
+
+def test_a_cluster_shared_by_global_hypotheses_is_ranked_once(monkeypatch):
+    """Two global hypotheses holding the same two Bernoullis that share a contact (one cluster, ranked by
+    Murty's method) and differing in a third: the cluster is ranked once, for the larger k, and each
+    hypothesis's associations are those it has alone."""
+    import nnda.tracking.pmbm_hypotheses as module
+
+    calls = []
+    ranked = module.k_best_assignments
+    monkeypatch.setattr(module, "k_best_assignments", lambda cost, k: calls.append(k) or ranked(cost, k))
+    hyp = np.array([[0, 1, 2], [0, 1, -1]])
+    pairs = (np.array([0, 0, 1, 2]), np.array([0, 1, 1, 2]), np.array([10, 11, 12, 13]),
+             np.array([1.0, 0.5, 2.0, -0.3]))
+    ks = np.array([3, 5])
+    both = scan_hypotheses(hyp, ks, *pairs)
+    assert calls == [5]
+    alone = [scan_hypotheses(hyp[h:h + 1], ks[h:h + 1], *pairs) for h in range(2)]
+    np.testing.assert_array_equal(both[0], np.concatenate([a[0] for a in alone]))
+    np.testing.assert_array_equal(both[1], np.concatenate([a[1] for a in alone]))
+    assert both[2].tolist() == [0] * alone[0][1].size + [1] * alone[1][1].size

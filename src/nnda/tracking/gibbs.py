@@ -45,8 +45,10 @@ def gibbs_assignments(cost: np.ndarray, n_samples: int, seed: int, group: np.nda
     if not cost.shape[0]:
         return _ranked(cost, np.zeros((1, 0), np.int64))
     group = _groups(group, cost.shape[0])
-    samples = _sampled(cost, group, max(int(n_samples), 1), int(seed))
-    return _ranked(cost, np.unique(np.concatenate([samples, _neighbours(cost, group, samples[0])]), axis=0))
+    rows, cols = np.nonzero(np.isfinite(cost))  # each row's allowed columns, ascending
+    start = np.searchsorted(rows, np.arange(cost.shape[0] + 1))
+    samples = _sampled(cost, start, cols, cost[rows, cols], group, max(int(n_samples), 1), int(seed))
+    return _ranked(cost, unique_rows(np.concatenate([samples, _neighbours(cost, group, samples[0])]))[0])
 
 
 def all_assignments(cost: np.ndarray, group: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -108,10 +110,56 @@ def _ranked(cost: np.ndarray, assignments: np.ndarray) -> tuple[np.ndarray, np.n
     return assignments[order], log_weight[order]
 
 
+def unique_rows(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct rows of the integer array ``a`` (A, n), in lexicographic order, and the row of each
+    row of ``a`` among them (A,): ``np.unique(a, axis=0, return_inverse=True)``, by a compiled merge sort
+    of the rows (the comparison stops at the first column that differs)."""
+    a = np.ascontiguousarray(a, np.int64)
+    if not a.shape[0]:
+        return a, np.empty(0, np.int64)
+    order = _row_order(a)
+    s = a[order]
+    new = np.r_[True, (s[1:] != s[:-1]).any(axis=1)]
+    inverse = np.empty(a.shape[0], np.int64)
+    inverse[order] = np.cumsum(new) - 1
+    return s[new], inverse
+
+
 @numba.njit(cache=True, nogil=True)
-def _sampled(cost, group, n_samples, seed):
-    """``n_samples`` Gibbs draws (n_samples, n) on ``cost`` (n, 2 + m) with the rows' exclusive ``group``
-    (n,) (0..G-1, -1 none), the first the contact-free start."""
+def _row_order(a):
+    """The stable lexicographic order (A,) of the rows of ``a`` (A, n) int64, by merge sort."""
+    A, n = a.shape
+    idx = np.arange(A)
+    tmp = np.empty(A, np.int64)
+    width = 1
+    while width < A:
+        for lo in range(0, A, 2 * width):
+            mid, hi = min(lo + width, A), min(lo + 2 * width, A)
+            i, j = lo, mid
+            for k in range(lo, hi):
+                take_j = i >= mid
+                if not take_j and j < hi:
+                    c = 0
+                    while c < n and a[idx[j], c] == a[idx[i], c]:
+                        c += 1
+                    take_j = c < n and a[idx[j], c] < a[idx[i], c]
+                if take_j:
+                    tmp[k] = idx[j]
+                    j += 1
+                else:
+                    tmp[k] = idx[i]
+                    i += 1
+        idx, tmp = tmp, idx
+        width *= 2
+    return idx
+
+
+@numba.njit(cache=True, nogil=True)
+def _sampled(cost, start, cols, vals, group, n_samples, seed):
+    """``n_samples`` Gibbs draws (n_samples, n) on ``cost`` (n, 2 + m), its allowed entries by row (row i's
+    columns ``cols[start[i]:start[i + 1]]``, ascending, of costs ``vals``: a forbidden entry weighs 0 in
+    every draw, so only the allowed are visited), with the rows' exclusive ``group`` (n,) (0..G-1, -1 none),
+    the first the contact-free start."""
     np.random.seed(seed)
     n, C = cost.shape
     out = np.empty((n_samples, n), np.int64)
@@ -132,23 +180,27 @@ def _sampled(cost, group, n_samples, seed):
             if group[i] >= 0 and pick[i] > 0:
                 taken[group[i]] -= 1
             only_absent = group[i] >= 0 and taken[group[i]] > 0
+            a, b = start[i], start[i + 1]
             low = math.inf
-            for j in range(C):
+            for e in range(a, b):
+                j = cols[e]
                 if (j < 2 or held[j] == 0) and not (only_absent and j > 0):
-                    low = min(low, cost[i, j])
+                    low = min(low, vals[e])
             total = 0.0
-            for j in range(C):
+            for e in range(a, b):
+                j = cols[e]
                 ok = (j < 2 or held[j] == 0) and not (only_absent and j > 0)
-                w[j] = math.exp(low - cost[i, j]) if ok else 0.0
-                total += w[j]
+                w[e - a] = math.exp(low - vals[e]) if ok else 0.0
+                total += w[e - a]
             u = np.random.random() * total
-            j = 0
+            e = 0
             acc = w[0]
-            while acc <= u and j < C - 1:
-                j += 1
-                acc += w[j]
-            while w[j] == 0.0:  # rounding past the last option of weight: step back to it
-                j -= 1
+            while acc <= u and e < b - a - 1:
+                e += 1
+                acc += w[e]
+            while w[e] == 0.0:  # rounding past the last option of weight: step back to it
+                e -= 1
+            j = cols[a + e]
             pick[i] = j
             held[j] += 1
             if group[i] >= 0 and j > 0:

@@ -10,13 +10,18 @@ one, only when R > C), and ``costs`` (m,), each the sum of its pairs' entries in
 number of feasible assignments). Ties keep the order in which the ranking meets them, which is fixed for a
 given matrix. An empty matrix (R or C zero) has one assignment, the empty one, of cost 0.
 
-Murty's partition: the best assignment of a subproblem (some pairs forced, some forbidden) is found with
-`linear_sum_assignment`; after it is ranked, its pairs (i_1, j_1), ..., (i_n, j_n) split the rest of the
-subproblem into n children, child t forcing pairs 1..t-1 and forbidding pair t. Of the optimisations of
-Miller, Stone & Cox (1997) the cheap ones are used: a child solves only the rows and columns its forced
-pairs leave free (the smaller matrix), a child whose free rows include one with no allowed column is not
-solved, and the pairs are split in order of the row's fewest allowed alternatives first, so the later, more
-constrained children are the smaller ones. Each ranked assignment costs at most R solves.
+Murty's partition: after an assignment of a subproblem (some pairs forced, some forbidden) is ranked, its
+pairs (i_1, j_1), ..., (i_n, j_n) split the rest of the subproblem into n children, child t forcing pairs
+1..t-1 and forbidding pair t; the pairs are split in order of the row's fewest allowed alternatives first
+(Miller, Stone & Cox 1997). The first assignment is found with `linear_sum_assignment`; a child's best from
+its parent's, which is optimal there and differs from the child's only along chains of rows through the
+freed pair (Miller, Stone & Cox solve it from the parent's dual variables; here, without them, by two
+shortest-path searches on the allowed pairs, Bellman-Ford with a queue, compiled: the best chain of rows
+shifting into the freed column if it lowers the cost, then the shortest chain from the freed row to a free
+column). A child's search touches only the pairs its chains reach, so a ranked assignment of a large sparse
+matrix (a cluster of hundreds of tracks) costs R small searches, not R full solves; the full solver serves
+where rounding keeps a search from settling (a cycle of zero cost). A child's forced and forbidden pairs are
+built only when it is ranked. Each child's cost is summed in row order, as every assignment's.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ from __future__ import annotations
 import heapq
 import itertools
 
+import numba
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
@@ -63,12 +69,15 @@ def _total(cost: np.ndarray, cols: np.ndarray) -> float:
 
 def _solve(cost: np.ndarray, forced: np.ndarray, banned: np.ndarray) -> tuple[np.ndarray, float] | None:
     """Best assignment of ``cost`` (R <= C) with the rows' ``forced`` columns (R,) (-1: free) and the
-    ``banned`` (R, C) pairs, or None when none is feasible: (column of each row (R,), cost)."""
+    ``banned`` pairs (row * C + column), or None when none is feasible: (column of each row (R,), cost)."""
     free_rows = np.flatnonzero(forced < 0)
     taken = np.zeros(cost.shape[1], bool)
     taken[forced[forced >= 0]] = True
     free_cols = np.flatnonzero(~taken)
-    sub = np.where(banned[np.ix_(free_rows, free_cols)], np.inf, cost[np.ix_(free_rows, free_cols)])
+    if banned.size:
+        cost = cost.copy()
+        cost.flat[banned] = np.inf
+    sub = cost if free_rows.size == cost.shape[0] else cost[np.ix_(free_rows, free_cols)]
     if free_rows.size and (~np.isfinite(sub)).all(axis=1).any():
         return None
     cols = forced.copy()
@@ -84,26 +93,176 @@ def _solve(cost: np.ndarray, forced: np.ndarray, banned: np.ndarray) -> tuple[np
 def _ranked(cost: np.ndarray, k: int):
     """Murty's ranking of ``cost`` (R <= C): yields (column of each row (R,), cost), ascending, at most k."""
     R, C = cost.shape
-    allowed = np.isfinite(cost).sum(axis=1)
-    first = _solve(cost, np.full(R, -1, np.int64), np.zeros((R, C), bool))
+    rows, adjacent = np.nonzero(np.isfinite(cost))  # each row's allowed columns
+    start = np.searchsorted(rows, np.arange(R + 1))
+    allowed = np.diff(start)
+    first = _solve(cost, np.full(R, -1, np.int64), np.empty(0, np.int64))
     if first is None:
         return
     tie = itertools.count()  # equal costs leave the heap in the order they entered it
-    heap = [(first[1], next(tie), first[0], np.full(R, -1, np.int64), np.zeros((R, C), bool))]
-    for _ in range(k):
+    heap = [(first[1], next(tie), first[0], (np.full(R, -1, np.int64), np.empty(0, np.int64)))]
+    for n in range(k):
         if not heap:
             return
-        total, _, cols, forced, banned = heapq.heappop(heap)
+        total, _, cols, made = heapq.heappop(heap)
         yield cols, total
+        if n == k - 1:
+            return  # the k-th: its subproblems would not be ranked
+        forced, banned = _constraints(made, C)
         free = np.flatnonzero(forced < 0)
-        order = free[np.argsort(allowed[free] - banned[free].sum(axis=1), kind="stable")]
-        child_forced = forced.copy()
-        for t, row in enumerate(order):
-            if t == order.size - 1 and R == C:
-                break  # the last free row of a square problem has no other column left
-            child_banned = banned.copy()
-            child_banned[row, cols[row]] = True
-            solved = _solve(cost, child_forced, child_banned)
+        order = free[np.argsort(allowed[free] - np.bincount(banned // C, minlength=R)[free], kind="stable")]
+        if R == C:
+            order = order[:-1]  # the last free row of a square problem has no other column left
+        found, kids = _reassigned(cost, start, adjacent, cols, forced, banned, order)
+        totals = cost[np.arange(R), kids].sum(axis=1) if found.size else found
+        for t in np.flatnonzero(found != 0):
+            made = (cols, forced, banned, order, t)
+            solved = (kids[t], float(totals[t])) if found[t] > 0 else _solve(cost, *_constraints(made, C))
             if solved is not None:
-                heapq.heappush(heap, (solved[1], next(tie), solved[0], child_forced.copy(), child_banned))
-            child_forced[row] = cols[row]
+                heapq.heappush(heap, (solved[1], next(tie), solved[0], made))
+
+
+def _constraints(made: tuple, C: int) -> tuple[np.ndarray, np.ndarray]:
+    """A subproblem's forced columns (R,) and banned pairs (keys row * C + column) from how it was made: the
+    root's (forced, banned), or a child's (its parent's columns, forced and banned, the order of the parent's
+    rows and the child's place t in it: rows order[:t] forced to their columns, row order[t]'s pair banned),
+    built only when the child is ranked."""
+    if len(made) == 2:
+        return made
+    cols, forced, banned, order, t = made
+    forced = forced.copy()
+    forced[order[:t]] = cols[order[:t]]
+    return forced, np.append(banned, order[t] * C + cols[order[t]])
+
+
+@numba.njit(cache=True, nogil=True)
+def _reassigned(cost, start, adjacent, cols, forced, banned, order):
+    """The best assignment of each child from the parent's optimal ``cols`` (R,): child t of ``order`` (n,)
+    bans row order[t]'s pair and forces the rows order[:t] (and ``forced``) (Miller, Stone & Cox 1997 use the
+    parent's dual variables; here, without them, two shortest-path searches on the residual graph, by
+    Bellman-Ford with a queue): with the row's column freed, first the best chain of rows shifting into it
+    (each row to another allowed column, the last one's column freed) if it lowers the cost, then the
+    shortest chain from the row to a free column. A path moves only rows not forced and uses no banned pair.
+    Returns each child's outcome (n,), 1 solved, 0 infeasible (the row reaches no free column), -1 a search
+    did not settle (rounding in a cycle of zero cost), and its columns (n, R)."""
+    R, C = cost.shape
+    n = order.size
+    found = np.zeros(n, np.int64)
+    kids = np.empty((n, R), np.int64)
+    now = forced.copy()
+    bans = np.append(banned, 0)
+    for t in range(n):
+        row = order[t]
+        bans[-1] = row * C + cols[row]
+        found[t] = _one_child(cost, start, adjacent, cols, now, bans, row, kids[t])
+        now[row] = cols[row]
+    return found, kids
+
+
+@numba.njit(cache=True, nogil=True)
+def _one_child(cost, start, adjacent, cols, forced, banned, row, col):
+    """One child of `_reassigned`: its columns into ``col`` (R,); returns 1, 0 or -1 as there."""
+    R, C = cost.shape
+    col[:] = cols
+    owner = np.full(C, -1, np.int64)
+    for i in range(R):
+        owner[col[i]] = i
+    freed = col[row]
+    col[row] = -1
+    owner[freed] = -1
+    dist = np.full(C, np.inf)
+    prev = np.full(C, -1, np.int64)
+    for j in range(C):
+        if owner[j] >= 0 and forced[owner[j]] < 0:
+            dist[j] = 0.0
+    if not _settled(cost, start, adjacent, forced, banned, owner, dist, prev):
+        return -1
+    if dist[freed] < 0.0:  # a chain of rows into the freed column, the first one's column freed
+        _shift(col, owner, prev, freed)
+    dist[:] = np.inf
+    prev[:] = -1
+    for e in range(start[row], start[row + 1]):
+        j = adjacent[e]
+        if not _is_banned(banned, row * C + j) and (owner[j] < 0 or forced[owner[j]] < 0):
+            dist[j] = cost[row, j]
+    if not _settled(cost, start, adjacent, forced, banned, owner, dist, prev):
+        return -1
+    end, low = -1, np.inf
+    for j in range(C):
+        if owner[j] < 0 and dist[j] < low:
+            end, low = j, dist[j]
+    if end < 0:
+        return 0
+    first = _shift(col, owner, prev, end)
+    col[row] = first
+    owner[first] = row
+    return 1
+
+
+@numba.njit(cache=True, nogil=True)
+def _settled(cost, start, adjacent, forced, banned, owner, dist, prev):
+    """Bellman-Ford with a queue over the columns from the finite ``dist`` (C,): column j's row (``owner``,
+    not forced) moves to another allowed column j' at cost[i, j'] - cost[i, j]; a free column ends a path.
+    Fills ``dist`` and ``prev`` (the column each was reached from, -1 a start); False if it does not settle
+    within C passes per column."""
+    C = dist.size
+    queue = np.empty(C, np.int64)
+    waiting = np.zeros(C, np.bool_)
+    passes = np.zeros(C, np.int64)
+    head = tail = size = 0
+    for j in range(C):
+        if dist[j] < np.inf:
+            queue[tail] = j
+            tail = (tail + 1) % C
+            size += 1
+            waiting[j] = True
+    while size:
+        j = queue[head]
+        head = (head + 1) % C
+        size -= 1
+        waiting[j] = False
+        i = owner[j]
+        if i < 0 or forced[i] >= 0:
+            continue
+        passes[j] += 1
+        if passes[j] > C:
+            return False
+        for e in range(start[i], start[i + 1]):
+            to = adjacent[e]
+            if to == j or _is_banned(banned, i * C + to) or (owner[to] >= 0 and forced[owner[to]] >= 0):
+                continue
+            d = dist[j] + cost[i, to] - cost[i, j]
+            if d < dist[to]:
+                dist[to] = d
+                prev[to] = j
+                if not waiting[to]:
+                    queue[tail] = to
+                    tail = (tail + 1) % C
+                    size += 1
+                    waiting[to] = True
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
+def _shift(col, owner, prev, end):
+    """Moves the rows of the path ending at column ``end`` (``prev``) one column on; returns its first column,
+    now free."""
+    to = end
+    frm = prev[to]
+    while frm >= 0:
+        i = owner[frm]
+        col[i] = to
+        owner[to] = i
+        to = frm
+        frm = prev[to]
+    owner[to] = -1
+    return to
+
+
+@numba.njit(cache=True, nogil=True)
+def _is_banned(banned, key):
+    """Whether the pair ``key`` (row * C + column) is in ``banned`` (a few keys: one per ranked ancestor)."""
+    for b in banned:
+        if b == key:
+            return True
+    return False

@@ -34,6 +34,7 @@ from nnda.filters.batch import Batch
 from nnda.filters.kalman import GATE_99
 from nnda.tracking.clutter_density import coverage_area, local_density
 from nnda.tracking.gating import gate
+from nnda.tracking.gibbs import unique_rows
 from nnda.tracking.lifecycle import birth_log_odds, sensor_noise_m, start_score
 from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
@@ -327,8 +328,7 @@ def merged(hyp: np.ndarray, log_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Equal global hypotheses (rows of ``hyp`` (H, L)) as one, their log weights (H,) summed."""
     if not hyp.shape[1]:
         return hyp[:1], np.logaddexp.reduce(log_w, keepdims=True)
-    rows, inverse = np.unique(hyp, axis=0, return_inverse=True)
-    inverse = inverse.ravel()
+    rows, inverse = unique_rows(hyp)
     order = np.argsort(inverse, kind="stable")
     starts = np.r_[0, np.flatnonzero(np.diff(inverse[order])) + 1]
     return rows, np.logaddexp.reduceat(log_w[order], starts)

@@ -164,16 +164,10 @@ class PMBMTracker(LabelledMixture):
         gain = np.log(r[pl] * pd[pl]) + u.ll - np.log(u.clutter) - log_miss[pl]
         r_miss = r * (1.0 - pd) / np.exp(log_miss)
         self.table = LabelledTable(u.tracks, np.concatenate([r_miss, np.ones(pl.size)]), u.hist, u.x, u.P)
-        pair_child = S + np.arange(pl.size)
-        hyps, weights = [], []
-        for h in range(len(self.log_w)):
-            k = max(1, math.ceil(cfg.max_global_hypotheses * math.exp(self.log_w[h])))
-            present = self.hyp[h][self.hyp[h] >= 0]
-            kids, gains = scan_hypotheses(self.hyp[h], pl, pj, pair_child, gain, k)
-            hyps.append(kids)
-            weights.append(self.log_w[h] + log_miss[present].sum() + gains)
-        self.hyp = np.concatenate(hyps)
-        self.log_w = normalised(np.concatenate(weights))
+        ks = np.array([max(1, math.ceil(cfg.max_global_hypotheses * math.exp(w))) for w in self.log_w])
+        missed = np.array([log_miss[row[row >= 0]].sum() for row in self.hyp])  # (H,) every Bernoulli missed
+        self.hyp, gains, parent = scan_hypotheses(self.hyp, ks, pl, pj, S + np.arange(pl.size), gain)
+        self.log_w = normalised((self.log_w + missed)[parent] + gains)
 
     # ---------------------------------------------------------------------- pruning
     def _prune_sths(self) -> None:
