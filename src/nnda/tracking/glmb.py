@@ -73,6 +73,7 @@ from nnda.data.dataset import Scan
 from nnda.tracking.gibbs import all_assignments, gibbs_assignments
 from nnda.tracking.labelled import LabelledConfig, LabelledMixture, LabelledTable, merged, normalised
 from nnda.tracking.output import NO_CONTACT, TrackerOutput
+from nnda.tracking.reports import Phase
 from nnda.tracking.tracker import ScanContacts, TrackerConfig
 
 
@@ -125,8 +126,8 @@ class GLMBTracker(LabelledMixture):
         """The tracks the hypotheses index (``table``)."""
         return self.table
 
-    def step(self, scan: Scan) -> TrackerOutput:
-        sc = self._checked(scan)
+    def _step(self, scan: Scan, phase: Phase) -> TrackerOutput:
+        sc = self._checked(scan, phase)  # a sweep: this tracker takes no asynchronous reports
         if self.born is not None:
             self._admit()
         if self.table is not None:

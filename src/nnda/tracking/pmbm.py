@@ -78,6 +78,7 @@ from nnda.data.dataset import Scan
 from nnda.tracking.labelled import LabelledConfig, LabelledMixture, LabelledTable, merged, normalised
 from nnda.tracking.output import TrackerOutput
 from nnda.tracking.pmbm_hypotheses import scan_hypotheses
+from nnda.tracking.reports import Phase
 from nnda.tracking.tracker import ScanContacts, TrackerConfig
 
 #: history entry of a scan before the Bernoulli existed (a miss is NO_CONTACT)
@@ -122,8 +123,8 @@ class PMBMTracker(LabelledMixture):
         return self.table
 
     # ---------------------------------------------------------------------- one scan
-    def step(self, scan: Scan) -> TrackerOutput:
-        sc = self._checked(scan)
+    def _step(self, scan: Scan, phase: Phase) -> TrackerOutput:
+        sc = self._checked(scan, phase)  # a sweep: this tracker takes no asynchronous reports
         if self.table is not None:
             self._update(sc)
             self._prune_sths()

@@ -898,10 +898,10 @@ class ContactTracker(ABC):
         z, _ = checked_scan(self.name, scan, self.last_time, self.sensors, self.last_sensor, True)
         return step_window(self._step, scan, report_times(self.name, scan, self.last_time, len(z)))
 
+    @abstractmethod
     def _step(self, scan: Scan, phase: Phase) -> TrackerOutput:
-        """One pass of the tracker's scan step over ``scan`` in ``phase`` (`nnda.tracking.reports.Phase`); a
-        tracker that takes no asynchronous reports (``takes_reports`` False) overrides `step` instead."""
-        raise NotImplementedError(f"{self.name}: a contact tracker implements _step or step")
+        """One pass of the tracker's scan step over ``scan`` in ``phase`` (`nnda.tracking.reports.Phase`; always
+        a sweep for a tracker that takes no asynchronous reports, ``takes_reports`` False)."""
 
     def _checked(self, scan: Scan, phase: Phase = Phase.SWEEP) -> ScanContacts:
         """The scan checked (`checked_scan`) and, from here on, the one being processed (``last_time``,
