@@ -38,6 +38,8 @@ import math
 import numba
 import numpy as np
 
+from nnda.filters.motion import exact_turn
+
 #: transition kinds of `mix_predict`: nearly constant velocity (dim 4), coordinated turn (dim 5)
 CV, CT, CT_EXACT = 0, 1, 2
 #: added to probabilities before a division or a log (as `nnda.filters.imm`)
@@ -63,34 +65,6 @@ def _product(A, B, d, transpose_b, out):
             for c in range(d):
                 s += A[a, c] * (B[b, c] if transpose_b else B[c, b])
             out[a, b] = s
-
-
-@_jit
-def exact_turn(w, T, vx, vy, F):
-    """The coordinated turn at the constant rate w (rad/s, counter-clockwise) over T (s), exactly, into F
-    (n, n): its CV block (4, 4), with sin(wT) / w and (1 - cos(wT)) / w on the positions, and its column 4
-    the derivative of f(x) in w at the velocity (vx, vy) (Bar-Shalom, Li and Kirubarajan (2001), Sec.
-    11.7); as series in wT below 1e-3 (error of order (wT)^4). Unlike the second-order form it keeps the
-    speed over any interval."""
-    wT = w * T
-    if abs(wT) < 1e-3:
-        a = T * (1.0 - wT * wT / 6.0)  # sin(wT) / w
-        b = 0.5 * wT * T * (1.0 - wT * wT / 12.0)  # (1 - cos(wT)) / w
-        da = -w * T * T * T / 3.0  # d/dw of sin(wT) / w
-        db = 0.5 * T * T * (1.0 - wT * wT / 4.0)  # d/dw of (1 - cos(wT)) / w
-        sn, cs = wT * (1.0 - wT * wT / 6.0), 1.0 - 0.5 * wT * wT
-    else:
-        sn, cs = math.sin(wT), math.cos(wT)
-        a, b = sn / w, (1.0 - cs) / w
-        da, db = (T * cs - a) / w, (T * sn - b) / w
-    F[0, 1], F[0, 3] = a, -b
-    F[1, 1], F[1, 3] = cs, -sn
-    F[2, 1], F[2, 3] = b, a
-    F[3, 1], F[3, 3] = sn, cs
-    F[0, 4] = vx * da - vy * db
-    F[1, 4] = -T * (sn * vx + cs * vy)
-    F[2, 4] = vx * db + vy * da
-    F[3, 4] = T * (cs * vx - sn * vy)
 
 
 @_jit

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 from functools import cached_property
 from typing import ClassVar, Literal, Protocol
 
+import numba
 import numpy as np
 
 from nnda.errors import FilterError
@@ -108,6 +109,8 @@ NOISE_KINDS = ("discrete", "continuous")
 #: the coordinated turn's transition: the thesis's second-order form, or the exact turn
 TURN_FORMS = ("second-order", "exact")
 
+_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+
 
 def process_noise(dt: np.ndarray, basis: np.ndarray) -> np.ndarray:
     """Q(T) = T basis[0] + T^2 basis[1] + T^3 basis[2] + T^4 basis[3] for T (s) of shape (...).
@@ -151,6 +154,41 @@ def _wna_basis(dim: int, sigma_q: float, velocity_power: float, noise: str = "di
 def _check_noise(model: str, noise: str) -> None:
     if noise not in NOISE_KINDS:
         raise FilterError(f"{model}.noise_kind: 'discrete' or 'continuous', got {noise!r}")
+
+
+@_jit
+def exact_turn(w, T, vx, vy, F):
+    """The coordinated turn at the constant rate w (rad/s, counter-clockwise) over T (s), exactly, into F
+    (n, n): its CV block (4, 4), with sin(wT) / w and (1 - cos(wT)) / w on the positions, and its column 4
+    the derivative of f(x) in w at the velocity (vx, vy) (Bar-Shalom, Li and Kirubarajan (2001), Sec.
+    11.7); as series in wT below 1e-3 (error of order (wT)^4). Unlike the second-order form it keeps the
+    speed over any interval."""
+    wT = w * T
+    if abs(wT) < 1e-3:
+        a = T * (1.0 - wT * wT / 6.0)  # sin(wT) / w
+        b = 0.5 * wT * T * (1.0 - wT * wT / 12.0)  # (1 - cos(wT)) / w
+        da = -w * T * T * T / 3.0  # d/dw of sin(wT) / w
+        db = 0.5 * T * T * (1.0 - wT * wT / 4.0)  # d/dw of (1 - cos(wT)) / w
+        sn, cs = wT * (1.0 - wT * wT / 6.0), 1.0 - 0.5 * wT * wT
+    else:
+        sn, cs = math.sin(wT), math.cos(wT)
+        a, b = sn / w, (1.0 - cs) / w
+        da, db = (T * cs - a) / w, (T * sn - b) / w
+    F[0, 1], F[0, 3] = a, -b
+    F[1, 1], F[1, 3] = cs, -sn
+    F[2, 1], F[2, 3] = b, a
+    F[3, 1], F[3, 3] = sn, cs
+    F[0, 4] = vx * da - vy * db
+    F[1, 4] = -T * (sn * vx + cs * vy)
+    F[2, 4] = vx * db + vy * da
+    F[3, 4] = T * (cs * vx - sn * vy)
+
+
+@_jit
+def _exact_turns(w, T, vx, vy, F):
+    """`exact_turn` for a batch: rates w, intervals T, velocities vx, vy (K,) into F (K, 5, 5) (identity in)."""
+    for k in range(w.size):
+        exact_turn(w[k], T[k], vx[k], vy[k], F[k])
 
 
 @dataclass(frozen=True)
@@ -301,28 +339,16 @@ class CoordinatedTurn:
         return fx, F
 
     def _exact(self, x: np.ndarray, dt: np.ndarray, out: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-        """The exact turn at the limited rate w over T: f(X) and its Jacobian for states (..., 5) and dt (s),
-        the arithmetic of `nnda.filters.imm_kernels.exact_turn` on the whole batch (series in wT below 1e-3)."""
-        T = np.broadcast_to(np.asarray(dt, float), x.shape[:-1])
-        vx, vy = x[..., 1], x[..., 3]
+        """The exact turn (`exact_turn`) at the limited rate w over T: f(X) and its Jacobian for states (..., 5)
+        and dt (s), in one compiled call for the batch."""
+        shape = x.shape[:-1]
         w = np.minimum(np.maximum(x[..., 4], -self.omega_max), self.omega_max)
-        wT = w * T
-        small = np.abs(wT) < 1e-3
-        ws = np.where(small, 1.0, w)  # no division by a small rate: the series serve there
-        sn = np.where(small, wT * (1.0 - wT * wT / 6.0), np.sin(wT))
-        cs = np.where(small, 1.0 - 0.5 * wT * wT, np.cos(wT))
-        a = np.where(small, T * (1.0 - wT * wT / 6.0), sn / ws)  # sin(wT) / w
-        b = np.where(small, 0.5 * wT * T * (1.0 - wT * wT / 12.0), (1.0 - cs) / ws)  # (1 - cos(wT)) / w
-        da = np.where(small, -w * T**3 / 3.0, (T * cs - a) / ws)
-        db = np.where(small, 0.5 * T * T * (1.0 - wT * wT / 4.0), (T * sn - b) / ws)
-        F = np.empty((*x.shape[:-1], 5, 5)) if out is None else out
+        F = np.empty((*shape, 5, 5)) if out is None else out
         F[...] = _EYE5
-        F[..., 0, 1], F[..., 0, 3], F[..., 1, 1], F[..., 1, 3] = a, -b, cs, -sn
-        F[..., 2, 1], F[..., 2, 3], F[..., 3, 1], F[..., 3, 3] = b, a, sn, cs
-        F[..., 0, 4] = vx * da - vy * db
-        F[..., 1, 4] = -T * (sn * vx + cs * vy)
-        F[..., 2, 4] = vx * db + vy * da
-        F[..., 3, 4] = T * (cs * vx - sn * vy)
+        flat = np.ascontiguousarray(F.reshape(-1, 5, 5))
+        _exact_turns(np.ravel(w).astype(float), np.ravel(np.broadcast_to(np.asarray(dt, float), shape)).copy(),
+                     np.ravel(x[..., 1]).astype(float), np.ravel(x[..., 3]).astype(float), flat)
+        F[...] = flat.reshape(F.shape)
         fx = np.empty_like(x)
         fx[..., :4] = (F[..., :4, :4] @ x[..., :4, None])[..., 0]
         fx[..., 4] = w
