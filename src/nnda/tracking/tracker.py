@@ -619,8 +619,8 @@ class TwoPointInitiation:
             self._refuse(len(i) - room, live, time)
             i, j = cap_pairs(i, j, init_xy, xy[free], d_min, d_max, room)
         threshold = self._confirmation_threshold(len(init_xy)) if len(i) else math.inf
-        rest_z, rest_xy, contact, fields = _opened(free, i, j, windowed, init_xy, z, xy, self.next_id, before, time,
-                                                   threshold)
+        rest_z, rest_xy, contact, fields = _opened(free, i, j, windowed, init_xy, z, xy, self.next_id,
+                                                   np.full(len(init_xy), before), time, threshold)
         self._too_fast(init_xy, xy, free, windowed, before, time, sensor)
         self.contacts[sensor], self.xy[sensor], self.time[sensor] = rest_z, rest_xy, time
         if not contact.size:
@@ -659,14 +659,13 @@ class TwoPointInitiation:
             keep = np.sort(np.argsort(-wt[i], kind="stable")[:room])
             i, j = i[keep], j[keep]
         threshold = self._confirmation_threshold(len(wxy)) if len(i) else math.inf
-        rest_z, rest_xy, contact, fields = _opened(free, i, j, j, wxy, z, xy, self.next_id, time, time, threshold)
+        rest_z, rest_xy, contact, fields = _opened(free, i, j, j, wxy, z, xy, self.next_id, wt, time, threshold)
         spent = np.zeros(len(wt), bool)
         spent[i] = True
         self.waiting[sensor] = (np.concatenate([wz[~spent], rest_z]), np.concatenate([wxy[~spent], rest_xy]),
                                 np.concatenate([wt[~spent], np.full(len(rest_z), time)]))
         if not contact.size:
             return None, None
-        fields[2][:, T1] = fields[2][:, T0] = wt[i]  # the history's first contact: each pair's own
         return self._born(z, contact, fields, time - wt[i], sensor)
 
     def _too_fast(self, init_xy: np.ndarray, xy: np.ndarray, free: np.ndarray, windowed: np.ndarray,
@@ -722,7 +721,8 @@ def _opened(free, i, j, windowed, initiators, z, xy, first_id, before, time, con
     (not among ``windowed``, indices into ``free``), the next initiators: their z, xy (M, 2); the contacts
     (K,) of the window pairs (i, j) (K,) that open tracks (j indexes ``free``); and the tracks' fields but
     the filter state (`Tracks`: track_id from ``first_id``, status, history: p1 the initiators (I, 2) of i,
-    t1 = t0 = ``before``, t2 = ``time``, az2, p2 left to the caller; counts; scores, with ``confirm_at``)."""
+    t1 = t0 their times ``before`` (I,), t2 = ``time``, az2, p2 left to the caller; counts; scores, with
+    ``confirm_at``)."""
     spoken = np.zeros(free.size, np.bool_)
     spoken[windowed] = True
     rest = free[~spoken]
@@ -732,7 +732,8 @@ def _opened(free, i, j, windowed, initiators, z, xy, first_id, before, time, con
     scores = np.zeros((k, 4))
     for t in range(k):
         history[t, X1], history[t, X1 + 1] = initiators[i[t], 0], initiators[i[t], 1]
-        history[t, T1], history[t, T0], history[t, T2], history[t, AZ2] = before, before, time, z[contact[t], 1]
+        history[t, T1], history[t, T0], history[t, T2], history[t, AZ2] = (before[i[t]], before[i[t]], time,
+                                                                           z[contact[t], 1])
         scores[t, CONFIRM_AT] = confirm_at
     fields = (np.arange(first_id, first_id + k), np.full(k, PRELIMINARY, np.int8), history,
               np.zeros((k, 3), np.int64), scores)
