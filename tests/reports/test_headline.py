@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from nnda.reports.headline import OVERALL, compact_table, headline_points, pareto_front, quality_cost, reading
-from nnda.reports.study_summary import verdict_table
+from nnda.reports.study_summary import family_table, verdict_table
 from nnda.study.measures import measure
 
 LOWER, HIGHER = -1, +1
@@ -173,3 +173,30 @@ def test_a_tracker_missing_from_a_scenario_has_no_point_there_nor_over_all():
     table = compact_table(summary, timing)
     column = table.header.index("GOSPA, mean over scans (m)")
     assert {r[0]: r[column] for r in table.rows} == {"a": "150.0 (1)", "b": "—"}  # no best among one
+
+
+def test_the_family_table_says_which_family_wins_where_and_its_cost():
+    summary, timing = _study(
+        gospa={"mht": [(100, 90, 110), (200, 190, 210), (300, 250, 350)],
+               "pmbm": [(150, 140, 160), (180, 150, 230), (360, 340, 420)],
+               "glmb": [(160, 150, 170), (190, 170, 210), (290, 280, 300)],
+               "phd": [(500, 480, 520), (600, 580, 620), (700, 680, 720)]},
+        hit={"mht": [(95, 94, 96)] * 3, "pmbm": [(96, 95, 97)] * 3, "glmb": [(90, 88, 92)] * 3,
+             "phd": [(None,)] * 3},
+        time={"mht": [(3e-3, 2.9e-3, 3.1e-3)] * 3, "pmbm": [(5e-3, 4.9e-3, 5.1e-3)] * 3,
+              "glmb": [(2e-3, 1.9e-3, 2.1e-3)] * 3, "phd": [(1e-3, 0.9e-3, 1.1e-3)] * 3},
+        kinds={"mht": "mht", "pmbm": "pmbm", "glmb": "glmb", "phd": "gmphd"})
+    table = family_table(summary, timing)
+    rows = {r[0]: r for r in table.rows}
+    assert list(rows) == ["multiple hypothesis tracking", "multi-Bernoulli mixtures (PMBM, GLMB, LMB)",
+                          "PHD filters (no association)"]
+    rfs = rows["multi-Bernoulli mixtures (PMBM, GLMB, LMB)"]
+    assert rfs[1] == "pmbm, glmb"
+    # GOSPA: mht wins S1, pmbm S2, glmb S3 (two members, one family); hit rate: pmbm everywhere
+    assert rfs[2:4] == ("2: S2, S3", "3: S1, S2, S3")
+    assert rows["multiple hypothesis tracking"][2:4] == ("1: S1", "0")
+    assert rfs[-1] == "2-5" and rows["PHD filters (no association)"][-1] == "1-1"
+    assert table.header[2:4] == ("Best GOSPA in", "Best hit rate in")
+    # one family: no table
+    one = {**summary, "trackers": [t for t in summary["trackers"] if t["kind"] in ("pmbm", "glmb")]}
+    assert family_table(one, timing) is None

@@ -19,8 +19,8 @@ Read only from ``summary.json`` and ``timing.json``:
   which the tracker has the best mean (ties count for none);
 * two or three sentences computed from those numbers;
 
-then `nnda.reports.study_summary`'s tally and its table of the best tracker
-per scenario and headline measure. A tracker that did not run on a scenario
+then `nnda.reports.study_summary`'s tally, its table of the best tracker
+per scenario and headline measure, and its table by association family. A tracker that did not run on a scenario
 has no point there and none over all scenarios.
 """
 
@@ -38,7 +38,7 @@ from matplotlib.lines import Line2D
 from matplotlib.ticker import FuncFormatter, LogFormatter
 
 from nnda.reports.study_figures import _colours, _png
-from nnda.reports.study_summary import HEADLINES, stat, tally, verdict_table, verdicts
+from nnda.reports.study_summary import HEADLINES, family_table, stat, tally, verdict_table, verdicts
 from nnda.reports.text_table import DASH, TextTable
 from nnda.study.measures import TIME, Measure, measure
 
@@ -292,4 +292,6 @@ def headline_section(section, summary: dict, timing: dict, figure: Callable[...,
     section.text(reading(summary, timing))
     section.text(tally(summary, timing))
     section.table(verdict_table(summary, timing), "best-per-scenario")
+    if (families := family_table(summary, timing)) is not None:
+        section.table(families, "family-table")
     return section

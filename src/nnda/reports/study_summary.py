@@ -8,7 +8,10 @@ no interval and no win is called clear). Time per scan is compared as
 ratios, and against the thesis's ratio when the study holds both an ``nn``
 and an ``mht`` tracker on the thesis's scenarios. The report gives all of
 it as one table (`verdict_table`, a row per scenario) with the `tally`
-above, below its headline (`nnda.reports.headline`).
+above, below its headline (`nnda.reports.headline`). When the study holds
+trackers of two association families or more (`nnda.tracking.registry.FAMILIES`),
+`family_table` answers "which family, where, at what cost" from the same
+verdicts.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from dataclasses import dataclass
 from nnda.reports.published_tracking import PUBLISHED_TRACKING
 from nnda.reports.text_table import DASH, TextTable, stat_cell
 from nnda.study.measures import TIME, Measure, measure
+from nnda.tracking.registry import FAMILIES
 
 #: the measures the summary ranks (keys of `nnda.study.measures`; each has a better direction)
 HEADLINES: tuple[Measure, ...] = tuple(measure(k) for k in (
@@ -139,3 +143,47 @@ def verdict_table(summary: dict, timing: dict) -> TextTable:
         note += (" Time ratios: each neural tracker's mean time per scan over each MHT tracker's (the thesis reports "
                  "under 0.1).")
     return TextTable("Best per scenario", header, tuple(rows), note)
+
+
+#: the measures of `family_table`'s "where it wins" columns
+FAMILY_MEASURES: tuple[Measure, ...] = tuple(measure(k) for k in ("gospa", "hit_rate", "false_tracks", "lost_targets"))
+
+
+def family_of(kind: str) -> str:
+    """The association family of a tracker kind (`FAMILIES`; a kind not listed is its own family)."""
+    return FAMILIES.get(kind, kind)
+
+
+def _wins(names: list[str]) -> str:
+    return f"{len(names)}: {', '.join(names)}" if names else "0"
+
+
+def family_table(summary: dict, timing: dict) -> TextTable | None:
+    """Association family x (its trackers, the scenarios where one of them has the best mean of each measure
+    of `FAMILY_MEASURES`, its members' time per scan): None when the study holds one family only."""
+    kinds = {t["label"]: t["kind"] for t in summary["trackers"]}
+    families: dict[str, list[str]] = {}
+    for label, kind in kinds.items():
+        families.setdefault(family_of(kind), []).append(label)
+    if len(families) < 2:
+        return None
+    vs = verdicts(summary, timing)
+    timing_by = {s["name"]: s for s in timing["scenarios"]}
+    rows = []
+    for family, members in families.items():
+        row = [family, ", ".join(members)]
+        for m in FAMILY_MEASURES:
+            row.append(_wins([v.scenario for v in vs if v.headline.key == m.key and v.best in members]))
+        times = [stat(sc, timing_by[sc["name"]], t, TIME.key) for sc in summary["scenarios"] for t in members
+                 if t in sc["trackers"] and t in timing_by[sc["name"]]["trackers"]]
+        means = [s["mean"] * TIME.scale for s in times if s and s.get("mean") is not None]
+        row.append(f"{TIME.fmt.format(min(means))}-{TIME.fmt.format(max(means))}" if means else DASH)
+        rows.append(tuple(row))
+    n = len(summary["scenarios"])
+    header = ("Family", "Trackers", *(f"Best {m.label.lower() if not m.label[:2].isupper() else m.label} in"
+                                      for m in FAMILY_MEASURES), f"Time per scan ({TIME.unit})")
+    note = (f"Which family of association methods wins where, and what it costs: per family, the scenarios (of "
+            f"{n}) in which one of its trackers has the best mean of the measure (ties count for none; whether "
+            f"the win is clear is in the table above), and the lowest and highest mean time per scan of its "
+            f"trackers over the scenarios.")
+    return TextTable("Which family, where", header, tuple(rows), note)

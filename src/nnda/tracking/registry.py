@@ -35,6 +35,18 @@ PEERS: dict[str, str] = {
     "stonesoup-jpda": "nnda.peers.trackers:StoneSoupJPDA",
     "stonesoup-gmphd": "nnda.peers.trackers:StoneSoupGMPHD",
 }
+#: the association family of each tracker by name, the rows of a study report's "which family, where" table
+#: (`nnda.reports.study_summary.family_table`); a tracker not listed (a plug-in) is its own family
+FAMILIES: dict[str, str] = {
+    "gnn": "global nearest neighbour", "stonesoup-gnn": "global nearest neighbour",
+    "jpda": "joint probabilistic data association", "stonesoup-jpda": "joint probabilistic data association",
+    "mht": "multiple hypothesis tracking",
+    "pmbm": "multi-Bernoulli mixtures (PMBM, GLMB, LMB)", "glmb": "multi-Bernoulli mixtures (PMBM, GLMB, LMB)",
+    "lmb": "multi-Bernoulli mixtures (PMBM, GLMB, LMB)",
+    "nn": "neural association",
+    **dict.fromkeys(("gmphd", "ekphd", "ukphd", "cphd", "stonesoup-gmphd"), "PHD filters (no association)"),
+    **dict.fromkeys(("fusion-merge", "fusion-aa", "fusion-gci", "fusion-central"), "PHD fusion of two radars"),
+}
 #: the optional extra the peers need (`nnda.peers.EXTRA` says the same to the peers' own commands)
 PEERS_EXTRA = "pip install 'nnda[peers]'"
 
