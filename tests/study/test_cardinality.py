@@ -4,6 +4,7 @@ beside, written to cardinality.parquet and read back; job records of the format 
 from __future__ import annotations
 
 import json
+from types import SimpleNamespace
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -13,11 +14,12 @@ from count_study import count_study
 from nnda.data.generator import generate
 from nnda.data.scenario import load_scenario
 from nnda.errors import DatasetError
-from nnda.study.cardinality import CARDINALITY_FILE, read_cardinality
+from nnda.study.cardinality import CARDINALITY_FILE, read_cardinality, snapshot
 from nnda.study.compare import compare
 from nnda.study.config import load_study
 from nnda.study.plan import plan_study
 from nnda.study.runner import JOB_FORMAT_VERSION, is_done, read_job
+from nnda.tracking.phd.tracker import Cardinality
 from nnda.tracking.registry import make_tracker
 from tolerances import RTOL
 
@@ -99,3 +101,13 @@ def test_job_records_of_the_previous_format_are_rerun_and_refused(counted, tmp_p
     with pytest.raises(DatasetError, match=r"run-0000.json: field 'format_version' is 4; this nnda .* reads "
                                            r"version 5 only"):
         read_job(job, tmp_path)
+
+
+def test_a_count_given_as_mean_and_variance_is_recorded_without_a_distribution():
+    """The labelled trackers give their count's variance directly (no distribution): the snapshot keeps it;
+    a record of another scan gives nothing."""
+    tracker = SimpleNamespace(cardinality=Cardinality(4, 8.0, 2.5, None, None, 2, variance=0.35))
+    assert snapshot(tracker, 4) == (2.5, None, 0.35)
+    assert snapshot(tracker, 5) is None
+    tracker.cardinality = Cardinality(4, 8.0, 1.0, 1, np.array([0.25, 0.5, 0.25]), 1)
+    assert snapshot(tracker, 4) == (1.0, 1, 0.5)

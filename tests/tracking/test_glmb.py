@@ -222,3 +222,30 @@ def test_targets_in_a_thousand_clutter_a_scan_are_confirmed(name):
     birth in the hypotheses at once, admission_existence 0, none is confirmed: their existence stays near the
     births' ~1e-4 among hundreds of clutter births a scan)."""
     lab.check_dense_clutter(name)
+
+
+@pytest.mark.parametrize("name", ["pmbm", "glmb", "lmb"])
+def test_the_target_count_is_the_mixture_of_multi_bernoulli_counts(name):
+    """After each scan the tracker's count record holds the mean and variance of the number of live labels,
+    checked against the count distribution built by hand: per hypothesis the Poisson-binomial of its labels'
+    existences convolved with the tentative labels', mixed by the hypotheses' weights."""
+    params = {"clutter_density": 2e-8, "gate": 1e9}
+    tracker = make_tracker(name, lab.POSITION, params)
+    for scan in lab.two_scans():
+        out = tracker.step(scan)
+        rows = [[tracker.table.r[s] for s in row if s >= 0] for row in tracker.hyp] if tracker.table is not None \
+            else [[]]
+        tentative = [] if tracker.tentative is None else list(tracker.tentative.r)
+        p = np.zeros(len(tracker.labels) + len(tentative) + 1)
+        for w, r in zip(np.exp(tracker.log_w), rows):
+            dist = np.ones(1)
+            for ri in [*r, *tentative]:
+                dist = np.convolve(dist, [1.0 - ri, ri])
+            p[:dist.size] += w * dist
+        n = np.arange(p.size)
+        count = tracker.cardinality
+        assert (count.scan, count.time) == (scan.index, scan.time)
+        assert count.extracted == int((out.status == TrackStatus.CONFIRMED).sum())
+        assert math.isclose(count.mean, n @ p, rel_tol=1e-9, abs_tol=1e-12)
+        assert math.isclose(count.variance, (n - n @ p) ** 2 @ p, rel_tol=1e-9, abs_tol=1e-12)
+    assert count.mean > 1.5  # both targets counted by the last scan

@@ -6,11 +6,13 @@ A tracker job records, per scan:
 * ``confirmed``: the confirmed tracks the tracker reported (the count every
   tracker estimates, and `nnda.study.measures`' count error compares);
 * for trackers that keep a ``cardinality`` record after each ``step`` (the
-  PHD family, `nnda.tracking.phd.tracker.Cardinality`, and the Stone Soup
-  GM-PHD peer): ``filter_mean``, the filter's own expected count (a PHD:
-  its intensity's total weight; the CPHD: the mean of its cardinality
-  distribution), ``filter_map``, the CPHD's most probable count, and
-  ``filter_variance``, the variance of the CPHD's distribution. Each is None
+  PHD family, `nnda.tracking.phd.tracker.Cardinality`, the labelled
+  trackers and the Stone Soup GM-PHD peer): ``filter_mean``, the filter's
+  own expected count (a PHD: its intensity's total weight; the CPHD: the
+  mean of its cardinality distribution; PMBM, GLMB and LMB: the existence
+  probabilities summed over their hypotheses), ``filter_map``, the CPHD's
+  most probable count, and ``filter_variance``, the variance of the CPHD's
+  distribution or of the labelled trackers' count. Each is None
   for the whole run when the tracker does not give it (a PHD has no MAP
   count and no distribution; other trackers have no record), and a scan
   whose record is missing or stale (of another scan) holds None.
@@ -44,11 +46,11 @@ FILTER_SERIES = ("filter_mean", "filter_map", "filter_variance")
 def snapshot(tracker, scan: int) -> tuple[float | None, int | None, float | None] | None:
     """(mean, MAP count, variance) of the tracker's ``cardinality`` record after stepping scan ``scan``;
     None when it keeps none or its record is of another scan. The variance is that of the record's
-    ``distribution`` p(n), n = 0..N_max (None without one)."""
+    ``distribution`` p(n), n = 0..N_max, or without one its ``variance`` (None when it has neither)."""
     record = getattr(tracker, "cardinality", None)
     if record is None or record.scan != scan:
         return None
-    variance = None
+    variance = getattr(record, "variance", None)
     if record.distribution is not None:
         p = np.asarray(record.distribution, dtype=float)
         n = np.arange(p.size)

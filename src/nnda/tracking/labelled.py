@@ -38,6 +38,7 @@ from nnda.tracking.gibbs import unique_rows
 from nnda.tracking.lifecycle import birth_log_odds, sensor_noise_m, start_score
 from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
+from nnda.tracking.phd.tracker import Cardinality
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts, Tracks
 
 
@@ -128,6 +129,7 @@ class LabelledMixture(ContactTracker):
     def _predict_update(self, scan: ScanContacts, table: LabelledTable | None = None) -> ScanUpdate:
         """Predict and gate every row of ``table`` (default the mixture's) in one batch, the detection children
         updated in one batch (`nnda.tracking.linearisation.update`), the miss children keeping their
+        self.cardinality: Cardinality | None = None  # the target count after the last scan (`_count`)
         posterior."""
         cfg, imm, old = self.config, scan.filter, self.table if table is None else table
         z, xy, time, S = scan.z, scan.xy, scan.time, len(old)
@@ -316,12 +318,31 @@ class LabelledMixture(ContactTracker):
             self.deletions["unconfirmed"] += int((~was).sum())
             self.confirmed = self.confirmed[~np.isin(self.confirmed, ids[gone])]
         self.known = (ids[~gone], x[~gone], P[~gone])
-        return TrackerOutput.from_blocks(scan, time, blocks)
+        out = TrackerOutput.from_blocks(scan, time, blocks)
+        self.cardinality = self._count(scan, time, int((out.status == TrackStatus.CONFIRMED).sum()))
+        return out
 
 
 def normalised(log_w: np.ndarray) -> np.ndarray:
     """Log weights (H,) shifted so that their exponentials sum to one."""
     return log_w - np.logaddexp.reduce(log_w)
+
+    def _count(self, scan: int, time: float, extracted: int) -> Cardinality:
+        """The target count after scan ``scan``: mean and variance of the number of live labels, a mixture over
+        the hypotheses (weights w_h) of multi-Bernoulli counts (mean sum r, variance sum r (1 - r) in each),
+        the tentative labels' Bernoullis added to every hypothesis."""
+        r = np.zeros((self.log_w.size, 0))
+        if self.table is not None:
+            r = np.where(self.hyp >= 0, self.table.r[np.maximum(self.hyp, 0)], 0.0)  # (H, L)
+        w = np.exp(self.log_w)
+        mu = r.sum(axis=1)
+        mean = float(w @ mu)
+        variance = float(w @ ((r * (1.0 - r)).sum(axis=1) + mu ** 2) - mean ** 2)
+        if self.tentative is not None:
+            rt = self.tentative.r
+            mean += float(rt.sum())
+            variance += float((rt * (1.0 - rt)).sum())
+        return Cardinality(scan, time, mean, None, None, extracted, max(variance, 0.0))
 
 
 def merged(hyp: np.ndarray, log_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

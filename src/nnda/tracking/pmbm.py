@@ -103,7 +103,9 @@ class PMBMConfig(LabelledConfig):
     existence_threshold: Annotated[float, Field(gt=0, lt=1, description="marginal existence probability at "
                                                 "which a Bernoulli is confirmed")] = 0.99
     min_existence: Annotated[float, Field(ge=0, lt=1, description="an STH of lower existence is dropped "
-                                          "(its Bernoulli absent there)")] = 1e-4
+                                          "(its Bernoulli absent there): at 0.05, P_D 0.9 and p_S 0.99, a "
+                                          "confirmed target is kept through three missed scans in a row and "
+                                          "dropped at the fourth")] = 0.05
     min_hypothesis_weight: Annotated[float, Field(ge=0, lt=1, description="global hypotheses of lower "
                                                   "normalised weight are dropped")] = 1e-4
 

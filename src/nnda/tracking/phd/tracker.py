@@ -97,7 +97,9 @@ class Cardinality:
     intensity's total weight, before pruning; the CPHD: the mean of its
     distribution), ``map`` the CPHD's most probable count (None for a PHD),
     ``distribution`` the CPHD's p(n), n = 0..N_max (None for a PHD),
-    ``extracted`` the number of tracks reported.
+    ``extracted`` the number of tracks reported, ``variance`` the count's
+    variance where a tracker gives it without a distribution (the labelled
+    trackers' mixture of multi-Bernoulli counts; None otherwise).
     """
 
     scan: int
@@ -106,6 +108,7 @@ class Cardinality:
     map: int | None
     distribution: np.ndarray | None
     extracted: int
+    variance: float | None = None
 
 
 #: the floor of the per-scan clutter estimate: never exactly no clutter, so that a contact no component
