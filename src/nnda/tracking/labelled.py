@@ -275,6 +275,23 @@ class LabelledMixture(ContactTracker):
         r = np.where(self.hyp >= 0, self.table.r[np.maximum(self.hyp, 0)], 0.0)
         return np.exp(self.log_w) @ r
 
+    def _count(self, scan: int, time: float, extracted: int) -> Cardinality:
+        """The target count after scan ``scan``: mean and variance of the number of live labels, a mixture over
+        the hypotheses (weights w_h) of multi-Bernoulli counts (mean sum r, variance sum r (1 - r) in each),
+        the tentative labels' Bernoullis added to every hypothesis."""
+        r = np.zeros((self.log_w.size, 0))
+        if self.table is not None:
+            r = np.where(self.hyp >= 0, self.table.r[np.maximum(self.hyp, 0)], 0.0)  # (H, L)
+        w = np.exp(self.log_w)
+        mu = r.sum(axis=1)
+        mean = float(w @ mu)
+        variance = float(w @ ((r * (1.0 - r)).sum(axis=1) + mu ** 2) - mean ** 2)
+        if self.tentative is not None:
+            rt = self.tentative.r
+            mean += float(rt.sum())
+            variance += float((rt * (1.0 - rt)).sum())
+        return Cardinality(scan, time, mean, None, None, extracted, max(variance, 0.0))
+
     def _waiting(self) -> LabelledTable | None:
         """Rows reported PRELIMINARY after the best hypothesis's, live though in no hypothesis yet: the tentative
         labels."""
@@ -326,23 +343,6 @@ class LabelledMixture(ContactTracker):
 def normalised(log_w: np.ndarray) -> np.ndarray:
     """Log weights (H,) shifted so that their exponentials sum to one."""
     return log_w - np.logaddexp.reduce(log_w)
-
-    def _count(self, scan: int, time: float, extracted: int) -> Cardinality:
-        """The target count after scan ``scan``: mean and variance of the number of live labels, a mixture over
-        the hypotheses (weights w_h) of multi-Bernoulli counts (mean sum r, variance sum r (1 - r) in each),
-        the tentative labels' Bernoullis added to every hypothesis."""
-        r = np.zeros((self.log_w.size, 0))
-        if self.table is not None:
-            r = np.where(self.hyp >= 0, self.table.r[np.maximum(self.hyp, 0)], 0.0)  # (H, L)
-        w = np.exp(self.log_w)
-        mu = r.sum(axis=1)
-        mean = float(w @ mu)
-        variance = float(w @ ((r * (1.0 - r)).sum(axis=1) + mu ** 2) - mean ** 2)
-        if self.tentative is not None:
-            rt = self.tentative.r
-            mean += float(rt.sum())
-            variance += float((rt * (1.0 - rt)).sum())
-        return Cardinality(scan, time, mean, None, None, extracted, max(variance, 0.0))
 
 
 def merged(hyp: np.ndarray, log_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
