@@ -87,7 +87,6 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Mapping, Sequence
-from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
@@ -106,15 +105,11 @@ from nnda.data.geodetic_import import (
     place_sites,
     sensor_sites,
 )
-from nnda.data.import_sensors import (
-    common_multiple,
-    default_time_origin,
-    period_fraction,
-    sweep_grid,
-)
+from nnda.data.import_schedule import schedule_duration, sensor_sweeps
+from nnda.data.import_sensors import default_time_origin, imported_sensors, uses_polar
 from nnda.data.region import Region, parse_region
-from nnda.data.report_import import report_grid, report_windows, scan_order
-from nnda.data.scenario import Clutter, ProcessNoise, Scenario, Segment, Sensor, Target
+from nnda.data.report_import import scan_order
+from nnda.data.scenario import ProcessNoise, Scenario, Segment, Sensor, Target
 from nnda.data.sensor import TWO_PI, cart_to_polar_at, polar_to_cart_at, wrap_azimuth
 from nnda.data.table_reading import (
     Source,
@@ -155,8 +150,6 @@ DISTANCE_UNITS = {"m": 1.0, "km": 1000.0, "nmi": 1852.0, "ft": 0.3048}
 SPEED_UNITS = {"m/s": 1.0, "kn": 1852.0 / 3600.0, "km/h": 1.0 / 3.6}
 #: default grouping tolerance (s): a row is in a sweep when within this of the sweep's time
 SCAN_TOLERANCE_S = 1e-6
-#: an import refuses a schedule of more scans than this (a clock time without --time-origin)
-MAX_SCANS = 10_000_000
 
 
 def column_mapping(pairs: Sequence[str] | Mapping[str, str] | None) -> dict[str, str]:
@@ -224,11 +217,6 @@ def _sensor_index(path: Path, column: str, table: pa.Table, names: list[str], na
             raise DatasetError(f"{where_in(path, row, column)}: {got} (sensors: "
                                f"{', '.join(f'{i} {s!r}' for i, s in enumerate(names))})")
     return np.asarray(lookup, dtype=np.int32)[inverse]
-
-
-def _uses_polar(kind: str, polar: bool, cart: bool) -> bool:
-    """Does a sensor of ``kind`` take its detections from the range/azimuth columns (else from x/y)?"""
-    return polar and (kind == "polar" or not cart)
 
 
 #: a label that is an integer (sorted as one)
@@ -387,88 +375,17 @@ def read_detections(
                            f"--time-origin T with T below the first time (e.g. --time-origin "
                            f"{math.floor(t.min() + time_origin) - 1})")
 
-    # the sweep of each row, per sensor
-    sweep = np.empty(n, dtype=np.int64)
-    grids: list[tuple[float, float]] = []
-    needed: list[int] = []
-    for j, spec in enumerate(specs):
-        mine = np.flatnonzero(sensor == j)
-        rows, tj = rows_kept[mine], t[mine]  # file rows (for messages) and times
-        reports = bool(spec.get("reports", False))
-        period, offset = (report_grid(spec, names[j], j, time_origin) if reports
-                          else sweep_grid(spec, tj, tol, time_origin))
-        if tol >= period / 2 and not reports:
-            raise ConfigError(f"--scan-tolerance {tol:g} s: must be below half the scan period of sensor "
-                              f"{names[j]!r} ({period:g} s)")
-        far = np.abs(tj - offset) > MAX_SCANS * period  # before the sweep index overflows
-        if far.any():
-            i = int(np.argmax(far))
-            raise DatasetError(f"{where_in(path, int(rows[i]), tcol)}: time {float(tj[i] + time_origin)!r} s is more "
-                               f"than {MAX_SCANS:,} scan periods ({period:g} s) of sensor {names[j]!r} after t = "
-                               f"{time_origin:g} s; clock times? pass --time-origin with a time just before the first")
-        if reports:
-            first = 1 if offset == 0 else 0  # t > 0 lies in window k >= first
-            sweep[mine] = report_windows(tj, rows, period, offset, lambda row: where_in(path, row, tcol),
-                                         lambda time: float(time + time_origin), names[j]) - first
-            grids.append((period, offset))
-            needed.append(int(sweep[mine].max()) + 1 if rows.size else 1)
-            continue
-        k = np.round((tj - offset) / period).astype(np.int64)
-        back = np.diff(k) < 0
-        if back.any():
-            i = int(np.argmax(back))
-            raise DatasetError(f"{where_in(path, int(rows[i + 1]), tcol)}: time {float(tj[i + 1] + time_origin)!r} s "
-                               f"goes back from {float(tj[i] + time_origin)!r} s (data row {rows[i] + 1}, an earlier "
-                               f"sweep) for sensor {names[j]!r}; each sensor's rows must be in time order")
-        miss = np.abs(tj - (offset + k * period))
-        first = 1 if offset == 0 else 0
-        bad = (miss > tol + 1e-9 * np.maximum(1.0, np.abs(tj))) | (k < first)
-        if bad.any():
-            i = int(np.argmax(bad))
-            nearest = offset + max(k[i], first) * period
-            raise DatasetError(
-                f"{where_in(path, int(rows[i]), tcol)}: time {float(tj[i] + time_origin)!r} s is "
-                f"{abs(tj[i] - nearest):.6g} s "
-                f"from the nearest sweep of sensor {names[j]!r} ({nearest + time_origin:.6g} s; period {period:g} s, "
-                f"offset {offset + time_origin:g} s), beyond the scan tolerance ({tol:g} s): give the sensor's "
-                f"scan_period_s and scan_offset_s, or a larger --scan-tolerance")
-        sweep[mine] = k - first
-        grids.append((period, offset))
-        needed.append(int(k.max()) + 1 - first if rows.size else 1)
-
-    periods = [period_fraction(p, f"sensor {names[j]!r}: scan_period_s") for j, (p, _) in enumerate(grids)]
-    common = common_multiple(periods)
-    longest = max(Fraction(m) * p for m, p in zip(needed, periods))
+    sweep, grids, needed = sensor_sweeps(specs, names, sensor, t, rows_kept, tol, time_origin,
+                                         lambda row: where_in(path, row, tcol))
     truth_rows = (read_truth(truth, mapping, time_origin, dialect, frame, origin_ns,
                               (metres, SPEED_UNITS[speed_unit])) if truth is not None else None)
-    if truth_rows is not None and truth_rows["t"].size:  # the schedule reaches the last true state too
-        longest = max(longest, Fraction(float(truth_rows["t"].max())))
-    duration = common * math.ceil(longest / common)
-    n_scans = sum(int(duration / p) for p in periods)
-    if n_scans > MAX_SCANS:
-        raise DatasetError(f"{path}: column {tcol!r}: the times reach {float(longest) + time_origin:.6g} s, a "
-                           f"schedule of {n_scans:,} scans from t = {time_origin:g} s (more than {MAX_SCANS:,}); "
-                           f"clock times? pass --time-origin with a time just before the first")
-
-    # sensors, with what the data implies where the user gave nothing
-    built = []
-    for j, spec in enumerate(specs):
-        mine = sensor == j
-        full = {**spec, "scan_period_s": grids[j][0], "scan_offset_s": grids[j][1]}
-        full.setdefault("clutter", Clutter(law="none").model_dump())
-        site = (float(full.get("x_m", 0.0)), float(full.get("y_m", 0.0)))
-        if _uses_polar(full.get("kind", "polar"), polar, cart):
-            rj = rng[mine]
-        else:
-            rj = np.hypot(x[mine] - site[0], y[mine] - site[1])
-        if rj.size:
-            full.setdefault("min_range_m", float(min(Sensor().min_range_m, math.floor(rj.min()))))
-            full.setdefault("max_range_m", float(max(Sensor().max_range_m, math.ceil(rj.max()))))
-        built.append(validated(Sensor, full, f"sensor {j} ({names[j]!r})", "sensor"))
+    last_truth = float(truth_rows["t"].max()) if truth_rows is not None and truth_rows["t"].size else None
+    duration = schedule_duration(grids, needed, names, last_truth, time_origin, f"{path}: column {tcol!r}")
+    built = imported_sensors(specs, names, grids, sensor, rng, x, y, polar, cart)
 
     labels = labels_of(table, path, present["target_id"])[rows_kept] if "target_id" in present else None
     scenario_name = _scenario_name(name or table_stem(path))
-    return _assemble(path, truth_rows, mapping, scenario_name, built, float(duration), time_origin, tol,
+    return _assemble(path, truth_rows, mapping, scenario_name, built, duration, time_origin, tol,
                      t, sweep, sensor, forms, labels, rows_kept, frame, region, n_dropped,
                      None if origin_ns is None else utc_text(origin_ns), gap_s)
 
@@ -486,7 +403,7 @@ def _both_forms(path: Path, mapping: Mapping[str, str], specs: Sequence[Mapping[
         if not mine.any():
             continue
         site = (float(s.get("x_m", 0.0)), float(s.get("y_m", 0.0)))
-        if _uses_polar(s.get("kind", "polar"), polar, x is not None):
+        if uses_polar(s.get("kind", "polar"), polar, x is not None):
             r_out[mine], az_out[mine] = rng[mine], az[mine]
             x_out[mine], y_out[mine] = polar_to_cart_at(site, rng[mine], az[mine])
         else:

@@ -5,7 +5,8 @@ A sweep sensor's period, when not given, is the median gap between its
 successive distinct times (to `TIME_RESOLUTION_S`), its offset the first
 time modulo the period; the scan schedule needs the periods' common
 multiple (`common_multiple`), so each period must be a whole number of
-microseconds.
+microseconds. `imported_sensors` builds the validated sensors from the
+specs, the grids and the rows' ranges.
 """
 
 from __future__ import annotations
@@ -20,9 +21,9 @@ import numpy as np
 
 from nnda.data.geodetic_import import SITE_FIELDS
 from nnda.data.report_import import report_grid
-from nnda.data.scenario import Sensor
+from nnda.data.scenario import Clutter, Sensor
 from nnda.data.time_columns import default_origin_ns, seconds_after
-from nnda.errors import ConfigError
+from nnda.errors import ConfigError, validated
 from nnda.files import read_config
 
 #: periods and offsets are compared and inferred to this resolution (s)
@@ -123,3 +124,32 @@ def default_time_origin(specs: Sequence[Mapping[str, Any]], names: list[str], se
         periods.append(period)
         reports.append(report)
     return default_origin_ns(firsts, periods, reports)
+
+
+def uses_polar(kind: str, polar: bool, cart: bool) -> bool:
+    """Does a sensor of ``kind`` take its detections from the range/azimuth columns (else from x/y)? ``polar``,
+    ``cart``: whether the file has those columns."""
+    return polar and (kind == "polar" or not cart)
+
+
+def imported_sensors(specs: Sequence[Mapping[str, Any]], names: list[str], grids: Sequence[tuple[float, float]],
+                     sensor: np.ndarray, rng: np.ndarray | None, x: np.ndarray | None, y: np.ndarray | None,
+                     polar: bool, cart: bool) -> list[Sensor]:
+    """The sensors of an import, validated: each spec as the user gave it, its (period, offset) s from
+    ``grids``, no clutter model unless given, and range limits not given widened from the defaults to hold
+    its detections (``sensor`` (N,) each row's sensor; ``rng`` (N,) m or None; ``x``, ``y`` (N,) m or None)."""
+    built = []
+    for j, spec in enumerate(specs):
+        mine = sensor == j
+        full = {**spec, "scan_period_s": grids[j][0], "scan_offset_s": grids[j][1]}
+        full.setdefault("clutter", Clutter(law="none").model_dump())
+        site = (float(full.get("x_m", 0.0)), float(full.get("y_m", 0.0)))
+        if uses_polar(full.get("kind", "polar"), polar, cart):
+            rj = rng[mine]
+        else:
+            rj = np.hypot(x[mine] - site[0], y[mine] - site[1])
+        if rj.size:
+            full.setdefault("min_range_m", float(min(Sensor().min_range_m, math.floor(rj.min()))))
+            full.setdefault("max_range_m", float(max(Sensor().max_range_m, math.ceil(rj.max()))))
+        built.append(validated(Sensor, full, f"sensor {j} ({names[j]!r})", "sensor"))
+    return built
