@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
+from pydantic import ValidationError
 
 from nnda.data.dataset import check_dataset, read_dataset, write_dataset
 from nnda.data.generator import generate
@@ -67,7 +69,7 @@ def test_a_report_measures_its_ship_where_it_was_at_the_report_time():
 def test_reports_keep_the_draws_a_sweeping_sensor_makes():
     """A report sensor draws the truth's process noise, the detections and the clutter count as the same sensor
     sweeping would, and a sweep sensor beside it draws exactly what it drew."""
-    radar = Sensor(name="radar", scan_period_s=5.0, min_range_m=0.0, max_range_m=100_000.0, pd=0.8)
+    radar = Sensor(name="radar", scan_period_s=20.0, min_range_m=0.0, max_range_m=100_000.0, pd=0.8)  # on window ends
     sweep = generate(_scene((radar, _ais(reports=False, pd=0.7))), seed=9)
     report = generate(_scene((radar, _ais(pd=0.7))), seed=9)
     # a window comes before a sweep at its end's instant, so the scans are numbered apart: rows by (time, sensor)
@@ -131,3 +133,25 @@ def test_the_ais_harbour_preset_is_a_report_stream_gnn_tracks_ship_by_ship():
     assert run.outputs[-1].confirmed.sum() == 10
     assert run.scores.values["false_tracks"] == 0 and run.scores.values["track_breaks"] == 0
     assert run.scores.values["position_rmse_m"] < 15.0  # m: 11.3 measured at the preset's seed
+
+
+def test_no_other_scan_may_fall_inside_a_report_window():
+    """A tracker takes a window of reports whole, so a sweep inside one (a 2 s radar beside 10 s windows) would
+    put the window's earlier reports behind it: the scenario refuses it, naming both sensors and the fix; scans
+    on the windows' ends (the radar every 10 or 20 s, or 2 s windows beside the 2 s radar) are accepted."""
+    scene = PRESETS["ais-harbour"]
+    ais = scene.sensors[0].model_dump()
+    radar = Sensor(name="radar", kind="position", scan_period_s=2.0, sigma_position_m=20.0).model_dump()
+    data = scene.model_dump()
+    with pytest.raises(ValidationError, match=r"sensor 1 \('radar'\) has a sweep at t = 2 s, inside the window "
+                                              r"\(0, 10\] s of report sensor 0 \('ais'\).*scan_period_s = 2"):
+        Scenario.model_validate({**data, "sensors": [ais, radar]})
+    offset = {**radar, "scan_period_s": 10.0, "scan_offset_s": 5.0}
+    with pytest.raises(ValidationError, match=r"at t = 5 s, inside the window \(0, 10\]"):
+        Scenario.model_validate({**data, "sensors": [ais, offset]})
+    other = {**ais, "name": "adsb", "scan_period_s": 4.0}  # another report sensor: its windows end inside too
+    with pytest.raises(ValidationError, match=r"sensor 1 \('adsb'\) has a window ending at t = 4 s"):
+        Scenario.model_validate({**data, "sensors": [ais, other]})
+    for sensors in ([ais, {**radar, "scan_period_s": 10.0}], [ais, {**radar, "scan_period_s": 20.0}],
+                    [{**ais, "scan_period_s": 2.0}, radar]):
+        Scenario.model_validate({**data, "sensors": sensors})

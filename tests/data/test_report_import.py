@@ -66,14 +66,21 @@ def test_an_offset_in_the_file_clock_and_a_sweep_sensor_beside(tmp_path):
     path = write(tmp_path / "r.csv", "time,sensor,x,y\n100.5,ais,10,2000\n101.0,radar,20,3000\n101.75,ais,30,2000\n"
                                      "103.0,radar,40,3000\n")
     ds = read_detections(path, time_origin=100.0, sensors=[
-        {"name": "ais", "kind": "position", "reports": True, "scan_period_s": 2.0, "scan_offset_s": 101.5},
-        {"name": "radar", "kind": "position", "scan_period_s": 1.0}])
+        {"name": "ais", "kind": "position", "reports": True, "scan_period_s": 2.0, "scan_offset_s": 101.0},
+        {"name": "radar", "kind": "position", "scan_period_s": 2.0}])
     ais, radar = ds.scenario.sensors
-    assert (ais.scan_offset_s, ais.reports, radar.reports) == (1.5, True, False)
+    assert (ais.scan_offset_s, ais.reports, radar.reports, radar.scan_offset_s) == (1.0, True, False, 1.0)
     by_scan = {s.index: s for s in ds.scans()}
     got = [(s.sensor, s.time, None if s.times is None else s.times.tolist()) for s in by_scan.values()
            if s.measurements.size]
-    assert got == [(1, 1.0, None), (0, 1.5, [0.5]), (1, 3.0, None), (0, 3.5, [1.75])]  # windows end at 1.5, 3.5
+    # windows end at 1 and 3 s, each before the radar's sweep at its end
+    assert got == [(0, 1.0, [0.5]), (1, 1.0, None), (0, 3.0, [1.75]), (1, 3.0, None)]
+    # windows ending between the radar's sweeps would hold one: refused at import, naming both sensors
+    with pytest.raises(ConfigError, match=r"(?s)r.csv: the sensors: invalid set of sensors.*sensor 1 \('radar'\) has "
+                                          r"a sweep at t = 1 s, inside the window \(-0.5, 1.5\] s of report sensor 0"):
+        read_detections(path, time_origin=100.0, sensors=[
+            {"name": "ais", "kind": "position", "reports": True, "scan_period_s": 2.0, "scan_offset_s": 101.5},
+            {"name": "radar", "kind": "position", "scan_period_s": 1.0}])
 
 
 def test_a_report_sensor_needs_its_window(reports_csv):

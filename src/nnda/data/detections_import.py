@@ -424,8 +424,9 @@ def _assemble(path, truth_rows, mapping, scenario_name, sensors, duration, time_
     positions in both forms (``forms``: range, azimuth, x, y), targets, truth (the truth file's, or with
     ``gap_s`` the labels')."""
     n = t.size
-    draft = Scenario(name=scenario_name, duration_s=duration, sensors=tuple(sensors),
-                     targets=[_placeholder(duration)], process_noise=ProcessNoise(model="none"))
+    draft = validated(Scenario, {"name": scenario_name, "duration_s": duration, "sensors": tuple(sensors),
+                                 "targets": [_placeholder(duration)], "process_noise": ProcessNoise(model="none")},
+                      f"{path}: the sensors", "set of sensors")
     sched_time, sched_sensor = draft.scan_schedule()
     scan = np.empty(n, dtype=np.int32)
     for j in range(len(sensors)):

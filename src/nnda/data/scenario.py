@@ -317,6 +317,7 @@ class Scenario(BaseModel):
         sensor_names = [s.name for s in self.sensors]
         if len(set(sensor_names)) != len(sensor_names):
             raise ValueError(f"sensor names must be unique, got {sensor_names}")
+        _windows_hold_no_scan(self.sensors, self.duration_s)
         names = [t.name for t in self.targets]
         if len(set(names)) != len(names):
             raise ValueError(f"target names must be unique, got {names}")
@@ -376,6 +377,40 @@ class Scenario(BaseModel):
             clutter = update.pop("clutter", sensor.clutter if own else self.clutter)
             update["sensors"] = (sensor.model_copy(update={"clutter": clutter}),)
         return super().model_copy(update=update, deep=deep)
+
+
+def _on_grid(t: float, period: float, offset: float) -> bool:
+    """Whether time ``t`` is offset + k period for a whole k (to 1e-9 of a period)."""
+    k = (t - offset) / period
+    return math.isclose(k, round(k), abs_tol=1e-9)
+
+
+def _windows_hold_no_scan(sensors: Sequence[Sensor], duration_s: float) -> None:
+    """ValueError when another sensor's scan falls inside a report sensor's window (t_k - T, t_k): a tracker
+    takes a window of reports whole, after the scans before its end, so a sweep inside it would put the
+    window's earlier reports behind the tracker. Every other sensor's scan times must lie on the report
+    sensor's grid: its period a whole multiple of the window, its first scan on a window's end."""
+    for i, r in enumerate(sensors):
+        if not r.reports:
+            continue
+        for j, s in enumerate(sensors):
+            if j == i or not s.n_sweeps(duration_s):
+                continue
+            first = float(s.sweep_times(duration_s)[0])
+            several = s.n_sweeps(duration_s) > 1
+            if _on_grid(first, r.scan_period_s, r.scan_offset_s) and (
+                    not several or _on_grid(s.scan_period_s, r.scan_period_s, 0.0)):
+                continue
+            times = s.sweep_times(duration_s)
+            inside = next(float(t) for t in times if not _on_grid(float(t), r.scan_period_s, r.scan_offset_s))
+            end = r.scan_offset_s + math.ceil((inside - r.scan_offset_s) / r.scan_period_s) * r.scan_period_s
+            kind = "a window ending" if s.reports else "a sweep"
+            raise ValueError(
+                f"sensor {j} ({s.name!r}) has {kind} at t = {inside:g} s, inside the window "
+                f"({end - r.scan_period_s:g}, {end:g}] s of report sensor {i} ({r.name!r}): a tracker takes a "
+                f"window of reports whole, so no other sensor's scan may fall inside one; give {r.name!r} a "
+                f"scan_period_s that divides {s.scan_period_s:g} s (e.g. scan_period_s = {s.scan_period_s:g}) "
+                f"and a scan_offset_s on {s.name!r}'s scan times")
 
 
 def sensor_tuple(sensors: Sensor | Sequence[Sensor]) -> tuple[Sensor, ...]:
