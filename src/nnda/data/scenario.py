@@ -396,7 +396,7 @@ def _windows_hold_no_scan(sensors: Sequence[Sensor], duration_s: float) -> None:
         for j, s in enumerate(sensors):
             if j == i or not s.n_sweeps(duration_s):
                 continue
-            first = float(s.sweep_times(duration_s)[0])
+            first = s.scan_offset_s if s.scan_offset_s > 0 else s.scan_period_s  # `Sensor.sweep_times`' first
             several = s.n_sweeps(duration_s) > 1
             if _on_grid(first, r.scan_period_s, r.scan_offset_s) and (
                     not several or _on_grid(s.scan_period_s, r.scan_period_s, 0.0)):
