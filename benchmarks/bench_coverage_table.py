@@ -8,7 +8,7 @@ whole coverage on the first scan (`_covered_table`: the cost grows with
 the coverage's area); it is now filled lazily, the cells the scan's points
 need (`_covered_cells`). And each scan's count was over the summed-area
 table of the points' grid (1.1 million cells at 400 km); a wide scan is
-now counted by strips (`_strip_density`). Per ``--range`` (km, a full-circle radar from 0.5
+now counted by strips (`_square_sums`). Per ``--range`` (km, a full-circle radar from 0.5
 km, ``--contacts`` points spread uniformly over its coverage): the first
 call in a fresh cache, whole table then density ("before") and lazily
 filled ("after"), seconds (untraced) and peak MiB (tracemalloc, a second

@@ -22,9 +22,15 @@ made for the S1-S6 radar's dense clutter and few targets; here a square holds ab
 in fifty, so the estimate is mostly the target's own contact, and the CPHD's Poisson births admit few
 new targets a scan: ``--phd '{"clutter": "scan", "birth": {"rate": 5.0}}'`` fits this scene.
 
+``--clutter-estimate local`` or ``unexplained`` sets the local clutter estimate of the trackers that have
+the choice (the PHD filters' ``clutter``, pmbm / glmb / lmb's ``clutter_estimate``; default: theirs): the
+``local`` count is mostly a target's own contact and its neighbours' here, ``unexplained`` leaves out the
+contact itself and the tracks' expected detections (`nnda.tracking.clutter_density.unexplained_density`).
+
 The neural tracker needs a model (``--model PATH``, written by ``nnda
 train``); without it, it is skipped with a note.
 Usage: python benchmarks/bench_scale.py [--targets 200 1000] [--scans 20] [--trackers gnn,ekphd] [--model PATH]
+       [--clutter-estimate local|unexplained]
 """
 
 from __future__ import annotations
@@ -45,22 +51,29 @@ from nnda.tracking.tracker import ContactTrackerConfig
 
 #: the trackers whose MOTA must come within `MOTA_GAP` of gnn's
 PHD = ("gmphd", "ekphd", "ukphd", "cphd")
+#: the trackers whose local clutter estimate is ``clutter_estimate``
+LABELLED = ("pmbm", "glmb", "lmb")
 MOTA_GAP = 0.05
 FIRST_RATIO = 2.0
 
 
-def params_for(name: str, model: str | None, phd: dict) -> dict:
+def params_for(name: str, model: str | None, phd: dict, estimate: str | None = None) -> dict:
     """The tracker's options here: a contact tracker's v_max 250 m/s, the neural tracker's model, the PHD
-    filters' ``phd``."""
+    filters' ``phd``, the local clutter ``estimate`` where the tracker has the choice (None: its default)."""
     params = {"model": model} if name == "nn" else dict(phd) if name in PHD else {}
+    if estimate is not None and name in PHD:
+        params.setdefault("clutter", estimate)
+    if estimate is not None and name in LABELLED:
+        params["clutter_estimate"] = estimate
     if issubclass(TRACKERS[name].config_type, ContactTrackerConfig):
         params["lifecycle"] = {"v_max": 250.0}
     return params
 
 
-def run(name: str, model: str | None, phd: dict, dataset, give_up: float) -> tuple[np.ndarray, list]:
+def run(name: str, model: str | None, phd: dict, dataset, give_up: float, estimate: str | None = None
+        ) -> tuple[np.ndarray, list]:
     """Seconds per scan and the outputs of one tracker over ``dataset`` (stops after a scan past ``give_up``)."""
-    tracker = make_tracker(name, dataset.scenario.sensors, params_for(name, model, phd))
+    tracker = make_tracker(name, dataset.scenario.sensors, params_for(name, model, phd, estimate))
     times, outputs = [], []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -84,6 +97,8 @@ def main() -> None:
     parser.add_argument("--cold", action="store_true", help="no untimed warm-up run")
     parser.add_argument("--phd", type=json.loads, default={}, help="options of the PHD filters, as JSON "
                         "(e.g. '{\"clutter\": \"scan\"}')")
+    parser.add_argument("--clutter-estimate", choices=["local", "unexplained"], help="the local clutter "
+                        "estimate of the PHD filters and pmbm / glmb / lmb (default: theirs)")
     args = parser.parse_args()
     names = sorted(args.trackers.split(",") if args.trackers else TRACKERS, key=lambda n: n != "gnn")  # gnn first
     if "nn" in names and not args.model:
@@ -92,7 +107,7 @@ def main() -> None:
     if not args.cold:
         small = generate(scene(20, seed=1, scans=3))
         for name in names:
-            run(name, args.model, args.phd, small, math.inf)
+            run(name, args.model, args.phd, small, math.inf, args.clutter_estimate)
     stopped: set[str] = set()
     for n in args.targets:
         dataset = generate(scene(n, scans=args.scans))
@@ -105,7 +120,7 @@ def main() -> None:
             if name in stopped:
                 print(f"{name:<16s}  (stopped at a smaller size)")
                 continue
-            t, outputs = run(name, args.model, args.phd, dataset, args.give_up)
+            t, outputs = run(name, args.model, args.phd, dataset, args.give_up, args.clutter_estimate)
             later = t[1:] if len(t) > 1 else t
             done = len(outputs) == dataset.n_scans
             mota = float(run_metrics(dataset, outputs).values["mota"]) if done else math.nan

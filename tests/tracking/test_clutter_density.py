@@ -8,7 +8,14 @@ from hypothesis import strategies as st
 from scipy.interpolate import RegularGridInterpolator
 
 from nnda.data.scenario import Sensor
-from nnda.tracking.clutter_density import _covered_cells, _covered_table, _density, covered_fraction, local_density
+from nnda.tracking.clutter_density import (
+    _covered_cells,
+    _covered_table,
+    _density,
+    covered_fraction,
+    local_density,
+    unexplained_density,
+)
 from tolerances import RTOL
 
 
@@ -22,6 +29,18 @@ def direct_count(contacts: np.ndarray, at: np.ndarray, radius: float) -> np.ndar
     a, b = np.rint((at - radius - lo) / cell), np.rint((at + radius - lo) / cell)  # (Q, 2)
     inside = (index[None] >= a[:, None]) & (index[None] < b[:, None])  # (Q, N, 2)
     return inside.all(axis=2).sum(axis=1)
+
+
+def direct_sum(points: np.ndarray, weights: np.ndarray, contacts: np.ndarray, at: np.ndarray, radius: float
+               ) -> np.ndarray:
+    """The weights (K,) of the points (K, 2) in each point's square (Q,), summed one by one on the grid of
+    `direct_count` (that of the contacts and the query points)."""
+    cell = radius / 4
+    lo = np.minimum(contacts.min(axis=0), at.min(axis=0)) - radius - cell
+    index = np.floor_divide(points - lo, cell)
+    a, b = np.rint((at - radius - lo) / cell), np.rint((at + radius - lo) / cell)
+    inside = ((index[None] >= a[:, None]) & (index[None] < b[:, None])).all(axis=2)  # (Q, K)
+    return inside @ weights
 
 
 def covered_oracle(sensor: Sensor, at: np.ndarray, radius: float) -> np.ndarray:
@@ -179,3 +198,47 @@ def test_a_wide_scan_is_counted_by_strips_to_the_same_bits(contacts, at, radius,
         assert np.array_equal(_density(contacts, at, radius, t, c, 1), grid)
         assert np.array_equal(_density(contacts, at, radius, t, c), grid)
 
+
+
+@settings(max_examples=150, deadline=None)
+@given(contacts=points, at=points, tracks=points, radius=st.sampled_from([1_000.0, 3_000.0]),
+       scale=st.sampled_from([1.0, 10.0]), seed=st.integers(0, 2**16))
+def test_the_unexplained_count_leaves_out_the_tracks_expected_detections(contacts, at, tracks, radius, scale, seed):
+    """The contacts in the square less the query's own and the expected detections of the tracks there, at
+    least 0, over the area; at least the scan's contacts less every track's expected detections (at least
+    one) over the scan's area. Counted on the grid or, for the scaled points (a 350 km extent), by strips."""
+    contacts, at, tracks = (np.array(p) * scale for p in (contacts, at, tracks))
+    rng = np.random.default_rng(seed)
+    expected, own = rng.uniform(0.0, 1.0, len(tracks)), rng.integers(0, 2, len(at)).astype(float)
+    area = 1e9 * scale**2
+    got = unexplained_density(contacts, at, radius, area, None, tracks, expected, own)
+    count = direct_count(contacts, at, radius) - own - direct_sum(tracks, expected, contacts, at, radius)
+    want = np.maximum(np.maximum(count, 0.0) / (2 * radius) ** 2, max(len(contacts) - expected.sum(), 1.0) / area)
+    np.testing.assert_allclose(got, want, rtol=RTOL, atol=1e-12 / (2 * radius) ** 2)
+
+
+def test_dense_targets_own_contacts_are_not_clutter():
+    """Sparse uniform clutter over a 250 km coverage and 1,000 tracked targets in a 60 km square: at the
+    targets' contacts the local count is mostly each contact itself and its neighbours (tens of times the
+    clutter's density); without the contact itself and the tracks' expected detections, within half of the
+    clutter's."""
+    sensor = Sensor(max_range_m=250_000.0, min_range_m=500.0)
+    rng = np.random.default_rng(7)
+    r = np.sqrt(rng.uniform(sensor.min_range_m**2, sensor.max_range_m**2, 2_000))
+    az = rng.uniform(-np.pi, np.pi, r.size)
+    clutter = np.column_stack([r * np.cos(az), r * np.sin(az)])
+    truth = len(clutter) / (np.pi * (sensor.max_range_m**2 - sensor.min_range_m**2))
+    targets = rng.uniform(-30_000.0, 30_000.0, (1_000, 2)) + [100_000.0, 0.0]
+    detected = rng.uniform(size=len(targets)) < 0.9
+    contacts = np.concatenate([targets[detected] + rng.normal(0.0, 100.0, (detected.sum(), 2)), clutter])
+    at = contacts[: detected.sum()]
+    old = local_density(contacts, at, 3_000.0, sensor)
+    new = unexplained_density(contacts, at, 3_000.0, np.pi * sensor.max_range_m**2, sensor, targets,
+                              np.full(len(targets), 0.9), 1.0)
+    assert np.mean(old) > 10 * truth
+    assert abs(np.mean(new) / truth - 1) < 0.5  # 1.4: a square's count, clamped at 0 where it falls below
+
+
+def test_no_contacts_and_no_queries():
+    assert unexplained_density(np.empty((0, 2)), np.zeros((2, 2)), 1_000.0, 1e8).tolist() == [1e-8, 1e-8]
+    assert unexplained_density(np.zeros((3, 2)), np.empty((0, 2)), 1_000.0, 1e8).shape == (0,)

@@ -27,15 +27,26 @@ Why compiled: every tracker under the score rule counts once
 per scan, at ~100 contacts, and the numpy formulation spent ~110 us of a
 ~0.65 ms scan (the neural tracker's) in per-call overhead: the table's
 cumulative sums, fancy indexing, the interpolation's dozen temporaries.
-`_density` does the same arithmetic in one call, with integer counts: the
+`_density` does the same arithmetic in one call, its counts whole numbers (exact in float64): the
 same densities to the bit (8 us at 100 contacts). A direct count per query
 over binned contacts is a little faster at 100 (6 us) but grows with the
 contacts per square (1.0 ms against the table's 0.16 ms at 5,000); the
 table costs its grid (the points' extent over radius/4, squared) plus O(1)
 per point (benchmarks/bench_trackers.py, part 0, prints the comparison):
 a scan whose grid holds far more cells than points (a wide coverage: 1.1
-million cells at 400 km) is counted by strips instead (`_strip_density`),
+million cells at 400 km) is counted by strips instead (`_square_sums`),
 the same integer counts at a cost that does not grow with the extent.
+
+`unexplained_density` counts the same squares, but leaves out what the
+tracks explain: the query's own contact, and each track's expected
+detections (P_D P_G r) at its predicted position, a weighted count on the
+same grid (Musicki & Evans 2004 estimate a scan's clutter count as its
+contacts less the tracks' expected detections; here per square, in the
+manner of a spatial clutter map, Nitzberg 1972, but of one scan), floored
+by that scan-wide estimate over the coverage. Where targets are dense, the
+count above counts their own contacts as clutter (and every contact counts
+itself: at least one contact a square, far above a sparse clutter's
+density), so their likelihood ratios fall and confirmation comes late.
 """
 
 from __future__ import annotations
@@ -52,7 +63,7 @@ from nnda.data.sensor import TWO_PI, cart_to_polar_at, in_coverage, wrap_angle
 #: grid cells per ``radius``
 _CELLS = 4
 #: `_density` counts over a summed-area table of its grid unless the grid has more than _STRIP_GRID cells a
-#: point (contacts and query points) and _STRIP_FLOOR: then by strips (`_strip_density`), whose cost does not
+#: point (contacts and query points) and _STRIP_FLOOR: then by strips (`_square_sums`), whose cost does not
 #: grow with the points' extent (a 400 km radar's scan: a grid of 1.1 million cells, 9 MB, a call)
 _STRIP_GRID, _STRIP_FLOOR = 64, 16_384
 #: points per side of the grid on which the part of a square inside the coverage is measured
@@ -81,27 +92,48 @@ def local_density(contacts: np.ndarray, at: np.ndarray, radius: float, sensor: S
     ``sensor`` when given (the area is then the square's part inside its coverage). Returns (Q,)."""
     radius = float(radius)
     contacts, at = np.ascontiguousarray(contacts, np.float64), np.ascontiguousarray(at, np.float64)
+    return _density(contacts, at, radius, *_coverage_args(sensor, at, radius))
+
+
+def unexplained_density(contacts: np.ndarray, at: np.ndarray, radius: float, scan_area: float,
+                        sensor: Sensor | None = None, explained: np.ndarray | None = None,
+                        expected: np.ndarray | None = None, own: float | np.ndarray = 0.0) -> np.ndarray:
+    """Clutter per m^2 around each point of ``at`` (Q, 2) m, counting only the contacts (N, 2) m that the
+    tracks do not explain: the contacts in the square of half-side ``radius`` m (as `local_density`), less
+    ``own`` (a number or (Q,): the query's own contacts, which are not a sample of the clutter around them:
+    1 at a contact of the scan), less the expected detections ``expected`` (K,) of the tracks predicted at
+    ``explained`` (K, 2) m whose positions lie in the square (P_D P_G r of each: Musicki & Evans 2004's
+    clutter count, the contacts less the tracks' expected detections, here per square), at least 0, over the
+    square's area (its part inside ``sensor``'s coverage when given); and at least the scan's clutter
+    density: its contacts less every track's expected detections (at least one) over ``scan_area`` m^2, so
+    an empty square is not read as no clutter. Costs O(1) per point and O(N + K) to count. Returns (Q,)."""
+    radius = float(radius)
+    contacts, at = np.ascontiguousarray(contacts, np.float64), np.ascontiguousarray(at, np.float64)
+    explained = np.ascontiguousarray(np.empty((0, 2)) if explained is None else explained, np.float64)
+    expected = np.ascontiguousarray(np.empty(0) if expected is None else expected, np.float64)
+    own = np.ascontiguousarray(np.broadcast_to(np.asarray(own, np.float64), (len(at),)))
+    return _unexplained(contacts, at, radius, *_coverage_args(sensor, at, radius), explained, expected, own,
+                        float(scan_area))
+
+
+def _coverage_args(sensor: Sensor | None, at: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """`_density`'s covered-part table of ``sensor``'s coverage and its corner, the cells the points ``at``
+    (Q, 2) m read filled (`_fill`); without a sensor the empty table (every square wholly covered)."""
     if sensor is None:
-        table, corner = _NO_TABLE, _NO_CORNER
-    else:
-        table, corner, coverage = _covered_cells(sensor, radius)
-        missing = _missing(at, table, corner, radius / _CELLS)
-        if len(missing):
-            _fill(coverage, table, corner, missing, radius)
-    return _density(contacts, at, radius, table, corner)
+        return _NO_TABLE, _NO_CORNER
+    table, corner, coverage = _covered_cells(sensor, radius)
+    missing = _missing(at, table, corner, radius / _CELLS)
+    if len(missing):
+        _fill(coverage, table, corner, missing, radius)
+    return table, corner
 
 
 @_jit
 def _density(contacts, at, radius, table, corner, strips=-1):
     """`local_density`: contacts (N, 2) and points at (Q, 2) in m, the square's half-side ``radius`` m, the
     covered-part table (n, n) of `_covered_table` and its lower corner (2,) m, or a (0, 0) table for
-    squares wholly covered; counted over the grid's summed-area table or by strips (`_strip_density`):
-    ``strips`` 0 or 1, or -1 (the default) by the grid's size. Returns (Q,) m^-2.
-
-    The counting grid has cells of radius/4 from ``lo``, the points' lower corner less radius and a cell;
-    contact i lies in cell floor((c_i - lo) / cell), and the square around a point covers cells [a, b),
-    a = rint((at - radius - lo) / cell), b = rint((at + radius - lo) / cell) (its edges to half a cell).
-    """
+    squares wholly covered; counted by `_square_sums`, over the grid's summed-area table or by strips:
+    ``strips`` 0 or 1, or -1 (the default) by the grid's size. Returns (Q,) m^-2."""
     N, Q = contacts.shape[0], at.shape[0]
     cell = radius / _CELLS
     side = (2.0 * radius) ** 2
@@ -110,8 +142,43 @@ def _density(contacts, at, radius, table, corner, strips=-1):
         for q in range(Q):
             out[q] = 1.0 / (side * _covered(at[q, 0], at[q, 1], table, corner, cell))
         return out
-    lo0, lo1 = min(contacts[0, 0], at[0, 0]), min(contacts[0, 1], at[0, 1])
-    hi0, hi1 = max(contacts[0, 0], at[0, 0]), max(contacts[0, 1], at[0, 1])
+    lo0, lo1, n0, n1 = _grid(contacts, at, radius)
+    wide = strips == 1 or (strips == -1 and n0 * n1 > _STRIP_GRID * (N + Q) + _STRIP_FLOOR)
+    n = _square_sums(contacts, np.ones(N), at, radius, lo0, lo1, n0, n1, wide)
+    for q in range(Q):
+        out[q] = max(n[q], 1.0) / (side * _covered(at[q, 0], at[q, 1], table, corner, cell))
+    return out
+
+
+@_jit
+def _unexplained(contacts, at, radius, table, corner, explained, expected, own, scan_area):
+    """`unexplained_density` (its arguments, the covered-part table and corner as `_density`'s), the sums
+    by `_square_sums` over the grid of the contacts and points (tracks outside it are in no square).
+    Returns (Q,) m^-2."""
+    N, Q = contacts.shape[0], at.shape[0]
+    cell = radius / _CELLS
+    side = (2.0 * radius) ** 2
+    floor = max(N - expected.sum(), 1.0) / scan_area
+    out = np.empty(Q)
+    if Q == 0:
+        return out
+    lo0, lo1, n0, n1 = _grid(contacts, at, radius)
+    wide = n0 * n1 > _STRIP_GRID * (N + Q + explained.shape[0]) + _STRIP_FLOOR
+    n = _square_sums(contacts, np.ones(N), at, radius, lo0, lo1, n0, n1, wide)
+    e = _square_sums(explained, expected, at, radius, lo0, lo1, n0, n1, wide)
+    for q in range(Q):
+        count = max(n[q] - own[q] - e[q], 0.0)
+        out[q] = max(count / (side * _covered(at[q, 0], at[q, 1], table, corner, cell)), floor)
+    return out
+
+
+@_jit
+def _grid(contacts, at, radius):
+    """The counting grid of the contacts (N, 2) and the points at (Q, 2) m (N + Q > 0): cells of radius/4 from
+    (lo0, lo1), the points' lower corner less radius and a cell, n0 x n1 of them (every square inside)."""
+    cell = radius / _CELLS
+    first = contacts if contacts.shape[0] else at
+    lo0, lo1, hi0, hi1 = first[0, 0], first[0, 1], first[0, 0], first[0, 1]
     for points in (contacts, at):
         for i in range(points.shape[0]):
             lo0, hi0 = min(lo0, points[i, 0]), max(hi0, points[i, 0])
@@ -119,22 +186,45 @@ def _density(contacts, at, radius, table, corner, strips=-1):
     lo0, lo1 = lo0 - radius - cell, lo1 - radius - cell
     n0 = int(math.ceil((hi0 + radius + cell - lo0) / cell)) + 1
     n1 = int(math.ceil((hi1 + radius + cell - lo1) / cell)) + 1
-    if strips == 1 or (strips == -1 and n0 * n1 > _STRIP_GRID * (N + Q) + _STRIP_FLOOR):  # a wide scan
-        return _strip_density(contacts, at, radius, table, corner, lo0, lo1, n1)
-    table_sum = np.zeros((n0 + 1, n1 + 1), np.int64)  # [i, j]: the contacts in cells [0, i) x [0, j)
-    ix, iy = contact_cells(contacts, lo0, lo1, cell)
-    for i in range(N):
-        table_sum[ix[i] + 1, iy[i] + 1] += 1
+    return lo0, lo1, n0, n1
+
+
+@_jit
+def _square_sums(points, weights, at, radius, lo0, lo1, n0, n1, strips):
+    """The weights (N,) of the points (N, 2) m in the square around each point of at (Q, 2) m, summed (Q,):
+    on the grid of `_grid` (n0 x n1 cells of radius/4 from (lo0, lo1); points outside it are in no square),
+    point i in cell floor((p_i - lo) / cell), the square around a point the cells [a, b), a = rint((at -
+    radius - lo) / cell), b = rint((at + radius - lo) / cell) (its edges to half a cell). Summed over the
+    grid's summed-area table, or, with ``strips`` (a grid far larger than its points: a wide coverage),
+    column by column of [a0, b0) over the points sorted by cell key (`sorted_cells`, each column's run of
+    cells found by bisection, the weights' running sums), O((N + Q) log N) whatever the grid. Integer
+    weights give the same sums either way, to the bit."""
+    Q = at.shape[0]
+    cell = radius / _CELLS
+    ix, iy = contact_cells(points, lo0, lo1, cell)
+    inside = np.flatnonzero((ix >= 0) & (ix < n0) & (iy >= 0) & (iy < n1))
+    out = np.zeros(Q)
+    if strips:
+        order, keys = sorted_cells(points[inside], lo0, lo1, cell, n1)
+        running = np.zeros(inside.size + 1)
+        running[1:] = np.cumsum(weights[inside][order])
+        for q in range(Q):
+            a0, b0, a1, b1 = square_cells(at[q, 0], at[q, 1], radius, lo0, lo1, cell)
+            for column in range(a0, b0):
+                start, stop = key_range(keys, column, a1, b1 - 1, n1)
+                out[q] += running[stop] - running[start]
+        return out
+    table_sum = np.zeros((n0 + 1, n1 + 1))  # [i, j]: the weights in cells [0, i) x [0, j)
+    for i in inside:
+        table_sum[ix[i] + 1, iy[i] + 1] += weights[i]
     for i in range(1, n0 + 1):
-        row = 0
+        row = 0.0
         for j in range(1, n1 + 1):
             row += table_sum[i, j]
             table_sum[i, j] = table_sum[i - 1, j] + row
     for q in range(Q):
-        x, y = at[q, 0], at[q, 1]
-        a0, b0, a1, b1 = square_cells(x, y, radius, lo0, lo1, cell)
-        n = table_sum[b0, b1] - table_sum[a0, b1] - table_sum[b0, a1] + table_sum[a0, a1]
-        out[q] = max(float(n), 1.0) / (side * _covered(x, y, table, corner, cell))
+        a0, b0, a1, b1 = square_cells(at[q, 0], at[q, 1], radius, lo0, lo1, cell)
+        out[q] = table_sum[b0, b1] - table_sum[a0, b1] - table_sum[b0, a1] + table_sum[a0, a1]
     return out
 
 
@@ -185,28 +275,6 @@ def square_cells(x, y, radius, lo0, lo1, cell):
     b = rint((at + radius - lo) / cell)."""
     return (int(np.rint((x - radius - lo0) / cell)), int(np.rint((x + radius - lo0) / cell)),
             int(np.rint((y - radius - lo1) / cell)), int(np.rint((y + radius - lo1) / cell)))
-
-
-@_jit
-def _strip_density(contacts, at, radius, table, corner, lo0, lo1, n1):
-    """`_density` of a scan whose grid would be far larger than its points (a wide coverage): the same cells
-    and squares (``n1`` cells along y), the contacts in each point's square counted among those of its cells,
-    column by column of [a0, b0) (`sorted_cells`: the contacts sorted by cell key, each column's run of cells
-    [a1, b1) found by bisection). Costs O((N + Q) log N), whatever the grid; the same integer counts."""
-    Q = at.shape[0]
-    cell = radius / _CELLS
-    side = (2.0 * radius) ** 2
-    _, keys = sorted_cells(contacts, lo0, lo1, cell, n1)
-    out = np.empty(Q)
-    for q in range(Q):
-        x, y = at[q, 0], at[q, 1]
-        a0, b0, a1, b1 = square_cells(x, y, radius, lo0, lo1, cell)
-        n = 0
-        for column in range(a0, b0):
-            start, stop = key_range(keys, column, a1, b1 - 1, n1)
-            n += stop - start
-        out[q] = max(float(n), 1.0) / (side * _covered(x, y, table, corner, cell))
-    return out
 
 
 @_jit

@@ -14,7 +14,8 @@ track of the mixture, below 1 for a birth, `nnda.tracking.lmb` for the LMB's lab
 (the columns of `nnda.tracking.gibbs`): it dies, weight 1 - p_S e; it survives and is missed,
 p_S e (1 - P_D); it survives and takes a gated contact z, p_S e P_D l(z) / lambda_c(z) (l the IMM
 likelihood of the prediction, lambda_c the clutter density in measurement space: the fixed
-``clutter_density`` m^-2 or the local estimate, times the area Jacobian; a contact left to clutter weighs
+``clutter_density`` m^-2 or the local estimate (``clutter_estimate``: by default of the contacts the labels do not
+explain, `nnda.tracking.labelled`), times the area Jacobian; a contact left to clutter weighs
 1 relative). Per hypothesis the assignments of its tracks (a contact to one track at most) are drawn by
 `gibbs_assignments` (``gibbs_samples`` draws) or, ``sampler = "exhaustive"``, all enumerated
 (`all_assignments`: small problems only); each gives a child hypothesis of weight w_h times its weight.

@@ -10,8 +10,11 @@ label and association history, with its existence and the estimate reported for 
 
 **Shared here.** The first config fields (`LabelledConfig`), one scan's prediction, gating and children
 (`LabelledMixture._predict_update`: a miss child per row, a detection child per gated pair, in one batch), the
-clutter density at the contacts, the existence of a two-point start (odds P_D beta_NT / rho_1 times P_D / (A_w
-rho_2), the pmbm module docstring), the births' free contacts (those no label took in the best hypothesis),
+clutter density at the contacts (``clutter_estimate`` "unexplained", glmb and lmb's default: the local count less each
+contact itself and the rows' expected detections, P_G p_S r P_D weighted by the hypotheses holding them, at
+their predicted positions, `nnda.tracking.clutter_density.unexplained_density`), the existence of a two-point
+start (odds P_D beta_NT / rho_1 times P_D / (A_w rho_2), the pmbm module docstring), the births' free contacts
+(those no label took in the best hypothesis),
 the tentative labels (births below ``admission_existence``, each updated alone on the free contacts:
 `LabelledMixture._tentative_children`, the glmb module docstring), the pruning (light hypotheses dropped,
 N-scan pruning by the tracker's own rule `LabelledMixture._n_scan_keep`, the cap, the rows and labels no
@@ -25,14 +28,14 @@ from __future__ import annotations
 import math
 from abc import abstractmethod
 from dataclasses import dataclass
-from typing import Annotated, ClassVar
+from typing import Annotated, ClassVar, Literal
 
 import numpy as np
 from pydantic import Field, model_validator
 
 from nnda.filters.batch import Batch
 from nnda.filters.kalman import GATE_99
-from nnda.tracking.clutter_density import coverage_area, local_density
+from nnda.tracking.clutter_density import coverage_area, local_density, unexplained_density
 from nnda.tracking.gating import gate
 from nnda.tracking.gibbs import unique_rows
 from nnda.tracking.lifecycle import birth_log_odds, sensor_noise_m, start_score
@@ -55,6 +58,11 @@ class LabelledConfig(ContactTrackerConfig):
                                                    "estimate around each contact")] = None
     clutter_radius_m: Annotated[float, Field(gt=0, description="half-side (m) of the local estimate's "
                                              "square")] = 3_000.0
+    clutter_estimate: Literal["local", "unexplained"] = Field(
+        "unexplained", description="the local estimate (clutter_density None): 'local', every contact in the square "
+        "(itself included); 'unexplained', the contacts there less the contact itself and the labels' expected "
+        "detections (P_D P_G times existence) at their predicted positions, at least the scan's own such count "
+        "over the coverage (`nnda.tracking.clutter_density.unexplained_density`)")
     gate: Annotated[float, Field(gt=0, description="chi-square gate, 2 dof (9.21: P_G = 0.99)")] = GATE_99
     admission_existence: Annotated[float, Field(ge=0, lt=1, description="existence at which a birth joins the "
                                                 "hypotheses; below it the birth is a tentative label, updated "
@@ -124,12 +132,14 @@ class LabelledMixture(ContactTracker):
         self.confirmed = np.empty(0, np.int64)  # labels reported confirmed
         self.n_capped = 0  # scans where the hypothesis cap bit
         self.tentative: LabelledTable | None = None  # births below admission_existence, each updated alone
+        #: the scan, the rows' predicted positions (S, 2) m and expected detections (S,) (`_explained_by`)
+        self._explained: tuple[ScanContacts, np.ndarray, np.ndarray] | None = None
+        self.cardinality: Cardinality | None = None  # the target count after the last scan (`_count`)
 
     # ---------------------------------------------------------------------- one scan
     def _predict_update(self, scan: ScanContacts, table: LabelledTable | None = None) -> ScanUpdate:
         """Predict and gate every row of ``table`` (default the mixture's) in one batch, the detection children
         updated in one batch (`nnda.tracking.linearisation.update`), the miss children keeping their
-        self.cardinality: Cardinality | None = None  # the target count after the last scan (`_count`)
         posterior."""
         cfg, imm, old = self.config, scan.filter, self.table if table is None else table
         z, xy, time, S = scan.z, scan.xy, scan.time, len(old)
@@ -139,6 +149,8 @@ class LabelledMixture(ContactTracker):
         observed = self._observed(scan, pred)
         if observed is not None:
             pd = np.where(observed, pd, 0.0)
+        if table is None and self._unexplained:
+            self._explained = (scan, pred.gating.x[:, 0:3:2], self._expected_detections(old.r * pd))
         pl = pj = np.empty(0, np.int64)
         ll = clutter = np.empty(0)
         if len(z):
@@ -159,6 +171,43 @@ class LabelledMixture(ContactTracker):
             x, P = np.concatenate([x, x_up]), np.concatenate([P, P_up])
         tracks = tr.take(parent).after_scan(contact, filt, z, xy, time, cfg.lifecycle)
         return ScanUpdate(pd, pl, pj, ll, clutter, tracks, np.column_stack([old.hist[parent, 1:], contact]), x, P)
+
+    @property
+    def _unexplained(self) -> bool:
+        """Whether the clutter is the local estimate of the contacts the labels do not explain."""
+        return self.config.clutter_density is None and self.config.clutter_estimate == "unexplained"
+
+    def _expected_detections(self, r_pd: np.ndarray) -> np.ndarray:
+        """Each row's expected detections in this scan (S,): P_G p_S times ``r_pd`` (S,), its existence times
+        its P_D, times the weight of the hypotheses holding it."""
+        held = self.hyp >= 0
+        weight = np.bincount(self.hyp[held], np.broadcast_to(np.exp(self.log_w)[:, None], self.hyp.shape)[held],
+                             minlength=r_pd.size)
+        return -math.expm1(-self.config.gate / 2.0) * self.config.survival_probability * r_pd * weight
+
+    def _explained_by(self, scan: ScanContacts) -> tuple[np.ndarray, np.ndarray]:
+        """The rows' predicted positions (S, 2) m and expected detections (S,) in ``scan`` (`_predict_update`
+        sets them before the scan's first clutter density), none before the mixture holds a label."""
+        if self._explained is None or self._explained[0] is not scan:
+            return np.empty((0, 2)), np.empty(0)
+        return self._explained[1], self._explained[2]
+
+    def _contact_density(self, scan: ScanContacts) -> np.ndarray:
+        """As `ContactTracker._contact_density` with ``clutter_estimate`` 'local'; with 'unexplained', the
+        density at each contact of the contacts the labels do not explain, the contact itself left out
+        (`unexplained_density`), counted once per scan."""
+        if not self._unexplained:
+            return super()._contact_density(scan)
+        if self._density_of is None or self._density_of[0] is not scan:
+            self._density_of = (scan, self._unexplained_density(scan, scan.xy, 1.0))
+        return self._density_of[1]
+
+    def _unexplained_density(self, scan: ScanContacts, at: np.ndarray, own: float | np.ndarray) -> np.ndarray:
+        """`unexplained_density` (m^-2) at the points ``at`` (Q, 2) m of the scan's contacts, ``own`` of them the
+        queries' own, less the labels' expected detections (`_explained_by`)."""
+        sensor = self.sensors[scan.sensor]
+        return unexplained_density(scan.xy, at, self.config.clutter_radius_m, coverage_area(sensor), sensor,
+                                   *self._explained_by(scan), own)
 
     def _clutter(self, scan: ScanContacts, at: np.ndarray) -> np.ndarray:
         """Clutter density in the scan's measurement space at its contacts ``at`` (M,): the fixed
@@ -195,7 +244,11 @@ class LabelledMixture(ContactTracker):
         area = cfg.lifecycle.window_area(sensor.scan_period_s, sensor_noise_m(sensor))
         if cfg.clutter_density is None:
             rho2 = self._contact_density(scan)[contact]
-            rho1 = local_density(scan.xy, born.p1, cfg.clutter_radius_m, sensor)
+            if self._unexplained:  # the pair's second contact, in the square around its first, left out too
+                own = (np.abs(scan.xy[contact] - born.p1) < cfg.clutter_radius_m).all(axis=1)
+                rho1 = self._unexplained_density(scan, born.p1, own.astype(float))
+            else:
+                rho1 = local_density(scan.xy, born.p1, cfg.clutter_radius_m, sensor)
         else:
             rho2 = rho1 = np.full(len(born), cfg.clutter_density)
         log_odds = start_score(cfg.pd, area, rho2) + birth_log_odds(cfg.pd, cfg.birth_rate / coverage_area(sensor),

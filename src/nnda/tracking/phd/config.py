@@ -49,7 +49,14 @@ estimate, its contact count less the expected target detections (p_D times
 the predicted target count), at least 0.001; or ``"local"``: each
 contact's local density (`nnda.tracking.clutter_density.local_density`, a
 square of half-side ``clutter_radius_m``), times its range for the polar
-space, with lambda the contact count.
+space, with lambda the contact count; or ``"unexplained"`` (the default of
+``gmphd``, ``ekphd`` and ``ukphd``; ``cphd``, the harbour trackers and the
+Stone Soup peer keep ``"local"``): the same squares' contacts less the contact itself and the predicted
+intensity's expected detections there (p_D times the mass of the components
+whose means lie in the square), at least the scan's such count over the
+coverage (`nnda.tracking.clutter_density.unexplained_density`), with lambda
+as ``"scan"``'s: where targets are dense, ``"local"`` counts their contacts
+as clutter.
 """
 
 from __future__ import annotations
@@ -228,6 +235,10 @@ class CommonConfig(TrackerConfig):
 class PHDConfig(CommonConfig):
     """Settings of a GM-PHD tracker (see the module docstring for presets and clutter units)."""
 
+    clutter: Annotated[float, Field(ge=0)] | Literal["scan", "local", "unexplained"] = Field(
+        "unexplained", description="false contacts per scan (lambda), or 'scan' / 'local' / 'unexplained' "
+        "estimates (module docs)")
+
     components_per_contact: Annotated[float | None, Field(
         ge=0, description="J_max grows with the scan: at most max(J_max, this x N) components are kept after "
         "a scan of N contacts, so dense clutter's newborns do not crowd out a target's; 0 or None: J_max alone "
@@ -337,6 +348,10 @@ class UKPHDConfig(PHDConfig):
 class CPHDConfig(PHDConfig):
     """``cphd``: the cardinalised PHD, EK linearisation by default; no spawning (the CPHD has none)."""
 
+    clutter: Annotated[float, Field(ge=0)] | Literal["scan", "local", "unexplained"] = Field(
+        "local", description="false contacts per scan (lambda), or 'scan' / 'local' / 'unexplained' "
+        "estimates (module docs; 'local' by default here: with 'unexplained' S1 had a track break more)")
+
     max_cardinality: Annotated[int, Field(ge=1, description="N_max, the cardinality support 0..N_max (at the "
                                                           "start of a run: see cardinality_per_target)")] = 100
     cardinality_per_target: Annotated[float, Field(ge=1)] | None = Field(
@@ -362,6 +377,9 @@ class CentralPHDConfig(PHDConfig):
 
     preset: Literal["radar", "pedestrian", "harbour"] = "harbour"
     motion: Literal["cv", "ct"] = "ct"
+    clutter: Annotated[float, Field(ge=0)] | Literal["scan", "local", "unexplained"] = Field(
+        "local", description="false contacts per scan (lambda), or 'scan' / 'local' / 'unexplained' "
+        "estimates (module docs; the harbour trackers keep 'local', as measured)")
     sigma_q: Annotated[float, Field(ge=0, description="acceleration noise (m/s^2) of the motion model")] = 0.5
     sigma_omega: Annotated[float, Field(ge=0, description="turn-rate noise (rad/s) of the CT model")] = 0.02
     birth: Annotated[Annotated[MeasurementBirth, Tag("measurement")] | Annotated[StaticBirth, Tag("static")],

@@ -72,7 +72,7 @@ from nnda.errors import BoundWarning, ConfigError
 from nnda.filters.measurement import MeasurementModel, PositionMeasurement, measurement_model
 from nnda.filters.mixture import Mixture, cap, merge
 from nnda.filters.motion import POS
-from nnda.tracking.clutter_density import coverage_area, local_density, measurement_volume
+from nnda.tracking.clutter_density import coverage_area, local_density, measurement_volume, unexplained_density
 from nnda.tracking.output import CONFIRMED, NO_CONTACT, TrackerOutput
 from nnda.tracking.phd import cphd, gmphd
 from nnda.tracking.phd.birth import measurement_births
@@ -117,19 +117,39 @@ MIN_SCAN_CLUTTER = 1e-3
 
 
 def clutter(config: CommonConfig, z: np.ndarray, xy: np.ndarray, volume: float, polar: bool,
-            expected_detections: float) -> tuple[float, np.ndarray]:
+            expected_detections: float, explained: Explained | None = None) -> tuple[float, np.ndarray]:
     """(lambda, log clutter spatial density (N,)) of one scan for ``config.clutter`` (see
     `nnda.tracking.phd.config`): contacts z (N, 2) as measured, xy (N, 2) m their Cartesian positions,
     ``volume`` the coverage in the update's measurement space (m rad if ``polar``, else m^2),
-    ``expected_detections`` p_D times the predicted target count."""
+    ``expected_detections`` p_D times the predicted target count, ``explained`` what the predicted intensity
+    explains (for ``"unexplained"``)."""
     n = len(z)
-    if config.clutter == "local":
-        density = local_density(xy, xy, config.clutter_radius_m)  # contacts per m^2
+    if config.clutter in ("local", "unexplained"):
+        if config.clutter == "local":  # lambda the contact count
+            density = local_density(xy, xy, config.clutter_radius_m)  # contacts per m^2
+            rate, share = float(n), float(max(n, 1))
+        else:  # lambda the contacts less the expected detections, as "scan"
+            density = unexplained_density(xy, xy, config.clutter_radius_m, explained.area, explained.sensor,
+                                          explained.at, explained.expected, 1.0)
+            rate = share = max(n - expected_detections, MIN_SCAN_CLUTTER)
         if polar:
             density = density * z[:, 0]  # per m rad: dx dy = r dr d(azimuth)
-        return float(n), np.log(density / max(n, 1))
+        return rate, np.log(density / share)
     rate = max(n - expected_detections, MIN_SCAN_CLUTTER) if config.clutter == "scan" else float(config.clutter)
     return rate, np.full(n, -np.log(volume))
+
+
+@dataclass(frozen=True)
+class Explained:
+    """What a scan's predicted intensity explains, for the ``"unexplained"`` clutter estimate
+    (`unexplained_density`): its components' positions ``at`` (J, 2) m and expected detections ``expected``
+    (J,) (p_D times weight), the scan's sensor (its coverage bounds the squares; None for fixes spread over
+    ``clutter_area_m2``) and the area (m^2) its clutter falls in."""
+
+    at: np.ndarray
+    expected: np.ndarray
+    sensor: Sensor | None
+    area: float
 
 
 def sensor_detection(name: str, config: PHDConfig, sensors: tuple[Sensor, ...]) -> tuple[float, ...]:
@@ -374,7 +394,13 @@ class GMPHDTracker:
         pairs = view.linearisation.pairs(pred, zc, contact_R, cfg.gate)
         pd = self._detection(view, scan.sensor, pred)
         expected = pd * float(pred.weights.sum()) if np.ndim(pd) == 0 else float(pd @ pred.weights)
-        rate, log_c = clutter(cfg, z, xy, view.volume, view.polar, expected)
+        explained = None
+        if cfg.clutter == "unexplained":
+            fixes = not view.polar and cfg.clutter_area_m2 is not None  # spread over that area, not the coverage
+            explained = Explained(pred.means[:, self.motion.position], pd * pred.weights,
+                                  None if fixes else view.sensor, view.volume if not view.polar
+                                  else coverage_area(view.sensor))
+        rate, log_c = clutter(cfg, z, xy, view.volume, view.polar, expected, explained)
         det, missed, dist = self._weights(pred, pairs, rate, log_c, born, pd, survival)
         # a newborn its first update misses is dropped (measurement birth), unless that sensor cannot see it
         missed[newborn] = 0.0 if np.ndim(pd) == 0 else np.where(pd[newborn] > 0, 0.0, missed[newborn])
