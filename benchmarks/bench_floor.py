@@ -13,7 +13,8 @@ more (gnn: confirmed tracks first, the poorly-linearised fallback update, the cl
 sanity rules, checks on input), so the ratio is an upper bound on what their Python layer costs.
 
 Printed: ms per scan on S1-S6 (``--runs`` seeded runs each, 100 clutter points a scan) of the floor and of every
-contact tracker (gnn, jpda, mht; nn with ``--model PATH``), all in this process after an untimed warm-up run of
+contact tracker (gnn, jpda, mht; with ``--model PATH`` nn and nn-life, the neural tracker with the demo's life-cycle
+options, `nnda.tracking.neural.life5`), all in this process after an untimed warm-up run of
 each, the ratio tracker / floor, and the floor's mean GOSPA beside gnn's (m; a check that its tracks are sane).
 Usage: python benchmarks/bench_floor.py [--runs N] [--scans N] [--model PATH]
 """
@@ -26,7 +27,7 @@ import math
 import numba
 import numpy as np
 
-from bench_trackers import params_for, time_run, time_steps
+from bench_trackers import LIFE, params_for, time_run, time_steps
 from nnda.data.generator import generate
 from nnda.data.presets import PRESETS
 from nnda.filters import imm_kernels
@@ -38,7 +39,7 @@ from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY, Tr
 from nnda.tracking.registry import make_tracker
 
 SCENARIOS = ("S1", "S2", "S3", "S4", "S5", "S6")
-CONTACT_TRACKERS = ("gnn", "jpda", "mht", "nn")
+CONTACT_TRACKERS = ("gnn", "jpda", "mht", "nn", "nn-life")
 
 
 @numba.njit(cache=True, nogil=True)
@@ -172,6 +173,13 @@ def floor_run(dataset, outputs: list | None = None) -> np.ndarray:
     return time_steps(FloorTracker(dataset.scenario.sensor), dataset, outputs=outputs)
 
 
+def tracker_run(name: str, model: str | None, dataset, outputs: list | None = None) -> np.ndarray:
+    """`time_run` of the contact tracker of row ``name`` ("nn-life": nn with `bench_trackers.LIFE`)."""
+    if name == "nn-life":
+        return time_run("nn", {**params_for("nn", model), **LIFE}, dataset, outputs=outputs)
+    return time_run(name, params_for(name, model), dataset, outputs=outputs)
+
+
 def shortened(scenario, scans: int | None):
     """``scenario`` cut to its first ``scans`` scans (None: whole)."""
     if scans is None:
@@ -185,13 +193,13 @@ def main() -> None:
     parser.add_argument("--scans", type=int, help="only the first N scans of each scenario (default: all)")
     parser.add_argument("--model", help="model file for the neural tracker (without: nn is skipped)")
     args = parser.parse_args()
-    names = ["floor", *(n for n in CONTACT_TRACKERS if n != "nn" or args.model)]
+    names = ["floor", *(n for n in CONTACT_TRACKERS if not n.startswith("nn") or args.model)]
     if not args.model:
         print("note: the neural tracker is skipped (give --model PATH, a file written by `nnda train`)")
     warm = generate(PRESETS["S1"], seed=0)
     floor_run(warm)
     for name in names[1:]:
-        time_run(name, params_for(name, args.model), warm)
+        tracker_run(name, args.model, warm)
     ms = {(name, sc): [] for name in names for sc in SCENARIOS}
     gospa = {(name, sc): [] for name in ("floor", "gnn") for sc in SCENARIOS}
     for sc in SCENARIOS:
@@ -199,8 +207,8 @@ def main() -> None:
             dataset = generate(shortened(PRESETS[sc], args.scans), seed=run)
             for name in names:
                 outputs = []
-                t = floor_run(dataset, outputs) if name == "floor" else time_run(
-                    name, params_for(name, args.model), dataset, outputs=outputs)
+                t = floor_run(dataset, outputs) if name == "floor" else tracker_run(name, args.model, dataset,
+                                                                                    outputs)
                 ms[name, sc].append(t * 1e3)
                 if name in ("floor", "gnn"):
                     gospa[name, sc].append(float(run_metrics(dataset, outputs).gospa.mean()))

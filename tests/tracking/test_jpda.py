@@ -77,6 +77,27 @@ def test_certain_association_is_the_plain_imm_update():
     np.testing.assert_allclose(none.P, pred.state.P)
 
 
+def test_update_of_some_tracks_reads_them_from_the_whole_prediction():
+    """`pda_update` with ``rows`` (the tracker's call: only the arrays it reads are taken) is the update of the
+    prediction taken at those rows, bit for bit."""
+    imm = IMM()
+    z1 = np.array([[12_000.0, 0.50], [15_000.0, 2.0], [9_000.0, 1.0], [20_000.0, 4.0]])
+    pred = imm.predict(imm.initialise(z1, z1 + [[150.0, 0.01]], 0.0, 2.0), 2.0)
+    z = np.array([[12_310.0, 0.522], [9_000.0, 1.0], [9_290.0, 1.012], [20_200.0, 4.01]])
+    rows, t, c = np.array([0, 2, 3]), np.array([0, 0, 1, 2]), np.array([0, 2, 2, 3])
+    beta, beta0 = np.array([0.5, 0.2, 0.9, 0.6]), np.array([0.3, 0.1, 0.4])
+    taken = pred.take(rows)
+    nu, log_lik = pair_likelihoods(taken, z, t, c, imm.measurement)
+    nu_all, log_lik_all = pair_likelihoods(pred, z, rows[t], c, imm.measurement)
+    np.testing.assert_array_equal(nu_all, nu)
+    np.testing.assert_array_equal(log_lik_all, log_lik)
+    want = pda_update(taken, t, nu, log_lik, beta, beta0)
+    got = pda_update(pred, t, nu, log_lik, beta, beta0, rows)
+    for a, b in ((got.x, want.x), (got.P, want.P), (got.mu, want.mu)):
+        assert a.shape[0] == 3
+        np.testing.assert_array_equal(a, b)
+
+
 def test_single_model_update_is_the_textbook_pda():
     imm = IMM(models=(ConstantVelocity(),), tpm=((1.0,),), mu0=(1.0,))
     pred = _prediction(imm)

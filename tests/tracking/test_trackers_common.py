@@ -21,7 +21,8 @@ from nnda.filters.imm import IMM
 from nnda.filters.measurement import PolarMeasurement
 from nnda.filters.motion import ConstantVelocity
 from nnda.study.metrics import run_metrics
-from nnda.tracking.output import TrackStatus
+from nnda.tracking.gnn import _stage_pairs
+from nnda.tracking.output import NO_CONTACT, TrackStatus
 from nnda.tracking.registry import PEERS, TRACKERS, make_tracker
 from nnda.tracking.tracker import ContactTracker, Tracker, TrackerConfig
 
@@ -287,6 +288,26 @@ def test_joined_tracks_are_the_batch_concatenation():
     for mine, theirs in zip(joined._arrays(), concat._arrays()):
         assert mine.dtype == theirs.dtype
         np.testing.assert_array_equal(mine, theirs)
+
+
+def test_gnn_stages_take_the_confirmed_tracks_pairs_then_the_free_contacts_of_the_rest():
+    """`gnn._stage_pairs`: the confirmed (or the other) tracks' gated pairs whose contact no track holds yet, with
+    their costs d^2 + log|S|, as the masks of the numpy formulation select them."""
+    rng = np.random.default_rng(0)
+    K, N = 12, 30
+    rows = np.sort(rng.integers(0, K, 80))
+    cols, d2, log_det = rng.integers(0, N, 80), rng.uniform(0, 9, 80), rng.normal(size=K)
+    status = rng.choice(np.array([TrackStatus.PRELIMINARY, TrackStatus.CONFIRMED], np.int8), K)
+    contact = np.where(rng.random(K) < 0.3, rng.integers(0, N, K), NO_CONTACT)
+    taken = np.zeros(N, bool)
+    taken[contact[contact != NO_CONTACT]] = True
+    for confirmed in (True, False):
+        sel = ((status[rows] == TrackStatus.CONFIRMED) == confirmed) & ~taken[cols]
+        r, c, cost = _stage_pairs(confirmed, status, rows, cols, d2, log_det, contact, N)
+        assert 0 < r.size < rows.size
+        np.testing.assert_array_equal(r, rows[sel])
+        np.testing.assert_array_equal(c, cols[sel])
+        np.testing.assert_array_equal(cost, d2[sel] + log_det[rows[sel]])
 
 
 def test_the_packed_track_fields_read_and_rescore_by_name():

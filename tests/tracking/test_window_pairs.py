@@ -1,5 +1,6 @@
-"""The initiation's window pairs by cells (`lifecycle.window_pairs`, `free_window_pairs`, `fast_lines`' pairs) against a
-brute-force oracle, and the shared cell buckets (`clutter_density.sorted_cells`, `key_range`)."""
+"""The initiation's window pairs by cells (`lifecycle.window_pairs`, `free_window_pairs`, `sweep_pairs` with
+`fast_lines`' pairs) against a brute-force oracle, and the shared cell buckets (`clutter_density.sorted_cells`,
+`key_range`)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import numpy as np
 import pytest
 
 from nnda.tracking.clutter_density import key_range, sorted_cells
-from nnda.tracking.lifecycle import free_window_pairs, window_pairs
+from nnda.tracking.lifecycle import fast_lines, free_window_pairs, no_lines, sweep_pairs, window_pairs
 
 D_MIN, D_MAX = 50.0, 490.0
 
@@ -130,3 +131,57 @@ def test_contacts_along_one_line_cost_their_cells_only():
     assert time.perf_counter() - t0 < 2.0
     np.testing.assert_array_equal(i, np.arange(100_000))
     np.testing.assert_array_equal(j, np.arange(100_000))
+
+
+D_FAST = 890.0
+
+
+def test_sweep_pairs_split_one_search_at_d_max():
+    """The window's pairs and the fast annulus' (d_max, d_fast] from one search, each as the oracle gives it: a pair at
+    exactly d_max is the window's, a step beyond it the annulus', d_fast itself in, a step beyond out."""
+    rng = np.random.default_rng(5)
+    a, b = rng.uniform(0, 4000, (60, 2)), rng.uniform(0, 4000, (90, 2))
+    edge = np.array([[D_MAX, 0.0], [np.nextafter(D_MAX, np.inf), 0.0], [0.0, D_FAST], [0.0, np.nextafter(D_FAST, 0)],
+                     [np.nextafter(D_FAST, np.inf), 0.0], [D_MIN, 0.0]])
+    for initiators, contacts in ((a, b), (np.zeros((1, 2)), edge)):
+        used = rng.random(len(contacts)) < 0.2
+        free, i, j, fi, fj = sweep_pairs(initiators, contacts, used, D_MIN, D_MAX, D_FAST)
+        np.testing.assert_array_equal(free, np.flatnonzero(~used))
+        for (got_i, got_j), (want_i, want_j) in (((i, j), oracle(initiators, contacts[free], D_MIN, D_MAX)),
+                                                 ((fi, fj), fast_oracle(initiators, contacts[free]))):
+            np.testing.assert_array_equal(got_i, want_i)
+            np.testing.assert_array_equal(got_j, want_j)
+        np.testing.assert_array_equal(free_window_pairs(initiators, contacts, used, D_MIN, D_MAX)[1], i)
+    free, i, j, fi, fj = sweep_pairs(np.zeros((1, 2)), edge, np.zeros(len(edge), bool), D_MIN, D_MAX, D_FAST)
+    assert j.tolist() == [0, 5] and fj.tolist() == [1, 2, 3]
+
+
+def fast_oracle(initiators: np.ndarray, contacts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The pairs with d^2 in (d_max^2, d_fast^2], as `oracle`."""
+    dx = initiators[:, None, 0] - contacts[None, :, 0]
+    dy = initiators[:, None, 1] - contacts[None, :, 1]
+    d2 = dx * dx + dy * dy
+    return np.nonzero((d2 > D_MAX * D_MAX) & (d2 <= D_FAST * D_FAST))
+
+
+def test_fast_lines_read_the_same_from_sweep_pairs_as_searched():
+    """A line of contacts 700 m apart a scan in clutter: `fast_lines` given `sweep_pairs`' annulus pairs counts and
+    continues the same lines as when it searches them itself, scan by scan."""
+    rng = np.random.default_rng(6)
+    lines = {True: no_lines(), False: no_lines()}
+    counted = {True: 0, False: 0}
+    before = rng.uniform(-8000, 8000, (20, 2))
+    for k in range(12):
+        now = np.vstack([rng.uniform(-8000, 8000, (20, 2)), [[700.0 * k, 0.0]]])
+        used = np.append(rng.random(20) < 0.1, False)
+        free, i, j, *fast = sweep_pairs(before, now, used, D_MIN, D_MAX, D_FAST)
+        spoken = np.zeros(free.size, bool)
+        spoken[j] = True
+        for given in (True, False):
+            n, lines[given] = fast_lines(before, now, free, spoken, lines[given], D_MAX, D_FAST, 100.0, 2.0,
+                                         fast if given else None)
+            counted[given] += n
+        for a, b in zip(lines[True], lines[False]):
+            np.testing.assert_array_equal(a, b)
+        before = now[free[~spoken]]
+    assert counted[True] == counted[False] >= 1

@@ -452,7 +452,7 @@ class IMM:
         then Z (compiled: no (R, N) matrix is made). ``check`` as for `mahalanobis`."""
         Z = self._checked_contacts(Z) if check else Z
         return imm_kernels.gated_pairs(mp.z, mp.S_inv, np.asarray(rows, np.int64), Z,
-                                       np.atleast_1d(np.asarray(threshold, np.float64)), self.polar)
+                                       np.asarray(threshold, np.float64).reshape(-1), self.polar)
 
     def log_likelihood(self, pred: IMMPrediction, Z: np.ndarray) -> np.ndarray:
         """log p(z | track) (K, N) of N measurements Z (N, 2) under each track's IMM prediction.

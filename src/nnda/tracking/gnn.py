@@ -17,14 +17,15 @@ from __future__ import annotations
 
 from typing import Annotated, ClassVar
 
+import numba
 import numpy as np
 from pydantic import Field
 
 from nnda.filters.imm import IMMPrediction
 from nnda.filters.kalman import GATE_99
-from nnda.tracking.assignment import greedy_matching, least_cost_assignment
+from nnda.tracking.assignment import given, greedy_matching, least_cost_assignment
 from nnda.tracking.gating import gate_tracks
-from nnda.tracking.output import NO_CONTACT, TrackStatus
+from nnda.tracking.output import CONFIRMED, NO_CONTACT
 from nnda.tracking.tracker import (
     Association,
     ContactTrackerConfig,
@@ -56,20 +57,18 @@ class GNNTracker(SingleHypothesisTracker):
         self.n_greedy = 0  # assignments too large to solve exactly (see GNNConfig.max_exact_pairs)
 
     def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
-        contact = np.full(len(tracks), NO_CONTACT, np.int64)
         imm, z = scan.filter, scan.z
         mp, g = gate_tracks(imm, pred, z, scan.xy, self.config.gate, check=False)
-        confirmed = tracks.status == TrackStatus.CONFIRMED
-        for stage in (confirmed, ~confirmed):  # confirmed tracks choose first
-            taken = np.zeros(len(z), bool)
-            taken[contact[contact != NO_CONTACT]] = True
-            sel = stage[g.rows] & ~taken[g.cols]
-            if not sel.any():
+        contact = np.full(len(tracks), NO_CONTACT, np.int64)
+        if not g.rows.size:
+            return hard_update(imm, pred, z, contact)
+        miss_cost = self.config.gate + mp.log_det_S
+        for confirmed in (True, False):  # confirmed tracks choose first
+            r, c, cost = _stage_pairs(confirmed, tracks.status, g.rows, g.cols, g.d2, mp.log_det_S, contact, len(z))
+            if not r.size:
                 continue
-            r, c = g.rows[sel], g.cols[sel]
-            cost = g.d2[sel] + mp.log_det_S[r]
             if r.size <= self.config.max_exact_pairs:
-                rows, cols = least_cost_assignment(r, c, cost, self.config.gate + mp.log_det_S)
+                rows, cols = least_cost_assignment(r, c, cost, miss_cost)
             else:  # every gated pair costs less than a miss, so greedy takes cheapest first
                 rows, cols = greedy_matching(r, c, -cost)
                 self.n_greedy += 1
@@ -77,3 +76,20 @@ class GNNTracker(SingleHypothesisTracker):
                                 scan.time)
             contact[rows] = cols
         return hard_update(imm, pred, z, contact)
+
+
+@numba.njit(cache=True, nogil=True)
+def _stage_pairs(confirmed, status, rows, cols, d2, log_det, contact, n):
+    """One stage of `GNNTracker.associate` in one pass: of the gated pairs (rows, cols, d2 (P,)), those of the
+    confirmed tracks (``confirmed``; else the others, by ``status`` (K,)) whose contact no track of ``contact``
+    (K,) holds yet among the scan's ``n``, and their costs d2 + log|S| (``log_det`` (K,)): (r, c, cost)."""
+    taken = given(contact, n)
+    keep = np.empty(rows.size, np.int64)
+    m = 0
+    for p in range(rows.size):
+        if (status[rows[p]] == CONFIRMED) == confirmed and not taken[cols[p]]:
+            keep[m] = p
+            m += 1
+    keep = keep[:m]
+    r = rows[keep]
+    return r, cols[keep], d2[keep] + log_det[r]

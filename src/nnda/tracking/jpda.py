@@ -100,7 +100,7 @@ from nnda.tracking.clutter_density import measurement_volume
 from nnda.tracking.gating import gate_tracks
 from nnda.tracking.lifecycle import existence, jipda_log_ratio
 from nnda.tracking.marginals import jpda_marginals, log_miss_weight, runs
-from nnda.tracking.output import NO_CONTACT, TrackStatus
+from nnda.tracking.output import CONFIRMED, NO_CONTACT
 from nnda.tracking.tracker import (
     Association,
     ContactTrackerConfig,
@@ -144,33 +144,37 @@ def pair_likelihoods(pred: IMMPrediction, z: np.ndarray, track: np.ndarray, cont
 
 
 def pda_update(pred: IMMPrediction, track: np.ndarray, nu: np.ndarray, log_lik: np.ndarray,
-               beta: np.ndarray, beta0: np.ndarray) -> IMMState:
+               beta: np.ndarray, beta0: np.ndarray, rows: np.ndarray | None = None) -> IMMState:
     """IMM-JPDA update of K tracks from their association probabilities (module docstring, step 4).
 
-    ``pred`` is the tracks' IMM prediction; the P gated pairs are given by
+    ``pred`` is the tracks' IMM prediction, or with ``rows`` (K,) that of more tracks, of which these are
+    the K (only the arrays the update reads are taken); the P gated pairs are given by
     their ``track`` (P,), sorted, innovations ``nu`` (P, r, 2) and per-model
     log-likelihoods ``log_lik`` (P, r) (`pair_likelihoods`) and their
     association probabilities ``beta`` (P,); ``beta0`` (K,) is each track's
     probability of no detection.
     """
     mp, st = pred.measurement, pred.state
-    K = len(st.mu)
-    log_joint = np.log(st.mu[track] + _TINY) + log_lik
+    x, P, mu, PHt, S_inv = st.x, st.P, st.mu, mp.PHt, mp.S_inv
+    if rows is not None:
+        x, P, mu, PHt, S_inv = x[rows], P[rows], mu[rows], PHt[rows], S_inv[rows]
+    K = len(mu)
+    log_joint = np.log(mu[track] + _TINY) + log_lik
     responsibility = np.exp(log_joint - log_joint.max(axis=1, keepdims=True))
     responsibility /= responsibility.sum(axis=1, keepdims=True)  # P(model m | the pair's contact is the track's)
     joint = beta[:, None] * responsibility  # P(contact, model m), (P, r)
-    joint0 = beta0[:, None] * st.mu  # P(no contact, model m), (K, r)
+    joint0 = beta0[:, None] * mu  # P(no contact, model m), (K, r)
     by_track = _sum_by_track(track, K)
-    mu = joint0 + by_track(joint)
+    mu = joint0 + by_track(joint)  # the new mode probabilities, unnormalised
     b = joint / (mu[track] + _TINY)  # each model's own association probabilities
     b0 = joint0 / (mu + _TINY)
     weighted = b[..., None] * nu  # (P, r, 2)
     combined = by_track(weighted)  # (K, r, 2)
     spread = by_track(weighted[..., :, None] * nu[..., None, :]) - (
         combined[..., :, None] * combined[..., None, :])
-    gain = mp.PHt @ mp.S_inv  # (K, r, n, 2)
-    x = st.x + (gain @ combined[..., None])[..., 0]
-    P = (st.P - (1.0 - b0)[..., None, None] * (gain @ np.swapaxes(mp.PHt, -1, -2))
+    gain = PHt @ S_inv  # (K, r, n, 2)
+    x = x + (gain @ combined[..., None])[..., 0]
+    P = (P - (1.0 - b0)[..., None, None] * (gain @ np.swapaxes(PHt, -1, -2))
          + gain @ spread @ np.swapaxes(gain, -1, -2))
     return IMMState(x, kalman.symmetrise(P), mu / mu.sum(axis=1, keepdims=True))
 
@@ -252,7 +256,7 @@ class JPDATracker(SingleHypothesisTracker):
         log_density = np.zeros(len(z))
         log_density[near] = np.log(self.clutter_density(scan, near))
         taken = np.zeros(len(z), bool)
-        confirmed = tracks.status == TrackStatus.CONFIRMED
+        confirmed = tracks.status == CONFIRMED
         for stage in (confirmed, ~confirmed):  # confirmed tracks first, as in GNN
             sel = np.flatnonzero(stage[g.rows] & ~taken[g.cols])
             if not sel.size:
@@ -288,10 +292,10 @@ class JPDATracker(SingleHypothesisTracker):
             # the soft update, for the tracks that report a contact (the framework keeps the others')
             won = wins[track]
             winner = (np.cumsum(wins) - 1)[track[won]]
-            active = pred.take(rows[wins])
-            nu, log_lik = pair_likelihoods(active, z, winner, cols[won], imm.measurement)
-            updated = pda_update(active, winner, nu, log_lik, beta[won], beta0[wins])
-            state.x[rows[wins]], state.P[rows[wins]], state.mu[rows[wins]] = updated.x, updated.P, updated.mu
+            active = rows[wins]
+            nu, log_lik = pair_likelihoods(pred, z, active[winner], cols[won], imm.measurement)
+            updated = pda_update(pred, winner, nu, log_lik, beta[won], beta0[wins], active)
+            state.x[active], state.P[active], state.mu[active] = updated.x, updated.P, updated.mu
         # the score rule scores the reported contact sequence, as for GNN (the framework's increment): the PDA
         # ratio's drift is ~0 for a vague clutter-born track, whose score then walks until it confirms
         return Association(contact, state, gain if self.confirmation_rule == "existence" else None)

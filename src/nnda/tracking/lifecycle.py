@@ -264,6 +264,18 @@ class LifecycleConfig(BaseModel):
         """(deletion, confirmation) thresholds of the score rule (`sprt_thresholds`)."""
         return sprt_thresholds(self.false_confirmation, self.false_deletion)
 
+    @functools.cached_property
+    def score_limits(self) -> tuple[float, float, float]:
+        """(lower, upper, early): `score_bounds`' thresholds shared by every track, worked out once (the scan
+        loop asks each scan): the score rule's `score_thresholds` or, under the existence rule, the log-odds of
+        ``existence_deletion`` and ``existence_confirmation``; and the preliminary tracks' deletion threshold."""
+        if self.confirmation == "existence":  # thresholds on the existence probability's log-odds
+            lower, upper = (math.log(p) - math.log1p(-p) for p in (self.existence_deletion,
+                                                                   self.existence_confirmation))
+        else:
+            lower, upper = self.score_thresholds
+        return lower, upper, sprt_thresholds(self.false_confirmation, self.preliminary_false_deletion)[0]
+
     def window_area(self, scan_period: float, sigma_range: float) -> float:
         """Area (m^2) of the initiation annulus (`window`)."""
         d_min, d_max = self.window(scan_period, sigma_range)
@@ -325,7 +337,7 @@ def adaptive_deletion(cfg: LifecycleConfig, density: np.ndarray) -> np.ndarray:
     the clutter's area density is ``density`` (m^-2 per scan, (K,)): ln(beta_k / (1 - alpha)), beta_k =
     ``false_deletion`` x min(1, density / ``dense_clutter_per_km2``), at least ``false_deletion`` / 100."""
     dense = cfg.dense_clutter_per_km2 * 1e-6  # m^-2
-    share = np.clip(np.asarray(density, float) / dense, 0.01, 1.0)
+    share = np.minimum(np.maximum(np.asarray(density, float) / dense, 0.01), 1.0)  # np.clip, without its wrapper
     return np.log(cfg.false_deletion * share) - math.log1p(-cfg.false_confirmation)
 
 
@@ -373,15 +385,12 @@ def score_bounds(cfg: LifecycleConfig, K: int, confirm_at: np.ndarray | None = N
     ``confirm_at`` (K,) the upper one per track when given, and under the adaptive rule ``delete_at`` (K,)
     the lower one) or under the existence rule on the existence's log-odds; early is the preliminary tracks'
     deletion threshold."""
-    if cfg.confirmation == "existence":  # thresholds on the existence probability's log-odds
-        lower, upper = (math.log(p) - math.log1p(-p) for p in (cfg.existence_deletion, cfg.existence_confirmation))
-    else:
-        lower, upper = cfg.score_thresholds
+    lower, upper, early = cfg.score_limits
+    if cfg.confirmation != "existence":
         if confirm_at is not None:
             upper = confirm_at
         if delete_at is not None and cfg.confirmation == "adaptive":
             lower = delete_at
-    early = sprt_thresholds(cfg.false_confirmation, cfg.preliminary_false_deletion)[0]
     return _per_track(lower, K), _per_track(upper, K), early
 
 
@@ -615,20 +624,38 @@ def free_window_pairs(initiators: np.ndarray, contacts: np.ndarray, used: np.nda
     """`window_pairs` of the ``initiators`` (I, 2) with the ``contacts`` (N, 2) m that no track ``used`` (N,),
     in one compiled call: the free contacts' indices (F,) ascending, and the pairs (i, j) (P,), j indexing
     them."""
-    # the margin over d_max keeps rounding at the cells' edges from dropping a pair
-    reach = d_max + 1e-6 * (1.0 + d_max)
+    return sweep_pairs(initiators, contacts, used, d_min, d_max, d_max)[:3]
+
+
+def sweep_pairs(initiators: np.ndarray, contacts: np.ndarray, used: np.ndarray, d_min: float, d_max: float,
+                d_fast: float) -> tuple[np.ndarray, ...]:
+    """`free_window_pairs` and, from the same search, the pairs (fi, fj) (Q,) whose distance lies in (d_max,
+    d_fast] (`LifecycleConfig.fast_window`: those `fast_lines` continues; none for d_fast = d_max): (free, i,
+    j, fi, fj), each sorted by initiator then contact."""
+    # the margin over the reach keeps rounding at the cells' edges from dropping a pair
+    reach = max(d_max, d_fast)
+    reach += 1e-6 * (1.0 + reach)
     return _free_pairs(np.ascontiguousarray(initiators, float), np.ascontiguousarray(contacts, float),
-                       np.asarray(used, np.bool_), float(d_min), float(d_max), reach)
+                       np.asarray(used, np.bool_), float(d_min), float(d_max), float(d_fast), reach)
 
 
 @numba.njit(cache=True, nogil=True)
-def _free_pairs(initiators, contacts, used, d_min, d_max, reach):
-    """`free_window_pairs`: the free contacts, then `_cell_pairs` with them (none without initiators)."""
+def _free_pairs(initiators, contacts, used, d_min, d_max, d_fast, reach):
+    """`sweep_pairs`: the free contacts, then `_cell_pairs` with them out to ``d_fast`` (none without
+    initiators), split at ``d_max``."""
     free = np.flatnonzero(~used)
+    none = np.empty(0, np.int64)
     if not initiators.shape[0] or not free.size:
-        return free, np.empty(0, np.int64), np.empty(0, np.int64)
-    i, j = _cell_pairs(initiators, contacts[free], d_min, d_max, reach)
-    return free, i, j
+        return free, none, none, none, none
+    xy = contacts[free]
+    i, j = _cell_pairs(initiators, xy, d_min, max(d_max, d_fast), reach)
+    window = np.empty(i.size, np.bool_)
+    hi2 = d_max * d_max
+    for p in range(i.size):  # the distance as `_cell_pairs` computes it
+        dx = initiators[i[p], 0] - xy[j[p], 0]
+        dy = initiators[i[p], 1] - xy[j[p], 1]
+        window[p] = dx * dx + dy * dy <= hi2
+    return free, i[window], j[window], i[~window], j[~window]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -682,7 +709,10 @@ def _cell_pairs(initiators, contacts, d_min, d_max, reach):
         for cx in range(max(int(u) - 1, 0), min(int(u) + 1, n0 - 1) + 1):
             for cy in range(max(int(v) - 1, 0), min(int(v) + 1, n1 - 1) + 1):
                 h = _bucket(cx, cy, mask)
-                if h not in near[a, :k]:
+                seen = False
+                for t in range(k):  # a loop, not ``in`` (which builds a mask array per test)
+                    seen |= near[a, t] == h
+                if not seen:
                     near[a, k] = h
                     k += 1
                     most += start[h + 1] - start[h]
@@ -722,7 +752,7 @@ FAST_LINE_CONTACTS = 4
 
 
 def fast_lines(initiators: np.ndarray, contacts: np.ndarray, free: np.ndarray, spoken: np.ndarray, lines: tuple,
-               d_max: float, d_fast: float, tol: float, dt: float) -> tuple[int, tuple]:
+               d_max: float, d_fast: float, tol: float, dt: float, pairs: tuple | None = None) -> tuple[int, tuple]:
     """One scan of the lines of refused fast pairs: the pairs (initiator, free contact) of the ``initiators``
     (I, 2) and the ``free`` (F,) of the ``contacts`` (N, 2) m whose distance lies in (d_max, d_fast]
     (`LifecycleConfig.fast_window`), each continuing the ``lines`` of the scan before (``dt`` s earlier) of its
@@ -738,11 +768,16 @@ def fast_lines(initiators: np.ndarray, contacts: np.ndarray, free: np.ndarray, s
     Returns the contacts that complete a line (each counted once) and the lines to continue at the next scan:
     those whose contact is not ``spoken`` (F,) for by a window (it becomes an initiator), as (initiator index
     (L,) among the next initiators, ascending; position (L, 2) m; velocity (L, 2) m/s; contacts in line (L,);
-    evidence (L,); counted already (L,)). ``lines`` starts as `no_lines`. One compiled call (`_fast_lines`)."""
-    reach = d_fast + 1e-6 * (1.0 + d_fast)
+    evidence (L,); counted already (L,)). ``lines`` starts as `no_lines`. ``pairs`` (fi, fj) are those pairs
+    when `sweep_pairs` found them already with the window's (``free`` ascending); None: searched here. One
+    compiled call (`_fast_lines`)."""
+    initiators, contacts = np.ascontiguousarray(initiators, float), np.ascontiguousarray(contacts, float)
+    if pairs is None:  # the free contacts (ascending) are those no track used
+        used = np.ones(len(contacts), np.bool_)
+        used[free] = False
+        pairs = sweep_pairs(initiators, contacts, used, d_max, d_max, d_fast)[3:]
     share = math.pi * tol * tol / (math.pi * (d_fast * d_fast - d_max * d_max))  # pi tol^2 / A
-    return _fast_lines(np.ascontiguousarray(initiators, float), np.ascontiguousarray(contacts, float), free, spoken,
-                       *lines, float(d_max), float(d_fast), reach, float(tol), float(dt), share,
+    return _fast_lines(initiators, contacts, free, spoken, *pairs, *lines, float(d_max), float(tol), float(dt), share,
                        FAST_LINE_EVIDENCE, FAST_LINE_CONTACTS)
 
 
@@ -753,15 +788,14 @@ def no_lines() -> tuple:
 
 
 @numba.njit(cache=True, nogil=True)
-def _fast_lines(initiators, contacts, free, spoken, after, at, velocity, length, evidence, told, d_max, d_fast,
-                reach, tol, dt, share, enough, contacts_min):
-    """`fast_lines`: the pairs from `_cell_pairs` over (d_max, d_fast], each matched against the lines of its
+def _fast_lines(initiators, contacts, free, spoken, i, j, after, at, velocity, length, evidence, told, d_max, tol,
+                dt, share, enough, contacts_min):
+    """`fast_lines`: the pairs (i, j) over (d_max, d_fast] (`sweep_pairs`), each matched against the lines of its
     initiator (``after`` ascending), in one pass; of the lines a pair continues, the one of most evidence."""
     if not initiators.shape[0] or not free.size:
         return 0, (np.empty(0, np.int64), np.empty((0, 2)), np.empty((0, 2)), np.empty(0, np.int64), np.empty(0),
                    np.empty(0, np.bool_))
     xy = contacts[free]
-    i, j = _cell_pairs(initiators, xy, d_max, d_fast, reach)
     rank = np.cumsum(~spoken) - 1  # a free contact's index among the next initiators
     tol2, lo2 = tol * tol, d_max * d_max
     beyond = np.zeros(i.size, np.bool_)

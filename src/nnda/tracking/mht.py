@@ -74,7 +74,7 @@ from nnda.tracking.gating import gate
 from nnda.tracking.global_hypothesis import global_hypothesis
 from nnda.tracking.lifecycle import SANITY_REASONS, advance_score, sanity_reasons
 from nnda.tracking.linearisation import update as linearised_update
-from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
+from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, TrackerOutput
 from nnda.tracking.reports import Phase
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts, TrackerConfig, Tracks
 
@@ -221,11 +221,11 @@ class MHTTracker(ContactTracker):
         x_post, P_post = imm.estimate(filt)
         shown = _Shown(np.where(d1, x_post, x_pred[parent]), np.where(d1[:, :, None], P_post, P_pred[parent]))
         quality = np.zeros(len(status))  # the clutter around the confirmed leaves, for the track-quality rule
-        judged = status == TrackStatus.CONFIRMED
+        judged = status == CONFIRMED
         if judged.any():
             quality[judged] = self._quality_density(scan, x_pred[parent[judged]])
         code = sanity_reasons(shown.x, shown.P, self.sensors, self.gate_threshold, cfg.lifecycle, quality)
-        alive = (status != TrackStatus.DELETED) & (score >= max_score - cfg.deletion_score_drop) & (code == 0)
+        alive = (status != DELETED) & (score >= max_score - cfg.deletion_score_drop) & (code == 0)
         self._count_lost(tracks.track_id, tr.status[parent], status, score, code, alive)
         return out.take(alive), _Shown(shown.x[alive], shown.P[alive])
 
@@ -244,9 +244,9 @@ class MHTTracker(ContactTracker):
             self.deletions[reason] += int((code[best] == i).sum())
         ended = code[best] == 0
         ids, *_, shown_confirmed = self.known  # a family reported confirmed ends as a confirmed track
-        confirmed = (before[best] == TrackStatus.CONFIRMED) | np.isin(family[best], ids[shown_confirmed])
+        confirmed = (before[best] == CONFIRMED) | np.isin(family[best], ids[shown_confirmed])
         self.deletions["unconfirmed"] += int((ended & ~confirmed).sum())
-        by_misses = ended & confirmed & (status[best] == TrackStatus.DELETED) & (self.confirmation_rule == "mn")
+        by_misses = ended & confirmed & (status[best] == DELETED) & (self.confirmation_rule == "mn")
         self.deletions["misses"] += int(by_misses.sum())
         self.deletions["score"] += int((ended & confirmed & ~by_misses).sum())
 
@@ -349,17 +349,17 @@ class MHTTracker(ContactTracker):
             chosen = chosen[np.isin(leaves.tracks.track_id[chosen], alive_ids)]
         if chosen.size:
             tr = leaves.tracks.take(chosen)
-            status = np.where(np.isin(tr.track_id, ids[confirmed]), TrackStatus.CONFIRMED, tr.status).astype(np.int8)
+            status = np.where(np.isin(tr.track_id, ids[confirmed]), CONFIRMED, tr.status).astype(np.int8)
             blocks.append((tr.track_id, status, shown.x[chosen], shown.P[chosen], leaves.hist[chosen, -1]))
             stale = ~np.isin(ids, tr.track_id)
             ids = np.concatenate([ids[stale], tr.track_id])
             x = np.concatenate([x[stale], shown.x[chosen]])
             P = np.concatenate([P[stale], shown.P[chosen]])
-            confirmed = np.concatenate([confirmed[stale], status == TrackStatus.CONFIRMED])
+            confirmed = np.concatenate([confirmed[stale], status == CONFIRMED])
         alive = np.isin(ids, alive_ids)
         gone = ~alive
         if gone.any():
-            blocks.append((ids[gone], np.full(gone.sum(), TrackStatus.DELETED, np.int8), x[gone], P[gone],
+            blocks.append((ids[gone], np.full(gone.sum(), DELETED, np.int8), x[gone], P[gone],
                            np.full(gone.sum(), NO_CONTACT)))
         self.known = (ids[alive], x[alive], P[alive], confirmed[alive])
         return TrackerOutput.from_blocks(scan, time, blocks)
@@ -377,7 +377,7 @@ class MHTTracker(ContactTracker):
         if self.leaves is None or not len(reported):
             return none
         leaves, tr = self.leaves, self.leaves.tracks
-        rows = np.flatnonzero(reported.status != TrackStatus.DELETED)
+        rows = np.flatnonzero(reported.status != DELETED)
         rows = rows[np.argsort(reported.track_id[rows], kind="stable")]
         ids, contact = reported.track_id[rows], reported.contact[rows]
         if not ids.size:

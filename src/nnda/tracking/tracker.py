@@ -81,7 +81,6 @@ from nnda.tracking.lifecycle import (
     everywhere,
     fast_lines,
     fast_tolerance_m,
-    free_window_pairs,
     miss_run,
     no_lines,
     predicted_log_odds,
@@ -91,6 +90,7 @@ from nnda.tracking.lifecycle import (
     score_bounds,
     sensor_noise_m,
     start_score,
+    sweep_pairs,
 )
 from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.marginals import log_miss_weight
@@ -360,13 +360,6 @@ class Tracks(Batch):
             scores[:, MAX_SCORE] = score
         return replace(self, scores=scores)
 
-    def confirming_at(self, confirm_at: np.ndarray, delete_at: np.ndarray) -> Tracks:
-        """These tracks with the score that confirms them and the fall that deletes them (K,) replaced (a new
-        track's, adaptive rule)."""
-        scores = self.scores.copy()
-        scores[:, CONFIRM_AT], scores[:, DELETE_AT] = confirm_at, delete_at
-        return replace(self, scores=scores)
-
     def after_scan(self, contact: np.ndarray, filt: IMMState, z: np.ndarray, xy: np.ndarray, time: float,
                    lifecycle: LifecycleConfig, observed: np.ndarray | None = None,
                    score_gain: np.ndarray | None = None) -> Tracks:
@@ -610,7 +603,7 @@ class TwoPointInitiation:
         """
         lifecycle, d_min, d_max = self.lifecycle, *self.windows[sensor]
         init_xy, before = self.xy[sensor], self.time[sensor]
-        free, i, j = free_window_pairs(init_xy, xy, used, d_min, d_max)
+        free, i, j, *fast = sweep_pairs(init_xy, xy, used, d_min, d_max, self.fast_windows[sensor][1])
         if lifecycle.max_tracks_per_initiator is not None:
             i, j = cap_per_initiator(i, j, init_xy, xy[free], d_min, d_max, lifecycle.max_tracks_per_initiator)
         windowed = j  # every windowed contact is spoken for, opened or not
@@ -621,7 +614,7 @@ class TwoPointInitiation:
         threshold = self._confirmation_threshold(len(init_xy)) if len(i) else math.inf
         rest_z, rest_xy, contact, fields = _opened(free, i, j, windowed, init_xy, z, xy, self.next_id,
                                                    np.full(len(init_xy), before), time, threshold)
-        self._too_fast(init_xy, xy, free, windowed, before, time, sensor)
+        self._too_fast(init_xy, xy, free, windowed, fast, before, time, sensor)
         self.contacts[sensor], self.xy[sensor], self.time[sensor] = rest_z, rest_xy, time
         if not contact.size:
             return None, None
@@ -668,15 +661,15 @@ class TwoPointInitiation:
             return None, None
         return self._born(z, contact, fields, time - wt[i], sensor)
 
-    def _too_fast(self, init_xy: np.ndarray, xy: np.ndarray, free: np.ndarray, windowed: np.ndarray,
+    def _too_fast(self, init_xy: np.ndarray, xy: np.ndarray, free: np.ndarray, windowed: np.ndarray, pairs: list,
                   before: float, time: float, sensor: int) -> None:
         """Count this scan's lines of refused fast pairs (class docstring, ``n_too_fast``; a `BoundWarning` the
-        first time in a run) and keep those to continue at the sensor's next scan (`lifecycle.fast_lines`).
-        Reads the scan, changes no track."""
+        first time in a run) and keep those to continue at the sensor's next scan (`lifecycle.fast_lines`, with
+        the fast ``pairs`` of `lifecycle.sweep_pairs`). Reads the scan, changes no track."""
         spoken = np.zeros(free.size, np.bool_)
         spoken[windowed] = True
         n, self._fast[sensor] = fast_lines(init_xy, xy, free, spoken, self._fast[sensor], *self.fast_windows[sensor],
-                                           self.fast_tolerance[sensor], time - before)
+                                           self.fast_tolerance[sensor], time - before, pairs)
         if n:
             self._refuse_fast(n, time, sensor)
 
@@ -840,20 +833,29 @@ class ContactTracker(ABC):
         density at its second contact (`lifecycle.adaptive_threshold`, `lifecycle.adaptive_deletion`); under
         the existence rule also the initiators' prior (`lifecycle.birth_log_odds`; the clutter around each
         initiator counted in this scan's contacts)."""
-        if self.confirmation_rule == "mn":
+        rule = self.confirmation_rule
+        if rule == "mn":
             return born
         sensor = self.sensors[scan.sensor]
         cfg = self.config.lifecycle
-        area = cfg.window_area(sensor.scan_period_s, sensor_noise_m(sensor))
         density = self._contact_density(scan)[contact]
-        score = start_score(self.score_pd, area, density)
-        if self.confirmation_rule == "adaptive":
-            born = born.confirming_at(adaptive_threshold(cfg.false_track_rate, cfg.false_deletion, density,
-                                                         sensor.scan_period_s), adaptive_deletion(cfg, density))
-        if self.confirmation_rule == "existence":
+        score = start_score(self.score_pd, self._window_areas[scan.sensor], density)
+        scores = born.scores.copy()
+        if rule == "adaptive":
+            scores[:, CONFIRM_AT] = adaptive_threshold(cfg.false_track_rate, cfg.false_deletion, density,
+                                                       sensor.scan_period_s)
+            scores[:, DELETE_AT] = adaptive_deletion(cfg, density)
+        if rule == "existence":
             score += birth_log_odds(self.score_pd, cfg.new_targets_per_scan / coverage_area(sensor),
                                     local_density(scan.xy, born.p1, self._clutter_radius, sensor))
-        return born.rescored(score, restart=True)
+        scores[:, SCORE] = scores[:, MAX_SCORE] = score
+        return replace(born, scores=scores)
+
+    @cached_property
+    def _window_areas(self) -> tuple[float, ...]:
+        """The initiation annulus' area (m^2) of each sensor (`LifecycleConfig.window_area`)."""
+        cfg = self.config.lifecycle
+        return tuple(cfg.window_area(s.scan_period_s, sensor_noise_m(s)) for s in self.sensors)
 
     def _score_gain(self, pred: IMMPrediction, scan: ScanContacts, assoc: Association) -> np.ndarray | None:
         """The scan's track-score increments (K,) under the score rule (None under M/N): the method's own,
@@ -863,11 +865,21 @@ class ContactTracker(ABC):
         if assoc.score_gain is not None:
             return assoc.score_gain
         mp = pred.measurement
-        gain, rows, at, target = _gains(assoc.contact, self._log_miss, math.log(self.score_pd), mp.z, mp.S_inv,
+        gain, rows, at, target = _gains(assoc.contact, self._log_miss, self._log_pd, mp.z, mp.S_inv,
                                         mp.log_det_S, pred.state.mu, scan.z,
                                         scan.filter.polar)
         gain[rows] = target - np.log(self.clutter_density(scan, at))
         return gain
+
+    @cached_property
+    def _release(self) -> bool:
+        """The config's ``release_on_deletion`` (False for a tracker without it)."""
+        return bool(getattr(self.config, "release_on_deletion", False))
+
+    @cached_property
+    def _log_pd(self) -> float:
+        """ln P_D of the track score (`score_pd`)."""
+        return math.log(self.score_pd)
 
     @cached_property
     def _log_miss(self) -> float:
@@ -1040,8 +1052,7 @@ class SingleHypothesisTracker(ContactTracker):
                                  self._score_gain(pred, scan, assoc))
         status, x, P, contact, used, deletions, survivors = _finished(
             args, u.x, u.P, u.mu, k.x, k.P, k.mu, self.filter.output_dim, self._sanity_args, self._quality_density(
-                scan, g.x), bool(getattr(self.config, "release_on_deletion", False)), g.x, g.P, tracks.track_id,
-            len(scan.z))
+                scan, g.x), self._release, g.x, g.P, tracks.track_id, len(scan.z))
         if any(deletions):
             for reason, n in zip(("unconfirmed", self._ended_reason, *SANITY_REASONS), deletions):
                 self.deletions[reason] += n
