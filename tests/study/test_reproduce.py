@@ -30,7 +30,8 @@ def reproduced(tmp_path_factory):
     out = tmp_path_factory.mktemp("reproduce") / "out"
     with pytest.MonkeyPatch.context() as mp:
         mp.setitem(reproduce.SIZES, "quick", TINY)
-        result = CliRunner().invoke(app, ["reproduce", "--out", str(out), "--quick"])
+        # in this process: the kernels it compiled already serve every study (local workers: tests/study/test_runner.py)
+        result = CliRunner().invoke(app, ["reproduce", "--out", str(out), "--quick", "--jobs", "1"])
     assert result.exit_code == 0, result.output + repr(result.exception)
     return out
 

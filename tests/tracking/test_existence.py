@@ -84,7 +84,7 @@ def test_confirmation_is_reachable_under_the_survival_cap():
     assert existence(capped)[0] == pytest.approx(cfg.survival_probability, rel=RTOL)
     for ratio in (1.0, 2.0, 60.0):
         after = capped + math.log(ratio)
-        status = advance_score(np.array([PRELIMINARY]), after, after, cfg)
+        status = advance_score(np.array([PRELIMINARY], np.int8), after, after, cfg)
         assert status[0] == CONFIRMED, ratio
     assert _logit(0.9999) - capped[0] > math.log(50)
 
@@ -96,10 +96,10 @@ def test_preliminary_deletion_is_relative_to_the_best_existence():
     birth = np.array([_logit(1e-4)])
     after_one = predicted_log_odds(birth, cfg.survival_probability) + LOG_MISS
     after_two = predicted_log_odds(after_one, cfg.survival_probability) + LOG_MISS
-    prelim = np.array([PRELIMINARY])
+    prelim = np.array([PRELIMINARY], np.int8)  # the trackers' status dtype: no second compiled signature
     assert advance_score(prelim, after_one, birth, cfg)[0] == PRELIMINARY
     assert advance_score(prelim, after_two, birth, cfg)[0] == DELETED
-    confirmed = np.array([CONFIRMED])  # a confirmed track goes at existence_deletion itself
+    confirmed = np.array([CONFIRMED], np.int8)  # a confirmed track goes at existence_deletion itself
     assert advance_score(confirmed, np.array([_logit(0.011)]), np.array([9.0]), cfg)[0] == CONFIRMED
     assert advance_score(confirmed, np.array([_logit(0.009)]), np.array([9.0]), cfg)[0] == DELETED
 

@@ -34,7 +34,7 @@ from nnda.tracking.neural_matching import (
     rest_stage,
     served_matching,
 )
-from nnda.tracking.output import TrackStatus
+from nnda.tracking.output import CONFIRMED, PRELIMINARY, TrackStatus
 from nnda.tracking.registry import make_tracker
 
 
@@ -327,7 +327,7 @@ def test_reacquire_is_the_nearest_free_pick_of_the_waiting_tracks(seed):
 
 
 def test_the_stages_on_a_hand_made_scan():
-    C, P = TrackStatus.CONFIRMED, TrackStatus.PRELIMINARY
+    C, P = CONFIRMED, PRELIMINARY  # plain ints, as the tracker passes them (an IntEnum compiles the kernels again)
     status, consecutive = np.array([C, C, P, C], np.int8), np.array([0, 1, 0, 2])
     track, cand, score = np.array([0, 1, 1, 2, 2]), np.array([0, 1, 2, 0, 3]), np.array([0.9, 0.8, 0.7, 0.95, 0.6])
     g_rows, g_cols, g_d2 = np.array([0, 1, 3]), np.array([0, 2, 3]), np.array([1.0, 2.0, 5.0])
