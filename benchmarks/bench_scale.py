@@ -23,7 +23,8 @@ in fifty, so the estimate is mostly the target's own contact, and the CPHD's Poi
 new targets a scan: ``--phd '{"clutter": "scan", "birth": {"rate": 5.0}}'`` fits this scene.
 
 ``--clutter-estimate local`` or ``unexplained`` sets the local clutter estimate of the trackers that have
-the choice (the PHD filters' ``clutter``, pmbm / glmb / lmb's ``clutter_estimate``; default: theirs): the
+the choice (the PHD filters' ``clutter``, the ``clutter_estimate`` of gnn, jpda, pmbm, glmb and lmb; default:
+theirs): the
 ``local`` count is mostly a target's own contact and its neighbours' here, ``unexplained`` leaves out the
 contact itself and the tracks' expected detections (`nnda.tracking.clutter_density.unexplained_density`).
 
@@ -51,8 +52,6 @@ from nnda.tracking.tracker import ContactTrackerConfig
 
 #: the trackers whose MOTA must come within `MOTA_GAP` of gnn's
 PHD = ("gmphd", "ekphd", "ukphd", "cphd")
-#: the trackers whose local clutter estimate is ``clutter_estimate``
-LABELLED = ("pmbm", "glmb", "lmb")
 MOTA_GAP = 0.05
 FIRST_RATIO = 2.0
 
@@ -63,7 +62,7 @@ def params_for(name: str, model: str | None, phd: dict, estimate: str | None = N
     params = {"model": model} if name == "nn" else dict(phd) if name in PHD else {}
     if estimate is not None and name in PHD:
         params.setdefault("clutter", estimate)
-    if estimate is not None and name in LABELLED:
+    if estimate is not None and "clutter_estimate" in TRACKERS[name].config_type.model_fields:
         params["clutter_estimate"] = estimate
     if issubclass(TRACKERS[name].config_type, ContactTrackerConfig):
         params["lifecycle"] = {"v_max": 250.0}

@@ -27,7 +27,9 @@ from nnda.tracking.assignment import given, greedy_matching, least_cost_assignme
 from nnda.tracking.gating import gate_tracks
 from nnda.tracking.output import CONFIRMED, NO_CONTACT
 from nnda.tracking.tracker import (
+    CLUTTER_ESTIMATE_DOC,
     Association,
+    ClutterEstimate,
     ContactTrackerConfig,
     ScanContacts,
     SingleHypothesisTracker,
@@ -43,6 +45,7 @@ class GNNConfig(ContactTrackerConfig):
     gate: Annotated[float, Field(gt=0, description="chi-square gate, 2 dof (9.21: P_G = 0.99)")] = GATE_99
     max_exact_pairs: Annotated[int, Field(ge=0, description="candidate pairs up to which the assignment "
                                           "is solved exactly; beyond, greedily by cost")] = 20_000
+    clutter_estimate: ClutterEstimate = Field("local", description=CLUTTER_ESTIMATE_DOC)
 
 
 class GNNTracker(SingleHypothesisTracker):

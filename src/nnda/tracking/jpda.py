@@ -102,7 +102,9 @@ from nnda.tracking.lifecycle import existence, jipda_log_ratio
 from nnda.tracking.marginals import jpda_marginals, log_miss_weight, runs
 from nnda.tracking.output import CONFIRMED, NO_CONTACT
 from nnda.tracking.tracker import (
+    CLUTTER_ESTIMATE_DOC,
     Association,
+    ClutterEstimate,
     ContactTrackerConfig,
     ScanContacts,
     SingleHypothesisTracker,
@@ -125,6 +127,7 @@ class JPDAConfig(ContactTrackerConfig):
         "from each scan: 'local' (around each contact) or 'scan' (whole coverage)")
     clutter_radius_m: Annotated[float, Field(gt=0, description="half-side (m) of the square of the "
                                 "'local' clutter density estimate")] = 3_000.0
+    clutter_estimate: ClutterEstimate = Field("local", description=CLUTTER_ESTIMATE_DOC)
     max_joint_events: Annotated[int, Field(ge=1, description="partial joint events listed per cluster "
                                 "(summed over its tracks) before falling back to loopy belief "
                                 "propagation")] = 10_000

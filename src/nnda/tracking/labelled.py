@@ -35,7 +35,7 @@ from pydantic import Field, model_validator
 
 from nnda.filters.batch import Batch
 from nnda.filters.kalman import GATE_99
-from nnda.tracking.clutter_density import coverage_area, local_density, unexplained_density
+from nnda.tracking.clutter_density import coverage_area, local_density
 from nnda.tracking.gating import gate
 from nnda.tracking.gibbs import unique_rows
 from nnda.tracking.lifecycle import birth_log_odds, sensor_noise_m, start_score
@@ -132,8 +132,6 @@ class LabelledMixture(ContactTracker):
         self.confirmed = np.empty(0, np.int64)  # labels reported confirmed
         self.n_capped = 0  # scans where the hypothesis cap bit
         self.tentative: LabelledTable | None = None  # births below admission_existence, each updated alone
-        #: the scan, the rows' predicted positions (S, 2) m and expected detections (S,) (`_explained_by`)
-        self._explained: tuple[ScanContacts, np.ndarray, np.ndarray] | None = None
         self.cardinality: Cardinality | None = None  # the target count after the last scan (`_count`)
 
     # ---------------------------------------------------------------------- one scan
@@ -172,11 +170,6 @@ class LabelledMixture(ContactTracker):
         tracks = tr.take(parent).after_scan(contact, filt, z, xy, time, cfg.lifecycle)
         return ScanUpdate(pd, pl, pj, ll, clutter, tracks, np.column_stack([old.hist[parent, 1:], contact]), x, P)
 
-    @property
-    def _unexplained(self) -> bool:
-        """Whether the clutter is the local estimate of the contacts the labels do not explain."""
-        return self.config.clutter_density is None and self.config.clutter_estimate == "unexplained"
-
     def _expected_detections(self, r_pd: np.ndarray) -> np.ndarray:
         """Each row's expected detections in this scan (S,): P_G p_S times ``r_pd`` (S,), its existence times
         its P_D, times the weight of the hypotheses holding it."""
@@ -184,30 +177,6 @@ class LabelledMixture(ContactTracker):
         weight = np.bincount(self.hyp[held], np.broadcast_to(np.exp(self.log_w)[:, None], self.hyp.shape)[held],
                              minlength=r_pd.size)
         return -math.expm1(-self.config.gate / 2.0) * self.config.survival_probability * r_pd * weight
-
-    def _explained_by(self, scan: ScanContacts) -> tuple[np.ndarray, np.ndarray]:
-        """The rows' predicted positions (S, 2) m and expected detections (S,) in ``scan`` (`_predict_update`
-        sets them before the scan's first clutter density), none before the mixture holds a label."""
-        if self._explained is None or self._explained[0] is not scan:
-            return np.empty((0, 2)), np.empty(0)
-        return self._explained[1], self._explained[2]
-
-    def _contact_density(self, scan: ScanContacts) -> np.ndarray:
-        """As `ContactTracker._contact_density` with ``clutter_estimate`` 'local'; with 'unexplained', the
-        density at each contact of the contacts the labels do not explain, the contact itself left out
-        (`unexplained_density`), counted once per scan."""
-        if not self._unexplained:
-            return super()._contact_density(scan)
-        if self._density_of is None or self._density_of[0] is not scan:
-            self._density_of = (scan, self._unexplained_density(scan, scan.xy, 1.0))
-        return self._density_of[1]
-
-    def _unexplained_density(self, scan: ScanContacts, at: np.ndarray, own: float | np.ndarray) -> np.ndarray:
-        """`unexplained_density` (m^-2) at the points ``at`` (Q, 2) m of the scan's contacts, ``own`` of them the
-        queries' own, less the labels' expected detections (`_explained_by`)."""
-        sensor = self.sensors[scan.sensor]
-        return unexplained_density(scan.xy, at, self.config.clutter_radius_m, coverage_area(sensor), sensor,
-                                   *self._explained_by(scan), own)
 
     def _clutter(self, scan: ScanContacts, at: np.ndarray) -> np.ndarray:
         """Clutter density in the scan's measurement space at its contacts ``at`` (M,): the fixed

@@ -66,7 +66,7 @@ from nnda.filters.kalman import GATE_99
 from nnda.filters.measurement import MeasurementModel, measurement_model
 from nnda.filters.motion import ConstantVelocity, CoordinatedTurn
 from nnda.tracking.assignment import given
-from nnda.tracking.clutter_density import coverage_area, local_density
+from nnda.tracking.clutter_density import coverage_area, local_density, unexplained_density
 from nnda.tracking.lifecycle import (
     DELETION_REASONS,
     SANITY_REASONS,
@@ -101,6 +101,13 @@ from nnda.tracking.reports import Phase, report_pairs, report_times, step_window
 SCORE_PD = 0.9
 #: half-side (m) of the local clutter density's square for a tracker whose config has none
 CLUTTER_RADIUS_M = 3_000.0
+#: how a contact tracker estimates the clutter around a point from the scan's contacts (its ``clutter_estimate``)
+ClutterEstimate = Literal["local", "unexplained"]
+#: the ``clutter_estimate`` field's description, shared by the configs that have it
+CLUTTER_ESTIMATE_DOC = ("the local clutter estimate: 'local', every contact in the square around the point (itself "
+                        "included); 'unexplained', the contacts there less the contact itself and the tracks' "
+                        "expected detections at their predicted positions, at least the scan's own such count over "
+                        "the coverage (`nnda.tracking.clutter_density.unexplained_density`; for many close targets)")
 
 
 class TrackerConfig(BaseModel):
@@ -769,6 +776,8 @@ class ContactTracker(ABC):
         self.last_time, self.last_sensor = -np.inf, -1
         self._bounds_hit: set[str] = set()
         self._density_of: tuple[ScanContacts, np.ndarray] | None = None  # (scan, `_contact_density`)
+        #: the scan, the tracks' predicted positions (K, 2) m and expected detections (K,) (`_explained_by`)
+        self._explained: tuple[ScanContacts, np.ndarray, np.ndarray] | None = None
         #: tracks deleted since the last reset, by reason (`nnda.tracking.lifecycle.DELETION_REASONS`)
         self.deletions: dict[str, int] = dict.fromkeys(DELETION_REASONS, 0)
 
@@ -816,12 +825,36 @@ class ContactTracker(ABC):
         return self._contact_density(scan)[at] * scan.filter.measurement.area_jacobian(scan.z[at])
 
     def _contact_density(self, scan: ScanContacts) -> np.ndarray:
-        """`local_density` (m^-2) at every contact of ``scan`` (N,), counted once per scan: the score rule
-        asks for it at the initiators and at the updating contacts, JPDA at the gated ones."""
+        """The local clutter density (m^-2) at every contact of ``scan`` (N,), counted once per scan: the score
+        rule asks for it at the initiators and at the updating contacts, JPDA at the gated ones. `local_density`,
+        or with ``clutter_estimate`` "unexplained" `unexplained_density` (each contact itself left out)."""
         if self._density_of is None or self._density_of[0] is not scan:
-            self._density_of = (scan, local_density(scan.xy, scan.xy, self._clutter_radius,
-                                                    self.sensors[scan.sensor]))
+            density = (self._unexplained_density(scan, scan.xy, 1.0) if self._unexplained else
+                       local_density(scan.xy, scan.xy, self._clutter_radius, self.sensors[scan.sensor]))
+            self._density_of = (scan, density)
         return self._density_of[1]
+
+    @cached_property
+    def _unexplained(self) -> bool:
+        """Whether the local clutter estimate leaves out what the tracks explain: ``clutter_estimate``
+        "unexplained" while the config's ``clutter_density`` (where it has one) asks for the local estimate."""
+        cfg = self.config
+        return (getattr(cfg, "clutter_estimate", "local") == "unexplained"
+                and getattr(cfg, "clutter_density", None) in (None, "local"))
+
+    def _explained_by(self, scan: ScanContacts) -> tuple[np.ndarray, np.ndarray]:
+        """The tracks' predicted positions (K, 2) m and expected detections (K,) in ``scan``, as the scan step set
+        them after its prediction (none before: no track yet)."""
+        if self._explained is None or self._explained[0] is not scan:
+            return np.empty((0, 2)), np.empty(0)
+        return self._explained[1], self._explained[2]
+
+    def _unexplained_density(self, scan: ScanContacts, at: np.ndarray, own: float | np.ndarray) -> np.ndarray:
+        """`unexplained_density` (m^-2) at the points ``at`` (Q, 2) m of the scan's contacts, ``own`` of them the
+        queries' own, less the tracks' expected detections (`_explained_by`)."""
+        sensor = self.sensors[scan.sensor]
+        return unexplained_density(scan.xy, at, self._clutter_radius, coverage_area(sensor), sensor,
+                                   *self._explained_by(scan), own)
 
     @cached_property
     def _clutter_radius(self) -> float:
@@ -1017,6 +1050,10 @@ class SingleHypothesisTracker(ContactTracker):
                 survival = self.config.lifecycle.survival_probability
                 tracks = tracks.rescored(predicted_log_odds(tracks.score, survival))
             pred = sc.filter.predict(tracks.filt, time - tracks.t2, check=False)
+            if self._unexplained:  # a confirmed track is expected to give a gated contact P_D P_G of the time
+                confirmed = tracks.status == CONFIRMED
+                self._explained = (sc, pred.gating.x[confirmed][:, 0:3:2],
+                                   np.full(int(confirmed.sum()), self.score_pd * -math.expm1(-self.gate_threshold / 2)))
             assoc = self.associate(tracks, pred, sc)
             if assoc.revised is not None:
                 tracks, pred = assoc.revised
