@@ -395,8 +395,9 @@ def score_bounds(cfg: LifecycleConfig, K: int, confirm_at: np.ndarray | None = N
 
 
 def _per_track(value: float | np.ndarray, K: int) -> np.ndarray:
-    """A threshold for each of K tracks, (K,) floats."""
-    return np.asarray(value, float) if np.ndim(value) else np.full(K, float(value))
+    """A threshold for each of K tracks, (K,) floats, contiguous (a column of the scores is not: a kernel given
+    both kinds would be compiled twice)."""
+    return np.ascontiguousarray(value, float) if np.ndim(value) else np.full(K, float(value))
 
 
 @numba.njit(cache=True, nogil=True)

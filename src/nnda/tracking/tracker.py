@@ -385,13 +385,13 @@ class Tracks(Batch):
         """The arguments of `_scanned_moved` for `after_scan`'s."""
         K, cfg = len(contact), lifecycle
         score_rule = cfg.confirmation != "mn"
-        confirm_at = self.scores[:, CONFIRM_AT]
+        confirm_at = np.ascontiguousarray(self.scores[:, CONFIRM_AT])  # one compiled layout, whichever rule
         lower, upper, early = (score_bounds(cfg, K, confirm_at, self.scores[:, DELETE_AT]) if score_rule
                                else (confirm_at, confirm_at, 0.0))
         return (contact, everywhere(observed, K), self.status, self.counts, cfg.m, cfg.n - cfg.m + 1,
                 cfg.max_misses, self.scores, np.zeros(K) if score_gain is None else score_gain,
                 score_gain is not None, score_rule, cfg.confirmation == "existence", lower, upper, early,
-                miss_run(cfg), self.history, xy, z[:, 1], time)
+                miss_run(cfg), self.history, xy, np.ascontiguousarray(z[:, 1]), time)
 
     def joined(self, other: Tracks) -> Tracks:
         """These tracks, then ``other``'s: `Batch.concat` of the two in one compiled call (`_joined`; the
