@@ -15,6 +15,7 @@ covariances are symmetrised, innovation covariances made exactly symmetric.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,6 +29,11 @@ LOG_2PI = float(np.log(2.0 * np.pi))
 
 #: chi-square gate on a 2-D innovation with P_G = 0.99 (ours: the thesis gives no gate size)
 GATE_99 = 9.21
+
+
+def gate_probability(gate: float) -> float:
+    """P_G, the probability that a 2-D innovation falls inside the chi-square ``gate``: 1 - exp(-gate / 2)."""
+    return -math.expm1(-gate / 2.0)
 
 #: sign pattern of the 2 x 2 adjugate
 _ADJ_SIGN = np.array([[1.0, -1.0], [-1.0, 1.0]])

@@ -34,7 +34,7 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from nnda.filters.batch import Batch
-from nnda.filters.kalman import GATE_99
+from nnda.filters.kalman import GATE_99, gate_probability
 from nnda.tracking.clutter_density import coverage_area, local_density
 from nnda.tracking.gating import gate
 from nnda.tracking.gibbs import unique_rows
@@ -176,7 +176,7 @@ class LabelledMixture(ContactTracker):
         held = self.hyp >= 0
         weight = np.bincount(self.hyp[held], np.broadcast_to(np.exp(self.log_w)[:, None], self.hyp.shape)[held],
                              minlength=r_pd.size)
-        return -math.expm1(-self.config.gate / 2.0) * self.config.survival_probability * r_pd * weight
+        return gate_probability(self.config.gate) * self.config.survival_probability * r_pd * weight
 
     def _clutter(self, scan: ScanContacts, at: np.ndarray) -> np.ndarray:
         """Clutter density in the scan's measurement space at its contacts ``at`` (M,): the fixed

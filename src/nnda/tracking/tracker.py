@@ -62,7 +62,7 @@ from nnda.errors import BoundWarning, ConfigError, TrackingError
 from nnda.filters.batch import Batch
 from nnda.filters.imm import DEFAULT_TPM, IMM, IMMPrediction, IMMState
 from nnda.filters.imm_kernels import estimate, pair_log_likelihood
-from nnda.filters.kalman import GATE_99
+from nnda.filters.kalman import GATE_99, gate_probability
 from nnda.filters.measurement import MeasurementModel, measurement_model
 from nnda.filters.motion import ConstantVelocity, CoordinatedTurn
 from nnda.tracking.assignment import given
@@ -1053,7 +1053,7 @@ class SingleHypothesisTracker(ContactTracker):
             if self._unexplained:  # a confirmed track is expected to give a gated contact P_D P_G of the time
                 confirmed = tracks.status == CONFIRMED
                 self._explained = (sc, pred.gating.x[confirmed][:, 0:3:2],
-                                   np.full(int(confirmed.sum()), self.score_pd * -math.expm1(-self.gate_threshold / 2)))
+                                   np.full(int(confirmed.sum()), self.score_pd * gate_probability(self.gate_threshold)))
             assoc = self.associate(tracks, pred, sc)
             if assoc.revised is not None:
                 tracks, pred = assoc.revised
