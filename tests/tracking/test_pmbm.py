@@ -12,6 +12,7 @@ from tests.tracking import labelled_helpers as lab
 from nnda.data.dataset import Scan
 from nnda.data.scenario import Sensor
 from nnda.errors import ConfigError
+from nnda.tracking.output import TrackStatus
 from nnda.tracking.pmbm import PMBMTracker, _n_scan_agrees
 from nnda.tracking.pmbm_hypotheses import scan_hypotheses
 from nnda.tracking.registry import make_tracker
@@ -176,3 +177,29 @@ def test_a_cluster_shared_by_global_hypotheses_is_ranked_once(monkeypatch):
     np.testing.assert_array_equal(both[0], np.concatenate([a[0] for a in alone]))
     np.testing.assert_array_equal(both[1], np.concatenate([a[1] for a in alone]))
     assert both[2].tolist() == [0] * alone[0][1].size + [1] * alone[1][1].size
+
+
+@pytest.mark.parametrize("report_existence", [0.5, 0.0])
+def test_a_confirmed_track_is_left_out_while_its_existence_is_low_and_keeps_its_id(report_existence):
+    """P_D 0.9: a confirmed Bernoulli missed twice in a row (existence ~0.47) is left out of the output, not
+    deleted, and comes back under its id and CONFIRMED with the next contact; once its target ends it shows
+    one coasted scan and is later reported DELETED. ``report_existence`` 0 reports it through every miss."""
+    sensor, scans = lab.one_target()
+    empty = np.empty((0, 2))
+    gap = {15, 16, 17}  # scans (1-based) with the target's contact removed
+    end = 25  # no contact after this scan
+    scans = [Scan(s.index, s.time, empty if s.index in gap or s.index > end else s.measurements) for s in scans]
+    tracker = make_tracker("pmbm", sensor, {"clutter_density": 1e-8, "report_existence": report_existence})
+    shown = {s.index: tracker.step(s) for s in scans}
+    track = int(shown[14].track_id[0])
+    assert shown[14].status.tolist() == [TrackStatus.CONFIRMED]
+    visible = {k for k, out in shown.items() if (out.track_id == track).any()}
+    after_end = [k for k in visible if k > end]
+    if report_existence:
+        assert 15 in visible and not {16, 17} & visible  # one miss shown (existence ~0.91), then left out
+        assert shown[18].track_id.tolist() == [track] and shown[18].status.tolist() == [TrackStatus.CONFIRMED]
+        assert after_end[0] == end + 1 and shown[after_end[1]].status.tolist() == [TrackStatus.DELETED]
+    else:
+        assert gap <= visible and all(shown[k].status.tolist() == [TrackStatus.CONFIRMED] for k in gap)
+        assert after_end[:4] == [end + 1, end + 2, end + 3, end + 4]
+    assert shown[after_end[-1]].status.tolist() == [TrackStatus.DELETED]

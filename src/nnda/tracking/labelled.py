@@ -19,8 +19,8 @@ the tentative labels (births below ``admission_existence``, each updated alone o
 `LabelledMixture._tentative_children`, the glmb module docstring), the pruning (light hypotheses dropped,
 N-scan pruning by the tracker's own rule `LabelledMixture._n_scan_keep`, the cap, the rows and labels no
 hypothesis holds removed), the existence marginals, and the report of the best hypothesis with the confirmed
-/ DELETED bookkeeping (a tracker may report more rows after it: `LabelledMixture._waiting`, the tentative
-labels).
+/ DELETED bookkeeping, a confirmed label left out while its existence is below ``report_existence`` (a tracker
+may report more rows after it: `LabelledMixture._waiting`, the tentative labels).
 """
 
 from __future__ import annotations
@@ -70,6 +70,12 @@ class LabelledConfig(ContactTrackerConfig):
                                                 "birth joins at once")] = 0.5
     min_tentative_existence: Annotated[float, Field(ge=0, lt=1, description="a tentative label of lower "
                                                     "existence is dropped")] = 1e-5
+    report_existence: Annotated[float, Field(ge=0, lt=1, description="a confirmed label is reported while its "
+                                             "existence is at least this; below it (two missed scans in a row "
+                                             "at P_D 0.9) it is kept but not reported until a contact raises "
+                                             "it again: 0.5 reports it where that lowers the expected GOSPA "
+                                             "(a false track and a missed target cost alike); 0 reports every "
+                                             "live label")] = 0.5
 
     @model_validator(mode="after")
     def _tentative_order(self) -> LabelledConfig:
@@ -321,7 +327,8 @@ class LabelledMixture(ContactTracker):
 
     def _report(self, scan: int, time: float) -> TrackerOutput:
         """The best hypothesis's labels with their row's estimate and contact, CONFIRMED once their existence
-        has reached ``existence_threshold``; then the waiting rows (`_waiting`); then the reported labels
+        has reached ``existence_threshold`` (and left out while a confirmed label's existence is below
+        ``report_existence``), PRELIMINARY before; then the waiting rows (`_waiting`); then the reported labels
         deleted in this scan, DELETED with their last estimate."""
         blocks = []
         ids, x, P = self.known
@@ -331,10 +338,12 @@ class LabelledMixture(ContactTracker):
             shown = np.flatnonzero(chosen >= 0)
             s = chosen[shown]
             label = self.labels[shown]
-            confirmed = self.existence()[shown] >= self.config.existence_threshold
-            self.confirmed = np.union1d(self.confirmed, label[confirmed])
-            status = np.where(np.isin(label, self.confirmed), TrackStatus.CONFIRMED, TrackStatus.PRELIMINARY)
-            blocks.append((label, status, table.x[s], table.P[s], table.hist[s, -1]))
+            r = self.existence()[shown]
+            self.confirmed = np.union1d(self.confirmed, label[r >= self.config.existence_threshold])
+            was = np.isin(label, self.confirmed)
+            status = np.where(was, TrackStatus.CONFIRMED, TrackStatus.PRELIMINARY)
+            seen = ~was | (r >= self.config.report_existence)
+            blocks.append((label[seen], status[seen], table.x[s[seen]], table.P[s[seen]], table.hist[s[seen], -1]))
             stale = ~np.isin(ids, label)
             ids = np.concatenate([ids[stale], label])
             x = np.concatenate([x[stale], table.x[s]])

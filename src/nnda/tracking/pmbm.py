@@ -60,7 +60,10 @@ Bernoulli. ``admission_existence`` 0 puts every new Bernoulli in the global hypo
 estimate there (the prediction after a miss) and contact, by label (the track id, stable for the
 Bernoulli's life), then the tentative labels (PRELIMINARY). A Bernoulli is CONFIRMED once its marginal
 existence (r summed over the global hypotheses by weight) reaches ``existence_threshold`` and stays so;
-before, it is reported PRELIMINARY.
+before, it is reported PRELIMINARY. A confirmed Bernoulli whose existence has fallen below
+``report_existence`` (0.5: after two missed scans in a row) is left out of the output until a contact raises
+it again, and kept until ``min_existence`` prunes it: a track coasts through a gap of four scans without
+showing a target's end for more than one scan.
 A reported Bernoulli that is deleted is reported once more as DELETED with its last estimate. The life
 cycle's initiation window, v_max and ``max_tracks`` (live Bernoullis) apply; its confirmation rule,
 M/N counts and sanity rules do not: status comes from existence alone, whatever ``lifecycle.confirmation``
@@ -110,9 +113,13 @@ class PMBMConfig(LabelledConfig):
     existence_threshold: Annotated[float, Field(gt=0, lt=1, description="marginal existence probability at "
                                                 "which a Bernoulli is confirmed")] = 0.99
     min_existence: Annotated[float, Field(ge=0, lt=1, description="an STH of lower existence is dropped "
-                                          "(its Bernoulli absent there): at 0.05, P_D 0.9 and p_S 0.99, a "
-                                          "confirmed target is kept through three missed scans in a row and "
-                                          "dropped at the fourth")] = 0.05
+                                          "(its Bernoulli absent there): at 0.001, P_D 0.9 and p_S 0.99, a "
+                                          "confirmed target is kept through four missed scans in a row and "
+                                          "dropped at the fifth (reported through the first only: "
+                                          "``report_existence``)")] = 0.001
+    gate: Annotated[float, Field(gt=0, description="chi-square gate, 2 dof (13.82: P_G = 0.999; a wide gate "
+                                 "keeps a target whose track lags in a turn, where the Bernoulli's existence, not "
+                                 "the gate, weighs the contact against clutter)")] = 13.82
     min_hypothesis_weight: Annotated[float, Field(ge=0, lt=1, description="global hypotheses of lower "
                                                   "normalised weight are dropped")] = 1e-4
 
