@@ -162,3 +162,16 @@ def test_a_scan_no_count_explains():
     pairs = gmphd.EKF(PolarMeasurement(30.0, 3e-3)).pairs(pred, z, gate=None)
     with pytest.raises(TrackingError, match="max_cardinality = 3 explains a scan of 5 contacts"):
         cphd.cphd_weights(pred.weights, pairs, 0.9, 0.0, np.zeros(5), np.full(4, 0.25))
+
+
+@pytest.mark.parametrize("size, ps", [(1, 0.99), (60, 0.99), (700, 0.99), (300, 0.5)])
+def test_thinning_is_the_binomial_pmf(size, ps):
+    """The survivors' matrix P(j | l) (Pascal's rule, compiled) equals scipy's binomial pmf to 1e-12 relative
+    wherever that is representable, and each column sums to one."""
+    n = np.arange(size)
+    want = binom.pmf(n[:, None], n[None, :], ps)
+    got = cphd._thinning(size, ps)
+    big = want > 1e-250
+    np.testing.assert_allclose(got[big], want[big], rtol=1e-12)
+    assert np.abs(got - want).max() < 1e-15
+    np.testing.assert_allclose(got.sum(axis=0), 1.0, rtol=1e-12)

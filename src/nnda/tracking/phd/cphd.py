@@ -47,7 +47,7 @@ from functools import lru_cache
 import numba
 import numpy as np
 from scipy.special import gammaln, xlogy
-from scipy.stats import binom, poisson
+from scipy.stats import poisson
 
 from nnda.errors import TrackingError
 from nnda.tracking.phd.gmphd import Pairs, per_contact_logsumexp
@@ -77,9 +77,23 @@ def support_for(p: np.ndarray, minimum: int, per_target: float) -> np.ndarray:
 
 @lru_cache(maxsize=8)
 def _thinning(size: int, ps: float) -> np.ndarray:
-    """(size, size) matrix of P(j survivors | l targets) = C(l, j) ps^j (1 - ps)^(l - j)."""
-    n = np.arange(size)
-    return binom.pmf(n[:, None], n[None, :], ps)
+    """(size, size) matrix of P(j survivors | l targets) = C(l, j) ps^j (1 - ps)^(l - j), row j, column l."""
+    return _binomial_columns(size, ps)
+
+
+@_jit
+def _binomial_columns(size: int, ps: float) -> np.ndarray:
+    """`_thinning` by Pascal's rule over the columns, P(j | l) = ps P(j-1 | l-1) + (1 - ps) P(j | l-1): a convex
+    combination per entry (relative error below l x 1e-16), O(size^2), where scipy's binomial pmf took 0.8 s
+    at size 1,600 (a CPHD following 1,000 targets)."""
+    out = np.zeros((size, size))
+    out[0, 0] = 1.0
+    q = 1.0 - ps
+    for col in range(1, size):
+        out[0, col] = q * out[0, col - 1]
+        for row in range(1, col + 1):
+            out[row, col] = ps * out[row - 1, col - 1] + q * out[row, col - 1]
+    return out
 
 
 def _logsumexp(a: np.ndarray, axis: int | None = None) -> np.ndarray:
