@@ -276,7 +276,7 @@ def test_score_gain_by_hand():
     contact = np.array([0, NO_CONTACT, 5, 4])
     scan = ScanContacts(3, 4.0, 0, imm, z, xy)
     gain = tracker._score_gain(pred, scan, Association(contact, pred.state))
-    pd, mp = tracker.score_pd, pred.measurement
+    pd, mp = tracker.score_pd(0), pred.measurement
     for k, c in enumerate(contact):
         if c == NO_CONTACT:
             assert gain[k] == pytest.approx(log_miss_weight(pd, 9.21), rel=RTOL)

@@ -107,9 +107,10 @@ def import_detections_command(
         timing = (f"reports in windows of {s.scan_period_s:g} s" if s.reports else f"period {s.scan_period_s:g} s")
         # a sensor whose kind is not given measures positions when the file has no range/azimuth
         kind = s.kind if "kind" in spec or s.kind == "polar" else "position: no kind given, no range/azimuth columns"
+        declared = "" if s.declared_pd is None else f", declared P_D {s.declared_pd:g} (the trackers assume it)"
         Console().print(f"  sensor {s.name} ({kind}) at ({s.x_m:g}, {s.y_m:g}) m: {timing}, "
-                        f"offset {s.scan_offset_s + shift:g} s, ranges {s.min_range_m:g}-{s.max_range_m:g} m",
-                        markup=False, highlight=False)
+                        f"offset {s.scan_offset_s + shift:g} s, ranges {s.min_range_m:g}-{s.max_range_m:g} m"
+                        f"{declared}", markup=False, highlight=False)
 
 
 def import_stonesoup(

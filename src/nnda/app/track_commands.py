@@ -174,6 +174,8 @@ def track(
         console.print(_scores_table(_scores(run, ds, params, cutoff, late, lag)))
     say(f"{tracker}: {run.table.num_rows} track reports over {ds.n_scans} scans; tracker {own:.2f} s "
         f"({_per_scan(run.step_seconds)}), total {wall:.2f} s")
+    if run.detection is not None:
+        say(f"{tracker}: {run.detection.line()}")
     if late is not None:
         extra = float(late.step_seconds.sum())
         say(f"lag {lag}: tracks_lag{lag}.{format.value}, the revision {extra:.2f} s "

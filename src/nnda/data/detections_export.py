@@ -44,8 +44,9 @@ def _degrees(dataset: Dataset, x: np.ndarray, y: np.ndarray) -> dict[str, np.nda
 
 
 def sensor_specs(scenario: Scenario) -> list[dict]:
-    """The scenario's sensors as `read_detections` takes them (every field but clutter)."""
-    return [s.model_dump(mode="json", exclude={"clutter"}) for s in scenario.sensors]
+    """The scenario's sensors as `read_detections` takes them (every field but clutter; ``declared_pd`` even
+    while None, so the import does not declare their generator's ``pd``)."""
+    return [s.model_dump(mode="json", exclude={"clutter"}) | {"declared_pd": s.declared_pd} for s in scenario.sensors]
 
 
 def _write(table: pa.Table, path: Path) -> None:

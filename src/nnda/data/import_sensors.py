@@ -136,13 +136,16 @@ def imported_sensors(specs: Sequence[Mapping[str, Any]], names: list[str], grids
                      sensor: np.ndarray, rng: np.ndarray | None, x: np.ndarray | None, y: np.ndarray | None,
                      polar: bool, cart: bool) -> list[Sensor]:
     """The sensors of an import, validated: each spec as the user gave it, its (period, offset) s from
-    ``grids``, no clutter model unless given, and range limits not given widened from the defaults to hold
+    ``grids``, no clutter model unless given, a ``pd`` given also declared (``declared_pd``, the P_D trackers
+    assume, unless the spec declares its own), and range limits not given widened from the defaults to hold
     its detections (``sensor`` (N,) each row's sensor; ``rng`` (N,) m or None; ``x``, ``y`` (N,) m or None)."""
     built = []
     for j, spec in enumerate(specs):
         mine = sensor == j
         full = {**spec, "scan_period_s": grids[j][0], "scan_offset_s": grids[j][1]}
         full.setdefault("clutter", Clutter(law="none").model_dump())
+        if "pd" in full:
+            full.setdefault("declared_pd", full["pd"])
         site = (float(full.get("x_m", 0.0)), float(full.get("y_m", 0.0)))
         if uses_polar(full.get("kind", "polar"), polar, cart):
             rj = rng[mine]

@@ -151,7 +151,12 @@ class Sensor(BaseModel):
     boresight_deg (degrees clockwise from north; fov_deg = 360 is the whole
     ring). The sensor sweeps at the times scan_offset_s + k scan_period_s
     (k integer) in (0, duration], sees each target with probability ``pd``
-    (unless the target overrides it) and adds its own ``clutter``.
+    (unless the target overrides it) and adds its own ``clutter``. ``pd`` is
+    the generator's truth, which no tracker reads; ``declared_pd`` is the
+    detection probability the sensor's owner declares, which trackers assume
+    unless their config sets its own (`nnda.tracking.detection_probability`;
+    ``nnda import-detections --sensor pd=X`` declares X). It is left out of a
+    dump while None.
 
     A sensor with ``reports = True`` (AIS, ADS-B, a tracker's plot stream)
     reports each contact at its own time: its scan k holds the reports with
@@ -177,6 +182,9 @@ class Sensor(BaseModel):
     min_range_m: NonNegativeFloat = 5_000.0
     max_range_m: PositiveFloat = 30_000.0
     pd: Probability = Field(default=1.0, description="detection probability outside scripted gaps")
+    declared_pd: Probability | None = Field(
+        default=None, description="the detection probability trackers assume for this sensor unless their config "
+        "sets pd; None: the tracker's own")
     clutter: Clutter = Clutter()
     reports: bool = Field(
         default=False, description="asynchronous reports: each detection keeps its own time; scan k holds this "
@@ -185,10 +193,13 @@ class Sensor(BaseModel):
 
     @model_serializer(mode="wrap")
     def _reports_only_when_set(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
-        """The fields as pydantic dumps them, without ``reports`` while it is False (older manifests' bytes)."""
+        """The fields as pydantic dumps them, without ``reports`` while it is False and ``declared_pd`` while it
+        is None (older manifests' bytes)."""
         data = handler(self)
         if not self.reports:
             data.pop("reports", None)
+        if self.declared_pd is None:
+            data.pop("declared_pd", None)
         return data
 
     @field_validator("x_m", "y_m")

@@ -52,6 +52,7 @@ from nnda.filters.measurement import PolarMeasurement
 from nnda.filters.motion import ConstantVelocity as NndaConstantVelocity
 from nnda.peers.adapter import TrackBook, measurement_model, to_datetime, to_detections
 from nnda.tracking.clutter_density import local_density
+from nnda.tracking.detection_probability import detection_probabilities
 from nnda.tracking.lifecycle import LifecycleConfig
 from nnda.tracking.output import DELETED, TrackerOutput
 from nnda.tracking.phd.birth import measurement_births
@@ -94,6 +95,9 @@ class StoneSoupTracker:
         self.sensor = only_sensor(self.name, sensors)
         self.sensors = (self.sensor,)
         self.config = checked_config(self, config)
+        #: the P_D of a peer whose config has one (`nnda.tracking.detection_probability`), else None
+        self.detection = (detection_probabilities(self.name, self.config, self.sensors)
+                          if "pd" in type(self.config).model_fields else None)
         self.reset()
 
     def reset(self) -> None:
@@ -158,7 +162,7 @@ class StoneSoupJPDA(StoneSoupTracker):
         cfg = self.config
         density = cfg.clutter_density if cfg.clutter_density != "local" else 1.0  # set per scan
         self.hypothesiser = PDAHypothesiser(self.predictor, self.updater, clutter_spatial_density=density,
-                                            prob_detect=cfg.pd, prob_gate=1.0 - math.exp(-cfg.gate / 2))
+                                            prob_detect=self.detection[0], prob_gate=1.0 - math.exp(-cfg.gate / 2))
         return MultiTargetMixtureTracker(initiator=self.initiator, deleter=deleter, detector=None,
                                          data_associator=JPDA(self.hypothesiser), updater=self.updater)
 
@@ -205,6 +209,8 @@ class StoneSoupGMPHD:
         self.sensor = sensor = only_sensor(self.name, sensors)
         self.sensors = (sensor,)
         self.config = checked_config(self, config)
+        #: the P_D and where it came from (`nnda.tracking.detection_probability`)
+        self.detection = detection_probabilities(self.name, self.config, self.sensors)
         self.polar = PolarMeasurement.from_sensor(sensor)
         self.volume = coverage_volume(sensor, polar=True)
         self.reset()
@@ -218,7 +224,7 @@ class StoneSoupGMPHD:
         predictor = ExtendedKalmanPredictor(
             CombinedLinearGaussianTransitionModel([ConstantVelocity(q), ConstantVelocity(q)]))
         self.updater = PHDUpdater(ExtendedKalmanUpdater(self.model), clutter_spatial_density=1.0,
-                                  prob_detection=cfg.pd, prob_survival=cfg.ps)
+                                  prob_detection=self.detection[0], prob_survival=cfg.ps)
         hypothesiser = GaussianMixtureHypothesiser(DistanceHypothesiser(
             predictor, self.updater.updater, Mahalanobis(), missed_distance=math.sqrt(cfg.gate)),
             order_by_detection=True)
@@ -243,7 +249,7 @@ class StoneSoupGMPHD:
         xy, cov = self.polar.position(z)
         mixture = self.tracker.gaussian_mixture
         rate, log_c = clutter(cfg, z, xy, self.volume, True,
-                              cfg.pd * float(sum(c.weight for c in mixture)) + cfg.birth.rate)
+                              self.detection[0] * float(sum(c.weight for c in mixture)) + cfg.birth.rate)
         # Stone Soup takes one clutter density per scan: the mean of the contacts' kappa
         self.updater.clutter_spatial_density = float(np.mean(rate * np.exp(log_c))) if len(z) else 1.0
         mixture.components.extend(self.births)

@@ -45,8 +45,10 @@ from nnda.files import read_config
 from nnda.study.kinds.track import MODEL_PARAM
 from nnda.study.metrics import DEFAULT_CUTOFF_M, Ownership, RunMetrics, run_metrics
 from nnda.study.track_job import dataset_digest, management_record, scalars
+from nnda.tracking.detection_probability import DetectionProbabilities
 from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
 from nnda.tracking.registry import make_tracker
+from nnda.tracking.tracker import Tracker
 
 STATE = ("x", "vx", "y", "vy")
 #: (row, column) of the covariance's unique entries, upper triangle row by row
@@ -62,9 +64,10 @@ TRACK_SCHEMA = pa.schema(
 @dataclass(frozen=True)
 class TrackRun:
     """A tracker's run on one dataset: its per-scan outputs, their table, the time of each ``step`` (s), the
-    scores (None when the dataset has no truth) and a contact tracker's track management (the confirmation
+    scores (None when the dataset has no truth), a contact tracker's track management (the confirmation
     rule, deletions by reason, lines refused as too fast: `nnda.study.track_job.management_record`; None for
-    other trackers)."""
+    other trackers) and the P_D each sensor's scans were tracked with and its source (`detection_record`; None
+    for a tracker that assumes none)."""
 
     tracker: str
     outputs: list[TrackerOutput]
@@ -72,6 +75,7 @@ class TrackRun:
     step_seconds: np.ndarray
     scores: RunMetrics | None
     management: dict | None = None
+    detection: DetectionProbabilities | None = None
 
 
 def tracker_params(config: Mapping[str, Any] | str | Path | None, model: str | Path | None) -> dict:
@@ -141,7 +145,15 @@ def run_tracker(dataset: Dataset | str | Path, tracker: str, config: Mapping[str
             if on_scan is not None:
                 on_scan(i + 1, dataset.n_scans)
         scores = run_metrics(dataset, outputs, cutoff_m, ownership) if score and has_truth(dataset) else None
-    return TrackRun(tracker, outputs, track_table(dataset, outputs), seconds, scores, management_record(t))
+    return TrackRun(tracker, outputs, track_table(dataset, outputs), seconds, scores, management_record(t),
+                    detection_record(t))
+
+
+def detection_record(tracker: Tracker) -> DetectionProbabilities | None:
+    """The P_D per sensor a built tracker assumes and where each came from (its ``detection``,
+    `nnda.tracking.detection_probability`), None for a tracker that assumes none."""
+    found = getattr(tracker, "detection", None)
+    return found if isinstance(found, DetectionProbabilities) else None
 
 
 SCORES_FORMAT = "nnda.track-scores"
@@ -151,12 +163,14 @@ SCORES_FORMAT_VERSION = 1
 def scores_record(run: TrackRun, dataset: Dataset, params: Mapping[str, Any], cutoff_m: float) -> dict:
     """``scores.json``: what was run on what, the ownership used, every run measure (`scalars`: a per-scan
     measure's mean over scans, undefined ones null) and, for a contact tracker, its ``track_management``
-    (the confirmation rule, deletions by reason, lines refused as too fast). No wall-clock time: the same
-    inputs give the same bytes."""
+    (the confirmation rule, deletions by reason, lines refused as too fast) and, for a tracker that assumes a
+    P_D, ``detection_probability``: per sensor its P_D and where it came from (`TrackRun.detection`). No
+    wall-clock time: the same inputs give the same bytes."""
     assert run.scores is not None
     return {
         "format": SCORES_FORMAT, "format_version": SCORES_FORMAT_VERSION, "tracker": run.tracker,
         "params": dict(params), "scenario": dataset.scenario.name, "dataset_digest": dataset_digest(dataset),
         "n_scans": dataset.n_scans, "n_targets": len(dataset.scenario.targets), "cutoff_m": cutoff_m,
         "ownership": run.scores.ownership, "metrics": scalars(run.scores),
-    } | ({} if run.management is None else {"track_management": run.management})
+    } | ({} if run.management is None else {"track_management": run.management}) | (
+        {} if run.detection is None else {"detection_probability": run.detection.record()})

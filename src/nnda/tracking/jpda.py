@@ -99,7 +99,7 @@ from nnda.filters.measurement import MeasurementModel
 from nnda.tracking.clutter_density import measurement_volume
 from nnda.tracking.gating import gate_tracks
 from nnda.tracking.lifecycle import existence, jipda_log_ratio
-from nnda.tracking.marginals import jpda_marginals, log_miss_weight, runs
+from nnda.tracking.marginals import jpda_marginals, runs
 from nnda.tracking.output import CONFIRMED, NO_CONTACT
 from nnda.tracking.tracker import (
     CLUTTER_ESTIMATE_DOC,
@@ -121,7 +121,8 @@ class JPDAConfig(ContactTrackerConfig):
 
     gate: Annotated[float, Field(gt=0, description="chi-square gate, 2 dof (9.21: P_G = 0.99)")] = GATE_99
     pd: Annotated[float, Field(gt=0, le=1, description="detection probability used in the event "
-                               "weights (0.9, as the MHT's scores)")] = 0.9
+                               "weights; left out: the scan's sensor's declared_pd, else 0.9 (as the MHT's "
+                               "scores)")] = 0.9
     clutter_density: Annotated[float, Field(gt=0)] | Literal["local", "scan"] = Field(
         "local", description="clutter contacts per m per rad of measurement space, or how to estimate it "
         "from each scan: 'local' (around each contact) or 'scan' (whole coverage)")
@@ -248,7 +249,7 @@ class JPDATracker(SingleHypothesisTracker):
         contact = np.full(len(tracks), NO_CONTACT, np.int64)
         state = IMMState(pred.state.x.copy(), pred.state.P.copy(), pred.state.mu.copy())
         imm, z = scan.filter, scan.z
-        log_miss = log_miss_weight(cfg.pd, cfg.gate)
+        pd, log_miss = self.score_pd(scan.sensor), self._log_miss[scan.sensor]
         gain = np.full(len(tracks), log_miss)  # the existence increments (JIPDA); a miss's without contacts
         if not len(z):
             return Association(contact, state, gain if self.confirmation_rule == "existence" else None)
@@ -266,7 +267,7 @@ class JPDATracker(SingleHypothesisTracker):
                 continue
             start, track = runs(g.rows[sel])  # the stage's tracks with pairs, numbered 0, 1, ...
             rows, cols = g.rows[sel[start]], g.cols[sel]
-            log_ratio = (np.log(cfg.pd) + imm.pair_log_likelihood(pred, rows[track], z[cols], check=False)
+            log_ratio = (np.log(pd) + imm.pair_log_likelihood(pred, rows[track], z[cols], check=False)
                          - log_density[cols])
             jipda = self.confirmation_rule == "existence"
             if jipda:  # JIPDA: each track's events weighed by its predicted existence

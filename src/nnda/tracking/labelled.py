@@ -149,7 +149,7 @@ class LabelledMixture(ContactTracker):
         z, xy, time, S = scan.z, scan.xy, scan.time, len(old)
         tr = old.tracks
         pred = imm.predict(tr.filt, time - tr.t2, check=False)
-        pd = np.full(S, cfg.pd)
+        pd = np.full(S, self.score_pd(scan.sensor))
         observed = self._observed(scan, pred)
         if observed is not None:
             pd = np.where(observed, pd, 0.0)
@@ -226,8 +226,8 @@ class LabelledMixture(ContactTracker):
                 rho1 = local_density(scan.xy, born.p1, cfg.clutter_radius_m, sensor)
         else:
             rho2 = rho1 = np.full(len(born), cfg.clutter_density)
-        log_odds = start_score(cfg.pd, area, rho2) + birth_log_odds(cfg.pd, cfg.birth_rate / coverage_area(sensor),
-                                                                    rho1)
+        pd = self.score_pd(scan.sensor)
+        log_odds = start_score(pd, area, rho2) + birth_log_odds(pd, cfg.birth_rate / coverage_area(sensor), rho1)
         return np.exp(-np.logaddexp(0.0, -log_odds)), log_odds
 
     def _tentative_children(self, scan: ScanContacts, tent: LabelledTable

@@ -93,7 +93,8 @@ class MHTConfig(ContactTrackerConfig):
         return self
 
     gate: Annotated[float, Field(gt=0, description="chi-square gate, 2 dof (9.21: P_G = 0.99)")] = GATE_99
-    pd: Annotated[float, Field(gt=0, lt=1, description="detection probability used in the scores")] = 0.9
+    pd: Annotated[float, Field(gt=0, lt=1, description="detection probability used in the scores; "
+                               "left out: the scan's sensor's declared_pd, else 0.9")] = 0.9
     new_target_ratio: Annotated[float, Field(gt=0, description="beta_NT / beta_FT")] = 0.1
     clutter_density: Annotated[float | None, Field(gt=0, description="clutter per m^2; None: local estimate")] = None
     clutter_radius_m: Annotated[float, Field(gt=0)] = 3_000.0
@@ -176,7 +177,8 @@ class MHTTracker(ContactTracker):
         pred = imm.predict(tr.filt, time - tr.t2)
         x_pred, P_pred, mp = pred.gating.x, pred.gating.P, pred.gating.measurement
         p_gate = 1.0 - math.exp(-cfg.gate / 2.0)  # chi-square cdf, 2 dof
-        miss_score = leaves.score + math.log(1.0 - cfg.pd * p_gate)
+        pd = self.score_pd(scan.sensor)
+        miss_score = leaves.score + math.log(1.0 - pd * p_gate)
         observed = self._observed(scan, pred, tr.t2)  # a leaf the scan does not observe keeps its score and counters
         if observed is not None:
             miss_score = np.where(observed, miss_score, leaves.score)
@@ -190,7 +192,7 @@ class MHTTracker(ContactTracker):
             if pl.size:
                 ll = imm.pair_log_likelihood(pred, pl, z[pj], check=False)
                 beta_ft = self._clutter_density(x_pred, xy) * imm.measurement.area_jacobian(mp.z)
-                det = leaves.score[pl] + math.log(cfg.pd) + ll - np.log(beta_ft[pl])
+                det = leaves.score[pl] + math.log(pd) + ll - np.log(beta_ft[pl])
                 order = np.lexsort((-det, pl))
                 pl, pj, det = pl[order], pj[order], det[order]
                 rank = np.arange(pl.size) - np.searchsorted(pl, pl)

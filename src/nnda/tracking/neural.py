@@ -269,7 +269,8 @@ class NeuralTracker(SingleHypothesisTracker):
 
     def reset(self) -> None:
         super().reset()
-        self._last_scan: tuple[Tracks, np.ndarray] | None = None  # its tracks and contacts, for `_retrodicted`
+        #: the last scan's tracks, contacts and sensor, for `_retrodicted`
+        self._last_scan: tuple[Tracks, np.ndarray, int] | None = None
 
     def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
         """The scan's three stages (`nnda.tracking.neural_matching`), each a compiled pass, the retrodiction
@@ -301,7 +302,7 @@ class NeuralTracker(SingleHypothesisTracker):
         if cfg.preliminary_gate is not None:
             contact = self._preliminary_picks(tracks, g, scan, contact)
         if cfg.retrodiction:  # kept as they are; the branches are made only when the next scan asks
-            self._last_scan = (tracks, contact)
+            self._last_scan = (tracks, contact, scan.sensor)
         assoc = hard_update(scan.filter, pred, scan.z, contact)
         return assoc if tracks is given else Association(assoc.contact, assoc.filt, revised=(tracks, pred))
 
@@ -361,7 +362,7 @@ class NeuralTracker(SingleHypothesisTracker):
         unchanged = tracks, pred, contact
         if self._last_scan is None or not lost.size or not len(self._last_scan[0]):
             return unchanged
-        last, last_contact = self._last_scan
+        last, last_contact, last_sensor = self._last_scan
         # track ids ascend in both (tracks keep their order; new ones come last, with higher ids)
         ids = tracks.track_id[lost]
         at = np.minimum(np.searchsorted(last.track_id, ids), len(last) - 1)
@@ -369,7 +370,7 @@ class NeuralTracker(SingleHypothesisTracker):
         lost, at = lost[known], at[known]
         if not lost.size:
             return unchanged
-        branch = self._skipping(last.take(at))
+        branch = self._skipping(last.take(at), last_sensor)
         alive = branch.status != DELETED
         if not alive.all():
             lost, branch = lost[alive], branch.take(alive)
@@ -387,12 +388,12 @@ class NeuralTracker(SingleHypothesisTracker):
         contact[lost[rows]] = cols
         return tracks.joined(branch).take(index), IMMPrediction.concat([pred, branch_pred]).take(index), contact
 
-    def _skipping(self, tracks: Tracks) -> Tracks:
-        """Last scan's confirmed ``tracks`` (K,), each of which took a contact then, as they would be had they
-        missed it instead (the branches of `_retrodicted`): their last posterior kept, the miss counted in
-        their life cycle and score (a branch may come out deleted)."""
+    def _skipping(self, tracks: Tracks, sensor: int) -> Tracks:
+        """Last scan's confirmed ``tracks`` (K,), each of which took a contact then from ``sensor`` (an index),
+        as they would be had they missed it instead (the branches of `_retrodicted`): their last posterior kept,
+        the miss counted in their life cycle and score (a branch may come out deleted)."""
         K = len(tracks)
-        gain = None if self.confirmation_rule == "mn" else np.full(K, self._log_miss)
+        gain = None if self.confirmation_rule == "mn" else np.full(K, self._log_miss[sensor])
         none = np.empty((0, 2))  # a miss reads no contact
         return tracks.after_scan(np.full(K, NO_CONTACT), tracks.filt, none, none, np.nan, self.config.lifecycle,
                                  None, gain)

@@ -67,6 +67,7 @@ from nnda.filters.measurement import MeasurementModel, measurement_model
 from nnda.filters.motion import ConstantVelocity, CoordinatedTurn
 from nnda.tracking.assignment import given
 from nnda.tracking.clutter_density import coverage_area, local_density, unexplained_density
+from nnda.tracking.detection_probability import DEFAULT_PD, DetectionProbabilities, detection_probabilities
 from nnda.tracking.lifecycle import (
     DELETION_REASONS,
     SANITY_REASONS,
@@ -97,8 +98,8 @@ from nnda.tracking.marginals import log_miss_weight
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
 from nnda.tracking.reports import Phase, report_pairs, report_times, step_window
 
-#: detection probability of the track score for a tracker whose config has none (MHT's default)
-SCORE_PD = 0.9
+#: detection probability of the track score for a tracker whose config has none and whose sensors declare none
+SCORE_PD = DEFAULT_PD
 #: half-side (m) of the local clutter density's square for a tracker whose config has none
 CLUTTER_RADIUS_M = 3_000.0
 #: how a contact tracker estimates the clutter around a point from the scan's contacts (its ``clutter_estimate``)
@@ -764,6 +765,9 @@ class ContactTracker(ABC):
                  track_filter: IMM | None = None) -> None:
         self.sensors = sensor_tuple(sensors)
         self.config = checked_config(self, config)
+        #: the P_D of each sensor's scans and where it came from (`score_pd`)
+        self.detection: DetectionProbabilities = detection_probabilities(
+            self.name, self.config, self.sensors, default=SCORE_PD)
         self.filter = (track_filter if track_filter is not None
                        else self.config.motion.imm(measurement_model(self.sensors[0])))
         self.filters = (self.filter, *(self.filter.for_measurement(measurement_model(s)) for s in self.sensors[1:]))
@@ -812,10 +816,10 @@ class ContactTracker(ABC):
         posterior: `own_confirmation`)."""
         return self.own_confirmation or self.config.lifecycle.confirmation
 
-    @cached_property
-    def score_pd(self) -> float:
-        """The detection probability of the track score: the config's ``pd``, or 0.9 (`SCORE_PD`)."""
-        return float(getattr(self.config, "pd", SCORE_PD))
+    def score_pd(self, sensor: int) -> float:
+        """The detection probability of the track score in a scan of ``sensor`` (an index): the config's ``pd``
+        when set, else the sensor's declared P_D, else the config's default or 0.9 (`SCORE_PD`; ``detection``)."""
+        return self.detection[sensor]
 
     def clutter_density(self, scan: ScanContacts, at: np.ndarray) -> np.ndarray:
         """Clutter density in the measurement space of the scan's sensor (polar: (m rad)^-1) at its
@@ -872,14 +876,14 @@ class ContactTracker(ABC):
         sensor = self.sensors[scan.sensor]
         cfg = self.config.lifecycle
         density = self._contact_density(scan)[contact]
-        score = start_score(self.score_pd, self._window_areas[scan.sensor], density)
+        score = start_score(self.score_pd(scan.sensor), self._window_areas[scan.sensor], density)
         scores = born.scores.copy()
         if rule == "adaptive":
             scores[:, CONFIRM_AT] = adaptive_threshold(cfg.false_track_rate, cfg.false_deletion, density,
                                                        sensor.scan_period_s)
             scores[:, DELETE_AT] = adaptive_deletion(cfg, density)
         if rule == "existence":
-            score += birth_log_odds(self.score_pd, cfg.new_targets_per_scan / coverage_area(sensor),
+            score += birth_log_odds(self.score_pd(scan.sensor), cfg.new_targets_per_scan / coverage_area(sensor),
                                     local_density(scan.xy, born.p1, self._clutter_radius, sensor))
         scores[:, SCORE] = scores[:, MAX_SCORE] = score
         return replace(born, scores=scores)
@@ -898,9 +902,8 @@ class ContactTracker(ABC):
         if assoc.score_gain is not None:
             return assoc.score_gain
         mp = pred.measurement
-        gain, rows, at, target = _gains(assoc.contact, self._log_miss, self._log_pd, mp.z, mp.S_inv,
-                                        mp.log_det_S, pred.state.mu, scan.z,
-                                        scan.filter.polar)
+        gain, rows, at, target = _gains(assoc.contact, self._log_miss[scan.sensor], self._log_pd[scan.sensor], mp.z,
+                                        mp.S_inv, mp.log_det_S, pred.state.mu, scan.z, scan.filter.polar)
         gain[rows] = target - np.log(self.clutter_density(scan, at))
         return gain
 
@@ -910,14 +913,14 @@ class ContactTracker(ABC):
         return bool(getattr(self.config, "release_on_deletion", False))
 
     @cached_property
-    def _log_pd(self) -> float:
-        """ln P_D of the track score (`score_pd`)."""
-        return math.log(self.score_pd)
+    def _log_pd(self) -> tuple[float, ...]:
+        """ln P_D of the track score per sensor (`score_pd`)."""
+        return tuple(math.log(pd) for pd in self.detection.values)
 
     @cached_property
-    def _log_miss(self) -> float:
-        """ln(1 - P_D P_G), a miss's score increment (`log_miss_weight`)."""
-        return log_miss_weight(self.score_pd, self.gate_threshold)
+    def _log_miss(self) -> tuple[float, ...]:
+        """ln(1 - P_D P_G) per sensor, a miss's score increment (`log_miss_weight`)."""
+        return tuple(log_miss_weight(pd, self.gate_threshold) for pd in self.detection.values)
 
     def track_management(self) -> dict:
         """What a study records of the run so far: the confirmation rule, the deletions by reason and the lines
@@ -1053,7 +1056,8 @@ class SingleHypothesisTracker(ContactTracker):
             if self._unexplained:  # a confirmed track is expected to give a gated contact P_D P_G of the time
                 confirmed = tracks.status == CONFIRMED
                 self._explained = (sc, pred.gating.x[confirmed][:, 0:3:2],
-                                   np.full(int(confirmed.sum()), self.score_pd * gate_probability(self.gate_threshold)))
+                                   np.full(int(confirmed.sum()),
+                                           self.score_pd(sc.sensor) * gate_probability(self.gate_threshold)))
             assoc = self.associate(tracks, pred, sc)
             if assoc.revised is not None:
                 tracks, pred = assoc.revised

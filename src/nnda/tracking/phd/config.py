@@ -283,7 +283,8 @@ class PHDConfig(CommonConfig):
                      Discriminator(_birth_kind)] = MeasurementBirth()
     spawn: Spawn | None = None
     sensor_pd: Annotated[tuple[Probability, ...], Field(min_length=1)] | None = Field(
-        None, description="detection probability of each sensor, in the scenario's order; None: pd for all")
+        None, description="detection probability of each sensor, in the scenario's order; None: pd for all when "
+        "set, else each sensor's declared_pd, else pd's default")
     use_sensors: Annotated[tuple[str, ...], Field(min_length=1)] | None = Field(
         None, description="names of the sensors whose scans update the filter; the others' scans only "
         "predict it (a report still follows every scan); None: every sensor")

@@ -176,9 +176,10 @@ class FusionTracker:
         self.sensors = sensor_tuple(sensors)
         self.config = cfg = checked_config(self, config)
         local = cfg.model_dump(exclude=set(type(cfg).model_fields) - set(CentralPHDConfig.model_fields) | {"sensor_pd"})
+        #: the P_D of each sensor's scans and where it came from (each local filter's ``pd``)
+        self.detection = sensor_detection(self.name, cfg, self.sensors)
         self.local = tuple(CentralPHDTracker(s, CentralPHDConfig(**{**local, "pd": pd}))
-                           for s, pd in zip(self.sensors, sensor_detection(self.name, cfg, self.sensors),
-                                            strict=True))
+                           for s, pd in zip(self.sensors, self.detection.values, strict=True))
         for f, s in zip(self.local, self.sensors, strict=True):
             f.label = f"{self.name} (the local filter of sensor {s.name!r})"
         self.reset()

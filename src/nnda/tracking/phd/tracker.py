@@ -43,7 +43,8 @@ scan (J components, N contacts):
 
 Several sensors (the iterated-corrector PHD and CPHD): each scan updates
 with its own sensor's measurement model, clutter volume and detection
-probability (``sensor_pd``, else ``pd``), in time order. A component the
+probability (``sensor_pd``, else ``pd`` when set, else the sensor's declared P_D,
+`nnda.tracking.detection_probability`), in time order. A component the
 scan's sensor cannot see at its predicted mean (outside its range limits or
 sector) gets p_D = 0 from that scan, so it is not thinned by a sensor that
 could not have detected it, unless no sensor covers it (then it misses, as
@@ -73,6 +74,7 @@ from nnda.filters.measurement import MeasurementModel, PositionMeasurement, meas
 from nnda.filters.mixture import Mixture, cap, merge
 from nnda.filters.motion import POS
 from nnda.tracking.clutter_density import coverage_area, local_density, measurement_volume, unexplained_density
+from nnda.tracking.detection_probability import FROM_CONFIG, DetectionProbabilities, detection_probabilities
 from nnda.tracking.output import CONFIRMED, NO_CONTACT, TrackerOutput
 from nnda.tracking.phd import cphd, gmphd
 from nnda.tracking.phd.birth import measurement_births
@@ -152,14 +154,19 @@ class Explained:
     area: float
 
 
-def sensor_detection(name: str, config: PHDConfig, sensors: tuple[Sensor, ...]) -> tuple[float, ...]:
-    """Each sensor's detection probability for tracker ``name``: ``config.sensor_pd``, else ``config.pd`` for
-    all; ConfigError when ``sensor_pd`` gives another number of them than there are ``sensors``."""
-    pds = config.sensor_pd if config.sensor_pd is not None else (config.pd,) * len(sensors)
+def sensor_detection(name: str, config: PHDConfig, sensors: tuple[Sensor, ...]) -> DetectionProbabilities:
+    """Each sensor's detection probability for tracker ``name`` and its source: ``config.sensor_pd``, else
+    ``config.pd`` when set, else the sensor's declared P_D, else the default ``pd``
+    (`nnda.tracking.detection_probability`); ConfigError when ``sensor_pd`` gives another number of them than
+    there are ``sensors``."""
+    if config.sensor_pd is None:
+        return detection_probabilities(name, config, sensors)
+    pds = config.sensor_pd
     if len(pds) != len(sensors):
         raise ConfigError(f"{name}: sensor_pd gives {len(pds)} detection probabilities for "
                           f"{len(sensors)} sensor(s) ({', '.join(s.name for s in sensors)})")
-    return pds
+    return DetectionProbabilities(tuple(s.name for s in sensors), tuple(pds),
+                                  (f"{FROM_CONFIG} (sensor_pd)",) * len(sensors))
 
 
 def coverage_volume(sensor: Sensor, polar: bool) -> float:
@@ -204,7 +211,8 @@ class GMPHDTracker:
         if measurement is not None and len(self.sensors) != 1:
             raise ConfigError(f"{self.name}: a measurement model replaces the one sensor's; this tracker has "
                               f"{len(self.sensors)} sensors")
-        pds = sensor_detection(self.name, cfg, self.sensors)
+        #: the P_D of each sensor's scans and where it came from
+        self.detection = sensor_detection(self.name, cfg, self.sensors)
         names = [s.name for s in self.sensors]
         unknown = sorted(set(cfg.use_sensors or ()) - set(names))
         if unknown:
@@ -213,7 +221,8 @@ class GMPHDTracker:
         self.used = np.array([cfg.use_sensors is None or n in cfg.use_sensors for n in names])
         self.motion = cfg.motion_model()
         self.transform = cfg.unscented.transform() if cfg.linearisation == "ukf" else None  # UT prediction
-        self.views = tuple(self._view(s, measurement, pd) for s, pd in zip(self.sensors, pds, strict=True))
+        self.views = tuple(self._view(s, measurement, pd)
+                           for s, pd in zip(self.sensors, self.detection.values, strict=True))
         self.period = min(s.scan_period_s for s in self.sensors)
         birth = cfg.birth
         self.static = None if not isinstance(birth, StaticBirth) else Mixture.make(

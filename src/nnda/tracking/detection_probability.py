@@ -1,0 +1,99 @@
+"""The detection probability P_D a tracker assumes for each of its sensors, and where that value came from.
+
+A sensor's ``pd`` is the generator's truth and no tracker reads it; a sensor
+may instead declare the P_D trackers should assume for it
+(`nnda.data.scenario.Sensor.declared_pd`: ``nnda import-detections
+--sensor pd=X``, or a scenario's sensor table). Per sensor a tracker
+assumes (`detection_probabilities`):
+
+1. its config's ``pd`` when the user set it: the field is among the config's
+   ``model_fields_set`` (a default left alone is no choice, and keeping the
+   default 0.9 keeps every config's dump, hence study job keys, as they were);
+2. else the sensor's declared P_D, held to the bounds of the config's ``pd``
+   field (0 < P_D <= 1 for a config without one);
+3. else the tracker's default: its config's ``pd`` default, or `DEFAULT_PD`.
+
+Each scan comes from one sensor, so the trackers index the values by
+``scan.sensor``, resolved once when the tracker is built.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Annotated
+
+import annotated_types
+from pydantic import BaseModel, TypeAdapter, ValidationError
+
+from nnda.data.scenario import Sensor
+from nnda.errors import ConfigError
+
+#: P_D of a tracker whose config has no ``pd`` (the track score's of GNN and the neural tracker)
+DEFAULT_PD = 0.9
+#: where a value came from (`DetectionProbabilities.sources`); a declared one is "declared by sensor 'NAME'"
+FROM_CONFIG = "tracker config"
+FROM_DEFAULT = "tracker default"
+
+
+@dataclass(frozen=True)
+class DetectionProbabilities:
+    """Per sensor of a tracker, in the scenario's order: its name, the P_D the tracker assumes and its source."""
+
+    sensors: tuple[str, ...]
+    values: tuple[float, ...]
+    sources: tuple[str, ...]
+
+    def __getitem__(self, sensor: int) -> float:
+        return self.values[sensor]
+
+    def line(self) -> str:
+        """One line: each sensor's P_D and source, e.g. "P_D: radar 0.6 (declared by sensor 'radar')"."""
+        return "P_D: " + ", ".join(f"{n} {v:g} ({s})" for n, v, s in zip(self.sensors, self.values, self.sources))
+
+    def record(self) -> list[dict]:
+        """What a run's metadata records: ``[{"sensor", "pd", "source"}, ...]``."""
+        return [{"sensor": n, "pd": v, "source": s} for n, v, s in zip(self.sensors, self.values, self.sources)]
+
+
+def declared_source(sensor: Sensor) -> str:
+    """The source of a value the sensor declared."""
+    return f"declared by sensor {sensor.name!r}"
+
+
+def detection_probabilities(tracker: str, config: BaseModel, sensors: Sequence[Sensor], field: str = "pd",
+                            default: float = DEFAULT_PD) -> DetectionProbabilities:
+    """The P_D ``tracker`` assumes for each of ``sensors`` with ``config`` (module docstring); ``field`` names the
+    config's P_D field (a config without it: ``default`` unless a sensor declares one). ConfigError, naming the
+    sensor, its field and the tracker's bounds, for a declared value the tracker cannot take."""
+    own = field in type(config).model_fields
+    if own and field in config.model_fields_set:
+        value = float(getattr(config, field))
+        return DetectionProbabilities(tuple(s.name for s in sensors), (value,) * len(sensors),
+                                      (FROM_CONFIG,) * len(sensors))
+    fallback = float(getattr(config, field)) if own else default
+    bounds = type(config).model_fields[field].metadata if own else [annotated_types.Gt(0), annotated_types.Le(1)]
+    values, sources = [], []
+    for s in sensors:
+        if s.declared_pd is None:
+            values.append(fallback)
+            sources.append(FROM_DEFAULT)
+        else:
+            values.append(_within(tracker, s, bounds, field))
+            sources.append(declared_source(s))
+    return DetectionProbabilities(tuple(s.name for s in sensors), tuple(values), tuple(sources))
+
+
+def _within(tracker: str, sensor: Sensor, bounds: list, field: str) -> float:
+    """The sensor's declared P_D, checked against the ``bounds`` (annotated-types metadata) of the tracker's
+    P_D field."""
+    value = float(sensor.declared_pd)
+    try:
+        return float(TypeAdapter(Annotated[float, *bounds]).validate_python(value))
+    except ValidationError:
+        words = {"gt": ">", "ge": ">=", "lt": "<", "le": "<="}
+        needs = " and ".join(f"{words[k]} {getattr(b, k):g}" for b in bounds for k in words if hasattr(b, k))
+        raise ConfigError(f"{tracker}: sensor {sensor.name!r} declares declared_pd = {value:g}, but {tracker} needs "
+                          f"a detection probability {needs}; set the sensor's declared_pd (nnda import-detections "
+                          f"--sensor pd=X, or the scenario's sensor table) within that, or the tracker config's "
+                          f"{field} to override it") from None
