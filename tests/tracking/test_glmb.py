@@ -249,3 +249,10 @@ def test_the_target_count_is_the_mixture_of_multi_bernoulli_counts(name):
         assert math.isclose(count.mean, n @ p, rel_tol=1e-9, abs_tol=1e-12)
         assert math.isclose(count.variance, (n - n @ p) ** 2 @ p, rel_tol=1e-9, abs_tol=1e-12)
     assert count.mean > 1.5  # both targets counted by the last scan
+
+
+@pytest.mark.parametrize("name", ["glmb", "lmb"])
+def test_a_confirmed_label_is_left_out_while_its_existence_is_low_and_keeps_its_id(name):
+    """The hypotheses where the target has ended stay beside those where it coasts (N-scan pruning constrains no
+    absent label), so the label's existence falls with its misses: `labelled_helpers.gap_and_end`."""
+    lab.gap_and_end(name, 0.5)

@@ -12,8 +12,9 @@ from tests.tracking import labelled_helpers as lab
 from nnda.data.dataset import Scan
 from nnda.data.scenario import Sensor
 from nnda.errors import ConfigError
+from nnda.tracking.labelled import n_scan_agrees
 from nnda.tracking.output import TrackStatus
-from nnda.tracking.pmbm import PMBMTracker, _n_scan_agrees
+from nnda.tracking.pmbm import PMBMTracker
 from nnda.tracking.pmbm_hypotheses import scan_hypotheses
 from nnda.tracking.registry import make_tracker
 
@@ -138,7 +139,7 @@ def test_n_scan_pruning_decides_the_oldest_scan_only_where_it_is_known():
                     [-1, 8, -1],    # 1 took contact 5, which the best gave to 0
                     [9, -1, -1]])   # agrees
     oldest = np.array([[5, -1, -1], [-1, -1, -1], [5, -1, 8], [-1, 5, -1], [5, -1, -1]])
-    np.testing.assert_array_equal(_n_scan_agrees(hyp, oldest, 0), [True, False, True, False, True])
+    np.testing.assert_array_equal(n_scan_agrees(hyp, oldest, 0), [True, False, True, False, True])
 
 
 @pytest.mark.parametrize("k", [1, 2, 5, 40])
@@ -179,27 +180,14 @@ def test_a_cluster_shared_by_global_hypotheses_is_ranked_once(monkeypatch):
     assert both[2].tolist() == [0] * alone[0][1].size + [1] * alone[1][1].size
 
 
+
 @pytest.mark.parametrize("report_existence", [0.5, 0.0])
 def test_a_confirmed_track_is_left_out_while_its_existence_is_low_and_keeps_its_id(report_existence):
-    """P_D 0.9: a confirmed Bernoulli missed twice in a row (existence ~0.47) is left out of the output, not
-    deleted, and comes back under its id and CONFIRMED with the next contact; once its target ends it shows
-    one coasted scan and is later reported DELETED. ``report_existence`` 0 reports it through every miss."""
-    sensor, scans = lab.one_target()
-    empty = np.empty((0, 2))
-    gap = {15, 16, 17}  # scans (1-based) with the target's contact removed
-    end = 25  # no contact after this scan
-    scans = [Scan(s.index, s.time, empty if s.index in gap or s.index > end else s.measurements) for s in scans]
-    tracker = make_tracker("pmbm", sensor, {"clutter_density": 1e-8, "report_existence": report_existence})
-    shown = {s.index: tracker.step(s) for s in scans}
-    track = int(shown[14].track_id[0])
-    assert shown[14].status.tolist() == [TrackStatus.CONFIRMED]
-    visible = {k for k, out in shown.items() if (out.track_id == track).any()}
-    after_end = [k for k in visible if k > end]
-    if report_existence:
-        assert 15 in visible and not {16, 17} & visible  # one miss shown (existence ~0.91), then left out
-        assert shown[18].track_id.tolist() == [track] and shown[18].status.tolist() == [TrackStatus.CONFIRMED]
-        assert after_end[0] == end + 1 and shown[after_end[1]].status.tolist() == [TrackStatus.DELETED]
-    else:
-        assert gap <= visible and all(shown[k].status.tolist() == [TrackStatus.CONFIRMED] for k in gap)
-        assert after_end[:4] == [end + 1, end + 2, end + 3, end + 4]
+    """`labelled_helpers.gap_and_end`, the Bernoulli reported DELETED before the run ends; ``report_existence`` 0
+    reports it through every miss, the gap's and the four after its target's end (min_existence 0.001 drops it
+    at the fifth)."""
+    shown, track, visible, after_end = lab.gap_and_end("pmbm", report_existence)
     assert shown[after_end[-1]].status.tolist() == [TrackStatus.DELETED]
+    if not report_existence:
+        assert lab.GAP <= visible and all(shown[k].status.tolist() == [TrackStatus.CONFIRMED] for k in lab.GAP)
+        assert after_end[:4] == [lab.END + 1, lab.END + 2, lab.END + 3, lab.END + 4]

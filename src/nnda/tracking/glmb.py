@@ -21,10 +21,9 @@ explain, `nnda.tracking.labelled`), times the area Jacobian; a contact left to c
 (`all_assignments`: small problems only); each gives a child hypothesis of weight w_h times its weight.
 Equal children are merged, the weights normalised, those below ``min_hypothesis_weight`` dropped, N-scan
 pruning applied as in `nnda.tracking.pmbm` (the contact each label took ``n_scan`` scans back in the best
-hypothesis becomes final; a label absent from a hypothesis counts there as NO_CONTACT, so where a label
-took a contact n_scan scans back, the hypotheses in which it has died since are pruned if the best holds it,
-and those holding it if the best has it dead: an approximation that holds a track through short gaps, as
-a track score would, and settles a label's fate by the best hypothesis) and at most
+hypothesis becomes final; a label absent from a hypothesis, dead there, constrains nothing, so the
+hypotheses where a target has ended stay beside those where its track coasts: `nnda.tracking.labelled.n_scan_agrees`)
+and at most
 ``max_hypotheses`` kept (a `BoundWarning` the first time the cap bites, ``n_capped`` counts the scans).
 The draws always include the contact-free start and its one-row neighbours (`gibbs_assignments`), so a
 track of low existence keeps its miss beside its death. A miss child keeps its track's posterior
@@ -234,9 +233,3 @@ class GLMBTracker(LabelledMixture):
         kids[:, where] = child
         return kids, log_gain
 
-    # ---------------------------------------------------------------------- pruning
-    def _n_scan_keep(self, hyp: np.ndarray, best: int) -> np.ndarray:
-        """N-scan pruning (module docstring): the contact each label took ``n_scan`` scans back in the best
-        hypothesis, NO_CONTACT where it missed or was absent, becomes final."""
-        oldest = np.where(hyp >= 0, self.table.hist[np.maximum(hyp, 0), 0], NO_CONTACT)
-        return (oldest == oldest[best]).all(axis=1)

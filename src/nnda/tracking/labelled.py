@@ -26,7 +26,6 @@ may report more rows after it: `LabelledMixture._waiting`, the tentative labels)
 from __future__ import annotations
 
 import math
-from abc import abstractmethod
 from dataclasses import dataclass
 from typing import Annotated, ClassVar, Literal
 
@@ -34,7 +33,7 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from nnda.filters.batch import Batch
-from nnda.filters.kalman import GATE_99, gate_probability
+from nnda.filters.kalman import gate_probability
 from nnda.tracking.clutter_density import coverage_area, local_density
 from nnda.tracking.gating import gate
 from nnda.tracking.gibbs import unique_rows
@@ -63,7 +62,9 @@ class LabelledConfig(ContactTrackerConfig):
         "(itself included); 'unexplained', the contacts there less the contact itself and the labels' expected "
         "detections (P_D P_G times existence) at their predicted positions, at least the scan's own such count "
         "over the coverage (`nnda.tracking.clutter_density.unexplained_density`)")
-    gate: Annotated[float, Field(gt=0, description="chi-square gate, 2 dof (9.21: P_G = 0.99)")] = GATE_99
+    gate: Annotated[float, Field(gt=0, description="chi-square gate, 2 dof (13.82: P_G = 0.999; a wide gate "
+                                 "keeps a target whose track lags in a turn, where the existence, not the gate, "
+                                 "weighs the contact against clutter)")] = 13.82
     admission_existence: Annotated[float, Field(ge=0, lt=1, description="existence at which a birth joins the "
                                                 "hypotheses; below it the birth is a tentative label, updated "
                                                 "alone on the contacts the best hypothesis leaves free; 0: every "
@@ -261,9 +262,10 @@ class LabelledMixture(ContactTracker):
         return tuple(kids.take(np.flatnonzero(m)) if m.any() else None for m in (ready, stay))
 
     # ---------------------------------------------------------------------- pruning
-    @abstractmethod
     def _n_scan_keep(self, hyp: np.ndarray, best: int) -> np.ndarray:
-        """N-scan pruning (H,): which hypotheses of ``hyp`` (H, L) to keep given the best one, ``best``."""
+        """N-scan pruning (H,): which hypotheses of ``hyp`` (H, L) agree with the best one, ``best``, on the scan
+        ``n_scan`` back (`n_scan_agrees`, each row's contact there from its history)."""
+        return n_scan_agrees(hyp, self.table.hist[np.maximum(hyp, 0), 0], best)
 
     def _prune(self, hyp: np.ndarray, log_w: np.ndarray) -> None:
         """The mixture ``hyp`` (H, L), ``log_w`` (H,) without the hypotheses lighter than
@@ -384,3 +386,22 @@ def merged(hyp: np.ndarray, log_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     order = np.argsort(inverse, kind="stable")
     starts = np.r_[0, np.flatnonzero(np.diff(inverse[order])) + 1]
     return rows, np.logaddexp.reduceat(log_w[order], starts)
+
+
+def n_scan_agrees(hyp: np.ndarray, oldest: np.ndarray, best: int) -> np.ndarray:
+    """N-scan pruning (H,): which hypotheses ``hyp`` (H, L) agree with hypothesis ``best`` on the scan ``n_scan``
+    back, ``oldest`` (H, L) each row's contact there. A label present in both must have made the same choice
+    (contact or miss), and no contact that a label of ``best`` took may be taken by another one. A label absent
+    from one of them (dead there, or pruned for its low existence) constrains nothing by itself: its absence
+    says nothing of that scan, so the hypotheses where a target has ended since stay beside those where it
+    coasts, and its existence falls with each miss."""
+    L = hyp.shape[1]
+    both = (hyp >= 0) & (hyp[best] >= 0)
+    same = ((oldest == oldest[best]) | ~both).all(axis=1)
+    took = (hyp >= 0) & (oldest >= 0)
+    mine = took[best]
+    owned = np.unique(oldest[best][mine])
+    pairs = np.unique(oldest[best][mine] * L + np.flatnonzero(mine))
+    key = oldest * L + np.arange(L)
+    other = took & np.isin(oldest, owned) & ~np.isin(key, pairs)
+    return same & ~other.any(axis=1)

@@ -23,9 +23,10 @@ times the area Jacobian). Between scans r becomes
    the new weights normalised;
 3. pruning: an STH whose existence falls below ``min_existence`` is dropped (the Bernoulli absent in that
    global hypothesis), equal global hypotheses merged, those below ``min_hypothesis_weight`` dropped,
-   N-scan pruning (the best hypothesis's assignment ``n_scan`` scans back becomes final: `_n_scan_agrees`)
-   and at most ``max_global_hypotheses`` kept (a `BoundWarning` the first time in a run, ``n_capped``
-   counts the scans); a Bernoulli absent from every global hypothesis is deleted;
+   N-scan pruning (the best hypothesis's assignment ``n_scan`` scans back becomes final:
+   `nnda.tracking.labelled.n_scan_agrees`) and at most ``max_global_hypotheses`` kept (a `BoundWarning` the
+   first time in a run, ``n_capped`` counts the scans); a Bernoulli absent from every global hypothesis is
+   deleted;
 4. the tentative Bernoullis updated (below); birth from the Poisson component (below), into every global
    hypothesis that leaves the contact free, of the new Bernoullis and the tentative ones that reached
    ``admission_existence``.
@@ -117,9 +118,6 @@ class PMBMConfig(LabelledConfig):
                                           "confirmed target is kept through four missed scans in a row and "
                                           "dropped at the fifth (reported through the first only: "
                                           "``report_existence``)")] = 0.001
-    gate: Annotated[float, Field(gt=0, description="chi-square gate, 2 dof (13.82: P_G = 0.999; a wide gate "
-                                 "keeps a target whose track lags in a turn, where the Bernoulli's existence, not "
-                                 "the gate, weighs the contact against clutter)")] = 13.82
     min_hypothesis_weight: Annotated[float, Field(ge=0, lt=1, description="global hypotheses of lower "
                                                   "normalised weight are dropped")] = 1e-4
 
@@ -195,9 +193,6 @@ class PMBMTracker(LabelledMixture):
                        -1)
         self._prune(*merged(hyp, self.log_w))
 
-    def _n_scan_keep(self, hyp: np.ndarray, best: int) -> np.ndarray:
-        return _n_scan_agrees(hyp, self.table.hist[np.maximum(hyp, 0), 0], best)
-
     # ---------------------------------------------------------------------- birth
     def _birth(self, new: LabelledTable, log_odds: np.ndarray, n_contacts: int) -> None:
         """New Bernoullis ``new`` (B rows, of this scan's contact ``new.hist[:, -1]``) with their existence's log
@@ -216,20 +211,3 @@ class PMBMTracker(LabelledMixture):
         self.log_w = normalised(self.log_w + (free * np.logaddexp(0.0, log_odds)).sum(axis=1))
         self.labels = np.concatenate([self.labels, born.track_id])
 
-
-def _n_scan_agrees(hyp: np.ndarray, oldest: np.ndarray, best: int) -> np.ndarray:
-    """N-scan pruning (H,): which global hypotheses ``hyp`` (H, L) agree with hypothesis ``best`` on the scan
-    ``n_scan`` back, ``oldest`` (H, L) each STH's contact there. A Bernoulli present in both must have made
-    the same choice (contact or miss), and no contact that a Bernoulli of ``best`` took may be taken by
-    another one. A Bernoulli absent from one of them (pruned there for its low existence) constrains nothing
-    by itself: its absence says nothing of that scan."""
-    L = hyp.shape[1]
-    both = (hyp >= 0) & (hyp[best] >= 0)
-    same = ((oldest == oldest[best]) | ~both).all(axis=1)
-    took = (hyp >= 0) & (oldest >= 0)
-    mine = took[best]
-    owned = np.unique(oldest[best][mine])
-    pairs = np.unique(oldest[best][mine] * L + np.flatnonzero(mine))
-    key = oldest * L + np.arange(L)
-    other = took & np.isin(oldest, owned) & ~np.isin(key, pairs)
-    return same & ~other.any(axis=1)
