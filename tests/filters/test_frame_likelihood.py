@@ -36,7 +36,9 @@ def test_fast_llr_equals_the_dense_gaussian_llr_everywhere(shape):
     x = np.tile(rows.ravel() + rng.uniform(-0.45, 0.45, rows.size), (2, 1))
     y = np.tile(cols.ravel() + rng.uniform(-0.45, 0.45, rows.size), (2, 1))
     z = rng.integers(0, 3, x.shape).astype(float)
-    got = lik.llr(lik.pad(gmrf.differential(Y, bh, bv)), bh, bv, sc, x, y, z)
+    state = np.zeros((*x.shape, 5))  # the particles' [row, v_row, column, v_column, aspect], as the filter holds
+    state[..., 0], state[..., 2], state[..., 4] = x, y, z  # them: llr reads their columns (one compiled version)
+    got = lik.llr(lik.pad(gmrf.differential(Y, bh, bv)), bh, bv, sc, state[..., 0], state[..., 2], state[..., 4])
     for r in range(2):
         for n in range(x.shape[1]):
             want = 0.0 if z[r, n] == 0 else dense_llr(Y[r], templates[int(z[r, n]) - 1], int(np.rint(x[r, n])),

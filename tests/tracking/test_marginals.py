@@ -39,10 +39,16 @@ def brute_force(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float) -> tup
     return beta / total, beta0 / total
 
 
+def gated(gate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The pairs (track (P,), contact (P,)) where ``gate`` (K, N) is True, contiguous as the trackers' gating
+    gives them (`np.nonzero`'s are strided views: the compiled code would be compiled again for them)."""
+    return tuple(np.ascontiguousarray(a) for a in np.nonzero(gate))
+
+
 def marginals(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float, max_events: int
               ) -> tuple[Marginals, np.ndarray]:
     """`jpda_marginals` of the pairs where ``gate`` (K, N) is True; also returns its beta as (K, N)."""
-    t, c = np.nonzero(gate)
+    t, c = gated(gate)
     m = jpda_marginals(t, c, log_ratio[t, c], gate.shape[0], log_miss, max_events)
     dense = np.zeros(gate.shape)
     dense[t, c] = m.beta
@@ -51,7 +57,7 @@ def marginals(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float, max_even
 
 def loopy(gate: np.ndarray, log_ratio: np.ndarray, log_miss: float) -> tuple[np.ndarray, np.ndarray]:
     """`loopy_marginals` of the pairs where ``gate`` is True, beta as (K, N)."""
-    t, c = np.nonzero(gate)
+    t, c = gated(gate)
     beta, beta0 = loopy_marginals(t, c, log_ratio[t, c], gate.shape[0], log_miss)
     dense = np.zeros(gate.shape)
     dense[t, c] = beta
@@ -92,12 +98,12 @@ def test_random_gates_match_brute_force(seed):
 
 def test_clusters_join_tracks_through_shared_contacts():
     gate = np.array([[1, 0, 0, 0], [0, 0, 1, 0], [1, 1, 0, 0], [0, 0, 1, 1], [0, 0, 0, 0]], bool)
-    n, label = clusters(*np.nonzero(gate), 5)
+    n, label = clusters(*gated(gate), 5)
     assert n == 3 and label.tolist() == [0, 1, 0, 1, 2]
-    n, label = clusters(*np.nonzero(np.eye(3, dtype=bool)), 3)  # nothing shared
+    n, label = clusters(*gated(np.eye(3, dtype=bool)), 3)  # nothing shared
     assert n == 3 and label.tolist() == [0, 1, 2]
     # contact indices need not be compact: the same graph with contacts 1000 apart
-    t, c = np.nonzero(gate)
+    t, c = gated(gate)
     assert clusters(t, 1000 * c + 7, 5)[1].tolist() == [0, 1, 0, 1, 2]
 
 
@@ -217,7 +223,7 @@ def random_cluster(rng: np.random.Generator, K: int = 6, N: int = 6):
     `_event_weights`: track, contact, n_gated, first_gated."""
     gate = rng.random((K, N)) < rng.uniform(0.2, 0.8)
     log_ratio = rng.normal(0.0, 1.0, (K, N))
-    t, c = np.nonzero(gate)
+    t, c = gated(gate)
     n_gated = np.bincount(t, minlength=K)
     return gate, log_ratio, t, c, n_gated, np.cumsum(n_gated) - n_gated
 
@@ -261,7 +267,7 @@ def test_clusters_are_the_connected_components_of_the_gate_graph(seed):
     rng = np.random.default_rng(900 + seed)
     K, N = 40, 50
     gate = rng.random((K, N)) < 0.04
-    t, c = np.nonzero(gate)
+    t, c = gated(gate)
     n, label = clusters(t, c, K)
     graph = coo_matrix((np.ones(t.size), (t, K + c)), shape=(K + N, K + N))
     expected = connected_components(graph, directed=False)[1][:K]

@@ -154,7 +154,9 @@ class FrameLikelihood:
             x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
         """(R, N) float64 LLR of particles at rows ``x``, columns ``y`` (R, N) with aspects ``z`` (R, N;
         0 absent) on the padded differential frames ``d_pad`` (R, ., .) with per-run beta_h, beta_v, sigma_c
-        (R,). No checks: the caller holds the shapes (the inner loop of a filter)."""
+        (R,). No checks: the caller holds the shapes (the inner loop of a filter). x, y and z are read in place, as
+        the filter passes them (columns of its (R, N, 5) particles: strided views, no copy per frame), so the
+        kernel is compiled for that layout; a C-contiguous one compiles a second version."""
         out = np.empty(x.shape)
         threads = numba.get_num_threads()
         numba.set_num_threads(threads if x.size >= PARALLEL_FROM else 1)

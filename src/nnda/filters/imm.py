@@ -48,6 +48,7 @@ import numpy as np
 from nnda.errors import FilterError
 from nnda.filters import imm_kernels, kalman
 from nnda.filters.batch import Batch
+from nnda.filters.imm_kernels import kernel_array
 from nnda.filters.kalman import MeasurementPrediction
 from nnda.filters.measurement import MeasurementModel, PolarMeasurement, PositionMeasurement, measurement_model
 from nnda.filters.motion import ConstantVelocity, CoordinatedTurn, MotionModel
@@ -267,9 +268,8 @@ class IMM:
         For callers that hold the fixes' positions already and have checked them (the trackers): one
         compiled call (`imm_kernels.start`, the arithmetic of `two_point` and `from_cv`).
         """
-        return IMMState(*imm_kernels.start(np.asarray(p1, float), np.asarray(p2, float), np.asarray(cov2, float),
-                                           np.ascontiguousarray(dt, dtype=float), *self._cv_extension,
-                                           self._mu0_array))
+        p1, p2, cov2, dt = kernel_array(p1), kernel_array(p2), kernel_array(cov2), kernel_array(np.atleast_1d(dt))
+        return IMMState(*imm_kernels.start(p1, p2, cov2, dt, *self._cv_extension, self._mu0_array))
 
     def from_cv(self, x: np.ndarray, P: np.ndarray, mu: np.ndarray | None = None) -> IMMState:
         """IMM state of K tracks from CV estimates x (K, 4), P (K, 4, 4); every model starts there."""
@@ -380,7 +380,7 @@ class IMM:
             z = np.where(mask[:, None], z, mp.z[:, 0])  # rows without a measurement are ignored, NaN or not
         if check:
             self.measurement.validate("z", z)
-        x, P, mu = imm_kernels.update(st.x, st.P, st.mu, np.asarray(z, dtype=float), mask, mp.z, mp.S_inv,
+        x, P, mu = imm_kernels.update(st.x, st.P, st.mu, kernel_array(z), mask, mp.z, mp.S_inv,
                                       mp.log_det_S, mp.PHt, self.polar)
         return IMMState(x, P, mu)
 
@@ -483,7 +483,7 @@ class IMM:
     def _checked_contacts(self, Z: np.ndarray) -> np.ndarray:
         Z = check_array("Z", Z, (None, 2), error=FilterError)
         self.measurement.validate("Z", Z)
-        return Z
+        return kernel_array(Z)
 
 
 def _measured(lead: tuple[int, ...], z: np.ndarray, S: np.ndarray, S_inv: np.ndarray, log_det: np.ndarray,

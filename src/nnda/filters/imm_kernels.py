@@ -50,6 +50,17 @@ TWO_PI = 2.0 * math.pi
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")  # x / 0 gives inf or NaN, as numpy
 
 
+def kernel_array(a: np.ndarray | float, dtype: type = np.float64) -> np.ndarray:
+    """``a`` as the compiled kernels take every array: of ``dtype``, C-contiguous and writeable. A copy only
+    where it is not (a column view, a transpose, a read-only broadcast, another dtype), so that a kernel
+    compiles for one signature, whoever calls it; the copy costs O(size), once per call, in the caller's
+    Python wrapper (an array that is already so is returned as it is, in ~0.15 us: the scan loop calls this)."""
+    flags = getattr(a, "flags", None)
+    if flags is not None and flags.c_contiguous and flags.writeable and a.dtype == dtype:
+        return a
+    return np.array(a, dtype, order="C")  # a copy (np.require's checks cost ~1 us more a call)
+
+
 @_jit
 def wrap_angle_kernel(a):
     """An angle (rad) wrapped to [-pi, pi), as `nnda.data.sensor.wrap_angle`."""

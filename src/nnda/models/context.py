@@ -28,6 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from nnda.errors import ModelError
+from nnda.filters.imm_kernels import kernel_array
 from nnda.models import feature_kernels
 from nnda.models.features import FeatureSet
 from nnda.models.innovation import IMM_INNOVATION
@@ -54,7 +55,7 @@ def context_features(track: np.ndarray, contact: np.ndarray, d2: np.ndarray) -> 
     Compiled (`feature_kernels.context`): one stable sort by d², then one
     per grouping.
     """
-    d2 = np.asarray(d2, dtype=float)
+    d2 = kernel_array(d2)
     return _into(np.empty((len(d2), len(CONTEXT_NAMES))), track, contact, d2)
 
 
@@ -62,13 +63,16 @@ def with_context(features: np.ndarray, track: np.ndarray, contact: np.ndarray) -
     """The extended features (P, 9) of one scan's pairs with their context columns appended: (P, 14)."""
     out = np.empty((len(features), IMM_CONTEXT.size))
     out[:, :IMM_INNOVATION.size] = features
-    _into(out[:, IMM_INNOVATION.size:], track, contact, features[:, D2_COLUMN])
+    # written into a (P, 5) array of its own, then copied: the kernel takes C-contiguous arrays alone
+    out[:, IMM_INNOVATION.size:] = _into(np.empty((len(features), len(CONTEXT_NAMES))), track, contact,
+                                         features[:, D2_COLUMN])
     return out
 
 
 def _into(out: np.ndarray, track: np.ndarray, contact: np.ndarray, d2: np.ndarray) -> np.ndarray:
     """``out`` (P, 5) with the context columns of the pairs written in (shapes checked)."""
-    track, contact = np.asarray(track, np.int64), np.asarray(contact, np.int64)
+    track, contact = kernel_array(track, np.int64), kernel_array(contact, np.int64)
+    d2 = kernel_array(d2)  # a column of the features in `with_context`
     n = len(d2)
     if track.shape != (n,) or contact.shape != (n,):
         raise ModelError(f"context features: track, contact and d2 must have one shape (P,), got "

@@ -173,7 +173,7 @@ def candidates(last, last_time, last_azimuth, contacts, contact_azimuth, time):
         fill[where[j]] += 1
     track = np.empty(max(16, 2 * M), np.int64)
     contact = np.empty(track.shape[0], np.int64)
-    count = 0
+    count = np.int64(0)  # typed int64 from the start: `_sort_small` then compiles for int64 alone, not literals
     for m in range(M):
         px, py, t2, s2 = last[m, 0], last[m, 1], last_time[m], track_sector[m]
         near = 0  # bit s set: sector s passes the sector gate
@@ -292,7 +292,7 @@ def scan_features(p1, t1, p2, t2, az2, xy, z, time, born, z_pred, S, S_inv, log_
     (read only if ``extended``). Returns the pairs' track and contact (P,) and their features (P, 3) or
     (P, 9).
     """
-    track, contact = candidates(p2, t2, az2, xy, z[:, 1], time)
+    track, contact = candidates(p2, t2, az2, xy, np.ascontiguousarray(z[:, 1]), time)  # C, as from Python
     n = track.shape[0]
     q1, q2, c = np.empty((n, 2)), np.empty((n, 2)), np.empty((n, 2))
     s1, s2, tc = np.empty(n), np.empty(n), np.full(n, time)

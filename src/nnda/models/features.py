@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from nnda.errors import ModelError
+from nnda.filters.imm_kernels import kernel_array
 from nnda.models import feature_kernels
 from nnda.models.feature_kernels import MAX_SPEED_M_S as MAX_SPEED_M_S
 from nnda.models.feature_kernels import MIN_SPEED_M_S as MIN_SPEED_M_S
@@ -155,8 +156,8 @@ def _flat(*arrays: np.ndarray) -> tuple[tuple[int, ...], list[np.ndarray]]:
 
 def sector(azimuth: np.ndarray) -> np.ndarray:
     """Azimuth sector 0..15 of azimuths (rad, clockwise from north), wedges of 22.5 deg from north."""
-    azimuth = np.asarray(azimuth, dtype=float)
-    return feature_kernels.sectors(np.ascontiguousarray(azimuth).ravel()).reshape(azimuth.shape)
+    azimuth = kernel_array(azimuth)  # a dataset's read-only column is copied: the kernel compiles once
+    return feature_kernels.sectors(azimuth.ravel()).reshape(azimuth.shape)
 
 
 def neighbour_sectors(track_sector: np.ndarray, contact_sector: np.ndarray) -> np.ndarray:
@@ -223,4 +224,6 @@ def candidate_pairs(
         if M and last_time.max() >= time:
             bad = int(np.argmax(last_time >= time))
             raise ModelError(f"{what}: last_time must come before time = {time} s; row {bad} has {last_time[bad]} s")
+    last, last_time, last_azimuth, contacts, contact_azimuth = (  # C order: the kernel compiles once
+        kernel_array(a) for a in (last, last_time, last_azimuth, contacts, contact_azimuth))
     return feature_kernels.candidates(last, last_time, last_azimuth, contacts, contact_azimuth, time)

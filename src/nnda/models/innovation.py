@@ -36,6 +36,7 @@ import numpy as np
 
 from nnda.errors import ModelError
 from nnda.filters.imm import IMM, IMMPrediction
+from nnda.filters.imm_kernels import kernel_array
 from nnda.filters.kalman import MeasurementPrediction
 from nnda.filters.motion import CoordinatedTurn
 from nnda.models import feature_kernels
@@ -103,5 +104,8 @@ def scan_features(imm: IMM, pred: IMMPrediction, gate: MeasurementPrediction | N
         mu, ct = state.mu, _ct_index(imm)
     else:
         args, mu, ct = (np.empty((0, 2)), np.empty((0, 2, 2)), np.empty((0, 2, 2)), np.empty(0)), np.empty((0, 1)), 0
+    # the tracker's columns are views of its tables: copied here (K and N rows), so the kernel compiles once
+    p1, t1, p2, t2 = kernel_array(p1), kernel_array(t1), kernel_array(p2), kernel_array(t2)
+    az2, born, xy, z = kernel_array(az2), kernel_array(born), kernel_array(xy), kernel_array(z)
     return feature_kernels.scan_features(p1, t1, p2, t2, az2, xy, z, float(time), born, *args, mu, ct,
                                          imm.polar, extended)

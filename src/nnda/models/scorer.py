@@ -31,6 +31,7 @@ import numpy as np
 
 from nnda.errors import ModelError
 from nnda.files import content_digest, read_json, with_content_digest, write_json
+from nnda.filters.imm_kernels import kernel_array
 from nnda.models.feature_sets import FEATURE_SETS
 from nnda.models.features import KINEMATIC, FeatureSet
 from nnda.models.mlp import MLPWeights, n_weights
@@ -59,15 +60,18 @@ class Scorer:
         if self.weights.n_inputs != self.features.size:
             raise ModelError(f"scorer: a {self.weights.n_inputs}-input network cannot read the "
                              f"{self.features.size} features of {self.features.name!r}")
+        # `_scores`' arrays, C-contiguous once here (w1 and b1 of `MLPWeights.from_vector` are strided views)
+        w, norm = self.weights, self.normaliser
+        object.__setattr__(self, "_kernel_weights", tuple(
+            kernel_array(a) for a in (norm.mean, norm.scale, w.w1, w.b1, w.w2)))
 
     def __call__(self, features: np.ndarray) -> np.ndarray:
         """Scores (N,) of raw features (N, F) as made by the feature set's functions: the normaliser, then the
         network (`_scores`: `Normaliser.transform` and `MLPWeights.__call__` in one compiled pass)."""
-        x = np.asarray(features, dtype=float)
+        x = kernel_array(features)  # a column selection may be F-ordered: copied to C order here
         if x.ndim != 2 or x.shape[1] != self.weights.n_inputs:
             raise ModelError(f"scorer: features must have shape (N, {self.weights.n_inputs}), got {x.shape}")
-        w, norm = self.weights, self.normaliser
-        score, bad = _scores(x, norm.mean, norm.scale, w.w1, w.b1, w.w2, float(w.b2))
+        score, bad = _scores(x, *self._kernel_weights, float(self.weights.b2))
         if bad >= 0:
             raise ModelError(f"scorer: features row {bad} has a non-finite value {x[bad].tolist()}")
         return score

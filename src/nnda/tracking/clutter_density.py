@@ -69,7 +69,7 @@ _STRIP_GRID, _STRIP_FLOOR = 64, 16_384
 #: points per side of the grid on which the part of a square inside the coverage is measured
 _EDGE_POINTS = 16
 #: `_density`'s covered-part table without a sensor (every square wholly covered), and its corner
-_NO_TABLE, _NO_CORNER = np.empty((0, 0)), np.zeros(2)
+_NO_TABLE, _NO_CORNER = np.empty((0, 0), np.float32), np.zeros(2)  # float32: the type of a sensor's table
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")  # x / 0 gives inf or NaN, as numpy
 
 
@@ -92,7 +92,7 @@ def local_density(contacts: np.ndarray, at: np.ndarray, radius: float, sensor: S
     ``sensor`` when given (the area is then the square's part inside its coverage). Returns (Q,)."""
     radius = float(radius)
     contacts, at = np.ascontiguousarray(contacts, np.float64), np.ascontiguousarray(at, np.float64)
-    return _density(contacts, at, radius, *_coverage_args(sensor, at, radius))
+    return _density(contacts, at, radius, *_coverage_args(sensor, at, radius), -1)  # -1 given: one signature
 
 
 def unexplained_density(contacts: np.ndarray, at: np.ndarray, radius: float, scan_area: float,
@@ -111,7 +111,7 @@ def unexplained_density(contacts: np.ndarray, at: np.ndarray, radius: float, sca
     contacts, at = np.ascontiguousarray(contacts, np.float64), np.ascontiguousarray(at, np.float64)
     explained = np.ascontiguousarray(np.empty((0, 2)) if explained is None else explained, np.float64)
     expected = np.ascontiguousarray(np.empty(0) if expected is None else expected, np.float64)
-    own = np.ascontiguousarray(np.broadcast_to(np.asarray(own, np.float64), (len(at),)))
+    own = np.array(np.broadcast_to(np.asarray(own, np.float64), (len(at),)))  # a copy: never a read-only view
     return _unexplained(contacts, at, radius, *_coverage_args(sensor, at, radius), explained, expected, own,
                         float(scan_area))
 

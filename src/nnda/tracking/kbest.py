@@ -36,7 +36,7 @@ from scipy.optimize import linear_sum_assignment
 
 def k_best_assignments(cost: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     """The ``k`` lowest-cost assignments of ``cost`` (R, C) and their costs (module docstring)."""
-    cost = np.asarray(cost, np.float64)
+    cost = np.require(cost, np.float64, "CW")  # C order and writeable, as the kernels take it
     if cost.ndim != 2:
         raise ValueError(f"k_best_assignments: cost must be a 2-D matrix, got shape {cost.shape}")
     if np.isnan(cost).any() or (cost == -np.inf).any():
@@ -47,7 +47,8 @@ def k_best_assignments(cost: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray
     if R == 0 or C == 0:
         return np.full((1, R), -1, np.int64), np.zeros(1)
     flipped = R > C
-    work = cost.T if flipped else cost  # rows <= columns: every row of ``work`` is assigned
+    # rows <= columns: every row of ``work`` is assigned; C order, as the kernels take it (one signature)
+    work = np.ascontiguousarray(cost.T) if flipped else cost
     found = list(_ranked(work, k))
     if not found:
         return np.empty((0, R), np.int64), np.empty(0)
@@ -94,6 +95,7 @@ def _ranked(cost: np.ndarray, k: int):
     """Murty's ranking of ``cost`` (R <= C): yields (column of each row (R,), cost), ascending, at most k."""
     R, C = cost.shape
     rows, adjacent = np.nonzero(np.isfinite(cost))  # each row's allowed columns
+    adjacent = np.ascontiguousarray(adjacent)  # np.nonzero's outputs of a matrix are strided views
     start = np.searchsorted(rows, np.arange(R + 1))
     allowed = np.diff(start)
     first = _solve(cost, np.full(R, -1, np.int64), np.empty(0, np.int64))
@@ -187,7 +189,7 @@ def _one_child(cost, start, adjacent, cols, forced, banned, row, col):
             dist[j] = cost[row, j]
     if not _settled(cost, start, adjacent, forced, banned, owner, dist, prev):
         return -1
-    end, low = -1, np.inf
+    end, low = np.int64(-1), np.inf  # int64, not a literal: `_shift` compiles once
     for j in range(C):
         if owner[j] < 0 and dist[j] < low:
             end, low = j, dist[j]

@@ -34,6 +34,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from nnda.filters.imm_kernels import kernel_array
 from nnda.models.scorer import score_log_odds
 from nnda.tracking.assignment import given, greedy_kernel, least_cost_assignment
 from nnda.tracking.output import CONFIRMED, NO_CONTACT
@@ -170,9 +171,21 @@ def _contested(cols):
     return False
 
 
+def first_stage(track: np.ndarray, cand: np.ndarray, score: np.ndarray, status: np.ndarray,
+                consecutive: np.ndarray, *rest) -> tuple:
+    """`_first_stage` with ``consecutive`` (K,) made C-contiguous (the tracker's is a column view of its counts),
+    so that the compiled pass has one signature; ``rest`` are `_first_stage`'s other arguments."""
+    return _first_stage(track, cand, score, status, kernel_array(consecutive, np.int64), *rest)
+
+
+def reacquired(contact: np.ndarray, status: np.ndarray, consecutive: np.ndarray, *rest) -> tuple:
+    """`_reacquired` with ``consecutive`` (K,) made C-contiguous, as `first_stage`."""
+    return _reacquired(contact, status, kernel_array(consecutive, np.int64), *rest)
+
+
 @numba.njit(cache=True, nogil=True)
-def first_stage(track, cand, score, status, consecutive, n_contacts, gate_after_miss, confirmed_first,
-                coast_after, rule, threshold, gate_rows, gate_cols, gate_d2):
+def _first_stage(track, cand, score, status, consecutive, n_contacts, gate_after_miss, confirmed_first,
+                 coast_after, rule, threshold, gate_rows, gate_cols, gate_d2):
     """The scan's first pick. ``track``, ``cand``, ``score`` (P,) are the network's pairs, ``status``,
     ``consecutive`` (K,) the tracks' status and misses in a row, (gate_rows, gate_cols, gate_d2) (Q,) the
     confirmed tracks' pairs inside the IMM's gate, by row then column.
@@ -204,7 +217,7 @@ def first_stage(track, cand, score, status, consecutive, n_contacts, gate_after_
 
 
 @numba.njit(cache=True, nogil=True)
-def reacquired(contact, status, consecutive, which, after, gate_rows, gate_cols, gate_d2, gate, n_contacts):
+def _reacquired(contact, status, consecutive, which, after, gate_rows, gate_cols, gate_d2, gate, n_contacts):
     """The second stage: ``contact`` (K,) (a new array) with the picks (`reacquire`) of the tracks of status
     ``which`` that have none yet (the confirmed ones: if they coast, ``after`` misses in a row or more),
     among the free ones of the ``n_contacts`` in their gate pairs (gate_rows, gate_cols, gate_d2) (Q,); and
