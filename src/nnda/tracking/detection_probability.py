@@ -23,14 +23,21 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Annotated
 
-import annotated_types
-from pydantic import BaseModel, TypeAdapter, ValidationError
+from pydantic import BaseModel, Field, TypeAdapter, ValidationError
 
 from nnda.data.scenario import Sensor
 from nnda.errors import ConfigError
 
 #: P_D of a tracker whose config has no ``pd`` (the track score's of GNN and the neural tracker)
 DEFAULT_PD = 0.9
+
+
+class _AnyTracker(BaseModel):
+    """The bounds of a P_D for a tracker whose config has no ``pd`` field."""
+
+    pd: Annotated[float, Field(gt=0, le=1)] = DEFAULT_PD
+
+
 #: where a value came from (`DetectionProbabilities.sources`); a declared one is "declared by sensor 'NAME'"
 FROM_CONFIG = "tracker config"
 FROM_DEFAULT = "tracker default"
@@ -72,7 +79,7 @@ def detection_probabilities(tracker: str, config: BaseModel, sensors: Sequence[S
         return DetectionProbabilities(tuple(s.name for s in sensors), (value,) * len(sensors),
                                       (FROM_CONFIG,) * len(sensors))
     fallback = float(getattr(config, field)) if own else default
-    bounds = type(config).model_fields[field].metadata if own else [annotated_types.Gt(0), annotated_types.Le(1)]
+    bounds = (type(config) if own else _AnyTracker).model_fields[field if own else "pd"].metadata
     values, sources = [], []
     for s in sensors:
         if s.declared_pd is None:
