@@ -54,7 +54,7 @@ def track(dataset: Dataset | str | Path, tracker: str, config: Mapping[str, Any]
     fixed-lag output instead (`nnda.tracking.lag`: the same rows, each scan's tracks revised with the L scans
     after it: confirmations back-filled, states smoothed, MHT's decided contacts). A wrong argument is a
     ConfigError naming it; a config file's problems name the file."""
-    from nnda.study.track import run_tracker, tracker_params  # the trackers load only when one runs
+    from nnda.study.track import load, run_tracker, tracker_params  # the trackers load only when one runs
     from nnda.tracking.lag import checked_lag
     from nnda.tracking.registry import check_config
 
@@ -67,7 +67,8 @@ def track(dataset: Dataset | str | Path, tracker: str, config: Mapping[str, Any]
     lag = checked_lag(lag, "nnda.track: argument 'lag'")
     params = tracker_params(config, model)
     where = f"tracker config {os.fspath(config)}" if isinstance(config, _PATH) else "tracker config"
-    check_config(tracker, params, where)
+    dataset = load(dataset)
+    check_config(tracker, params, where, dataset.scenario.sensors)  # with the class of target they declare
     if lag:
         return lagged_runs(dataset, tracker, params, lag, score=False)[1].table
     return run_tracker(dataset, tracker, params, score=False).table
@@ -81,7 +82,7 @@ def lagged_runs(dataset: Dataset | str | Path, tracker: str, params: Mapping[str
     from threadpoolctl import threadpool_limits
 
     from nnda.study.metrics import DEFAULT_CUTOFF_M, run_metrics
-    from nnda.study.track import TrackRun, detection_record, has_truth, load, track_table
+    from nnda.study.track import TrackRun, detection_record, has_truth, load, targets_record, track_table
     from nnda.study.track_job import management_record, step_run
     from nnda.tracking.registry import make_tracker
 
@@ -93,7 +94,8 @@ def lagged_runs(dataset: Dataset | str | Path, tracker: str, params: Mapping[str
         scored = score and has_truth(dataset)
         management, detection = management_record(stepped), detection_record(stepped)
         runs = tuple(TrackRun(tracker, o, track_table(dataset, o), t,
-                              run_metrics(dataset, o, cutoff_m, ownership) if scored else None, management, detection)
+                              run_metrics(dataset, o, cutoff_m, ownership) if scored else None, management, detection,
+                              targets_record(stepped))
                      for o, t in ((outputs, seconds), (lagged, lag_seconds)))
     return runs
 

@@ -30,7 +30,9 @@ def import_detections_command(
     sensors: Annotated[Path | None, typer.Option(
         help="TOML file of \\[\\[sensors]] tables (fields as in a scenario's sensors)")] = None,
     sensor: Annotated[list[str] | None, typer.Option(
-        help="FIELD=VALUE of the one sensor (repeatable), e.g. scan_period_s=2, sigma_range_m=30")] = None,
+        help="FIELD=VALUE of the one sensor (repeatable), e.g. scan_period_s=2, sigma_range_m=30; "
+             "targets=ships|aircraft|pedestrians declares what it watches (the trackers' speed window and motion "
+             "noise)")] = None,
     column: Annotated[list[str] | None, typer.Option(
         help="NAME=COLUMN: read nnda's column NAME from the file's COLUMN (repeatable), e.g. time=t_sec")] = None,
     azimuth_unit: Annotated[str, typer.Option(help="unit of the azimuth column: rad or deg")] = "rad",
@@ -108,6 +110,8 @@ def import_detections_command(
         # a sensor whose kind is not given measures positions when the file has no range/azimuth
         kind = s.kind if "kind" in spec or s.kind == "polar" else "position: no kind given, no range/azimuth columns"
         declared = "" if s.declared_pd is None else f", declared P_D {s.declared_pd:g} (the trackers assume it)"
+        if s.declared_targets is not None:
+            declared += f", watches {s.declared_targets} (the trackers' speed window and motion noise)"
         Console().print(f"  sensor {s.name} ({kind}) at ({s.x_m:g}, {s.y_m:g}) m: {timing}, "
                         f"offset {s.scan_offset_s + shift:g} s, ranges {s.min_range_m:g}-{s.max_range_m:g} m"
                         f"{declared}", markup=False, highlight=False)

@@ -149,7 +149,7 @@ def track(
     ds = load(dataset)
     params = tracker_params(config, model)
     if config is not None:  # the file's fields checked against this tracker, the file named in any error
-        check_config(tracker, params, f"tracker config {config}")
+        check_config(tracker, params, f"tracker config {config}", ds.scenario.sensors)
     console = Console()
     bar = Progress(TextColumn(f"{tracker} on {ds.scenario.name}"), BarColumn(), MofNCompleteColumn(),
                    TimeElapsedColumn(), TimeRemainingColumn(), console=console, transient=True,
@@ -176,6 +176,8 @@ def track(
         f"({_per_scan(run.step_seconds)}), total {wall:.2f} s")
     if run.detection is not None:
         say(f"{tracker}: {run.detection.line()}")
+    if run.targets is not None:
+        say(f"{tracker}: {run.targets.line()}")
     if late is not None:
         extra = float(late.step_seconds.sum())
         say(f"lag {lag}: tracks_lag{lag}.{format.value}, the revision {extra:.2f} s "

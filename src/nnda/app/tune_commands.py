@@ -115,8 +115,9 @@ def tune(
         raise FileExistsError(f"{out}: already exists (pass --overwrite to replace it)")
     where = f"tracker config {config}" if config is not None else "tracker config"
     base = tracker_params(config, None)
-    check_config(tracker, tracker_params(base, model), where)  # a base config for another tracker: say so first
     ds = load(dataset)
+    # a base config for another tracker, or one that does not go with the class of target the sensors declare
+    check_config(tracker, tracker_params(base, model), where, ds.scenario.sensors)
     console = Console()
 
     def progress(done: int, total: int) -> None:

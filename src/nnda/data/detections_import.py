@@ -106,7 +106,7 @@ from nnda.data.geodetic_import import (
     sensor_sites,
 )
 from nnda.data.import_schedule import schedule_duration, sensor_sweeps
-from nnda.data.import_sensors import default_time_origin, imported_sensors, uses_polar
+from nnda.data.import_sensors import declared_targets, default_time_origin, imported_sensors, uses_polar
 from nnda.data.region import Region, parse_region
 from nnda.data.report_import import scan_order
 from nnda.data.scenario import ProcessNoise, Scenario, Segment, Sensor, Target
@@ -290,6 +290,7 @@ def read_detections(
     if isinstance(region, (str, Path)):
         region = parse_region(region, dialect)
     for j, s in enumerate(specs):  # the fields given, before anything is inferred (an offset needs its period)
+        specs[j] = s = declared_targets(s, f"sensor {j} ({names[j]!r})")  # --sensor targets=aircraft
         validated(Sensor, {k: v for k, v in s.items() if k != "scan_offset_s"}, f"sensor {j} ({names[j]!r})",
                   "sensor")
     path, table = read_source(path, "detections", dialect)

@@ -21,7 +21,7 @@ import numpy as np
 
 from nnda.data.geodetic_import import SITE_FIELDS
 from nnda.data.report_import import report_grid
-from nnda.data.scenario import Clutter, Sensor
+from nnda.data.scenario import TARGET_CLASSES, Clutter, Sensor
 from nnda.data.time_columns import default_origin_ns, seconds_after
 from nnda.errors import ConfigError, validated
 from nnda.files import read_config
@@ -45,6 +45,11 @@ def load_sensors(path: str | Path) -> list[dict]:
 
 #: --sensor reports=VALUE spellings
 _BOOLEANS = {"true": True, "false": False, "1": True, "0": False, "yes": True, "no": False}
+#: the import's name for `Sensor.declared_targets` (``--sensor targets=aircraft``, ``targets = "ships"`` in a
+#: sensors file): the class of target the sensor watches, as ``pd`` declares its P_D
+TARGETS = "targets"
+#: the sensor fields whose values are words, not numbers
+_WORDS = ("name", "kind", TARGETS, "declared_targets")
 
 
 def sensor_fields(pairs: Sequence[str]) -> dict[str, Any]:
@@ -55,8 +60,8 @@ def sensor_fields(pairs: Sequence[str]) -> dict[str, Any]:
         name, value = name.strip(), value.strip()
         if not sep or not name:
             raise ConfigError(f"--sensor {p!r}: give FIELD=VALUE, e.g. scan_period_s=2")
-        if (name not in Sensor.model_fields or name == "clutter") and name not in SITE_FIELDS:
-            fields_known = ", ".join([*(f for f in Sensor.model_fields if f != "clutter"), *SITE_FIELDS])
+        if (name not in Sensor.model_fields or name == "clutter") and name not in (*SITE_FIELDS, TARGETS):
+            fields_known = ", ".join([*(f for f in Sensor.model_fields if f != "clutter"), TARGETS, *SITE_FIELDS])
             raise ConfigError(f"--sensor {p!r}: unknown sensor field {name!r}; choose one of {fields_known}")
         if name == "reports":
             if value.lower() not in _BOOLEANS:
@@ -64,7 +69,7 @@ def sensor_fields(pairs: Sequence[str]) -> dict[str, Any]:
             fields[name] = _BOOLEANS[value.lower()]
             continue
         try:
-            fields[name] = float(value) if name not in ("name", "kind") else value
+            fields[name] = float(value) if name not in _WORDS else value
         except ValueError:
             raise ConfigError(f"--sensor {p!r}: {name} must be a number") from None
     return fields
@@ -124,6 +129,22 @@ def default_time_origin(specs: Sequence[Mapping[str, Any]], names: list[str], se
         periods.append(period)
         reports.append(report)
     return default_origin_ns(firsts, periods, reports)
+
+
+def declared_targets(spec: Mapping[str, Any], where: str) -> dict[str, Any]:
+    """``spec`` with its ``targets`` (the import's name) as ``declared_targets``; ConfigError naming ``where``
+    (the sensor) for a class nnda does not know or for the two names given different classes."""
+    if TARGETS not in spec:
+        return dict(spec)
+    full = {k: v for k, v in spec.items() if k != TARGETS}
+    given = spec[TARGETS]
+    if given not in TARGET_CLASSES:
+        raise ConfigError(f"{where}: targets = {given!r} is no target class nnda knows; choose one of "
+                          f"{', '.join(TARGET_CLASSES)} (or leave it out: the trackers' own defaults)")
+    if full.setdefault("declared_targets", given) != given:
+        raise ConfigError(f"{where}: targets = {given!r} and declared_targets = {full['declared_targets']!r} "
+                          f"disagree; give one of them")
+    return full
 
 
 def uses_polar(kind: str, polar: bool, cart: bool) -> bool:

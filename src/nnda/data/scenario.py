@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, get_args
 
 import numpy as np
 from pydantic import (
@@ -38,6 +38,10 @@ FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 Probability = Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)]
+#: the classes of target a sensor may declare it watches (`Sensor.declared_targets`; their trackers' defaults:
+#: `nnda.tracking.target_classes`)
+TargetClass = Literal["ships", "aircraft", "pedestrians"]
+TARGET_CLASSES: tuple[str, ...] = get_args(TargetClass)
 
 #: a sensor position must lie within this distance of the origin on each axis (m): the scenario's frame
 FRAME_HALF_WIDTH_M = 1e7
@@ -156,7 +160,10 @@ class Sensor(BaseModel):
     detection probability the sensor's owner declares, which trackers assume
     unless their config sets its own (`nnda.tracking.detection_probability`;
     ``nnda import-detections --sensor pd=X`` declares X). It is left out of a
-    dump while None.
+    dump while None. ``declared_targets`` likewise declares what the sensor
+    watches ("ships", "aircraft", "pedestrians"): its trackers take that
+    class's speed window and motion noise for every field their config leaves
+    out (`nnda.tracking.target_classes`; ``--sensor targets=aircraft``).
 
     A sensor with ``reports = True`` (AIS, ADS-B, a tracker's plot stream)
     reports each contact at its own time: its scan k holds the reports with
@@ -185,6 +192,9 @@ class Sensor(BaseModel):
     declared_pd: Probability | None = Field(
         default=None, description="the detection probability trackers assume for this sensor unless their config "
         "sets pd; None: the tracker's own")
+    declared_targets: TargetClass | None = Field(
+        default=None, description="the class of target the sensor watches, whose speed window and motion noise "
+        "trackers take for the fields their config leaves out; None: the trackers' own defaults")
     clutter: Clutter = Clutter()
     reports: bool = Field(
         default=False, description="asynchronous reports: each detection keeps its own time; scan k holds this "
@@ -193,13 +203,14 @@ class Sensor(BaseModel):
 
     @model_serializer(mode="wrap")
     def _reports_only_when_set(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
-        """The fields as pydantic dumps them, without ``reports`` while it is False and ``declared_pd`` while it
-        is None (older manifests' bytes)."""
+        """The fields as pydantic dumps them, without ``reports`` while it is False and ``declared_pd`` and
+        ``declared_targets`` while they are None (older manifests' bytes)."""
         data = handler(self)
         if not self.reports:
             data.pop("reports", None)
-        if self.declared_pd is None:
-            data.pop("declared_pd", None)
+        for field in ("declared_pd", "declared_targets"):
+            if getattr(self, field) is None:
+                data.pop(field, None)
         return data
 
     @field_validator("x_m", "y_m")

@@ -48,6 +48,7 @@ from nnda.study.track_job import dataset_digest, management_record, scalars
 from nnda.tracking.detection_probability import DetectionProbabilities
 from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
 from nnda.tracking.registry import make_tracker
+from nnda.tracking.target_classes import TargetClassUse
 from nnda.tracking.tracker import Tracker
 
 STATE = ("x", "vx", "y", "vy")
@@ -66,8 +67,9 @@ class TrackRun:
     """A tracker's run on one dataset: its per-scan outputs, their table, the time of each ``step`` (s), the
     scores (None when the dataset has no truth), a contact tracker's track management (the confirmation
     rule, deletions by reason, lines refused as too fast: `nnda.study.track_job.management_record`; None for
-    other trackers) and the P_D each sensor's scans were tracked with and its source (`detection_record`; None
-    for a tracker that assumes none)."""
+    other trackers), the P_D each sensor's scans were tracked with and its source (`detection_record`; None
+    for a tracker that assumes none) and the class of target the sensors declare, with what the tracker took
+    from it (`targets_record`; None when none is declared)."""
 
     tracker: str
     outputs: list[TrackerOutput]
@@ -76,6 +78,7 @@ class TrackRun:
     scores: RunMetrics | None
     management: dict | None = None
     detection: DetectionProbabilities | None = None
+    targets: TargetClassUse | None = None
 
 
 def tracker_params(config: Mapping[str, Any] | str | Path | None, model: str | Path | None) -> dict:
@@ -146,7 +149,7 @@ def run_tracker(dataset: Dataset | str | Path, tracker: str, config: Mapping[str
                 on_scan(i + 1, dataset.n_scans)
         scores = run_metrics(dataset, outputs, cutoff_m, ownership) if score and has_truth(dataset) else None
     return TrackRun(tracker, outputs, track_table(dataset, outputs), seconds, scores, management_record(t),
-                    detection_record(t))
+                    detection_record(t), targets_record(t))
 
 
 def detection_record(tracker: Tracker) -> DetectionProbabilities | None:
@@ -154,6 +157,13 @@ def detection_record(tracker: Tracker) -> DetectionProbabilities | None:
     `nnda.tracking.detection_probability`), None for a tracker that assumes none."""
     found = getattr(tracker, "detection", None)
     return found if isinstance(found, DetectionProbabilities) else None
+
+
+def targets_record(tracker: Tracker) -> TargetClassUse | None:
+    """The class of target a built tracker's sensors declare and what it took from it (its ``targets``,
+    `nnda.tracking.target_classes`), None when none is declared or the tracker takes none."""
+    found = getattr(tracker, "targets", None)
+    return found if isinstance(found, TargetClassUse) else None
 
 
 SCORES_FORMAT = "nnda.track-scores"
@@ -164,7 +174,9 @@ def scores_record(run: TrackRun, dataset: Dataset, params: Mapping[str, Any], cu
     """``scores.json``: what was run on what, the ownership used, every run measure (`scalars`: a per-scan
     measure's mean over scans, undefined ones null) and, for a contact tracker, its ``track_management``
     (the confirmation rule, deletions by reason, lines refused as too fast) and, for a tracker that assumes a
-    P_D, ``detection_probability``: per sensor its P_D and where it came from (`TrackRun.detection`). No
+    P_D, ``detection_probability``: per sensor its P_D and where it came from (`TrackRun.detection`), and
+    where the sensors declare a class of target, ``target_class``: the class, its sensors, the window and the
+    values taken (`TrackRun.targets`). No
     wall-clock time: the same inputs give the same bytes."""
     assert run.scores is not None
     return {
@@ -173,4 +185,5 @@ def scores_record(run: TrackRun, dataset: Dataset, params: Mapping[str, Any], cu
         "n_scans": dataset.n_scans, "n_targets": len(dataset.scenario.targets), "cutoff_m": cutoff_m,
         "ownership": run.scores.ownership, "metrics": scalars(run.scores),
     } | ({} if run.management is None else {"track_management": run.management}) | (
-        {} if run.detection is None else {"detection_probability": run.detection.record()})
+        {} if run.detection is None else {"detection_probability": run.detection.record()}) | (
+        {} if run.targets is None else {"target_class": run.targets.record()})

@@ -271,7 +271,8 @@ def search(datasets: list[Dataset], tracker: str, params: Mapping[str, Any] | No
 
     _checked_budget(trials, seed, cutoff_m)
     params = dict(params or {})
-    base = check_config(tracker, params, where)
+    sensors = datasets[0].scenario.sensors if datasets else None  # the class of target they declare, if any
+    base = check_config(tracker, params, where, sensors)
     space = search_space(base, reports=any(s.reports for d in datasets for s in d.scenario.sensors))
     if not space:
         raise ConfigError(f"{where}: tracker {tracker!r}'s config has none of the fields nnda tune searches "
@@ -284,7 +285,7 @@ def search(datasets: list[Dataset], tracker: str, params: Mapping[str, Any] | No
                            trial.suggest_float(d.path, d.low, d.high, log=d.log)) for d in space}
         trial_params = with_values(params, values)
         try:
-            check_config(tracker, trial_params, where)
+            check_config(tracker, trial_params, where, sensors)
             with warnings.catch_warnings():  # a trial's bounds hit are its score's business, not the user's
                 warnings.simplefilter("ignore", BoundWarning)
                 return float(np.mean([_objective(_scored(d, tracker, trial_params, cutoff_m)) for d in datasets]))
@@ -314,7 +315,7 @@ def tune(dataset: Dataset, tracker: str, params: Mapping[str, Any] | None = None
     config in errors, ``on_trial(done, total)`` is called after each trial."""
     _checked_budget(trials, seed, cutoff_m)
     params = dict(params or {})
-    check_config(tracker, params, where)
+    check_config(tracker, params, where, dataset.scenario.sensors)
     k = split_scans(dataset.n_scans, fraction)
     if has_truth(dataset):  # the default runs here (a tracker that cannot use these sensors says so now)
         make_tracker(tracker, dataset.scenario.sensors, params, where)

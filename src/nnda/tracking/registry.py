@@ -27,6 +27,7 @@ from nnda.tracking.neural import NeuralTracker
 from nnda.tracking.phd.fusion import AAFusionTracker, CentralPHDTracker, FusionTracker, GCIFusionTracker
 from nnda.tracking.phd.tracker import CPHDTracker, EKPHDTracker, GMPHDTracker, UKPHDTracker
 from nnda.tracking.pmbm import PMBMTracker
+from nnda.tracking.target_classes import as_given, class_params, refused
 from nnda.tracking.tracker import ContactTracker, Tracker, reporting_trackers
 
 #: Stone Soup peer trackers: name -> "module:class", imported on first lookup
@@ -91,10 +92,27 @@ def _owners(fields: set[str], name: str) -> list[str]:
             if other != name and fields <= set(cls.config_type.model_fields)]
 
 
-def check_config(name: str, params: Mapping[str, Any] | None, where: str = "tracker config"):
+def check_config(name: str, params: Mapping[str, Any] | None, where: str = "tracker config",
+                 sensors: Sensor | Sequence[Sensor] | None = None):
     """The config of tracker ``name`` validated from ``params``; ConfigError naming ``where`` (a file, a study
-    entry), the tracker and every problem, and, when the unknown fields are another tracker's, that tracker."""
+    entry), the tracker and every problem, and, when the unknown fields are another tracker's, that tracker.
+    Given the ``sensors`` it will track with, a contact tracker's config takes the class of target they declare
+    for the fields ``params`` leaves out (`nnda.tracking.target_classes`): its own v_max 30 goes with the ships'
+    v_min 0, not with the default 70."""
     cls = _tracker_class(name, where)
+    if sensors is None or not issubclass(cls, ContactTracker) or not isinstance(params, Mapping):
+        return _validated_config(cls, name, params, where)
+    merged, use = class_params(name, params, sensor_tuple(sensors))
+    if use is None:
+        return _validated_config(cls, name, params, where)
+    try:
+        return as_given(_validated_config(cls, name, merged, where), params)
+    except ConfigError as exc:
+        raise ConfigError(f"{exc}\n  {refused(name, use, params, 'refused as above')}") from None
+
+
+def _validated_config(cls: type[Tracker], name: str, params: Mapping[str, Any] | None, where: str):
+    """`check_config` of ``params`` as they are."""
     if params is not None and not isinstance(params, Mapping):
         raise ConfigError(f"{where}: the {name} config must be a mapping of option names to values, got "
                           f"{type(params).__name__}")
@@ -123,7 +141,7 @@ def make_tracker(name: str, sensors: Sensor | Sequence[Sensor], params: Mapping[
         raise ConfigError(f"{where}: tracker {name!r} does not take asynchronous reports (sensor "
                           f"{', '.join(map(repr, reporting))} has reports = true); trackers that do: "
                           f"{', '.join(reporting_trackers())}")
-    config = check_config(name, params, where)
+    config = check_config(name, params, where, sensors)
     try:
         return cls(sensors, config)
     except ConfigError as exc:

@@ -97,6 +97,7 @@ from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.marginals import log_miss_weight
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
 from nnda.tracking.reports import Phase, report_pairs, report_times, step_window
+from nnda.tracking.target_classes import TargetClassUse, target_config
 
 #: detection probability of the track score for a tracker whose config has none and whose sensors declare none
 SCORE_PD = DEFAULT_PD
@@ -764,7 +765,10 @@ class ContactTracker(ABC):
     def __init__(self, sensors: Sensor | Sequence[Sensor], config: ContactTrackerConfig | None = None,
                  track_filter: IMM | None = None) -> None:
         self.sensors = sensor_tuple(sensors)
-        self.config = checked_config(self, config)
+        #: the config with the values of the class of target the sensors declare, and what it took from it
+        #: (`nnda.tracking.target_classes`; None when no sensor declares one: the config as given)
+        self.config, self.targets = target_config(self.name, checked_config(self, config), self.sensors)
+        self.targets: TargetClassUse | None
         #: the P_D of each sensor's scans and where it came from (`score_pd`)
         self.detection: DetectionProbabilities = detection_probabilities(
             self.name, self.config, self.sensors, default=SCORE_PD)
