@@ -6,13 +6,14 @@ association model), ``tracking`` (multi-target trackers), ``peers`` (Stone
 Soup behind nnda's tracker protocol), ``study`` (studies: plans, jobs,
 measures, statistics), ``reports`` (pages, tables, figures) and ``app``
 (the command line and the Python API). The API's calls (`nnda.track`,
-`nnda.generate`, `nnda.read_dataset`, `nnda.run_study`; `nnda.app.api`) are
-loaded on first use.
+`nnda.generate`, `nnda.read_dataset`, `nnda.run_study`, and
+`nnda.to_stonesoup`, `nnda.truth_to_stonesoup` for Stone Soup's metrics;
+`nnda.app.api`) are loaded on first use.
 """
 
 from nnda.version import __version__
 
-_API = ("generate", "read_dataset", "run_study", "track")
+_API = ("generate", "read_dataset", "run_study", "to_stonesoup", "track", "truth_to_stonesoup")
 
 
 def __getattr__(name: str):

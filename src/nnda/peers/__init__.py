@@ -1,9 +1,9 @@
-"""Stone Soup peers: its trackers on our data, our trackers on its data.
+"""Stone Soup peers: its trackers on our data, our trackers on its data, our tracks in its types.
 
 Stone Soup (``stonesoup`` on PyPI) is an optional extra: ``pip install
 'nnda[peers]'``. Nothing here imports it at nnda import time; the modules
 that need it (`nnda.peers.adapter`, `nnda.peers.trackers`,
-`nnda.peers.importer`) are imported on demand, after `require_stonesoup`
+`nnda.peers.importer`, `nnda.peers.export`) are imported on demand, after `require_stonesoup`
 has turned a missing install into a ConfigError that names the extra.
 """
 

@@ -130,6 +130,14 @@ def track_table(dataset: Dataset, outputs: list[TrackerOutput]) -> pa.Table:
                                  else columns[f.name] for f in TRACK_SCHEMA], schema=TRACK_SCHEMA)
 
 
+def track_covariances(table: pa.Table) -> np.ndarray:
+    """(R, 4, 4) the covariances of a `TRACK_SCHEMA` table's rows, from its upper-triangle columns."""
+    cov = np.empty((table.num_rows, 4, 4))
+    for c, (i, j) in zip(COV_COLUMNS, COV_ENTRIES):
+        cov[:, i, j] = cov[:, j, i] = table[c].to_numpy()
+    return cov
+
+
 def run_tracker(dataset: Dataset | str | Path, tracker: str, config: Mapping[str, Any] | str | Path | None = None,
                 model: str | Path | None = None, cutoff_m: float = DEFAULT_CUTOFF_M, ownership: Ownership = "auto",
                 on_scan: Callable[[int, int], None] | None = None, score: bool = True) -> TrackRun:

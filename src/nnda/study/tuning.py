@@ -48,7 +48,7 @@ import numpy as np
 from nnda.data.dataset import Dataset
 from nnda.errors import BoundWarning, ConfigError
 from nnda.study.metrics import DEFAULT_CUTOFF_M
-from nnda.study.track import COV_COLUMNS, COV_ENTRIES, has_truth, run_tracker
+from nnda.study.track import has_truth, run_tracker, track_covariances
 from nnda.study.tuning_space import Dimension, field_value, search_space, with_values
 from nnda.tracking.output import NO_CONTACT
 from nnda.tracking.registry import check_config, make_tracker
@@ -139,7 +139,7 @@ def innovation_consistency(dataset: Dataset, run, filters) -> dict[str, float]:
     pair = (tid[a] == tid[b]) & confirmed[a] & (t["contact"].to_numpy()[b] != NO_CONTACT)
     a, b = a[pair], b[pair]
     x = np.column_stack([t[c].to_numpy() for c in ("x", "vx", "y", "vy")])
-    cov = _covariance(t)
+    cov = track_covariances(t)
     when = t["time"].to_numpy()
     sensor = dataset.scan_sensor[scan[b] - 1]
     rows = t["detection"].to_numpy()[b]
@@ -164,14 +164,6 @@ def innovation_consistency(dataset: Dataset, run, filters) -> dict[str, float]:
     return {"objective": float(np.abs(per_track - 1.0).mean() + lost_fraction),
             "nis_per_dim": float(nis.mean() / MEASUREMENT_DIM), "lost_fraction": lost_fraction,
             "confirmed_tracks": float(ever.size), "updates": float(nis.size)}
-
-
-def _covariance(table) -> np.ndarray:
-    """(R, 4, 4) the track table's covariances from its upper-triangle columns (`nnda.study.track`)."""
-    cov = np.empty((table.num_rows, 4, 4))
-    for c, (i, j) in zip(COV_COLUMNS, COV_ENTRIES):
-        cov[:, i, j] = cov[:, j, i] = table[c].to_numpy()
-    return cov
 
 
 @dataclass(frozen=True)
