@@ -137,6 +137,23 @@ def test_drawn_scenes_keep_the_status_invariants(name, rule, scene, request):
     assert not broken(outs), broken(outs)
 
 
+#: the contact trackers of the life cycle's output rule ``report_existence`` (the labelled ones have their own)
+HIDING = [name for name in TRACKERS if issubclass(TRACKERS[name], ContactTracker)
+          and TRACKERS[name].own_confirmation is None]
+
+
+@pytest.mark.parametrize("name", HIDING)
+@settings(DRAWN)
+@given(scene=scenes())
+def test_drawn_scenes_keep_the_status_invariants_with_tracks_left_out(name, scene, request):
+    """``lifecycle.report_existence`` 0.7 (a confirmed track left out after two misses in a row at P_D 0.9):
+    a track left out and reported again is still confirmed, and one deleted while left out is reported deleted
+    once and never again."""
+    ds = generate(scene)
+    outs = outputs(tracker_for(request, name, None, scene.sensors, lifecycle={"report_existence": 0.7}), ds.scans())
+    assert not broken(outs), broken(outs)
+
+
 @pytest.mark.parametrize("name", PEERS)
 @settings(DRAWN, max_examples=3)
 @given(scene=scenes())

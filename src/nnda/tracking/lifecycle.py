@@ -219,6 +219,12 @@ class LifecycleConfig(BaseModel):
                                    "(max_gate_clutter); False: no such rule, as in Vargas Avila (2015)")
     coverage_deletion: bool = Field(True, description="delete a track outside every sensor's coverage by more "
                                     "than its gate")
+    report_existence: Annotated[float | None, Field(
+        gt=0, lt=1, description="leave a confirmed track out of the output while the probability that its target "
+        "still exists, after its misses in a row, is below this (`misses_to_hide`: from 1 at its last contact, "
+        "each scan that misses it weighs it by survival_probability and 1 - P_D P_G), as the labelled trackers' "
+        "report_existence does; the track lives on and is reported again, confirmed and with its id, at its next "
+        "contact. None: every confirmed track is reported")] = None
     report_gap_s: Annotated[float, Field(
         gt=0, description="asynchronous reports (a sensor with reports = true): the longest a track may go "
         "without a report (s) before each window's end counts as a miss for it (a report of one target says "
@@ -371,6 +377,23 @@ def advance_score(status: np.ndarray, score: np.ndarray, max_score: np.ndarray, 
     return advance_score_kernel(status, np.asarray(score, float), np.asarray(max_score, float),
                                 everywhere(observed, status.size), upper, lower, early,
                                 cfg.confirmation == "existence", consecutive, run)
+
+
+def misses_to_hide(cfg: LifecycleConfig, pd_gated: float) -> int:
+    """The misses in a row after which a confirmed track is left out of the output (``report_existence``), for a
+    sensor that detects a target inside the gate with probability ``pd_gated`` (P_D P_G): the least n with r_n
+    below the threshold, where r_0 = 1 (the track's last contact was its target's) and a missed scan predicts
+    r by the survival probability p_S and updates it as IPDA does, r' = (1 - P_D P_G) p_S r / (1 - P_D P_G p_S
+    r). 2^62 (never) without the rule, or where r never falls below it (p_S = 1 and P_D P_G = 0)."""
+    threshold, survival = cfg.report_existence, cfg.survival_probability
+    if threshold is None:
+        return 2**62
+    r = 1.0
+    for n in range(1, 10_000):
+        r = (1.0 - pd_gated) * survival * r / (1.0 - pd_gated * survival * r)
+        if r < threshold:
+            return n
+    return 2**62
 
 
 def miss_run(cfg: LifecycleConfig) -> int:

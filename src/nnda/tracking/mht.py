@@ -343,7 +343,9 @@ class MHTTracker(ContactTracker):
         is deleted, even when its chosen leaf is one of its branches that is still preliminary: the global
         hypothesis may give a confirmed branch's contacts to another family, or a preliminary branch may come to
         outscore the confirmed ones. A chosen family whose every leaf was pruned in this scan (the
-        ``max_hypotheses`` cap) is reported as deleted only, if it was reported before."""
+        ``max_hypotheses`` cap) is reported as deleted only, if it was reported before. With
+        ``lifecycle.report_existence``, a confirmed family whose chosen leaf has missed too many scans in a row
+        is left out (`ContactTracker._hidden`)."""
         blocks = []
         ids, x, P, confirmed = self.known
         alive_ids = self.leaves.tracks.track_id if self.leaves is not None else np.empty(0, np.int64)
@@ -352,7 +354,9 @@ class MHTTracker(ContactTracker):
         if chosen.size:
             tr = leaves.tracks.take(chosen)
             status = np.where(np.isin(tr.track_id, ids[confirmed]), CONFIRMED, tr.status).astype(np.int8)
-            blocks.append((tr.track_id, status, shown.x[chosen], shown.P[chosen], leaves.hist[chosen, -1]))
+            block = (tr.track_id, status, shown.x[chosen], shown.P[chosen], leaves.hist[chosen, -1])
+            hidden = self._hidden(status, tr.consecutive, self.last_sensor)  # its last state is still `known`
+            blocks.append(block if hidden is None else tuple(a[~hidden] for a in block))
             stale = ~np.isin(ids, tr.track_id)
             ids = np.concatenate([ids[stale], tr.track_id])
             x = np.concatenate([x[stale], shown.x[chosen]])

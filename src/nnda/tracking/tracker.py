@@ -83,6 +83,7 @@ from nnda.tracking.lifecycle import (
     fast_lines,
     fast_tolerance_m,
     miss_run,
+    misses_to_hide,
     no_lines,
     predicted_log_odds,
     rate_threshold,
@@ -800,6 +801,26 @@ class ContactTracker(ABC):
         """The sanity rules' settings for this tracker's sensors, gate and life cycle (`sanity_args`)."""
         return sanity_args(self.sensors, self.gate_threshold, self.config.lifecycle)
 
+    @cached_property
+    def _misses_to_hide(self) -> np.ndarray | None:
+        """Per sensor, the misses in a row after which a confirmed track is left out of the output
+        (`lifecycle.misses_to_hide` at the sensor's P_D and the gate's P_G) (S,); None without
+        ``lifecycle.report_existence``."""
+        cfg = self.config.lifecycle
+        if cfg.report_existence is None:
+            return None
+        p_gate = gate_probability(self.gate_threshold)
+        return np.array([misses_to_hide(cfg, self.score_pd(s) * p_gate) for s in range(len(self.sensors))])
+
+    def _hidden(self, status: np.ndarray, consecutive: np.ndarray, sensor: int) -> np.ndarray | None:
+        """Which of K reported tracks (their ``status`` (K,) after the scan and misses in a row ``consecutive``
+        (K,)) are left out of the output after a scan of ``sensor`` (``lifecycle.report_existence``): the
+        confirmed ones past `_misses_to_hide`; None when none is (or without the rule)."""
+        if self._misses_to_hide is None:
+            return None
+        hidden = (status == CONFIRMED) & (consecutive >= self._misses_to_hide[sensor])
+        return hidden if hidden.any() else None
+
     def _quality_density(self, scan: ScanContacts, x: np.ndarray) -> np.ndarray:
         """The track-quality rule's clutter density (m^-2) around K tracks at positions x (K, 4) ([x, vx, y,
         vy]): the scan's contacts in the square of half-side ``clutter_radius_m`` (`local_density`); zeros
@@ -1049,6 +1070,7 @@ class SingleHypothesisTracker(ContactTracker):
         sc = self._checked(scan, phase)
         z, time = sc.z, sc.time
         used = None  # the contacts the tracks reported (N,); None: no track, none
+        hidden = None  # the old tracks left out of the output (`_hidden`)
         shown: list[Shown] = []  # the output's blocks: old tracks, new ones
         tracks = self.tracks
         if tracks is not None:
@@ -1065,7 +1087,7 @@ class SingleHypothesisTracker(ContactTracker):
             assoc = self.associate(tracks, pred, sc)
             if assoc.revised is not None:
                 tracks, pred = assoc.revised
-            tracks, block, used = self._finish(tracks, pred, assoc, sc)
+            tracks, block, used, hidden = self._finish(tracks, pred, assoc, sc)
             shown.append(block)
         score_rule = self.confirmation_rule != "mn"
         # under the score rule only confirmed tracks take room from new ones: the cap then keeps the best scores
@@ -1079,18 +1101,20 @@ class SingleHypothesisTracker(ContactTracker):
             shown.append(Shown(born.track_id, born.status, *self.filter.estimate(born.filt), born_contact))
             tracks = born if tracks is None else tracks.joined(born)
         self.tracks = tracks
+        if hidden is not None:  # after the cap, which reads the old tracks' block row by row
+            shown[0] = Shown(*(a[~hidden] for a in shown[0]))
         return TrackerOutput.from_blocks(scan.index, time, shown)
 
     def _finish(self, tracks: Tracks, pred: IMMPrediction, assoc: Association, scan: ScanContacts
-                ) -> tuple[Tracks | None, Shown, np.ndarray]:
+                ) -> tuple[Tracks | None, Shown, np.ndarray, np.ndarray | None]:
         """The scan's end for the K tracks the method decided for, in one compiled call (`_finished`): a track
         with a contact takes its updated state, a missed one keeps its last posterior (no update) and reports its
         prediction; the life cycle (`Tracks.after_scan`, with the score's increments of `_score_gain`); the
         sanity rules on the reported states (`nnda.tracking.lifecycle.sanity_reasons`); with the config's
         ``release_on_deletion``, a track deleted in this scan after it took a contact gives the contact back,
         reported as a miss with its prediction's estimate. The scan's deletions are counted in ``deletions``
-        by reason. Returns the tracks that live on (None: none), the K tracks' report and which of the scan's
-        contacts it holds (N,)."""
+        by reason. Returns the tracks that live on (None: none), the K tracks' report, which of the scan's
+        contacts it holds (N,) and which of the K rows to leave out of the output (`_hidden`; None: none)."""
         cfg, u, k, g = self.config.lifecycle, assoc.filt, tracks.filt, pred.gating
         args = tracks._scan_args(assoc.contact, scan.z, scan.xy, scan.time, cfg,
                                  self._observed(scan, pred, tracks.t2, assoc.contact),
@@ -1103,7 +1127,12 @@ class SingleHypothesisTracker(ContactTracker):
                 self.deletions[reason] += n
         track_id, status_alive, filt, *rest = survivors
         alive = None if not track_id.size else Tracks(track_id, status_alive, IMMState(*filt), *rest)
-        return alive, Shown(tracks.track_id, status, x, P, contact), used
+        hidden = None
+        if self._misses_to_hide is not None and alive is not None:
+            consecutive = np.zeros(len(status), np.int64)
+            consecutive[status != DELETED] = alive.consecutive
+            hidden = self._hidden(status, consecutive, scan.sensor)
+        return alive, Shown(tracks.track_id, status, x, P, contact), used, hidden
 
     def _capped(self, tracks: Tracks | None, born: Tracks, contact: np.ndarray, shown: list[Shown], time: float
                 ) -> tuple[Tracks | None, Tracks | None, np.ndarray]:
