@@ -9,6 +9,7 @@ import pytest
 from tests.tracking.labelled_helpers import one_target
 
 from nnda.data.dataset import Scan
+from nnda.errors import ConfigError
 from nnda.tracking.lifecycle import LifecycleConfig, misses_to_hide
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
@@ -72,3 +73,10 @@ def test_a_confirmed_track_is_left_out_after_its_misses_and_comes_back_under_its
     for k in visible:
         np.testing.assert_array_equal(plain[k].state, shown[k].state)
     assert {17, END + 3} <= {k for k, out in plain.items() if (out.track_id == track).any()}
+
+
+@pytest.mark.parametrize("name", ["pmbm", "glmb", "lmb"])
+def test_a_labelled_tracker_refuses_the_contact_trackers_rule_naming_its_own(name):
+    sensor, _ = one_target()
+    with pytest.raises(ConfigError, match=r"lifecycle.report_existence = 0.7 .*set report_existence \(now 0.5\)"):
+        make_tracker(name, sensor, {"lifecycle": {"report_existence": 0.7}})

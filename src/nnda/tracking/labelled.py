@@ -80,6 +80,10 @@ class LabelledConfig(ContactTrackerConfig):
 
     @model_validator(mode="after")
     def _tentative_order(self) -> LabelledConfig:
+        if self.lifecycle.report_existence is not None:
+            raise ValueError(f"lifecycle.report_existence = {self.lifecycle.report_existence:g} is the contact "
+                             f"trackers' output rule; a labelled tracker reports by its labels' own existence: "
+                             f"set report_existence (now {self.report_existence:g}) instead")
         if 0 < self.admission_existence <= self.min_tentative_existence:
             raise ValueError(f"min_tentative_existence = {self.min_tentative_existence:g} must be below "
                              f"admission_existence = {self.admission_existence:g}: a tentative label would be "
