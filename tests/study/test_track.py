@@ -135,8 +135,13 @@ def test_csv_format_and_a_dataset_without_truth(s1, tmp_path, monkeypatch):
     import_detections(tmp_path / "plots.csv", tmp_path / "plots", sensors=sensor_specs(s1.scenario))
     done = CliRunner().invoke(app, ["track", "plots", "--tracker", "gnn", "--out", "t", "--format", "csv"])
     assert done.exit_code == 0, done.output
-    assert "no truth in the dataset: no scores" in done.output
-    assert sorted(p.name for p in (tmp_path / "t").iterdir()) == ["tracks.csv", "tracks.html", "tracks.png"]
+    assert "no truth in the dataset: scores.json records the run, its metrics null" in " ".join(done.output.split())
+    assert sorted(p.name for p in (tmp_path / "t").iterdir()) == ["scores.json", "tracks.csv", "tracks.html",
+                                                                   "tracks.png"]
+    record = json.loads((tmp_path / "t" / "scores.json").read_text())
+    assert record["metrics"] is None and record["ownership"] is None
+    assert record["detection_probability"] == [{"sensor": "radar", "pd": 0.9, "source": "tracker default"}]
+    assert sum(record["track_management"]["deletions"].values()) > 0
     back = pacsv.read_csv(tmp_path / "t" / "tracks.csv")
     want = run_tracker(tmp_path / "plots", "gnn").table
     assert back.column_names == want.column_names and back.num_rows == want.num_rows

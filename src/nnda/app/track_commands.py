@@ -35,11 +35,11 @@ OwnershipChoice = enum.Enum("OwnershipChoice", {o: o for o in OWNERSHIP}, type=s
 
 def write_track_outputs(out: Path, dataset, run, params: dict, cutoff_m: float, table_format: str = "parquet",
                         overwrite: bool = False, lagged=None, lag: int = 0) -> Path:
-    """Write ``tracks.<format>``, ``tracks.png``, ``tracks.html`` and (with truth) ``scores.json`` into the
-    directory ``out``, atomically as a whole; with ``lagged`` (the `TrackRun` of the fixed-lag output of
-    ``lag`` scans) also ``tracks_lag<lag>.<format>`` and the lagged scores in ``scores.json``. A dataset with
-    a geodetic origin gets ``lat``, ``lon`` (deg, at the origin's height) after the state columns of each
-    table."""
+    """Write ``tracks.<format>``, ``tracks.png``, ``tracks.html`` and ``scores.json`` (its ``metrics`` null
+    without truth) into the directory ``out``, atomically as a whole; with ``lagged`` (the `TrackRun` of the
+    fixed-lag output of ``lag`` scans) also ``tracks_lag<lag>.<format>`` and the lagged scores in
+    ``scores.json``. A dataset with a geodetic origin gets ``lat``, ``lon`` (deg, at the origin's height) after
+    the state columns of each table."""
     import pyarrow.csv as pacsv
     import pyarrow.parquet as pq
 
@@ -58,8 +58,7 @@ def write_track_outputs(out: Path, dataset, run, params: dict, cutoff_m: float, 
                     pq.write_table(table, f)
         (tmp / "tracks.png").write_bytes(track_png(dataset, run.table, run.tracker))
         (tmp / "tracks.html").write_text(track_html(dataset, run.table, run.tracker))
-        if run.scores is not None:
-            (tmp / "scores.json").write_text(dumps(_scores(run, dataset, params, cutoff_m, lagged, lag)))
+        (tmp / "scores.json").write_text(dumps(_scores(run, dataset, params, cutoff_m, lagged, lag)))
     return out
 
 
@@ -182,4 +181,5 @@ def track(
         extra = float(late.step_seconds.sum())
         say(f"lag {lag}: tracks_lag{lag}.{format.value}, the revision {extra:.2f} s "
             f"({extra / own if own > 0 else 0.0:.2f}x the tracker's time)")
-    say(f"wrote {out}" + ("" if run.scores is not None else " (no truth in the dataset: no scores)"))
+    say(f"wrote {out}" + ("" if run.scores is not None else " (no truth in the dataset: scores.json records the "
+                             "run, its metrics null)"))

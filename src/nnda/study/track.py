@@ -180,18 +180,19 @@ SCORES_FORMAT_VERSION = 1
 
 def scores_record(run: TrackRun, dataset: Dataset, params: Mapping[str, Any], cutoff_m: float) -> dict:
     """``scores.json``: what was run on what, the ownership used, every run measure (`scalars`: a per-scan
-    measure's mean over scans, undefined ones null) and, for a contact tracker, its ``track_management``
+    measure's mean over scans, undefined ones null; ``metrics`` and ``ownership`` null for a dataset without
+    truth, whose run is recorded all the same) and, for a contact tracker, its ``track_management``
     (the confirmation rule, deletions by reason, lines refused as too fast) and, for a tracker that assumes a
     P_D, ``detection_probability``: per sensor its P_D and where it came from (`TrackRun.detection`), and
     where the sensors declare a class of target, ``target_class``: the class, its sensors, the window and the
     values taken (`TrackRun.targets`). No
     wall-clock time: the same inputs give the same bytes."""
-    assert run.scores is not None
+    scored = run.scores is not None
     return {
         "format": SCORES_FORMAT, "format_version": SCORES_FORMAT_VERSION, "tracker": run.tracker,
         "params": dict(params), "scenario": dataset.scenario.name, "dataset_digest": dataset_digest(dataset),
         "n_scans": dataset.n_scans, "n_targets": len(dataset.scenario.targets), "cutoff_m": cutoff_m,
-        "ownership": run.scores.ownership, "metrics": scalars(run.scores),
+        "ownership": run.scores.ownership if scored else None, "metrics": scalars(run.scores) if scored else None,
     } | ({} if run.management is None else {"track_management": run.management}) | (
         {} if run.detection is None else {"detection_probability": run.detection.record()}) | (
         {} if run.targets is None else {"target_class": run.targets.record()})
