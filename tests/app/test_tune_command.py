@@ -60,6 +60,17 @@ def test_the_same_seed_gives_the_same_bytes(fast_dir, tmp_path, monkeypatch, cap
         assert (tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes()
 
 
+def test_keep_holds_fields_at_the_base_config_and_says_so(fast_dir, tmp_path, monkeypatch, capsys):
+    out = tmp_path / "kept"
+    code, err = nnda(monkeypatch, capsys, "tune", fast_dir, "--tracker", "gnn", "--out", out, "--trials", "3",
+                     "--keep", "lifecycle.v_min", "--keep", "gate")
+    assert code == 0, err
+    assert "- kept at the base config's values: `lifecycle.v_min`, `gate`" in (out / "tune.md").read_text()
+    config = read_config(out / "config.toml", "tuned config")
+    assert "gate" not in config and "v_min" not in config["lifecycle"] and config["lifecycle"]["v_max"] > 320.0
+    assert "gate" not in (out / "trials.csv").read_text().splitlines()[0].split(",")
+
+
 def test_a_base_config_keeps_its_fields_and_without_truth_the_config_is_valid(tmp_path, monkeypatch, capsys):
     data = write_dataset(without_truth(generate(fast_scene(), 5)), tmp_path / "no-truth")
     base = tmp_path / "base.toml"

@@ -134,7 +134,20 @@ def test_an_inconsistent_trial_is_pruned_not_fatal(fast, monkeypatch):
     assert result.best_values["lifecycle.v_min"] < result.best_values["lifecycle.v_max"]
 
 
+def test_a_kept_field_stays_at_the_base_value_in_every_trial(fast):
+    base = {"lifecycle": {"confirmation": "mn", "max_misses": 4}}  # M/N: its max_misses is searched
+    result = tune(fast, "gnn", base, trials=5, seed=0, keep=["lifecycle.max_misses"])
+    assert result.kept == ("lifecycle.max_misses",)
+    assert "lifecycle.max_misses" not in {d.path for d in result.space}
+    assert all("lifecycle.max_misses" not in t.params for t in result.trials)
+    assert result.best_params["lifecycle"]["max_misses"] == 4
+    free = tune(fast, "gnn", base, trials=1, seed=0)
+    assert "lifecycle.max_misses" in {d.path for d in free.space}
+
+
 @pytest.mark.parametrize(("kwargs", "message"), [
+    ({"keep": ["lifecycle.max_miss"]}, "--keep lifecycle.max_miss: not among the fields this search tunes; "
+                                       "choose from motion.cv_sigma_q"),
     ({"trials": 0}, "--trials 0: give a whole number of trials, 1 or more"),
     ({"fraction": 1.5}, "--fraction 1.5: the share of the scans tuned on must lie strictly between 0 and 1"),
     ({"fraction": 0.05}, f"each part needs {MIN_WINDOW_SCANS} at least"),

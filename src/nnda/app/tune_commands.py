@@ -66,7 +66,9 @@ def tune_markdown(result, dataset: Path) -> str:
              f"- split: scans 1-{k} tuned on, {k + 1}-{n} held out (each run from a fresh start)",
              f"- objective (minimised): {objective}",
              f"- trials: {len(result.trials)} ({done} complete, {len(result.trials) - done} pruned: refused by the "
-             f"config), TPE sampler; the best is trial {result.best_trial}", "",
+             f"config), TPE sampler; the best is trial {result.best_trial}",
+             *([f"- kept at the base config's values: {', '.join(f'`{name}`' for name in result.kept)}"]
+               if result.kept else []), "",
              "## Tuned fields", "", "| field | range | default | tuned |", "|---|---|---|---|"]
     for d in result.space:
         scale = ", log" if d.log else ""
@@ -97,6 +99,9 @@ def tune(
     model: Annotated[Path | None, typer.Option(help="model file or directory (the nn tracker)")] = None,
     cutoff: Annotated[float, typer.Option(help="GOSPA cut-off and position-matching threshold, m")
                       ] = DEFAULT_CUTOFF_M,
+    keep: Annotated[list[str] | None, typer.Option(
+        help="a field the search leaves at the base config's value (repeatable), e.g. lifecycle.max_misses: one "
+             "whose cost GOSPA does not see")] = None,
     overwrite: Annotated[bool, typer.Option(help="replace an existing directory at --out")] = False,
 ) -> None:
     """Fit a tracker's parameters (IMM process noise and mode switching, gate, initiation window, life-cycle
@@ -125,7 +130,7 @@ def tune(
             console.print(f"trial {done}/{total}", end="\r", highlight=False)
 
     result = search(ds, tracker, tracker_params(base, model), trials=trials, seed=seed, fraction=fraction,
-                    cutoff_m=cutoff, where=where, on_trial=progress)
+                    cutoff_m=cutoff, where=where, on_trial=progress, keep=keep or ())
     tuned = {key: value for key, value in result.best_params.items() if key in base or key != "model"}
     with atomic_directory(out, overwrite) as tmp:
         (tmp / "config.toml").write_text(tomli_w.dumps(tuned))

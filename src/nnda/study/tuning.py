@@ -39,7 +39,7 @@ import dataclasses
 import math
 import time
 import warnings
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -181,7 +181,8 @@ class TrialRecord:
 class TuneResult:
     """A search's outcome: what was tuned on what, every trial, the best values and the scores of the base
     (default) and tuned configs on the tuning and held-out scans (``scores[(config, part)][measure]``, the
-    measures `MEASURES` with truth, else `CONSISTENCY_MEASURES`); ``seconds`` the search's wall time."""
+    measures `MEASURES` with truth, else `CONSISTENCY_MEASURES`); ``seconds`` the search's wall time; ``kept``
+    the fields of the space held at the base config's values."""
 
     tracker: str
     scenario: str
@@ -197,6 +198,7 @@ class TuneResult:
     best_params: dict[str, Any]
     scores: dict[tuple[str, str], dict[str, float | None]]
     seconds: float
+    kept: tuple[str, ...] = ()
 
 
 def _scored(window: Dataset, tracker: str, params: Mapping[str, Any], cutoff_m: float) -> dict[str, float | None]:
@@ -254,18 +256,21 @@ def _checked_budget(trials: int, seed: int, cutoff_m: float) -> None:
 
 def search(datasets: list[Dataset], tracker: str, params: Mapping[str, Any] | None = None, trials: int = 40,
            seed: int = 0, cutoff_m: float = DEFAULT_CUTOFF_M, where: str = "tracker config",
-           on_trial: Callable[[int, int], None] | None = None) -> Search:
+           on_trial: Callable[[int, int], None] | None = None, keep: Sequence[str] = ()) -> Search:
     """Search ``tracker``'s config from the base ``params`` with Optuna's seeded TPE sampler, minimising the
     mean over ``datasets`` of the objective (module docstring: GOSPA with truth, else innovation
-    consistency); the first trial is the base config's values. ``where`` names the base config in errors,
-    ``on_trial(done, total)`` is called after each trial."""
+    consistency); the first trial is the base config's values. ``keep``: dotted fields of the space
+    (`search_space`) held at the base config's values, e.g. ``lifecycle.max_misses``, whose cost the objective
+    does not see (GOSPA barely charges a track deleted and started again); ConfigError for a field not in the
+    space. ``where`` names the base config in errors, ``on_trial(done, total)`` is called after each trial."""
     from nnda.extras import require
 
     _checked_budget(trials, seed, cutoff_m)
     params = dict(params or {})
     sensors = datasets[0].scenario.sensors if datasets else None  # the class of target they declare, if any
     base = check_config(tracker, params, where, sensors)
-    space = search_space(base, reports=any(s.reports for d in datasets for s in d.scenario.sensors))
+    space = kept(search_space(base, reports=any(s.reports for d in datasets for s in d.scenario.sensors)), keep,
+                 where)
     if not space:
         raise ConfigError(f"{where}: tracker {tracker!r}'s config has none of the fields nnda tune searches "
                           f"(motion noise, gate, initiation window, life-cycle or PHD thresholds)")
@@ -299,12 +304,25 @@ def search(datasets: list[Dataset], tracker: str, params: Mapping[str, Any] | No
     return Search(space, records, best.number, dict(best.params), with_values(params, best.params), seconds)
 
 
+def kept(space: tuple[Dimension, ...], keep: Sequence[str], where: str) -> tuple[Dimension, ...]:
+    """``space`` without the dimensions of the dotted fields ``keep``; ConfigError naming ``where`` and the
+    searchable fields for a field ``keep`` names that is not in the space."""
+    paths = [d.path for d in space]
+    unknown = [k for k in keep if k not in paths]
+    if unknown:
+        raise ConfigError(f"{where}: --keep {', '.join(unknown)}: not among the fields this search tunes; choose "
+                          f"from {', '.join(paths)}")
+    return tuple(d for d in space if d.path not in keep)
+
+
 def tune(dataset: Dataset, tracker: str, params: Mapping[str, Any] | None = None, trials: int = 40,
          seed: int = 0, fraction: float = FRACTION, cutoff_m: float = DEFAULT_CUTOFF_M,
-         where: str = "tracker config", on_trial: Callable[[int, int], None] | None = None) -> TuneResult:
+         where: str = "tracker config", on_trial: Callable[[int, int], None] | None = None,
+         keep: Sequence[str] = ()) -> TuneResult:
     """Search ``tracker``'s config on the first part of ``dataset`` from the base ``params`` (`search`, the
-    module docstring's split) and score the base and the best config on both parts; ``where`` names the base
-    config in errors, ``on_trial(done, total)`` is called after each trial."""
+    module docstring's split; ``keep`` the fields held at the base's values) and score the base and the best
+    config on both parts; ``where`` names the base config in errors, ``on_trial(done, total)`` is called after
+    each trial."""
     _checked_budget(trials, seed, cutoff_m)
     params = dict(params or {})
     check_config(tracker, params, where, dataset.scenario.sensors)
@@ -314,9 +332,9 @@ def tune(dataset: Dataset, tracker: str, params: Mapping[str, Any] | None = None
     else:
         _filters(dataset, tracker, params)
     parts = {"tuning": scan_window(dataset, 1, k), "held-out": scan_window(dataset, k + 1, dataset.n_scans)}
-    found = search([parts["tuning"]], tracker, params, trials, seed, cutoff_m, where, on_trial)
+    found = search([parts["tuning"]], tracker, params, trials, seed, cutoff_m, where, on_trial, keep)
     scores = {(name, part): _scored(window, tracker, p, cutoff_m)
               for name, p in (("default", params), ("tuned", found.best_params)) for part, window in parts.items()}
     return TuneResult(tracker, dataset.scenario.name, dataset.n_scans, k, has_truth(dataset), float(cutoff_m),
                       found.space, found.trials, found.best_trial, found.best_values, params, found.best_params,
-                      scores, found.seconds)
+                      scores, found.seconds, tuple(keep))
