@@ -1,7 +1,7 @@
 """Poisson multi-Bernoulli mixture (PMBM) tracker, track-oriented (Williams 2015; García-Fernández,
 Williams, Granström & Svensson 2018), with the IMM of every contact tracker as single-target density.
 
-    tracker = make_tracker("pmbm", scenario.sensors, {"pd": 0.9, "max_global_hypotheses": 50})
+    tracker = make_tracker("pmbm", scenario.sensors, {"pd": 0.9, "max_global_hypotheses": 100})
     outputs = [tracker.step(scan) for scan in dataset.scans()]
 
 **Relation to** `nnda.tracking.mht`: this is a track-oriented MHT whose tracks (Bernoullis, one label each)
@@ -109,7 +109,8 @@ class PMBMConfig(LabelledConfig):
     birth_rate: Annotated[float, Field(gt=0, description="beta_NT: targets expected to appear per scan in the "
                                        "sensor's coverage (the Poisson birth intensity, uniform over it)")] = 0.5
     max_global_hypotheses: Annotated[int, Field(ge=1, description="global hypotheses kept, best weights "
-                                                "first")] = 50
+                                                "first (at 50, S5's clutter pushed out the hypothesis that "
+                                                "a target had been missed through its gap)")] = 100
     n_scan: Annotated[int, Field(ge=1, description="N-scan pruning depth (scans of ambiguity kept)")] = 3
     existence_threshold: Annotated[float, Field(gt=0, lt=1, description="marginal existence probability at "
                                                 "which a Bernoulli is confirmed")] = 0.99
