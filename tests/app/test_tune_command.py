@@ -60,6 +60,26 @@ def test_the_same_seed_gives_the_same_bytes(fast_dir, tmp_path, monkeypatch, cap
         assert (tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes()
 
 
+def test_a_switching_penalty_of_zero_is_the_plain_objective_and_one_above_changes_it(fast_dir, tmp_path, monkeypatch,
+                                                                                     capsys):
+    runs = {"plain": (), "zero": ("--switching-penalty", "0"), "charged": ("--switching-penalty", "1000")}
+    for name, extra in runs.items():
+        code, err = nnda(monkeypatch, capsys, "tune", fast_dir, "--tracker", "gnn", "--out", tmp_path / name,
+                         "--trials", "4", "--seed", "3", *extra)
+        assert code == 0, err
+    for f in FILES:
+        assert (tmp_path / "zero" / f).read_bytes() == (tmp_path / "plain" / f).read_bytes()
+    plain, charged = ((tmp_path / name / "trials.csv").read_text().splitlines() for name in ("plain", "charged"))
+    objective = [[line.split(",")[2] for line in rows[1:]] for rows in (plain, charged)]
+    assert objective[0] != objective[1] and [len(o) for o in objective] == [4, 4]
+    drop_objective = [[line.split(",")[:2] + line.split(",")[3:] for line in rows] for rows in (plain, charged)]
+    assert drop_objective[0] == drop_objective[1]  # the same trials: only their objective moved
+    report = (tmp_path / "charged" / "tune.md").read_text()
+    assert "objective (minimised): mean over the tuning scans of GOSPA with switching penalty gamma = 1000 m" in report
+    assert "| GOSPA with switching penalty 1000 m (m) |" in report and "| Track switches (GOSPA assignment) |" in report
+    assert "switching penalty" not in (tmp_path / "plain" / "tune.md").read_text()
+
+
 def test_keep_holds_fields_at_the_base_config_and_says_so(fast_dir, tmp_path, monkeypatch, capsys):
     out = tmp_path / "kept"
     code, err = nnda(monkeypatch, capsys, "tune", fast_dir, "--tracker", "gnn", "--out", out, "--trials", "3",
@@ -90,6 +110,8 @@ def test_a_base_config_keeps_its_fields_and_without_truth_the_config_is_valid(tm
     (("--tracker", "gnn", "--trials", "0"), "--trials 0: give a whole number of trials, 1 or more"),
     (("--tracker", "gnn", "--fraction", "1.5"), "--fraction 1.5: the share of the scans tuned on must lie"),
     (("--tracker", "gnn", "--config", "{mht}"), "n_scan are options of tracker(s) mht"),
+    (("--tracker", "gnn", "--switching-penalty", "-5"), "--switching-penalty -5.0: must be a number of metres >= 0"),
+    (("--tracker", "gnn", "--switching-penalty", "nan"), "--switching-penalty nan: must be a number of metres >= 0"),
 ])
 def test_bad_input_is_one_error_line(fast_dir, tmp_path, monkeypatch, capsys, args, message):
     mht = tmp_path / "mht.toml"

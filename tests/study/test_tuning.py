@@ -171,3 +171,31 @@ def test_optuna_missing_is_one_clear_error(fast, monkeypatch):
     monkeypatch.setattr(extras, "require", missing)
     with pytest.raises(NndaError, match=r"nnda tune needs optuna.*nnda\[tune\]"):
         tune(fast, "gnn", trials=1)
+
+
+def test_a_switching_penalty_charges_the_track_switches_in_the_objective(fast):
+    """With gamma > 0 the objective is the mean GOSPA with that switching penalty, at least the GOSPA and above
+    it where tracks switch; gamma = 0 is the plain GOSPA search, trial by trial."""
+    plain, zero = tune(fast, "gnn", trials=4, seed=3), tune(fast, "gnn", trials=4, seed=3, switching_penalty_m=0.0)
+    assert zero.trials == plain.trials and zero.scores == plain.scores and zero.measures == tuning.MEASURES
+    charged = tune(fast, "gnn", trials=4, seed=3, switching_penalty_m=1000.0)
+    assert charged.switching_penalty_m == 1000.0 and charged.measures == tuning.SWITCHING_MEASURES
+    for part in charged.scores.values():
+        assert part["gospa_switching"] >= part["gospa"]
+        assert (part["gospa_switching"] > part["gospa"]) == (part["track_switches"] > 0)
+    assert any(s["track_switches"] > 0 for s in charged.scores.values())
+    objectives = [(a.objective, b.objective) for a, b in zip(plain.trials, charged.trials)]
+    assert objectives[0][1] >= objectives[0][0] and any(b > a for a, b in objectives if a is not None)
+
+
+@pytest.mark.parametrize("gamma", [-1.0, float("nan"), float("inf"), True, "100"])
+def test_a_bad_switching_penalty_is_one_clear_error(fast, gamma):
+    with pytest.raises(ConfigError, match=r"--switching-penalty .*: must be a number of metres >= 0"):
+        tune(fast, "gnn", trials=1, switching_penalty_m=gamma)
+
+
+def test_a_switching_penalty_without_truth_is_refused(fast):
+    with pytest.raises(ConfigError, match="--switching-penalty 500: .*needs truth.*leave the option out"):
+        tune(without_truth(fast), "gnn", trials=1, switching_penalty_m=500.0)
+    with pytest.raises(ConfigError, match="--switching-penalty 500"):
+        tuning.search([without_truth(fast)], "gnn", trials=1, switching_penalty_m=500.0)

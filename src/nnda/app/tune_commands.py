@@ -26,7 +26,15 @@ from nnda.study.metrics import DEFAULT_CUTOFF_M
 TITLES = {"gospa": "GOSPA (m)", "hit_rate": "Hit rate (%)", "lost_targets": "Lost targets",
           "false_tracks": "False tracks", "objective": "Objective (innovation consistency)",
           "nis_per_dim": "Mean NIS / 2 (1 when consistent)", "lost_fraction": "Confirmed tracks lost (share)",
-          "confirmed_tracks": "Confirmed tracks", "updates": "Updates of confirmed tracks"}
+          "confirmed_tracks": "Confirmed tracks", "updates": "Updates of confirmed tracks",
+          "track_switches": "Track switches (GOSPA assignment)"}
+
+
+def _title(measure: str, result) -> str:
+    """tune.md's name of a measure of ``result``'s scores (the switching penalty's value in the objective's)."""
+    if measure == "gospa_switching":
+        return f"GOSPA with switching penalty {result.switching_penalty_m:g} m (m)"
+    return TITLES[measure]
 
 
 def _number(value) -> str:
@@ -48,18 +56,28 @@ def trials_csv(result) -> str:
     return text.getvalue()
 
 
+def _objective_text(result) -> str:
+    """What ``result``'s search minimised, in words."""
+    if not result.truth:
+        return ("innovation consistency (no truth in the dataset): the mean over confirmed tracks of |mean NIS / 2 "
+                "- 1| plus the share of confirmed tracks deleted before the last scan")
+    gospa = f"(alpha = 2, p = 2, cut-off {result.cutoff_m:g} m)"
+    if not result.switching_penalty_m:
+        return f"mean GOSPA over the tuning scans {gospa}"
+    return (f"mean over the tuning scans of GOSPA with switching penalty gamma = {result.switching_penalty_m:g} m "
+            f"{gospa}: per scan (GOSPA^2 + gamma^2 n)^(1/2), n the scan's track switches of the GOSPA assignment "
+            f"(1 for a target passed from one confirmed track to another, 0.5 between a track and none)")
+
+
 def tune_markdown(result, dataset: Path) -> str:
     """``tune.md``: what was searched on what, the objective, the trials, the best values and the measures of
     the default and tuned configs on the tuning and held-out scans."""
-    from nnda.study.tuning import CONSISTENCY_MEASURES, MEASURES
     from nnda.study.tuning_space import field_value
     from nnda.tracking.registry import check_config
 
     k, n = result.tuning_scans, result.n_scans
     done = sum(t.state == "COMPLETE" for t in result.trials)
-    objective = (f"mean GOSPA over the tuning scans (alpha = 2, p = 2, cut-off {result.cutoff_m:g} m)"
-                 if result.truth else "innovation consistency (no truth in the dataset): the mean over confirmed "
-                 "tracks of |mean NIS / 2 - 1| plus the share of confirmed tracks deleted before the last scan")
+    objective = _objective_text(result)
     base = check_config(result.tracker, result.base_params)
     lines = [f"# nnda tune: {result.tracker} on {result.scenario}", "",
              f"- dataset: `{dataset}` ({n} scans)",
@@ -74,13 +92,12 @@ def tune_markdown(result, dataset: Path) -> str:
         scale = ", log" if d.log else ""
         lines.append(f"| `{d.path}` | {_number(d.low)} - {_number(d.high)}{scale} | "
                      f"{_number(field_value(base, d.path))} | {_number(result.best_values[d.path])} |")
-    measures = MEASURES if result.truth else CONSISTENCY_MEASURES
     lines += ["", "## Default against tuned", "",
               "| measure | default, tuning | tuned, tuning | default, held out | tuned, held out |",
               "|---|---|---|---|---|"]
-    for m in measures:
+    for m in result.measures:
         row = [_number(result.scores[(c, p)][m]) for p in ("tuning", "held-out") for c in ("default", "tuned")]
-        lines.append(f"| {TITLES[m]} | {row[0]} | {row[1]} | {row[2]} | {row[3]} |")
+        lines.append(f"| {_title(m, result)} | {row[0]} | {row[1]} | {row[2]} | {row[3]} |")
     lines += ["", "`config.toml` holds the base config with the tuned fields: run it with "
               f"`nnda track DATASET --tracker {result.tracker} --config config.toml`.", ""]
     return "\n".join(lines)
@@ -102,6 +119,10 @@ def tune(
     keep: Annotated[list[str] | None, typer.Option(
         help="a field the search leaves at the base config's value (repeatable), e.g. lifecycle.max_misses: one "
              "whose cost GOSPA does not see")] = None,
+    switching_penalty: Annotated[float, typer.Option(
+        help="GOSPA's switching penalty gamma, m (needs truth): the objective charges each scan's track switches "
+             "of the GOSPA assignment (1 from one track to another, 0.5 between a track and none) as gamma^2 "
+             "each; 0: none")] = 0.0,
     overwrite: Annotated[bool, typer.Option(help="replace an existing directory at --out")] = False,
 ) -> None:
     """Fit a tracker's parameters (IMM process noise and mode switching, gate, initiation window, life-cycle
@@ -130,14 +151,15 @@ def tune(
             console.print(f"trial {done}/{total}", end="\r", highlight=False)
 
     result = search(ds, tracker, tracker_params(base, model), trials=trials, seed=seed, fraction=fraction,
-                    cutoff_m=cutoff, where=where, on_trial=progress, keep=keep or ())
+                    cutoff_m=cutoff, where=where, on_trial=progress, keep=keep or (),
+                    switching_penalty_m=switching_penalty)
     tuned = {key: value for key, value in result.best_params.items() if key in base or key != "model"}
     with atomic_directory(out, overwrite) as tmp:
         (tmp / "config.toml").write_text(tomli_w.dumps(tuned))
         (tmp / "trials.csv").write_text(trials_csv(result))
         (tmp / "tune.md").write_text(tune_markdown(result, dataset))
-    what = "GOSPA (m)" if result.truth else "objective"
-    key = "gospa" if result.truth else "objective"
+    key = result.measures[0]
+    what = _title(key, result) if result.truth else "objective"
     held = [_number(result.scores[(c, "held-out")][key]) for c in ("default", "tuned")]
     console.print(f"{tracker}: {len(result.trials)} trials in {result.seconds:.1f} s "
                   f"({result.seconds / len(result.trials):.2f} s a trial); held-out {what}: default {held[0]}, "

@@ -196,6 +196,11 @@ def _set_part(metric: int, i: int) -> Callable[[ScoredRun], np.ndarray]:
     return lambda r: r.set_distances[metric][:, i]
 
 
+def _gospa_switching(r: ScoredRun) -> np.ndarray:
+    """(n_scans,) GOSPA with switching penalty gamma = the run's cut-off c (m)."""
+    return r.gospa_switching(r.cutoff_m)
+
+
 def _count_error(r: ScoredRun) -> np.ndarray:
     """(n_scans,) |confirmed tracks reported - targets present| in each scan: how well the tracker counts."""
     reported, present = r.counts
@@ -257,6 +262,12 @@ def _id_switches(r: ScoredRun) -> int:
     return int(r.matches.switch.sum())
 
 
+def _track_switches(r: ScoredRun) -> float:
+    """The run's track switches of the GOSPA assignments: 1 for each change from one track to another, 0.5
+    between a track and none (`nnda.study.gospa.switching_counts`)."""
+    return float(r.switches.sum())
+
+
 # ----------------------------------------------------------------------------- the registry
 
 #: the possible range of the per-run quantities kept outside the registry (the pedestrian study's per-run measures,
@@ -303,6 +314,8 @@ MEASURES: tuple[Measure, ...] = (
             "{:,.0f}"),
     Measure("gospa_false", "GOSPA false-track part", "m²", "lower", _COUNT, True, {TRACK: _set_part(0, 3)},
             "{:,.0f}"),
+    Measure("gospa_switching", "GOSPA with switching penalty c", "m", "lower", _COUNT, True,
+            {TRACK: _gospa_switching}, "{:.1f}"),
     Measure("ospa", "OSPA", "m", "lower", _COUNT, True, {TRACK: _set_part(1, 0)}, "{:.1f}"),
     Measure("ospa_localisation", "OSPA localisation part", "m", "lower", _COUNT, True, {TRACK: _set_part(1, 1)},
             "{:.1f}"),
@@ -320,6 +333,8 @@ MEASURES: tuple[Measure, ...] = (
     Measure("mota", "MOTA", "", "higher", (-math.inf, 1.0), False, {TRACK: _mota}, "{:.3f}"),
     Measure("motp_m", "MOTP", "m", "lower", _COUNT, False, {TRACK: _motp}, "{:.1f}"),
     Measure("id_switches", "Identity switches", "", "lower", _COUNT, False, {TRACK: _id_switches}, integer=True),
+    Measure("track_switches", "Track switches (GOSPA assignment)", "", "lower", _COUNT, False, {TRACK: _track_switches},
+            "{:.1f}"),
 )
 
 

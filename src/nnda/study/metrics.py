@@ -46,6 +46,13 @@ Only tracks that were confirmed at some scan count as displayed tracks.
   a run's value is the mean over scans. c is the study's
   ``gospa_cutoff_m`` (default `DEFAULT_CUTOFF_M` = 1000 m, the order of this
   radar's gates and initiation window); p = 2 is fixed.
+* **Track switches**: per scan, the changes of each target's GOSPA-assigned
+  confirmed track since its previous scan (1 from one track to another, 0.5
+  between a track and none; counted from the target's first assigned scan,
+  `nnda.study.gospa.switching_counts`); a run's value is their sum.
+  **GOSPA with switching penalty** gamma: per scan (GOSPA^2 + gamma^2
+  switches)^(1/2), the run's value the mean over scans; the registered
+  measure takes gamma = c.
 * **Target-count error**: per scan |confirmed tracks - targets present|.
 * **CLEAR-MOT** from the position matching of every scan (confirmed tracks
   against the targets present, threshold c): MOTA = 1 - (misses + false
@@ -70,7 +77,7 @@ import numpy as np
 
 from nnda.data.dataset import Dataset
 from nnda.errors import NndaError
-from nnda.study.gospa import gospa, ospa_parts
+from nnda.study.gospa import gospa_assignment, gospa_switching, ospa_parts, switching_counts
 from nnda.study.matching import Matches, match_scans
 from nnda.study.measures import RUN_MEASURES
 from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
@@ -233,12 +240,14 @@ class ScoredRun:
                 np.bincount(self.dataset.truth.scan - 1, minlength=n))
 
     @cached_property
-    def set_distances(self) -> tuple[np.ndarray, np.ndarray]:
+    def set_distances(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per scan: GOSPA [distance, localisation, missed, false] (n_scans, 4) and OSPA [distance,
-        localisation, cardinality] (n_scans, 3)."""
+        localisation, cardinality] (n_scans, 3); and per truth row (M,) the index into ``track_ids`` of the
+        confirmed track GOSPA assigns to it, or -1 (none)."""
         n_scans, truth = self.dataset.n_scans, self.dataset.truth
         g = np.zeros((n_scans, 4))
         o = np.zeros((n_scans, 3))
+        assigned = np.full(truth.scan.size, -1, np.int64)
         truth_bounds = np.searchsorted(truth.scan, np.arange(1, n_scans + 2))
         out_bounds = np.searchsorted(self.scan, np.arange(1, n_scans + 2))
         for k in range(n_scans):
@@ -246,11 +255,24 @@ class ScoredRun:
             oo = slice(out_bounds[k], out_bounds[k + 1])
             conf = self.confirmed[oo]
             est = np.column_stack([self.x[oo][conf], self.y[oo][conf]])
-            r = gospa(self.truth_xy[tt], est, self.cutoff_m)
+            r, cols = gospa_assignment(self.truth_xy[tt], est, self.cutoff_m)
             g[k] = r.distance, r.localisation, r.missed, r.false
+            assigned[tt][cols >= 0] = self.track[oo][conf][cols[cols >= 0]]  # a view of assigned
             q = ospa_parts(self.truth_xy[tt], est, self.cutoff_m)
             o[k] = q.distance, q.localisation, q.cardinality
-        return g, o
+        return g, o, assigned
+
+    @cached_property
+    def switches(self) -> np.ndarray:
+        """Per scan (n_scans,) the track switches of the GOSPA assignments (`nnda.study.gospa.switching_counts`:
+        1 for a truth passed from one confirmed track to another, 0.5 between a track and none)."""
+        truth = self.dataset.truth
+        return switching_counts(truth.scan, truth.target_id, self.set_distances[2], self.dataset.n_scans)
+
+    def gospa_switching(self, gamma_m: float) -> np.ndarray:
+        """Per scan (n_scans,) GOSPA with switching penalty ``gamma_m`` (m): (GOSPA^2 + gamma^2 switches)^(1/2)
+        (p = 2; `nnda.study.gospa.gospa_switching`)."""
+        return gospa_switching(self.set_distances[0][:, 0], self.switches, gamma_m)
 
 
 @dataclass(frozen=True)
@@ -284,7 +306,11 @@ class RunMetrics:
 def run_metrics(dataset: Dataset, outputs: Sequence[TrackerOutput], cutoff_m: float = DEFAULT_CUTOFF_M,
                 ownership: Ownership = "auto") -> RunMetrics:
     """Every measure of a tracker's per-scan ``outputs`` (one per scan, in order) on ``dataset``."""
-    run = ScoredRun(dataset, outputs, cutoff_m, ownership)
+    return scored_metrics(ScoredRun(dataset, outputs, cutoff_m, ownership))
+
+
+def scored_metrics(run: ScoredRun) -> RunMetrics:
+    """Every measure of a scored run (`run_metrics`), its intermediates kept in ``run`` for further use."""
     values: dict[str, int | float | None] = {}
     series: dict[str, np.ndarray] = {}
     for m in RUN_MEASURES:

@@ -15,7 +15,11 @@ both parts.
 **The objective** (minimised):
 
 * with truth: the mean over the tuning scans of GOSPA (alpha = 2, p = 2, cut-off c = ``cutoff_m``; the
-  study's measure, `nnda.study.metrics`), confirmed tracks against the targets present;
+  study's measure, `nnda.study.metrics`), confirmed tracks against the targets present; with a switching
+  penalty gamma = ``switching_penalty_m`` > 0 (m), of GOSPA with that switching penalty (per scan
+  (GOSPA^2 + gamma^2 n)^(1/2), n the scan's track switches of the GOSPA assignment: 1 for a target passed
+  from one confirmed track to another, 0.5 between a track and none; after Garcia-Fernandez, Rahmathullah &
+  Svensson (2020), `nnda.study.gospa.switching_counts`), which charges a track deleted and started again;
 * without truth: innovation consistency, `innovation_consistency`: for every pair of consecutive reports
   of a track whose first report is confirmed and whose second used a contact, that contact's normalised
   innovation squared (NIS) against the tracker's own IMM prediction (its ``filters``, one per sensor) of
@@ -47,7 +51,7 @@ import numpy as np
 
 from nnda.data.dataset import Dataset
 from nnda.errors import BoundWarning, ConfigError
-from nnda.study.metrics import DEFAULT_CUTOFF_M
+from nnda.study.metrics import DEFAULT_CUTOFF_M, ScoredRun, scored_metrics
 from nnda.study.track import has_truth, run_tracker, track_covariances
 from nnda.study.tuning_space import Dimension, field_value, search_space, with_values
 from nnda.tracking.output import NO_CONTACT
@@ -59,6 +63,9 @@ FRACTION = 0.5
 MIN_WINDOW_SCANS = 5
 #: the measures the report gives where the dataset has truth
 MEASURES = ("gospa", "hit_rate", "lost_targets", "false_tracks")
+#: those with a switching penalty: the objective (GOSPA with the search's switching penalty, mean over scans) first,
+#: the track switches of the GOSPA assignment (the run's sum) last
+SWITCHING_MEASURES = ("gospa_switching", *MEASURES, "track_switches")
 #: the measures of innovation consistency (no truth): the objective and its parts
 CONSISTENCY_MEASURES = ("objective", "nis_per_dim", "lost_fraction", "confirmed_tracks", "updates")
 #: the no-truth objective of a run in which no confirmed track was updated (nothing to judge)
@@ -199,11 +206,33 @@ class TuneResult:
     scores: dict[tuple[str, str], dict[str, float | None]]
     seconds: float
     kept: tuple[str, ...] = ()
+    switching_penalty_m: float = 0.0
+
+    @property
+    def measures(self) -> tuple[str, ...]:
+        """The keys of ``scores``' measures, the objective first (`score_measures`)."""
+        return score_measures(self.truth, self.switching_penalty_m)
 
 
-def _scored(window: Dataset, tracker: str, params: Mapping[str, Any], cutoff_m: float) -> dict[str, float | None]:
-    """The measures of one run of ``tracker`` with ``params`` on ``window``: `MEASURES` with truth, else the
-    innovation consistency's (`CONSISTENCY_MEASURES`); the first is the objective."""
+def score_measures(truth: bool, switching_penalty_m: float = 0.0) -> tuple[str, ...]:
+    """The measures a search scores, the objective first: `MEASURES` with truth (`SWITCHING_MEASURES` with a
+    switching penalty), else `CONSISTENCY_MEASURES`."""
+    if not truth:
+        return CONSISTENCY_MEASURES
+    return SWITCHING_MEASURES if switching_penalty_m > 0 else MEASURES
+
+
+def _scored(window: Dataset, tracker: str, params: Mapping[str, Any], cutoff_m: float,
+            switching_penalty_m: float = 0.0) -> dict[str, float | None]:
+    """The measures of one run of ``tracker`` with ``params`` on ``window``: `MEASURES` with truth
+    (`SWITCHING_MEASURES` with a switching penalty > 0 m), else the innovation consistency's
+    (`CONSISTENCY_MEASURES`); the first is the objective."""
+    if switching_penalty_m > 0 and has_truth(window):
+        run = run_tracker(window, tracker, params, cutoff_m=cutoff_m, score=False)
+        scored = ScoredRun(window, run.outputs, cutoff_m)
+        values = scored_metrics(scored).values
+        return {"gospa_switching": float(scored.gospa_switching(switching_penalty_m).mean()),
+                **{m: values[m] for m in SWITCHING_MEASURES[1:]}}
     run = run_tracker(window, tracker, params, cutoff_m=cutoff_m)
     if run.scores is not None:
         return {m: run.scores.values[m] for m in MEASURES}
@@ -245,27 +274,38 @@ class Search:
     seconds: float
 
 
-def _checked_budget(trials: int, seed: int, cutoff_m: float) -> None:
+def _checked_budget(trials: int, seed: int, cutoff_m: float, switching_penalty_m: float) -> None:
     if isinstance(trials, bool) or not isinstance(trials, int) or trials < 1:
         raise ConfigError(f"--trials {trials!r}: give a whole number of trials, 1 or more (e.g. 40)")
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ConfigError(f"--seed {seed!r}: give a whole number >= 0")
     if not (isinstance(cutoff_m, (int, float)) and cutoff_m > 0 and math.isfinite(cutoff_m)):
         raise ConfigError(f"--cutoff {cutoff_m!r}: must be a positive number of metres")
+    if (isinstance(switching_penalty_m, bool) or not isinstance(switching_penalty_m, (int, float))
+            or not 0 <= switching_penalty_m < math.inf):
+        raise ConfigError(f"--switching-penalty {switching_penalty_m!r}: must be a number of metres >= 0 (0: the "
+                          f"GOSPA objective without switching penalty)")
 
 
 def search(datasets: list[Dataset], tracker: str, params: Mapping[str, Any] | None = None, trials: int = 40,
            seed: int = 0, cutoff_m: float = DEFAULT_CUTOFF_M, where: str = "tracker config",
-           on_trial: Callable[[int, int], None] | None = None, keep: Sequence[str] = ()) -> Search:
+           on_trial: Callable[[int, int], None] | None = None, keep: Sequence[str] = (),
+           switching_penalty_m: float = 0.0) -> Search:
     """Search ``tracker``'s config from the base ``params`` with Optuna's seeded TPE sampler, minimising the
-    mean over ``datasets`` of the objective (module docstring: GOSPA with truth, else innovation
-    consistency); the first trial is the base config's values. ``keep``: dotted fields of the space
-    (`search_space`) held at the base config's values, e.g. ``lifecycle.max_misses``, whose cost the objective
-    does not see (GOSPA barely charges a track deleted and started again); ConfigError for a field not in the
-    space. ``where`` names the base config in errors, ``on_trial(done, total)`` is called after each trial."""
+    mean over ``datasets`` of the objective (module docstring: GOSPA with truth, with switching penalty
+    ``switching_penalty_m`` (m) when > 0, else innovation consistency); the first trial is the base config's
+    values. ``keep``: dotted fields of the space (`search_space`) held at the base config's values, e.g.
+    ``lifecycle.max_misses``, whose cost the objective does not see (GOSPA without switching penalty barely
+    charges a track deleted and started again); ConfigError for a field not in the space, or for a switching
+    penalty with a dataset without truth. ``where`` names the base config in errors, ``on_trial(done, total)``
+    is called after each trial."""
     from nnda.extras import require
 
-    _checked_budget(trials, seed, cutoff_m)
+    _checked_budget(trials, seed, cutoff_m, switching_penalty_m)
+    if switching_penalty_m > 0 and not all(has_truth(d) for d in datasets):
+        raise ConfigError(f"--switching-penalty {switching_penalty_m:g}: charges the track switches of the GOSPA "
+                          f"objective, which needs truth; a dataset tuned on has none (its objective is the "
+                          f"innovation consistency): leave the option out")
     params = dict(params or {})
     sensors = datasets[0].scenario.sensors if datasets else None  # the class of target they declare, if any
     base = check_config(tracker, params, where, sensors)
@@ -285,7 +325,8 @@ def search(datasets: list[Dataset], tracker: str, params: Mapping[str, Any] | No
             check_config(tracker, trial_params, where, sensors)
             with warnings.catch_warnings():  # a trial's bounds hit are its score's business, not the user's
                 warnings.simplefilter("ignore", BoundWarning)
-                return float(np.mean([_objective(_scored(d, tracker, trial_params, cutoff_m)) for d in datasets]))
+                return float(np.mean([_objective(_scored(d, tracker, trial_params, cutoff_m, switching_penalty_m))
+                                      for d in datasets]))
         except ConfigError as exc:  # an inconsistent combination: v_min >= v_max, m > n, ...
             raise optuna.TrialPruned(str(exc)) from None
 
@@ -318,12 +359,12 @@ def kept(space: tuple[Dimension, ...], keep: Sequence[str], where: str) -> tuple
 def tune(dataset: Dataset, tracker: str, params: Mapping[str, Any] | None = None, trials: int = 40,
          seed: int = 0, fraction: float = FRACTION, cutoff_m: float = DEFAULT_CUTOFF_M,
          where: str = "tracker config", on_trial: Callable[[int, int], None] | None = None,
-         keep: Sequence[str] = ()) -> TuneResult:
+         keep: Sequence[str] = (), switching_penalty_m: float = 0.0) -> TuneResult:
     """Search ``tracker``'s config on the first part of ``dataset`` from the base ``params`` (`search`, the
-    module docstring's split; ``keep`` the fields held at the base's values) and score the base and the best
-    config on both parts; ``where`` names the base config in errors, ``on_trial(done, total)`` is called after
-    each trial."""
-    _checked_budget(trials, seed, cutoff_m)
+    module docstring's split; ``keep`` the fields held at the base's values; ``switching_penalty_m`` (m) the
+    objective's switching penalty, 0 for none) and score the base and the best config on both parts;
+    ``where`` names the base config in errors, ``on_trial(done, total)`` is called after each trial."""
+    _checked_budget(trials, seed, cutoff_m, switching_penalty_m)
     params = dict(params or {})
     check_config(tracker, params, where, dataset.scenario.sensors)
     k = split_scans(dataset.n_scans, fraction)
@@ -332,9 +373,10 @@ def tune(dataset: Dataset, tracker: str, params: Mapping[str, Any] | None = None
     else:
         _filters(dataset, tracker, params)
     parts = {"tuning": scan_window(dataset, 1, k), "held-out": scan_window(dataset, k + 1, dataset.n_scans)}
-    found = search([parts["tuning"]], tracker, params, trials, seed, cutoff_m, where, on_trial, keep)
-    scores = {(name, part): _scored(window, tracker, p, cutoff_m)
+    found = search([parts["tuning"]], tracker, params, trials, seed, cutoff_m, where, on_trial, keep,
+                   switching_penalty_m)
+    scores = {(name, part): _scored(window, tracker, p, cutoff_m, switching_penalty_m)
               for name, p in (("default", params), ("tuned", found.best_params)) for part, window in parts.items()}
     return TuneResult(tracker, dataset.scenario.name, dataset.n_scans, k, has_truth(dataset), float(cutoff_m),
                       found.space, found.trials, found.best_trial, found.best_values, params, found.best_params,
-                      scores, found.seconds, tuple(keep))
+                      scores, found.seconds, tuple(keep), float(switching_penalty_m))
