@@ -81,7 +81,7 @@ def test_track_outputs_carry_lat_lon_and_the_plot_names_the_origin(tmp_path):
     table = pa.Table.from_arrays(
         [pa.array(np.asarray(v, dtype=f.type.to_pandas_dtype())) if f.type != pa.string() else
          pa.array(v, pa.string()) for f, v in zip(TRACK_SCHEMA, _track_columns(x, y))], schema=TRACK_SCHEMA)
-    run = SimpleNamespace(table=table, tracker="gnn", scores=None)
+    run = SimpleNamespace(table=table, tracker="gnn", scores=None, management=None, detection=None, targets=None)
     write_track_outputs(tmp_path / "tr", ds, run, {}, 100.0, "parquet", lagged=run, lag=2)
     for name in ("tracks.parquet", "tracks_lag2.parquet"):
         got = pq.read_table(tmp_path / "tr" / name)
