@@ -3,13 +3,18 @@
 * Time: nnda counts seconds from the start of a run; Stone Soup stamps
   `datetime`s. Second t is ``EPOCH + t`` (microsecond resolution, exact for
   scan times k T with T a multiple of 1 us).
-* Measurement: Stone Soup's `CartesianToBearingRange` measures
-  (bearing, range) with bearing = atan2(y', x') of the state components
-  picked by ``mapping``. With ``mapping = (2, 0)`` (y' = state x east,
-  x' = state y north) its bearing is atan2(x, y): our azimuth, clockwise
-  from north, so a detection's state vector is [azimuth rad, range m]
-  unchanged, and the model's noise is diag(sigma_az^2, sigma_r^2) from the
-  dataset's `Sensor`. Stone Soup wraps bearing residuals to [-pi, pi) itself.
+* Measurement of a polar sensor: Stone Soup's `CartesianToBearingRange`
+  measures (bearing, range) with bearing = atan2(y', x') of the state
+  components picked by ``mapping`` less ``translation_offset`` (in the
+  mapping's order). With ``mapping = (2, 0)`` (y' = state x east, x' =
+  state y north) and the offset (sensor y, sensor x) its bearing is
+  atan2(x - x_s, y - y_s): our azimuth from the sensor, clockwise from
+  north, so a detection's state vector is [azimuth rad, range m] unchanged,
+  and the model's noise is diag(sigma_az^2, sigma_r^2) from the dataset's
+  `Sensor`. Stone Soup wraps bearing residuals to [-pi, pi) itself.
+* Measurement of a position sensor: Stone Soup's `LinearGaussian` on the
+  state's (x, y) (indices 0, 2) with noise sigma_position^2 I; a
+  detection's state vector is the fix [x m, y m].
 * Tracks: Stone Soup's state [x, vx, y, vy] is ours (m, m/s); confirmed
   tracks are the tracker's, preliminary ones those the initiator still
   holds, and a track gone since the last scan is reported once as DELETED.
@@ -23,6 +28,7 @@ from collections.abc import Iterable
 from datetime import datetime, timedelta
 
 import numpy as np
+from stonesoup.models.measurement.linear import LinearGaussian
 from stonesoup.models.measurement.nonlinear import CartesianToBearingRange
 from stonesoup.types.detection import Detection
 from stonesoup.types.state import State
@@ -49,19 +55,28 @@ def to_seconds(when: datetime) -> float:
     return (when - EPOCH).total_seconds()
 
 
-def measurement_model(sensor: Sensor, seed: int | None = None) -> CartesianToBearingRange:
-    """Stone Soup's polar model of our radar: [azimuth rad cw from north, range m] of [x, vx, y, vy]
-    from the radar's position; ``seed`` seeds its noise when it simulates."""
+def measurement_model(sensor: Sensor, seed: int | None = None) -> CartesianToBearingRange | LinearGaussian:
+    """Stone Soup's model of our sensor: for a polar radar [azimuth rad cw from north, range m] of
+    [x, vx, y, vy] from the radar's position, for a sensor of position fixes [x m, y m]; ``seed`` seeds its
+    noise when it simulates."""
+    if sensor.kind == "position":
+        return LinearGaussian(ndim_state=4, mapping=(0, 2), seed=seed,
+                              noise_covar=sensor.sigma_position_m ** 2 * np.eye(2))
     return CartesianToBearingRange(ndim_state=4, mapping=(2, 0), seed=seed,
                                    noise_covar=np.diag([sensor.sigma_azimuth_rad ** 2, sensor.sigma_range_m ** 2]),
                                    translation_offset=np.array([[sensor.y_m], [sensor.x_m]]))
 
 
-def to_detections(scan: Scan, model: CartesianToBearingRange) -> list[Detection]:
-    """One scan's (N, 2) [range m, azimuth rad] as N Stone Soup detections, each knowing its row."""
+def to_detections(scan: Scan, model: CartesianToBearingRange | LinearGaussian) -> list[Detection]:
+    """One scan's (N, 2) contacts as N Stone Soup detections measured by ``model`` (`measurement_model` of
+    the scan's sensor), each knowing its row: [range m, azimuth rad] given to a polar model as [azimuth,
+    range], position fixes [x m, y m] as they are."""
     when = to_datetime(scan.time)
-    return [Detection([[az], [r]], timestamp=when, measurement_model=model, metadata={ROW: i})
-            for i, (r, az) in enumerate(np.asarray(scan.measurements, float).reshape(-1, 2))]
+    z = np.asarray(scan.measurements, float).reshape(-1, 2)
+    if isinstance(model, CartesianToBearingRange):
+        z = z[:, ::-1]
+    return [Detection([[a], [b]], timestamp=when, measurement_model=model, metadata={ROW: i})
+            for i, (a, b) in enumerate(z)]
 
 
 def from_detections(detections: Iterable[Detection]) -> tuple[np.ndarray, np.ndarray]:

@@ -11,10 +11,13 @@ EQUIVALENT = {"gnn": "stonesoup-gnn", "jpda": "stonesoup-jpda", "gmphd": "stones
 
 #: (part, Stone Soup component and setting, what it is matched to in nnda)
 MATCHING = (
-    ("measurement", "CartesianToBearingRange, mapping (2, 0): bearing = atan2(x, y), our azimuth clockwise "
-     "from north; noise diag(sigma_az^2, sigma_r^2)", "the dataset's Sensor (30 m, 3 mrad in the presets)"),
-    ("motion", "CombinedLinearGaussianTransitionModel of two ConstantVelocity, q = sigma_q^2 T per axis, "
-     "sigma_q = 10 m/s^2", "our IMM (CV 3.5 m/s^2 + CT 5 m/s^2): Stone Soup has no IMM; one CV model at our "
+    ("measurement", "per sensor, carried by its detections: a polar radar's CartesianToBearingRange, mapping (2, 0) "
+     "and translation_offset (y_s, x_s): bearing = atan2(x - x_s, y - y_s), our azimuth clockwise from north; noise "
+     "diag(sigma_az^2, sigma_r^2); a position sensor's LinearGaussian on (x, y), noise sigma_position^2 I",
+     "the dataset's Sensors (30 m, 3 mrad in the single-radar presets)"),
+    ("motion", "CombinedLinearGaussianTransitionModel of two ConstantVelocity (white-noise acceleration), "
+     "q = sigma_q^2 T per axis with T the shortest scan period of the sensors, sigma_q = 10 m/s^2",
+     "our IMM (CV 3.5 m/s^2 + CT 5 m/s^2): Stone Soup has no IMM; one CV model at our "
      "CV's 3.5 m/s^2 lost targets in the turns of S1, S3 and S5 (no clutter), 10 m/s^2 kept every one"),
     ("filter", "ExtendedKalmanPredictor, ExtendedKalmanUpdater", "the EKF inside our IMM"),
     ("gate", "GNN: DistanceHypothesiser, Mahalanobis, missed_distance sqrt(9.21); JPDA: PDAHypothesiser, "
@@ -28,13 +31,16 @@ MATCHING = (
      "v_max/2 = 100 m/s per axis) associated by GNN inside the initiator; released (confirmed) at M+2 = 5 "
      "updates, dropped after N-M+1 = 2 scans without one (UpdateTimeStepsDeleter)",
      "two-point start + M/N = 3/4: confirmed at the 5th contact at the earliest"),
-    ("deletion", "UpdateTimeStepsDeleter(max_misses + 1 = 4)", "confirmed tracks survive 3 misses, deleted "
-     "at the 4th"),
+    ("deletion", "UpdateTimeStepsDeleter(max_misses + 1 = 4), counting only the scans whose sensor covers the "
+     "track (as the initiator's deleter)", "confirmed tracks survive 3 misses, deleted at the 4th; a sensor that "
+     "does not cover a track counts no miss"),
     ("GM-PHD (stonesoup-gmphd)", "PointProcessMultiTargetTracker: GaussianMixtureHypothesiser over a "
      "DistanceHypothesiser (Mahalanobis, missed_distance sqrt(50)), PHDUpdater around an ExtendedKalmanUpdater, "
      "GaussianMixtureReducer", "ekphd: the same recursion on the gated (component, contact) pairs, batched"),
-    ("GM-PHD motion, P_S, P_D", "one CV model, q = sigma_q^2 T with sigma_q = 10 m/s^2; prob_survival 0.99, "
-     "prob_detection 0.9", "ekphd's CV model (10 m/s^2), p_S 0.99, p_D 0.9"),
+    ("GM-PHD motion, P_S, P_D", "one CV model, q = sigma_q^2 T with sigma_q = 10 m/s^2; prob_survival 0.99 per "
+     "shortest scan period, prob_detection 0.9 (the scan's sensor's); components outside the sweeping sensor's "
+     "coverage are left out of its update, predicted and weighted by p_S", "ekphd's CV model (10 m/s^2), p_S 0.99, "
+     "p_D 0.9, 0 outside the sweeping sensor's coverage"),
     ("GM-PHD clutter", "clutter_spatial_density set each scan to the mean of our per-contact local intensities "
      "(per m rad)", "ekphd: each contact's own local intensity (contacts in a 3 km half-side square, times range)"),
     ("GM-PHD birth", "Stone Soup has no measurement-driven birth: our newborn components go into its mixture as "

@@ -7,7 +7,7 @@ TrackerOutput`` (`nnda.tracking.output`); it is built as
 `nnda.tracking.registry.make_tracker`. Nothing more is assumed: a peer
 (Stone Soup), a PHD filter or a track-before-detect tracker meets it
 without an IMM or an initiator. `checked_scan` is the scan check every one
-of them can share; `nnda.data.scenario.sensor_tuple` and `only_sensor` read the sensors.
+of them can share; `nnda.data.scenario.sensor_tuple` reads the sensors.
 
 **Framework.** `ContactTracker` holds what trackers that build tracks from
 contacts share: a per-track filter component (the IMM of the config's
@@ -58,7 +58,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from nnda.data.dataset import Scan
 from nnda.data.scenario import Sensor, sensor_tuple
 from nnda.data.sensor import observable
-from nnda.errors import BoundWarning, ConfigError, TrackingError
+from nnda.errors import BoundWarning, TrackingError
 from nnda.filters.batch import Batch
 from nnda.filters.imm import DEFAULT_TPM, IMM, IMMPrediction, IMMState
 from nnda.filters.imm_kernels import estimate, pair_log_likelihood
@@ -192,15 +192,6 @@ def checked_config(tracker: Tracker, config: TrackerConfig | None) -> TrackerCon
     if not isinstance(config, tracker.config_type):
         raise TrackingError(f"{tracker.name}: config must be a {tracker.config_type.__name__}")
     return config
-
-
-def only_sensor(name: str, sensors: Sensor | Sequence[Sensor], kind: str = "polar") -> Sensor:
-    """The one sensor of a tracker that works with a single sensor of ``kind``; ConfigError otherwise."""
-    found = sensor_tuple(sensors)
-    if len(found) != 1 or found[0].kind != kind:
-        described = ", ".join(f"{s.name} ({s.kind})" for s in found)
-        raise ConfigError(f"tracker {name!r} works with one {kind} sensor; this scenario has {described}")
-    return found[0]
 
 
 #: a contact's row for each kind of measurement: polar [range m, azimuth rad], position fixes [x m, y m]
