@@ -33,10 +33,12 @@ import numba
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from nnda.filters.imm_kernels import kernel_array
+
 
 def k_best_assignments(cost: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     """The ``k`` lowest-cost assignments of ``cost`` (R, C) and their costs (module docstring)."""
-    cost = np.require(cost, np.float64, "CW")  # C order and writeable, as the kernels take it
+    cost = kernel_array(cost)  # C order and writeable, as the kernels take it
     if cost.ndim != 2:
         raise ValueError(f"k_best_assignments: cost must be a 2-D matrix, got shape {cost.shape}")
     if np.isnan(cost).any() or (cost == -np.inf).any():
@@ -48,7 +50,7 @@ def k_best_assignments(cost: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray
         return np.full((1, R), -1, np.int64), np.zeros(1)
     flipped = R > C
     # rows <= columns: every row of ``work`` is assigned; C order, as the kernels take it (one signature)
-    work = np.ascontiguousarray(cost.T) if flipped else cost
+    work = kernel_array(cost.T) if flipped else cost
     found = list(_ranked(work, k))
     if not found:
         return np.empty((0, R), np.int64), np.empty(0)
