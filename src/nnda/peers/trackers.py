@@ -55,7 +55,7 @@ from stonesoup.updater.pointprocess import PHDUpdater
 from nnda.data.dataset import Scan
 from nnda.data.scenario import Sensor, sensor_tuple
 from nnda.data.sensor import observable, polar_to_cart_at, wrap_angle
-from nnda.filters.kalman import GATE_99
+from nnda.filters.kalman import GATE_99, gate_probability
 from nnda.filters.measurement import measurement_model as nnda_measurement_model
 from nnda.filters.motion import ConstantVelocity as NndaConstantVelocity
 from nnda.peers.adapter import TrackBook, measurement_model, to_datetime, to_detections
@@ -225,7 +225,7 @@ class StoneSoupJPDA(StoneSoupTracker):
         cfg = self.config
         density = cfg.clutter_density if cfg.clutter_density != "local" else 1.0  # set per scan
         self.hypothesiser = PDAHypothesiser(self.predictor, self.updater, clutter_spatial_density=density,
-                                            prob_detect=self.detection[0], prob_gate=1.0 - math.exp(-cfg.gate / 2))
+                                            prob_detect=self.detection[0], prob_gate=gate_probability(cfg.gate))
         return MultiTargetMixtureTracker(initiator=self.initiator, deleter=deleter, detector=None,
                                          data_associator=JPDA(self.hypothesiser), updater=self.updater)
 

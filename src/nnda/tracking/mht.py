@@ -68,7 +68,7 @@ from pydantic import Field, model_validator
 
 from nnda.data.dataset import Scan
 from nnda.filters.batch import Batch
-from nnda.filters.kalman import GATE_99
+from nnda.filters.kalman import GATE_99, gate_probability
 from nnda.tracking.clutter_density import local_density
 from nnda.tracking.gating import gate
 from nnda.tracking.global_hypothesis import global_hypothesis
@@ -176,9 +176,8 @@ class MHTTracker(ContactTracker):
         L = len(leaves)
         pred = imm.predict(tr.filt, time - tr.t2)
         x_pred, P_pred, mp = pred.gating.x, pred.gating.P, pred.gating.measurement
-        p_gate = 1.0 - math.exp(-cfg.gate / 2.0)  # chi-square cdf, 2 dof
         pd = self.score_pd(scan.sensor)
-        miss_score = leaves.score + math.log(1.0 - pd * p_gate)
+        miss_score = leaves.score + math.log(1.0 - pd * gate_probability(cfg.gate))
         observed = self._observed(scan, pred, tr.t2)  # a leaf the scan does not observe keeps its score and counters
         if observed is not None:
             miss_score = np.where(observed, miss_score, leaves.score)
