@@ -90,8 +90,8 @@ def lagged_runs(dataset: Dataset | str | Path, tracker: str, params: Mapping[str
     from threadpoolctl import threadpool_limits
 
     from nnda.study.metrics import DEFAULT_CUTOFF_M, run_metrics
-    from nnda.study.track import TrackRun, detection_record, has_truth, load, targets_record, track_table
-    from nnda.study.track_job import management_record, step_run
+    from nnda.study.track import TrackRun, has_truth, load, run_records, track_table
+    from nnda.study.track_job import step_run
     from nnda.tracking.registry import make_tracker
 
     dataset = load(dataset)
@@ -100,10 +100,9 @@ def lagged_runs(dataset: Dataset | str | Path, tracker: str, params: Mapping[str
         stepped = make_tracker(tracker, dataset.scenario.sensors, dict(params))
         outputs, lagged, seconds, lag_seconds, _ = step_run(stepped, dataset, lag, on_scan)
         scored = score and has_truth(dataset)
-        management, detection = management_record(stepped), detection_record(stepped)
+        records = run_records(stepped)
         runs = tuple(TrackRun(tracker, o, track_table(dataset, o), t,
-                              run_metrics(dataset, o, cutoff_m, ownership) if scored else None, management, detection,
-                              targets_record(stepped))
+                              run_metrics(dataset, o, cutoff_m, ownership) if scored else None, *records)
                      for o, t in ((outputs, seconds), (lagged, lag_seconds)))
     return runs
 

@@ -156,8 +156,14 @@ def run_tracker(dataset: Dataset | str | Path, tracker: str, config: Mapping[str
             if on_scan is not None:
                 on_scan(i + 1, dataset.n_scans)
         scores = run_metrics(dataset, outputs, cutoff_m, ownership) if score and has_truth(dataset) else None
-    return TrackRun(tracker, outputs, track_table(dataset, outputs), seconds, scores, management_record(t),
-                    detection_record(t), targets_record(t))
+    return TrackRun(tracker, outputs, track_table(dataset, outputs), seconds, scores, *run_records(t))
+
+
+def run_records(tracker: Tracker) -> tuple[dict | None, DetectionProbabilities | None, TargetClassUse | None]:
+    """What a `TrackRun` records of the tracker that made it, in its field order: ``management``
+    (`nnda.study.track_job.management_record`), ``detection`` (`detection_record`), ``targets``
+    (`targets_record`)."""
+    return management_record(tracker), detection_record(tracker), targets_record(tracker)
 
 
 def detection_record(tracker: Tracker) -> DetectionProbabilities | None:
