@@ -102,14 +102,15 @@ def test_gci_fusion_tracks_the_harbour_without_occlusion_or_clutter():
 
 
 def test_the_central_update_is_the_single_sensor_updates_in_turn():
-    """One GM-PHD on both radars equals a one-radar GM-PHD per radar handing its state to the other."""
+    """One GM-PHD on both radars equals a one-radar GM-PHD per radar handing its state to the other (each
+    coasting a reported label through one miss, the two-sensor default, given to the one-radar filters too)."""
     # both radars cover every component (one coverage): where one sensor cannot see, the central update
     # gives p_D 0 and a single-sensor one p_D everywhere
     radars = tuple(s.model_copy(update={"fov_deg": 360.0, "max_range_m": 40_000.0}) for s in HARBOUR.sensors)
     sc = HARBOUR.model_copy(update={"sensors": radars, "duration_s": 40.0})
     ds = generate(sc, seed=1)
     central = CentralPHDTracker(radars)
-    alone = [CentralPHDTracker(r) for r in radars]
+    alone = [CentralPHDTracker(r, phd_config.CentralPHDConfig(coast_misses=1)) for r in radars]
     last = None
     for scan in ds.scans():
         out = central.step(scan)
@@ -184,11 +185,11 @@ def test_extraction_over_sweeps_counts_each_radars_sweeps_apart(name):
     """With two radars in turn, the default (3 sweeps) reports at a sweep the ids a one-scan extraction
     reports there that it has reported after three sweeps in a row of one radar (each radar's counted apart,
     whatever the other's sweeps between them reported): the filter and its ids are those of
-    extraction_scans 1."""
+    extraction_scans 1 (neither coasting through a miss: that rule is tested apart)."""
     dense = HARBOUR.model_copy(update={"duration_s": 40.0, "sensors": PRESETS["harbour-dense"].sensors})
     ds = generate(dense, seed=4)
-    every, default = make_tracker(name, ds.scenario.sensors, {"extraction_scans": 1}), make_tracker(
-        name, ds.scenario.sensors)
+    every, default = make_tracker(name, ds.scenario.sensors, {"extraction_scans": 1, "coast_misses": 0}), make_tracker(
+        name, ds.scenario.sensors, {"coast_misses": 0})
     assert default.config.extraction_scans == 3
     seen: dict[int, list[set]] = {0: [], 1: []}
     confirmed, confirmed_in_a_row = set(), set()

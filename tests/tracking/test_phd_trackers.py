@@ -367,3 +367,51 @@ def test_the_default_extraction_keeps_the_validation_clutter_out(name):
         new, old = new + m.false_tracks, old + m_old.false_tracks
         assert m.lost_targets == 0 and m.mota > m_old.mota - 0.05
     assert new <= 1 and old >= 6, (new, old)
+
+
+def test_coasting_adds_confirmed_labels_above_the_floor_in_label_order():
+    from nnda.tracking.phd.extraction import coasting
+    weights = np.array([0.9, 0.08, 0.3, 0.02, 0.06])
+    labels = np.array([12, 4, 9, 7, 30])
+    shown = np.array([0])  # label 12, extracted
+    got = coasting(weights, labels, shown, np.array([4, 7, 12]), 0.05)
+    assert labels[got].tolist() == [4, 12]  # 7 is below the floor; 9 and 30 were never confirmed
+    assert coasting(weights, labels, np.empty(0, np.int64), np.empty(0, np.int64), 0.05).size == 0
+
+
+@pytest.mark.parametrize("name", ["gmphd", "ekphd"])
+def test_a_reported_target_is_shown_through_its_misses_with_coast_misses(name):
+    """A lone target without clutter, its contacts taken out of sweeps 8 (one miss) and 12-13 (two in a row),
+    and gone after sweep 16: with ``coast_misses`` = 1 its label is reported at the single miss and at the first
+    of the two, then hidden, and shown one sweep after its last contact; with 0 (the filter's plain extraction)
+    each miss hides it. The label is the same throughout, and the filter is the same (only the report differs)."""
+    ds = generate(lone_target(), seed=5)
+    scans = [Scan(s.index, s.time, s.measurements[:0] if s.index in (8, 12, 13) or s.index > 16 else s.measurements,
+                  s.sensor) for s in list(ds.scans())[:19]]
+    reported = {}
+    for coast in (0, 1):
+        tracker = make_tracker(name, ds.scenario.sensor, {"pd": 0.9, "clutter": 1.0, "coast_misses": coast})
+        outs = [tracker.step(s) for s in scans]
+        reported[coast] = [o.track_id.tolist() for o in outs]
+        mixture = tracker.mixture
+    shown = {coast: [k + 1 for k, ids in enumerate(r) if ids] for coast, r in reported.items()}
+    first = shown[0][0]
+    assert shown[0] == [k for k in range(first, 17) if k not in (8, 12, 13)]
+    assert shown[1] == [k for k in range(first, 18) if k != 13]
+    assert len({i for ids in reported[1] for i in ids}) == 1  # one label throughout
+    assert len(mixture)  # (the filter itself still holds the component)
+
+
+def test_coasting_defaults_to_the_sensor_count_and_refuses_map_extraction():
+    """None: 1 for a filter several sensors' sweeps update (the two-radar scene, the fusion centres), 0 for one
+    (a single radar, or one radar of two picked by ``use_sensors``); the MAP extraction never coasts, and an explicit
+    coast with it is refused, naming the field."""
+    one, two = PRESETS["S1"].sensors, PRESETS["two-radars"].sensors
+    assert make_tracker("ekphd", one).coast_misses == 0
+    assert make_tracker("ekphd", two).coast_misses == 1
+    assert make_tracker("ekphd", two, {"use_sensors": [two[0].name]}).coast_misses == 0
+    assert make_tracker("ekphd", two, {"coast_misses": 0}).coast_misses == 0
+    assert make_tracker("fusion-aa", two).coast_misses == 1
+    assert make_tracker("cphd", two, {"extraction": "map"}).coast_misses == 0
+    with pytest.raises(ConfigError, match="coast_misses"):
+        make_tracker("cphd", one, {"extraction": "map", "coast_misses": 1})

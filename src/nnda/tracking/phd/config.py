@@ -108,7 +108,7 @@ CONFIRMATION_PRESETS: dict[str, dict[str, float | None]] = {
 }
 #: the confirmation settings turned off, as the PHD filters ran before the presets set them (the studies that
 #: reproduce a reference work's numbers pin them: ``params = {**SINGLE_SCAN_EXTRACTION, ...}``)
-SINGLE_SCAN_EXTRACTION: dict[str, float] = {"components_per_contact": 0, "extraction_scans": 1}
+SINGLE_SCAN_EXTRACTION: dict[str, float] = {"components_per_contact": 0, "extraction_scans": 1, "coast_misses": 0}
 
 #: the preset and motion names of the previous version, read for one more version with a FutureWarning
 RENAMED_PRESETS = {"seed-000": "pedestrian", "seed-002": "harbour"}  # deprecated spelling
@@ -257,6 +257,11 @@ class PHDConfig(CommonConfig):
         ge=1, description="report a label once it has been extracted (weight >= the threshold) after this many "
         "sweeps in a row of one sensor (each sensor's sweeps counted apart), then whenever it is extracted; "
         "1: every extracted component (default: the preset's, `CONFIRMATION_PRESETS`)")]
+    coast_misses: Annotated[int, Field(ge=0)] | None = Field(
+        None, description="a label already reported stays reported while its weight is at least the extraction "
+        "threshold times (1 - p_D)^this (p_D the sweep's sensor's): an isolated target is shown through this many "
+        "missed sweeps in a row, and one that has ended for as many sweeps after its last contact; 0: a miss hides "
+        "it; None: 1 for a tracker updated by more than one sensor's sweeps, else 0 (`default_coast_misses`)")
     merge_covariance: Literal["candidate", "heaviest"] = Field(
         "candidate", description="the covariance of the merge distance: each candidate's (Vo & Ma's Table II) "
         "or the heaviest's (`nnda.filters.mixture.merge`)")
@@ -361,12 +366,17 @@ class CPHDConfig(PHDConfig):
         "max_cardinality keeps its count; None: N_max fixed, the scans whose posterior piles up at N_max "
         "counted (n_cardinality_capped) with a BoundWarning the first time in a run")
     extraction: Literal["threshold", "map"] = Field(
-        "threshold", description="threshold: as the PHD; map: the MAP count's heaviest components")
+        "threshold", description="threshold: as the PHD; map: the MAP count's heaviest components (no "
+        "coasting: coast_misses 0 or None)")
 
     @model_validator(mode="after")
     def _no_spawn(self) -> CPHDConfig:
         if self.spawn is not None:
             raise ValueError("spawn: the CPHD filter has no spawning model")
+        if self.extraction == "map" and self.coast_misses:
+            raise ValueError(f"coast_misses = {self.coast_misses}: extraction 'map' reports the MAP count's "
+                             "heaviest components, which a coasting label would exceed; set coast_misses = 0 or "
+                             "extraction = 'threshold'")
         return self
 
 

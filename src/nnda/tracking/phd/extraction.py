@@ -17,6 +17,21 @@ sensor's sweeps are counted apart: with two radars in turn, a target one of
 them cannot detect (occluded) drops below the threshold after that radar's
 sweeps only, which would restart a count over all scans at every such
 sweep and never let it reach k.
+
+With ``coast_misses`` = m > 0 a reported label is not hidden by a miss:
+it stays reported while its weight is at least the extraction threshold
+times (1 - p_D)^m (`coasting`), the weight a miss leaves an isolated
+target's component with (its missed copy, (1 - p_D) times its predicted
+weight), so it is shown through m missed sweeps in a row, and a target
+that has ended is shown for m sweeps after its last contact. The default
+(`default_coast_misses`) is 1 for a tracker that several sensors' sweeps
+update, 0 for one sensor's. Measured (5 runs, 2026-12-06): on the radar
+thesis's S1-S6 (one radar that misses a target only in S3's and S5's
+gaps) coasting one sweep added 20-58 m to the mean GOSPA of S1, S2, S4 and
+S6 (each shown sweep after a target's or a false track's end) and took
+38-50 m off S3's and S5's; on the two-radar and harbour scenes, where each
+radar misses a tenth of its sweeps, it took 180-290 m off (GOSPA 450-494
+to 162-275 m, MOTA 0.78-0.86 to 0.89-0.96).
 """
 
 from __future__ import annotations
@@ -78,3 +93,20 @@ def persistent(labels: np.ndarray, shown: np.ndarray, last: tuple[np.ndarray, np
     run = streaks(extracted, *last)
     confirmed = np.union1d(confirmed[np.isin(confirmed, labels)], extracted[run >= scans])
     return shown[np.isin(extracted, confirmed)], (extracted, run), confirmed
+
+
+def default_coast_misses(coast_misses: int | None, sensors: int) -> int:
+    """The misses in a row a reported label is shown through: ``coast_misses`` when given, else 1 for a tracker
+    updated by the sweeps of ``sensors`` > 1 sensors and 0 for one sensor's (module docstring)."""
+    if coast_misses is not None:
+        return coast_misses
+    return 1 if sensors > 1 else 0
+
+
+def coasting(weights: np.ndarray, labels: np.ndarray, shown: np.ndarray, confirmed: np.ndarray,
+             floor: float) -> np.ndarray:
+    """``shown`` (indices into the mixture's ``weights`` and ``labels`` (J,)) with the components whose label is
+    ``confirmed`` (sorted) and whose weight is at least ``floor`` added, in label order."""
+    extra = np.flatnonzero((weights >= floor) & np.isin(labels, confirmed))
+    both = np.union1d(shown, extra)
+    return both[np.argsort(labels[both], kind="stable")]

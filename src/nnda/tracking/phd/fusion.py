@@ -69,7 +69,7 @@ from nnda.filters.mixture import Mixture, cap, combine_groups, merge_groups
 from nnda.filters.motion import POS
 from nnda.tracking.output import CONFIRMED, NO_CONTACT, TrackerOutput
 from nnda.tracking.phd.config import AAFusionConfig, CentralPHDConfig, FusionConfig, GCIFusionConfig
-from nnda.tracking.phd.extraction import above, persistent
+from nnda.tracking.phd.extraction import above, coasting, default_coast_misses, persistent
 from nnda.tracking.phd.tracker import Cardinality, GMPHDTracker, sensor_detection
 from nnda.tracking.tracker import TrackerConfig, checked_config, checked_scan
 
@@ -178,6 +178,8 @@ class FusionTracker:
         local = cfg.model_dump(exclude=set(type(cfg).model_fields) - set(CentralPHDConfig.model_fields) | {"sensor_pd"})
         #: the P_D of each sensor's scans and where it came from (each local filter's ``pd``)
         self.detection = sensor_detection(self.name, cfg, self.sensors)
+        #: the misses in a row a reported centre id is shown through (`extraction.default_coast_misses`)
+        self.coast_misses = default_coast_misses(cfg.coast_misses, len(self.sensors))
         self.local = tuple(CentralPHDTracker(s, CentralPHDConfig(**{**local, "pd": pd}))
                            for s, pd in zip(self.sensors, self.detection.values, strict=True))
         for f, s in zip(self.local, self.sensors, strict=True):
@@ -257,6 +259,9 @@ class FusionTracker:
         shown = shown[np.argsort(fused.labels[shown], kind="stable")]
         shown, self.extraction_streaks[scan.sensor], self.confirmed_labels = persistent(
             fused.labels, shown, self.extraction_streaks[scan.sensor], self.confirmed_labels, cfg.extraction_scans)
+        if self.coast_misses:
+            floor = cfg.fused_extraction_threshold * (1.0 - self.detection.values[scan.sensor]) ** self.coast_misses
+            shown = coasting(fused.weights, fused.labels, shown, self.confirmed_labels, floor)
         self.cardinality = Cardinality(scan.index, time, float(fused.weights.sum()), None, None, len(shown))
         k = len(shown)
         return TrackerOutput(scan.index, time, fused.labels[shown], np.full(k, CONFIRMED, np.int8),

@@ -87,7 +87,7 @@ from nnda.tracking.phd.config import (
     StaticBirth,
     UKPHDConfig,
 )
-from nnda.tracking.phd.extraction import above, heaviest, persistent, relabel_duplicates
+from nnda.tracking.phd.extraction import above, coasting, default_coast_misses, heaviest, persistent, relabel_duplicates
 from nnda.tracking.tracker import TrackerConfig, checked_config, checked_contacts, checked_scan
 
 
@@ -219,6 +219,8 @@ class GMPHDTracker:
             raise ConfigError(f"{self.name}: use_sensors names {', '.join(map(repr, unknown))}, which this scene "
                               f"does not have (its sensors: {', '.join(names)})")
         self.used = np.array([cfg.use_sensors is None or n in cfg.use_sensors for n in names])
+        #: the misses in a row a reported label is shown through (`extraction.default_coast_misses`)
+        self.coast_misses = default_coast_misses(cfg.coast_misses, int(self.used.sum()))
         self.motion = cfg.motion_model()
         self.transform = cfg.unscented.transform() if cfg.linearisation == "ukf" else None  # UT prediction
         self.views = tuple(self._view(s, measurement, pd)
@@ -487,9 +489,12 @@ class GMPHDTracker:
         (this scan's: ``sensor``); records the scan's `Cardinality`."""
         shown = self._extracted(mixture, map_count)
         shown = shown[np.argsort(mixture.labels[shown], kind="stable")]
+        cfg = self.config
         shown, self.extraction_streaks[sensor], self.confirmed_labels = persistent(
-            mixture.labels, shown, self.extraction_streaks[sensor], self.confirmed_labels,
-            self.config.extraction_scans)
+            mixture.labels, shown, self.extraction_streaks[sensor], self.confirmed_labels, cfg.extraction_scans)
+        if self.coast_misses:
+            floor = cfg.extraction_threshold * (1.0 - self.views[sensor].pd) ** self.coast_misses
+            shown = coasting(mixture.weights, mixture.labels, shown, self.confirmed_labels, floor)
         self.cardinality = Cardinality(scan, time, mean, map_count, dist, len(shown))
         k = len(shown)
         x, P = self.motion.to_cv(mixture.means[shown], mixture.covariances[shown])
@@ -518,6 +523,12 @@ class CPHDTracker(GMPHDTracker):
 
     name: ClassVar[str] = "cphd"
     config_type: ClassVar[type[TrackerConfig]] = CPHDConfig
+
+    def __init__(self, sensors: Sensor | Sequence[Sensor], config: CPHDConfig | None = None,
+                 measurement: MeasurementModel | None = None) -> None:
+        super().__init__(sensors, config, measurement)
+        if self.config.extraction == "map":  # the MAP count's heaviest components, none coasting beside them
+            self.coast_misses = 0
 
     def reset(self) -> None:
         super().reset()
