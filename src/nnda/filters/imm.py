@@ -365,8 +365,8 @@ class IMM:
         of ``z`` is ignored (it may be NaN). ``check=False`` skips the input
         checks (for callers whose measurements are known to be valid).
         """
-        K = len(pred)
         mp, st = pred.measurement, pred.state
+        K = len(st.x)  # the array's own length: `Batch.__len__` walks the nested records, every scan
         if check:
             z = check_array("z", z, (K, 2), error=FilterError)
             if mask is not None:

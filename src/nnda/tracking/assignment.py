@@ -49,10 +49,10 @@ def least_cost_assignment(rows: np.ndarray, cols: np.ndarray, cost: np.ndarray, 
     cost, miss_cost = np.asarray(cost, np.float64), np.asarray(miss_cost, np.float64)
     if rows.size == 0:
         return rows, cols
-    track, ti, cont, ci, weight = compressed(rows, cols, cost, miss_cost)
+    track, ti, cont, ci, weight, block = compressed(rows, cols, cost, miss_cost, DENSE_MAX_ENTRIES)
     R, C = track.size, cont.size
-    if R * (C + R) <= DENSE_MAX_ENTRIES:
-        r, c = linear_sum_assignment(dense_block(ti, ci, weight, C))
+    if block.size:
+        r, c = linear_sum_assignment(block)
     else:
         graph = csr_matrix((weight, (np.concatenate([ti, np.arange(R)]), np.concatenate([ci, C + np.arange(R)]))),
                            shape=(R, C + R))
@@ -62,10 +62,12 @@ def least_cost_assignment(rows: np.ndarray, cols: np.ndarray, cost: np.ndarray, 
 
 
 @numba.njit(cache=True, nogil=True)
-def compressed(rows, cols, cost, miss_cost):
+def compressed(rows, cols, cost, miss_cost, dense_max):
     """The distinct rows (R,) and columns (C,) of P >= 1 pairs, ascending, each pair's index into them (P,)
-    (as `np.unique(..., return_inverse=True)`), and the weights (P + R,): the pairs' costs, then the rows'
-    miss costs, shifted so that the least is 1."""
+    (as `np.unique(..., return_inverse=True)`), the weights (P + R,): the pairs' costs, then the rows'
+    miss costs, shifted so that the least is 1; and the problem's `dense_block` where it has at most
+    ``dense_max`` entries, R x (C + R), else a (0, 0) block (in the same call: GNN solves a problem or two a
+    scan)."""
     row_at = np.full(rows.max() + 1, -1, np.int64)
     col_at = np.full(cols.max() + 1, -1, np.int64)
     for r in rows:
@@ -81,7 +83,9 @@ def compressed(rows, cols, cost, miss_cost):
     weight[:P] = cost
     weight[P:] = miss_cost[track]
     weight = weight - weight.min() + 1.0
-    return track, row_at[rows], cont, col_at[cols], weight
+    ti, ci, C = row_at[rows], col_at[cols], cont.size
+    block = dense_block(ti, ci, weight, C) if R * (C + R) <= dense_max else np.empty((0, 0))
+    return track, ti, cont, ci, weight, block
 
 
 @numba.njit(cache=True, nogil=True)

@@ -53,6 +53,7 @@ from __future__ import annotations
 
 import math
 from functools import lru_cache
+from operator import attrgetter
 
 import numba
 import numpy as np
@@ -343,6 +344,8 @@ def covered_fraction(sensor: Sensor, at: np.ndarray, radius: float) -> np.ndarra
 
 #: the sensor fields its coverage depends on (`in_coverage`)
 _COVERAGE_FIELDS = ("x_m", "y_m", "boresight_deg", "fov_deg", "min_range_m", "max_range_m")
+#: their values as a tuple, in one call (every scan of a tracker under the score rule reads them twice)
+_coverage_values = attrgetter(*_COVERAGE_FIELDS)
 
 
 def _covered_table(sensor: Sensor, radius: float) -> tuple[np.ndarray, np.ndarray]:
@@ -357,7 +360,7 @@ def _covered_table(sensor: Sensor, radius: float) -> tuple[np.ndarray, np.ndarra
 
 def _coverage_of(sensor: Sensor) -> tuple[float, ...]:
     """The values of `_COVERAGE_FIELDS` of ``sensor``: what its coverage depends on."""
-    return tuple(getattr(sensor, f) for f in _COVERAGE_FIELDS)
+    return _coverage_values(sensor)
 
 
 def _table_grid(sensor: Sensor, radius: float) -> tuple[np.ndarray, int]:

@@ -47,7 +47,7 @@ import numbers
 import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from functools import cached_property
 from typing import Annotated, ClassVar, Literal, NamedTuple, Protocol, runtime_checkable
 
@@ -242,7 +242,8 @@ def checked_scan(name: str, scan: Scan, last_time: float, sensors: tuple[Sensor,
     measurements pass `checked_contacts` for that sensor's kind ([range m, azimuth rad], positive ranges, for
     a polar sensor; [x m, y m] for a position sensor).
     """
-    if not all(hasattr(scan, field) for field in ("index", "time", "measurements", "sensor")):
+    if not (hasattr(scan, "index") and hasattr(scan, "time") and hasattr(scan, "measurements")
+            and hasattr(scan, "sensor")):  # one test a field, not a generator: every scan of every tracker
         raise TrackingError(f"{name}: step takes a scan (nnda.data.dataset.Scan: index, time, measurements, "
                             f"sensor), got {type(scan).__name__}")
     sensor = scan.sensor
@@ -253,7 +254,8 @@ def checked_scan(name: str, scan: Scan, last_time: float, sensors: tuple[Sensor,
         raise TrackingError(f"{name}: scan {scan.index} comes from sensor {sensors[sensor].name!r} of asynchronous "
                             f"reports, which this tracker does not take; trackers that do: "
                             f"{', '.join(reporting_trackers())}")
-    if isinstance(scan.time, (bool, np.bool_)) or not isinstance(scan.time, numbers.Real):
+    if type(scan.time) is not float and (isinstance(scan.time, (bool, np.bool_))  # a float passes at once
+                                         or not isinstance(scan.time, numbers.Real)):
         raise TrackingError(f"{name}: scan {scan.index} has time {scan.time!r} of type {type(scan.time).__name__}; "
                             f"a scan's time is a number of seconds")
     time = float(scan.time)
@@ -359,7 +361,7 @@ class Tracks(Batch):
         scores[:, SCORE] = score
         if restart:
             scores[:, MAX_SCORE] = score
-        return replace(self, scores=scores)
+        return self.replaced(scores=scores)
 
     def after_scan(self, contact: np.ndarray, filt: IMMState, z: np.ndarray, xy: np.ndarray, time: float,
                    lifecycle: LifecycleConfig, observed: np.ndarray | None = None,
@@ -902,7 +904,7 @@ class ContactTracker(ABC):
             score += birth_log_odds(self.score_pd(scan.sensor), cfg.new_targets_per_scan / coverage_area(sensor),
                                     local_density(scan.xy, born.p1, self._clutter_radius, sensor))
         scores[:, SCORE] = scores[:, MAX_SCORE] = score
-        return replace(born, scores=scores)
+        return born.replaced(scores=scores)
 
     @cached_property
     def _window_areas(self) -> tuple[float, ...]:
@@ -1082,7 +1084,7 @@ class SingleHypothesisTracker(ContactTracker):
             shown.append(block)
         score_rule = self.confirmation_rule != "mn"
         # under the score rule only confirmed tracks take room from new ones: the cap then keeps the best scores
-        held = 0 if tracks is None else int((tracks.status == CONFIRMED).sum()) if score_rule else len(tracks)
+        held = 0 if tracks is None else np.count_nonzero(tracks.status == CONFIRMED) if score_rule else len(tracks)
         born, born_contact = self._initiate(sc, np.zeros(len(z), bool) if used is None else used, held)
         if born is not None:
             born = self._start_scores(born, sc, born_contact)
