@@ -17,13 +17,14 @@ scan at most 2x the later mean, and, for the PHD filters, MOTA within 0.05
 of gnn's. A tracker whose scan passes ``--give-up`` s (default 10 s) is
 stopped there and not run at the larger sizes.
 
-The PHD filters' defaults (0.1 births a scan, a one-radar filter hiding a label at each missed sweep) are
-made for the S1-S6 radar's dense clutter, few targets and P_D near 1; here every target is present from the
-first scan, the CPHD's Poisson births admit few new targets a scan, and a tenth of the targets is missed at
-each sweep. ``--phd '{"coast_misses": 1}'`` shows a reported label through one miss (measured 2026-12-06 at
-1,000 targets: MOTA gnn 0.581; gmphd, ekphd, ukphd 0.518 by default, 0.566-0.567 with it; cphd 0.054 and 0.066);
-``--phd '{"coast_misses": 1, "clutter": "scan", "birth": {"rate": 50.0}}'`` fits the scene: gmphd, ekphd, ukphd
-0.672-0.674 at 46-56 ms a scan, cphd 0.592 at 242 ms, worst 455 ms.
+The PHD filters' defaults are made for the S1-S6 radar's dense clutter, few targets and P_D near 1: after
+the first sweep (whose contacts all get newborns, `nnda.tracking.phd.birth`), 0.1 births a scan, and a
+one-radar filter hides a label at each missed sweep. Here every target is present from the first scan, a
+tenth of them is missed at each sweep, and the CPHD's Poisson births admit few of the targets its first
+sweeps miss. Measured 2026-12-06 at 1,000 targets, MOTA: gnn 0.581; gmphd, ekphd, ukphd 0.636 by default,
+0.695-0.696 with ``--phd '{"coast_misses": 1}'`` (a reported label shown through one miss); cphd 0.098 and
+0.124, and 0.591 at 188 ms a scan (worst 342 ms) with ``--phd '{"coast_misses": 1, "clutter": "scan",
+"birth": {"rate": 50.0}}'``.
 
 ``--clutter-estimate local`` or ``unexplained`` sets the local clutter estimate of the trackers that have
 the choice (the PHD filters' ``clutter``, the ``clutter_estimate`` of gnn, jpda, pmbm, glmb and lmb; default:

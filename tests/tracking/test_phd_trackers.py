@@ -415,3 +415,32 @@ def test_coasting_defaults_to_the_sensor_count_and_refuses_map_extraction():
     assert make_tracker("cphd", two, {"extraction": "map"}).coast_misses == 0
     with pytest.raises(ConfigError, match="coast_misses"):
         make_tracker("cphd", one, {"extraction": "map", "coast_misses": 1})
+
+
+def test_first_sweep_births_weigh_each_contact_by_its_square():
+    """Each contact's newborn weighs 1/n^2, n the contacts in the square of half-side r around it: clusters of 1,
+    2, 3 and 5 contacts within 200 m, 20 km apart (so the count's square, its edges on a grid of r/4, holds its
+    cluster whatever the grid); a lone contact's weighs 1."""
+    from nnda.tracking.phd.birth import first_sweep_births
+    rng = np.random.default_rng(3)
+    sizes = [1, 2, 3, 5]
+    xy = np.concatenate([[20_000.0 * k, -7_000.0 * k] + rng.uniform(-200.0, 200.0, (n, 2))
+                         for k, n in enumerate(sizes)])
+    cov = np.tile(np.diag([100.0**2, 100.0**2]), (len(xy), 1, 1))
+    born = first_sweep_births(xy, cov, 3_000.0, 100.0, ConstantVelocity(), 7)
+    n = np.repeat(sizes, sizes)
+    np.testing.assert_allclose(born.weights, 1.0 / n**2, rtol=1e-9)
+    assert born.weights[0] == 1.0 and born.labels.tolist() == list(range(7, 7 + len(xy)))
+
+
+@pytest.mark.parametrize("name", ["ekphd", "cphd"])
+def test_first_sweep_births_report_the_targets_present_from_the_start_sooner(name):
+    """On S1 (its targets present from the first sweep) the first report comes sooner with the first sweep's
+    births than without, and the report after it holds no fewer labels."""
+    ds = generate(PRESETS["S1"], seed=0)
+    first = {}
+    for on in (True, False):
+        tracker = make_tracker(name, ds.scenario.sensor, {"first_sweep_births": on})
+        counts = [len(tracker.step(s)) for s in ds.scans()]
+        first[on] = next(k for k, c in enumerate(counts) if c)
+    assert first[True] < first[False]

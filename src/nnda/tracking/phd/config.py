@@ -106,9 +106,10 @@ CONFIRMATION_PRESETS: dict[str, dict[str, float | None]] = {
     "pedestrian": {"components_per_contact": None, "components_per_target": None, "extraction_scans": 1},
     "harbour": {"components_per_contact": 1.0, "components_per_target": 2.0, "extraction_scans": 3},
 }
-#: the confirmation settings turned off, as the PHD filters ran before the presets set them (the studies that
-#: reproduce a reference work's numbers pin them: ``params = {**SINGLE_SCAN_EXTRACTION, ...}``)
-SINGLE_SCAN_EXTRACTION: dict[str, float] = {"components_per_contact": 0, "extraction_scans": 1, "coast_misses": 0}
+#: the confirmation settings and first-sweep births turned off, as the PHD filters ran before the presets set them
+#: (the studies that reproduce a reference work's numbers pin them: ``params = {**SINGLE_SCAN_EXTRACTION, ...}``)
+SINGLE_SCAN_EXTRACTION: dict[str, float | bool] = {
+    "components_per_contact": 0, "extraction_scans": 1, "coast_misses": 0, "first_sweep_births": False}
 
 #: the preset and motion names of the previous version, read for one more version with a FutureWarning
 RENAMED_PRESETS = {"seed-000": "pedestrian", "seed-002": "harbour"}  # deprecated spelling
@@ -257,6 +258,10 @@ class PHDConfig(CommonConfig):
         ge=1, description="report a label once it has been extracted (weight >= the threshold) after this many "
         "sweeps in a row of one sensor (each sensor's sweeps counted apart), then whenever it is extracted; "
         "1: every extracted component (default: the preset's, `CONFIRMATION_PRESETS`)")]
+    first_sweep_births: bool = Field(
+        True, description="measurement-driven birth: each sensor's first sweep with contacts puts a newborn of "
+        "weight 1/n^2 on every contact, n the contacts in its clutter_radius_m square (targets present from the "
+        "start; `nnda.tracking.phd.birth`); false: the first sweep's births are the later sweeps' (birth.rate)")
     coast_misses: Annotated[int, Field(ge=0)] | None = Field(
         None, description="a label already reported stays reported while its weight is at least the extraction "
         "threshold times (1 - p_D)^this (p_D the sweep's sensor's): an isolated target is shown through this many "

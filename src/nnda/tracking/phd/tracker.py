@@ -77,7 +77,7 @@ from nnda.tracking.clutter_density import coverage_area, local_density, measurem
 from nnda.tracking.detection_probability import FROM_CONFIG, DetectionProbabilities, detection_probabilities
 from nnda.tracking.output import CONFIRMED, NO_CONTACT, TrackerOutput
 from nnda.tracking.phd import cphd, gmphd
-from nnda.tracking.phd.birth import measurement_births
+from nnda.tracking.phd.birth import first_sweep_births, measurement_births
 from nnda.tracking.phd.config import (
     CommonConfig,
     CPHDConfig,
@@ -257,6 +257,8 @@ class GMPHDTracker:
         self.mixture = Mixture.empty(n)
         self.newborn = Mixture.empty(n)
         self.next_label = 0
+        #: the sensors of the sweeps with contacts since the reset (a sensor's first one: `birth.first_sweep_births`)
+        self.swept: set[int] = set()
         self.last_time, self.last_sensor = -np.inf, -1
         self.cardinality: Cardinality | None = None
         #: predicted components left out of a scan's update by ``max_pairs`` since the last reset, and the
@@ -426,10 +428,15 @@ class GMPHDTracker:
         self.mixture = post
         birth = cfg.birth
         if birth.kind == "measurement" and len(z):
-            explained = np.bincount(pairs.i, det, minlength=len(z))
-            self.newborn = measurement_births(xy, cov, explained, birth.rate, birth.speed_sigma_m_s,
-                                              self.motion, self.next_label)
+            if cfg.first_sweep_births and scan.sensor not in self.swept:
+                self.newborn = first_sweep_births(xy, cov, cfg.clutter_radius_m, birth.speed_sigma_m_s, self.motion,
+                                                  self.next_label)
+            else:
+                explained = np.bincount(pairs.i, det, minlength=len(z))
+                self.newborn = measurement_births(xy, cov, explained, birth.rate, birth.speed_sigma_m_s,
+                                                  self.motion, self.next_label)
             self.next_label += len(self.newborn)
+            self.swept.add(scan.sensor)
         else:
             self.newborn = Mixture.empty(cfg.state_dim)
         self.last_time, self.last_sensor = time, scan.sensor
