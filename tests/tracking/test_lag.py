@@ -16,7 +16,7 @@ from nnda.filters.imm import IMM
 from nnda.filters.motion import ConstantVelocity
 from nnda.study.metrics import ScoredRun, run_metrics
 from nnda.study.track import track_table
-from nnda.tracking.lag import FixedLag, LagMotion, RevisesBranches, stationary
+from nnda.tracking.lag import EndsAtScorePeak, FixedLag, LagMotion, RevisesBranches, stationary
 from nnda.tracking.mht import MHTTracker
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
 from nnda.tracking.registry import make_tracker
@@ -131,6 +131,48 @@ def test_a_track_that_coasts_through_a_gap_is_not_touched():
     _, lagged = _run(Replay(outs), 3, 8)
     assert [int(o.status[0]) for o in lagged[:7]] == [CONFIRMED] * 6 + [DELETED]
     assert len(lagged[7]) == 0
+
+
+class Peaked(Replay):
+    """A `Replay` that tells the score peaks (`EndsAtScorePeak`): ``peaks`` maps a track id to its peak's time."""
+
+    def __init__(self, outputs, peaks):
+        super().__init__(outputs)
+        self.peaks = peaks
+
+    def score_peaks(self, reported):
+        gone = reported.track_id[reported.status == DELETED]
+        return gone, np.array([self.peaks[i] for i in gone.tolist()], float)
+
+
+def test_a_track_deleted_in_the_window_ends_after_its_score_peak_contacts_or_not():
+    # contacts at 1-3, 5 (clutter in its grown gate), coasting at 4 and 6, deleted at 7; its score peaked at
+    # scan 3 (time 6 s): from scan 4 on, once the window sees the deletion, it is ended, where the coasting
+    # rule waits for the contact-free tail (scan 6)
+    outs = _tail([0, 1, 2, NO_CONTACT, 3, NO_CONTACT], 7)
+    _, plain = _run(Replay(outs), 3, 7)
+    _, peaked = _run(Peaked(outs, {7: 6.0}), 3, 7)
+    assert isinstance(Peaked([], {}), EndsAtScorePeak) and not isinstance(Replay([]), EndsAtScorePeak)
+    assert [int(o.status[0]) if len(o) else None for o in plain] == [CONFIRMED] * 5 + [DELETED, None]
+    assert [int(o.status[0]) if len(o) else None for o in peaked] == [CONFIRMED] * 3 + [DELETED] + [None] * 3
+    # a peak at the last scan before the deletion (12 s, scan 6) ends nothing the coasting rule keeps
+    _, late = _run(Peaked(outs, {7: 12.0}), 3, 7)
+    for a, b in zip(plain, late):
+        assert a.track_id.tolist() == b.track_id.tolist() and a.status.tolist() == b.status.tolist()
+
+
+def test_score_peaks_end_only_confirmed_tracks_and_are_forgotten_on_reset():
+    # track 8 preliminary at 1-3, deleted at 4 with a peak at 2 s: a preliminary report stays as it is
+    outs = [_out(k, [8], [PRELIMINARY], contact=[0]) for k in (1, 2, 3)] + [_out(4, [8], [DELETED])]
+    _, lagged = _run(Peaked(outs, {8: 2.0}), 3, 4)
+    assert [o.status.tolist() for o in lagged] == [[PRELIMINARY]] * 3 + [[DELETED]]
+    fixed = FixedLag(Peaked(_tail([0, 1], 3), {7: 2.0}), 3)
+    for k in (1, 2, 3):
+        fixed.step(_scan(k))
+    assert fixed._peaks[0].tolist() == [7]
+    fixed.reset()
+    assert not fixed._peaks[0].size
+    assert fixed.flush() == []
 
 
 def test_ended_tracks_are_forgotten_on_reset():

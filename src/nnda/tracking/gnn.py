@@ -11,6 +11,29 @@ tracks are assigned first and preliminary tracks share what is left, so a
 new track cannot take a confirmed target's contact. Problems with more than
 ``max_exact_pairs`` candidate pairs (thousands of clutter points per scan)
 are matched greedily, cheapest pair first, and counted in ``n_greedy``.
+
+Two options for dense clutter, both on by default (on S1-S6 at 1,000
+clutter points a scan, 5 runs, measured: hit rate 89.5 -> 90.4 %, GOSPA
+with a lag of 3 scans 240 -> 189 m):
+
+* ``shared_preliminary``: preliminary tracks no longer compete with each other for
+  the contacts the confirmed tracks left: each takes its own cheapest gated one.
+  Where clutter is dense, a target's contact lies in the gates of several young
+  tracks (its own, and those that clutter started around it), and the one-to-one
+  assignment hands it to one of them each scan, often a different one, so none
+  of them gathers the score to confirm, and a clutter-born track can take it
+  from the target's own. Sharing ends that split. Two preliminary tracks that
+  take the same contact after taking the same contact in the scan before are
+  duplicates, whose futures are the same: the one with the lower score after
+  this contact (the gating likelihood's part of it) is deleted, as MHT's track
+  merging deletes tracks that hold the same recent contacts (Blackman 2004).
+  Scores are needed for that, so the option applies under the score-type rules
+  only: under ``lifecycle.confirmation = "mn"`` preliminary tracks keep the
+  least-cost assignment.
+* ``end_at_score_peak``: the tracker tells a fixed-lag output
+  (`nnda.tracking.lag.FixedLag`) when each deleted track's score last reached
+  its maximum (`score_peaks`), and the lagged output ends the track there
+  (the module docstring of `nnda.tracking.lag` says why).
 """
 
 from __future__ import annotations
@@ -25,13 +48,14 @@ from nnda.filters.imm import IMMPrediction
 from nnda.filters.kalman import GATE_99
 from nnda.tracking.assignment import given, greedy_matching, least_cost_assignment
 from nnda.tracking.gating import gate_tracks
-from nnda.tracking.output import CONFIRMED, NO_CONTACT
+from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, TrackerOutput
 from nnda.tracking.tracker import (
     CLUTTER_ESTIMATE_DOC,
     Association,
     ClutterEstimate,
     ContactTrackerConfig,
     ScanContacts,
+    Shown,
     SingleHypothesisTracker,
     TrackerConfig,
     Tracks,
@@ -46,6 +70,15 @@ class GNNConfig(ContactTrackerConfig):
     max_exact_pairs: Annotated[int, Field(ge=0, description="candidate pairs up to which the assignment "
                                           "is solved exactly; beyond, greedily by cost")] = 20_000
     clutter_estimate: ClutterEstimate = Field("local", description=CLUTTER_ESTIMATE_DOC)
+    shared_preliminary: bool = Field(True, description=(
+        "preliminary tracks do not compete with each other for the contacts no confirmed track took: each "
+        "takes its cheapest gated one, and of two that take the same contact after taking the same one in "
+        "the scan before (duplicates) the one of lower score is deleted (MHT's track merging, Blackman 2004); "
+        "under the score-type confirmation rules only"))
+    end_at_score_peak: bool = Field(True, description=(
+        "a fixed-lag output ends a confirmed track that the life cycle deleted within its window at the last "
+        "maximum of its score, the change time of the score-drop test (Page 1954), not only when it coasted "
+        "to its deletion without a contact; under the score-type confirmation rules only"))
 
 
 class GNNTracker(SingleHypothesisTracker):
@@ -58,6 +91,15 @@ class GNNTracker(SingleHypothesisTracker):
     def reset(self) -> None:
         super().reset()
         self.n_greedy = 0  # assignments too large to solve exactly (see GNNConfig.max_exact_pairs)
+        self.n_merged = 0  # duplicate preliminary tracks deleted (see GNNConfig.shared_preliminary)
+        #: the live tracks' ids (ascending) and the time (s) each one's score last reached its maximum, as of the
+        #: last scan (those deleted in it included; `score_peaks`)
+        self._peaks = (np.empty(0, np.int64), np.empty(0))
+
+    @property
+    def _scored(self) -> bool:
+        """Whether the confirmation rule keeps a track score that the score-drop test deletes on."""
+        return self.confirmation_rule in ("adaptive", "score")
 
     def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
         imm, z = scan.filter, scan.z
@@ -66,11 +108,15 @@ class GNNTracker(SingleHypothesisTracker):
         if not g.rows.size:
             return hard_update(imm, pred, z, contact)
         miss_cost = self.config.gate + mp.log_det_S
+        merged = None  # the duplicate preliminary tracks (`_merged`)
         for confirmed in (True, False):  # confirmed tracks choose first
             r, c, cost = _stage_pairs(confirmed, tracks.status, g.rows, g.cols, g.d2, mp.log_det_S, contact, len(z))
             if not r.size:
                 continue
-            if r.size <= self.config.max_exact_pairs:
+            if not confirmed and self.config.shared_preliminary and self._scored:
+                rows, cols, merged = _merged(r, c, cost, tracks.score, np.column_stack((tracks.p2, tracks.t2)))
+                self.n_merged += merged.size
+            elif r.size <= self.config.max_exact_pairs:
                 rows, cols = least_cost_assignment(r, c, cost, miss_cost)
             else:  # every gated pair costs less than a miss, so greedy takes cheapest first
                 rows, cols = greedy_matching(r, c, -cost)
@@ -78,7 +124,68 @@ class GNNTracker(SingleHypothesisTracker):
                 self._bound_hit("max_exact_pairs", f"{r.size} candidate pairs matched greedily, not exactly",
                                 scan.time)
             contact[rows] = cols
-        return hard_update(imm, pred, z, contact)
+        assoc = hard_update(imm, pred, z, contact)
+        if merged is None or not merged.size:
+            return assoc
+        score = tracks.score.copy()
+        score[merged] = -np.inf  # below every threshold: the life cycle deletes them ("unconfirmed")
+        return Association(assoc.contact, assoc.filt, revised=(tracks.rescored(score), pred))
+
+    def _finish(self, tracks: Tracks, pred: IMMPrediction, assoc: Association, scan: ScanContacts
+                ) -> tuple[Tracks | None, Shown, np.ndarray, np.ndarray | None]:
+        """The framework's scan end; with ``end_at_score_peak`` also, for each of the K tracks, the time its
+        score last reached its maximum (this scan's when its score after the scan does; `score_peaks`)."""
+        done = super()._finish(tracks, pred, assoc, scan)
+        if self.config.end_at_score_peak and self._scored:
+            gain = self._score_gain(pred, scan, assoc)
+            seen = self._observed(scan, pred, tracks.t2, assoc.contact)
+            if seen is not None:  # an unobserved track keeps its score
+                gain = np.where(seen, gain, 0.0)
+            # a track born in the scan before holds its maximum since its birth, the time of its last contact
+            before = self._peak_of(tracks.track_id, tracks.t2)
+            peak = np.where(tracks.score + gain >= tracks.max_score, scan.time, before)
+            order = np.argsort(tracks.track_id)
+            self._peaks = (tracks.track_id[order], peak[order])
+        return done
+
+    def _peak_of(self, ids: np.ndarray, unknown: np.ndarray) -> np.ndarray:
+        """The time (s) of the score's last maximum of the tracks ``ids`` (M,) as of the last scan, ``unknown``'s
+        (M,) for a track it did not hold."""
+        known, time = self._peaks
+        if not known.size:
+            return unknown
+        at = np.minimum(np.searchsorted(known, ids), known.size - 1)
+        return np.where(known[at] == ids, time[at], unknown)
+
+    def score_peaks(self, reported: TrackerOutput) -> tuple[np.ndarray, np.ndarray]:
+        """`nnda.tracking.lag.EndsAtScorePeak`: of the output ``reported`` that the tracker just returned, the ids
+        (D,) of the tracks reported DELETED and the time (s) each one's score last reached its maximum (D,);
+        none without ``end_at_score_peak`` (or under the M/N rule)."""
+        if not (self.config.end_at_score_peak and self._scored):
+            return np.empty(0, np.int64), np.empty(0)
+        gone = reported.track_id[reported.status == DELETED]
+        return gone, self._peak_of(gone, np.full(gone.size, np.nan))
+
+
+def _merged(r: np.ndarray, c: np.ndarray, cost: np.ndarray, score: np.ndarray, last: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The preliminary tracks' stage of `GNNTracker.associate` with ``shared_preliminary``: over their gated pairs
+    (r, c, cost (P,), `_stage_pairs`), each track's cheapest contact; of the tracks that take the same contact
+    and held the same last contact before (``last`` (K, 3): its position (m) and time (s)), the one of highest
+    score after it, ``score`` (K,) - cost / 2 (the gating likelihood's part of the score's increment; the clutter
+    density's part is the contact's, the same for all), keeps it and the others are duplicates. Returns (rows,
+    cols) of the kept picks, sorted by row, and the duplicates' rows."""
+    order = np.lexsort((cost, r))
+    first = order[np.r_[True, r[order][1:] != r[order][:-1]]]  # each row's cheapest pair
+    rows, cols = r[first], c[first]
+    after = score[rows] - 0.5 * cost[first]
+    key = last[rows]
+    order = np.lexsort((-after, key[:, 2], key[:, 1], key[:, 0], cols))
+    a, b = order[1:], order[:-1]
+    same = (cols[a] == cols[b]) & (key[a] == key[b]).all(axis=1)
+    dupe = np.zeros(rows.size, bool)
+    dupe[a[same]] = True
+    return rows[~dupe], cols[~dupe], rows[dupe]
 
 
 @numba.njit(cache=True, nogil=True)

@@ -39,6 +39,14 @@ the oldest one (Stone Soup's fixed-lag smoothers and MHT's N-scan decision are t
   at k - L, the first scan of that coasted tail, and its rows in the later lagged outputs are dropped. A
   confirmed track no longer outlives its target by the scans its deletion rule waits; a track that coasts
   through a gap and then gets a contact again is not touched.
+* **score peaks**: a tracker that tells when each track it deleted had its score at its maximum
+  (`EndsAtScorePeak`: GNN with ``end_at_score_peak``) has a confirmed track reported DELETED within the
+  window ended at k - L when k - L comes after that maximum, contacts or not. The score-drop deletion (the
+  score fallen a fixed amount below its maximum) is Page (1954)'s CUSUM test for a change from "target" to
+  "clutter", and the test's estimate of when the change came is the last maximum of the score: from there
+  on the track's contacts were, taken together, against its target. Where clutter is dense, a track that
+  lost its target takes a clutter contact now and then (its gate grows with each miss), which the rule
+  above, needing a contact-free tail, does not end.
 
 The lagged output of a scan has the same tracks in the same order as its online output, but for the ended
 tracks' dropped rows (no track is added): only status, state, covariance and contact may differ. With lag 0
@@ -76,6 +84,19 @@ class RevisesBranches(Protocol):
     """
 
     def best_branch(self, reported: TrackerOutput) -> tuple[np.ndarray, np.ndarray]:
+        ...
+
+
+@runtime_checkable
+class EndsAtScorePeak(Protocol):
+    """The optional capability of a tracker that knows when each track it deleted last had its score at its
+    maximum (the module docstring's score peaks).
+
+    ``score_peaks(reported)`` takes the output the tracker just returned and gives the ids (D,) of the tracks
+    it reports DELETED and the time (s) of each one's last score maximum (D,); none where it does not tell.
+    """
+
+    def score_peaks(self, reported: TrackerOutput) -> tuple[np.ndarray, np.ndarray]:
         ...
 
 
@@ -137,13 +158,17 @@ class FixedLag:
         self.lag = checked_lag(lag)
         self.motion = LagMotion.of(tracker)
         self.revises = isinstance(tracker, RevisesBranches)
+        self.peaks = isinstance(tracker, EndsAtScorePeak)
         self._held: deque[tuple[TrackerOutput, np.ndarray | None]] = deque()
         self._ended = np.empty(0, np.int64)  # ids of the ended tracks (module docstring), sorted
+        #: the tracks deleted in the held scans that the tracker told a score peak of: ids, sorted, and times (s)
+        self._peaks = (np.empty(0, np.int64), np.empty(0))
 
     def reset(self) -> None:
         self.tracker.reset()
         self._held.clear()
         self._ended = np.empty(0, np.int64)
+        self._peaks = (np.empty(0, np.int64), np.empty(0))
 
     def step(self, scan: Scan) -> tuple[TrackerOutput, TrackerOutput | None]:
         """The tracker's output of ``scan`` and the revised output of the scan ``lag`` scans before (None
@@ -159,6 +184,8 @@ class FixedLag:
         self._held.append((online, None))
         if self.revises:
             self._decide(online)
+        if self.peaks:
+            self._note_peaks(online)
         if len(self._held) <= self.lag:
             return None
         return self._emit()
@@ -176,6 +203,8 @@ class FixedLag:
         contact = self._held[0][1]
         self._held.popleft()
         out = revised(window, self.motion, contact)
+        if self._peaks[0].size:
+            out = self._ended_at_peak(window[0], out)
         keep = ~np.isin(out.track_id, self._ended)
         ended = out.track_id[keep & (out.status == DELETED) & (window[0].status != DELETED)]
         if ended.size:
@@ -184,6 +213,31 @@ class FixedLag:
             return out
         return TrackerOutput(out.scan, out.time, out.track_id[keep], out.status[keep], out.state[keep],
                              out.covariance[keep], out.contact[keep])
+
+    def _note_peaks(self, online: TrackerOutput) -> None:
+        """Keep the score peaks the tracker tells of the tracks ``online`` reports DELETED (`EndsAtScorePeak`)."""
+        ids, time = self.tracker.score_peaks(online)
+        if not ids.size:
+            return
+        known, at = self._peaks
+        ids, time = np.concatenate([known, ids]), np.concatenate([at, time])
+        order = np.argsort(ids, kind="stable")
+        self._peaks = (ids[order], time[order])
+
+    def _ended_at_peak(self, first: TrackerOutput, out: TrackerOutput) -> TrackerOutput:
+        """``out``, the revised output of ``first``, with its confirmed tracks that were deleted in the window
+        after their score's last peak, at a time before ``first``'s, reported DELETED (module docstring);
+        the peaks of the tracks ``first`` reports DELETED are then let go."""
+        known, time = self._peaks
+        at = np.minimum(np.searchsorted(known, first.track_id), known.size - 1)
+        ended = (known[at] == first.track_id) & (first.status == CONFIRMED) & (time[at] < first.time)
+        gone = np.isin(known, first.track_id[first.status == DELETED])
+        if gone.any():
+            self._peaks = (known[~gone], time[~gone])
+        if not ended.any():
+            return out
+        status = np.where(ended, DELETED, out.status).astype(out.status.dtype)
+        return TrackerOutput(out.scan, out.time, out.track_id, status, out.state, out.covariance, out.contact)
 
     def _decide(self, online: TrackerOutput) -> None:
         """The contacts of the held scans on the current best branch of each track (`RevisesBranches`): the
