@@ -74,3 +74,13 @@ def test_the_growth_changes_nothing_at_a_few_targets():
 def test_a_growth_factor_below_one_is_refused(value):
     with pytest.raises(ConfigError, match="cardinality_per_target"):
         make_tracker("cphd", Sensor(), {"cardinality_per_target": value})
+
+
+def test_the_support_holds_the_births_too():
+    """A posterior of mean 10 on 0..100 holds 1.5 x 10 as it is, but not 1.5 x (10 + 1,000 births): then the
+    support doubles until it does (1,600)."""
+    p = np.zeros(101)
+    p[10] = 1.0
+    assert cphd.support_for(p, 100, 1.5) is p
+    grown = cphd.support_for(p, 100, 1.5, births=1_000.0)
+    assert len(grown) == 1_601 and grown[10] == 1.0 and grown.sum() == 1.0

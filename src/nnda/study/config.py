@@ -167,7 +167,8 @@ def default_study(gd_model: str | Path, lm_model: str | Path, ext_model: str | P
                   "nn-ext": TrackerSpec(kind="nn", model="ext", params=ext_set),
                   "nn-life": TrackerSpec(kind="nn", model="ext", params={**ext_set, **life5()}),
                   "gnn": TrackerSpec(kind="gnn", params=thesis), "jpda": TrackerSpec(kind="jpda", params=thesis),
-                  "ekphd": TrackerSpec(kind="ekphd", params=phd), "cphd": TrackerSpec(kind="cphd", params=phd)},
+                  "ekphd": TrackerSpec(kind="ekphd", params=phd),
+                  "cphd": TrackerSpec(kind="cphd", params={**phd, "clutter": "local"})},  # its clutter as then
         scenarios=[ScenarioSpec(preset="validation")],
     )
 

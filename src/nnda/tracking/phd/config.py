@@ -50,7 +50,7 @@ the predicted target count), at least 0.001; or ``"local"``: each
 contact's local density (`nnda.tracking.clutter_density.local_density`, a
 square of half-side ``clutter_radius_m``), times its range for the polar
 space, with lambda the contact count; or ``"unexplained"`` (the default of
-``gmphd``, ``ekphd`` and ``ukphd``; ``cphd``, the harbour trackers and the
+``gmphd``, ``ekphd``, ``ukphd`` and ``cphd``; the harbour trackers and the
 Stone Soup peer keep ``"local"``): the same squares' contacts less the contact itself and the predicted
 intensity's expected detections there (p_D times the mass of the components
 whose means lie in the square), at least the scan's such count over the
@@ -358,10 +358,6 @@ class UKPHDConfig(PHDConfig):
 
 class CPHDConfig(PHDConfig):
     """``cphd``: the cardinalised PHD, EK linearisation by default; no spawning (the CPHD has none)."""
-
-    clutter: Annotated[float, Field(ge=0)] | Literal["scan", "local", "unexplained"] = Field(
-        "local", description="false contacts per scan (lambda), or 'scan' / 'local' / 'unexplained' "
-        "estimates (module docs; 'local' by default here: with 'unexplained' S1 had a track break more)")
 
     max_cardinality: Annotated[int, Field(ge=1, description="N_max, the cardinality support 0..N_max (at the "
                                                           "start of a run: see cardinality_per_target)")] = 100

@@ -63,11 +63,11 @@ def predict_cardinality(p: np.ndarray, ps: float, birth_mean: float) -> np.ndarr
     return out / out.sum()
 
 
-def support_for(p: np.ndarray, minimum: int, per_target: float) -> np.ndarray:
-    """``p`` (N_max+1,) on a support 0..N' that holds ``per_target`` times its mean: ``p`` itself when N_max
-    does, else padded with zeros to the smallest N' = ``minimum`` x 2^k that does (doubling keeps the few
-    support sizes `_thinning` caches)."""
-    need = per_target * float(np.arange(len(p)) @ p)
+def support_for(p: np.ndarray, minimum: int, per_target: float, births: float = 0.0) -> np.ndarray:
+    """``p`` (N_max+1,) on a support 0..N' that holds ``per_target`` times its mean plus the ``births`` expected
+    before the next update: ``p`` itself when N_max does, else padded with zeros to the smallest N' =
+    ``minimum`` x 2^k that does (doubling keeps the few support sizes `_thinning` caches)."""
+    need = per_target * (float(np.arange(len(p)) @ p) + births)
     size = len(p) - 1
     if size >= need:
         return p

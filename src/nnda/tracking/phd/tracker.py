@@ -545,16 +545,16 @@ class CPHDTracker(GMPHDTracker):
         #: the support fixed (``cardinality_per_target`` None; `_report`)
         self.n_cardinality_capped = 0
 
-    def _supported(self) -> np.ndarray:
+    def _supported(self, born: float = 0.0) -> np.ndarray:
         """The last posterior cardinality on the support this scan needs: grown to hold ``cardinality_per_target``
-        times its mean (`cphd.support_for`); with that None, as it is."""
+        times its mean and the ``born`` expected births (`cphd.support_for`); with that None, as it is."""
         cfg = self.config
         if cfg.cardinality_per_target is None:
             return self.distribution
-        return cphd.support_for(self.distribution, cfg.max_cardinality, cfg.cardinality_per_target)
+        return cphd.support_for(self.distribution, cfg.max_cardinality, cfg.cardinality_per_target, born)
 
     def _weights(self, pred, pairs, rate, log_c, born, pd, survival):
-        p = cphd.predict_cardinality(self._supported(), survival, born)  # births: Poisson of the birth weight
+        p = cphd.predict_cardinality(self._supported(born), survival, born)  # births: Poisson of the birth weight
         det, missed, p = cphd.cphd_weights(pred.weights, pairs, pd, rate, log_c, p)
         self.distribution = p
         return det, missed, p
