@@ -12,9 +12,9 @@ new track cannot take a confirmed target's contact. Problems with more than
 ``max_exact_pairs`` candidate pairs (thousands of clutter points per scan)
 are matched greedily, cheapest pair first, and counted in ``n_greedy``.
 
-Two options for dense clutter, both on by default (on S1-S6 at 1,000
-clutter points a scan, 5 runs, measured: hit rate 89.5 -> 90.4 %, GOSPA
-with a lag of 3 scans 240 -> 189 m):
+In dense clutter (both on by default, under the score-type rules; on S1-S6
+at 1,000 clutter points a scan, 5 runs, measured: hit rate 89.5 -> 90.4 %,
+GOSPA with a lag of 3 scans 240 -> 189 m):
 
 * ``shared_preliminary``: preliminary tracks no longer compete with each other for
   the contacts the confirmed tracks left: each takes its own cheapest gated one.
@@ -30,10 +30,9 @@ with a lag of 3 scans 240 -> 189 m):
   Scores are needed for that, so the option applies under the score-type rules
   only: under ``lifecycle.confirmation = "mn"`` preliminary tracks keep the
   least-cost assignment.
-* ``end_at_score_peak``: the tracker tells a fixed-lag output
-  (`nnda.tracking.lag.FixedLag`) when each deleted track's score last reached
-  its maximum (`score_peaks`), and the lagged output ends the track there
-  (the module docstring of `nnda.tracking.lag` says why).
+* ``end_at_score_peak`` (jpda's too, `nnda.tracking.tracker.SingleHypothesisConfig`):
+  a fixed-lag output ends a deleted track where its score last peaked
+  (`nnda.tracking.lag`).
 """
 
 from __future__ import annotations
@@ -48,14 +47,13 @@ from nnda.filters.imm import IMMPrediction
 from nnda.filters.kalman import GATE_99
 from nnda.tracking.assignment import given, greedy_matching, least_cost_assignment
 from nnda.tracking.gating import gate_tracks
-from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, TrackerOutput
+from nnda.tracking.output import CONFIRMED, NO_CONTACT
 from nnda.tracking.tracker import (
     CLUTTER_ESTIMATE_DOC,
     Association,
     ClutterEstimate,
-    ContactTrackerConfig,
     ScanContacts,
-    Shown,
+    SingleHypothesisConfig,
     SingleHypothesisTracker,
     TrackerConfig,
     Tracks,
@@ -63,7 +61,7 @@ from nnda.tracking.tracker import (
 )
 
 
-class GNNConfig(ContactTrackerConfig):
+class GNNConfig(SingleHypothesisConfig):
     """GNN settings: the chi-square gate (2 dof) and the size up to which assignment is exact."""
 
     gate: Annotated[float, Field(gt=0, description="chi-square gate, 2 dof (9.21: P_G = 0.99)")] = GATE_99
@@ -75,10 +73,6 @@ class GNNConfig(ContactTrackerConfig):
         "takes its cheapest gated one, and of two that take the same contact after taking the same one in "
         "the scan before (duplicates) the one of lower score is deleted (MHT's track merging, Blackman 2004); "
         "under the score-type confirmation rules only"))
-    end_at_score_peak: bool = Field(True, description=(
-        "a fixed-lag output ends a confirmed track that the life cycle deleted within its window at the last "
-        "maximum of its score, the change time of the score-drop test (Page 1954), not only when it coasted "
-        "to its deletion without a contact; under the score-type confirmation rules only"))
 
 
 class GNNTracker(SingleHypothesisTracker):
@@ -92,14 +86,6 @@ class GNNTracker(SingleHypothesisTracker):
         super().reset()
         self.n_greedy = 0  # assignments too large to solve exactly (see GNNConfig.max_exact_pairs)
         self.n_merged = 0  # duplicate preliminary tracks deleted (see GNNConfig.shared_preliminary)
-        #: the live tracks' ids (ascending) and the time (s) each one's score last reached its maximum, as of the
-        #: last scan (those deleted in it included; `score_peaks`)
-        self._peaks = (np.empty(0, np.int64), np.empty(0))
-
-    @property
-    def _scored(self) -> bool:
-        """Whether the confirmation rule keeps a track score that the score-drop test deletes on."""
-        return self.confirmation_rule in ("adaptive", "score")
 
     def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
         imm, z = scan.filter, scan.z
@@ -113,7 +99,7 @@ class GNNTracker(SingleHypothesisTracker):
             r, c, cost = _stage_pairs(confirmed, tracks.status, g.rows, g.cols, g.d2, mp.log_det_S, contact, len(z))
             if not r.size:
                 continue
-            if not confirmed and self.config.shared_preliminary and self._scored:
+            if not confirmed and self.config.shared_preliminary and self._score_rule:
                 rows, cols, merged = _merged(r, c, cost, tracks.score, np.column_stack((tracks.p2, tracks.t2)))
                 self.n_merged += merged.size
             elif r.size <= self.config.max_exact_pairs:
@@ -130,41 +116,6 @@ class GNNTracker(SingleHypothesisTracker):
         score = tracks.score.copy()
         score[merged] = -np.inf  # below every threshold: the life cycle deletes them ("unconfirmed")
         return Association(assoc.contact, assoc.filt, revised=(tracks.rescored(score), pred))
-
-    def _finish(self, tracks: Tracks, pred: IMMPrediction, assoc: Association, scan: ScanContacts
-                ) -> tuple[Tracks | None, Shown, np.ndarray, np.ndarray | None]:
-        """The framework's scan end; with ``end_at_score_peak`` also, for each of the K tracks, the time its
-        score last reached its maximum (this scan's when its score after the scan does; `score_peaks`)."""
-        done = super()._finish(tracks, pred, assoc, scan)
-        if self.config.end_at_score_peak and self._scored:
-            gain = self._score_gain(pred, scan, assoc)
-            seen = self._observed(scan, pred, tracks.t2, assoc.contact)
-            if seen is not None:  # an unobserved track keeps its score
-                gain = np.where(seen, gain, 0.0)
-            # a track born in the scan before holds its maximum since its birth, the time of its last contact
-            before = self._peak_of(tracks.track_id, tracks.t2)
-            peak = np.where(tracks.score + gain >= tracks.max_score, scan.time, before)
-            order = np.argsort(tracks.track_id)
-            self._peaks = (tracks.track_id[order], peak[order])
-        return done
-
-    def _peak_of(self, ids: np.ndarray, unknown: np.ndarray) -> np.ndarray:
-        """The time (s) of the score's last maximum of the tracks ``ids`` (M,) as of the last scan, ``unknown``'s
-        (M,) for a track it did not hold."""
-        known, time = self._peaks
-        if not known.size:
-            return unknown
-        at = np.minimum(np.searchsorted(known, ids), known.size - 1)
-        return np.where(known[at] == ids, time[at], unknown)
-
-    def score_peaks(self, reported: TrackerOutput) -> tuple[np.ndarray, np.ndarray]:
-        """`nnda.tracking.lag.EndsAtScorePeak`: of the output ``reported`` that the tracker just returned, the ids
-        (D,) of the tracks reported DELETED and the time (s) each one's score last reached its maximum (D,);
-        none without ``end_at_score_peak`` (or under the M/N rule)."""
-        if not (self.config.end_at_score_peak and self._scored):
-            return np.empty(0, np.int64), np.empty(0)
-        gone = reported.track_id[reported.status == DELETED]
-        return gone, self._peak_of(gone, np.full(gone.size, np.nan))
 
 
 def _merged(r: np.ndarray, c: np.ndarray, cost: np.ndarray, score: np.ndarray, last: np.ndarray

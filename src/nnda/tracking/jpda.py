@@ -105,8 +105,8 @@ from nnda.tracking.tracker import (
     CLUTTER_ESTIMATE_DOC,
     Association,
     ClutterEstimate,
-    ContactTrackerConfig,
     ScanContacts,
+    SingleHypothesisConfig,
     SingleHypothesisTracker,
     TrackerConfig,
     Tracks,
@@ -116,7 +116,7 @@ from nnda.tracking.tracker import (
 _TINY = 1e-300
 
 
-class JPDAConfig(ContactTrackerConfig):
+class JPDAConfig(SingleHypothesisConfig):
     """JPDA settings: gate, detection probability, clutter density and the enumeration cap."""
 
     gate: Annotated[float, Field(gt=0, description="chi-square gate, 2 dof (9.21: P_G = 0.99)")] = GATE_99

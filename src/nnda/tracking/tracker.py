@@ -164,6 +164,16 @@ class ContactTrackerConfig(TrackerConfig):
     lifecycle: LifecycleConfig = LifecycleConfig()
 
 
+class SingleHypothesisConfig(ContactTrackerConfig):
+    """Settings of the single-hypothesis trackers whose lagged output can end a deleted track at its score's
+    last peak (gnn, jpda; `SingleHypothesisTracker.score_peaks`)."""
+
+    end_at_score_peak: bool = Field(True, description=(
+        "a fixed-lag output ends a confirmed track that the life cycle deleted within its window at the last "
+        "maximum of its score, the change time of the score-drop test (Page 1954), not only when it coasted "
+        "to its deletion without a contact; under the score-type confirmation rules only"))
+
+
 @runtime_checkable
 class Tracker(Protocol):
     """What a study runs: one scan in, every track out. Built as ``cls(sensors, config)``.
@@ -1047,6 +1057,38 @@ class SingleHypothesisTracker(ContactTracker):
     def reset(self) -> None:
         super().reset()
         self.tracks: Tracks | None = None
+        #: the live tracks' ids (ascending) and the time (s) each one's score last reached its maximum, as of the
+        #: last scan (those deleted in it included; `score_peaks`)
+        self._peaks = (np.empty(0, np.int64), np.empty(0))
+
+    @property
+    def _score_rule(self) -> bool:
+        """Whether the confirmation rule keeps a track score that the score-drop test deletes on."""
+        return self.confirmation_rule in ("adaptive", "score")
+
+    @property
+    def _ends_at_peak(self) -> bool:
+        """Whether the tracker keeps its tracks' score peaks: ``end_at_score_peak`` set, under a score-type rule."""
+        cfg = self.config
+        return isinstance(cfg, SingleHypothesisConfig) and cfg.end_at_score_peak and self._score_rule
+
+    def score_peaks(self, reported: TrackerOutput) -> tuple[np.ndarray, np.ndarray]:
+        """`nnda.tracking.lag.EndsAtScorePeak`: of the output ``reported`` that the tracker just returned, the ids
+        (D,) of the tracks reported DELETED and the time (s) each one's score last reached its maximum (D,);
+        none without ``end_at_score_peak`` (or under the M/N rule)."""
+        if not self._ends_at_peak:
+            return np.empty(0, np.int64), np.empty(0)
+        gone = reported.track_id[reported.status == DELETED]
+        return gone, self._peak_of(gone, np.full(gone.size, np.nan))
+
+    def _peak_of(self, ids: np.ndarray, unknown: np.ndarray) -> np.ndarray:
+        """The time (s) of the score's last maximum of the tracks ``ids`` (M,) as of the last scan, ``unknown``'s
+        (M,) for a track it did not hold."""
+        known, time = self._peaks
+        if not known.size:
+            return unknown
+        at = np.minimum(np.searchsorted(known, ids), known.size - 1)
+        return np.where(known[at] == ids, time[at], unknown)
 
     @abstractmethod
     def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
@@ -1107,11 +1149,13 @@ class SingleHypothesisTracker(ContactTracker):
         ``release_on_deletion``, a track deleted in this scan after it took a contact gives the contact back,
         reported as a miss with its prediction's estimate. The scan's deletions are counted in ``deletions``
         by reason. Returns the tracks that live on (None: none), the K tracks' report, which of the scan's
-        contacts it holds (N,) and which of the K rows to leave out of the output (`_hidden`; None: none)."""
+        contacts it holds (N,) and which of the K rows to leave out of the output (`_hidden`; None: none). With
+        ``end_at_score_peak``, each track's score peak is kept (`score_peaks`)."""
         cfg, u, k, g = self.config.lifecycle, assoc.filt, tracks.filt, pred.gating
-        args = tracks._scan_args(assoc.contact, scan.z, scan.xy, scan.time, cfg,
-                                 self._observed(scan, pred, tracks.t2, assoc.contact),
-                                 self._score_gain(pred, scan, assoc))
+        seen, gain = self._observed(scan, pred, tracks.t2, assoc.contact), self._score_gain(pred, scan, assoc)
+        if self._ends_at_peak:
+            self._note_peaks(tracks, gain if seen is None else np.where(seen, gain, 0.0), scan.time)
+        args = tracks._scan_args(assoc.contact, scan.z, scan.xy, scan.time, cfg, seen, gain)
         status, x, P, contact, used, deletions, survivors = _finished(
             args, u.x, u.P, u.mu, k.x, k.P, k.mu, self.filter.output_dim, self._sanity_args, self._quality_density(
                 scan, g.x), self._release, g.x, g.P, tracks.track_id, len(scan.z))
@@ -1126,6 +1170,15 @@ class SingleHypothesisTracker(ContactTracker):
             consecutive[status != DELETED] = alive.consecutive
             hidden = self._hidden(status, consecutive, scan.sensor)
         return alive, Shown(tracks.track_id, status, x, P, contact), used, hidden
+
+    def _note_peaks(self, tracks: Tracks, gain: np.ndarray, time: float) -> None:
+        """Keep, for each of the K ``tracks``, the time its score last reached its maximum: ``time`` (s) when its
+        score after this scan's increment ``gain`` (K,; 0 for an unobserved track) does, else as before (a track
+        born in the scan before: the time of its last contact, its maximum since its birth)."""
+        before = self._peak_of(tracks.track_id, tracks.t2)
+        peak = np.where(tracks.score + gain >= tracks.max_score, time, before)
+        order = np.argsort(tracks.track_id)
+        self._peaks = (tracks.track_id[order], peak[order])
 
     def _capped(self, tracks: Tracks | None, born: Tracks, contact: np.ndarray, shown: list[Shown], time: float
                 ) -> tuple[Tracks | None, Tracks | None, np.ndarray]:
