@@ -32,11 +32,14 @@ scan (J components, N contacts):
    count; what the cap drops is counted, with a BoundWarning the first time
    in a run), make labels unique (`nnda.tracking.phd.extraction`);
 4. newborn components for the next scan from this scan's contacts, weighted
-   by how little the filter explains them (measurement-driven birth);
+   by how little the filter explains them (measurement-driven birth; at a
+   sensor's first sweep with contacts, by how crowded their squares are,
+   ``first_sweep_births``);
 5. report the extracted components (weight >= the extraction threshold; or,
    ``cphd`` with ``extraction="map"``, its MAP count of heaviest ones; with
    ``extraction_scans`` = k, only labels once extracted after k sweeps in a row of one sensor, each
-   sensor's sweeps counted apart: `nnda.tracking.phd.extraction`) as
+   sensor's sweeps counted apart; with ``coast_misses`` = m, a reported label also while its weight
+   is at least the threshold times (1 - p_D)^m: `nnda.tracking.phd.extraction`) as
    CONFIRMED tracks, id = label, state [x, vx, y, vy] (`MotionModel.to_cv`), no contact (a PHD
    associates none); the scan's target-count estimate is in
    ``tracker.cardinality``.
@@ -545,7 +548,7 @@ class CPHDTracker(GMPHDTracker):
         #: the support fixed (``cardinality_per_target`` None; `_report`)
         self.n_cardinality_capped = 0
 
-    def _supported(self, born: float = 0.0) -> np.ndarray:
+    def _supported(self, born: float) -> np.ndarray:
         """The last posterior cardinality on the support this scan needs: grown to hold ``cardinality_per_target``
         times its mean and the ``born`` expected births (`cphd.support_for`); with that None, as it is."""
         cfg = self.config
