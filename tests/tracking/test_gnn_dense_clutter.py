@@ -78,6 +78,7 @@ def test_shared_preliminary_tracks_share_contacts_but_no_two_hold_the_same_last_
 def test_under_the_mn_rule_the_options_change_nothing(dense):
     plain = _outputs(make_tracker("gnn", dense.scenario.sensors, MN), dense)
     opted = make_tracker("gnn", dense.scenario.sensors, {**MN, **BOTH})
+    opted.keep_score_peaks()
     _same(plain, _outputs(opted, dense))
     assert opted.n_merged == 0
     assert isinstance(opted, EndsAtScorePeak)
@@ -86,11 +87,21 @@ def test_under_the_mn_rule_the_options_change_nothing(dense):
 
 def test_end_at_score_peak_leaves_the_online_outputs_alone(dense):
     plain = _outputs(make_tracker("gnn", dense.scenario.sensors, {"end_at_score_peak": False}), dense)
-    _same(plain, _outputs(make_tracker("gnn", dense.scenario.sensors, {"end_at_score_peak": True}), dense))
+    peaks = make_tracker("gnn", dense.scenario.sensors, {"end_at_score_peak": True})
+    peaks.keep_score_peaks()
+    _same(plain, _outputs(peaks, dense))
+
+
+def test_score_peaks_are_kept_only_when_asked(dense):
+    """An online run (nothing asked for them) keeps no score peaks and tells none."""
+    tracker = make_tracker("gnn", dense.scenario.sensors, {"end_at_score_peak": True})
+    told = [tracker.score_peaks(tracker.step(scan))[0].size for scan in dense.scans()]
+    assert sum(told) == 0 and tracker._peaks[0].size == 0
 
 
 def test_score_peaks_lie_in_each_deleted_tracks_life(dense):
     tracker = make_tracker("gnn", dense.scenario.sensors, {"end_at_score_peak": True})
+    tracker.keep_score_peaks()
     born, told = {}, 0
     for scan in dense.scans():
         out = tracker.step(scan)

@@ -139,6 +139,10 @@ class Peaked(Replay):
     def __init__(self, outputs, peaks):
         super().__init__(outputs)
         self.peaks = peaks
+        self.asked = False  # whether a fixed-lag output asked for the peaks
+
+    def keep_score_peaks(self):
+        self.asked = True
 
     def score_peaks(self, reported):
         gone = reported.track_id[reported.status == DELETED]
@@ -151,7 +155,9 @@ def test_a_track_deleted_in_the_window_ends_after_its_score_peak_contacts_or_not
     # rule waits for the contact-free tail (scan 6)
     outs = _tail([0, 1, 2, NO_CONTACT, 3, NO_CONTACT], 7)
     _, plain = _run(Replay(outs), 3, 7)
-    _, peaked = _run(Peaked(outs, {7: 6.0}), 3, 7)
+    tracker = Peaked(outs, {7: 6.0})
+    _, peaked = _run(tracker, 3, 7)
+    assert tracker.asked
     assert isinstance(Peaked([], {}), EndsAtScorePeak) and not isinstance(Replay([]), EndsAtScorePeak)
     assert [int(o.status[0]) if len(o) else None for o in plain] == [CONFIRMED] * 5 + [DELETED, None]
     assert [int(o.status[0]) if len(o) else None for o in peaked] == [CONFIRMED] * 3 + [DELETED] + [None] * 3

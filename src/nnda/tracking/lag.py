@@ -92,9 +92,14 @@ class EndsAtScorePeak(Protocol):
     """The optional capability of a tracker that knows when each track it deleted last had its score at its
     maximum (the module docstring's score peaks).
 
-    ``score_peaks(reported)`` takes the output the tracker just returned and gives the ids (D,) of the tracks
-    it reports DELETED and the time (s) of each one's last score maximum (D,); none where it does not tell.
+    ``keep_score_peaks()`` asks the tracker, before its first scan, to keep its tracks' score peaks (work an
+    online run does not need). ``score_peaks(reported)`` takes the output the tracker just returned and gives
+    the ids (D,) of the tracks it reports DELETED and the time (s) of each one's last score maximum (D,); none
+    where it does not tell.
     """
+
+    def keep_score_peaks(self) -> None:
+        ...
 
     def score_peaks(self, reported: TrackerOutput) -> tuple[np.ndarray, np.ndarray]:
         ...
@@ -159,6 +164,8 @@ class FixedLag:
         self.motion = LagMotion.of(tracker)
         self.revises = isinstance(tracker, RevisesBranches)
         self.peaks = isinstance(tracker, EndsAtScorePeak)
+        if self.peaks:
+            tracker.keep_score_peaks()
         self._held: deque[tuple[TrackerOutput, np.ndarray | None]] = deque()
         self._ended = np.empty(0, np.int64)  # ids of the ended tracks (module docstring), sorted
         #: the tracks deleted in the held scans that the tracker told a score peak of: ids, sorted, and times (s)

@@ -1066,11 +1066,21 @@ class SingleHypothesisTracker(ContactTracker):
         """Whether the confirmation rule keeps a track score that the score-drop test deletes on."""
         return self.confirmation_rule in ("adaptive", "score")
 
+    #: whether a fixed-lag output asked for the tracks' score peaks (`keep_score_peaks`)
+    _peaks_wanted: bool = False
+
+    def keep_score_peaks(self) -> None:
+        """`nnda.tracking.lag.EndsAtScorePeak`: keep the tracks' score peaks from the next scan on (a fixed-lag
+        output asks, before the first scan; an online run does not pay for them)."""
+        self._peaks_wanted = True
+
     @property
     def _ends_at_peak(self) -> bool:
-        """Whether the tracker keeps its tracks' score peaks: ``end_at_score_peak`` set, under a score-type rule."""
+        """Whether the tracker keeps its tracks' score peaks: asked to (`keep_score_peaks`), with
+        ``end_at_score_peak`` set, under a score-type rule."""
         cfg = self.config
-        return isinstance(cfg, SingleHypothesisConfig) and cfg.end_at_score_peak and self._score_rule
+        return (self._peaks_wanted and isinstance(cfg, SingleHypothesisConfig) and cfg.end_at_score_peak
+                and self._score_rule)
 
     def score_peaks(self, reported: TrackerOutput) -> tuple[np.ndarray, np.ndarray]:
         """`nnda.tracking.lag.EndsAtScorePeak`: of the output ``reported`` that the tracker just returned, the ids
