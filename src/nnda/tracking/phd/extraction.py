@@ -20,7 +20,7 @@ sweep and never let it reach k.
 
 With ``coast_misses`` = m > 0 a reported label is not hidden by a miss:
 it stays reported while its weight is at least the extraction threshold
-times (1 - p_D)^m (`coasting`), the weight a miss leaves an isolated
+times (1 - p_D)^m (`coast_floor`, `coasting`), the weight a miss leaves an isolated
 target's component with (its missed copy, (1 - p_D) times its predicted
 weight), so it is shown through m missed sweeps in a row, and a target
 that has ended is shown for m sweeps after its last contact. The default
@@ -101,6 +101,12 @@ def default_coast_misses(coast_misses: int | None, sensors: int) -> int:
     if coast_misses is not None:
         return coast_misses
     return 1 if sensors > 1 else 0
+
+
+def coast_floor(threshold: float, pd: float, misses: int) -> float:
+    """The weight down to which a reported label stays reported (`coasting`): the extraction ``threshold`` times
+    (1 - ``pd``)^``misses``, an isolated target's weight after that many misses in a row from the threshold."""
+    return threshold * (1.0 - pd) ** misses
 
 
 def coasting(weights: np.ndarray, labels: np.ndarray, shown: np.ndarray, confirmed: np.ndarray,

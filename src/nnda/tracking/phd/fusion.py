@@ -69,7 +69,7 @@ from nnda.filters.mixture import Mixture, cap, combine_groups, merge_groups
 from nnda.filters.motion import POS
 from nnda.tracking.output import CONFIRMED, NO_CONTACT, TrackerOutput
 from nnda.tracking.phd.config import AAFusionConfig, CentralPHDConfig, FusionConfig, GCIFusionConfig
-from nnda.tracking.phd.extraction import above, coasting, default_coast_misses, persistent
+from nnda.tracking.phd.extraction import above, coast_floor, coasting, default_coast_misses, persistent
 from nnda.tracking.phd.tracker import Cardinality, GMPHDTracker, sensor_detection
 from nnda.tracking.tracker import TrackerConfig, checked_config, checked_scan
 
@@ -260,7 +260,7 @@ class FusionTracker:
         shown, self.extraction_streaks[scan.sensor], self.confirmed_labels = persistent(
             fused.labels, shown, self.extraction_streaks[scan.sensor], self.confirmed_labels, cfg.extraction_scans)
         if self.coast_misses:
-            floor = cfg.fused_extraction_threshold * (1.0 - self.detection.values[scan.sensor]) ** self.coast_misses
+            floor = coast_floor(cfg.fused_extraction_threshold, self.detection.values[scan.sensor], self.coast_misses)
             shown = coasting(fused.weights, fused.labels, shown, self.confirmed_labels, floor)
         self.cardinality = Cardinality(scan.index, time, float(fused.weights.sum()), None, None, len(shown))
         k = len(shown)

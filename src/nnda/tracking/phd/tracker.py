@@ -90,7 +90,15 @@ from nnda.tracking.phd.config import (
     StaticBirth,
     UKPHDConfig,
 )
-from nnda.tracking.phd.extraction import above, coasting, default_coast_misses, heaviest, persistent, relabel_duplicates
+from nnda.tracking.phd.extraction import (
+    above,
+    coast_floor,
+    coasting,
+    default_coast_misses,
+    heaviest,
+    persistent,
+    relabel_duplicates,
+)
 from nnda.tracking.tracker import TrackerConfig, checked_config, checked_contacts, checked_scan
 
 
@@ -503,7 +511,7 @@ class GMPHDTracker:
         shown, self.extraction_streaks[sensor], self.confirmed_labels = persistent(
             mixture.labels, shown, self.extraction_streaks[sensor], self.confirmed_labels, cfg.extraction_scans)
         if self.coast_misses:
-            floor = cfg.extraction_threshold * (1.0 - self.views[sensor].pd) ** self.coast_misses
+            floor = coast_floor(cfg.extraction_threshold, self.views[sensor].pd, self.coast_misses)
             shown = coasting(mixture.weights, mixture.labels, shown, self.confirmed_labels, floor)
         self.cardinality = Cardinality(scan, time, mean, map_count, dist, len(shown))
         k = len(shown)
