@@ -68,6 +68,23 @@ def test_the_contact_free_start_and_its_neighbours_are_always_returned_and_the_s
     assert start in {tuple(r) for r in b.tolist()} and len(b) > 1
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_a_margin_leaves_out_only_the_assignments_that_much_lighter(seed):
+    """With a margin, the result is the margin-free one without the assignments lighter than its heaviest by
+    more than the margin, in the same order and with the same weights; 40 tracks whose contacts are far
+    likelier than their misses make the contact-free start and its neighbours hundreds of nats lighter."""
+    rng = np.random.default_rng(seed)
+    cost = random_cost(rng, 40, 45)
+    cost[:, 2:] -= 25.0  # every gated contact e^25 likelier than the miss
+    cost[:, :2] += 10.0
+    every, w_every = gibbs_assignments(cost, 30, seed)
+    some, w_some = gibbs_assignments(cost, 30, seed, margin=50.0)
+    kept = w_every >= w_every[0] - 50.0
+    assert 0 < kept.sum() < kept.size - 40  # the start and most of its 40 neighbours are left out
+    np.testing.assert_array_equal(some, every[kept])
+    np.testing.assert_array_equal(w_some, w_every[kept])
+
+
 @pytest.mark.parametrize("group", [None, [4, -1, 4]])
 def test_enumeration_is_the_brute_force(group):
     rng = np.random.default_rng(3)

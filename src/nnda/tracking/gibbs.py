@@ -19,7 +19,11 @@ row order, column 0 for a row whose group is held already), which is the first s
 contact-free neighbours (one row switched between columns 0 and 1, where allowed) are always returned, so a
 track of low existence keeps both its death and its miss however few draws leave the start. The draws come from
 numba's generator seeded with ``seed`` (an int in [0, 2^32), e.g. drawn from a numpy Generator): the same
-seed gives the same samples. Returned: the distinct assignments sampled, ``assignments`` (A, n) int64 the
+seed gives the same samples. With ``margin`` (nats), the assignments lighter than the heaviest found by more
+than it are left out before they are ranked: at 800 (`NEGLIGIBLE`) their weights are below what a double
+adds to the heaviest's, so a mixture that normalises and prunes them loses exactly nothing (the GLMB's many
+contact-free neighbours, thousands of rows of thousands of tracks when the targets are many, are such).
+Returned: the distinct assignments sampled, ``assignments`` (A, n) int64 the
 column of each track, and their ``log_weight`` (A,), descending (ties in lexicographic order of the
 assignment). The chain is stationary on the assignments' weights, so with enough samples the heavy ones are
 all found; their weights are exact, not estimates.
@@ -36,11 +40,16 @@ import math
 import numba
 import numpy as np
 
+#: nats: an assignment this much lighter than another adds nothing to it in double precision (e^-800 is below
+#: the smallest double), the ``margin`` of `gibbs_assignments` that changes no normalised weight
+NEGLIGIBLE = 800.0
 
-def gibbs_assignments(cost: np.ndarray, n_samples: int, seed: int, group: np.ndarray | None = None
-                      ) -> tuple[np.ndarray, np.ndarray]:
+
+def gibbs_assignments(cost: np.ndarray, n_samples: int, seed: int, group: np.ndarray | None = None,
+                      margin: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The distinct assignments of ``n_samples`` Gibbs draws on ``cost`` (n, 2 + m) with the exclusive
-    ``group`` of each row, and their log weights (module docstring)."""
+    ``group`` of each row, and their log weights, without those lighter than the heaviest by more than
+    ``margin`` nats (None: all; module docstring)."""
     cost = _checked(cost)
     if not cost.shape[0]:
         return _ranked(cost, np.zeros((1, 0), np.int64))
@@ -48,7 +57,13 @@ def gibbs_assignments(cost: np.ndarray, n_samples: int, seed: int, group: np.nda
     rows, cols = np.nonzero(np.isfinite(cost))  # each row's allowed columns, ascending
     start = np.searchsorted(rows, np.arange(cost.shape[0] + 1))
     samples = _sampled(cost, start, cols, cost[rows, cols], group, max(int(n_samples), 1), int(seed))
-    return _ranked(cost, unique_rows(np.concatenate([samples, _neighbours(cost, group, samples[0])]))[0])
+    first = samples[0]
+    switched, switched_cost = _neighbours(cost, group, first)
+    if margin is not None:
+        sample_cost = cost[np.arange(cost.shape[0]), samples].sum(axis=1)
+        limit = min(sample_cost.min(), switched_cost.min(initial=np.inf)) + margin
+        samples, switched = samples[sample_cost <= limit], switched[switched_cost <= limit]
+    return _ranked(cost, unique_rows(np.concatenate([samples, _switched(first, switched)]))[0])
 
 
 def all_assignments(cost: np.ndarray, group: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -65,18 +80,24 @@ def all_assignments(cost: np.ndarray, group: np.ndarray | None = None) -> tuple[
     return _ranked(cost, np.array(found, np.int64).reshape(len(found), cost.shape[0]))
 
 
-def _neighbours(cost: np.ndarray, group: np.ndarray, start: np.ndarray) -> np.ndarray:
-    """The contact-free assignments (k, n) one row away from ``start`` (n,), each column 0 or 1: row i
-    switched to the other, where its cost is finite and, to column 1, its group has no other row off 0."""
-    n = start.size
-    rows = np.arange(n)
+def _neighbours(cost: np.ndarray, group: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The contact-free assignments one row away from ``start`` (n,), each column 0 or 1: the rows i (k,)
+    that may switch to the other column (its cost finite and, to column 1, its group without another row off
+    0), and each switched assignment's cost (k,) (`_switched` builds them)."""
+    rows = np.arange(start.size)
     other = 1 - start
     held = np.bincount(group[(group >= 0) & (start > 0)], minlength=max(int(group.max()) + 1, 1))
     free = (group < 0) | (other == 0) | (held[np.maximum(group, 0)] == 0)
-    ok = np.isfinite(cost[rows, other]) & free
-    out = np.tile(start, (n, 1))
-    out[rows, rows] = other
-    return out[ok]
+    now, then = cost[rows, start], cost[rows, other]
+    ok = np.flatnonzero(np.isfinite(then) & free)
+    return ok, now.sum() - now[ok] + then[ok]
+
+
+def _switched(start: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """The assignments (k, n) ``start`` (n,) with row ``rows[k]`` switched between columns 0 and 1."""
+    out = np.tile(start, (rows.size, 1))
+    out[np.arange(rows.size), rows] = 1 - start[rows]
+    return out
 
 
 def _groups(group: np.ndarray | None, n: int) -> np.ndarray:

@@ -26,8 +26,10 @@ hypotheses where a target has ended stay beside those where its track coasts: `n
 and at most
 ``max_hypotheses`` kept (a `BoundWarning` the first time the cap bites, ``n_capped`` counts the scans).
 The draws always include the contact-free start and its one-row neighbours (`gibbs_assignments`), so a
-track of low existence keeps its miss beside its death. A miss child keeps its track's posterior
-(predicted again from its last update); a label in no hypothesis is deleted.
+track of low existence keeps its miss beside its death; with ``min_hypothesis_weight`` above 0, the children
+lighter than their parent's heaviest by 800 nats are left out before they are merged (they would be pruned,
+and weigh nothing in a double's sum: with a thousand targets they are most of the draws). A miss child keeps
+its track's posterior (predicted again from its last update); a label in no hypothesis is deleted.
 
 **Birth: measurement-driven**, as `nnda.tracking.pmbm`'s: the contacts the best hypothesis left free pair
 with the sensor's initiators inside the initiation window (`TwoPointInitiation`), each pair a new label
@@ -70,7 +72,7 @@ import numpy as np
 from pydantic import Field
 
 from nnda.data.dataset import Scan
-from nnda.tracking.gibbs import all_assignments, gibbs_assignments
+from nnda.tracking.gibbs import NEGLIGIBLE, all_assignments, gibbs_assignments
 from nnda.tracking.labelled import LabelledConfig, LabelledMixture, LabelledTable, merged, normalised
 from nnda.tracking.output import NO_CONTACT, TrackerOutput
 from nnda.tracking.reports import Phase
@@ -227,7 +229,7 @@ class GLMBTracker(LabelledMixture):
             assign, log_gain = all_assignments(table, group[s])
         else:
             assign, log_gain = gibbs_assignments(table, self.config.gibbs_samples, int(self.rng.integers(2**32)),
-                                                 group[s])
+                                                 group[s], NEGLIGIBLE if self.config.min_hypothesis_weight else None)
         child = np.where(assign == 0, -1, np.where(assign == 1, s[None, :], pair[np.arange(s.size), assign]))
         kids = np.full((len(assign), parents.size), -1, np.int64)
         kids[:, where] = child
