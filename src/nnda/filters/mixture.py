@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import Literal
 
+import numba
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -142,22 +143,35 @@ def merge_groups(mixture: Mixture, threshold: float, covariance: Literal["heavie
     by_rank = np.lexsort((rank[i], rank[j]))
     j, i = j[by_rank], i[by_rank]
     rj = rank[j]
-    starts = np.searchsorted(rj, np.arange(J + 1))
-    group = np.arange(J)  # the heaviest of each component's group (itself until merged)
-    free = np.ones(J, bool)
-    for r in rj[np.r_[True, rj[1:] != rj[:-1]]]:  # once per possible group leader, heaviest first
-        leader = order[r]
-        if not free[leader]:
-            continue
-        members = i[starts[r]:starts[r + 1]]
-        members = members[free[members]]
-        group[members] = leader
-        free[members] = False
-        free[leader] = False
+    group = _greedy_groups(order, rj, np.searchsorted(rj, np.arange(J + 1)), i)
     leaders = order[group[order] == order]  # the heaviest of each group, in greedy order
     slot = np.empty(J, np.int64)
     slot[leaders] = np.arange(len(leaders))
     return slot[group], leaders
+
+
+@numba.njit(cache=True, nogil=True)
+def _greedy_groups(order, rj, starts, i):
+    """`merge_groups`' greedy pass: the heaviest member of each component's group (J,). ``order`` (J,) are the
+    components heaviest first, and the candidate pairs (P,) of the component of rank ``rj`` with the lighter
+    component ``i`` are sorted by rank, rank r's in ``starts[r]:starts[r + 1]``. Each possible leader, heaviest
+    first, still free takes its free candidates."""
+    J = order.size
+    group = np.arange(J)  # itself until merged
+    free = np.ones(J, np.bool_)
+    for p in range(rj.size):
+        r = rj[p]
+        if p and r == rj[p - 1]:
+            continue
+        leader = order[r]
+        if not free[leader]:
+            continue
+        for q in range(starts[r], starts[r + 1]):
+            if free[i[q]]:
+                group[i[q]] = leader
+                free[i[q]] = False
+        free[leader] = False
+    return group
 
 
 def merge(mixture: Mixture, threshold: float, covariance: Literal["heaviest", "candidate"] = "heaviest",

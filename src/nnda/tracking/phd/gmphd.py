@@ -47,6 +47,7 @@ from nnda.filters.measurement import MeasurementModel, PolarMeasurement
 from nnda.filters.mixture import Mixture
 from nnda.filters.motion import POS, MotionModel
 from nnda.tracking.box_pairs import Contacts, candidates
+from nnda.tracking.phd import gate_kernels
 
 
 def predict(mixture: Mixture, motion: MotionModel, dt: float, ps: float | np.ndarray,
@@ -129,9 +130,14 @@ def _gated(mp: MeasurementPrediction, z: np.ndarray, gate: float | None, noise: 
     return candidates(Contacts(z, period), mp.z, half_width)
 
 
-def _kept(keep, *arrays):
-    """The pairs' arrays restricted to ``keep`` (None: all); `_gated`'s order, by contact then component, stays."""
-    return arrays if keep is None else tuple(a[keep] for a in arrays)
+def _float(a: np.ndarray) -> np.ndarray:
+    """``a`` as a C-contiguous float64 array, as the compiled gate takes it (a copy only where needed)."""
+    return np.ascontiguousarray(a, np.float64)
+
+
+def _limit(gate: float | None) -> tuple[float, bool]:
+    """The compiled gate's threshold and whether it keeps every pair (``gate`` None)."""
+    return (np.inf, True) if gate is None else (float(gate), False)
 
 
 class Linearisation(ABC):
@@ -175,11 +181,9 @@ class Linearisation(ABC):
         Mahalanobis distance <= ``gate`` (None: all J x N pairs)."""
         mp = self.predict_measurement(mixture.means, mixture.covariances)
         j, i = _gated(mp, z, gate, self.noise(None), self.period)
-        nu = self.measurement.residual(z[i], mp.z[j])
-        d2 = kalman.mahalanobis_2x2(nu, mp.S_inv[j])
-        log_det = mp.log_det_S[j]
-        j, i, nu, d2, log_det = _kept(None if gate is None else d2 <= gate, j, i, nu, d2, log_det)
-        return Pairs(j, i, nu, kalman.gaussian_log_likelihood(d2, log_det), len(z), mp)
+        keep, nu, log_likelihood = gate_kernels.shared_gate(j, i, _float(z), mp.z, mp.S_inv, mp.log_det_S,
+                                                           *_limit(gate), self.period)
+        return Pairs(j[keep], i[keep], nu, log_likelihood, len(z), mp)
 
 
 class EKF(Linearisation):
@@ -249,11 +253,9 @@ class Linear(Linearisation):
             contact_R = np.broadcast_to(self.measurement.R, (len(z), 2, 2))
         mp = self.predict_measurement(mixture.means, mixture.covariances)
         j, i = _gated(mp, z, gate, self.noise(contact_R), self.period)
-        nu = z[i] - mp.z[j]
-        S_inv, det = kalman.inverse_2x2(mp.S[j] + contact_R[i])
-        d2 = kalman.mahalanobis_2x2(nu, S_inv)
-        j, i, nu, d2, det = _kept(None if gate is None else d2 <= gate, j, i, nu, d2, det)
-        return Pairs(j, i, nu, kalman.gaussian_log_likelihood(d2, np.log(det)), len(z), mp, contact_R)
+        keep, nu, log_likelihood = gate_kernels.per_contact_gate(j, i, _float(z), mp.z, mp.S, _float(contact_R),
+                                                                 *_limit(gate))
+        return Pairs(j[keep], i[keep], nu, log_likelihood, len(z), mp, contact_R)
 
 
 def per_contact_logsumexp(values: np.ndarray, i: np.ndarray, n: int, floor: np.ndarray) -> np.ndarray:
