@@ -166,20 +166,24 @@ class Linearisation(ABC):
         whose residual wraps; else 0)."""
         return TWO_PI if isinstance(self.measurement, PolarMeasurement) else 0.0
 
-    def pair_counts(self, mixture: Mixture, z: np.ndarray, contact_R: np.ndarray | None = None,
+    def prediction(self, mixture: Mixture) -> MeasurementPrediction:
+        """The measurement prediction of the components of ``mixture`` (leading shape (J,)), as `pairs` forms it."""
+        return self.predict_measurement(mixture.means, mixture.covariances)
+
+    def pair_counts(self, mp: MeasurementPrediction, z: np.ndarray, contact_R: np.ndarray | None = None,
                     gate: float | None = None) -> np.ndarray:
-        """The candidate pairs `pairs` forms for each component of ``mixture`` (J,) before the exact gate (the
-        first coordinate's window; with ``gate`` None, every contact), counted without forming them."""
+        """The candidate pairs `pairs` forms for each component of measurement prediction ``mp`` (`prediction`,
+        (J,)) before the exact gate (the first coordinate's window; with ``gate`` None, every contact), counted
+        without forming them."""
         if gate is None:
-            return np.full(len(mixture), len(z), np.int64)
-        mp = self.predict_measurement(mixture.means, mixture.covariances)
+            return np.full(len(mp), len(z), np.int64)
         return window_counts(z[:, 0], mp.z[:, 0], np.sqrt(gate * (mp.S[:, 0, 0] + self.noise(contact_R)[0])))
 
     def pairs(self, mixture: Mixture, z: np.ndarray, contact_R: np.ndarray | None = None,
-              gate: float | None = None) -> Pairs:
+              gate: float | None = None, mp: MeasurementPrediction | None = None) -> Pairs:
         """The pairs of the predicted ``mixture`` and the contacts z (N, 2) (from `contacts`) with squared
-        Mahalanobis distance <= ``gate`` (None: all J x N pairs)."""
-        mp = self.predict_measurement(mixture.means, mixture.covariances)
+        Mahalanobis distance <= ``gate`` (None: all J x N pairs); ``mp`` its `prediction` when made already."""
+        mp = self.prediction(mixture) if mp is None else mp
         j, i = _gated(mp, z, gate, self.noise(None), self.period)
         keep, nu, log_likelihood = gate_kernels.shared_gate(j, i, _float(z), mp.z, mp.S_inv, mp.log_det_S,
                                                            *_limit(gate), self.period)
@@ -248,10 +252,10 @@ class Linear(Linearisation):
         """0: Cartesian fixes."""
         return 0.0
 
-    def pairs(self, mixture, z, contact_R=None, gate=None):
+    def pairs(self, mixture, z, contact_R=None, gate=None, mp=None):
         if contact_R is None:  # fixes with the model's own noise
             contact_R = np.broadcast_to(self.measurement.R, (len(z), 2, 2))
-        mp = self.predict_measurement(mixture.means, mixture.covariances)
+        mp = self.prediction(mixture) if mp is None else mp
         j, i = _gated(mp, z, gate, self.noise(contact_R), self.period)
         keep, nu, log_likelihood = gate_kernels.per_contact_gate(j, i, _float(z), mp.z, mp.S, _float(contact_R),
                                                                  *_limit(gate))

@@ -73,6 +73,7 @@ from nnda.data.dataset import Scan
 from nnda.data.scenario import Sensor, sensor_tuple
 from nnda.data.sensor import observable
 from nnda.errors import BoundWarning, ConfigError
+from nnda.filters.kalman import MeasurementPrediction
 from nnda.filters.measurement import MeasurementModel, PositionMeasurement, measurement_model
 from nnda.filters.mixture import Mixture, cap, merge
 from nnda.filters.motion import POS
@@ -345,19 +346,21 @@ class GMPHDTracker:
 
     def _within_pairs(self, pred: Mixture, born: float, newborn: slice | np.ndarray, view: SensorView,
                       zc: np.ndarray, contact_R: np.ndarray | None, time: float
-                      ) -> tuple[Mixture, float, slice | np.ndarray]:
+                      ) -> tuple[Mixture, float, slice | np.ndarray, MeasurementPrediction | None]:
         """Step 2's bound ``max_pairs``: the prediction, its birth weight and where last scan's newborn are in
         it, as they are when the (component, contact) candidate pairs fit the bound (counted without forming
         them, and only when J x N exceeds it); else its heaviest components whose pairs fit (ties: the earlier),
         in their order, the left-out births' weight taken from ``born``, the newborn as indices. Each time
-        counted (``n_dropped_components``, ``n_dropped_pairs``); the first time in a run a BoundWarning."""
+        counted (``n_dropped_components``, ``n_dropped_pairs``); the first time in a run a BoundWarning. Last,
+        the measurement prediction of the components returned when the count made it (for `pairs`), else None."""
         limit = self.config.max_pairs
         if limit is None or len(pred) * len(zc) <= limit:
-            return pred, born, newborn
-        counts = view.linearisation.pair_counts(pred, zc, contact_R, self.config.gate)
+            return pred, born, newborn, None
+        mp = view.linearisation.prediction(pred)
+        counts = view.linearisation.pair_counts(mp, zc, contact_R, self.config.gate)
         total = int(counts.sum())
         if total <= limit:
-            return pred, born, newborn
+            return pred, born, newborn, mp
         order = np.lexsort((np.arange(len(pred)), -pred.weights))  # heaviest first, ties: the earlier
         keep = np.zeros(len(pred), bool)
         keep[order[np.cumsum(counts[order]) <= limit]] = True
@@ -377,7 +380,7 @@ class GMPHDTracker:
                           f"lightest components were left out of the update (config field max_pairs: raise it, "
                           f"or None for no bound); later cases of this run are only counted "
                           f"(n_dropped_components, n_dropped_pairs)", BoundWarning, stacklevel=3)
-        return pred.take(keep), born, np.flatnonzero(last_newborn[keep])
+        return pred.take(keep), born, np.flatnonzero(last_newborn[keep]), mp.take(keep)
 
     def _detection(self, view: SensorView, scan_sensor: int, pred: Mixture) -> float | np.ndarray:
         """p_D of the predicted components for the scan's sensor: its ``pd`` with one sensor used; with
@@ -413,9 +416,9 @@ class GMPHDTracker:
         survival = self._survival(time)
         pred, born, newborn = self._predicted(time, survival)
         zc, contact_R = view.linearisation.contacts(z)
-        pred, born, newborn = self._within_pairs(pred, born, newborn, view, zc, contact_R, time)
+        pred, born, newborn, mp = self._within_pairs(pred, born, newborn, view, zc, contact_R, time)
         xy, cov = view.measurement.position(z)
-        pairs = view.linearisation.pairs(pred, zc, contact_R, cfg.gate)
+        pairs = view.linearisation.pairs(pred, zc, contact_R, cfg.gate, mp)
         pd = self._detection(view, scan.sensor, pred)
         expected = pd * float(pred.weights.sum()) if np.ndim(pd) == 0 else float(pd @ pred.weights)
         explained = None
