@@ -19,22 +19,18 @@ labels are the track tags a PHD filter propagates (Clark, Panta & Vo 2006).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
-from functools import lru_cache
 from typing import Literal
 
 import numba
 import numpy as np
-from scipy.spatial import cKDTree
 
 from nnda.data.sensor import wrap_angle
 from nnda.errors import FilterError
 from nnda.filters.batch import Batch
 from nnda.filters.kalman import symmetrise
 from nnda.validation import check_array, check_covariance, check_finite, check_nonnegative
-
-#: `merge` forms every pair of up to this many components; beyond, a k-d tree finds the near ones
-ALL_PAIRS = 64
 
 
 @dataclass(frozen=True)
@@ -73,12 +69,6 @@ class Mixture(Batch):
     def dim(self) -> int:
         """State size n."""
         return self.means.shape[1]
-
-
-@lru_cache(maxsize=None)
-def _all_pairs(J: int) -> tuple[np.ndarray, np.ndarray]:
-    """Every pair (a < b) of J components (cached: J <= ALL_PAIRS)."""
-    return np.triu_indices(J, 1)
 
 
 def prune(mixture: Mixture, threshold: float) -> Mixture:
@@ -120,21 +110,14 @@ def merge_groups(mixture: Mixture, threshold: float, covariance: Literal["heavie
     rank[order] = np.arange(J)
     k = np.arange(m.shape[1])
     diag = P[:, k, k]  # (J, n)
-    if J <= ALL_PAIRS:
-        a, b = _all_pairs(J)
-    else:  # the tree leaves the angles out: a distance over fewer entries is no larger
-        linear = np.setdiff1d(np.arange(m.shape[1]), angles)
-        a, b = cKDTree(m[:, linear]).query_pairs(np.sqrt(threshold * diag.sum(axis=1).max()),
-                                                 output_type="ndarray").T
-    # orient each pair (heavier j, lighter i), then keep those within U
-    swap = rank[a] > rank[b]
-    j, i = np.where(swap, b, a), np.where(swap, a, b)
+    angle = np.zeros(m.shape[1], np.bool_)
+    angle[list(angles)] = True
+    j, i = _coordinate_pairs(np.ascontiguousarray(m, float), np.ascontiguousarray(diag, float), rank,
+                             float(threshold), covariance == "candidate", _sweep_entries(m, diag, angle), angle)
     c = i if covariance == "candidate" else j
     d = m[i] - m[j]
     if angles:
         d[:, angles] = wrap_angle(d[:, angles])
-    maybe = np.flatnonzero((d * d <= threshold * diag[c]).all(axis=1))
-    j, i, c, d = j[maybe], i[maybe], c[maybe], d[maybe]
     near = np.einsum("ki,ki->k", d, np.linalg.solve(P[c], d[..., None])[..., 0]) <= threshold
     j, i = j[near], i[near]
     if not len(j):
@@ -148,6 +131,67 @@ def merge_groups(mixture: Mixture, threshold: float, covariance: Literal["heavie
     slot = np.empty(J, np.int64)
     slot[leaders] = np.arange(len(leaders))
     return slot[group], leaders
+
+
+def _sweep_entries(m: np.ndarray, diag: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """The state entries in the order `_coordinate_pairs` tests them (n,): by how much the means spread in units
+    of the components' typical window, most first (the likeliest to tell two components apart), the sweep's
+    entry, the one that spreads most among the entries that are not angles, last (its window holds them)."""
+    width = np.sqrt(np.median(diag, axis=0))
+    spread = np.ptp(m, axis=0) / np.where(width > 0, width, np.inf)
+    if angle.all():
+        raise FilterError("merge: every state entry is an angle; at least one must not be")
+    axis = int(np.argmax(np.where(angle, -1.0, spread)))
+    rest = [k for k in np.argsort(-spread, kind="stable").tolist() if k != axis]
+    return np.array([*rest, axis], np.int64)
+
+
+@numba.njit(cache=True, nogil=True)
+def _coordinate_pairs(m, diag, rank, threshold, candidate, entries, angle):
+    """The pairs (j heavier, i lighter) (P,) of components that pass `merge`'s coordinate test: every entry k's
+    difference d_k = m_ik - m_jk (wrapped to [-pi, pi) where ``angle``) has d_k^2 <= U C_kk, with C = P_i
+    (``candidate``) or P_j, ``diag`` (J, n) the covariances' diagonals, ``rank`` (J,) each component's place in
+    the greedy order (0: heaviest). A sweep along the last of ``entries`` (`_sweep_entries`, no angle), the
+    components sorted by it: each component c whose C it is examines only those whose entry lies within its
+    window sqrt(U C_kk) (widened by 1e-9 so that rounding never leaves one out), testing the entries in that
+    order. Pairs in no particular order (`merge_groups` sorts them)."""
+    J, n = m.shape
+    axis = entries[n - 1]
+    order = np.argsort(m[:, axis], kind="mergesort")
+    ms, ds, rs = m[order], diag[order], rank[order]  # sorted, so that a window's rows are contiguous
+    xs = ms[:, axis].copy()
+    two_pi = 2.0 * math.pi
+    first = entries[0]
+    screen = not angle[first]  # (a - b)^2 is (b - a)^2 to the bit: the first entry's test needs no orientation
+    pj = np.empty(4 * J + 1, np.int64)
+    pi = np.empty(4 * J + 1, np.int64)
+    found = 0
+    for c in range(J):
+        w = math.sqrt(threshold * ds[c, axis]) * (1.0 + 1e-9) + 1e-300
+        for q in range(np.searchsorted(xs, xs[c] - w, "left"), np.searchsorted(xs, xs[c] + w, "right")):
+            if screen:
+                d = ms[q, first] - ms[c, first]
+                if not d * d <= threshold * ds[c, first]:
+                    continue
+            if q == c or (rs[c] > rs[q]) != candidate:  # c must be the lighter (candidate) or the heavier
+                continue
+            j, i = (q, c) if candidate else (c, q)
+            ok = True
+            for e in range(n):
+                k = entries[e]
+                d = ms[i, k] - ms[j, k]
+                if angle[k]:
+                    d = (d + math.pi) % two_pi - math.pi
+                if not d * d <= threshold * ds[c, k]:
+                    ok = False
+                    break
+            if ok:
+                if found == pj.size:
+                    pj = np.concatenate((pj, np.empty(pj.size, np.int64)))
+                    pi = np.concatenate((pi, np.empty(pi.size, np.int64)))
+                pj[found], pi[found] = order[j], order[i]
+                found += 1
+    return pj[:found], pi[:found]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -191,16 +235,13 @@ def merge(mixture: Mixture, threshold: float, covariance: Literal["heaviest", "c
     returned as they are. Total weight, and each group's weighted mean, are
     kept exactly; weights are not capped at one.
 
-    Vectorised: the pairs that could merge come from a k-d tree over the
-    means (all pairs for up to `ALL_PAIRS` components), within
-    |m_i - m_j|^2 <= U max_k trace(P_k) (lambda_max(C) <= trace(C)); of
-    those, the pairs with some (m_i - m_j)_k^2 / C_kk > U are out (for a
-    positive definite C the Mahalanobis distance is at least each
-    coordinate's), and only the rest get the exact distance, all at once.
-    The greedy loop then runs once per merged group and only over
-    components that have such a pair; each iteration is a vectorised step
-    over the heaviest's candidates. The moments of all groups are summed
-    at once.
+    Compiled and vectorised: the pairs with some (m_i - m_j)_k^2 / C_kk > U
+    are out (for a positive definite C the Mahalanobis distance is at least
+    each coordinate's), found by a sweep along one state entry
+    (`_coordinate_pairs`: each component examines only those within its
+    window there), and only the rest get the exact distance, all at once.
+    The greedy pass then visits each possible leader once, heaviest first
+    (`_greedy_groups`). The moments of all groups are summed at once.
 
     State entries ``angles`` (rad, e.g. a heading) are compared and
     averaged on the circle: their differences wrapped to [-pi, pi), each
