@@ -173,10 +173,9 @@ class GLMBTracker(LabelledMixture):
         """The tentative labels updated (`LabelledMixture._tentative_children`); returns those that reached
         ``admission_existence`` (as one table, or none), to join at the next scan; keeps the others of
         existence ``min_tentative_existence`` or more in ``tentative``."""
-        u, best, r = self._tentative_children(scan, self.tentative)
-        n = len(u.tracks)
-        kids = LabelledTracks(u.tracks, np.ones(n), u.hist, u.x, u.P, np.full(n, -1, np.int64)).take(best)
-        ready, self.tentative = self._sorted_tentative(kids.replaced(r=r))
+        k = self._tentative_children(scan, self.tentative)
+        kids = LabelledTracks(k.tracks, k.r, k.hist, k.x, k.P, np.full(len(k), -1, np.int64))
+        ready, self.tentative = self._sorted_tentative(kids)
         return [] if ready is None else [ready]
 
     def _waiting(self) -> LabelledTracks | None:

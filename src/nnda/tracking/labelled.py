@@ -33,6 +33,7 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from nnda.filters.batch import Batch
+from nnda.filters.imm import IMMPrediction
 from nnda.filters.kalman import gate_probability
 from nnda.tracking.clutter_density import coverage_area, local_density
 from nnda.tracking.gating import gate
@@ -124,6 +125,22 @@ class ScanUpdate:
     P: np.ndarray
 
 
+@dataclass(frozen=True)
+class GatedRows:
+    """S rows of a `LabelledTable` predicted to a scan and gated (`LabelledMixture._gated`): the ``rows``, their
+    IMM prediction ``pred``, each row's detection probability ``pd`` (S,) (0 where the sensor cannot see it)
+    and the gated pairs (row ``pl``, contact ``pj``, IMM log likelihood ``ll``, clutter density in measurement
+    space ``clutter``, each (P,))."""
+
+    rows: LabelledTable
+    pred: IMMPrediction
+    pd: np.ndarray
+    pl: np.ndarray
+    pj: np.ndarray
+    ll: np.ndarray
+    clutter: np.ndarray
+
+
 class LabelledMixture(ContactTracker):
     """A contact tracker whose density is a mixture of global hypotheses over labelled tracks (module
     docstring). ``cap_field`` names the config field capping the hypotheses, ``hypotheses`` what the bound
@@ -147,13 +164,19 @@ class LabelledMixture(ContactTracker):
 
     # ---------------------------------------------------------------------- one scan
     def _predict_update(self, scan: ScanContacts, table: LabelledTable | None = None) -> ScanUpdate:
-        """Predict and gate every row of ``table`` (default the mixture's) in one batch, the detection children
-        updated in one batch (`nnda.tracking.linearisation.update`), the miss children keeping their
-        posterior."""
+        """Predict and gate every row of ``table`` (default the mixture's) in one batch (`_gated`), the
+        detection children updated in one batch (`nnda.tracking.linearisation.update`), the miss children
+        keeping their posterior (`_child_rows`)."""
+        g = self._gated(scan, table)
+        tracks, hist, x, P = self._child_rows(scan, g)
+        return ScanUpdate(g.pd, g.pl, g.pj, g.ll, g.clutter, tracks, hist, x, P)
+
+    def _gated(self, scan: ScanContacts, table: LabelledTable | None = None) -> GatedRows:
+        """The rows of ``table`` (default the mixture's) predicted to the scan and gated, in one batch."""
         cfg, imm, old = self.config, scan.filter, self.table if table is None else table
-        z, xy, time, S = scan.z, scan.xy, scan.time, len(old)
+        z, xy, S = scan.z, scan.xy, len(old)
         tr = old.tracks
-        pred = imm.predict(tr.filt, time - tr.t2, check=False)
+        pred = imm.predict(tr.filt, scan.time - tr.t2, check=False)
         pd = np.full(S, self.score_pd(scan.sensor))
         observed = self._observed(scan, pred)
         if observed is not None:
@@ -170,16 +193,36 @@ class LabelledMixture(ContactTracker):
             if pl.size:
                 ll = imm.pair_log_likelihood(pred, pl, z[pj], check=False)
                 clutter = self._clutter(scan, pj)
-        parent = np.concatenate([np.arange(S), pl])
-        contact = np.concatenate([np.full(S, NO_CONTACT, np.int64), pj])
-        filt, x, P = tr.filt, pred.gating.x, pred.gating.P
-        if pl.size:
-            updated = linearised_update(imm, pred.take(pl), z[pj], np.ones(pl.size, bool))
+        return GatedRows(old, pred, pd, pl, pj, ll, clutter)
+
+    def _child_rows(self, scan: ScanContacts, g: GatedRows, chosen: np.ndarray | None = None
+                  ) -> tuple[Tracks, np.ndarray, np.ndarray, np.ndarray]:
+        """The children of the gated rows ``g``: the S miss children (row s), then one per gated pair, or only
+        those ``chosen`` (indices into that list, in their order): track records, histories (n_scan columns),
+        estimates x (., 4) and P (., 4, 4). Each child is computed alone (the update and the records row by row),
+        so a chosen few are the same as when every child is made."""
+        imm, old, pred, S = scan.filter, g.rows, g.pred, len(g.rows)
+        every = np.arange(S + g.pl.size) if chosen is None else chosen
+        pair = every[every >= S] - S
+        parent = every.copy()
+        parent[every >= S] = g.pl[pair]
+        contact = np.full(every.size, NO_CONTACT, np.int64)
+        contact[every >= S] = g.pj[pair]
+        tr = old.tracks
+        miss = every[every < S]
+        filt, x, P = tr.filt.take(miss), pred.gating.x[miss], pred.gating.P[miss]
+        if pair.size:
+            updated = linearised_update(imm, pred.take(g.pl[pair]), scan.z[g.pj[pair]], np.ones(pair.size, bool))
             filt = type(filt).concat([filt, updated])
             x_up, P_up = imm.estimate(updated)
             x, P = np.concatenate([x, x_up]), np.concatenate([P, P_up])
-        tracks = tr.take(parent).after_scan(contact, filt, z, xy, time, cfg.lifecycle)
-        return ScanUpdate(pd, pl, pj, ll, clutter, tracks, np.column_stack([old.hist[parent, 1:], contact]), x, P)
+        made = np.concatenate([np.flatnonzero(every < S), np.flatnonzero(every >= S)])  # where each child goes
+        if (made != np.arange(every.size)).any():  # misses and pairs interleaved: back in the order asked
+            back = np.empty(every.size, np.int64)
+            back[made] = np.arange(every.size)
+            filt, x, P = filt.take(back), x[back], P[back]
+        tracks = tr.take(parent).after_scan(contact, filt, scan.z, scan.xy, scan.time, self.config.lifecycle)
+        return tracks, np.column_stack([old.hist[parent, 1:], contact]), x, P
 
     def _expected_detections(self, r_pd: np.ndarray) -> np.ndarray:
         """Each row's expected detections in this scan (S,): P_G p_S times ``r_pd`` (S,), its existence times
@@ -235,17 +278,16 @@ class LabelledMixture(ContactTracker):
         log_odds = start_score(pd, area, rho2) + birth_log_odds(pd, cfg.birth_rate / coverage_area(sensor), rho1)
         return np.exp(-np.logaddexp(0.0, -log_odds)), log_odds
 
-    def _tentative_children(self, scan: ScanContacts, tent: LabelledTable
-                            ) -> tuple[ScanUpdate, np.ndarray, np.ndarray]:
+    def _tentative_children(self, scan: ScanContacts, tent: LabelledTable) -> LabelledTable:
         """The T tentative labels ``tent`` each updated alone, in one batch, on the contacts the best hypothesis
-        left free (`nnda.tracking.glmb`, tentative labels): the scan's children of ``tent``, the heaviest child
-        of each label (T,) (its miss or a gated contact) and the label's new existence (T,)."""
+        left free (`nnda.tracking.glmb`, tentative labels): each label's heaviest child (its miss or a gated
+        contact; only those are made, `_child_rows`) with the label's new existence, (T,) rows."""
         T = len(tent)
-        u = self._predict_update(scan, tent)
-        ok = ~self._used(scan)[u.pj]
-        pl = u.pl[ok]
+        g = self._gated(scan, tent)
+        ok = ~self._used(scan)[g.pj]
+        pl = g.pl[ok]
         with np.errstate(divide="ignore"):  # P_D 1: a miss weighs 0
-            log_w = np.concatenate([np.log1p(-u.pd), np.log(u.pd[pl]) + u.ll[ok] - np.log(u.clutter[ok])])
+            log_w = np.concatenate([np.log1p(-g.pd), np.log(g.pd[pl]) + g.ll[ok] - np.log(g.clutter[ok])])
         owner = np.concatenate([np.arange(T), pl])
         child = np.concatenate([np.arange(T), T + np.flatnonzero(ok)])
         total = np.full(T, -np.inf)
@@ -253,8 +295,8 @@ class LabelledMixture(ContactTracker):
         alive = self.config.survival_probability * tent.r
         log_odds = np.log(alive) - np.log1p(-alive) + total
         order = np.lexsort((-log_w, owner))
-        best = child[order[np.r_[True, np.diff(owner[order]) != 0]]]
-        return u, best, np.exp(-np.logaddexp(0.0, -log_odds))
+        tracks, hist, x, P = self._child_rows(scan, g, child[order[np.r_[True, np.diff(owner[order]) != 0]]])
+        return LabelledTable(tracks, np.exp(-np.logaddexp(0.0, -log_odds)), hist, x, P)
 
     def _sorted_tentative(self, kids: LabelledTable) -> tuple[LabelledTable | None, LabelledTable | None]:
         """Updated tentative labels ``kids`` split: those of existence ``admission_existence`` or more (to join

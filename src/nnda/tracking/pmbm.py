@@ -145,8 +145,7 @@ class PMBMTracker(LabelledMixture):
             self._prune_sths()
         ready, taken = None, None
         if self.tentative is not None:
-            u, best, r = self._tentative_children(sc, self.tentative)
-            kids = LabelledTable(u.tracks, np.ones(len(u.tracks)), u.hist, u.x, u.P).take(best).replaced(r=r)
+            kids = self._tentative_children(sc, self.tentative)
             taken = kids.hist[:, -1]
             ready, self.tentative = self._sorted_tentative(kids)
         live = sum(len(t) for t in (ready, self.tentative) if t is not None)
