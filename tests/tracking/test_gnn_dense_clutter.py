@@ -1,5 +1,5 @@
 """GNN's two options for dense clutter: preliminary tracks sharing contacts (duplicates merged) and the score
-peaks a fixed-lag output ends deleted tracks at (JPDA's too)."""
+peaks a fixed-lag output ends deleted tracks at (JPDA's and the neural tracker's too)."""
 
 from __future__ import annotations
 
@@ -115,14 +115,15 @@ def test_score_peaks_lie_in_each_deleted_tracks_life(dense):
     assert told > 0
 
 
-@pytest.mark.parametrize("tracker", ["gnn", "jpda"])
-def test_the_lag_ends_deleted_tracks_at_their_score_peak(tracker):
-    """Over the whole of S3 at 1,000 clutter points a scan."""
+@pytest.mark.parametrize("tracker", ["gnn", "jpda", "nn"])
+def test_the_lag_ends_deleted_tracks_at_their_score_peak(tracker, request):
+    """Over the whole of S3 at 1,000 clutter points a scan (nn: with the test scorer)."""
     path = Path(nnda.__file__).parent / "studies" / "clutter-sweep" / "S3-c1000.json"
     dense = generate(Scenario.model_validate_json(path.read_text()), 0, 0)
+    own = {"model": str(request.getfixturevalue("model_file"))} if tracker == "nn" else {}
     runs = {}
     for name, params in (("plain", {"end_at_score_peak": False}), ("peak", {"end_at_score_peak": True})):
-        fixed = FixedLag(make_tracker(tracker, dense.scenario.sensors, params), 3)
+        fixed = FixedLag(make_tracker(tracker, dense.scenario.sensors, {**own, **params}), 3)
         lagged = [late for late in (fixed.step(scan)[1] for scan in dense.scans()) if late is not None]
         runs[name] = lagged + fixed.flush()
     confirmed = {name: {(o.scan, i) for o in outs for i, s in zip(o.track_id.tolist(), o.status.tolist())

@@ -30,7 +30,7 @@ GOSPA with a lag of 3 scans 240 -> 189 m):
   Scores are needed for that, so the option applies under the score-type rules
   only: under ``lifecycle.confirmation = "mn"`` preliminary tracks keep the
   least-cost assignment.
-* ``end_at_score_peak`` (jpda's too, `nnda.tracking.tracker.SingleHypothesisConfig`):
+* ``end_at_score_peak`` (jpda's and nn's too, `nnda.tracking.tracker.SingleHypothesisConfig`):
   a fixed-lag output ends a deleted track where its score last peaked
   (`nnda.tracking.lag`).
 """

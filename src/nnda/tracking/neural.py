@@ -126,8 +126,8 @@ from nnda.tracking.neural_matching import RULES, first_stage, reacquire, reacqui
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY
 from nnda.tracking.tracker import (
     Association,
-    ContactTrackerConfig,
     ScanContacts,
+    SingleHypothesisConfig,
     SingleHypothesisTracker,
     TrackerConfig,
     Tracks,
@@ -159,7 +159,7 @@ def life5() -> dict:
     return {**life4(), "preliminary_gate": 13.82}
 
 
-class NeuralConfig(ContactTrackerConfig):
+class NeuralConfig(SingleHypothesisConfig):
     """Neural tracker settings: the model file, the feature set expected of it, the decision threshold and
     the association rule."""
 

@@ -166,7 +166,7 @@ class ContactTrackerConfig(TrackerConfig):
 
 class SingleHypothesisConfig(ContactTrackerConfig):
     """Settings of the single-hypothesis trackers whose lagged output can end a deleted track at its score's
-    last peak (gnn, jpda; `SingleHypothesisTracker.score_peaks`)."""
+    last peak (gnn, jpda, nn; `SingleHypothesisTracker.score_peaks`)."""
 
     end_at_score_peak: bool = Field(True, description=(
         "a fixed-lag output ends a confirmed track that the life cycle deleted within its window at the last "
