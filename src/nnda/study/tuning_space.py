@@ -76,7 +76,7 @@ CANDIDATES: tuple[Dimension, ...] = (
     Dimension("lifecycle.n", 2, 8, integer=True, when=_rule("mn")),
     Dimension("lifecycle.max_misses", 1, 8, integer=True, when=_rule("mn")),
     Dimension("lifecycle.false_confirmation", 1e-9, 1e-3, log=True, when=_rule("score")),
-    Dimension("lifecycle.false_track_rate", 0.1, 5_000.0, log=True, when=_rule("adaptive")),
+    Dimension("lifecycle.false_track_rate", 0.1, 50.0, log=True, when=_rule("adaptive")),
     Dimension("lifecycle.false_deletion", 1e-5, 0.1, log=True, when=_rule("score", "adaptive")),
     Dimension("lifecycle.existence_confirmation", 0.5, 0.99, when=_rule("existence")),
     Dimension("lifecycle.existence_deletion", 1e-3, 0.2, log=True, when=_rule("existence")),
