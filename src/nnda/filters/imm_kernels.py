@@ -331,7 +331,7 @@ def estimate(x, P, mu, d):
 
 
 @_jit
-def _d2(z_pred, S_inv, b, Z, m, polar):
+def squared_distance(z_pred, S_inv, b, Z, m, polar):
     """Squared Mahalanobis distance of measurement m of Z (N, 2) from prediction b of z_pred (B, 2), S_inv
     (B, 2, 2) (eq. 4.51; the azimuth residual wrapped when ``polar``)."""
     n0 = Z[m, 0] - z_pred[b, 0]
@@ -344,23 +344,23 @@ def _d2(z_pred, S_inv, b, Z, m, polar):
 @_jit
 def mahalanobis(z_pred, S_inv, Z, polar):
     """Squared Mahalanobis distances (B, N) of N measurements Z (N, 2) from B predictions z_pred (B, 2),
-    S_inv (B, 2, 2) (`_d2`)."""
+    S_inv (B, 2, 2) (`squared_distance`)."""
     B, N = z_pred.shape[0], Z.shape[0]
     d2 = np.empty((B, N))
     for b in range(B):
         for m in range(N):
-            d2[b, m] = _d2(z_pred, S_inv, b, Z, m, polar)
+            d2[b, m] = squared_distance(z_pred, S_inv, b, Z, m, polar)
     return d2
 
 
 @_jit
 def gated_pairs(z_pred, S_inv, rows, Z, threshold, polar):
     """The pairs of predictions ``rows`` (R,) of z_pred (B, 2), S_inv (B, 2, 2) and measurements Z (N, 2)
-    whose `_d2` is at most the row's ``threshold`` ((R,), or (1,) for every row), in the order of ``rows``,
-    then of Z: their prediction and measurement indices and d2, (P,) each.
+    whose `squared_distance` is at most the row's ``threshold`` ((R,), or (1,) for every row), in the order of
+    ``rows``, then of Z: their prediction and measurement indices and d2, (P,) each.
 
-    A measurement whose first residual alone puts it outside the gate is passed over before `_d2` (and
-    its angle wrap, most of the cost): with S^-1 = [[a, b], [b, c]], d2 >= n0^2 (a c - b^2) / c, the least
+    A measurement whose first residual alone puts it outside the gate is passed over before `squared_distance`
+    (and its angle wrap, most of the cost): with S^-1 = [[a, b], [b, c]], d2 >= n0^2 (a c - b^2) / c, the least
     d2 over the second residual. The bound is used with a margin of 1e-6 that covers its rounding, and only
     where it is well conditioned (a c - b^2 >= 1e-6 a c, c > 0), so exactly the pairs of the full test are
     kept, with the same d2."""
@@ -378,7 +378,7 @@ def gated_pairs(z_pred, S_inv, rows, Z, threshold, polar):
             n0 = Z[m, 0] - z_pred[b, 0]
             if least * n0 * n0 > far:
                 continue
-            d2 = _d2(z_pred, S_inv, b, Z, m, polar)
+            d2 = squared_distance(z_pred, S_inv, b, Z, m, polar)
             if d2 <= gate:
                 out_rows[n], out_cols[n], out_d2[n] = b, m, d2
                 n += 1

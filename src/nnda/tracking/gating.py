@@ -17,10 +17,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
-from nnda.filters import kalman
 from nnda.filters.imm import IMM, IMMPrediction
+from nnda.filters.imm_kernels import squared_distance
 from nnda.filters.kalman import MeasurementPrediction
 from nnda.tracking.box_pairs import Contacts, candidates
 from nnda.tracking.linearisation import LINEARISATION_LIMIT_RAD, cartesian_d2, poor_pairs
@@ -73,14 +74,42 @@ def gate(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, xy: np.ndarray, thr
     radius = np.sqrt(limit * measurement.spread(mp.z[tracks], mp.S[tracks])) + 1.0
     centre = measurement.cartesian(mp.z[tracks])
     j, cols = candidates(Contacts(xy, 0.0), centre, np.repeat(radius[:, None], 2, axis=1))
-    near = np.sum((xy[cols] - centre[j]) ** 2, axis=1) <= radius[j] ** 2  # the circle in the square
-    j, cols = j[near], cols[near]
-    order = np.lexsort((cols, j))  # by track, then contact
-    rows, cols = tracks[j[order]], cols[order]
-    nu = imm.measurement.residual(z[cols], mp.z[rows])
-    d2 = kalman.mahalanobis_2x2(nu, mp.S_inv[rows])
-    inside = d2 <= (by_track[rows] if by_track.ndim else by_track)
-    return _cartesian_check(imm, mp, z, by_track, estimate, Gated(rows[inside], cols[inside], d2[inside]))
+    return _cartesian_check(imm, mp, z, by_track, estimate, Gated(*_candidates_inside(
+        j, cols, tracks, xy, centre, radius, mp.z, mp.S_inv, z, by_track.reshape(-1), imm.polar)))
+
+
+@numba.njit(cache=True, nogil=True)
+def _candidates_inside(j, cols, tracks, xy, centre, radius, z_pred, S_inv, z, limit, polar):
+    """`gate`'s test of the candidate pairs (j, cols) (P,) of `box_pairs.candidates` (by contact, then j) in one
+    pass: those inside the circle of ``radius`` (J,) m about ``centre`` (J, 2) that holds the gate of track
+    ``tracks[j]`` and within its gate, ``limit`` (K,) by track row or (1,) for all, of the squared Mahalanobis
+    distance (`imm_kernels.squared_distance` of z (N, 2) from z_pred (K, 2), S_inv (K, 2, 2)). Returns their
+    rows, cols and d2, by track, then contact (a stable counting sort on j)."""
+    P, J = j.size, centre.shape[0]
+    keep = np.empty(P, np.int64)
+    d2 = np.empty(P)
+    count = np.zeros(J + 1, np.int64)
+    n = 0
+    for p in range(P):
+        c, t = cols[p], j[p]
+        dx, dy = xy[c, 0] - centre[t, 0], xy[c, 1] - centre[t, 1]
+        if dx * dx + dy * dy > radius[t] * radius[t]:  # outside the circle in the square
+            continue
+        row = tracks[t]
+        d = squared_distance(z_pred, S_inv, row, z, c, polar)
+        if d <= limit[row if limit.size > 1 else 0]:
+            keep[n], d2[n] = p, d
+            count[t + 1] += 1
+            n += 1
+    for t in range(J):
+        count[t + 1] += count[t]
+    rows_out, cols_out, d2_out = np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n)
+    for q in range(n):
+        p = keep[q]
+        at = count[j[p]]
+        count[j[p]] += 1
+        rows_out[at], cols_out[at], d2_out[at] = tracks[j[p]], cols[p], d2[q]
+    return rows_out, cols_out, d2_out
 
 
 def _cartesian_check(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, by_track: np.ndarray,
