@@ -35,6 +35,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from nnda.study.metrics import ScoredRun
+from nnda.tracking.lookup import members, sorted_find
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
 
@@ -75,10 +76,10 @@ def loss_causes(run: ScoredRun) -> dict[str, int]:
     live = own & (run.status != TrackStatus.DELETED)
     wrong = live & run.used & (run.contact_owner != run.row_owner)
     loss_key = target * width + scan
-    is_live, is_wrong = np.isin(loss_key, key[live]), np.isin(loss_key, key[wrong])
+    is_live, is_wrong = members(loss_key, key[live]), members(loss_key, key[wrong])
     live_key, live_gap = key[live], coasting_from_gap[live]
     pick = np.argsort(live_key, kind="stable")
-    at = np.minimum(np.searchsorted(live_key[pick], loss_key), max(live_key.size - 1, 0))
+    at = sorted_find(live_key[pick], loss_key)[0]
     after_gap_miss = is_live & live_gap[pick][at] if live_key.size else np.zeros(loss_key.size, bool)
 
     # each ended track: its last report, and whether its final run without a contact of its target

@@ -40,6 +40,7 @@ from nnda.tracking.gating import gate
 from nnda.tracking.gibbs import unique_rows
 from nnda.tracking.lifecycle import birth_log_odds, sensor_noise_m, start_score
 from nnda.tracking.linearisation import update as linearised_update
+from nnda.tracking.lookup import members
 from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
 from nnda.tracking.phd.tracker import Cardinality
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts, Tracks
@@ -388,11 +389,11 @@ class LabelledMixture(ContactTracker):
             label = self.labels[shown]
             r = self.existence()[shown]
             self.confirmed = np.union1d(self.confirmed, label[r >= self.config.existence_threshold])
-            was = np.isin(label, self.confirmed)
+            was = members(label, self.confirmed)
             status = np.where(was, TrackStatus.CONFIRMED, TrackStatus.PRELIMINARY)
             seen = ~was | (r >= self.config.report_existence)
             blocks.append((label[seen], status[seen], table.x[s[seen]], table.P[s[seen]], table.hist[s[seen], -1]))
-            stale = ~np.isin(ids, label)
+            stale = ~members(ids, label)
             ids = np.concatenate([ids[stale], label])
             x = np.concatenate([x[stale], table.x[s]])
             P = np.concatenate([P[stale], table.P[s]])
@@ -401,18 +402,18 @@ class LabelledMixture(ContactTracker):
             new = waiting.tracks.track_id
             blocks.append((new, np.full(len(waiting), TrackStatus.PRELIMINARY, np.int8), waiting.x, waiting.P,
                            waiting.hist[:, -1]))
-            stale = ~np.isin(ids, new)
+            stale = ~members(ids, new)
             ids, x, P = (np.concatenate([ids[stale], new]), np.concatenate([x[stale], waiting.x]),
                          np.concatenate([P[stale], waiting.P]))
             live = np.concatenate([live, new])
-        gone = ~np.isin(ids, live)
+        gone = ~members(ids, live)
         if gone.any():
             blocks.append((ids[gone], np.full(gone.sum(), TrackStatus.DELETED, np.int8), x[gone], P[gone],
                            np.full(gone.sum(), NO_CONTACT)))
-            was = np.isin(ids[gone], self.confirmed)
+            was = members(ids[gone], self.confirmed)
             self.deletions["score"] += int(was.sum())
             self.deletions["unconfirmed"] += int((~was).sum())
-            self.confirmed = self.confirmed[~np.isin(self.confirmed, ids[gone])]
+            self.confirmed = self.confirmed[~members(self.confirmed, ids[gone])]
         self.known = (ids[~gone], x[~gone], P[~gone])
         out = TrackerOutput.from_blocks(scan, time, blocks)
         self.cardinality = self._count(scan, time, int((out.status == TrackStatus.CONFIRMED).sum()))
@@ -449,5 +450,5 @@ def n_scan_agrees(hyp: np.ndarray, oldest: np.ndarray, best: int) -> np.ndarray:
     owned = np.unique(oldest[best][mine])
     pairs = np.unique(oldest[best][mine] * L + np.flatnonzero(mine))
     key = oldest * L + np.arange(L)
-    other = took & np.isin(oldest, owned) & ~np.isin(key, pairs)
+    other = took & members(oldest, owned) & ~members(key, pairs)
     return same & ~other.any(axis=1)

@@ -69,6 +69,7 @@ from nnda.data.dataset import Scan
 from nnda.errors import ConfigError
 from nnda.filters.imm import IMM
 from nnda.filters.motion import CoordinatedTurn
+from nnda.tracking.lookup import members, sorted_find
 from nnda.tracking.output import CONFIRMED, DELETED, MAX_LAG, NO_CONTACT, PRELIMINARY, TrackerOutput
 from nnda.tracking.tracker import Tracker
 
@@ -212,7 +213,7 @@ class FixedLag:
         out = revised(window, self.motion, contact)
         if self._peaks[0].size:
             out = self._ended_at_peak(window[0], out)
-        keep = ~np.isin(out.track_id, self._ended)
+        keep = ~members(out.track_id, self._ended)
         ended = out.track_id[keep & (out.status == DELETED) & (window[0].status != DELETED)]
         if ended.size:
             self._ended = np.union1d(self._ended, ended)
@@ -236,9 +237,9 @@ class FixedLag:
         after their score's last peak, at a time before ``first``'s, reported DELETED (module docstring);
         the peaks of the tracks ``first`` reports DELETED are then let go."""
         known, time = self._peaks
-        at = np.minimum(np.searchsorted(known, first.track_id), known.size - 1)
-        ended = (known[at] == first.track_id) & (first.status == CONFIRMED) & (time[at] < first.time)
-        gone = np.isin(known, first.track_id[first.status == DELETED])
+        at, found = sorted_find(known, first.track_id)
+        ended = found & (first.status == CONFIRMED) & (time[at] < first.time)
+        gone = members(known, first.track_id[first.status == DELETED])
         if gone.any():
             self._peaks = (known[~gone], time[~gone])
         if not ended.any():
@@ -261,8 +262,7 @@ class FixedLag:
             out, contact = self._held[i]
             if not len(out):
                 continue
-            at = np.minimum(np.searchsorted(family, out.track_id), family.size - 1)
-            found = family[at] == out.track_id
+            at, found = sorted_find(family, out.track_id)
             branch = hist[at, n - 1 - back]
             use = found & ((branch >= 0) | (branch == NO_CONTACT))
             if not use.any():

@@ -74,6 +74,7 @@ from nnda.tracking.gating import gate
 from nnda.tracking.global_hypothesis import global_hypothesis
 from nnda.tracking.lifecycle import SANITY_REASONS, advance_score, sanity_reasons
 from nnda.tracking.linearisation import update as linearised_update
+from nnda.tracking.lookup import members, sorted_find
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, TrackerOutput
 from nnda.tracking.reports import Phase
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts, TrackerConfig, Tracks
@@ -235,7 +236,7 @@ class MHTTracker(ContactTracker):
         """Count in ``deletions`` the families whose every child leaf dies in this scan's branching, each by
         the fate of its best-scoring child: a sanity rule (its ``code``), else the life cycle (a preliminary
         family: unconfirmed; a confirmed one: misses under M/N deletion, score when its score fell)."""
-        lost = ~np.isin(family, family[alive])
+        lost = ~members(family, family[alive])
         if not lost.any():
             return
         rows = np.flatnonzero(lost)
@@ -245,7 +246,7 @@ class MHTTracker(ContactTracker):
             self.deletions[reason] += int((code[best] == i).sum())
         ended = code[best] == 0
         ids, *_, shown_confirmed = self.known  # a family reported confirmed ends as a confirmed track
-        confirmed = (before[best] == CONFIRMED) | np.isin(family[best], ids[shown_confirmed])
+        confirmed = (before[best] == CONFIRMED) | members(family[best], ids[shown_confirmed])
         self.deletions["unconfirmed"] += int((ended & ~confirmed).sum())
         by_misses = ended & confirmed & (status[best] == DELETED) & (self.confirmation_rule == "mn")
         self.deletions["misses"] += int(by_misses.sum())
@@ -300,8 +301,8 @@ class MHTTracker(ContactTracker):
         if given.size:
             order = np.argsort(oldest[given])
             taken, owner = oldest[given][order], family[given][order]
-            at = np.minimum(np.searchsorted(taken, oldest), taken.size - 1)
-            keep &= ~((taken[at] == oldest) & (owner[at] != family))
+            at, found = sorted_find(taken, oldest)
+            keep &= ~(found & (owner[at] != family))
         # branch probability within the family
         top = np.full(fam_ids.size, -np.inf)
         np.maximum.at(top, fam, leaves.score)
@@ -349,19 +350,19 @@ class MHTTracker(ContactTracker):
         ids, x, P, confirmed = self.known
         alive_ids = self.leaves.tracks.track_id if self.leaves is not None else np.empty(0, np.int64)
         if leaves is not None and chosen.size:
-            chosen = chosen[np.isin(leaves.tracks.track_id[chosen], alive_ids)]
+            chosen = chosen[members(leaves.tracks.track_id[chosen], alive_ids)]
         if chosen.size:
             tr = leaves.tracks.take(chosen)
-            status = np.where(np.isin(tr.track_id, ids[confirmed]), CONFIRMED, tr.status).astype(np.int8)
+            status = np.where(members(tr.track_id, ids[confirmed]), CONFIRMED, tr.status).astype(np.int8)
             block = (tr.track_id, status, shown.x[chosen], shown.P[chosen], leaves.hist[chosen, -1])
             hidden = self._hidden(status, tr.consecutive, self.last_sensor)  # its last state is still `known`
             blocks.append(block if hidden is None else tuple(a[~hidden] for a in block))
-            stale = ~np.isin(ids, tr.track_id)
+            stale = ~members(ids, tr.track_id)
             ids = np.concatenate([ids[stale], tr.track_id])
             x = np.concatenate([x[stale], shown.x[chosen]])
             P = np.concatenate([P[stale], shown.P[chosen]])
             confirmed = np.concatenate([confirmed[stale], status == CONFIRMED])
-        alive = np.isin(ids, alive_ids)
+        alive = members(ids, alive_ids)
         gone = ~alive
         if gone.any():
             blocks.append((ids[gone], np.full(gone.sum(), DELETED, np.int8), x[gone], P[gone],
@@ -387,8 +388,8 @@ class MHTTracker(ContactTracker):
         ids, contact = reported.track_id[rows], reported.contact[rows]
         if not ids.size:
             return none
-        at = np.minimum(np.searchsorted(ids, tr.track_id), ids.size - 1)
-        cand = np.flatnonzero((ids[at] == tr.track_id) & (contact[at] == leaves.hist[:, -1]))
+        at, found = sorted_find(ids, tr.track_id)
+        cand = np.flatnonzero(found & (contact[at] == leaves.hist[:, -1]))
         owner = at[cand]  # the reported row (of ids) each candidate leaf may be
         tie = np.bincount(owner, minlength=ids.size)[owner] > 1
         gap = np.zeros(cand.size)

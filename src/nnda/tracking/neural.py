@@ -122,6 +122,7 @@ from nnda.models.innovation import IMM_INNOVATION, scan_features
 from nnda.models.scorer import Scorer, load_model
 from nnda.tracking.assignment import given
 from nnda.tracking.gating import Gated, gate, gate_tracks
+from nnda.tracking.lookup import sorted_find
 from nnda.tracking.neural_matching import RULES, first_stage, reacquire, reacquired, rest_stage, solved
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY
 from nnda.tracking.tracker import (
@@ -365,8 +366,8 @@ class NeuralTracker(SingleHypothesisTracker):
         last, last_contact, last_sensor = self._last_scan
         # track ids ascend in both (tracks keep their order; new ones come last, with higher ids)
         ids = tracks.track_id[lost]
-        at = np.minimum(np.searchsorted(last.track_id, ids), len(last) - 1)
-        known = (last.track_id[at] == ids) & (last_contact[at] != NO_CONTACT) & (last.status[at] == CONFIRMED)
+        at, found = sorted_find(last.track_id, ids)
+        known = found & (last_contact[at] != NO_CONTACT) & (last.status[at] == CONFIRMED)
         lost, at = lost[known], at[known]
         if not lost.size:
             return unchanged

@@ -38,6 +38,7 @@ import numpy as np
 from nnda.data.dataset import Scan
 from nnda.errors import TrackingError
 from nnda.tracking.lifecycle import LifecycleConfig, free_window_pairs
+from nnda.tracking.lookup import members, sorted_find
 from nnda.tracking.output import DELETED, NO_CONTACT, TrackerOutput
 
 
@@ -106,11 +107,10 @@ def merged(end: TrackerOutput, outputs: list[TrackerOutput], offsets: np.ndarray
     last_rows = rows[took][::-1][first]
     contact = np.full(len(end), NO_CONTACT, np.int64)
     if last_ids.size:
-        at = np.minimum(np.searchsorted(last_ids, end.track_id), last_ids.size - 1)
-        found = last_ids[at] == end.track_id
+        at, found = sorted_find(last_ids, end.track_id)
         contact[found] = last_rows[at[found]]
     status = np.concatenate([o.status for o in outputs])
-    gone = (status == DELETED) & ~np.isin(ids, end.track_id)
+    gone = (status == DELETED) & ~members(ids, end.track_id)
     state = np.concatenate([o.state for o in outputs])
     cov = np.concatenate([o.covariance for o in outputs])
     return TrackerOutput.from_blocks(end.scan, end.time, [

@@ -95,6 +95,7 @@ from nnda.tracking.lifecycle import (
     sweep_pairs,
 )
 from nnda.tracking.linearisation import update as linearised_update
+from nnda.tracking.lookup import sorted_find
 from nnda.tracking.marginals import log_miss_weight
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
 from nnda.tracking.reports import Phase, report_pairs, report_times, step_window
@@ -1097,8 +1098,8 @@ class SingleHypothesisTracker(ContactTracker):
         known, time = self._peaks
         if not known.size:
             return unknown
-        at = np.minimum(np.searchsorted(known, ids), known.size - 1)
-        return np.where(known[at] == ids, time[at], unknown)
+        at, found = sorted_find(known, ids)
+        return np.where(found, time[at], unknown)
 
     @abstractmethod
     def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:

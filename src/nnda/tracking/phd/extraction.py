@@ -39,6 +39,7 @@ from __future__ import annotations
 import numpy as np
 
 from nnda.filters.mixture import Mixture
+from nnda.tracking.lookup import members, sorted_find
 
 
 def relabel_duplicates(mixture: Mixture, next_label: int) -> tuple[Mixture, int]:
@@ -78,8 +79,8 @@ def streaks(labels: np.ndarray, last_labels: np.ndarray, last_streaks: np.ndarra
     Returns (E,) int64."""
     if not len(last_labels):
         return np.ones(len(labels), np.int64)
-    at = np.minimum(np.searchsorted(last_labels, labels), len(last_labels) - 1)
-    return 1 + np.where(last_labels[at] == labels, last_streaks[at], 0)
+    at, found = sorted_find(last_labels, labels)
+    return 1 + np.where(found, last_streaks[at], 0)
 
 
 def persistent(labels: np.ndarray, shown: np.ndarray, last: tuple[np.ndarray, np.ndarray], confirmed: np.ndarray,
@@ -91,8 +92,8 @@ def persistent(labels: np.ndarray, shown: np.ndarray, last: tuple[np.ndarray, np
     ``labels`` (sorted: a label that has left the mixture never comes back)."""
     extracted = labels[shown]
     run = streaks(extracted, *last)
-    confirmed = np.union1d(confirmed[np.isin(confirmed, labels)], extracted[run >= scans])
-    return shown[np.isin(extracted, confirmed)], (extracted, run), confirmed
+    confirmed = np.union1d(confirmed[members(confirmed, labels)], extracted[run >= scans])
+    return shown[members(extracted, confirmed)], (extracted, run), confirmed
 
 
 def default_coast_misses(coast_misses: int | None, sensors: int) -> int:
@@ -113,6 +114,6 @@ def coasting(weights: np.ndarray, labels: np.ndarray, shown: np.ndarray, confirm
              floor: float) -> np.ndarray:
     """``shown`` (indices into the mixture's ``weights`` and ``labels`` (J,)) with the components whose label is
     ``confirmed`` (sorted) and whose weight is at least ``floor`` added, in label order."""
-    extra = np.flatnonzero((weights >= floor) & np.isin(labels, confirmed))
+    extra = np.flatnonzero((weights >= floor) & members(labels, confirmed))
     both = np.union1d(shown, extra)
     return both[np.argsort(labels[both], kind="stable")]
