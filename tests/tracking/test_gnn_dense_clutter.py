@@ -1,5 +1,5 @@
 """GNN's two options for dense clutter: preliminary tracks sharing contacts (duplicates merged) and the score
-peaks a fixed-lag output ends deleted tracks at (JPDA's and the neural tracker's too)."""
+peaks a fixed-lag output ends deleted tracks at (JPDA's, the neural tracker's and MHT's too)."""
 
 from __future__ import annotations
 
@@ -85,22 +85,25 @@ def test_under_the_mn_rule_the_options_change_nothing(dense):
     assert all(ids.size == 0 for ids, _ in (opted.score_peaks(o) for o in plain))
 
 
-def test_end_at_score_peak_leaves_the_online_outputs_alone(dense):
-    plain = _outputs(make_tracker("gnn", dense.scenario.sensors, {"end_at_score_peak": False}), dense)
-    peaks = make_tracker("gnn", dense.scenario.sensors, {"end_at_score_peak": True})
+@pytest.mark.parametrize("name", ["gnn", "mht"])
+def test_end_at_score_peak_leaves_the_online_outputs_alone(dense, name):
+    plain = _outputs(make_tracker(name, dense.scenario.sensors, {"end_at_score_peak": False}), dense)
+    peaks = make_tracker(name, dense.scenario.sensors, {"end_at_score_peak": True})
     peaks.keep_score_peaks()
     _same(plain, _outputs(peaks, dense))
 
 
-def test_score_peaks_are_kept_only_when_asked(dense):
+@pytest.mark.parametrize("name", ["gnn", "mht"])
+def test_score_peaks_are_kept_only_when_asked(dense, name):
     """An online run (nothing asked for them) keeps no score peaks and tells none."""
-    tracker = make_tracker("gnn", dense.scenario.sensors, {"end_at_score_peak": True})
+    tracker = make_tracker(name, dense.scenario.sensors, {"end_at_score_peak": True})
     told = [tracker.score_peaks(tracker.step(scan))[0].size for scan in dense.scans()]
     assert sum(told) == 0 and tracker._peaks[0].size == 0
 
 
-def test_score_peaks_lie_in_each_deleted_tracks_life(dense):
-    tracker = make_tracker("gnn", dense.scenario.sensors, {"end_at_score_peak": True})
+@pytest.mark.parametrize("name", ["gnn", "mht"])
+def test_score_peaks_lie_in_each_deleted_tracks_life(dense, name):
+    tracker = make_tracker(name, dense.scenario.sensors, {"end_at_score_peak": True})
     tracker.keep_score_peaks()
     born, told = {}, 0
     for scan in dense.scans():
@@ -115,7 +118,7 @@ def test_score_peaks_lie_in_each_deleted_tracks_life(dense):
     assert told > 0
 
 
-@pytest.mark.parametrize("tracker", ["gnn", "jpda", "nn"])
+@pytest.mark.parametrize("tracker", ["gnn", "jpda", "nn", "mht"])
 def test_the_lag_ends_deleted_tracks_at_their_score_peak(tracker, request):
     """Over the whole of S3 at 1,000 clutter points a scan (nn: with the test scorer)."""
     path = Path(nnda.__file__).parent / "studies" / "clutter-sweep" / "S3-c1000.json"

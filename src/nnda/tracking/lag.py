@@ -40,8 +40,8 @@ the oldest one (Stone Soup's fixed-lag smoothers and MHT's N-scan decision are t
   confirmed track no longer outlives its target by the scans its deletion rule waits; a track that coasts
   through a gap and then gets a contact again is not touched.
 * **score peaks**: a tracker that tells when each track it deleted had its score at its maximum
-  (`EndsAtScorePeak`: gnn, jpda and nn with ``end_at_score_peak``, their default) has a confirmed track reported
-  DELETED within the window ended at k - L when k - L comes after that maximum, contacts or not. The
+  (`EndsAtScorePeak`: gnn, jpda, nn and mht with ``end_at_score_peak``, their default) has a confirmed track
+  reported DELETED within the window ended at k - L when k - L comes after that maximum, contacts or not. The
   score-drop deletion (the score fallen a fixed amount below its maximum) is Page (1954)'s CUSUM test for a
   change from "target" to "clutter", and the test's estimate of when the change came is the last maximum of
   the score: from there on the track's contacts were, taken together, against its target. Where clutter is

@@ -108,18 +108,24 @@ class MHTConfig(ContactTrackerConfig):
                                            "hypothesis is solved exactly; larger ones greedily")] = 5_000
     min_branch_probability: Annotated[float, Field(ge=0, lt=1)] = 1e-3
     deletion_score_drop: Annotated[float, Field(gt=0, description="delete a leaf this far below its best score")] = 10.0
+    end_at_score_peak: bool = Field(True, description=(
+        "a fixed-lag output ends a family deleted within its window at the last maximum of its chosen leaf's "
+        "score (as of the scan before its deletion), the change time of the score-drop deletion (Page 1954), "
+        "not only when it coasted to its deletion without a contact"))
 
 
 @dataclass(frozen=True)
 class Leaves(Batch):
     """L hypotheses: a track record each (family id = ``tracks.track_id``), score, best score
-    so far, and ``hist`` (L, n_scan): the contact index used in each of the last n_scan
-    scans (oldest first; -1 miss, -2 unknown)."""
+    so far, ``hist`` (L, n_scan): the contact index used in each of the last n_scan
+    scans (oldest first; -1 miss, -2 unknown), and ``peak`` (L,): the time (s) the leaf's score last reached
+    its best (its branch's, back to the family's birth)."""
 
     tracks: Tracks
     score: np.ndarray
     max_score: np.ndarray
     hist: np.ndarray
+    peak: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -168,7 +174,27 @@ class MHTTracker(ContactTracker):
                                                               np.concatenate([shown.P, P]))
             chosen = np.concatenate([chosen, first + np.arange(len(new))])
         self.leaves = None if leaves is None else self._prune(leaves, chosen)
-        return self._report(scan.index, time, leaves, shown, chosen)
+        out = self._report(scan.index, time, leaves, shown, chosen)
+        if self._ends_at_peak:
+            self._note_peaks(out, leaves, chosen)
+        return out
+
+    @property
+    def _peak_rule(self) -> bool:
+        """Every rule: a leaf is deleted once its score falls ``deletion_score_drop`` below its best."""
+        return True
+
+    def _note_peaks(self, out: TrackerOutput, leaves: Leaves | None, chosen: np.ndarray) -> None:
+        """Keep the score peak of every family that ``out`` reports or that still holds leaves: its ``chosen`` leaf's
+        of ``leaves`` where it has one now, else as last kept (that of the leaf last chosen; `score_peaks`)."""
+        ids, peak = np.empty(0, np.int64), np.empty(0)
+        if leaves is not None and chosen.size:
+            ids, peak = leaves.tracks.track_id[chosen], leaves.peak[chosen]
+        ids, first = np.unique(np.concatenate([ids, self._peaks[0]]), return_index=True)  # the chosen leaf's first
+        peak = np.concatenate([peak, self._peaks[1]])[first]
+        alive = np.empty(0, np.int64) if self.leaves is None else self.leaves.tracks.track_id
+        keep = members(ids, np.concatenate([out.track_id, alive]))
+        self._peaks = (ids[keep], peak[keep])
 
     # ---------------------------------------------------------------------- branching
     def _branch(self, leaves: Leaves, scan: ScanContacts) -> tuple[Leaves, _Shown]:
@@ -212,6 +238,7 @@ class MHTTracker(ContactTracker):
         seen = detected if scan.phase is Phase.REPORTS else None if observed is None else observed[parent]
         tracks = children.after_scan(contact, filt, z, xy, time, cfg.lifecycle, seen)
         max_score = np.maximum(leaves.max_score[parent], score)
+        peak = np.where(score >= leaves.max_score[parent], time, leaves.peak[parent])
         if self.confirmation_rule != "mn":  # Wald's test on the leaf's score, M/N counts ignored
             tracks = replace(tracks, status=advance_score(tr.status[parent], score, max_score, cfg.lifecycle,
                                                           seen,
@@ -219,7 +246,7 @@ class MHTTracker(ContactTracker):
         status = tracks.status
         d1 = detected[:, None]
         hist = np.column_stack([leaves.hist[parent, 1:], contact])
-        out = Leaves(tracks, score, max_score, hist)
+        out = Leaves(tracks, score, max_score, hist, peak)
         x_post, P_post = imm.estimate(filt)
         shown = _Shown(np.where(d1, x_post, x_pred[parent]), np.where(d1[:, :, None], P_post, P_pred[parent]))
         quality = np.zeros(len(status))  # the clutter around the confirmed leaves, for the track-quality rule
@@ -267,7 +294,7 @@ class MHTTracker(ContactTracker):
             score = born.score
         else:
             score = np.full(k, math.log(self.config.new_target_ratio))
-        return Leaves(born, score, score.copy(), hist)
+        return Leaves(born, score, score.copy(), hist, born.t2.copy())
 
     # ---------------------------------------------------------------------- global hypothesis
     def _global_hypothesis(self, leaves: Leaves) -> np.ndarray:

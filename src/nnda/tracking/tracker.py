@@ -167,7 +167,7 @@ class ContactTrackerConfig(TrackerConfig):
 
 class SingleHypothesisConfig(ContactTrackerConfig):
     """Settings of the single-hypothesis trackers whose lagged output can end a deleted track at its score's
-    last peak (gnn, jpda, nn; `SingleHypothesisTracker.score_peaks`)."""
+    last peak (gnn, jpda, nn; `ContactTracker.score_peaks`)."""
 
     end_at_score_peak: bool = Field(True, description=(
         "a fixed-lag output ends a confirmed track that the life cycle deleted within its window at the last "
@@ -793,6 +793,47 @@ class ContactTracker(ABC):
         self._explained: tuple[ScanContacts, np.ndarray, np.ndarray] | None = None
         #: tracks deleted since the last reset, by reason (`nnda.tracking.lifecycle.DELETION_REASONS`)
         self.deletions: dict[str, int] = dict.fromkeys(DELETION_REASONS, 0)
+        #: the live tracks' ids (ascending) and the time (s) each one's score last reached its maximum, as of the
+        #: last scan (those deleted in it included; `score_peaks`)
+        self._peaks = (np.empty(0, np.int64), np.empty(0))
+
+    #: whether a fixed-lag output asked for the tracks' score peaks (`keep_score_peaks`)
+    _peaks_wanted: bool = False
+
+    def keep_score_peaks(self) -> None:
+        """`nnda.tracking.lag.EndsAtScorePeak`: keep the tracks' score peaks from the next scan on (a fixed-lag
+        output asks, before the first scan; an online run does not pay for them)."""
+        self._peaks_wanted = True
+
+    @property
+    def _peak_rule(self) -> bool:
+        """Whether the tracker's deletion is a score-drop test, whose change time is the score's last peak."""
+        return False
+
+    @property
+    def _ends_at_peak(self) -> bool:
+        """Whether the tracker keeps its tracks' score peaks: asked to (`keep_score_peaks`), with its config's
+        ``end_at_score_peak`` set (a config without the field: never), under a rule that deletes on a score drop
+        (`_peak_rule`)."""
+        return self._peaks_wanted and getattr(self.config, "end_at_score_peak", False) and self._peak_rule
+
+    def score_peaks(self, reported: TrackerOutput) -> tuple[np.ndarray, np.ndarray]:
+        """`nnda.tracking.lag.EndsAtScorePeak`: of the output ``reported`` that the tracker just returned, the ids
+        (D,) of the tracks reported DELETED and the time (s) each one's score last reached its maximum (D,);
+        none without ``end_at_score_peak`` (`_ends_at_peak`)."""
+        if not self._ends_at_peak:
+            return np.empty(0, np.int64), np.empty(0)
+        gone = reported.track_id[reported.status == DELETED]
+        return gone, self._peak_of(gone, np.full(gone.size, np.nan))
+
+    def _peak_of(self, ids: np.ndarray, unknown: np.ndarray) -> np.ndarray:
+        """The time (s) of the score's last maximum of the tracks ``ids`` (M,) as of the last scan, ``unknown``'s
+        (M,) for a track it did not hold."""
+        known, time = self._peaks
+        if not known.size:
+            return unknown
+        at, found = sorted_find(known, ids)
+        return np.where(found, time[at], unknown)
 
     @cached_property
     def gate_threshold(self) -> float:
@@ -1058,48 +1099,16 @@ class SingleHypothesisTracker(ContactTracker):
     def reset(self) -> None:
         super().reset()
         self.tracks: Tracks | None = None
-        #: the live tracks' ids (ascending) and the time (s) each one's score last reached its maximum, as of the
-        #: last scan (those deleted in it included; `score_peaks`)
-        self._peaks = (np.empty(0, np.int64), np.empty(0))
 
     @property
     def _score_rule(self) -> bool:
         """Whether the confirmation rule keeps a track score that the score-drop test deletes on."""
         return self.confirmation_rule in ("adaptive", "score")
 
-    #: whether a fixed-lag output asked for the tracks' score peaks (`keep_score_peaks`)
-    _peaks_wanted: bool = False
-
-    def keep_score_peaks(self) -> None:
-        """`nnda.tracking.lag.EndsAtScorePeak`: keep the tracks' score peaks from the next scan on (a fixed-lag
-        output asks, before the first scan; an online run does not pay for them)."""
-        self._peaks_wanted = True
-
     @property
-    def _ends_at_peak(self) -> bool:
-        """Whether the tracker keeps its tracks' score peaks: asked to (`keep_score_peaks`), with
-        ``end_at_score_peak`` set, under a score-type rule."""
-        cfg = self.config
-        return (self._peaks_wanted and isinstance(cfg, SingleHypothesisConfig) and cfg.end_at_score_peak
-                and self._score_rule)
-
-    def score_peaks(self, reported: TrackerOutput) -> tuple[np.ndarray, np.ndarray]:
-        """`nnda.tracking.lag.EndsAtScorePeak`: of the output ``reported`` that the tracker just returned, the ids
-        (D,) of the tracks reported DELETED and the time (s) each one's score last reached its maximum (D,);
-        none without ``end_at_score_peak`` (or under the M/N rule)."""
-        if not self._ends_at_peak:
-            return np.empty(0, np.int64), np.empty(0)
-        gone = reported.track_id[reported.status == DELETED]
-        return gone, self._peak_of(gone, np.full(gone.size, np.nan))
-
-    def _peak_of(self, ids: np.ndarray, unknown: np.ndarray) -> np.ndarray:
-        """The time (s) of the score's last maximum of the tracks ``ids`` (M,) as of the last scan, ``unknown``'s
-        (M,) for a track it did not hold."""
-        known, time = self._peaks
-        if not known.size:
-            return unknown
-        at, found = sorted_find(known, ids)
-        return np.where(found, time[at], unknown)
+    def _peak_rule(self) -> bool:
+        """Score peaks mean a change time only under the score-type rules, whose score-drop test deletes."""
+        return self._score_rule
 
     @abstractmethod
     def associate(self, tracks: Tracks, pred: IMMPrediction, scan: ScanContacts) -> Association:
