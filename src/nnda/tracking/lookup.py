@@ -4,7 +4,7 @@
     inside = members(keys, pool)           # np.isin(keys, pool) for integer arrays
 
 The trackers ask these a few times a scan of arrays of tens to hundreds of
-ids, where a sort and a binary search cost a quarter to a half of what
+ids, where a sort and a binary search cost an eighth to a half of what
 ``np.isin``'s general set machinery does.
 """
 
