@@ -115,3 +115,18 @@ def test_forbidden_entries_are_never_taken_and_a_miss_can_win():
 def test_no_pairs_assign_nothing():
     got_rows, got_cols = least_cost_assignment(np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0), np.zeros(3))
     assert got_rows.size == got_cols.size == 0
+
+
+def test_rows_alone_in_their_component_skip_the_sparse_solver(monkeypatch):
+    """Row 0 alone: column 10 given twice weighs 1 + 1.5, more than column 11's 2; row 1 alone, its one pair dearer
+    than its miss; rows 2 and 3 share column 20, which only the sparse solver sees (2 rows, their 2 columns + 2 misses)."""
+    seen = []
+    real = assignment.min_weight_full_bipartite_matching
+    monkeypatch.setattr(assignment, "min_weight_full_bipartite_matching", lambda g: seen.append(g.shape) or real(g))
+    rows, cols = np.array([0, 0, 0, 1, 2, 3, 3]), np.array([10, 10, 11, 12, 20, 20, 21])
+    problem = rows, cols, np.array([1.0, 1.5, 2.0, 9.0, 1.0, 2.0, 5.0]), np.full(4, 4.0)
+    dense, sparse = solve_both(monkeypatch, *problem)
+    assert dict(zip(sparse[0].tolist(), sparse[1].tolist())) == {0: 11, 2: 20}
+    np.testing.assert_array_equal(dense[0], sparse[0])
+    np.testing.assert_array_equal(dense[1], sparse[1])
+    assert seen == [(2, 4)]

@@ -19,6 +19,7 @@ from scipy.optimize import linear_sum_assignment
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import min_weight_full_bipartite_matching
 
+from nnda.tracking.marginals import clusters
 from nnda.tracking.output import NO_CONTACT
 
 #: problems of R rows and C columns with R x (C + R) up to this many entries are solved densely
@@ -54,11 +55,62 @@ def least_cost_assignment(rows: np.ndarray, cols: np.ndarray, cost: np.ndarray, 
     if block.size:
         r, c = linear_sum_assignment(block)
     else:
-        graph = csr_matrix((weight, (np.concatenate([ti, np.arange(R)]), np.concatenate([ci, C + np.arange(R)]))),
-                           shape=(R, C + R))
-        r, c = min_weight_full_bipartite_matching(graph)
+        r, c = _sparse_solution(ti, ci, weight, R, C)
     real = c < C
     return track[r[real]], cont[c[real]]
+
+
+def _sparse_solution(ti: np.ndarray, ci: np.ndarray, weight: np.ndarray, R: int, C: int
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """The least-weight full matching of a compressed problem too large for a dense block (`compressed`: P pairs
+    (ti, ci), their weights then the R rows' miss weights, C columns), as (row, column) index arrays, a miss
+    column C + i for row i. The rows linked by shared columns form components solved apart: a row alone in its
+    component takes its lightest column (summed over a pair given twice) when lighter than its miss
+    (`_lone_rows`), the others together on the sparse graph (scipy's `min_weight_full_bipartite_matching`).
+    In dense clutter most rows are alone, and the sparse solver's cost grew faster than the pairs."""
+    P = ti.size
+    _, label = clusters(ti, ci, R)
+    alone = np.bincount(label, minlength=R)[label] == 1  # (R,)
+    r1, c1 = _lone_rows(ti, ci, weight, alone, C)
+    rest = np.flatnonzero(~alone)
+    if not rest.size:
+        return r1, c1
+    keep = ~alone[ti]
+    n = rest.size
+    sub = np.full(R, -1, np.int64)
+    sub[rest] = np.arange(n)
+    used, col = np.unique(ci[keep], return_inverse=True)  # the columns of these rows, renumbered
+    graph = csr_matrix((np.concatenate([weight[:P][keep], weight[P:][rest]]),
+                        (np.concatenate([sub[ti[keep]], np.arange(n)]),
+                         np.concatenate([col.ravel(), used.size + np.arange(n)]))), shape=(n, used.size + n))
+    r2, c2 = min_weight_full_bipartite_matching(graph)
+    c2 = np.where(c2 < used.size, used[np.minimum(c2, used.size - 1)], C + rest[r2])  # back to the full problem's
+    r = np.concatenate([r1, rest[r2]])
+    order = np.argsort(r, kind="stable")
+    return r[order], np.concatenate([c1, c2])[order]
+
+
+@numba.njit(cache=True, nogil=True)
+def _lone_rows(ti, ci, weight, alone, C):
+    """`_sparse_solution`'s rows ``alone`` (R,) in their components: each takes the column of least summed weight
+    of its pairs (P,; the first such column of its pairs) when lighter than its miss weight (``weight[P + i]``),
+    else its miss column C + i. Returns (rows, columns), by row."""
+    P, R = ti.size, alone.size
+    total = np.zeros(C)
+    best = np.full(R, -1, np.int64)
+    for p in range(P):
+        if alone[ti[p]]:
+            total[ci[p]] += weight[p]
+    for p in range(P):
+        i = ti[p]
+        if alone[i] and (best[i] < 0 or total[ci[p]] < total[best[i]]):
+            best[i] = ci[p]
+    rows = np.flatnonzero(alone)
+    cols = np.empty(rows.size, np.int64)
+    for k in range(rows.size):
+        i = rows[k]
+        cols[k] = best[i] if best[i] >= 0 and total[best[i]] < weight[P + i] else C + i
+    return rows, cols
 
 
 @numba.njit(cache=True, nogil=True)
