@@ -119,7 +119,8 @@ def test_no_pairs_assign_nothing():
 
 def test_rows_alone_in_their_component_skip_the_sparse_solver(monkeypatch):
     """Row 0 alone: column 10 given twice weighs 1 + 1.5, more than column 11's 2; row 1 alone, its one pair dearer
-    than its miss; rows 2 and 3 share column 20, which only the sparse solver sees (2 rows, their 2 columns + 2 misses)."""
+    than its miss; rows 2 and 3 share column 20, which only the sparse solver sees (2 rows, their 2 columns + 2
+    misses)."""
     seen = []
     real = assignment.min_weight_full_bipartite_matching
     monkeypatch.setattr(assignment, "min_weight_full_bipartite_matching", lambda g: seen.append(g.shape) or real(g))
