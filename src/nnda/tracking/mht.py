@@ -71,6 +71,7 @@ from nnda.filters.batch import Batch
 from nnda.filters.kalman import GATE_99, gate_probability
 from nnda.tracking.clutter_density import local_density
 from nnda.tracking.gating import gate
+from nnda.tracking.gibbs import unique_rows
 from nnda.tracking.global_hypothesis import global_hypothesis
 from nnda.tracking.lifecycle import SANITY_REASONS, advance_score, sanity_reasons
 from nnda.tracking.linearisation import update as linearised_update
@@ -342,8 +343,7 @@ class MHTTracker(ContactTracker):
         full = (tail >= 0).all(axis=1)
         idx = np.flatnonzero(full)
         if idx.size:
-            _, group = np.unique(tail[idx], axis=0, return_inverse=True)
-            group = group.ravel()
+            group = unique_rows(tail[idx])[1]
             order = np.lexsort((-leaves.score[idx], group))
             first = np.r_[True, np.diff(group[order]) != 0]
             keep[idx[order[~first]]] = False
