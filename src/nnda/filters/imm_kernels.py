@@ -62,6 +62,13 @@ def kernel_array(a: np.ndarray | float, dtype: type = np.float64) -> np.ndarray:
 
 
 @_jit
+def quadratic_2x2(a00, a01, a10, a11, n0, n1):
+    """nu^T A nu for nu = (n0, n1) and A = [[a00, a01], [a10, a11]], in `nnda.filters.kalman.mahalanobis_2x2`'s
+    order of operations (so the compiled and the numpy paths agree to the bit)."""
+    return a00 * n0 * n0 + (a01 + a10) * n0 * n1 + a11 * n1 * n1
+
+
+@_jit
 def wrap_angle_kernel(a):
     """An angle (rad) wrapped to [-pi, pi), as `nnda.data.sensor.wrap_angle`."""
     return (a + math.pi) % TWO_PI - math.pi
@@ -264,7 +271,7 @@ def update(x, P, mu, z, mask, z_pred, S_inv, log_det, PHt, polar):
                     m = 0.5 * (u + v)
                     Pu[k, j, a, b] = m
                     Pu[k, j, b, a] = m
-            d2 = Si[0, 0] * nu0 * nu0 + (Si[0, 1] + Si[1, 0]) * nu0 * nu1 + Si[1, 1] * nu1 * nu1
+            d2 = quadratic_2x2(Si[0, 0], Si[0, 1], Si[1, 0], Si[1, 1], nu0, nu1)
             log_post[j] = math.log(mu[k, j] + TINY) + (-0.5 * (d2 + log_det[k, j]) - LOG_2PI)
         top = log_post.max()
         total = 0.0
@@ -338,7 +345,7 @@ def squared_distance(z_pred, S_inv, b, Z, m, polar):
     n1 = Z[m, 1] - z_pred[b, 1]
     if polar:
         n1 = wrap_angle_kernel(n1)
-    return S_inv[b, 0, 0] * n0 * n0 + (S_inv[b, 0, 1] + S_inv[b, 1, 0]) * n0 * n1 + S_inv[b, 1, 1] * n1 * n1
+    return quadratic_2x2(S_inv[b, 0, 0], S_inv[b, 0, 1], S_inv[b, 1, 0], S_inv[b, 1, 1], n0, n1)
 
 
 @_jit
@@ -403,8 +410,7 @@ def pair_log_likelihood(z_pred, S_inv, log_det, mu, rows, Z, polar):
             n1 = Z[p, 1] - z_pred[k, j, 1]
             if polar:
                 n1 = wrap_angle_kernel(n1)
-            d2 = (S_inv[k, j, 0, 0] * n0 * n0 + (S_inv[k, j, 0, 1] + S_inv[k, j, 1, 0]) * n0 * n1
-                  + S_inv[k, j, 1, 1] * n1 * n1)
+            d2 = quadratic_2x2(S_inv[k, j, 0, 0], S_inv[k, j, 0, 1], S_inv[k, j, 1, 0], S_inv[k, j, 1, 1], n0, n1)
             terms[j] = (-0.5 * (d2 + log_det[k, j]) - LOG_2PI) + math.log(mu[k, j] + TINY)
             top = max(top, terms[j])
         s = 0.0

@@ -29,6 +29,7 @@ import numpy as np
 from nnda.data.sensor import wrap_angle
 from nnda.errors import FilterError
 from nnda.filters.batch import Batch
+from nnda.filters.imm_kernels import wrap_angle_kernel
 from nnda.filters.kalman import symmetrise
 from nnda.validation import check_array, check_covariance, check_finite, check_nonnegative
 
@@ -160,7 +161,6 @@ def _coordinate_pairs(m, diag, rank, threshold, candidate, entries, angle):
     order = np.argsort(m[:, axis], kind="mergesort")
     ms, ds, rs = m[order], diag[order], rank[order]  # sorted, so that a window's rows are contiguous
     xs = ms[:, axis].copy()
-    two_pi = 2.0 * math.pi
     first = entries[0]
     screen = not angle[first]  # (a - b)^2 is (b - a)^2 to the bit: the first entry's test needs no orientation
     pj = np.empty(4 * J + 1, np.int64)
@@ -181,7 +181,7 @@ def _coordinate_pairs(m, diag, rank, threshold, candidate, entries, angle):
                 k = entries[e]
                 d = ms[i, k] - ms[j, k]
                 if angle[k]:
-                    d = (d + math.pi) % two_pi - math.pi
+                    d = wrap_angle_kernel(d)
                 if not d * d <= threshold * ds[c, k]:
                     ok = False
                     break

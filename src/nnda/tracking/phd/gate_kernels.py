@@ -20,24 +20,15 @@ Returned: keep (K,) the indices of the kept pairs, nu (K, 2), log_likelihood (K,
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
+
+from nnda.filters.imm_kernels import LOG_2PI, quadratic_2x2, wrap_angle_kernel
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")  # x / 0 gives inf or NaN, as numpy
 
 #: no contact noise of their own: `gated_pairs` reads each component's S^-1 and ln|S|
 NONE = np.empty((0, 2, 2))
-
-#: ln(2 pi), as `nnda.filters.kalman.LOG_2PI`
-_LOG_2PI = math.log(2.0 * math.pi)
-
-
-@_jit
-def _d2(a00, a01, a10, a11, n0, n1):
-    """nu^T A nu for A = [[a00, a01], [a10, a11]], in `kalman.mahalanobis_2x2`'s order of operations."""
-    return a00 * n0 * n0 + (a01 + a10) * n0 * n1 + a11 * n1 * n1
 
 
 @_jit
@@ -57,7 +48,7 @@ def gated_pairs(j, i, z, z_pred, S, S_inv, log_det, contact_R, gate, every, peri
         n0 = z[m, 0] - z_pred[c, 0]
         n1 = z[m, 1] - z_pred[c, 1]
         if period > 0:
-            n1 = (n1 + math.pi) % period - math.pi
+            n1 = wrap_angle_kernel(n1)
         det = 0.0
         if own:
             s00 = S[c, 0, 0] + contact_R[m, 0, 0]
@@ -65,12 +56,12 @@ def gated_pairs(j, i, z, z_pred, S, S_inv, log_det, contact_R, gate, every, peri
             s10 = S[c, 1, 0] + contact_R[m, 1, 0]
             s11 = S[c, 1, 1] + contact_R[m, 1, 1]
             det = s00 * s11 - s01 * s10
-            d2 = _d2(s11 / det, -s01 / det, -s10 / det, s00 / det, n0, n1)
+            d2 = quadratic_2x2(s11 / det, -s01 / det, -s10 / det, s00 / det, n0, n1)
         else:
-            d2 = _d2(S_inv[c, 0, 0], S_inv[c, 0, 1], S_inv[c, 1, 0], S_inv[c, 1, 1], n0, n1)
+            d2 = quadratic_2x2(S_inv[c, 0, 0], S_inv[c, 0, 1], S_inv[c, 1, 0], S_inv[c, 1, 1], n0, n1)
         if every or d2 <= gate:
             keep[k] = p
             nu[k, 0], nu[k, 1] = n0, n1
-            ll[k] = -0.5 * (d2 + (np.log(det) if own else log_det[c])) - _LOG_2PI
+            ll[k] = -0.5 * (d2 + (np.log(det) if own else log_det[c])) - LOG_2PI
             k += 1
     return keep[:k], nu[:k], ll[:k]
