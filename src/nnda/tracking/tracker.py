@@ -802,7 +802,8 @@ class ContactTracker(ABC):
 
     def keep_score_peaks(self) -> None:
         """`nnda.tracking.lag.EndsAtScorePeak`: keep the tracks' score peaks from the next scan on (a fixed-lag
-        output asks, before the first scan; an online run does not pay for them)."""
+        output asks, before the first scan; an online run keeps no record of them, though MHT's leaves carry
+        their own peak time whatever is asked)."""
         self._peaks_wanted = True
 
     @property
