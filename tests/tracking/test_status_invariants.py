@@ -30,7 +30,7 @@ from nnda.errors import BoundWarning
 from nnda.tracking.lifecycle import LifecycleConfig
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import PEERS, TRACKERS, make_tracker
-from nnda.tracking.tracker import ContactTracker
+from nnda.tracking.tracker import ContactTracker, SingleHypothesisConfig
 
 #: every confirmation rule of the life cycle
 RULES = get_args(LifecycleConfig.model_fields["confirmation"].annotation)
@@ -151,6 +151,23 @@ def test_drawn_scenes_keep_the_status_invariants_with_tracks_left_out(name, scen
     once and never again."""
     ds = generate(scene)
     outs = outputs(tracker_for(request, name, None, scene.sensors, lifecycle={"report_existence": 0.7}), ds.scans())
+    assert not broken(outs), broken(outs)
+
+
+#: the trackers of track continuation (``continuation_gate``, `nnda.tracking.tracker.SingleHypothesisConfig`)
+CONTINUING = [name for name in TRACKERS if issubclass(TRACKERS[name].config_type, SingleHypothesisConfig)]
+
+
+@pytest.mark.parametrize("name", CONTINUING)
+@settings(DRAWN)
+@given(scene=scenes(), hide=st.booleans())
+def test_drawn_scenes_keep_the_status_invariants_with_track_continuation(name, scene, hide, request):
+    """A wide continuation gate (chi-square 60 on 4 dof), with tracks left out or not: a new track that continues
+    an old one is reported deleted without ever being confirmed, and the old one stays confirmed."""
+    ds = generate(scene)
+    lifecycle = {"report_existence": 0.7} if hide else {}
+    tracker = tracker_for(request, name, None, scene.sensors, continuation_gate=60.0, lifecycle=lifecycle)
+    outs = outputs(tracker, ds.scans())
     assert not broken(outs), broken(outs)
 
 

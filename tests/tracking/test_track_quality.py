@@ -12,7 +12,8 @@ import pyarrow.parquet as pq
 import pytest
 
 from nnda.data.dataset import Scan
-from nnda.data.scenario import Sensor
+from nnda.data.generator import generate
+from nnda.data.scenario import Clutter, Scenario, Segment, Sensor, Target
 from nnda.data.sensor import cart_to_polar
 from nnda.errors import ConfigError
 from nnda.filters.imm import IMMState
@@ -129,3 +130,29 @@ def test_the_deletions_table_reads_a_study_written_before_the_quality_reason(tmp
     write_checksums(tmp_path, [RESULTS_FILE], "test")
     rule, per = deletions(tmp_path)["gnn"]
     assert rule == "mn" and per == {r: 3.0 for r in older}
+
+
+def test_the_rule_reads_the_unexplained_clutter_where_the_tracker_does():
+    """Thirty airliners under a 10 s radar, no clutter, a wide gate: counted as clutter, each aircraft's own
+    contact puts a coasting track's gate past the bound (local estimate: dozens of quality deletions); with
+    ``clutter_estimate = "unexplained"`` the confirmed tracks' expected detections are left out of the count,
+    and no track of this clutter-free scene is deleted for quality."""
+    rng = np.random.default_rng(0)
+    targets = []
+    for i in range(30):
+        r, b = rng.uniform(60e3, 200e3), rng.uniform(0, 2 * np.pi)
+        legs = [Segment(duration_s=300.0), Segment(duration_s=60.0, normal_accel=float(rng.choice([-5, 5]))),
+                Segment(duration_s=240.0)]
+        targets.append(Target(name=f"a{i}", x_m=r * np.sin(b), y_m=r * np.cos(b), segments=legs,
+                              heading_deg=float(rng.uniform(0, 360)), speed_m_s=float(rng.uniform(200, 260))))
+    radar = Sensor(scan_period_s=10.0, max_range_m=250e3, min_range_m=5e3, sigma_range_m=50.0,
+                   sigma_azimuth_mrad=1.5, pd=0.9, clutter=Clutter(law="none"))
+    ds = generate(Scenario(name="air", duration_s=600.0, targets=targets, sensors=(radar,)), seed=0)
+    quality = {}
+    for estimate in ("local", "unexplained"):
+        tracker = make_tracker("gnn", radar, {"clutter_estimate": estimate, "gate": 50.0,
+                                              "lifecycle": {"v_max": 400.0, "max_position_sd_m": 10_000.0}})
+        for scan in ds.scans():
+            tracker.step(scan)
+        quality[estimate] = tracker.deletions["quality"]
+    assert quality["local"] >= 10 and quality["unexplained"] == 0, quality

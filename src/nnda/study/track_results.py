@@ -10,7 +10,11 @@ they do not depend on the order jobs finished:
   deletions by reason and the lines of contacts refused as faster than
   ``lifecycle.v_max`` (``confirmation``, ``deleted_<reason>``,
   ``too_fast_lines``; null for other trackers, and ``too_fast_lines`` for
-  records written before it was kept), and the per-scan series as list columns
+  records written before it was kept), with a tracker of track
+  continuation (``continuation_gate`` above 0) the new tracks that
+  continued a coasting one (``continued_tracks``; null for the trackers
+  without it; a study without such a tracker has no such column), and the
+  per-scan series as list columns
   (``<series name>_per_scan``). The series of
   ``false_tracks_per_scan`` is named ``false_tracks``, so its list column
   takes the name of the run value (its mean, which is left out): format
@@ -104,6 +108,8 @@ def results_table(records: list[dict]) -> pa.Table:
     for reason in DELETION_REASONS:
         cols[f"deleted_{reason}"] = _column([None if m is None else m["deletions"][reason] for m in managed], "int")
     cols["too_fast_lines"] = _column([None if m is None else m.get("too_fast_lines") for m in managed], "int")
+    if any(m is not None and "continued" in m for m in managed):
+        cols["continued_tracks"] = _column([None if m is None else m.get("continued") for m in managed], "int")
     for m in SERIES_MEASURES:  # false_tracks -> false_tracks_per_scan replaces that run value (module docstring)
         kind = pa.int64() if m.integer else pa.float64()
         cols[f"{m.series_name}_per_scan"] = pa.array([r["series"][m.series_name] for r in records],

@@ -11,6 +11,12 @@ numeric clutter rate and the extraction threshold; with a sensor of asynchronous
 ``report_gap_s``. A range that does not hold the base config's value (ships' speeds below the window's range
 made for aircraft) is widened to four times beyond it on that side. A combination a config refuses
 (v_min >= v_max, m > n) is a pruned trial, not an error.
+
+Track continuation (``continuation_gate``) is not searched but kept at the base config's value: it acts only
+where a target turns out of its track's gate, which a tuning half may never show. On 20 minutes of recorded
+airliner traffic the best configs of six searches made no join on the tuning half (those with the threshold
+held at 30 made two to four on the held-out half): the threshold was noise to the search (held-out GOSPA with
+switching 2,020-2,156 m over three seeds with it searched, 1,935-2,129 m with it held at 30).
 """
 
 from __future__ import annotations

@@ -33,6 +33,9 @@ GOSPA with a lag of 3 scans 240 -> 189 m):
 * ``end_at_score_peak`` (jpda's and nn's too, `nnda.tracking.tracker.SingleHypothesisConfig`):
   a fixed-lag output ends a deleted track where its score last peaked
   (`nnda.tracking.lag`).
+
+``continuation_gate`` (off by default; jpda's and nn's too): a track confirmed while a confirmed track coasts
+near one of its motion models' predictions continues that track under its id (`nnda.tracking.continuation`).
 """
 
 from __future__ import annotations

@@ -100,7 +100,10 @@ M/N logic.
   sigma^2 I)) (`gate_clutter`): rho the clutter's area density around the
   track (the scan's contacts in the square of half-side ``clutter_radius_m``
   around its predicted position, `nnda.tracking.clutter_density.local_density`,
-  whichever clutter model the tracker associates with), gamma the tracker's
+  whichever clutter model the tracker associates with; with gnn's and jpda's
+  ``clutter_estimate = "unexplained"`` the contacts there less the confirmed
+  tracks' expected detections, `unexplained_density`, so that a coasting
+  track's own target is not counted as clutter around it), gamma the tracker's
   chi-square gate, P_xy the reported position covariance and sigma the
   sensors' least noise (m). Why this bound: against clutter, a target's
   contact at Mahalanobis distance d has the likelihood ratio P_D l / lambda

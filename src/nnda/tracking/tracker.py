@@ -67,6 +67,7 @@ from nnda.filters.measurement import MeasurementModel, measurement_model
 from nnda.filters.motion import ConstantVelocity, CoordinatedTurn
 from nnda.tracking.assignment import given
 from nnda.tracking.clutter_density import coverage_area, local_density, unexplained_density
+from nnda.tracking.continuation import continuation_pairs
 from nnda.tracking.detection_probability import DEFAULT_PD, DetectionProbabilities, detection_probabilities
 from nnda.tracking.lifecycle import (
     DELETION_REASONS,
@@ -173,6 +174,12 @@ class SingleHypothesisConfig(ContactTrackerConfig):
         "a fixed-lag output ends a confirmed track that the life cycle deleted within its window at the last "
         "maximum of its score, the change time of the score-drop test (Page 1954), not only when it coasted "
         "to its deletion without a contact; under the score-type confirmation rules only"))
+    continuation_gate: Annotated[float, Field(ge=0, description=(
+        "track continuation (`nnda.tracking.continuation`): a track confirmed in a scan in which a confirmed "
+        "track coasted continues that track, under its id, when its estimate lies within this chi-square "
+        "threshold (4 dof) of one of the coasting track's motion models' predictions; the new track is then "
+        "reported deleted. Joins the two segments of a target that turned out of its track's gate instead of "
+        "reporting it lost and found again. 0: never"))] = 0.0
 
 
 @runtime_checkable
@@ -869,10 +876,14 @@ class ContactTracker(ABC):
 
     def _quality_density(self, scan: ScanContacts, x: np.ndarray) -> np.ndarray:
         """The track-quality rule's clutter density (m^-2) around K tracks at positions x (K, 4) ([x, vx, y,
-        vy]): the scan's contacts in the square of half-side ``clutter_radius_m`` (`local_density`); zeros
-        without the rule (`LifecycleConfig.gate_clutter_bound` None)."""
+        vy]): the scan's contacts in the square of half-side ``clutter_radius_m`` (`local_density`), or with
+        ``clutter_estimate`` "unexplained" those the confirmed tracks do not explain (`_unexplained_density`:
+        a coasting track's own target's contact is not clutter around it); zeros without the rule
+        (`LifecycleConfig.gate_clutter_bound` None)."""
         if self.config.lifecycle.gate_clutter_bound is None:
             return np.zeros(len(x))
+        if self._unexplained:
+            return self._unexplained_density(scan, x[:, 0:3:2], 0.0)
         return local_density(scan.xy, x[:, 0:3:2], self._clutter_radius, self.sensors[scan.sensor])
 
     @property
@@ -1100,6 +1111,16 @@ class SingleHypothesisTracker(ContactTracker):
     def reset(self) -> None:
         super().reset()
         self.tracks: Tracks | None = None
+        #: new tracks that continued a coasting one since the last reset (``continuation_gate``, `_continued`)
+        self.continued = 0
+
+    def track_management(self) -> dict:
+        """`ContactTracker.track_management`, and with ``continuation_gate`` set the tracks that continued a
+        coasting one (``continued``)."""
+        managed = super().track_management()
+        if self.config.continuation_gate > 0:
+            managed["continued"] = self.continued
+        return managed
 
     @property
     def _score_rule(self) -> bool:
@@ -1185,12 +1206,62 @@ class SingleHypothesisTracker(ContactTracker):
                 self.deletions[reason] += n
         track_id, status_alive, filt, *rest = survivors
         alive = None if not track_id.size else Tracks(track_id, status_alive, IMMState(*filt), *rest)
+        block = Shown(tracks.track_id, status, x, P, contact)
+        if alive is not None and self.config.continuation_gate > 0:
+            alive, block = self._continued(tracks, pred, alive, block, seen)
         hidden = None
         if self._misses_to_hide is not None and alive is not None:
             consecutive = np.zeros(len(status), np.int64)
-            consecutive[status != DELETED] = alive.consecutive
-            hidden = self._hidden(status, consecutive, scan.sensor)
-        return alive, Shown(tracks.track_id, status, x, P, contact), used, hidden
+            consecutive[block.status != DELETED] = alive.consecutive
+            hidden = self._hidden(block.status, consecutive, scan.sensor)
+        return alive, block, used, hidden
+
+    def _continued(self, tracks: Tracks, pred: IMMPrediction, alive: Tracks, block: Shown,
+                   seen: np.ndarray | None) -> tuple[Tracks, Shown]:
+        """Track continuation (``continuation_gate``, `nnda.tracking.continuation`) at the end of a scan, for the
+        K ``tracks`` as they were before it and their prediction ``pred``: a track confirmed in this scan whose
+        first contact came after the last contact before this scan of a confirmed track (which was coasting
+        when the new one started), and which `continuation_pairs` matches to it, continues that track. The
+        old track keeps its id, status and first contact time; if the scan missed it (observed, ``seen``; None:
+        everywhere) it takes the new one's filter state, contact history, counters, score and score peak and
+        this scan's report, else it keeps its own. The new track is reported deleted without its contact.
+        ``alive`` are the surviving tracks (in ``block``'s order, its rows not DELETED), ``block`` the K
+        tracks' report; returns both after the joins, which `continued` counts."""
+        status, contact = block.status, block.contact
+        new = np.flatnonzero((status == CONFIRMED) & (tracks.status == PRELIMINARY))
+        old = (status == CONFIRMED) & (tracks.status == CONFIRMED)
+        old = np.flatnonzero(old if seen is None else old & (seen | (contact != NO_CONTACT)))
+        if not (new.size and old.size):
+            return alive, block
+        d, state = self.filter.output_dim, pred.state
+        o, n = continuation_pairs(state.x[old, :, :d], state.P[old, :, :d, :d], block.x[new], block.P[new],
+                                  tracks.t2[old][:, None] < tracks.t0[new][None, :], self.config.continuation_gate)
+        if not o.size:
+            return alive, block
+        old, new = old[o], new[n]
+        self.continued += int(old.size)
+        taken = contact[old] == NO_CONTACT  # the old tracks that take the new one's state
+        rows = np.flatnonzero(status != DELETED)  # alive's rows in the block
+        at_old, at_new = np.searchsorted(rows, old), np.searchsorted(rows, new)
+        source = np.arange(len(alive))
+        source[at_old[taken]] = at_new[taken]
+        moved = alive.take(source)
+        history = moved.history.copy()
+        history[at_old, T0] = alive.history[at_old, T0]
+        keep = np.ones(len(alive), bool)
+        keep[at_new] = False
+        joined = moved.replaced(track_id=alive.track_id, status=alive.status, history=history).take(
+            np.flatnonzero(keep))
+        x, P, contact, status = block.x.copy(), block.P.copy(), contact.copy(), status.copy()
+        into, out = old[taken], new[taken]
+        x[into], P[into], contact[into] = x[out], P[out], contact[out]
+        contact[new], status[new] = NO_CONTACT, DELETED
+        if self._ends_at_peak and into.size:
+            ids, peak = self._peaks
+            peak = peak.copy()
+            peak[sorted_find(ids, block.track_id[into])[0]] = peak[sorted_find(ids, block.track_id[out])[0]]
+            self._peaks = (ids, peak)
+        return joined, block._replace(status=status, x=x, P=P, contact=contact)
 
     def _note_peaks(self, tracks: Tracks, gain: np.ndarray, time: float) -> None:
         """Keep, for each of the K ``tracks``, the time its score last reached its maximum: ``time`` (s) when its
