@@ -1118,9 +1118,15 @@ class SingleHypothesisTracker(ContactTracker):
         """`ContactTracker.track_management`, and with ``continuation_gate`` set the tracks that continued a
         coasting one (``continued``)."""
         managed = super().track_management()
-        if self.config.continuation_gate > 0:
+        if self._continuation_gate > 0:
             managed["continued"] = self.continued
         return managed
+
+    @property
+    def _continuation_gate(self) -> float:
+        """The config's ``continuation_gate`` (`SingleHypothesisConfig`; 0, no continuation, for a config without
+        the field, a plug-in's)."""
+        return getattr(self.config, "continuation_gate", 0.0)
 
     @property
     def _score_rule(self) -> bool:
@@ -1207,7 +1213,7 @@ class SingleHypothesisTracker(ContactTracker):
         track_id, status_alive, filt, *rest = survivors
         alive = None if not track_id.size else Tracks(track_id, status_alive, IMMState(*filt), *rest)
         block = Shown(tracks.track_id, status, x, P, contact)
-        if alive is not None and self.config.continuation_gate > 0:
+        if alive is not None and self._continuation_gate > 0:
             alive, block = self._continued(tracks, pred, alive, block, seen)
         hidden = None
         if self._misses_to_hide is not None and alive is not None:
@@ -1235,7 +1241,7 @@ class SingleHypothesisTracker(ContactTracker):
             return alive, block
         d, state = self.filter.output_dim, pred.state
         o, n = continuation_pairs(state.x[old, :, :d], state.P[old, :, :d, :d], block.x[new], block.P[new],
-                                  tracks.t2[old][:, None] < tracks.t0[new][None, :], self.config.continuation_gate)
+                                  tracks.t2[old][:, None] < tracks.t0[new][None, :], self._continuation_gate)
         if not o.size:
             return alive, block
         old, new = old[o], new[n]
