@@ -99,6 +99,17 @@ def test_take_and_concat():
         IMMState.concat([state, other])
     with pytest.raises(FilterError, match="nothing"):
         IMMState.concat([])
+    # placed: a concatenation put in a given order, the same bits as concat then take
+    a, b = state.take(np.arange(3)), pred.take(np.array([4, 1]))
+    at = (np.array([1, 3, 4]), np.array([0, 2]))
+    order = np.empty(5, np.int64)
+    order[np.concatenate(at)] = np.arange(5)
+    placed, wanted = IMMPrediction.placed([pred.take(np.arange(3)), b], at), IMMPrediction.concat(
+        [pred.take(np.arange(3)), b]).take(order)
+    for name in ("x", "P", "mu"):
+        np.testing.assert_array_equal(getattr(placed.state, name), getattr(wanted.state, name))
+    np.testing.assert_array_equal(placed.measurement.S, wanted.measurement.S)
+    np.testing.assert_array_equal(IMMState.placed([a, b.state], at).x, IMMState.concat([a, b.state]).take(order).x)
 
 
 

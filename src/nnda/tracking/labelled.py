@@ -32,7 +32,7 @@ from typing import Annotated, ClassVar, Literal
 import numpy as np
 from pydantic import Field, model_validator
 
-from nnda.filters.batch import Batch
+from nnda.filters.batch import Batch, placed_rows
 from nnda.filters.imm import IMMPrediction
 from nnda.filters.kalman import gate_probability
 from nnda.tracking.clutter_density import coverage_area, local_density
@@ -212,16 +212,12 @@ class LabelledMixture(ContactTracker):
         tr = old.tracks
         miss = every[every < S]
         filt, x, P = tr.filt.take(miss), pred.gating.x[miss], pred.gating.P[miss]
-        if pair.size:
+        if pair.size:  # each child in the place asked (misses and pairs may interleave)
             updated = linearised_update(imm, pred.take(g.pl[pair]), scan.z[g.pj[pair]], np.ones(pair.size, bool))
-            filt = type(filt).concat([filt, updated])
             x_up, P_up = imm.estimate(updated)
-            x, P = np.concatenate([x, x_up]), np.concatenate([P, P_up])
-        made = np.concatenate([np.flatnonzero(every < S), np.flatnonzero(every >= S)])  # where each child goes
-        if (made != np.arange(every.size)).any():  # misses and pairs interleaved: back in the order asked
-            back = np.empty(every.size, np.int64)
-            back[made] = np.arange(every.size)
-            filt, x, P = filt.take(back), x[back], P[back]
+            at = (np.flatnonzero(every < S), np.flatnonzero(every >= S))
+            filt = type(filt).placed([filt, updated], at)
+            x, P = placed_rows([x, x_up], at), placed_rows([P, P_up], at)
         tracks = tr.take(parent).after_scan(contact, filt, scan.z, scan.xy, scan.time, self.config.lifecycle)
         return tracks, np.column_stack([old.hist[parent, 1:], contact]), x, P
 
