@@ -31,8 +31,8 @@ def continuation_pairs(old_x: np.ndarray, old_P: np.ndarray, new_x: np.ndarray, 
     ``old_x`` (O, r, d) and ``old_P`` (O, r, d, d) are the r models' predictions of O coasting tracks to the
     scan's time, ``new_x`` (N, d) and ``new_P`` (N, d, d) the estimates of N newly confirmed tracks, all on
     the same d state entries (m, m/s); ``allowed`` (O, N) the pairs that may join; ``gate`` the chi-square
-    threshold of d dof. Returns the matched
-    (old, new) indices (M,), (M,), sorted by old, each track at most once.
+    threshold of d dof. Returns the matched (old, new) indices (M,), (M,), sorted by old, each track at most
+    once.
     """
     diff = new_x[None, :, None, :] - old_x[:, None, :, :]  # (O, N, r, d)
     S = new_P[None, :, None] + old_P[:, None]  # (O, N, r, d, d)

@@ -1249,15 +1249,13 @@ class SingleHypothesisTracker(ContactTracker):
         taken = contact[old] == NO_CONTACT  # the old tracks that take the new one's state
         rows = np.flatnonzero(status != DELETED)  # alive's rows in the block
         at_old, at_new = np.searchsorted(rows, old), np.searchsorted(rows, new)
-        source = np.arange(len(alive))
+        source = np.arange(len(alive))  # each surviving row's fields come from itself, or from its new track
         source[at_old[taken]] = at_new[taken]
-        moved = alive.take(source)
-        history = moved.history.copy()
-        history[at_old, T0] = alive.history[at_old, T0]
-        keep = np.ones(len(alive), bool)
-        keep[at_new] = False
-        joined = moved.replaced(track_id=alive.track_id, status=alive.status, history=history).take(
-            np.flatnonzero(keep))
+        kept = np.delete(np.arange(len(alive)), at_new)  # the new tracks that continued an old one go
+        joined = alive.take(source[kept])
+        history = joined.history.copy()
+        history[:, T0] = alive.history[kept, T0]
+        joined = joined.replaced(track_id=alive.track_id[kept], status=alive.status[kept], history=history)
         x, P, contact, status = block.x.copy(), block.P.copy(), contact.copy(), status.copy()
         into, out = old[taken], new[taken]
         x[into], P[into], contact[into] = x[out], P[out], contact[out]
