@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.special import logsumexp
 
 from nnda.data.dataset import Scan
 from nnda.data.generator import generate
@@ -21,7 +20,7 @@ from nnda.filters.imm import IMM
 from nnda.filters.motion import ConstantVelocity
 from nnda.study.metrics import run_metrics
 from nnda.tracking import gating
-from nnda.tracking.jpda import JPDATracker, best_pairs, pair_likelihoods, pda_update
+from nnda.tracking.jpda import JPDATracker, best_pairs, pda_update
 from nnda.tracking.lifecycle import THESIS_LIFECYCLE
 from nnda.tracking.marginals import jpda_marginals, log_miss_weight
 from nnda.tracking.output import TrackStatus
@@ -40,19 +39,7 @@ def _prediction(imm: IMM, dt: float = 2.0):
 def _update(imm: IMM, pred, z, beta, beta0):
     """`pda_update` from dense (K, N) association probabilities (pairs: where beta > 0)."""
     t, c = np.nonzero(beta > 0)
-    nu, log_lik = pair_likelihoods(pred, z, t, c, imm.measurement)
-    return pda_update(pred, t, nu, log_lik, beta[t, c], beta0)
-
-
-def test_pair_model_likelihoods_mix_to_the_imms():
-    imm = IMM()
-    pred = _prediction(imm)
-    z = np.array([[12_310.0, 0.522], [9_000.0, 1.0], [15_190.0, 2.021]])
-    t, c = np.array([0, 0, 1, 1]), np.array([0, 2, 1, 2])
-    nu, log_lik = pair_likelihoods(pred, z, t, c, imm.measurement)
-    assert nu.shape == (4, 2, 2) and log_lik.shape == (4, 2)
-    mixed = logsumexp(log_lik, b=pred.state.mu[t], axis=1)
-    np.testing.assert_allclose(mixed, imm.log_likelihood(pred, z)[t, c], rtol=RTOL)
+    return pda_update(pred, np.arange(len(beta)), t, z[c], beta[t, c], beta0, imm.polar)
 
 
 def test_best_pair_per_track_takes_the_first_of_equals():
@@ -86,13 +73,8 @@ def test_update_of_some_tracks_reads_them_from_the_whole_prediction():
     z = np.array([[12_310.0, 0.522], [9_000.0, 1.0], [9_290.0, 1.012], [20_200.0, 4.01]])
     rows, t, c = np.array([0, 2, 3]), np.array([0, 0, 1, 2]), np.array([0, 2, 2, 3])
     beta, beta0 = np.array([0.5, 0.2, 0.9, 0.6]), np.array([0.3, 0.1, 0.4])
-    taken = pred.take(rows)
-    nu, log_lik = pair_likelihoods(taken, z, t, c, imm.measurement)
-    nu_all, log_lik_all = pair_likelihoods(pred, z, rows[t], c, imm.measurement)
-    np.testing.assert_array_equal(nu_all, nu)
-    np.testing.assert_array_equal(log_lik_all, log_lik)
-    want = pda_update(taken, t, nu, log_lik, beta, beta0)
-    got = pda_update(pred, t, nu, log_lik, beta, beta0, rows)
+    want = pda_update(pred.take(rows), np.arange(3), t, z[c], beta, beta0, imm.polar)
+    got = pda_update(pred, rows, t, z[c], beta, beta0, imm.polar)
     for a, b in ((got.x, want.x), (got.P, want.P), (got.mu, want.mu)):
         assert a.shape[0] == 3
         np.testing.assert_array_equal(a, b)
@@ -115,6 +97,35 @@ def test_single_model_update_is_the_textbook_pda():
     assert_state(got.x[0, 0], x + W @ nu, P_want)
     assert_cov(got.P[0, 0], P_want)
     np.testing.assert_allclose(got.x[1], pred.state.x[1])
+
+
+def test_each_imm_model_makes_the_textbook_pda_with_its_own_association_probabilities():
+    """Two tracks of the CV + CT IMM, two contacts each: every model's state and covariance are
+    the textbook PDA with the pair probabilities split by that model's responsibility for the contact, and the
+    mode probabilities are the IMM-PDAF's."""
+    imm = IMM()
+    pred = _prediction(imm)
+    z = np.array([[12_310.0, 0.522], [12_250.0, 0.5245], [15_190.0, 2.021], [15_120.0, 2.017]])
+    beta = np.array([[0.5, 0.3, 0.0, 0.0], [0.0, 0.0, 0.6, 0.2]])
+    beta0 = 1.0 - beta.sum(axis=1)
+    got = _update(imm, pred, z, beta, beta0)
+    mp, st = pred.measurement, pred.state
+    for k in range(2):
+        own = beta[k] > 0
+        nu = imm.measurement.residual(z[own][:, None, :], mp.z[k][None])  # (N_k, r, 2)
+        lik = np.exp(kalman.gaussian_log_likelihood(kalman.mahalanobis_2x2(nu, mp.S_inv[k][None]),
+                                                    mp.log_det_S[k][None]))  # (N_k, r)
+        split = beta[k, own][:, None] * st.mu[k] * lik / (st.mu[k] * lik).sum(axis=1, keepdims=True)  # (N, r)
+        mu = beta0[k] * st.mu[k] + split.sum(axis=0)
+        np.testing.assert_allclose(got.mu[k], mu / mu.sum(), rtol=RTOL)
+        for j in range(2):
+            b, b0 = split[:, j] / mu[j], beta0[k] * st.mu[k, j] / mu[j]
+            W = mp.PHt[k, j] @ np.linalg.inv(mp.S[k, j])
+            combined = b @ nu[:, j]
+            spread = np.einsum("n,na,nb->ab", b, nu[:, j], nu[:, j]) - np.outer(combined, combined)
+            P = st.P[k, j] - (1.0 - b0) * W @ mp.S[k, j] @ W.T + W @ spread @ W.T
+            assert_state(got.x[k, j], st.x[k, j] + W @ combined, P)
+            assert_cov(got.P[k, j], P)
 
 
 def test_mode_probabilities_of_an_isolated_track_are_the_imm_pdaf_ones():

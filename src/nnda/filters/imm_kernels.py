@@ -5,6 +5,7 @@
     xp, Pp, mu_p, z, S, ..., bad, xc, Pc, zc, Sc, ..., bad_c = predict(x, P, mu, dt, ..., R, d)   # one call:
                                                        # both, and the combined (gating) prediction measured
     x, P, mu = update(xp, Pp, mu_p, z, mask, z_pred, S_inv, log_det, PHt, polar)        # eqs. 4.50-4.53
+    x, P, mu = pda_update(x, P, mu, z_pred, S_inv, log_det, PHt, rows, track, Z, beta, beta0, polar)  # JPDA's
     xc, Pc = estimate(x, P, mu, d)                                                     # eqs. 4.54-4.55
     d2 = mahalanobis(z_pred, S_inv, Z, polar)                                           # (B, N) gate distances
     r, c, d2 = gated_pairs(z_pred, S_inv, rows, Z, threshold, polar)                   # (P,) pairs inside a gate
@@ -280,6 +281,98 @@ def update(x, P, mu, z, mask, z_pred, S_inv, log_det, PHt, polar):
             total += log_post[j]
         for j in range(r):
             mu_u[k, j] = log_post[j] / total
+    return xu, Pu, mu_u
+
+
+@_jit
+def pda_update(x, P, mu, z_pred, S_inv, log_det, PHt, rows, track, Z, beta, beta0, polar):
+    """IMM-PDA correction (JPDA's soft update: each model weighs every gated contact by its association
+    probability, the spread of the innovations widens P) of the K tracks ``rows`` (K,) of a prediction x
+    (B, r, n), P, mu (B, r) measured as z_pred (B, r, 2), S_inv, log_det, PHt (leading (B, r)); from P gated
+    pairs of ``track`` (P,), sorted, indexing ``rows``, with contacts Z (P, 2) and association probabilities
+    ``beta`` (P,), and each track's probability of no contact ``beta0`` (K,). A pair's probability splits over
+    the models by their responsibility for its contact (mu times the model's likelihood, normalised), which
+    gives the new mode probabilities; each model is then corrected by its own association probabilities.
+    Returns x (K, r, n), P (symmetrised), mu (K, r)."""
+    K, n_pairs = rows.size, track.size
+    r, n = mu.shape[1], x.shape[2]
+    xu = np.empty((K, r, n))
+    Pu = np.empty((K, r, n, n))
+    mu_u = np.empty((K, r))
+    nu = np.empty((n_pairs, r, 2))
+    joint = np.empty((n_pairs, r))  # P(the pair's contact is the track's, model j)
+    for p in range(n_pairs):
+        k = rows[track[p]]
+        top = -np.inf
+        for j in range(r):
+            nu0 = Z[p, 0] - z_pred[k, j, 0]
+            nu1 = Z[p, 1] - z_pred[k, j, 1]
+            if polar:
+                nu1 = wrap_angle_kernel(nu1)
+            nu[p, j, 0], nu[p, j, 1] = nu0, nu1
+            Si = S_inv[k, j]
+            d2 = quadratic_2x2(Si[0, 0], Si[0, 1], Si[1, 0], Si[1, 1], nu0, nu1)
+            joint[p, j] = math.log(mu[k, j] + TINY) + (-0.5 * (d2 + log_det[k, j]) - LOG_2PI)
+            top = max(top, joint[p, j])
+        total = 0.0
+        for j in range(r):
+            joint[p, j] = math.exp(joint[p, j] - top)
+            total += joint[p, j]
+        for j in range(r):
+            joint[p, j] = beta[p] * (joint[p, j] / total)
+    mu_j = np.empty(r)
+    combined = np.empty(2)
+    spread = np.empty((2, 2))
+    gain = np.empty((n, 2))
+    first = 0
+    for t in range(K):
+        last = first
+        while last < n_pairs and track[last] == t:
+            last += 1
+        k = rows[t]
+        for j in range(r):
+            s = 0.0
+            for p in range(first, last):
+                s += joint[p, j]
+            mu_j[j] = beta0[t] * mu[k, j] + s
+        norm = 0.0
+        for j in range(r):
+            norm += mu_j[j]
+        for j in range(r):
+            mu_u[t, j] = mu_j[j] / norm
+            b0 = beta0[t] * mu[k, j] / (mu_j[j] + TINY)
+            combined[0] = combined[1] = 0.0
+            spread[0, 0] = spread[0, 1] = spread[1, 0] = spread[1, 1] = 0.0
+            for p in range(first, last):
+                b = joint[p, j] / (mu_j[j] + TINY)
+                w0, w1 = b * nu[p, j, 0], b * nu[p, j, 1]
+                combined[0] += w0
+                combined[1] += w1
+                spread[0, 0] += w0 * nu[p, j, 0]
+                spread[0, 1] += w0 * nu[p, j, 1]
+                spread[1, 0] += w1 * nu[p, j, 0]
+                spread[1, 1] += w1 * nu[p, j, 1]
+            for u in range(2):
+                for v in range(2):
+                    spread[u, v] -= combined[u] * combined[v]
+            Si = S_inv[k, j]
+            H = PHt[k, j]
+            for a in range(n):
+                gain[a, 0] = H[a, 0] * Si[0, 0] + H[a, 1] * Si[1, 0]
+                gain[a, 1] = H[a, 0] * Si[0, 1] + H[a, 1] * Si[1, 1]
+                xu[t, j, a] = x[k, j, a] + (gain[a, 0] * combined[0] + gain[a, 1] * combined[1])
+            for a in range(n):
+                g0 = gain[a, 0] * spread[0, 0] + gain[a, 1] * spread[1, 0]  # (gain spread)[a]
+                g1 = gain[a, 0] * spread[0, 1] + gain[a, 1] * spread[1, 1]
+                for c in range(n):
+                    Pu[t, j, a, c] = (P[k, j, a, c] - (1.0 - b0) * (gain[a, 0] * H[c, 0] + gain[a, 1] * H[c, 1])
+                                      + (g0 * gain[c, 0] + g1 * gain[c, 1]))
+            for a in range(n):
+                for c in range(a, n):
+                    m = 0.5 * (Pu[t, j, a, c] + Pu[t, j, c, a])
+                    Pu[t, j, a, c] = m
+                    Pu[t, j, c, a] = m
+        first = last
     return xu, Pu, mu_u
 
 

@@ -85,17 +85,15 @@ clutter after their targets leave.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Annotated, ClassVar, Literal
 
 import numba
 import numpy as np
 from pydantic import Field
 
-from nnda.filters import kalman
+from nnda.filters import imm_kernels
 from nnda.filters.imm import IMMPrediction, IMMState
 from nnda.filters.kalman import GATE_99
-from nnda.filters.measurement import MeasurementModel
 from nnda.tracking.clutter_density import measurement_volume
 from nnda.tracking.gating import gate_tracks
 from nnda.tracking.lifecycle import existence, jipda_log_ratio
@@ -133,69 +131,16 @@ class JPDAConfig(SingleHypothesisConfig):
                                 "(summed over its tracks) before falling back to loopy belief "
                                 "propagation")] = 10_000
 
-def pair_likelihoods(pred: IMMPrediction, z: np.ndarray, track: np.ndarray, contact: np.ndarray,
-                     measurement: MeasurementModel) -> tuple[np.ndarray, np.ndarray]:
-    """Innovations and likelihoods of P (track, contact) pairs under each IMM model.
-
-    ``pred`` holds K tracks, ``z`` (N, 2) the contacts, ``track`` and
-    ``contact`` (P,) index the pairs. Returns the innovations nu (P, r, 2)
-    and each model's log N(nu; 0, S) (P, r), what `pda_update` needs (the
-    IMM mixture of these is `IMM.pair_log_likelihood`).
-    """
-    mp = pred.measurement
-    nu = measurement.residual(z[contact][:, None, :], mp.z[track])
-    return nu, kalman.gaussian_log_likelihood(kalman.mahalanobis_2x2(nu, mp.S_inv[track]), mp.log_det_S[track])
-
-
-def pda_update(pred: IMMPrediction, track: np.ndarray, nu: np.ndarray, log_lik: np.ndarray,
-               beta: np.ndarray, beta0: np.ndarray, rows: np.ndarray | None = None) -> IMMState:
-    """IMM-JPDA update of K tracks from their association probabilities (module docstring, step 4).
-
-    ``pred`` is the tracks' IMM prediction, or with ``rows`` (K,) that of more tracks, of which these are
-    the K (only the arrays the update reads are taken); the P gated pairs are given by
-    their ``track`` (P,), sorted, innovations ``nu`` (P, r, 2) and per-model
-    log-likelihoods ``log_lik`` (P, r) (`pair_likelihoods`) and their
-    association probabilities ``beta`` (P,); ``beta0`` (K,) is each track's
-    probability of no detection.
-    """
-    mp, st = pred.measurement, pred.state
-    x, P, mu, PHt, S_inv = st.x, st.P, st.mu, mp.PHt, mp.S_inv
-    if rows is not None:
-        x, P, mu, PHt, S_inv = x[rows], P[rows], mu[rows], PHt[rows], S_inv[rows]
-    K = len(mu)
-    log_joint = np.log(mu[track] + _TINY) + log_lik
-    responsibility = np.exp(log_joint - log_joint.max(axis=1, keepdims=True))
-    responsibility /= responsibility.sum(axis=1, keepdims=True)  # P(model m | the pair's contact is the track's)
-    joint = beta[:, None] * responsibility  # P(contact, model m), (P, r)
-    joint0 = beta0[:, None] * mu  # P(no contact, model m), (K, r)
-    by_track = _sum_by_track(track, K)
-    mu = joint0 + by_track(joint)  # the new mode probabilities, unnormalised
-    b = joint / (mu[track] + _TINY)  # each model's own association probabilities
-    b0 = joint0 / (mu + _TINY)
-    weighted = b[..., None] * nu  # (P, r, 2)
-    combined = by_track(weighted)  # (K, r, 2)
-    spread = by_track(weighted[..., :, None] * nu[..., None, :]) - (
-        combined[..., :, None] * combined[..., None, :])
-    gain = PHt @ S_inv  # (K, r, n, 2)
-    x = x + (gain @ combined[..., None])[..., 0]
-    P = (P - (1.0 - b0)[..., None, None] * (gain @ np.swapaxes(PHt, -1, -2))
-         + gain @ spread @ np.swapaxes(gain, -1, -2))
-    return IMMState(x, kalman.symmetrise(P), mu / mu.sum(axis=1, keepdims=True))
-
-
-def _sum_by_track(track: np.ndarray, K: int) -> Callable[[np.ndarray], np.ndarray]:
-    """A function summing per-pair values (P, ...) over the pairs of each of K tracks, giving (K, ...);
-    ``track`` (P,) sorted. (One set of segment bounds serves every sum of an update.)"""
-    count = np.bincount(track, minlength=K)
-    some = count > 0
-    first = (np.cumsum(count) - count)[some]
-
-    def total(values: np.ndarray) -> np.ndarray:
-        out = np.zeros((K, *values.shape[1:]))
-        if first.size:
-            out[some] = np.add.reduceat(values, first, axis=0)
-        return out
-    return total
+def pda_update(pred: IMMPrediction, rows: np.ndarray, track: np.ndarray, z: np.ndarray, beta: np.ndarray,
+               beta0: np.ndarray, polar: bool) -> IMMState:
+    """IMM-JPDA update (module docstring, step 4) of the K tracks ``rows`` (K,) of the prediction ``pred``
+    from their P gated pairs: ``track`` (P,), sorted, indexes ``rows``, z (P, 2) holds the pairs' contacts
+    and ``beta`` (P,) their association probabilities; ``beta0`` (K,) is each track's probability of no
+    detection; ``polar`` whether azimuth residuals wrap. One compiled call (`imm_kernels.pda_update`)."""
+    mp, st, arr = pred.measurement, pred.state, imm_kernels.kernel_array
+    return IMMState(*imm_kernels.pda_update(st.x, st.P, st.mu, mp.z, mp.S_inv, mp.log_det_S, mp.PHt,
+                                            arr(rows, np.int64), arr(track, np.int64), arr(z), arr(beta),
+                                            arr(beta0), polar))
 
 
 def given_existence(log_odds: np.ndarray, beta: np.ndarray, beta0: np.ndarray, track: np.ndarray, log_miss: float
@@ -297,8 +242,7 @@ class JPDATracker(SingleHypothesisTracker):
             won = wins[track]
             winner = (np.cumsum(wins) - 1)[track[won]]
             active = rows[wins]
-            nu, log_lik = pair_likelihoods(pred, z, active[winner], cols[won], imm.measurement)
-            updated = pda_update(pred, winner, nu, log_lik, beta[won], beta0[wins], active)
+            updated = pda_update(pred, active, winner, z[cols[won]], beta[won], beta0[wins], imm.polar)
             state.x[active], state.P[active], state.mu[active] = updated.x, updated.P, updated.mu
         # the score rule scores the reported contact sequence, as for GNN (the framework's increment): the PDA
         # ratio's drift is ~0 for a vague clutter-born track, whose score then walks until it confirms
