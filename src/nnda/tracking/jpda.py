@@ -85,6 +85,7 @@ clutter after their targets leave.
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, ClassVar, Literal
 
 import numba
@@ -97,7 +98,7 @@ from nnda.filters.kalman import GATE_99
 from nnda.tracking.clutter_density import measurement_volume
 from nnda.tracking.gating import gate_tracks
 from nnda.tracking.lifecycle import existence, jipda_log_ratio
-from nnda.tracking.marginals import jpda_marginals, runs
+from nnda.tracking.marginals import jpda_marginals
 from nnda.tracking.output import CONFIRMED, NO_CONTACT
 from nnda.tracking.tracker import (
     CLUTTER_ESTIMATE_DOC,
@@ -167,6 +168,59 @@ def best_pairs(track: np.ndarray, beta: np.ndarray) -> np.ndarray:
     return best
 
 
+@numba.njit(cache=True, nogil=True)
+def _stage_pairs(confirmed, status, g_rows, g_cols, taken, log_pd, log_density, z_pred, S_inv, log_det, mu, z, polar):
+    """One stage of `JPDATracker.associate` in one call: of the gated pairs (g_rows, g_cols (P,), grouped by
+    track), those of the confirmed tracks (``confirmed``; else the others, by ``status`` (K,)) whose contact is
+    not ``taken`` (N,). Returns the stage's tracks ``rows`` (T,), each pair's index among them ``track`` (Q,)
+    and its contact ``cols`` (Q,), and its log likelihood ratio against clutter (Q,): ``log_pd`` plus the IMM
+    mixture likelihood of the contact (`imm_kernels.pair_log_likelihood` on the prediction's z_pred, S_inv,
+    log_det, mu, of the contacts z (N, 2)) less the clutter's ``log_density`` (N,) there."""
+    keep = np.empty(g_rows.size, np.int64)
+    m = 0
+    for p in range(g_rows.size):
+        if (status[g_rows[p]] == CONFIRMED) == confirmed and not taken[g_cols[p]]:
+            keep[m] = p
+            m += 1
+    rows, track, cols = np.empty(m, np.int64), np.empty(m, np.int64), np.empty(m, np.int64)
+    n = 0
+    for q in range(m):
+        p = keep[q]
+        if q == 0 or g_rows[p] != g_rows[keep[q - 1]]:
+            rows[n] = g_rows[p]
+            n += 1
+        track[q], cols[q] = n - 1, g_cols[p]
+    rows = rows[:n]
+    log_ratio = (log_pd + imm_kernels.pair_log_likelihood(z_pred, S_inv, log_det, mu, rows[track], z[cols], polar)
+                 - log_density[cols])
+    return rows, track, cols, log_ratio
+
+
+@numba.njit(cache=True, nogil=True)
+def _stage_update(rows, track, cols, beta, beta0, contact, taken, x, P, mu, xp, Pp, mup, z_pred, S_inv, log_det, PHt,
+                  z, polar):
+    """The decisions of one stage of `JPDATracker.associate` (its tracks ``rows`` (T,), their pairs' ``track``
+    (Q,) and ``cols`` (Q,) as `_stage_pairs` gives them, association probabilities ``beta`` (Q,) and ``beta0``
+    (T,)), in place: each track whose most probable pair (`best_pairs`) beats no contact reports that contact
+    (``contact`` (K,), ``taken`` (N,)) and takes its soft update (`imm_kernels.pda_update` of the prediction xp,
+    Pp, mup measured as z_pred, S_inv, log_det, PHt, from the contacts z (N, 2)) into x, P, mu (K, ...).
+    Returns each track's best pair (T,) and whether it won (T,)."""
+    best = best_pairs(track, beta)
+    wins = beta[best] > beta0
+    winner = np.cumsum(wins) - 1  # a winning track's index among the winners
+    for t in range(rows.size):
+        if wins[t]:
+            contact[rows[t]] = cols[best[t]]
+            taken[cols[best[t]]] = True
+    won = wins[track]
+    active = rows[wins]
+    ux, uP, umu = imm_kernels.pda_update(xp, Pp, mup, z_pred, S_inv, log_det, PHt, active, winner[track[won]],
+                                         z[cols[won]], beta[won], beta0[wins], polar)
+    for t in range(active.size):
+        x[active[t]], P[active[t]], mu[active[t]] = ux[t], uP[t], umu[t]
+    return best, wins
+
+
 class JPDATracker(SingleHypothesisTracker):
     """IMM tracker with joint probabilistic data association (baseline)."""
 
@@ -205,15 +259,13 @@ class JPDATracker(SingleHypothesisTracker):
         log_density = np.zeros(len(z))
         log_density[near] = np.log(self.clutter_density(scan, near))
         taken = np.zeros(len(z), bool)
-        confirmed = tracks.status == CONFIRMED
-        for stage in (confirmed, ~confirmed):  # confirmed tracks first, as in GNN
-            sel = np.flatnonzero(stage[g.rows] & ~taken[g.cols])
-            if not sel.size:
+        mp, st = pred.measurement, pred.state
+        for stage in (True, False):  # confirmed tracks first, as in GNN
+            rows, track, cols, log_ratio = _stage_pairs(stage, tracks.status, g.rows, g.cols, taken, math.log(pd),
+                                                        log_density, mp.z, mp.S_inv, mp.log_det_S, st.mu, z,
+                                                        imm.polar)
+            if not track.size:
                 continue
-            start, track = runs(g.rows[sel])  # the stage's tracks with pairs, numbered 0, 1, ...
-            rows, cols = g.rows[sel[start]], g.cols[sel]
-            log_ratio = (np.log(pd) + imm.pair_log_likelihood(pred, rows[track], z[cols], check=False)
-                         - log_density[cols])
             jipda = self.confirmation_rule == "existence"
             if jipda:  # JIPDA: each track's events weighed by its predicted existence
                 own, log_odds = log_ratio, tracks.score[rows]
@@ -229,21 +281,14 @@ class JPDATracker(SingleHypothesisTracker):
                                 "cap solved by loopy belief propagation, not enumeration", scan.time)
             # the reported contact: the most probable given that the target exists (JIPDA's state update), as
             # JPDA's at rho = 1; against the unconditional beta0, which holds "no target", a newborn of tiny
-            # existence never reports its target's contacts nor updates on them, and its gate only grows
-            best = best_pairs(track, beta)
-            wins = beta[best] > beta0
+            # existence never reports its target's contacts nor updates on them, and its gate only grows. The
+            # soft update only for the tracks that report a contact (the framework keeps the others').
+            best, wins = _stage_update(rows, track, cols, beta, beta0, contact, taken, state.x, state.P, state.mu,
+                                       st.x, st.P, st.mu, mp.z, mp.S_inv, mp.log_det_S, mp.PHt, z, imm.polar)
             if jipda:  # IPDA's ratio of the reported contact, a miss's for none (as GNN's, the module
                 # docstring): the soft ratio over all the gate's contacts walks up on a vague clutter-born track
                 # (its gate holds ~100 contacts at 5,000 per scan) until it confirms
                 gain[rows] = np.where(wins, np.logaddexp(log_miss, own[best]), log_miss)
-            contact[rows[wins]] = cols[best[wins]]
-            taken[contact[rows[wins]]] = True
-            # the soft update, for the tracks that report a contact (the framework keeps the others')
-            won = wins[track]
-            winner = (np.cumsum(wins) - 1)[track[won]]
-            active = rows[wins]
-            updated = pda_update(pred, active, winner, z[cols[won]], beta[won], beta0[wins], imm.polar)
-            state.x[active], state.P[active], state.mu[active] = updated.x, updated.P, updated.mu
         # the score rule scores the reported contact sequence, as for GNN (the framework's increment): the PDA
         # ratio's drift is ~0 for a vague clutter-born track, whose score then walks until it confirms
         return Association(contact, state, gain if self.confirmation_rule == "existence" else None)
