@@ -132,7 +132,7 @@ def test_cap_per_initiator_keeps_the_pairs_nearest_the_window_middle():
     assert i.tolist() == [0, 0, 0, 0, 1]
     ci, cj = cap_per_initiator(i, j, init, contacts, 50.0, 490.0, 2)
     assert ci.tolist() == [0, 0, 1] and cj.tolist() == [1, 2, 4]  # 260 and 300 m are nearest 270 m
-    same = cap_per_initiator(i, j, init, contacts, 50.0, 490.0, None)
+    same = cap_per_initiator(i, j, init, contacts, 50.0, 490.0, 0)
     assert same[0].tolist() == i.tolist() and same[1].tolist() == j.tolist()
 
 

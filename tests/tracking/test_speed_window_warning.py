@@ -13,7 +13,6 @@ from nnda.data.scenario import Clutter, Scenario, Segment, Target
 from nnda.errors import BoundWarning
 from nnda.tracking.lifecycle import LifecycleConfig, fast_lines, fast_tolerance_m, no_lines
 from nnda.tracking.registry import make_tracker
-from nnda.tracking.tracker import TwoPointInitiation
 
 
 def _scene(speed: float, clutter: int = 30, pd: float | None = None) -> Scenario:
@@ -60,11 +59,17 @@ def test_slow_targets_in_clutter_raise_no_warning():
 
 
 def test_the_count_changes_no_output(monkeypatch):
-    """Counting reads the scan only: every output is the same with the count switched off."""
+    """Counting reads the scan only: every output is the same with the count switched off (a fast annulus 5 cm
+    wide, which no pair of this scene falls in)."""
     scene = _scene(320.0)
     _, counted, bound = _run("gnn", scene)
     assert bound
-    monkeypatch.setattr(TwoPointInitiation, "_too_fast", lambda *args: None)
+    window = LifecycleConfig.fast_window
+
+    def narrow(self, period, sigma):
+        d_max = window(self, period, sigma)[0]
+        return d_max, d_max + 0.05
+    monkeypatch.setattr(LifecycleConfig, "fast_window", narrow)
     _, plain, bound = _run("gnn", scene)
     assert not bound
     for a, b in zip(counted, plain, strict=True):

@@ -97,8 +97,15 @@ def _positions(z, ox, oy, var_range, var_azimuth):
     """`PolarMeasurement.position` of N measurements z (N, 2) [range m, azimuth rad] from (ox, oy) m, with
     sigma_range^2 ``var_range`` and sigma_azimuth^2 ``var_azimuth``: positions (N, 2) m and covariances
     (N, 2, 2), with the operations of `polar_to_cart_at` (no shift at the origin) and `converted_covariance`."""
+    return _cartesian(z, ox, oy), converted_covariances(z, var_range, var_azimuth)
+
+
+@numba.njit(cache=True, nogil=True)
+def converted_covariances(z, var_range, var_azimuth):
+    """`converted_covariance`'s arithmetic, compiled: the Cartesian covariances (N, 2, 2) m^2 of N polar
+    measurements z (N, 2) [range m, azimuth rad] with sigma_range^2 ``var_range`` and sigma_azimuth^2
+    ``var_azimuth``."""
     n = z.shape[0]
-    xy = _cartesian(z, ox, oy)
     cov = np.empty((n, 2, 2))
     for i in range(n):
         r, azimuth = z[i, 0], z[i, 1]
@@ -108,7 +115,7 @@ def _positions(z, ox, oy, var_range, var_azimuth):
         cov[i, 0, 0] = var_range * c * c + var_cross * s * s
         cov[i, 1, 1] = var_range * s * s + var_cross * c * c
         cov[i, 0, 1] = cov[i, 1, 0] = (var_range - var_cross) * c * s
-    return xy, cov
+    return cov
 
 
 @numba.njit(cache=True, nogil=True)

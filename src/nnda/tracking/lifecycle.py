@@ -659,15 +659,20 @@ def sweep_pairs(initiators: np.ndarray, contacts: np.ndarray, used: np.ndarray, 
     """`free_window_pairs` and, from the same search, the pairs (fi, fj) (Q,) whose distance lies in (d_max,
     d_fast] (`LifecycleConfig.fast_window`: those `fast_lines` continues; none for d_fast = d_max): (free, i,
     j, fi, fj), each sorted by initiator then contact."""
-    # the margin over the reach keeps rounding at the cells' edges from dropping a pair
+    return free_pairs_kernel(np.ascontiguousarray(initiators, float), np.ascontiguousarray(contacts, float),
+                             np.asarray(used, np.bool_), float(d_min), float(d_max), float(d_fast),
+                             search_reach(d_max, d_fast))
+
+
+def search_reach(d_max: float, d_fast: float) -> float:
+    """The cell side (m) of `sweep_pairs`' search out to the larger of ``d_max`` and ``d_fast``: a margin over it
+    keeps rounding at the cells' edges from dropping a pair."""
     reach = max(d_max, d_fast)
-    reach += 1e-6 * (1.0 + reach)
-    return _free_pairs(np.ascontiguousarray(initiators, float), np.ascontiguousarray(contacts, float),
-                       np.asarray(used, np.bool_), float(d_min), float(d_max), float(d_fast), reach)
+    return reach + 1e-6 * (1.0 + reach)
 
 
 @numba.njit(cache=True, nogil=True)
-def _free_pairs(initiators, contacts, used, d_min, d_max, d_fast, reach):
+def free_pairs_kernel(initiators, contacts, used, d_min, d_max, d_fast, reach):
     """`sweep_pairs`: the free contacts, then `_cell_pairs` with them out to ``d_fast`` (none without
     initiators), split at ``d_max``."""
     free = np.flatnonzero(~used)
@@ -797,15 +802,20 @@ def fast_lines(initiators: np.ndarray, contacts: np.ndarray, free: np.ndarray, s
     (L,) among the next initiators, ascending; position (L, 2) m; velocity (L, 2) m/s; contacts in line (L,);
     evidence (L,); counted already (L,)). ``lines`` starts as `no_lines`. ``pairs`` (fi, fj) are those pairs
     when `sweep_pairs` found them already with the window's (``free`` ascending); None: searched here. One
-    compiled call (`_fast_lines`)."""
+    compiled call (`fast_lines_kernel`)."""
     initiators, contacts = np.ascontiguousarray(initiators, float), np.ascontiguousarray(contacts, float)
     if pairs is None:  # the free contacts (ascending) are those no track used
         used = np.ones(len(contacts), np.bool_)
         used[free] = False
         pairs = sweep_pairs(initiators, contacts, used, d_max, d_max, d_fast)[3:]
-    share = math.pi * tol * tol / (math.pi * (d_fast * d_fast - d_max * d_max))  # pi tol^2 / A
-    return _fast_lines(initiators, contacts, free, spoken, *pairs, *lines, float(d_max), float(tol), float(dt), share,
-                       FAST_LINE_EVIDENCE, FAST_LINE_CONTACTS)
+    return fast_lines_kernel(initiators, contacts, free, spoken, *pairs, *lines, float(d_max), float(tol), float(dt),
+                             fast_share(d_max, d_fast, tol), FAST_LINE_EVIDENCE, FAST_LINE_CONTACTS)
+
+
+def fast_share(d_max: float, d_fast: float, tol: float) -> float:
+    """pi tol^2 / A: the share of the fast annulus (d_max, d_fast] m, of area A, in which a contact continuing a
+    line falls (`fast_lines`)."""
+    return math.pi * tol * tol / (math.pi * (d_fast * d_fast - d_max * d_max))
 
 
 def no_lines() -> tuple:
@@ -815,7 +825,7 @@ def no_lines() -> tuple:
 
 
 @numba.njit(cache=True, nogil=True)
-def _fast_lines(initiators, contacts, free, spoken, i, j, after, at, velocity, length, evidence, told, d_max, tol,
+def fast_lines_kernel(initiators, contacts, free, spoken, i, j, after, at, velocity, length, evidence, told, d_max, tol,
                 dt, share, enough, contacts_min):
     """`fast_lines`: the pairs (i, j) over (d_max, d_fast] (`sweep_pairs`), each matched against the lines of its
     initiator (``after`` ascending), in one pass; of the lines a pair continues, the one of most evidence."""
@@ -867,32 +877,43 @@ def _fast_lines(initiators, contacts, free, spoken, i, j, after, at, velocity, l
     return int(done.sum()), (rank[j[k]], new_at, new_v, inline[k], proof[k], counted[k])
 
 
-def _off_middle(i: np.ndarray, j: np.ndarray, initiators: np.ndarray, contacts: np.ndarray,
-                d_min: float, d_max: float) -> np.ndarray:
-    """|distance - window middle| (m) of each window pair, (P,)."""
-    return np.abs(np.hypot(*(initiators[i] - contacts[j]).T) - 0.5 * (d_min + d_max))
+@numba.njit(cache=True, nogil=True)
+def _off_middle(i, j, initiators, contacts, d_min, d_max):
+    """|distance - window middle| (m) of each window pair (i, j) (P,) of the initiators (I, 2) and contacts
+    (N, 2) m, (P,)."""
+    middle = 0.5 * (d_min + d_max)
+    off = np.empty(i.size)
+    for p in range(i.size):
+        off[p] = abs(math.hypot(initiators[i[p], 0] - contacts[j[p], 0], initiators[i[p], 1] - contacts[j[p], 1])
+                     - middle)
+    return off
 
 
-def cap_per_initiator(i: np.ndarray, j: np.ndarray, initiators: np.ndarray, contacts: np.ndarray,
-                      d_min: float, d_max: float, cap: int | None) -> tuple[np.ndarray, np.ndarray]:
-    """Keep at most ``cap`` of each initiator's window pairs (i, j sorted by i): those whose
-    distance is nearest the middle of [d_min, d_max]. ``cap`` None keeps every pair."""
-    if cap is None or i.size == 0:
+@numba.njit(cache=True, nogil=True)
+def cap_per_initiator(i, j, initiators, contacts, d_min, d_max, cap):
+    """Keep at most ``cap`` >= 1 of each initiator's window pairs (i, j (P,) sorted by i; of the initiators (I, 2)
+    and contacts (N, 2) m): those whose distance is nearest the middle of [d_min, d_max] (ties: the earlier
+    pair), each initiator's in that order; ``cap`` < 1 keeps every pair as it is (the config's None)."""
+    if cap < 1 or i.size == 0:
         return i, j
-    order = np.lexsort((_off_middle(i, j, initiators, contacts, d_min, d_max), i))
-    i, j = i[order], j[order]
-    rank = np.arange(i.size) - np.searchsorted(i, i)
-    keep = np.sort(np.flatnonzero(rank < cap))
-    return i[keep], j[keep]
+    by_off = np.argsort(_off_middle(i, j, initiators, contacts, d_min, d_max), kind="mergesort")
+    order = by_off[np.argsort(i[by_off], kind="mergesort")]  # by initiator, then off the middle, then position
+    keep = np.empty(i.size, np.int64)
+    m = 0
+    for p in range(order.size):
+        if p < cap or i[order[p - cap]] != i[order[p]]:  # fewer than cap pairs of its initiator before it
+            keep[m] = order[p]
+            m += 1
+    return i[keep[:m]], j[keep[:m]]
 
 
-def cap_pairs(i: np.ndarray, j: np.ndarray, initiators: np.ndarray, contacts: np.ndarray,
-              d_min: float, d_max: float, room: int) -> tuple[np.ndarray, np.ndarray]:
-    """Keep at most ``room`` >= 0 of all window pairs (i, j sorted by i, then j): those whose
-    distance is nearest the middle of [d_min, d_max] (ties: the earlier pair), in their order."""
+@numba.njit(cache=True, nogil=True)
+def cap_pairs(i, j, initiators, contacts, d_min, d_max, room):
+    """Keep at most ``room`` >= 0 of all window pairs (i, j (P,) sorted by i, then j): those whose distance is
+    nearest the middle of [d_min, d_max] (ties: the earlier pair), in their order."""
     if i.size <= room:
         return i, j
-    keep = np.sort(np.argsort(_off_middle(i, j, initiators, contacts, d_min, d_max), kind="stable")[:room])
+    keep = np.sort(np.argsort(_off_middle(i, j, initiators, contacts, d_min, d_max), kind="mergesort")[:room])
     return i[keep], j[keep]
 
 

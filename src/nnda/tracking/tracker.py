@@ -61,9 +61,9 @@ from nnda.data.sensor import observable
 from nnda.errors import BoundWarning, TrackingError
 from nnda.filters.batch import Batch
 from nnda.filters.imm import DEFAULT_TPM, IMM, IMMPrediction, IMMState
-from nnda.filters.imm_kernels import estimate, pair_log_likelihood
+from nnda.filters.imm_kernels import estimate, pair_log_likelihood, start
 from nnda.filters.kalman import GATE_99, gate_probability
-from nnda.filters.measurement import MeasurementModel, measurement_model
+from nnda.filters.measurement import MeasurementModel, converted_covariances, measurement_model
 from nnda.filters.motion import ConstantVelocity, CoordinatedTurn
 from nnda.tracking.assignment import given
 from nnda.tracking.clutter_density import coverage_area, local_density, unexplained_density
@@ -71,6 +71,8 @@ from nnda.tracking.continuation import continuation_pairs
 from nnda.tracking.detection_probability import DEFAULT_PD, DetectionProbabilities, detection_probabilities
 from nnda.tracking.lifecycle import (
     DELETION_REASONS,
+    FAST_LINE_CONTACTS,
+    FAST_LINE_EVIDENCE,
     SANITY_REASONS,
     LifecycleConfig,
     adaptive_deletion,
@@ -81,8 +83,10 @@ from nnda.tracking.lifecycle import (
     cap_pairs,
     cap_per_initiator,
     everywhere,
-    fast_lines,
+    fast_lines_kernel,
+    fast_share,
     fast_tolerance_m,
+    free_pairs_kernel,
     miss_run,
     misses_to_hide,
     no_lines,
@@ -91,9 +95,9 @@ from nnda.tracking.lifecycle import (
     sanity_args,
     sanity_kernel,
     score_bounds,
+    search_reach,
     sensor_noise_m,
     start_score,
-    sweep_pairs,
 )
 from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.lookup import sorted_find
@@ -622,24 +626,25 @@ class TwoPointInitiation:
 
         Returns the new tracks (or None) and the contact each one used.
         """
-        lifecycle, d_min, d_max = self.lifecycle, *self.windows[sensor]
-        init_xy, before = self.xy[sensor], self.time[sensor]
-        free, i, j, *fast = sweep_pairs(init_xy, xy, used, d_min, d_max, self.fast_windows[sensor][1])
-        if lifecycle.max_tracks_per_initiator is not None:
-            i, j = cap_per_initiator(i, j, init_xy, xy[free], d_min, d_max, lifecycle.max_tracks_per_initiator)
-        windowed = j  # every windowed contact is spoken for, opened or not
+        lifecycle, (d_min, d_max), (fast_max, d_fast) = self.lifecycle, self.windows[sensor], self.fast_windows[sensor]
+        init_xy, before, imm = self.xy[sensor], self.time[sensor], self.filters[sensor]
         room = max(lifecycle.max_tracks - live, 0)
-        if len(i) > room:
-            self._refuse(len(i) - room, live, time)
-            i, j = cap_pairs(i, j, init_xy, xy[free], d_min, d_max, room)
-        threshold = self._confirmation_threshold(len(init_xy)) if len(i) else math.inf
-        rest_z, rest_xy, contact, fields = _opened(free, i, j, windowed, init_xy, z, xy, self.next_id,
-                                                   np.full(len(init_xy), before), time, threshold)
-        self._too_fast(init_xy, xy, free, windowed, fast, before, time, sensor)
+        threshold = self._confirmation_threshold(len(init_xy)) if len(init_xy) else math.inf  # no pair without
+        rest_z, rest_xy, contact, fields, filt, refused, n_fast, self._fast[sensor] = _initiated(
+            init_xy, before, z, xy, np.asarray(used, np.bool_), d_min, d_max, d_fast, search_reach(d_max, d_fast),
+            lifecycle.max_tracks_per_initiator or 0, room, self.next_id, time, threshold, self._fast[sensor],
+            fast_max, self.fast_tolerance[sensor], fast_share(fast_max, d_fast, self.fast_tolerance[sensor]),
+            imm.polar, imm.measurement.R, *imm._cv_extension, imm._mu0_array)
+        if refused:
+            self._refuse(refused, live, time)
+        if n_fast:
+            self._refuse_fast(n_fast, time, sensor)
         self.contacts[sensor], self.xy[sensor], self.time[sensor] = rest_z, rest_xy, time
         if not contact.size:
             return None, None
-        return self._born(z, contact, fields, time - before, sensor)
+        self.next_id += len(contact)
+        track_id, status, history, counts, scores = fields
+        return Tracks(track_id, status, IMMState(*filt), history, counts, scores), contact
 
     def _born(self, z: np.ndarray, contact: np.ndarray, fields: tuple, dt: float | np.ndarray, sensor: int
               ) -> tuple[Tracks, np.ndarray]:
@@ -682,18 +687,6 @@ class TwoPointInitiation:
             return None, None
         return self._born(z, contact, fields, time - wt[i], sensor)
 
-    def _too_fast(self, init_xy: np.ndarray, xy: np.ndarray, free: np.ndarray, windowed: np.ndarray, pairs: list,
-                  before: float, time: float, sensor: int) -> None:
-        """Count this scan's lines of refused fast pairs (class docstring, ``n_too_fast``; a `BoundWarning` the
-        first time in a run) and keep those to continue at the sensor's next scan (`lifecycle.fast_lines`, with
-        the fast ``pairs`` of `lifecycle.sweep_pairs`). Reads the scan, changes no track."""
-        spoken = np.zeros(free.size, np.bool_)
-        spoken[windowed] = True
-        n, self._fast[sensor] = fast_lines(init_xy, xy, free, spoken, self._fast[sensor], *self.fast_windows[sensor],
-                                           self.fast_tolerance[sensor], time - before, pairs)
-        if n:
-            self._refuse_fast(n, time, sensor)
-
     def _refuse_fast(self, n: int, time: float, sensor: int) -> None:
         """Count ``n`` lines refused for ``lifecycle.v_max``; the first of a run is a `BoundWarning`."""
         first = not self.n_too_fast
@@ -706,7 +699,7 @@ class TwoPointInitiation:
                 f"target faster than lifecycle.v_max = {cfg.v_max:g} m/s (config field) never starts a track. Raise "
                 f"lifecycle.v_max above the fastest target's speed (tracks faster than lifecycle.max_speed_m_s, "
                 f"{cfg.speed_limit:g} m/s here, are deleted too); later cases of this run are only counted "
-                f"(initiation.n_too_fast)", BoundWarning, stacklevel=5)
+                f"(initiation.n_too_fast)", BoundWarning, stacklevel=4)
 
     def _confirmation_threshold(self, initiators: int) -> float:
         """The score at which the tracks born from a scan's ``initiators`` confirm under the score rule:
@@ -752,6 +745,48 @@ def _opened(free, i, j, windowed, initiators, z, xy, first_id, before, time, con
     fields = (np.arange(first_id, first_id + k), np.full(k, PRELIMINARY, np.int8), history,
               np.zeros((k, 3), np.int64), scores)
     return z[rest], xy[rest], contact, fields
+
+
+@numba.njit(cache=True, nogil=True)
+def _initiated(init_xy, before, z, xy, used, d_min, d_max, d_fast, reach, per_initiator, room, first_id, time,
+               confirm_at, lines, fast_max, tol, share, polar, R, x_rest, P_rest, mu0):
+    """`TwoPointInitiation.__call__` for a sweep in one call: the window pairs of the initiators ``init_xy``
+    (I, 2) m of the scan at ``before`` s with the contacts z, xy (N, 2) no track ``used`` (N,), out to the fast
+    window's ``d_fast`` (`lifecycle.free_pairs_kernel`, over cells of ``reach``), at most ``per_initiator`` an
+    initiator (< 1: any, `lifecycle.cap_per_initiator`) and ``room`` in all (`lifecycle.cap_pairs`); the tracks
+    they open (`_opened`) with their two-point starts (`imm_kernels.start` from ``x_rest``, ``P_rest`` and
+    ``mu0``, the second fix's covariance that of the ``polar`` measurement of noise R (2, 2), or R); and the
+    fast ``lines`` continued (`lifecycle.fast_lines` with ``fast_max``, ``tol`` and ``share``). Returns the next
+    initiators (z, xy), the opened tracks' second contacts (K,), their fields but the filter state (`_opened`),
+    their filter state (x, P, mu), the pairs refused for want of room, the fast lines completed, and the lines
+    to continue."""
+    free, i, j, fi, fj = free_pairs_kernel(init_xy, xy, used, d_min, d_max, d_fast, reach)
+    i, j = cap_per_initiator(i, j, init_xy, xy[free], d_min, d_max, per_initiator)
+    windowed = j  # every windowed contact is spoken for, opened or not
+    refused = max(i.size - room, 0)
+    i, j = cap_pairs(i, j, init_xy, xy[free], d_min, d_max, room)
+    rest_z, rest_xy, contact, fields = _opened(free, i, j, windowed, init_xy, z, xy, first_id,
+                                               np.full(init_xy.shape[0], before), time, confirm_at)
+    spoken = np.zeros(free.size, np.bool_)
+    spoken[windowed] = True
+    n_fast, lines = fast_lines_kernel(init_xy, xy, free, spoken, fi, fj, lines[0], lines[1], lines[2], lines[3],
+                                      lines[4], lines[5], fast_max, tol, time - before, share, FAST_LINE_EVIDENCE,
+                                      FAST_LINE_CONTACTS)
+    k = contact.size
+    history = fields[2]
+    p1, p2 = np.empty((k, 2)), np.empty((k, 2))
+    for t in range(k):
+        p1[t, 0], p1[t, 1] = history[t, X1], history[t, X1 + 1]
+        p2[t, 0], p2[t, 1] = xy[contact[t], 0], xy[contact[t], 1]  # the fix's position, as the scan converted it
+        history[t, X2], history[t, X2 + 1] = p2[t, 0], p2[t, 1]
+    if polar:
+        cov2 = converted_covariances(z[contact], R[0, 0], R[1, 1])
+    else:
+        cov2 = np.empty((k, 2, 2))
+        for t in range(k):
+            cov2[t] = R
+    filt = start(p1, p2, cov2, np.full(1, time - before), x_rest, P_rest, mu0)
+    return rest_z, rest_xy, contact, fields, filt, refused, n_fast, lines
 
 
 class ContactTracker(ABC):
