@@ -982,11 +982,12 @@ class ContactTracker(ABC):
         return float(getattr(self.config, "clutter_radius_m", CLUTTER_RADIUS_M))
 
     def _start_scores(self, born: Tracks, scan: ScanContacts, contact: np.ndarray) -> Tracks:
-        """``born`` with the score of its two-point start (`lifecycle.start_score`) under the score rule;
-        under the adaptive rule also each track's confirmation and deletion thresholds from the clutter
-        density at its second contact (`lifecycle.adaptive_threshold`, `lifecycle.adaptive_deletion`); under
-        the existence rule also the initiators' prior (`lifecycle.birth_log_odds`; the clutter around each
-        initiator counted in this scan's contacts)."""
+        """``born``, the scan's new tracks (their arrays their own: the initiation made them), with the score of
+        its two-point start (`lifecycle.start_score`) under the score rule written into its scores; under the
+        adaptive rule also each track's confirmation and deletion thresholds from the clutter density at its
+        second contact (`lifecycle.adaptive_threshold`, `lifecycle.adaptive_deletion`); under the existence
+        rule also the initiators' prior (`lifecycle.birth_log_odds`; the clutter around each initiator counted
+        in this scan's contacts)."""
         rule = self.confirmation_rule
         if rule == "mn":
             return born
@@ -994,7 +995,7 @@ class ContactTracker(ABC):
         cfg = self.config.lifecycle
         density = self._contact_density(scan)[contact]
         score = start_score(self.score_pd(scan.sensor), self._window_areas[scan.sensor], density)
-        scores = born.scores.copy()
+        scores = born.scores
         if rule == "adaptive":
             scores[:, CONFIRM_AT] = adaptive_threshold(cfg.false_track_rate, cfg.false_deletion, density,
                                                        sensor.scan_period_s)
@@ -1003,7 +1004,7 @@ class ContactTracker(ABC):
             score += birth_log_odds(self.score_pd(scan.sensor), cfg.new_targets_per_scan / coverage_area(sensor),
                                     local_density(scan.xy, born.p1, self._clutter_radius, sensor))
         scores[:, SCORE] = scores[:, MAX_SCORE] = score
-        return born.replaced(scores=scores)
+        return born
 
     @cached_property
     def _window_areas(self) -> tuple[float, ...]:
