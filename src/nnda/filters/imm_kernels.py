@@ -285,6 +285,19 @@ def update(x, P, mu, z, mask, z_pred, S_inv, log_det, PHt, polar):
 
 
 @_jit
+def model_likelihood(Z, p, z_pred, S_inv, log_det, k, j, polar):
+    """Measurement ``p`` of Z (P, 2) against model ``j`` of track ``k``'s prediction (z_pred (K, r, 2), S_inv
+    (K, r, 2, 2), log_det (K, r)): its innovation (azimuth wrapped if ``polar``) and log N(nu; 0, S)
+    (eq. 4.50), as (nu0, nu1, log-likelihood)."""
+    nu0 = Z[p, 0] - z_pred[k, j, 0]
+    nu1 = Z[p, 1] - z_pred[k, j, 1]
+    if polar:
+        nu1 = wrap_angle_kernel(nu1)
+    d2 = quadratic_2x2(S_inv[k, j, 0, 0], S_inv[k, j, 0, 1], S_inv[k, j, 1, 0], S_inv[k, j, 1, 1], nu0, nu1)
+    return nu0, nu1, -0.5 * (d2 + log_det[k, j]) - LOG_2PI
+
+
+@_jit
 def pda_update(x, P, mu, z_pred, S_inv, log_det, PHt, rows, track, Z, beta, beta0, polar):
     """IMM-PDA correction (JPDA's soft update: each model weighs every gated contact by its association
     probability, the spread of the innovations widens P) of the K tracks ``rows`` (K,) of a prediction x
@@ -305,14 +318,8 @@ def pda_update(x, P, mu, z_pred, S_inv, log_det, PHt, rows, track, Z, beta, beta
         k = rows[track[p]]
         top = -np.inf
         for j in range(r):
-            nu0 = Z[p, 0] - z_pred[k, j, 0]
-            nu1 = Z[p, 1] - z_pred[k, j, 1]
-            if polar:
-                nu1 = wrap_angle_kernel(nu1)
-            nu[p, j, 0], nu[p, j, 1] = nu0, nu1
-            Si = S_inv[k, j]
-            d2 = quadratic_2x2(Si[0, 0], Si[0, 1], Si[1, 0], Si[1, 1], nu0, nu1)
-            joint[p, j] = math.log(mu[k, j] + TINY) + (-0.5 * (d2 + log_det[k, j]) - LOG_2PI)
+            nu[p, j, 0], nu[p, j, 1], log_lik = model_likelihood(Z, p, z_pred, S_inv, log_det, k, j, polar)
+            joint[p, j] = math.log(mu[k, j] + TINY) + log_lik
             top = max(top, joint[p, j])
         total = 0.0
         for j in range(r):
@@ -499,12 +506,7 @@ def pair_log_likelihood(z_pred, S_inv, log_det, mu, rows, Z, polar):
         k = rows[p]
         top = -np.inf
         for j in range(r):
-            n0 = Z[p, 0] - z_pred[k, j, 0]
-            n1 = Z[p, 1] - z_pred[k, j, 1]
-            if polar:
-                n1 = wrap_angle_kernel(n1)
-            d2 = quadratic_2x2(S_inv[k, j, 0, 0], S_inv[k, j, 0, 1], S_inv[k, j, 1, 0], S_inv[k, j, 1, 1], n0, n1)
-            terms[j] = (-0.5 * (d2 + log_det[k, j]) - LOG_2PI) + math.log(mu[k, j] + TINY)
+            terms[j] = model_likelihood(Z, p, z_pred, S_inv, log_det, k, j, polar)[2] + math.log(mu[k, j] + TINY)
             top = max(top, terms[j])
         s = 0.0
         for j in range(r):

@@ -25,6 +25,7 @@ from nnda.filters.imm_kernels import squared_distance
 from nnda.filters.kalman import MeasurementPrediction
 from nnda.tracking.box_pairs import Contacts, candidates
 from nnda.tracking.linearisation import LINEARISATION_LIMIT_RAD, cartesian_d2, poor_pairs
+from nnda.tracking.output import CONFIRMED
 
 #: below this many track-contact pairs the dense test is faster than building a k-d tree
 DENSE_PAIRS = 60_000
@@ -137,3 +138,17 @@ def gate_tracks(imm: IMM, pred: IMMPrediction, z: np.ndarray, xy: np.ndarray, th
     poorly linearised tracks; ``check`` as there)."""
     g = pred.gating
     return g.measurement, gate(imm, g.measurement, z, xy, threshold, (g.x, g.P), check=check)
+
+
+@numba.njit(cache=True, nogil=True)
+def stage_pairs(confirmed, status, rows, cols, taken):
+    """The gated pairs (rows, cols (P,)) of one stage of an association that lets confirmed tracks choose
+    first: those of the confirmed tracks (``confirmed``; else of the others, by ``status`` (K,)) whose contact
+    is not ``taken`` (N,) yet. Returns their indices (M,), in order."""
+    keep = np.empty(rows.size, np.int64)
+    m = 0
+    for p in range(rows.size):
+        if (status[rows[p]] == CONFIRMED) == confirmed and not taken[cols[p]]:
+            keep[m] = p
+            m += 1
+    return keep[:m]

@@ -49,8 +49,8 @@ from pydantic import Field
 from nnda.filters.imm import IMMPrediction
 from nnda.filters.kalman import GATE_99
 from nnda.tracking.assignment import given, greedy_matching, least_cost_assignment
-from nnda.tracking.gating import gate_tracks
-from nnda.tracking.output import CONFIRMED, NO_CONTACT
+from nnda.tracking.gating import gate_tracks, stage_pairs
+from nnda.tracking.output import NO_CONTACT
 from nnda.tracking.tracker import (
     CLUTTER_ESTIMATE_DOC,
     Association,
@@ -147,13 +147,6 @@ def _stage_pairs(confirmed, status, rows, cols, d2, log_det, contact, n):
     """One stage of `GNNTracker.associate` in one pass: of the gated pairs (rows, cols, d2 (P,)), those of the
     confirmed tracks (``confirmed``; else the others, by ``status`` (K,)) whose contact no track of ``contact``
     (K,) holds yet among the scan's ``n``, and their costs d2 + log|S| (``log_det`` (K,)): (r, c, cost)."""
-    taken = given(contact, n)
-    keep = np.empty(rows.size, np.int64)
-    m = 0
-    for p in range(rows.size):
-        if (status[rows[p]] == CONFIRMED) == confirmed and not taken[cols[p]]:
-            keep[m] = p
-            m += 1
-    keep = keep[:m]
+    keep = stage_pairs(confirmed, status, rows, cols, given(contact, n))
     r = rows[keep]
     return r, cols[keep], d2[keep] + log_det[r]

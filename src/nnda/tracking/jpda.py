@@ -96,10 +96,10 @@ from nnda.filters import imm_kernels
 from nnda.filters.imm import IMMPrediction, IMMState
 from nnda.filters.kalman import GATE_99
 from nnda.tracking.clutter_density import measurement_volume
-from nnda.tracking.gating import gate_tracks
+from nnda.tracking.gating import gate_tracks, stage_pairs
 from nnda.tracking.lifecycle import existence, jipda_log_ratio
 from nnda.tracking.marginals import jpda_marginals
-from nnda.tracking.output import CONFIRMED, NO_CONTACT
+from nnda.tracking.output import NO_CONTACT
 from nnda.tracking.tracker import (
     CLUTTER_ESTIMATE_DOC,
     Association,
@@ -178,12 +178,8 @@ def _stage_pairs(confirmed, status, g_rows, g_cols, taken, log_pd, log_density, 
     and its contact ``cols`` (Q,), and its log likelihood ratio against clutter (Q,): ``log_pd`` plus the IMM
     mixture likelihood of the contact (`imm_kernels.pair_log_likelihood` on the prediction's z_pred, S_inv,
     log_det, mu, of the contacts z (N, 2)) less the clutter's ``log_density`` (N,) there."""
-    keep = np.empty(g_rows.size, np.int64)
-    m = 0
-    for p in range(g_rows.size):
-        if (status[g_rows[p]] == CONFIRMED) == confirmed and not taken[g_cols[p]]:
-            keep[m] = p
-            m += 1
+    keep = stage_pairs(confirmed, status, g_rows, g_cols, taken)
+    m = keep.size
     rows, track, cols = np.empty(m, np.int64), np.empty(m, np.int64), np.empty(m, np.int64)
     n = 0
     for q in range(m):
