@@ -247,9 +247,9 @@ class JPDATracker(SingleHypothesisTracker):
         state = IMMState(pred.state.x.copy(), pred.state.P.copy(), pred.state.mu.copy())
         imm, z = scan.filter, scan.z
         pd, log_miss = self.score_pd(scan.sensor), self._log_miss[scan.sensor]
-        gain = np.full(len(tracks), log_miss)  # the existence increments (JIPDA); a miss's without contacts
+        gain = np.full(len(tracks), log_miss)  # the score's increments; a miss's without a reported contact
         if not len(z):
-            return Association(contact, state, gain if self.confirmation_rule == "existence" else None)
+            return Association(contact, state, gain)
         g = gate_tracks(imm, pred, z, scan.xy, cfg.gate, check=False)[1]
         near = np.zeros(len(z), bool)
         near[g.cols] = True
@@ -287,6 +287,8 @@ class JPDATracker(SingleHypothesisTracker):
                 # docstring): the soft ratio over all the gate's contacts walks up on a vague clutter-born track
                 # (its gate holds ~100 contacts at 5,000 per scan) until it confirms
                 gain[rows] = np.where(wins, np.logaddexp(log_miss, own[best]), log_miss)
-        # the score rule scores the reported contact sequence, as for GNN (the framework's increment): the PDA
-        # ratio's drift is ~0 for a vague clutter-born track, whose score then walks until it confirms
-        return Association(contact, state, gain if self.confirmation_rule == "existence" else None)
+            else:  # the score rule scores the reported contact sequence, the framework's increment (GNN's) from
+                # this stage's ratios: the PDA ratio's drift is ~0 for a vague clutter-born track, whose score
+                # would then walk until it confirms
+                gain[rows[wins]] = log_ratio[best[wins]]
+        return Association(contact, state, gain)
