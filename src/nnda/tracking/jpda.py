@@ -258,13 +258,13 @@ class JPDATracker(SingleHypothesisTracker):
         log_density[near] = np.log(self.clutter_density(scan, near))
         taken = np.zeros(len(z), bool)
         mp, st = pred.measurement, pred.state
+        jipda = self.confirmation_rule == "existence"
         for stage in (True, False):  # confirmed tracks first, as in GNN
             rows, track, cols, log_ratio = _stage_pairs(stage, tracks.status, g.rows, g.cols, taken, math.log(pd),
                                                         log_density, mp.z, mp.S_inv, mp.log_det_S, st.mu, z,
                                                         imm.polar)
             if not track.size:
                 continue
-            jipda = self.confirmation_rule == "existence"
             if jipda:  # JIPDA: each track's events weighed by its predicted existence
                 own, log_odds = log_ratio, tracks.score[rows]
                 log_ratio = jipda_log_ratio(log_ratio, log_miss, existence(log_odds)[track])
@@ -272,11 +272,12 @@ class JPDATracker(SingleHypothesisTracker):
             beta, beta0 = m.beta, m.beta0
             if jipda:
                 beta, beta0 = given_existence(log_odds, beta, beta0, track, log_miss)
+            approximated = int(np.count_nonzero(m.approximated))
             self.n_clusters += m.approximated.size
-            self.n_approximated += int(m.approximated.sum())
-            if m.approximated.any():
-                self._bound_hit("max_joint_events", f"{int(m.approximated.sum())} cluster(s) past the joint-event "
-                                "cap solved by loopy belief propagation, not enumeration", scan.time)
+            self.n_approximated += approximated
+            if approximated:
+                self._bound_hit("max_joint_events", f"{approximated} cluster(s) past the joint-event cap solved by "
+                                "loopy belief propagation, not enumeration", scan.time)
             # the reported contact: the most probable given that the target exists (JIPDA's state update), as
             # JPDA's at rho = 1; against the unconditional beta0, which holds "no target", a newborn of tiny
             # existence never reports its target's contacts nor updates on them, and its gate only grows. The
