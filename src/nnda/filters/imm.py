@@ -269,7 +269,13 @@ class IMM:
         compiled call (`imm_kernels.start`, the arithmetic of `two_point` and `from_cv`).
         """
         p1, p2, cov2, dt = kernel_array(p1), kernel_array(p2), kernel_array(cov2), kernel_array(np.atleast_1d(dt))
-        return IMMState(*imm_kernels.start(p1, p2, cov2, dt, *self._cv_extension, self._mu0_array))
+        return IMMState(*imm_kernels.start(p1, p2, cov2, dt, *self.start_arrays))
+
+    @property
+    def start_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The arrays `imm_kernels.start` takes beside the fixes: what each model puts beyond the CV estimate (r,
+        n), its covariance (r, n, n), and the initial mode probabilities (r,)."""
+        return (*self._cv_extension, self._mu0_array)
 
     def from_cv(self, x: np.ndarray, P: np.ndarray, mu: np.ndarray | None = None) -> IMMState:
         """IMM state of K tracks from CV estimates x (K, 4), P (K, 4, 4); every model starts there."""

@@ -825,8 +825,8 @@ def no_lines() -> tuple:
 
 
 @numba.njit(cache=True, nogil=True)
-def fast_lines_kernel(initiators, contacts, free, spoken, i, j, after, at, velocity, length, evidence, told, d_max, tol,
-                dt, share, enough, contacts_min):
+def fast_lines_kernel(initiators, contacts, free, spoken, i, j, after, at, velocity, length, evidence, told, d_max,
+                      tol, dt, share, enough, contacts_min):
     """`fast_lines`: the pairs (i, j) over (d_max, d_fast] (`sweep_pairs`), each matched against the lines of its
     initiator (``after`` ascending), in one pass; of the lines a pair continues, the one of most evidence."""
     if not initiators.shape[0] or not free.size:

@@ -629,12 +629,12 @@ class TwoPointInitiation:
         lifecycle, (d_min, d_max), (fast_max, d_fast) = self.lifecycle, self.windows[sensor], self.fast_windows[sensor]
         init_xy, before, imm = self.xy[sensor], self.time[sensor], self.filters[sensor]
         room = max(lifecycle.max_tracks - live, 0)
-        threshold = self._confirmation_threshold(len(init_xy)) if len(init_xy) else math.inf  # no pair without
+        threshold = self._confirmation_threshold(len(init_xy)) if len(init_xy) else math.inf  # unused: no pair
         rest_z, rest_xy, contact, fields, filt, refused, n_fast, self._fast[sensor] = _initiated(
             init_xy, before, z, xy, np.asarray(used, np.bool_), d_min, d_max, d_fast, search_reach(d_max, d_fast),
             lifecycle.max_tracks_per_initiator or 0, room, self.next_id, time, threshold, self._fast[sensor],
             fast_max, self.fast_tolerance[sensor], fast_share(fast_max, d_fast, self.fast_tolerance[sensor]),
-            imm.polar, imm.measurement.R, *imm._cv_extension, imm._mu0_array)
+            imm.polar, imm.measurement.R, *imm.start_arrays)
         if refused:
             self._refuse(refused, live, time)
         if n_fast:
