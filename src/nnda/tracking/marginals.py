@@ -323,18 +323,39 @@ def loopy_marginals(track: np.ndarray, contact: np.ndarray, log_ratio: np.ndarra
     K = n_tracks
     _, j = np.unique(contact, return_inverse=True)
     psi = _odds(log_ratio, log_miss)
-    to_track = np.ones(track.size)  # messages contact j -> track t
-    for _ in range(BP_MAX_SWEEPS):
-        weighted = psi * to_track
-        to_contact = psi / (1.0 + np.bincount(track, weighted, K)[track] - weighted)  # track t -> contact j
-        new = 1.0 / (1.0 + np.bincount(j, to_contact)[j] - to_contact)
-        moved = np.abs(new - to_track).max(initial=0.0)
-        to_track = new
-        if moved <= BP_TOLERANCE:
-            break
-    weighted = psi * to_track
+    weighted = psi * _messages(track, j.astype(np.int64), psi, K, BP_MAX_SWEEPS, BP_TOLERANCE)
     total = 1.0 + np.bincount(track, weighted, K)
     return weighted / total[track], 1.0 / total
+
+
+@numba.njit(cache=True, nogil=True)
+def _messages(track, j, psi, K, sweeps, tolerance):
+    """`loopy_marginals`' message passing over P pairs of ``track`` (P,) in [0, K) and contact number ``j`` (P,)
+    (0, 1, ... in order of contact), with weights ``psi`` (P,): at most ``sweeps`` sweeps, until no message
+    moves by more than ``tolerance``. Returns the messages contact -> track (P,). Each sum runs over the pairs
+    in order, as numpy's bincount adds them."""
+    P = track.size
+    n_contacts = j.max() + 1 if P else 0
+    to_track = np.ones(P)  # messages contact j -> track t
+    to_contact = np.empty(P)
+    by_track, by_contact = np.empty(K), np.empty(n_contacts)
+    for _ in range(sweeps):
+        by_track[:] = 0.0
+        for p in range(P):
+            by_track[track[p]] += psi[p] * to_track[p]
+        by_contact[:] = 0.0
+        for p in range(P):
+            weighted = psi[p] * to_track[p]
+            to_contact[p] = psi[p] / (1.0 + by_track[track[p]] - weighted)  # track t -> contact j
+            by_contact[j[p]] += to_contact[p]
+        moved = 0.0
+        for p in range(P):
+            new = 1.0 / (1.0 + by_contact[j[p]] - to_contact[p])
+            moved = max(moved, abs(new - to_track[p]))
+            to_track[p] = new
+        if moved <= tolerance:
+            break
+    return to_track
 
 
 def _odds(log_ratio: np.ndarray, log_miss: float) -> np.ndarray:
