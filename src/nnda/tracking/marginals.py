@@ -112,9 +112,7 @@ def jpda_marginals(track: np.ndarray, contact: np.ndarray, log_ratio: np.ndarray
     K, P = n_tracks, track.size
     n_clusters, label = clusters(track, contact, K)
     if n_clusters == K:  # every track alone: the PDA closed form
-        odds = _odds(log_ratio, log_miss)
-        total = 1.0 + np.bincount(track, odds, minlength=K)
-        return Marginals(odds / total[track], 1.0 / total, label, np.zeros(K, bool))
+        return Marginals(*_alone(track, _odds(log_ratio, log_miss), K), label, np.zeros(K, bool))
     size = np.bincount(label, minlength=n_clusters)
     # a cluster of s >= 2 tracks lists at least s (s + 1) partial events (each track has a pair, so
     # depth d holds at least d + 1 events of at least 2 options each): too big ones skip the listing
@@ -323,9 +321,23 @@ def loopy_marginals(track: np.ndarray, contact: np.ndarray, log_ratio: np.ndarra
     K = n_tracks
     _, j = np.unique(contact, return_inverse=True)
     psi = _odds(log_ratio, log_miss)
-    weighted = psi * _messages(track, j.astype(np.int64), psi, K, BP_MAX_SWEEPS, BP_TOLERANCE)
-    total = 1.0 + np.bincount(track, weighted, K)
-    return weighted / total[track], 1.0 / total
+    return _alone(track, psi * _messages(track, j.astype(np.int64), psi, K, BP_MAX_SWEEPS, BP_TOLERANCE), K)
+
+
+@numba.njit(cache=True, nogil=True)
+def _alone(track, weight, K):
+    """Marginals of K tracks each alone with its P pairs (``track`` (P,) in [0, K)) of odds ``weight`` (P,)
+    against its miss: beta = weight / (1 + the track's sum) (P,), beta0 = 1 / (1 + that sum) (K,); the sums in
+    numpy's bincount order."""
+    total = np.zeros(K)
+    for p in range(track.size):
+        total[track[p]] += weight[p]
+    for t in range(K):
+        total[t] = 1.0 + total[t]
+    beta = np.empty(track.size)
+    for p in range(track.size):
+        beta[p] = weight[p] / total[track[p]]
+    return beta, 1.0 / total
 
 
 @numba.njit(cache=True, nogil=True)
