@@ -15,6 +15,7 @@ from nnda.tracking.gnn import GNNConfig, _merged
 from nnda.tracking.lag import EndsAtScorePeak, FixedLag
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY
 from nnda.tracking.registry import make_tracker
+from nnda.tracking.tracker import P2, T2
 
 MN = {"lifecycle": {"confirmation": "mn", "quality_deletion": False}}
 BOTH = {"shared_preliminary": True, "end_at_score_peak": True}
@@ -49,12 +50,18 @@ def test_merged_keeps_each_tracks_cheapest_contact_and_drops_the_duplicate_of_lo
     # scores 10 - 1 / 2, so 1 is the duplicate; track 2 takes 5 too, from another last contact: kept
     r, c = np.array([0, 0, 1, 1, 2]), np.array([5, 6, 5, 7, 5])
     cost = np.array([1.0, 2.0, 0.5, 3.0, 4.0])
-    last = np.array([[100.0, 200.0, 4.0], [100.0, 200.0, 4.0], [100.0, 300.0, 4.0]])
+    last = np.zeros((3, 8))  # `Tracks.history`: the last contact's position and time
+    last[:, P2], last[:, T2] = [[100.0, 200.0], [100.0, 200.0], [100.0, 300.0]], 4.0
     rows, cols, dupes = _merged(r, c, cost, np.array([10.0, 2.0, 0.0]), last)
     assert rows.tolist() == [0, 2] and cols.tolist() == [5, 5] and dupes.tolist() == [1]
     # the other way round when track 1 scores higher
     rows, cols, dupes = _merged(r, c, cost, np.array([1.0, 2.0, 0.0]), last)
     assert rows.tolist() == [1, 2] and dupes.tolist() == [0]
+    # equal scores after the contact: the lower row keeps it; the cheapest of a track's pairs is its pick
+    rows, cols, dupes = _merged(r, c, np.array([1.0, 2.0, 1.0, 0.5, 4.0]), np.array([2.0, 2.0, 0.0]), last)
+    assert rows.tolist() == [0, 1, 2] and cols.tolist() == [5, 7, 5] and dupes.tolist() == []
+    rows, cols, dupes = _merged(r, c, np.array([1.0, 2.0, 1.0, 3.0, 4.0]), np.array([2.0, 2.0, 0.0]), last)
+    assert rows.tolist() == [0, 2] and dupes.tolist() == [1]
 
 
 def test_shared_preliminary_tracks_share_contacts_but_no_two_hold_the_same_last_two(dense):

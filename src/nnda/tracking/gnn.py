@@ -53,6 +53,8 @@ from nnda.tracking.gating import gate_tracks, stage_pairs
 from nnda.tracking.output import NO_CONTACT
 from nnda.tracking.tracker import (
     CLUTTER_ESTIMATE_DOC,
+    T2,
+    X2,
     Association,
     ClutterEstimate,
     ScanContacts,
@@ -103,7 +105,7 @@ class GNNTracker(SingleHypothesisTracker):
             if not r.size:
                 continue
             if not confirmed and self.config.shared_preliminary and self._score_rule:
-                rows, cols, merged = _merged(r, c, cost, tracks.score, np.column_stack((tracks.p2, tracks.t2)))
+                rows, cols, merged = _merged(r, c, cost, tracks.score, tracks.history)
                 self.n_merged += merged.size
             elif r.size <= self.config.max_exact_pairs:
                 rows, cols = least_cost_assignment(r, c, cost, miss_cost)
@@ -121,24 +123,40 @@ class GNNTracker(SingleHypothesisTracker):
         return Association(assoc.contact, assoc.filt, revised=(tracks.rescored(score), pred))
 
 
-def _merged(r: np.ndarray, c: np.ndarray, cost: np.ndarray, score: np.ndarray, last: np.ndarray
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The preliminary tracks' stage of `GNNTracker.associate` with ``shared_preliminary``: over their gated pairs
-    (r, c, cost (P,), `_stage_pairs`), each track's cheapest contact; of the tracks that take the same contact
-    and held the same last contact before (``last`` (K, 3): its position (m) and time (s)), the one of highest
-    score after it, ``score`` (K,) - cost / 2 (the gating likelihood's part of the score's increment; the clutter
-    density's part is the contact's, the same for all), keeps it and the others are duplicates. Returns (rows,
-    cols) of the kept picks, sorted by row, and the duplicates' rows."""
-    order = np.lexsort((cost, r))
-    first = order[np.r_[True, r[order][1:] != r[order][:-1]]]  # each row's cheapest pair
-    rows, cols = r[first], c[first]
+@numba.njit(cache=True, nogil=True)
+def _merged(r, c, cost, score, history):
+    """The preliminary tracks' stage of `GNNTracker.associate` with ``shared_preliminary``, in one compiled pass:
+    over their gated pairs (r, c, cost (P,), `_stage_pairs`), each track's cheapest contact (the first of equal
+    costs); of the tracks that take the same contact and held the same last contact before (its position (m) and
+    time (s) in ``history`` (K, 8), `Tracks.history`), the one of highest score after it, ``score`` (K,) - cost / 2
+    (the gating likelihood's part of the score's increment; the clutter density's part is the contact's, the same
+    for all; of equal ones the lowest row), keeps it and the others are duplicates. Returns (rows, cols) of the
+    kept picks, sorted by row, and the duplicates' rows."""
+    best = np.full(score.size, -1, np.int64)  # each track's cheapest pair
+    for p in range(r.size):
+        if best[r[p]] < 0 or cost[p] < cost[best[r[p]]]:
+            best[r[p]] = p
+    rows = np.flatnonzero(best >= 0)
+    first = best[rows]
+    cols = c[first]
     after = score[rows] - 0.5 * cost[first]
-    key = last[rows]
-    order = np.lexsort((-after, key[:, 2], key[:, 1], key[:, 0], cols))
-    a, b = order[1:], order[:-1]
-    same = (cols[a] == cols[b]) & (key[a] == key[b]).all(axis=1)
-    dupe = np.zeros(rows.size, bool)
-    dupe[a[same]] = True
+    order = np.argsort(cols, kind="mergesort")  # the picks by contact; within one, by row
+    dupe = np.zeros(rows.size, np.bool_)
+    start = 0
+    while start < order.size:
+        end = start + 1
+        while end < order.size and cols[order[end]] == cols[order[start]]:
+            end += 1
+        for a in range(start, end):
+            i, ki = order[a], rows[order[a]]
+            for b in range(start, end):
+                j, kj = order[b], rows[order[b]]
+                if (j != i and history[kj, X2] == history[ki, X2] and history[kj, X2 + 1] == history[ki, X2 + 1]
+                        and history[kj, T2] == history[ki, T2]
+                        and (after[j] > after[i] or (after[j] == after[i] and j < i))):
+                    dupe[i] = True
+                    break
+        start = end
     return rows[~dupe], cols[~dupe], rows[dupe]
 
 
