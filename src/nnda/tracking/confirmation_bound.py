@@ -46,6 +46,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from nnda.tracking.lifecycle import LifecycleConfig, adaptive_threshold, birth_log_odds, sprt_thresholds
 from nnda.tracking.marginals import log_miss_weight
 
@@ -99,7 +101,8 @@ def clairvoyant_delay_s(rule: str, lifecycle: LifecycleConfig, density: float, r
         lower, upper = lifecycle.score_thresholds
     elif rule == "adaptive":
         lower = lifecycle.score_thresholds[0]
-        upper = float(adaptive_threshold(lifecycle.false_track_rate, lifecycle.false_deletion, density, scan_period))
+        at = np.array([float(density)])
+        upper = float(adaptive_threshold(lifecycle.false_track_rate, lifecycle.false_deletion, at, scan_period)[0])
     elif rule == "existence":
         start += float(birth_log_odds(pd, lifecycle.new_targets_per_scan / coverage_m2, density))
         lower = start + sprt_thresholds(lifecycle.false_confirmation, lifecycle.preliminary_false_deletion)[0]

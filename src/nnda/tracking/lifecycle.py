@@ -333,27 +333,46 @@ def rate_threshold(rate: float, beta: float, trials: int) -> float:
 _PER_1000_KM2_HOUR = 1e9 * 3600.0
 
 
-def adaptive_threshold(rate: float, beta: float, density: np.ndarray, scan_period: float) -> np.ndarray:
+@numba.njit(cache=True, nogil=True)
+def adaptive_threshold(rate, beta, density, scan_period):
     """Confirmation thresholds (K,) of the adaptive rule (module docstring) for tracks born where the clutter's
-    area density is ``density`` (m^-2 per scan, (K,)) from a sensor of scan period ``scan_period`` (s), at
+    area density is ``density`` (m^-2 per scan, (K,) floats) from a sensor of scan period ``scan_period`` (s), at
     ``rate`` false tracks per hour per 1,000 km^2: Wald's ln((1 - beta) / alpha) at alpha = phi T / rho."""
     phi = rate / _PER_1000_KM2_HOUR  # m^-2 s^-1
-    return math.log1p(-beta) + np.log(np.asarray(density, float)) - math.log(phi * scan_period)
+    keep, rate_term = math.log1p(-beta), math.log(phi * scan_period)
+    out = np.empty(density.size)
+    for k in range(density.size):
+        out[k] = keep + math.log(density[k]) - rate_term
+    return out
 
 
 def adaptive_deletion(cfg: LifecycleConfig, density: np.ndarray) -> np.ndarray:
     """Deletion thresholds (K,) of confirmed tracks under the adaptive rule (module docstring) for tracks born where
-    the clutter's area density is ``density`` (m^-2 per scan, (K,)): ln(beta_k / (1 - alpha)), beta_k =
+    the clutter's area density is ``density`` (m^-2 per scan, (K,) floats): ln(beta_k / (1 - alpha)), beta_k =
     ``false_deletion`` x min(1, density / ``dense_clutter_per_km2``), at least ``false_deletion`` / 100."""
-    dense = cfg.dense_clutter_per_km2 * 1e-6  # m^-2
-    share = np.minimum(np.maximum(np.asarray(density, float) / dense, 0.01), 1.0)  # np.clip, without its wrapper
-    return np.log(cfg.false_deletion * share) - math.log1p(-cfg.false_confirmation)
+    return deletion_threshold(cfg.false_deletion, cfg.false_confirmation, cfg.dense_clutter_per_km2, density)
 
 
-def start_score(pd: float, window_area: float, density: np.ndarray) -> np.ndarray:
+@numba.njit(cache=True, nogil=True)
+def deletion_threshold(beta, alpha, dense_per_km2, density):
+    """`adaptive_deletion` from the config's ``false_deletion`` beta, ``false_confirmation`` alpha and
+    ``dense_clutter_per_km2``, compiled (the scan step writes it for every new track)."""
+    dense, keep = dense_per_km2 * 1e-6, math.log1p(-alpha)  # m^-2
+    out = np.empty(density.size)
+    for k in range(density.size):
+        out[k] = math.log(beta * min(max(density[k] / dense, 0.01), 1.0)) - keep
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def start_score(pd, window_area, density):
     """Score of a two-point start (module docstring): ln(P_D / (A_w rho)) for the area densities of clutter
-    ``density`` (m^-2, (K,)) at the second contacts and the initiation annulus' area A_w (m^2)."""
-    return math.log(pd) - np.log(window_area * density)
+    ``density`` (m^-2, (K,) floats) at the second contacts and the initiation annulus' area A_w (m^2)."""
+    log_pd = math.log(pd)
+    out = np.empty(density.size)
+    for k in range(density.size):
+        out[k] = log_pd - math.log(window_area * density[k])
+    return out
 
 
 def birth_log_odds(pd: float, new_density: float, density: np.ndarray) -> np.ndarray:

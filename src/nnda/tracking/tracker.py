@@ -75,13 +75,13 @@ from nnda.tracking.lifecycle import (
     FAST_LINE_EVIDENCE,
     SANITY_REASONS,
     LifecycleConfig,
-    adaptive_deletion,
     adaptive_threshold,
     advance_kernel,
     advance_score_kernel,
     birth_log_odds,
     cap_pairs,
     cap_per_initiator,
+    deletion_threshold,
     everywhere,
     fast_lines_kernel,
     fast_share,
@@ -994,16 +994,15 @@ class ContactTracker(ABC):
         sensor = self.sensors[scan.sensor]
         cfg = self.config.lifecycle
         density = self._contact_density(scan)[contact]
-        score = start_score(self.score_pd(scan.sensor), self._window_areas[scan.sensor], density)
-        scores = born.scores
-        if rule == "adaptive":
-            scores[:, CONFIRM_AT] = adaptive_threshold(cfg.false_track_rate, cfg.false_deletion, density,
-                                                       sensor.scan_period_s)
-            scores[:, DELETE_AT] = adaptive_deletion(cfg, density)
+        pd, area = self.score_pd(scan.sensor), self._window_areas[scan.sensor]
         if rule == "existence":
-            score += birth_log_odds(self.score_pd(scan.sensor), cfg.new_targets_per_scan / coverage_area(sensor),
-                                    local_density(scan.xy, born.p1, self._clutter_radius, sensor))
-        scores[:, SCORE] = scores[:, MAX_SCORE] = score
+            score = start_score(pd, area, density) + birth_log_odds(
+                pd, cfg.new_targets_per_scan / coverage_area(sensor),
+                local_density(scan.xy, born.p1, self._clutter_radius, sensor))
+            born.scores[:, SCORE] = born.scores[:, MAX_SCORE] = score
+        else:
+            _started(born.scores, density, pd, area, rule == "adaptive", cfg.false_track_rate, cfg.false_deletion,
+                     sensor.scan_period_s, cfg.false_confirmation, cfg.dense_clutter_per_km2)
         return born
 
     @cached_property
@@ -1352,3 +1351,18 @@ def _picked(rows, ax, aP, amu, bx, bP, bmu):
         if rows[k]:
             x[k], P[k], mu[k] = ax[k], aP[k], amu[k]
     return x, P, mu
+
+
+@numba.njit(cache=True, nogil=True)
+def _started(scores, density, pd, area, adaptive, rate, beta, period, alpha, dense_per_km2):
+    """`ContactTracker._start_scores` under the score and adaptive rules, in one compiled call: into ``scores``
+    (K, 4) (`Tracks.scores`) of new tracks whose second contacts lie where the clutter density is ``density`` (K,)
+    m^-2, the two-point start's score (`lifecycle.start_score` for P_D ``pd`` and the window's ``area`` m^2) and,
+    if ``adaptive``, the thresholds of its birth place (`lifecycle.adaptive_threshold` at ``rate`` false tracks
+    per hour per 1,000 km^2, ``beta`` and the scan ``period`` s; `lifecycle.deletion_threshold`)."""
+    score = start_score(pd, area, density)
+    scores[:, SCORE] = score
+    scores[:, MAX_SCORE] = score
+    if adaptive:
+        scores[:, CONFIRM_AT] = adaptive_threshold(rate, beta, density, period)
+        scores[:, DELETE_AT] = deletion_threshold(beta, alpha, dense_per_km2, density)
