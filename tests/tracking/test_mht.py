@@ -11,6 +11,7 @@ import pytest
 from nnda.data.generator import generate
 from nnda.data.presets import PRESETS
 from nnda.study.metrics import run_metrics
+from nnda.tracking import global_hypothesis as gh
 from nnda.tracking.global_hypothesis import global_hypothesis
 from nnda.tracking.lifecycle import LifecycleConfig
 from nnda.tracking.mht import MHTConfig, MHTTracker
@@ -58,6 +59,31 @@ def test_global_hypothesis_is_the_best_compatible_set(seed):
     used = [(c, leaves.hist[i, c]) for i in chosen for c in range(3) if leaves.hist[i, c] >= 0]
     assert len(used) == len(set(used))  # no shared contact
     assert leaves.score[chosen].sum() == pytest.approx(brute_force(leaves), abs=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_clusters_past_the_search_budget_go_to_the_binary_program(seed, monkeypatch):
+    """With no node to spend, every cluster goes to HiGHS, which gives the same best sum as the search."""
+    rng = np.random.default_rng(200 + seed)
+    n = int(rng.integers(4, 16))
+    leaves = FakeLeaves(_Ids(rng.integers(0, 5, n)), rng.integers(-2, 3, (n, 3)), rng.normal(1.0, 3.0, n))
+    searched = global_hypothesis(leaves.tracks.track_id, leaves.hist, leaves.score, 5_000)[0]
+    monkeypatch.setattr(gh, "SEARCH_NODES", 0)
+    solved = global_hypothesis(leaves.tracks.track_id, leaves.hist, leaves.score, 5_000)[0]
+    assert leaves.score[solved].sum() == pytest.approx(leaves.score[searched].sum(), abs=1e-9)
+    assert leaves.score[searched].sum() == pytest.approx(brute_force(leaves), abs=1e-9)
+
+
+def test_the_search_reports_the_clusters_it_gives_up_on():
+    # two clusters: families 0 and 1 share contact 5, families 2 and 3 contact 6
+    fam = np.array([0, 0, 1, 2, 3])
+    rows, res = np.array([0, 1, 2, 3, 4]), np.array([0, 1, 0, 2, 2])
+    score, cluster = np.array([3.0, 1.5, 2.0, 1.0, 4.0]), np.array([0, 0, 0, 1, 1])
+    members = np.arange(5)
+    chosen, hard = gh.searched(members, cluster, fam, rows, res, score, 100)
+    assert chosen.tolist() == [1, 2, 4] and not hard.any()  # 1.5 + 2 beats 3 alone; 4 beats 1
+    chosen, hard = gh.searched(members, cluster, fam, rows, res, score, 2)
+    assert hard.tolist() == [True, True, True, False, False] and chosen.tolist() == [4]
 
 
 def test_global_hypothesis_never_chooses_a_leaf_without_a_positive_score():

@@ -6,13 +6,20 @@
 (a negative entry is a miss or unknown: no contact), ``score`` (L,) its log-likelihood ratio. Families that
 share no contact with another family's leaves take their best leaf when its score is positive. The rest form
 clusters (families linked by shared contacts, `nnda.tracking.marginals.clusters`): every cluster of
-at most ``max_exact_leaves`` leaves is solved exactly, all of them in one binary program (`solve_clusters`,
-HiGHS through `scipy.optimize.milp`: they are independent blocks), larger ones greedily by descending score
+at most ``max_exact_leaves`` leaves is solved exactly, larger ones greedily by descending score
 (`greedy_compatible`, as the thesis's global hypothesis). A leaf whose score is not positive is never chosen.
+
+The exact clusters are searched first, all in one compiled call (`searched`: depth-first branch and bound over
+the cluster's families, one leaf or none each, bounded by the sum of the remaining families' best scores).
+Most clusters hold a few families and are settled in microseconds, where a call of a general solver costs a
+millisecond or two. A cluster whose search would visit more than ``SEARCH_NODES`` nodes goes to a binary program
+instead (`solve_clusters`, HiGHS through `scipy.optimize.milp`, all such clusters in one program: they are
+independent blocks).
 """
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from scipy.optimize import Bounds, LinearConstraint, milp
 from scipy.sparse import coo_matrix
@@ -42,13 +49,153 @@ def global_hypothesis(family: np.ndarray, hist: np.ndarray, score: np.ndarray, m
     joint = cluster_size[leaf_cluster] > 1
     exact = joint & (leaves_in <= max_exact_leaves)
     solved = greedy = 0
-    if exact.any():  # every such cluster in one binary program (they are independent blocks)
-        chosen = np.concatenate([chosen, solve_clusters(np.flatnonzero(exact), fam, rows, res, score)])
+    if exact.any():  # searched, and the clusters the search gives up on in one binary program
+        members = np.flatnonzero(exact)
+        found, hard = searched(members, leaf_cluster, fam, rows, res, score, SEARCH_NODES)
+        chosen = np.concatenate([chosen, found, solve_clusters(members[hard], fam, rows, res, score)])
         solved = int(np.unique(leaf_cluster[exact]).size)
     if (joint & ~exact).any():  # clusters too large to solve exactly: greedy, as the thesis's global hypothesis
         chosen = np.concatenate([chosen, greedy_compatible(np.flatnonzero(joint & ~exact), fam, rows, res, score)])
         greedy = int(np.unique(leaf_cluster[joint & ~exact]).size)
     return np.sort(chosen), solved, greedy
+
+
+#: nodes the branch and bound of one cluster may visit (`searched`) before the cluster goes to the binary program
+SEARCH_NODES = 100_000
+
+
+@numba.njit(cache=True, nogil=True)
+def searched(members, cluster, fam, rows, res, score, budget):
+    """The best compatible set of each cluster among the leaves ``members`` (ascending), by depth-first branch
+    and bound: ``cluster`` (L,) each leaf's cluster label, ``fam`` (L,) its family index, (``rows``, ``res``) each
+    (leaf, contact resource) pair with ``rows`` sorted, ``score`` (L,). Leaves whose score is not positive are
+    left out (they never raise the sum). Within a cluster the families are taken by descending best score and
+    each family's leaves by descending score, "none" last; a branch is cut when its score plus every remaining
+    family's best cannot beat the best set found (of equal sums the first found is kept). Returns the chosen
+    leaves (ascending) and which of ``members`` (bool) belong to clusters whose search passed ``budget`` nodes
+    (left to `solve_clusters`)."""
+    keep = members[score[members] > 0]
+    n = keep.size
+    hard = np.zeros(members.size, np.bool_)
+    chosen = np.empty(n, np.int64)
+    n_chosen = 0
+    if n == 0:
+        return chosen[:0], hard
+    # by cluster, family and descending score (stable sorts, innermost key first)
+    order = keep[np.argsort(-score[keep], kind="mergesort")]
+    order = order[np.argsort(fam[order], kind="mergesort")]
+    order = order[np.argsort(cluster[order], kind="mergesort")]
+    first_pair = np.searchsorted(rows, np.arange(fam.size + 1))  # each leaf's resources: res[first[l]:first[l+1]]
+    used = np.zeros(res.max() + 1 if res.size else 1, np.bool_)
+    start = 0
+    while start < n:
+        end = start + 1
+        while end < n and cluster[order[end]] == cluster[order[start]]:
+            end += 1
+        # the cluster's families: their runs of leaves in order[start:end], then ranked by best score
+        heads = [start]
+        for i in range(start + 1, end):
+            if fam[order[i]] != fam[order[i - 1]]:
+                heads.append(i)
+        F = len(heads)
+        head = np.empty(F + 1, np.int64)
+        for f in range(F):
+            head[f] = heads[f]
+        head[F] = end
+        best_of = np.empty(F)
+        for f in range(F):
+            best_of[f] = score[order[head[f]]]
+        rank = np.argsort(-best_of, kind="mergesort")
+        lo, hi = np.empty(F, np.int64), np.empty(F, np.int64)
+        bound = np.zeros(F + 1)  # the best scores of the families from depth d on
+        for d in range(F - 1, -1, -1):
+            lo[d], hi[d] = head[rank[d]], head[rank[d] + 1]
+            bound[d] = bound[d + 1] + best_of[rank[d]]
+        pick = np.full(F, -1, np.int64)  # the option taken at each depth: a position in order, or hi (none)
+        best_pick = np.full(F, -1, np.int64)
+        best, total, nodes, d = 0.0, 0.0, 0, 0
+        next_option = lo[0]
+        gave_up = False
+        while d >= 0:
+            if d == F:  # a complete set
+                if total > best:
+                    best = total
+                    for e in range(F):
+                        best_pick[e] = pick[e] if pick[e] < hi[e] else -1
+                d -= 1
+                next_option = _undone(d, pick, order, score, first_pair, res, used, hi) + 1
+                total -= _taken(d, pick, order, score, hi)
+                continue
+            taken = -1
+            option = next_option
+            while option <= hi[d]:
+                if option == hi[d]:  # none of the family's leaves
+                    if total + bound[d + 1] > best:
+                        taken = option
+                    break
+                leaf = order[option]
+                if total + score[leaf] + bound[d + 1] <= best:  # nor any later leaf, nor none
+                    break
+                if _free(leaf, first_pair, res, used):
+                    taken = option
+                    break
+                option += 1
+            if taken < 0:  # the family's options are spent: back up
+                pick[d] = -1
+                d -= 1
+                if d >= 0:
+                    next_option = _undone(d, pick, order, score, first_pair, res, used, hi) + 1
+                    total -= _taken(d, pick, order, score, hi)
+                continue
+            nodes += 1
+            if nodes > budget:
+                gave_up = True
+                break
+            pick[d] = taken
+            if taken < hi[d]:
+                leaf = order[taken]
+                total += score[leaf]
+                for q in range(first_pair[leaf], first_pair[leaf + 1]):
+                    used[res[q]] = True
+            d += 1
+            if d < F:
+                next_option = lo[d]
+        if gave_up:
+            used[:] = False
+            for i in range(start, end):
+                hard[np.searchsorted(members, order[i])] = True
+        else:
+            for f in range(F):
+                if best_pick[f] >= 0:
+                    chosen[n_chosen] = order[best_pick[f]]
+                    n_chosen += 1
+        start = end
+    return np.sort(chosen[:n_chosen]), hard
+
+
+@numba.njit(cache=True, nogil=True)
+def _free(leaf, first_pair, res, used):
+    """Whether none of ``leaf``'s contact resources is ``used``."""
+    for q in range(first_pair[leaf], first_pair[leaf + 1]):
+        if used[res[q]]:
+            return False
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
+def _taken(d, pick, order, score, hi):
+    """The score the option at depth ``d`` added (0 for none)."""
+    return score[order[pick[d]]] if pick[d] < hi[d] else 0.0
+
+
+@numba.njit(cache=True, nogil=True)
+def _undone(d, pick, order, score, first_pair, res, used, hi):
+    """Free the resources of the option taken at depth ``d`` (none: nothing); returns that option."""
+    if pick[d] < hi[d]:
+        leaf = order[pick[d]]
+        for q in range(first_pair[leaf], first_pair[leaf + 1]):
+            used[res[q]] = False
+    return pick[d]
 
 
 def solve_clusters(members: np.ndarray, fam: np.ndarray, rows: np.ndarray, res: np.ndarray,

@@ -23,8 +23,10 @@ half-side ``clutter_radius_m`` around the predicted position) times the predicte
    shares no contact within the N-scan window and maximises the summed
    score (a leaf with a score <= 0 is less likely than "no target" and is
    never chosen). Families sharing a contact form a cluster; a one-family
-   cluster takes its best leaf, the larger clusters are solved exactly,
-   together, as one binary program (scipy's HiGHS `milp`; `nnda.tracking.global_hypothesis`). Families left out stay as
+   cluster takes its best leaf, the larger clusters are solved exactly: a
+   compiled branch and bound, and where that would take too long one binary
+   program (scipy's HiGHS `milp`) for all of them (`nnda.tracking.global_hypothesis`;
+   of two sets with equal sums, either may be chosen). Families left out stay as
    hypotheses but are not reported;
 3. **initiation** from the contacts the global hypothesis leaves free;
 4. **pruning**: N-scan pruning (the decision ``n_scan`` scans back becomes
