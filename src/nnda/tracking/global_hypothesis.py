@@ -24,6 +24,7 @@ import numpy as np
 from scipy.optimize import Bounds, LinearConstraint, milp
 from scipy.sparse import coo_matrix
 
+from nnda.tracking.lookup import run_starts
 from nnda.tracking.marginals import clusters
 
 
@@ -42,7 +43,7 @@ def global_hypothesis(family: np.ndarray, hist: np.ndarray, score: np.ndarray, m
     cluster_size = np.bincount(fam_label)
 
     order = np.lexsort((-score, fam))
-    best = order[np.r_[True, np.diff(fam[order]) != 0]]  # best leaf of each family, by family
+    best = order[run_starts(fam[order])]  # best leaf of each family, by family
     chosen = best[(cluster_size[fam_label] == 1) & (score[best] > 0)]
     leaf_cluster = fam_label[fam]
     leaves_in = np.bincount(leaf_cluster)[leaf_cluster]

@@ -40,7 +40,7 @@ from nnda.tracking.gating import gate
 from nnda.tracking.gibbs import unique_rows
 from nnda.tracking.lifecycle import birth_log_odds, sensor_noise_m, start_score
 from nnda.tracking.linearisation import update as linearised_update
-from nnda.tracking.lookup import members
+from nnda.tracking.lookup import members, run_starts
 from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
 from nnda.tracking.phd.tracker import Cardinality
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts, Tracks
@@ -292,7 +292,7 @@ class LabelledMixture(ContactTracker):
         alive = self.config.survival_probability * tent.r
         log_odds = np.log(alive) - np.log1p(-alive) + total
         order = np.lexsort((-log_w, owner))
-        tracks, hist, x, P = self._child_rows(scan, g, child[order[np.r_[True, np.diff(owner[order]) != 0]]])
+        tracks, hist, x, P = self._child_rows(scan, g, child[order[run_starts(owner[order])]])
         return LabelledTable(tracks, np.exp(-np.logaddexp(0.0, -log_odds)), hist, x, P)
 
     def _sorted_tentative(self, kids: LabelledTable) -> tuple[LabelledTable | None, LabelledTable | None]:

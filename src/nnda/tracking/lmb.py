@@ -21,6 +21,7 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from nnda.tracking.glmb import GLMBConfig, GLMBTracker
+from nnda.tracking.lookup import run_starts
 from nnda.tracking.tracker import TrackerConfig
 
 
@@ -54,7 +55,7 @@ class LMBTracker(GLMBTracker):
         r = np.bincount(cols, weights=w[rows], minlength=self.labels.size)  # (L,)
         best = np.full(self.labels.size, -1, np.int64)
         order = np.lexsort((-mass[track], cols))  # by label, heaviest track first
-        first = np.r_[True, np.diff(cols[order]) != 0]
+        first = run_starts(cols[order])
         best[cols[order][first]] = track[order][first]
         kept = r >= self.config.min_existence
         self.table = self.table.take(best).replaced(r=np.minimum(r, 1.0))

@@ -2,6 +2,7 @@
 
     at, found = sorted_find(known, keys)   # known ascending: known[at] == keys where found
     inside = members(keys, pool)           # np.isin(keys, pool) for integer arrays
+    first = run_starts(keys[order])        # the first entry of each run of equal keys
 
 The trackers ask these a few times a scan of arrays of tens to hundreds of
 ids, where a sort and a binary search cost an eighth to a half of what
@@ -27,3 +28,13 @@ def sorted_find(known: np.ndarray, keys: np.ndarray) -> tuple[np.ndarray, np.nda
 def members(keys: np.ndarray, pool: np.ndarray) -> np.ndarray:
     """Which of the integer ``keys`` (M,) are among ``pool`` (P,, any order): ``np.isin(keys, pool)``."""
     return sorted_find(np.sort(pool), keys)[1]
+
+
+def run_starts(keys: np.ndarray) -> np.ndarray:
+    """Which entries of ``keys`` (M,), grouped (equal keys adjacent), start a run of equal keys: (M,) bool, the
+    first entry True (``np.r_[True, np.diff(keys) != 0]`` without its index-trick machinery; empty for none)."""
+    starts = np.empty(keys.size, bool)
+    if keys.size:
+        starts[0] = True
+        np.not_equal(keys[1:], keys[:-1], out=starts[1:])
+    return starts

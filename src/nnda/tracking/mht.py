@@ -75,9 +75,9 @@ from nnda.tracking.clutter_density import local_density
 from nnda.tracking.gating import gate
 from nnda.tracking.gibbs import unique_rows
 from nnda.tracking.global_hypothesis import global_hypothesis
-from nnda.tracking.lifecycle import SANITY_REASONS, advance_score, sanity_reasons
+from nnda.tracking.lifecycle import SANITY_REASONS, advance_score, sanity_kernel
 from nnda.tracking.linearisation import update as linearised_update
-from nnda.tracking.lookup import members, sorted_find
+from nnda.tracking.lookup import members, run_starts, sorted_find
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, TrackerOutput
 from nnda.tracking.reports import Phase
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts, TrackerConfig, Tracks
@@ -204,7 +204,7 @@ class MHTTracker(ContactTracker):
         cfg, imm, tr = self.config, scan.filter, leaves.tracks
         z, xy, time = scan.z, scan.xy, scan.time
         L = len(leaves)
-        pred = imm.predict(tr.filt, time - tr.t2)
+        pred = imm.predict(tr.filt, time - tr.t2, check=False)  # the leaves' own states: valid
         x_pred, P_pred, mp = pred.gating.x, pred.gating.P, pred.gating.measurement
         pd = self.score_pd(scan.sensor)
         miss_score = leaves.score + math.log(1.0 - pd * gate_probability(cfg.gate))
@@ -230,13 +230,14 @@ class MHTTracker(ContactTracker):
                 contact = np.concatenate([contact, pj[keep]])
                 score = np.concatenate([score, det[keep]])
 
-        detected = contact >= 0
-        dp, dc = parent[detected], contact[detected]
-        children = tr.take(parent)
-        filt = children.filt
+        detected = contact >= 0  # the first L children are the leaves' misses, which keep their posteriors
+        dp, dc = parent[L:], contact[L:]
+        filt = tr.filt
         if dp.size:
             updated = linearised_update(imm, pred.take(dp), z[dc], np.ones(dp.size, bool))
-            filt = type(filt).concat([filt.take(~detected), updated])  # misses come first
+            filt = type(filt).concat([filt, updated])
+        children = Tracks(tr.track_id[parent], tr.status[parent], filt, tr.history[parent], tr.counts[parent],
+                          tr.scores[parent])  # `Tracks.take` but the filter states, which are new
         # the leaves the scan observed: with reports, those that took one
         seen = detected if scan.phase is Phase.REPORTS else None if observed is None else observed[parent]
         tracks = children.after_scan(contact, filt, z, xy, time, cfg.lifecycle, seen)
@@ -256,7 +257,7 @@ class MHTTracker(ContactTracker):
         judged = status == CONFIRMED
         if judged.any():
             quality[judged] = self._quality_density(scan, x_pred[parent[judged]])
-        code = sanity_reasons(shown.x, shown.P, self.sensors, self.gate_threshold, cfg.lifecycle, quality)
+        code = sanity_kernel(shown.x, shown.P, quality, *self._sanity_args)  # `lifecycle.sanity_reasons`
         alive = (status != DELETED) & (score >= max_score - cfg.deletion_score_drop) & (code == 0)
         self._count_lost(tracks.track_id, tr.status[parent], status, score, code, alive)
         return out.take(alive), _Shown(shown.x[alive], shown.P[alive])
@@ -271,9 +272,9 @@ class MHTTracker(ContactTracker):
             return
         rows = np.flatnonzero(lost)
         order = rows[np.lexsort((-score[rows], family[rows]))]
-        best = order[np.r_[True, np.diff(family[order]) != 0]]
-        for i, reason in enumerate(SANITY_REASONS, start=1):
-            self.deletions[reason] += int((code[best] == i).sum())
+        best = order[run_starts(family[order])]
+        for reason, n in zip(SANITY_REASONS, np.bincount(code[best], minlength=1 + len(SANITY_REASONS))[1:]):
+            self.deletions[reason] += int(n)
         ended = code[best] == 0
         ids, *_, shown_confirmed = self.known  # a family reported confirmed ends as a confirmed track
         confirmed = (before[best] == CONFIRMED) | members(family[best], ids[shown_confirmed])
@@ -347,7 +348,7 @@ class MHTTracker(ContactTracker):
         if idx.size:
             group = unique_rows(tail[idx])[1]
             order = np.lexsort((-leaves.score[idx], group))
-            first = np.r_[True, np.diff(group[order]) != 0]
+            first = run_starts(group[order])
             keep[idx[order[~first]]] = False
         keep |= is_chosen
         # at most max_hypotheses_per_track per family, the chosen leaf first
@@ -431,5 +432,5 @@ class MHTTracker(ContactTracker):
                 x = np.where(missed[:, None], moved.gating.x, x)
             gap[tie] = np.abs(x - reported.state[rows[owner[tie]]]).sum(axis=1)
         pick = np.lexsort((gap, owner))
-        first = pick[np.r_[True, np.diff(owner[pick]) != 0]] if pick.size else pick
+        first = pick[run_starts(owner[pick])]
         return ids[owner[first]], leaves.hist[cand[first]]

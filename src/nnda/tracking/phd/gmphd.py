@@ -47,6 +47,7 @@ from nnda.filters.measurement import MeasurementModel, PolarMeasurement
 from nnda.filters.mixture import Mixture
 from nnda.filters.motion import POS, MotionModel
 from nnda.tracking.box_pairs import Contacts, candidates
+from nnda.tracking.lookup import run_starts
 from nnda.tracking.phd import gate_kernels
 
 
@@ -271,7 +272,7 @@ def per_contact_logsumexp(values: np.ndarray, i: np.ndarray, n: int, floor: np.n
     """
     top = floor.copy()
     if len(i):
-        starts = np.flatnonzero(np.r_[True, i[1:] != i[:-1]])
+        starts = np.flatnonzero(run_starts(i))
         top[i[starts]] = np.maximum(top[i[starts]], np.maximum.reduceat(values, starts))
     shift = np.where(np.isfinite(top), top, 0.0)
     with np.errstate(divide="ignore"):
