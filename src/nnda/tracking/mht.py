@@ -65,6 +65,7 @@ import math
 from dataclasses import dataclass, replace
 from typing import Annotated, ClassVar
 
+import numba
 import numpy as np
 from pydantic import Field, model_validator
 
@@ -73,7 +74,6 @@ from nnda.filters.batch import Batch
 from nnda.filters.kalman import GATE_99, gate_probability
 from nnda.tracking.clutter_density import local_density
 from nnda.tracking.gating import gate
-from nnda.tracking.gibbs import unique_rows
 from nnda.tracking.global_hypothesis import global_hypothesis
 from nnda.tracking.lifecycle import SANITY_REASONS, advance_score, sanity_kernel
 from nnda.tracking.linearisation import update as linearised_update
@@ -266,22 +266,13 @@ class MHTTracker(ContactTracker):
                     code: np.ndarray, alive: np.ndarray) -> None:
         """Count in ``deletions`` the families whose every child leaf dies in this scan's branching, each by
         the fate of its best-scoring child: a sanity rule (its ``code``), else the life cycle (a preliminary
-        family: unconfirmed; a confirmed one: misses under M/N deletion, score when its score fell)."""
-        lost = ~members(family, family[alive])
-        if not lost.any():
-            return
-        rows = np.flatnonzero(lost)
-        order = rows[np.lexsort((-score[rows], family[rows]))]
-        best = order[run_starts(family[order])]
-        for reason, n in zip(SANITY_REASONS, np.bincount(code[best], minlength=1 + len(SANITY_REASONS))[1:]):
-            self.deletions[reason] += int(n)
-        ended = code[best] == 0
+        family: unconfirmed; a confirmed one: misses under M/N deletion, score when its score fell). One
+        compiled pass (`_lost`)."""
         ids, *_, shown_confirmed = self.known  # a family reported confirmed ends as a confirmed track
-        confirmed = (before[best] == CONFIRMED) | members(family[best], ids[shown_confirmed])
-        self.deletions["unconfirmed"] += int((ended & ~confirmed).sum())
-        by_misses = ended & confirmed & (status[best] == DELETED) & (self.confirmation_rule == "mn")
-        self.deletions["misses"] += int(by_misses.sum())
-        self.deletions["score"] += int((ended & confirmed & ~by_misses).sum())
+        counts = _lost(family, before, status, score, code, alive, np.sort(ids[shown_confirmed]),
+                       self.confirmation_rule == "mn", len(SANITY_REASONS))
+        for reason, n in zip(("unconfirmed", "misses", "score", *SANITY_REASONS), counts):
+            self.deletions[reason] += int(n)
 
     def _clutter_density(self, x_pred: np.ndarray, xy: np.ndarray) -> np.ndarray:
         """Clutter spatial density (m^-2) at each leaf's predicted position, (L,)."""
@@ -315,54 +306,22 @@ class MHTTracker(ContactTracker):
 
     # ---------------------------------------------------------------------- pruning
     def _prune(self, leaves: Leaves, chosen: np.ndarray) -> Leaves | None:
+        """The leaves that survive the scan's pruning (module docstring, step 4), ``chosen`` the global
+        hypothesis' (and the new families'): N-scan pruning, branch probability, merging and the per-family
+        bound in one compiled pass (`_kept`), then the ``max_hypotheses`` cap. None: no leaf left."""
         cfg = self.config
         family = leaves.tracks.track_id
-        fam_ids, fam = np.unique(family, return_inverse=True)
-        is_chosen = np.zeros(len(leaves), bool)
-        is_chosen[chosen] = True
-        fam_chosen = np.full(fam_ids.size, -1)
-        fam_chosen[fam[chosen]] = chosen
-        has = fam_chosen[fam] >= 0
-        # N-scan pruning: the oldest scan of the window is decided now. A family in the
-        # global hypothesis keeps the leaves that agree with its chosen one there, and no
-        # leaf of any family may keep a contact that the decision gave to another family.
-        oldest = leaves.hist[:, 0]
-        keep = ~has | (oldest == oldest[np.maximum(fam_chosen[fam], 0)])
-        given = chosen[oldest[chosen] >= 0]
-        if given.size:
-            order = np.argsort(oldest[given])
-            taken, owner = oldest[given][order], family[given][order]
-            at, found = sorted_find(taken, oldest)
-            keep &= ~(found & (owner[at] != family))
-        # branch probability within the family
-        top = np.full(fam_ids.size, -np.inf)
-        np.maximum.at(top, fam, leaves.score)
-        total = np.zeros(fam_ids.size)
-        np.add.at(total, fam, np.exp(leaves.score - top[fam]))
-        prob = np.exp(leaves.score - top[fam]) / total[fam]
-        keep &= prob >= cfg.min_branch_probability
-        # merge: a leaf whose last three contacts equal those of a better leaf goes
-        tail = leaves.hist[:, -min(3, cfg.n_scan):]
-        full = (tail >= 0).all(axis=1)
-        idx = np.flatnonzero(full)
-        if idx.size:
-            group = unique_rows(tail[idx])[1]
-            order = np.lexsort((-leaves.score[idx], group))
-            first = run_starts(group[order])
-            keep[idx[order[~first]]] = False
-        keep |= is_chosen
-        # at most max_hypotheses_per_track per family, the chosen leaf first
-        cand = np.flatnonzero(keep)
-        order = cand[np.lexsort((-leaves.score[cand], ~is_chosen[cand], fam[cand]))]
-        rank = np.arange(order.size) - np.searchsorted(fam[order], fam[order])
-        kept = order[rank < cfg.max_hypotheses_per_track]
+        kept = _kept(family, leaves.hist, leaves.score, chosen, min(3, cfg.n_scan), cfg.min_branch_probability,
+                     cfg.max_hypotheses_per_track)
         if kept.size > cfg.max_hypotheses:
             self._bound_hit("max_hypotheses", f"{kept.size - cfg.max_hypotheses} hypotheses pruned past the cap",
                             self.last_time)
+            is_chosen = np.zeros(len(leaves), bool)
+            is_chosen[chosen] = True
             before = np.unique(family[kept])
             kept = kept[np.lexsort((-leaves.score[kept], ~is_chosen[kept]))][: cfg.max_hypotheses]
             self.deletions["capped"] += int(before.size - np.unique(family[kept]).size)  # families cut whole
-        kept = np.sort(kept)
+            kept = np.sort(kept)
         return leaves.take(kept) if kept.size else None
 
     # ---------------------------------------------------------------------- output
@@ -434,3 +393,122 @@ class MHTTracker(ContactTracker):
         pick = np.lexsort((gap, owner))
         first = pick[run_starts(owner[pick])]
         return ids[owner[first]], leaves.hist[cand[first]]
+
+
+@numba.njit(cache=True, nogil=True)
+def _lost(family, before, status, score, code, alive, confirmed_ids, mn, n_reasons):
+    """`MHTTracker._count_lost` over the L children (all (L,)): the families none of whose children is ``alive``,
+    each judged by its best-scoring child (the first of equal scores): counts (3 + ``n_reasons``,) of the
+    unconfirmed, those ended by misses (``mn``) and by their score, then by each sanity reason (``code`` 1, 2,
+    ...). A family is confirmed if its child's status ``before`` the scan was, or its id is among the sorted
+    ``confirmed_ids`` (reported confirmed before)."""
+    counts = np.zeros(3 + n_reasons, np.int64)
+    order = np.argsort(family, kind="mergesort")
+    start = 0
+    while start < order.size:
+        end, best, any_alive = start + 1, order[start], alive[order[start]]
+        while end < order.size and family[order[end]] == family[order[start]]:
+            k = order[end]
+            any_alive |= alive[k]
+            if score[k] > score[best]:
+                best = k
+            end += 1
+        start = end
+        if any_alive:
+            continue
+        if code[best] > 0:
+            counts[2 + code[best]] += 1
+            continue
+        at = np.searchsorted(confirmed_ids, family[best])
+        confirmed = before[best] == CONFIRMED or (at < confirmed_ids.size and confirmed_ids[at] == family[best])
+        if not confirmed:
+            counts[0] += 1
+        elif mn and status[best] == DELETED:
+            counts[1] += 1
+        else:
+            counts[2] += 1
+    return counts
+
+
+#: `_kept`'s merging key: the last three contacts of a leaf (fewer padded with this, never a contact index)
+_NO_ENTRY = -9
+_TAIL = numba.types.UniTuple(numba.types.int64, 3)
+
+
+@numba.njit(cache=True, nogil=True)
+def _kept(family, hist, score, chosen, tail, min_probability, per_family):
+    """`MHTTracker._prune` before its global cap, over L leaves (``family`` (L,) ids, ``hist`` (L, n_scan),
+    ``score`` (L,)) of which ``chosen`` (at most one per family) are the global hypothesis': a family with a
+    chosen leaf keeps the leaves that agree with it in the oldest scan of the window, and no leaf keeps a
+    contact that scan gave another family's chosen leaf (N-scan pruning); a leaf goes whose share of its
+    family's likelihood, exp(score - best) / sum, is below ``min_probability``, and a leaf whose last ``tail``
+    contacts (all contacts) equal those of a better leaf (the first of equal scores stays); the chosen leaves
+    stay whatever the rest says; then each family keeps its chosen leaf and its best-scoring others (the first
+    of equal scores), ``per_family`` in all. Returns the kept leaves, ascending."""
+    L = family.size
+    order = np.argsort(family, kind="mergesort")
+    of = np.empty(L, np.int64)  # each leaf's family, numbered in id order
+    head = np.empty(L + 1, np.int64)  # family f's leaves: order[head[f]:head[f + 1]], ascending
+    F = 0
+    for i in range(L):
+        if i == 0 or family[order[i]] != family[order[i - 1]]:
+            head[F] = i
+            F += 1
+        of[order[i]] = F - 1
+    head[F] = L
+    pick = np.full(F, -1, np.int64)
+    for c in chosen:
+        pick[of[c]] = c
+    keep = np.ones(L, np.bool_)
+    # N-scan pruning: the window's oldest scan is decided now
+    owner = np.full(max(1, hist[:, 0].max() + 1) if L else 1, -1, np.int64)  # the family each contact went to
+    for c in chosen:
+        if hist[c, 0] >= 0:
+            owner[hist[c, 0]] = of[c]
+    for k in range(L):
+        c, oldest = pick[of[k]], hist[k, 0]
+        if c >= 0 and oldest != hist[c, 0]:
+            keep[k] = False
+        if oldest >= 0 and owner[oldest] >= 0 and owner[oldest] != of[k]:
+            keep[k] = False
+    # branch probability within the family
+    top = np.full(F, -np.inf)
+    for k in range(L):
+        top[of[k]] = max(top[of[k]], score[k])
+    total = np.zeros(F)
+    for k in range(L):
+        total[of[k]] += math.exp(score[k] - top[of[k]])
+    for k in range(L):
+        if not math.exp(score[k] - top[of[k]]) / total[of[k]] >= min_probability:
+            keep[k] = False
+    # merging: of the leaves with the same last contacts, the best
+    n = hist.shape[1]
+    best = numba.typed.Dict.empty(_TAIL, numba.types.int64)
+    for k in range(L):
+        entry = [_NO_ENTRY, _NO_ENTRY, _NO_ENTRY]
+        full = True
+        for j in range(tail):
+            entry[3 - tail + j] = hist[k, n - tail + j]
+            full &= hist[k, n - tail + j] >= 0
+        if not full:
+            continue
+        key = (entry[0], entry[1], entry[2])
+        if key not in best:
+            best[key] = k
+        elif score[k] > score[best[key]]:
+            keep[best[key]] = False
+            best[key] = k
+        else:
+            keep[k] = False
+    # at most per_family leaves a family, the chosen one first
+    kept = np.zeros(L, np.bool_)
+    for f in range(F):
+        room = per_family
+        if pick[f] >= 0:
+            kept[pick[f]] = True
+            room -= 1
+        rest = order[head[f]:head[f + 1]]
+        rest = rest[keep[rest] & (rest != pick[f])]
+        for k in rest[np.argsort(-score[rest], kind="mergesort")][:max(room, 0)]:
+            kept[k] = True
+    return np.flatnonzero(kept)
