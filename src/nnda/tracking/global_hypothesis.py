@@ -24,8 +24,7 @@ import numpy as np
 from scipy.optimize import Bounds, LinearConstraint, milp
 from scipy.sparse import coo_matrix
 
-from nnda.tracking.lookup import run_starts
-from nnda.tracking.marginals import clusters
+from nnda.tracking.marginals import components
 
 
 def global_hypothesis(family: np.ndarray, hist: np.ndarray, score: np.ndarray, max_exact_leaves: int
@@ -34,31 +33,71 @@ def global_hypothesis(family: np.ndarray, hist: np.ndarray, score: np.ndarray, m
     solved exactly and greedily."""
     if not family.size:
         return np.empty(0, np.int64), 0, 0
-    fam_ids, fam = np.unique(family, return_inverse=True)
-    F = fam_ids.size
-    rows, cols = np.nonzero(hist >= 0)
-    resource = (cols.astype(np.int64) << 32) | hist[rows, cols]
-    res = np.unique(resource, return_inverse=True)[1]
-    _, fam_label = clusters(fam[rows], res, F)  # families linked by a contact that leaves of both use
-    cluster_size = np.bincount(fam_label)
-
-    order = np.lexsort((-score, fam))
-    best = order[run_starts(fam[order])]  # best leaf of each family, by family
-    chosen = best[(cluster_size[fam_label] == 1) & (score[best] > 0)]
-    leaf_cluster = fam_label[fam]
-    leaves_in = np.bincount(leaf_cluster)[leaf_cluster]
-    joint = cluster_size[leaf_cluster] > 1
-    exact = joint & (leaves_in <= max_exact_leaves)
-    solved = greedy = 0
-    if exact.any():  # searched, and the clusters the search gives up on in one binary program
+    fam, rows, res, leaf_cluster, chosen, joint, exact, solved, greedy = _structure(family, hist, score,
+                                                                                   max_exact_leaves)
+    if solved:  # searched, and the clusters the search gives up on in one binary program
         members = np.flatnonzero(exact)
         found, hard = searched(members, leaf_cluster, fam, rows, res, score, SEARCH_NODES)
         chosen = np.concatenate([chosen, found, solve_clusters(members[hard], fam, rows, res, score)])
-        solved = int(np.unique(leaf_cluster[exact]).size)
-    if (joint & ~exact).any():  # clusters too large to solve exactly: greedy, as the thesis's global hypothesis
+    if greedy:  # clusters too large to solve exactly: greedy, as the thesis's global hypothesis
         chosen = np.concatenate([chosen, greedy_compatible(np.flatnonzero(joint & ~exact), fam, rows, res, score)])
-        greedy = int(np.unique(leaf_cluster[joint & ~exact]).size)
     return np.sort(chosen), solved, greedy
+
+
+@numba.njit(cache=True, nogil=True)
+def _structure(family, hist, score, max_exact_leaves):
+    """`global_hypothesis`' view of L leaves in one compiled pass: each leaf's family index ``fam`` (L,) (families
+    numbered by ascending id); its contact resources, pairs (``rows``, ``res``) with ``rows`` ascending and
+    ``res`` numbering the distinct (scan, contact) entries of ``hist`` in ascending order; each leaf's cluster
+    label (L,) (`nnda.tracking.marginals.clusters` of the families); the best leaf of each family alone in its
+    cluster, where its score is positive (the first of equal scores; by family); which leaves lie in clusters
+    of two or more families (``joint``) and of at most ``max_exact_leaves`` leaves (``exact``, among the joint
+    ones); and the counts of such clusters solved exactly and greedily."""
+    L, n = hist.shape
+    order = np.argsort(family, kind="mergesort")
+    fam = np.empty(L, np.int64)
+    F = 0
+    for i in range(L):
+        if i == 0 or family[order[i]] != family[order[i - 1]]:
+            F += 1
+        fam[order[i]] = F - 1
+    count = 0
+    for k in range(L):
+        for j in range(n):
+            count += hist[k, j] >= 0
+    rows, key = np.empty(count, np.int64), np.empty(count, np.int64)
+    p = 0
+    for k in range(L):
+        for j in range(n):
+            if hist[k, j] >= 0:
+                rows[p], key[p] = k, (j << 32) | hist[k, j]
+                p += 1
+    res = np.empty(count, np.int64)
+    by_key = np.argsort(key, kind="mergesort")
+    distinct = 0
+    for i in range(count):
+        if i > 0 and key[by_key[i]] != key[by_key[i - 1]]:
+            distinct += 1
+        res[by_key[i]] = distinct
+    label = components(fam[rows], res, F)[1] if count else np.arange(F)
+    size = np.bincount(label, minlength=F)
+    best = np.full(F, -1, np.int64)
+    for k in range(L):
+        if best[fam[k]] < 0 or score[k] > score[best[fam[k]]]:
+            best[fam[k]] = k
+    chosen = np.array([b for b in best if size[label[fam[b]]] == 1 and score[b] > 0], np.int64)
+    leaf_cluster = label[fam]
+    leaves_in = np.bincount(leaf_cluster, minlength=F)
+    joint = size[leaf_cluster] > 1
+    exact = joint & (leaves_in[leaf_cluster] <= max_exact_leaves)
+    solved, greedy = 0, 0
+    for c in range(F):
+        if size[c] > 1:
+            if leaves_in[c] <= max_exact_leaves:
+                solved += 1
+            else:
+                greedy += 1
+    return fam, rows, res, leaf_cluster, chosen, joint, exact, solved, greedy
 
 
 #: nodes the branch and bound of one cluster may visit (`searched`) before the cluster goes to the binary program

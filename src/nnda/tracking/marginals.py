@@ -41,12 +41,13 @@ def clusters(track: np.ndarray, contact: np.ndarray, n_tracks: int) -> tuple[int
     K = n_tracks
     if contact.size == 0 or np.bincount(contact).max() <= 1:  # no shared contact: one cluster per track
         return K, np.arange(K)
-    return _components(track, contact, K)
+    return components(track, contact, K)
 
 
 @numba.njit(cache=True, nogil=True)
-def _components(track, contact, K):
-    """`clusters` by union-find over the pairs (P,): the count and the labels (K,)."""
+def components(track, contact, K):
+    """`clusters` by union-find over the pairs (P,, at least one): the count and the labels (K,); compiled, for
+    compiled callers too."""
     parent = np.arange(K)
     owner = np.full(contact.max() + 1, -1)  # the first track seen with each contact
     for p in range(track.size):

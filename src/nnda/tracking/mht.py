@@ -341,13 +341,13 @@ class MHTTracker(ContactTracker):
         if leaves is not None and chosen.size:
             chosen = chosen[members(leaves.tracks.track_id[chosen], alive_ids)]
         if chosen.size:
-            tr = leaves.tracks.take(chosen)
-            status = np.where(members(tr.track_id, ids[confirmed]), CONFIRMED, tr.status).astype(np.int8)
-            block = (tr.track_id, status, shown.x[chosen], shown.P[chosen], leaves.hist[chosen, -1])
-            hidden = self._hidden(status, tr.consecutive, self.last_sensor)  # its last state is still `known`
+            family = leaves.tracks.track_id[chosen]
+            status = np.where(members(family, ids[confirmed]), CONFIRMED, leaves.tracks.status[chosen]).astype(np.int8)
+            block = (family, status, shown.x[chosen], shown.P[chosen], leaves.hist[chosen, -1])
+            hidden = self._hidden(status, leaves.tracks.consecutive[chosen], self.last_sensor)  # still `known`
             blocks.append(block if hidden is None else tuple(a[~hidden] for a in block))
-            stale = ~members(ids, tr.track_id)
-            ids = np.concatenate([ids[stale], tr.track_id])
+            stale = ~members(ids, family)
+            ids = np.concatenate([ids[stale], family])
             x = np.concatenate([x[stale], shown.x[chosen]])
             P = np.concatenate([P[stale], shown.P[chosen]])
             confirmed = np.concatenate([confirmed[stale], status == CONFIRMED])
