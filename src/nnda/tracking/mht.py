@@ -62,7 +62,7 @@ below its best score), alpha and beta the lifecycle's
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Annotated, ClassVar
 
 import numba
@@ -166,7 +166,7 @@ class MHTTracker(ContactTracker):
             chosen = self._global_hypothesis(leaves)
             now = leaves.hist[chosen, -1]
             used[now[now >= 0]] = True
-        families = 0 if leaves is None else np.unique(leaves.tracks.track_id).size
+        families = 0 if leaves is None else int(np.count_nonzero(run_starts(np.sort(leaves.tracks.track_id))))
         born, contact = self._initiate(sc, used, families)
         if born is not None:
             new = self._new_leaves(self._start_scores(born, sc, contact), contact)
@@ -244,12 +244,11 @@ class MHTTracker(ContactTracker):
         max_score = np.maximum(leaves.max_score[parent], score)
         peak = np.where(score >= leaves.max_score[parent], time, leaves.peak[parent])
         if self.confirmation_rule != "mn":  # Wald's test on the leaf's score, M/N counts ignored
-            tracks = replace(tracks, status=advance_score(tr.status[parent], score, max_score, cfg.lifecycle,
-                                                          seen,
+            tracks = tracks.replaced(status=advance_score(tr.status[parent], score, max_score, cfg.lifecycle, seen,
                                                           tracks.confirm_at, tracks.delete_at, tracks.consecutive))
         status = tracks.status
         d1 = detected[:, None]
-        hist = np.column_stack([leaves.hist[parent, 1:], contact])
+        hist = np.concatenate((leaves.hist[parent, 1:], contact[:, None]), axis=1)
         out = Leaves(tracks, score, max_score, hist, peak)
         x_post, P_post = imm.estimate(filt)
         shown = _Shown(np.where(d1, x_post, x_pred[parent]), np.where(d1[:, :, None], P_post, P_pred[parent]))
