@@ -41,7 +41,7 @@ from nnda.tracking.gibbs import unique_rows
 from nnda.tracking.lifecycle import birth_log_odds, sensor_noise_m, start_score
 from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.lookup import members, run_starts
-from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
+from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
 from nnda.tracking.phd.tracker import Cardinality
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts, Tracks
 
@@ -218,8 +218,8 @@ class LabelledMixture(ContactTracker):
             at = (np.flatnonzero(every < S), np.flatnonzero(every >= S))
             filt = type(filt).placed([filt, updated], at)
             x, P = placed_rows([x, x_up], at), placed_rows([P, P_up], at)
-        tracks = tr.take(parent).after_scan(contact, filt, scan.z, scan.xy, scan.time, self.config.lifecycle)
-        return tracks, np.column_stack([old.hist[parent, 1:], contact]), x, P
+        tracks = tr.branched(parent, filt).after_scan(contact, filt, scan.z, scan.xy, scan.time, self.config.lifecycle)
+        return tracks, np.concatenate((old.hist[parent, 1:], contact[:, None]), axis=1), x, P
 
     def _expected_detections(self, r_pd: np.ndarray) -> np.ndarray:
         """Each row's expected detections in this scan (S,): P_G p_S times ``r_pd`` (S,), its existence times
@@ -386,7 +386,7 @@ class LabelledMixture(ContactTracker):
             r = self.existence()[shown]
             self.confirmed = np.union1d(self.confirmed, label[r >= self.config.existence_threshold])
             was = members(label, self.confirmed)
-            status = np.where(was, TrackStatus.CONFIRMED, TrackStatus.PRELIMINARY)
+            status = np.where(was, CONFIRMED, PRELIMINARY).astype(np.int8)
             seen = ~was | (r >= self.config.report_existence)
             blocks.append((label[seen], status[seen], table.x[s[seen]], table.P[s[seen]], table.hist[s[seen], -1]))
             stale = ~members(ids, label)
@@ -396,7 +396,7 @@ class LabelledMixture(ContactTracker):
         live, waiting = self.labels, self._waiting()
         if waiting is not None:
             new = waiting.tracks.track_id
-            blocks.append((new, np.full(len(waiting), TrackStatus.PRELIMINARY, np.int8), waiting.x, waiting.P,
+            blocks.append((new, np.full(len(waiting), PRELIMINARY, np.int8), waiting.x, waiting.P,
                            waiting.hist[:, -1]))
             stale = ~members(ids, new)
             ids, x, P = (np.concatenate([ids[stale], new]), np.concatenate([x[stale], waiting.x]),
@@ -404,7 +404,7 @@ class LabelledMixture(ContactTracker):
             live = np.concatenate([live, new])
         gone = ~members(ids, live)
         if gone.any():
-            blocks.append((ids[gone], np.full(gone.sum(), TrackStatus.DELETED, np.int8), x[gone], P[gone],
+            blocks.append((ids[gone], np.full(gone.sum(), DELETED, np.int8), x[gone], P[gone],
                            np.full(gone.sum(), NO_CONTACT)))
             was = members(ids[gone], self.confirmed)
             self.deletions["score"] += int(was.sum())
@@ -412,7 +412,7 @@ class LabelledMixture(ContactTracker):
             self.confirmed = self.confirmed[~members(self.confirmed, ids[gone])]
         self.known = (ids[~gone], x[~gone], P[~gone])
         out = TrackerOutput.from_blocks(scan, time, blocks)
-        self.cardinality = self._count(scan, time, int((out.status == TrackStatus.CONFIRMED).sum()))
+        self.cardinality = self._count(scan, time, int((out.status == CONFIRMED).sum()))
         return out
 
 

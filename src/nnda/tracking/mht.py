@@ -236,8 +236,7 @@ class MHTTracker(ContactTracker):
         if dp.size:
             updated = linearised_update(imm, pred.take(dp), z[dc], np.ones(dp.size, bool))
             filt = type(filt).concat([filt, updated])
-        children = Tracks(tr.track_id[parent], tr.status[parent], filt, tr.history[parent], tr.counts[parent],
-                          tr.scores[parent])  # `Tracks.take` but the filter states, which are new
+        children = tr.branched(parent, filt)
         # the leaves the scan observed: with reports, those that took one
         seen = detected if scan.phase is Phase.REPORTS else None if observed is None else observed[parent]
         tracks = children.after_scan(contact, filt, z, xy, time, cfg.lifecycle, seen)

@@ -411,6 +411,12 @@ class Tracks(Batch):
                 score_gain is not None, score_rule, cfg.confirmation == "existence", lower, upper, early,
                 miss_run(cfg), self.history, xy, np.ascontiguousarray(z[:, 1]), time)
 
+    def branched(self, parent: np.ndarray, filt: IMMState) -> Tracks:
+        """The tracks of rows ``parent`` (M,), as `Batch.take` gives them, with the new filter states ``filt`` (M
+        rows): a scan's children of these tracks, without a copy of the filter states they replace."""
+        return Tracks(self.track_id[parent], self.status[parent], filt, self.history[parent], self.counts[parent],
+                      self.scores[parent])
+
     def joined(self, other: Tracks) -> Tracks:
         """These tracks, then ``other``'s: `Batch.concat` of the two in one compiled call (`_joined`; the
         single-hypothesis trackers add a scan's new tracks every scan, where 8 concatenations cost more
