@@ -291,6 +291,20 @@ def test_joined_tracks_are_the_batch_concatenation():
         np.testing.assert_array_equal(mine, theirs)
 
 
+def test_branched_tracks_are_the_rows_taken_with_the_new_filter_states():
+    tracker = make_tracker("gnn", PRESETS["S1"].sensor)
+    for scan in list(generate(PRESETS["S1"], seed=0).scans())[:3]:
+        tracker.step(scan)
+    tracks = tracker.tracks
+    parent = np.array([2, 0, 0, len(tracks) - 1])
+    other = tracks.take(parent[::-1]).filt  # any filter states of the children's number
+    branched, taken = tracks.branched(parent, other), tracks.take(parent).replaced(filt=other)
+    assert branched.filt is other
+    for mine, theirs in zip(branched._arrays(), taken._arrays()):
+        assert mine.dtype == theirs.dtype
+        np.testing.assert_array_equal(mine, theirs)
+
+
 def test_gnn_stages_take_the_confirmed_tracks_pairs_then_the_free_contacts_of_the_rest():
     """`gnn._stage_pairs`: the confirmed (or the other) tracks' gated pairs whose contact no track holds yet, with
     their costs d^2 + log|S|, as the masks of the numpy formulation select them."""
