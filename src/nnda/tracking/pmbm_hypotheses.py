@@ -12,8 +12,8 @@ existence, l the IMM likelihood of the contact, lambda_c the clutter density in 
 contact left to clutter weighs 1 relative).
 
 In each global hypothesis the Bernoullis present and the contacts their STHs gate form clusters (connected
-components of the bipartite gating graph, `scipy.sparse.csgraph.connected_components`, one graph for the
-whole mixture); a Bernoulli gating nothing misses. A cluster's data associations are ranked by
+components of the bipartite gating graph, by the compiled union-find `nnda.tracking.marginals.components`, one
+graph for the whole mixture); a Bernoulli gating nothing misses. A cluster's data associations are ranked by
 `nnda.tracking.kbest.k_best_assignments` on the (Bernoullis) x (contacts + one miss column per Bernoulli)
 matrix of costs -gain (0 for the Bernoulli's own miss, +inf for pairs outside the gate and the other
 Bernoullis' miss columns): each Bernoulli takes one contact or misses, each contact goes to at most one
@@ -38,10 +38,9 @@ hypothesis h in turn, descending.
 from __future__ import annotations
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 from nnda.tracking.kbest import k_best_assignments
+from nnda.tracking.marginals import components
 
 
 def scan_hypotheses(hyp: np.ndarray, ks: np.ndarray, pair_sth: np.ndarray, pair_contact: np.ndarray,
@@ -148,9 +147,7 @@ def _clusters(h: np.ndarray, sth: np.ndarray, pairs: _Pairs, H: int) -> np.ndarr
     sel = pairs.of(sth)
     node = np.repeat(np.arange(V), pairs.count[sth])
     N = int(pairs.contact.max()) + 1
-    graph = coo_matrix((np.ones(sel.size), (node, V + h[node] * N + pairs.contact[sel])), shape=(V + H * N,) * 2)
-    comp = connected_components(graph, directed=False)[1][:V]
-    return np.unique(comp, return_inverse=True)[1].ravel()  # first-seen order kept, numbers compacted
+    return components(node, h[node] * N + pairs.contact[sel], V)[1]  # union-find, numbered by first node
 
 
 def best_sums(base: np.ndarray, k: int, flat_gain: np.ndarray, off: np.ndarray, length: np.ndarray,
