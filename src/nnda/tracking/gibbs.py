@@ -140,7 +140,9 @@ def unique_rows(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return a, np.empty(0, np.int64)
     order = _row_order(a)
     s = a[order]
-    new = np.r_[True, (s[1:] != s[:-1]).any(axis=1)]
+    new = np.empty(s.shape[0], bool)  # the first row of each run of equal rows
+    new[0] = True
+    np.any(s[1:] != s[:-1], axis=1, out=new[1:])
     inverse = np.empty(a.shape[0], np.int64)
     inverse[order] = np.cumsum(new) - 1
     return s[new], inverse

@@ -427,7 +427,7 @@ def merged(hyp: np.ndarray, log_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return hyp[:1], np.logaddexp.reduce(log_w, keepdims=True)
     rows, inverse = unique_rows(hyp)
     order = np.argsort(inverse, kind="stable")
-    starts = np.r_[0, np.flatnonzero(np.diff(inverse[order])) + 1]
+    starts = np.flatnonzero(run_starts(inverse[order]))
     return rows, np.logaddexp.reduceat(log_w[order], starts)
 
 
