@@ -345,16 +345,19 @@ class LabelledMixture(ContactTracker):
         times its row's existence there."""
         if self.table is None:
             return np.zeros(self.labels.size)
-        r = np.where(self.hyp >= 0, self.table.r[np.maximum(self.hyp, 0)], 0.0)
-        return np.exp(self.log_w) @ r
+        return np.exp(self.log_w) @ self._row_existence()
 
-    def _count(self, scan: int, time: float, extracted: int) -> Cardinality:
+    def _row_existence(self) -> np.ndarray:
+        """(H, L): the existence of each label's row in each hypothesis, 0 where the label is absent (a table
+        needed)."""
+        return np.where(self.hyp >= 0, self.table.r[np.maximum(self.hyp, 0)], 0.0)
+
+    def _count(self, scan: int, time: float, extracted: int, r: np.ndarray | None = None) -> Cardinality:
         """The target count after scan ``scan``: mean and variance of the number of live labels, a mixture over
         the hypotheses (weights w_h) of multi-Bernoulli counts (mean sum r, variance sum r (1 - r) in each),
-        the tentative labels' Bernoullis added to every hypothesis."""
-        r = np.zeros((self.log_w.size, 0))
-        if self.table is not None:
-            r = np.where(self.hyp >= 0, self.table.r[np.maximum(self.hyp, 0)], 0.0)  # (H, L)
+        the tentative labels' Bernoullis added to every hypothesis; ``r`` the `_row_existence` when known."""
+        if r is None:
+            r = np.zeros((self.log_w.size, 0)) if self.table is None else self._row_existence()  # (H, L)
         w = np.exp(self.log_w)
         mu = r.sum(axis=1)
         mean = float(w @ mu)
@@ -378,12 +381,13 @@ class LabelledMixture(ContactTracker):
         blocks = []
         ids, x, P = self.known
         table = self.table
+        rows = None if table is None else self._row_existence()  # (H, L)
         if table is not None and self.labels.size:
             chosen = self.hyp[int(np.argmax(self.log_w))]
             shown = np.flatnonzero(chosen >= 0)
             s = chosen[shown]
             label = self.labels[shown]
-            r = self.existence()[shown]
+            r = (np.exp(self.log_w) @ rows)[shown]  # `existence`
             self.confirmed = np.union1d(self.confirmed, label[r >= self.config.existence_threshold])
             was = members(label, self.confirmed)
             status = np.where(was, CONFIRMED, PRELIMINARY).astype(np.int8)
@@ -412,7 +416,7 @@ class LabelledMixture(ContactTracker):
             self.confirmed = self.confirmed[~members(self.confirmed, ids[gone])]
         self.known = (ids[~gone], x[~gone], P[~gone])
         out = TrackerOutput.from_blocks(scan, time, blocks)
-        self.cardinality = self._count(scan, time, int((out.status == CONFIRMED).sum()))
+        self.cardinality = self._count(scan, time, int((out.status == CONFIRMED).sum()), rows)
         return out
 
 

@@ -57,6 +57,6 @@ class LMBTracker(GLMBTracker):
         order = np.lexsort((-mass[track], cols))  # by label, heaviest track first
         first = run_starts(cols[order])
         best[cols[order][first]] = track[order][first]
-        kept = r >= self.config.min_existence
-        self.table = self.table.take(best).replaced(r=np.minimum(r, 1.0))
-        self._keep(np.where(kept, np.arange(self.labels.size), -1)[None, :], np.zeros(1))
+        kept = np.flatnonzero(r >= self.config.min_existence)  # the labels that live on, each with its best row
+        self.hyp, self.log_w, self.labels = np.arange(kept.size)[None, :], np.zeros(1), self.labels[kept]
+        self.table = self.table.take(best[kept]).replaced(r=np.minimum(r[kept], 1.0)) if kept.size else None
