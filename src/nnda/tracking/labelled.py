@@ -210,14 +210,21 @@ class LabelledMixture(ContactTracker):
         contact = np.full(every.size, NO_CONTACT, np.int64)
         contact[every >= S] = g.pj[pair]
         tr = old.tracks
-        miss = every[every < S]
-        filt, x, P = tr.filt.take(miss), pred.gating.x[miss], pred.gating.P[miss]
+        if chosen is None:  # every child: the S misses in row order, then the pairs
+            filt, x, P = tr.filt, pred.gating.x, pred.gating.P
+        else:
+            miss = every[every < S]
+            filt, x, P = tr.filt.take(miss), pred.gating.x[miss], pred.gating.P[miss]
         if pair.size:  # each child in the place asked (misses and pairs may interleave)
             updated = linearised_update(imm, pred.take(g.pl[pair]), scan.z[g.pj[pair]], np.ones(pair.size, bool))
             x_up, P_up = imm.estimate(updated)
-            at = (np.flatnonzero(every < S), np.flatnonzero(every >= S))
-            filt = type(filt).placed([filt, updated], at)
-            x, P = placed_rows([x, x_up], at), placed_rows([P, P_up], at)
+            if chosen is None:
+                filt = type(filt).concat([filt, updated])
+                x, P = np.concatenate([x, x_up]), np.concatenate([P, P_up])
+            else:
+                at = (np.flatnonzero(every < S), np.flatnonzero(every >= S))
+                filt = type(filt).placed([filt, updated], at)
+                x, P = placed_rows([x, x_up], at), placed_rows([P, P_up], at)
         tracks = tr.branched(parent, filt).after_scan(contact, filt, scan.z, scan.xy, scan.time, self.config.lifecycle)
         return tracks, np.concatenate((old.hist[parent, 1:], contact[:, None]), axis=1), x, P
 
