@@ -178,11 +178,10 @@ class GLMBTracker(LabelledMixture):
         ready, self.tentative = self._sorted_tentative(kids)
         return [] if ready is None else [ready]
 
-    def _waiting(self) -> LabelledTracks | None:
+    def _waiting(self) -> list[LabelledTracks]:
         """The births waiting for the next scan, then the tentative labels (reported PRELIMINARY with their
         two-point start or last estimate)."""
-        rows = [t for t in (self.born, self.tentative) if t is not None]
-        return LabelledTracks.concat(rows) if len(rows) > 1 else (rows[0] if rows else None)
+        return [t for t in (self.born, self.tentative) if t is not None]
 
     # ---------------------------------------------------------------------- joint prediction-update
     def _update(self, scan: ScanContacts) -> None:

@@ -375,10 +375,10 @@ class LabelledMixture(ContactTracker):
             variance += float((rt * (1.0 - rt)).sum())
         return Cardinality(scan, time, mean, None, None, extracted, max(variance, 0.0))
 
-    def _waiting(self) -> LabelledTable | None:
+    def _waiting(self) -> list[LabelledTable]:
         """Rows reported PRELIMINARY after the best hypothesis's, live though in no hypothesis yet: the tentative
-        labels."""
-        return self.tentative
+        labels (a list of tables, in order; empty: none)."""
+        return [] if self.tentative is None else [self.tentative]
 
     def _report(self, scan: int, time: float) -> TrackerOutput:
         """The best hypothesis's labels with their row's estimate and contact, CONFIRMED once their existence
@@ -405,13 +405,13 @@ class LabelledMixture(ContactTracker):
             x = np.concatenate([x[stale], table.x[s]])
             P = np.concatenate([P[stale], table.P[s]])
         live, waiting = self.labels, self._waiting()
-        if waiting is not None:
-            new = waiting.tracks.track_id
-            blocks.append((new, np.full(len(waiting), PRELIMINARY, np.int8), waiting.x, waiting.P,
-                           waiting.hist[:, -1]))
+        if waiting:  # only the fields reported, not whole tables joined
+            new, wx, wP, contact = (np.concatenate(a) for a in zip(*((t.tracks.track_id, t.x, t.P, t.hist[:, -1])
+                                                                       for t in waiting)))
+            blocks.append((new, np.full(new.size, PRELIMINARY, np.int8), wx, wP, contact))
             stale = ~members(ids, new)
-            ids, x, P = (np.concatenate([ids[stale], new]), np.concatenate([x[stale], waiting.x]),
-                         np.concatenate([P[stale], waiting.P]))
+            ids, x, P = (np.concatenate([ids[stale], new]), np.concatenate([x[stale], wx]),
+                         np.concatenate([P[stale], wP]))
             live = np.concatenate([live, new])
         gone = ~members(ids, live)
         if gone.any():
