@@ -142,6 +142,29 @@ def test_n_scan_pruning_decides_the_oldest_scan_only_where_it_is_known():
     np.testing.assert_array_equal(n_scan_agrees(hyp, oldest, 0), [True, False, True, False, True])
 
 
+def _agrees_by_sets(hyp, oldest, best):
+    """`n_scan_agrees` in set operations: the reference the compiled pass is held to."""
+    L = hyp.shape[1]
+    both = (hyp >= 0) & (hyp[best] >= 0)
+    same = ((oldest == oldest[best]) | ~both).all(axis=1)
+    took = (hyp >= 0) & (oldest >= 0)
+    mine = took[best]
+    owned = np.unique(oldest[best][mine])
+    pairs = np.unique(oldest[best][mine] * L + np.flatnonzero(mine))
+    other = took & np.isin(oldest, owned) & ~np.isin(oldest * L + np.arange(L), pairs)
+    return same & ~other.any(axis=1)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_n_scan_pruning_equals_its_set_formulation(seed):
+    rng = np.random.default_rng(seed)
+    H, L = int(rng.integers(1, 12)), int(rng.integers(0, 8))
+    hyp = np.where(rng.random((H, L)) < 0.7, rng.integers(0, 50, (H, L)), -1)
+    oldest = rng.integers(-1, 6, (H, L))
+    best = int(rng.integers(0, H))
+    np.testing.assert_array_equal(n_scan_agrees(hyp, oldest, best), _agrees_by_sets(hyp, oldest, best))
+
+
 @pytest.mark.parametrize("k", [1, 2, 5, 40])
 def test_the_k_best_sums_over_many_clusters_are_the_enumerated_ones(k):
     """Eight Bernoullis each alone with its contacts (eight clusters, 1-3 contacts each, random gains): the k

@@ -29,6 +29,7 @@ import math
 from dataclasses import dataclass
 from typing import Annotated, ClassVar, Literal
 
+import numba
 import numpy as np
 from pydantic import Field, model_validator
 
@@ -442,20 +443,32 @@ def merged(hyp: np.ndarray, log_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return rows, np.logaddexp.reduceat(log_w[order], starts)
 
 
+@numba.njit(cache=True, nogil=True)
 def n_scan_agrees(hyp: np.ndarray, oldest: np.ndarray, best: int) -> np.ndarray:
     """N-scan pruning (H,): which hypotheses ``hyp`` (H, L) agree with hypothesis ``best`` on the scan ``n_scan``
     back, ``oldest`` (H, L) each row's contact there. A label present in both must have made the same choice
     (contact or miss), and no contact that a label of ``best`` took may be taken by another one. A label absent
     from one of them (dead there, or pruned for its low existence) constrains nothing by itself: its absence
     says nothing of that scan, so the hypotheses where a target has ended since stay beside those where it
-    coasts, and its existence falls with each miss."""
-    L = hyp.shape[1]
-    both = (hyp >= 0) & (hyp[best] >= 0)
-    same = ((oldest == oldest[best]) | ~both).all(axis=1)
-    took = (hyp >= 0) & (oldest >= 0)
-    mine = took[best]
-    owned = np.unique(oldest[best][mine])
-    pairs = np.unique(oldest[best][mine] * L + np.flatnonzero(mine))
-    key = oldest * L + np.arange(L)
-    other = took & members(oldest, owned) & ~members(key, pairs)
-    return same & ~other.any(axis=1)
+    coasts, and its existence falls with each miss. One compiled pass."""
+    H, L = hyp.shape
+    top = -1
+    for h in range(H):
+        for j in range(L):
+            if hyp[h, j] >= 0:
+                top = max(top, oldest[h, j])
+    owned = np.zeros(top + 1, np.bool_)  # the contacts a label of the best hypothesis took there
+    for j in range(L):
+        if hyp[best, j] >= 0 and oldest[best, j] >= 0:
+            owned[oldest[best, j]] = True
+    agrees = np.ones(H, np.bool_)
+    for h in range(H):
+        for j in range(L):
+            if hyp[h, j] < 0:
+                continue
+            c = oldest[h, j]
+            # present in both: the same choice; absent from the best: none of the best's contacts
+            if (c != oldest[best, j]) if hyp[best, j] >= 0 else (c >= 0 and owned[c]):
+                agrees[h] = False
+                break
+    return agrees
