@@ -144,7 +144,7 @@ class GLMBTracker(LabelledMixture):
             hist = np.full((len(born), self.config.n_scan), NO_CONTACT, np.int64)
             hist[:, -1] = contact
             waiting.insert(0, LabelledTracks(born, self._birth_existence(born, contact, sc)[0], hist, x, P, contact))
-        self.born = LabelledTracks.concat(waiting) if waiting else None
+        self.born = (waiting[0] if len(waiting) == 1 else LabelledTracks.concat(waiting)) if waiting else None
         out = self._report(scan.index, sc.time)
         self._collapse()
         return out
@@ -159,7 +159,7 @@ class GLMBTracker(LabelledMixture):
         born, self.born = self.born, None
         join = born.r >= self.config.admission_existence
         if not join.all():
-            rest = born.take(np.flatnonzero(~join))
+            rest = born if not join.any() else born.take(np.flatnonzero(~join))
             self.tentative = rest if self.tentative is None else LabelledTracks.concat([self.tentative, rest])
             if not join.any():
                 return
