@@ -77,6 +77,23 @@ def test_a_vague_track_updated_lands_on_its_contact_not_on_the_tangent_plane():
     assert np.hypot(*(fixed[[0, 2]] - contact_xy)) < 60.0  # within the contact's noise
 
 
+def test_updating_rows_of_a_prediction_equals_updating_its_rows_taken():
+    """`update` with ``rows`` (a branching tracker's children, a track as often as it has candidates) is the
+    update of ``pred.take(rows)``, bit for bit, on the linearised path and on the converted one alike."""
+    imm = IMM.for_sensor(SENSOR)
+    x = np.array([[8_000.0, 100.0, 12_000.0, -50.0]])
+    good = imm.predict(imm.from_cv(x, np.diag([50.0**2, 20.0**2, 50.0**2, 20.0**2])[None]), 2.0)
+    pred = type(good).concat([good, _vague_track(imm)])
+    assert poorly_linearised(imm.measurement, imm.combined_measurement(pred).S).tolist() == [False, True]
+    rows = np.array([1, 0, 1, 0, 0])
+    z = np.array([[5_600.0, 1.6], [14_450.0, 0.589], [5_500.0, 1.5], [14_400.0, 0.588], [14_500.0, 0.590]])
+    mine, theirs = update(imm, pred, z, np.ones(5, bool), rows=rows), update(imm, pred.take(rows), z, np.ones(5, bool))
+    for a, b in zip((mine.x, mine.P, mine.mu), (theirs.x, theirs.P, theirs.mu)):
+        np.testing.assert_array_equal(a, b)
+    plain = imm.update(pred, z, rows=rows)  # the checked path takes rows too
+    np.testing.assert_array_equal(plain.x, imm.update(pred.take(rows), z).x)
+
+
 def test_update_position_is_the_kalman_update_with_a_linear_fix():
     imm = IMM.for_sensor(SENSOR)
     pred = _vague_track(imm, sd=400.0)

@@ -362,7 +362,7 @@ class IMM:
             raise FilterError(f"dt: intervals must be finite and >= 0 s, got {dt}")
 
     def update(self, pred: IMMPrediction, z: np.ndarray, mask: np.ndarray | None = None, *,
-               check: bool = True) -> IMMState:
+               check: bool = True, rows: np.ndarray | None = None) -> IMMState:
         """Update every model with its track's measurement and the mode probabilities (eqs. 4.50-4.53).
 
         ``z`` (K, 2) holds one measurement per track; ``mask`` (K,) bool says
@@ -370,9 +370,16 @@ class IMM:
         prediction, including the TPM-propagated mode probabilities; its row
         of ``z`` is ignored (it may be NaN). ``check=False`` skips the input
         checks (for callers whose measurements are known to be valid).
+        ``rows`` (K,) int, when given, names the predicted tracks to update,
+        in that order and each as often as it comes (a branching tracker's
+        children, one per candidate measurement): the update of
+        ``pred.take(rows)``, without copying the parts it does not read.
         """
         mp, st = pred.measurement, pred.state
-        K = len(st.x)  # the array's own length: `Batch.__len__` walks the nested records, every scan
+        x, P, mu, z_pred, S_inv, log_det, PHt = st.x, st.P, st.mu, mp.z, mp.S_inv, mp.log_det_S, mp.PHt
+        if rows is not None:
+            x, P, mu, z_pred, S_inv, log_det, PHt = (a[rows] for a in (x, P, mu, z_pred, S_inv, log_det, PHt))
+        K = len(x)  # the array's own length: `Batch.__len__` walks the nested records, every scan
         if check:
             z = check_array("z", z, (K, 2), error=FilterError)
             if mask is not None:
@@ -383,11 +390,10 @@ class IMM:
         if mask is None:
             mask = np.ones(K, bool)
         elif check:
-            z = np.where(mask[:, None], z, mp.z[:, 0])  # rows without a measurement are ignored, NaN or not
+            z = np.where(mask[:, None], z, z_pred[:, 0])  # rows without a measurement are ignored, NaN or not
         if check:
             self.measurement.validate("z", z)
-        x, P, mu = imm_kernels.update(st.x, st.P, st.mu, kernel_array(z), mask, mp.z, mp.S_inv,
-                                      mp.log_det_S, mp.PHt, self.polar)
+        x, P, mu = imm_kernels.update(x, P, mu, kernel_array(z), mask, z_pred, S_inv, log_det, PHt, self.polar)
         return IMMState(x, P, mu)
 
     def update_position(self, pred: IMMPrediction, xy: np.ndarray, R: np.ndarray) -> IMMState:

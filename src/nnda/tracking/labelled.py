@@ -217,7 +217,7 @@ class LabelledMixture(ContactTracker):
             miss = every[every < S]
             filt, x, P = tr.filt.take(miss), pred.gating.x[miss], pred.gating.P[miss]
         if pair.size:  # each child in the place asked (misses and pairs may interleave)
-            updated = linearised_update(imm, pred.take(g.pl[pair]), scan.z[g.pj[pair]], np.ones(pair.size, bool))
+            updated = linearised_update(imm, pred, scan.z[g.pj[pair]], np.ones(pair.size, bool), rows=g.pl[pair])
             x_up, P_up = imm.estimate(updated)
             if chosen is None:
                 filt = type(filt).concat([filt, updated])

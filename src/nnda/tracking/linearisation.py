@@ -61,20 +61,23 @@ def cartesian_d2(measurement: MeasurementModel, z: np.ndarray, position: np.ndar
     return kalman.mahalanobis_2x2(xy - position, S_inv)
 
 
-def update(imm: IMM, pred: IMMPrediction, z: np.ndarray, detected: np.ndarray) -> IMMState:
+def update(imm: IMM, pred: IMMPrediction, z: np.ndarray, detected: np.ndarray, rows: np.ndarray | None = None
+           ) -> IMMState:
     """`IMM.update` of K tracks with contacts z (K, 2) where ``detected`` (K,), except that a poorly
     linearised track (any model's prediction) takes the converted-measurement update instead; a track
-    without a contact keeps its prediction. Unchecked (the trackers' checked contacts)."""
-    state = imm.update(pred, z, detected, check=False)
+    without a contact keeps its prediction. ``rows`` (K,), when given, names the predicted tracks updated
+    (`IMM.update`'s: one per child of a branching tracker). Unchecked (the trackers' checked contacts)."""
+    state = imm.update(pred, z, detected, check=False, rows=rows)
     if not imm.polar:
         return state
-    rows = _poor_rows(pred.measurement.S, detected, LINEARISATION_LIMIT_RAD**2)
-    if not rows.size:
+    S = pred.measurement.S if rows is None else pred.measurement.S[rows]
+    poor = _poor_rows(S, detected, LINEARISATION_LIMIT_RAD**2)
+    if not poor.size:
         return state
-    xy, R = imm.measurement.position(z[rows])
-    fixed = imm.update_position(pred.take(rows), xy, R)
+    xy, R = imm.measurement.position(z[poor])
+    fixed = imm.update_position(pred.take(poor if rows is None else rows[poor]), xy, R)
     x, P, mu = state.x.copy(), state.P.copy(), state.mu.copy()
-    x[rows], P[rows], mu[rows] = fixed.x, fixed.P, fixed.mu
+    x[poor], P[poor], mu[poor] = fixed.x, fixed.P, fixed.mu
     return IMMState(x, P, mu)
 
 

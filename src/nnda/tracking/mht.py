@@ -234,7 +234,7 @@ class MHTTracker(ContactTracker):
         dp, dc = parent[L:], contact[L:]
         filt = tr.filt
         if dp.size:
-            updated = linearised_update(imm, pred.take(dp), z[dc], np.ones(dp.size, bool))
+            updated = linearised_update(imm, pred, z[dc], np.ones(dp.size, bool), rows=dp)
             filt = type(filt).concat([filt, updated])
         children = tr.branched(parent, filt)
         # the leaves the scan observed: with reports, those that took one
