@@ -157,35 +157,31 @@ def searched(members, cluster, fam, rows, res, score, budget):
         next_option = lo[0]
         gave_up = False
         while d >= 0:
-            if d == F:  # a complete set
+            taken = -1
+            if d == F:  # a complete set: kept if the best so far, then back up
                 if total > best:
                     best = total
                     for e in range(F):
                         best_pick[e] = pick[e] if pick[e] < hi[e] else -1
-                d -= 1
-                next_option = _undone(d, pick, order, score, first_pair, res, used, hi) + 1
-                total -= _taken(d, pick, order, score, hi)
-                continue
-            taken = -1
-            option = next_option
-            while option <= hi[d]:
-                if option == hi[d]:  # none of the family's leaves
-                    if total + bound[d + 1] > best:
+            else:
+                option = next_option
+                while option <= hi[d]:
+                    if option == hi[d]:  # none of the family's leaves
+                        if total + bound[d + 1] > best:
+                            taken = option
+                        break
+                    leaf = order[option]
+                    if total + score[leaf] + bound[d + 1] <= best:  # nor any later leaf, nor none
+                        break
+                    if _free(leaf, first_pair, res, used):
                         taken = option
-                    break
-                leaf = order[option]
-                if total + score[leaf] + bound[d + 1] <= best:  # nor any later leaf, nor none
-                    break
-                if _free(leaf, first_pair, res, used):
-                    taken = option
-                    break
-                option += 1
-            if taken < 0:  # the family's options are spent: back up
-                pick[d] = -1
+                        break
+                    option += 1
+            if taken < 0:  # back up: the option of the depth above undone, its next one to try
                 d -= 1
                 if d >= 0:
-                    next_option = _undone(d, pick, order, score, first_pair, res, used, hi) + 1
-                    total -= _taken(d, pick, order, score, hi)
+                    next_option, freed = _undone(d, pick, order, score, first_pair, res, used, hi)
+                    total -= freed
                 continue
             nodes += 1
             if nodes > budget:
@@ -223,19 +219,15 @@ def _free(leaf, first_pair, res, used):
 
 
 @numba.njit(cache=True, nogil=True)
-def _taken(d, pick, order, score, hi):
-    """The score the option at depth ``d`` added (0 for none)."""
-    return score[order[pick[d]]] if pick[d] < hi[d] else 0.0
-
-
-@numba.njit(cache=True, nogil=True)
 def _undone(d, pick, order, score, first_pair, res, used, hi):
-    """Free the resources of the option taken at depth ``d`` (none: nothing); returns that option."""
-    if pick[d] < hi[d]:
-        leaf = order[pick[d]]
-        for q in range(first_pair[leaf], first_pair[leaf + 1]):
-            used[res[q]] = False
-    return pick[d]
+    """Undo the option taken at depth ``d``: free its leaf's resources (none: nothing). Returns the next option
+    to try there and the score the option had added (0 for none)."""
+    if pick[d] == hi[d]:
+        return pick[d] + 1, 0.0
+    leaf = order[pick[d]]
+    for q in range(first_pair[leaf], first_pair[leaf + 1]):
+        used[res[q]] = False
+    return pick[d] + 1, score[leaf]
 
 
 def solve_clusters(members: np.ndarray, fam: np.ndarray, rows: np.ndarray, res: np.ndarray,
