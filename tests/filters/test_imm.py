@@ -113,6 +113,18 @@ def test_take_and_concat():
 
 
 
+def test_kept_is_take_of_a_mask_and_the_batch_itself_when_all_stay():
+    state = IMM().initialise(*(tracks(4)[:, i] for i in (0, 1)), 0.0, 2.0)
+    some = np.arange(K) % 2 == 0
+    part = state.kept(some)
+    for name in ("x", "P", "mu"):
+        np.testing.assert_array_equal(getattr(part, name), getattr(state.take(some), name))
+    assert part is not state and state.kept(np.ones(K, bool)) is state
+    for wrong in (np.array([True, False]), np.ones(K + 1, bool)):
+        with pytest.raises(FilterError, match="boolean mask"):
+            state.kept(wrong)
+
+
 def test_replaced_is_dataclasses_replace():
     state = IMM().initialise(*(tracks(4)[:, i] for i in (0, 1)), 0.0, 2.0)
     mu = np.full_like(state.mu, 0.5)

@@ -59,6 +59,11 @@ class Batch:
                 index = np.flatnonzero(index)  # one scan of the mask, not one per field
         return self._rows(index)
 
+    def kept(self, mask: np.ndarray) -> Self:
+        """The tracks where the boolean ``mask`` (K,) holds, as `take` gives them; this batch itself, not a copy,
+        when it holds everywhere (for callers that never write into the arrays)."""
+        return self if mask.size == len(self) and mask.all() else self.take(mask)  # `take` checks the mask
+
     def _rows(self, index: np.ndarray | slice) -> Self:
         """`take` with a checked integer array or slice."""
         cls = type(self)

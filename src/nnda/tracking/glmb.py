@@ -159,7 +159,7 @@ class GLMBTracker(LabelledMixture):
         born, self.born = self.born, None
         join = born.r >= self.config.admission_existence
         if not join.all():
-            rest = born if not join.any() else born.take(np.flatnonzero(~join))
+            rest = born.kept(~join)
             self.tentative = rest if self.tentative is None else LabelledTracks.concat([self.tentative, rest])
             if not join.any():
                 return

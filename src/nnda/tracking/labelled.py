@@ -310,7 +310,7 @@ class LabelledMixture(ContactTracker):
         cfg = self.config
         ready = kids.r >= cfg.admission_existence
         stay = ~ready & (kids.r >= cfg.min_tentative_existence)
-        return tuple((kids if m.all() else kids.take(np.flatnonzero(m))) if m.any() else None for m in (ready, stay))
+        return tuple(kids.kept(m) if m.any() else None for m in (ready, stay))
 
     # ---------------------------------------------------------------------- pruning
     def _n_scan_keep(self, hyp: np.ndarray, best: int) -> np.ndarray:

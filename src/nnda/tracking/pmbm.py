@@ -158,7 +158,7 @@ class PMBMTracker(LabelledMixture):
             new = LabelledTable(born, r, hist, x, P)
             wait = r < self.config.admission_existence
             if wait.any():
-                rest = new if wait.all() else new.take(np.flatnonzero(wait))
+                rest = new.kept(wait)
                 self.tentative = rest if self.tentative is None else LabelledTable.concat([self.tentative, rest])
             if not wait.all():
                 self._birth(new.take(np.flatnonzero(~wait)), log_odds[~wait], len(sc.z))
