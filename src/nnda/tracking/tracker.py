@@ -684,7 +684,7 @@ class TwoPointInitiation:
             keep = np.sort(np.argsort(-wt[i], kind="stable")[:room])
             i, j = i[keep], j[keep]
         threshold = self._confirmation_threshold(len(wxy)) if len(i) else math.inf
-        rest_z, rest_xy, contact, fields = _opened(free, i, j, j, wxy, z, xy, self.next_id, wt, time, threshold)
+        rest_z, rest_xy, contact, fields, _ = _opened(free, i, j, j, wxy, z, xy, self.next_id, wt, time, threshold)
         spent = np.zeros(len(wt), bool)
         spent[i] = True
         self.waiting[sensor] = (np.concatenate([wz[~spent], rest_z]), np.concatenate([wxy[~spent], rest_xy]),
@@ -735,7 +735,7 @@ def _opened(free, i, j, windowed, initiators, z, xy, first_id, before, time, con
     (K,) of the window pairs (i, j) (K,) that open tracks (j indexes ``free``); and the tracks' fields but
     the filter state (`Tracks`: track_id from ``first_id``, status, history: p1 the initiators (I, 2) of i,
     t1 = t0 their times ``before`` (I,), t2 = ``time``, az2, p2 left to the caller; counts; scores, with
-    ``confirm_at``)."""
+    ``confirm_at``); and which free contacts are windowed (F,) bool."""
     spoken = np.zeros(free.size, np.bool_)
     spoken[windowed] = True
     rest = free[~spoken]
@@ -750,7 +750,7 @@ def _opened(free, i, j, windowed, initiators, z, xy, first_id, before, time, con
         scores[t, CONFIRM_AT] = confirm_at
     fields = (np.arange(first_id, first_id + k), np.full(k, PRELIMINARY, np.int8), history,
               np.zeros((k, 3), np.int64), scores)
-    return z[rest], xy[rest], contact, fields
+    return z[rest], xy[rest], contact, fields, spoken
 
 
 @numba.njit(cache=True, nogil=True)
@@ -771,10 +771,8 @@ def _initiated(init_xy, before, z, xy, used, d_min, d_max, d_fast, reach, per_in
     windowed = j  # every windowed contact is spoken for, opened or not
     refused = max(i.size - room, 0)
     i, j = cap_pairs(i, j, init_xy, xy[free], d_min, d_max, room)
-    rest_z, rest_xy, contact, fields = _opened(free, i, j, windowed, init_xy, z, xy, first_id,
-                                               np.full(init_xy.shape[0], before), time, confirm_at)
-    spoken = np.zeros(free.size, np.bool_)
-    spoken[windowed] = True
+    rest_z, rest_xy, contact, fields, spoken = _opened(free, i, j, windowed, init_xy, z, xy, first_id,
+                                                       np.full(init_xy.shape[0], before), time, confirm_at)
     n_fast, lines = fast_lines_kernel(init_xy, xy, free, spoken, fi, fj, lines[0], lines[1], lines[2], lines[3],
                                       lines[4], lines[5], fast_max, tol, time - before, share, FAST_LINE_EVIDENCE,
                                       FAST_LINE_CONTACTS)
