@@ -46,24 +46,17 @@ NEGLIGIBLE = 800.0
 
 
 def gibbs_assignments(cost: np.ndarray, n_samples: int, seed: int, group: np.ndarray | None = None,
-                      margin: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+                      margin: float | None = None, check: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """The distinct assignments of ``n_samples`` Gibbs draws on ``cost`` (n, 2 + m) with the exclusive
     ``group`` of each row, and their log weights, without those lighter than the heaviest by more than
-    ``margin`` nats (None: all; module docstring)."""
-    cost = _checked(cost)
+    ``margin`` nats (None: all; module docstring). ``check`` False skips the cost's checks (a caller that
+    built it)."""
+    cost = _checked(cost) if check else cost
     if not cost.shape[0]:
         return _ranked(cost, np.zeros((1, 0), np.int64))
-    group = _groups(group, cost.shape[0])
-    rows, cols = np.nonzero(np.isfinite(cost))  # each row's allowed columns, ascending
-    start = np.searchsorted(rows, np.arange(cost.shape[0] + 1))
-    samples = _sampled(cost, start, cols, cost[rows, cols], group, max(int(n_samples), 1), int(seed))
-    first = samples[0]
-    switched, switched_cost = _neighbours(cost, group, first)
-    if margin is not None:
-        sample_cost = cost[np.arange(cost.shape[0]), samples].sum(axis=1)
-        limit = min(sample_cost.min(), switched_cost.min(initial=np.inf)) + margin
-        samples, switched = samples[sample_cost <= limit], switched[switched_cost <= limit]
-    return _ranked(cost, unique_rows(np.concatenate([samples, _switched(first, switched)]))[0])
+    drawn = _drawn(cost, _groups(group, cost.shape[0]), max(int(n_samples), 1), int(seed),
+                   math.inf if margin is None else float(margin))
+    return _ranked(cost, drawn)
 
 
 def all_assignments(cost: np.ndarray, group: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -80,26 +73,6 @@ def all_assignments(cost: np.ndarray, group: np.ndarray | None = None) -> tuple[
     return _ranked(cost, np.array(found, np.int64).reshape(len(found), cost.shape[0]))
 
 
-def _neighbours(cost: np.ndarray, group: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The contact-free assignments one row away from ``start`` (n,), each column 0 or 1: the rows i (k,)
-    that may switch to the other column (its cost finite and, to column 1, its group without another row off
-    0), and each switched assignment's cost (k,) (`_switched` builds them)."""
-    rows = np.arange(start.size)
-    other = 1 - start
-    held = np.bincount(group[(group >= 0) & (start > 0)], minlength=max(int(group.max()) + 1, 1))
-    free = (group < 0) | (other == 0) | (held[np.maximum(group, 0)] == 0)
-    now, then = cost[rows, start], cost[rows, other]
-    ok = np.flatnonzero(np.isfinite(then) & free)
-    return ok, now.sum() - now[ok] + then[ok]
-
-
-def _switched(start: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """The assignments (k, n) ``start`` (n,) with row ``rows[k]`` switched between columns 0 and 1."""
-    out = np.tile(start, (rows.size, 1))
-    out[np.arange(rows.size), rows] = 1 - start[rows]
-    return out
-
-
 def _groups(group: np.ndarray | None, n: int) -> np.ndarray:
     """The rows' groups (n,) int64, renumbered 0..G-1 (-1: none)."""
     if group is None:
@@ -107,9 +80,17 @@ def _groups(group: np.ndarray | None, n: int) -> np.ndarray:
     group = np.asarray(group, np.int64)
     if group.shape != (n,):
         raise ValueError(f"assignment groups must be one per row, shape ({n},), got {group.shape}")
-    out = np.full(n, -1, np.int64)
-    some = group >= 0
-    out[some] = np.unique(group[some], return_inverse=True)[1].ravel()
+    return _renumbered(group)
+
+
+@numba.njit(cache=True, nogil=True)
+def _renumbered(group):
+    """``group`` (n,) int64 renumbered 0..G-1 in ascending order of its values >= 0 (-1 kept for the rest)."""
+    values = np.unique(group[group >= 0])
+    out = np.full(group.size, -1, np.int64)
+    for i in range(group.size):
+        if group[i] >= 0:
+            out[i] = np.searchsorted(values, group[i])
     return out
 
 
@@ -175,6 +156,74 @@ def _row_order(a):
         idx, tmp = tmp, idx
         width *= 2
     return idx
+
+
+@numba.njit(cache=True, nogil=True)
+def _drawn(cost, group, n_samples, seed, margin):
+    """The distinct assignments (A, n) of `gibbs_assignments`, in lexicographic order: ``n_samples`` draws
+    (`_sampled`) on ``cost`` (n, 2 + m) with the renumbered ``group`` (n,), then the start's contact-free
+    neighbours (one row switched between columns 0 and 1: to 0 always, to 1 where the row's group has no other
+    row off column 0), less those whose cost exceeds the least found by more than ``margin`` (inf: none). One
+    compiled pass."""
+    n, C = cost.shape
+    start = np.zeros(n + 1, np.int64)  # each row's allowed entries, ascending columns
+    for i in range(n):
+        k = 0
+        for j in range(C):
+            k += math.isfinite(cost[i, j])
+        start[i + 1] = start[i] + k
+    cols, vals = np.empty(start[n], np.int64), np.empty(start[n])
+    e = 0
+    for i in range(n):
+        for j in range(C):
+            if math.isfinite(cost[i, j]):
+                cols[e], vals[e] = j, cost[i, j]
+                e += 1
+    samples = _sampled(cost, start, cols, vals, group, n_samples, seed)
+    first = samples[0]
+    held = np.zeros(max(group.max() + 1, 1), np.int64)  # rows of each group off column 0 at the start
+    base = 0.0
+    for i in range(n):
+        base += cost[i, first[i]]
+        if group[i] >= 0 and first[i] > 0:
+            held[group[i]] += 1
+    switch, switch_cost = np.empty(n, np.int64), np.empty(n)
+    k = 0
+    for i in range(n):
+        other = 1 - first[i]
+        if math.isfinite(cost[i, other]) and (group[i] < 0 or other == 0 or held[group[i]] == 0):
+            switch[k], switch_cost[k] = i, base - cost[i, first[i]] + cost[i, other]
+            k += 1
+    sample_cost = np.zeros(n_samples)
+    for t in range(n_samples):
+        for i in range(n):
+            sample_cost[t] += cost[i, samples[t, i]]
+    limit = sample_cost.min()
+    for q in range(k):
+        limit = min(limit, switch_cost[q])
+    limit += margin
+    found = np.empty((n_samples + k, n), np.int64)
+    a = 0
+    for t in range(n_samples):
+        if sample_cost[t] <= limit:
+            found[a] = samples[t]
+            a += 1
+    for q in range(k):
+        if switch_cost[q] <= limit:
+            found[a] = first
+            found[a, switch[q]] = 1 - first[switch[q]]
+            a += 1
+    found = found[:a]
+    order = _row_order(found)
+    distinct = np.ones(a, np.bool_)
+    for q in range(1, a):
+        same = True
+        for i in range(n):
+            if found[order[q], i] != found[order[q - 1], i]:
+                same = False
+                break
+        distinct[q] = not same
+    return found[order[distinct]]
 
 
 @numba.njit(cache=True, nogil=True)

@@ -68,6 +68,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Annotated, ClassVar, Literal
 
+import numba
 import numpy as np
 from pydantic import Field
 
@@ -211,25 +212,58 @@ class GLMBTracker(LabelledMixture):
         """One hypothesis's children: its tracks ``parents`` (L,) (-1 absent), the tracks' death and miss costs
         and exclusive groups (S,), the gated pairs (track ``pl``, contact ``pj``, ``cost`` (P,)); the child
         track of each label (A, L) and each child's log weight over its parent (A,)."""
-        S = die.size
-        where = np.flatnonzero(parents >= 0)
-        s = parents[where]
-        row_of = np.full(S, -1, np.int64)
-        row_of[s] = np.arange(s.size)
-        sel = np.flatnonzero(row_of[pl] >= 0)
-        contacts, col = np.unique(pj[sel], return_inverse=True)
-        table = np.full((s.size, 2 + contacts.size), np.inf)
-        table[:, 0], table[:, 1] = die[s], miss[s]
-        table[row_of[pl[sel]], 2 + col] = cost[sel]
-        pair = np.zeros((s.size, 2 + contacts.size), np.int64)
-        pair[row_of[pl[sel]], 2 + col] = S + sel
+        table, pair, where = _options(parents, die, miss, pl, pj, cost)
+        group = group[parents[where]]
         if self.config.sampler == "exhaustive":
-            assign, log_gain = all_assignments(table, group[s])
+            assign, log_gain = all_assignments(table, group)
         else:
             assign, log_gain = gibbs_assignments(table, self.config.gibbs_samples, int(self.rng.integers(2**32)),
-                                                 group[s], NEGLIGIBLE if self.config.min_hypothesis_weight else None)
-        child = np.where(assign == 0, -1, np.where(assign == 1, s[None, :], pair[np.arange(s.size), assign]))
-        kids = np.full((len(assign), parents.size), -1, np.int64)
-        kids[:, where] = child
+                                                 group, NEGLIGIBLE if self.config.min_hypothesis_weight else None,
+                                                 check=False)
+        kids = _kids(assign, pair, parents, where)
         return kids, log_gain
 
+
+
+@numba.njit(cache=True, nogil=True)
+def _options(parents, die, miss, pl, pj, cost):
+    """One hypothesis's assignment problem: for its tracks ``parents`` (L,) (-1 absent), in label order, the
+    cost table (n, 2 + m) of `nnda.tracking.gibbs` (columns: death ``die``, miss ``miss`` (S,), then the m
+    contacts gated to any of them, ascending, each pair's ``cost`` (P,) of gated track ``pl``, contact ``pj``),
+    the child track of each entry (n, 2 + m) (a pair's S + its index; 0 elsewhere) and the labels present,
+    ``where`` (n,). One compiled pass."""
+    S = die.size
+    where = np.flatnonzero(parents >= 0)
+    n = where.size
+    row_of = np.full(S, -1, np.int64)
+    for i in range(n):
+        row_of[parents[where[i]]] = i
+    sel = np.flatnonzero(row_of[pl] >= 0)
+    contacts = np.unique(pj[sel])
+    table = np.full((n, 2 + contacts.size), np.inf)
+    pair = np.zeros((n, 2 + contacts.size), np.int64)
+    for i in range(n):
+        table[i, 0], table[i, 1] = die[parents[where[i]]], miss[parents[where[i]]]
+    for q in sel:
+        c = 2 + np.searchsorted(contacts, pj[q])
+        table[row_of[pl[q]], c] = cost[q]
+        pair[row_of[pl[q]], c] = S + q
+    return table, pair, where
+
+
+@numba.njit(cache=True, nogil=True)
+def _kids(assign, pair, parents, where):
+    """The child track of each label (A, L) under each assignment ``assign`` (A, n) of the labels present
+    (``where`` (n,) into ``parents`` (L,)): -1 where the label dies or is absent, its parent's miss child (the
+    parent's own index: the miss children come first) where it is missed, the pair's child (``pair``
+    (n, 2 + m), `_options`) where it takes a contact."""
+    A, n = assign.shape
+    kids = np.full((A, parents.size), -1, np.int64)
+    for a in range(A):
+        for i in range(n):
+            c = assign[a, i]
+            if c == 1:
+                kids[a, where[i]] = parents[where[i]]
+            elif c >= 2:
+                kids[a, where[i]] = pair[i, c]
+    return kids
