@@ -112,25 +112,8 @@ def _ranked(cost: np.ndarray, assignments: np.ndarray) -> tuple[np.ndarray, np.n
     return assignments[order], log_weight[order]
 
 
-def unique_rows(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The distinct rows of the integer array ``a`` (A, n), in lexicographic order, and the row of each
-    row of ``a`` among them (A,): ``np.unique(a, axis=0, return_inverse=True)``, by a compiled merge sort
-    of the rows (the comparison stops at the first column that differs)."""
-    a = np.ascontiguousarray(a, np.int64)
-    if not a.shape[0]:
-        return a, np.empty(0, np.int64)
-    order = _row_order(a)
-    s = a[order]
-    new = np.empty(s.shape[0], bool)  # the first row of each run of equal rows
-    new[0] = True
-    np.any(s[1:] != s[:-1], axis=1, out=new[1:])
-    inverse = np.empty(a.shape[0], np.int64)
-    inverse[order] = np.cumsum(new) - 1
-    return s[new], inverse
-
-
 @numba.njit(cache=True, nogil=True)
-def _row_order(a):
+def row_order(a):
     """The stable lexicographic order (A,) of the rows of ``a`` (A, n) int64, by merge sort."""
     A, n = a.shape
     idx = np.arange(A)
@@ -214,7 +197,7 @@ def _drawn(cost, group, n_samples, seed, margin):
             found[a, switch[q]] = 1 - first[switch[q]]
             a += 1
     found = found[:a]
-    order = _row_order(found)
+    order = row_order(found)
     distinct = np.ones(a, np.bool_)
     for q in range(1, a):
         same = True

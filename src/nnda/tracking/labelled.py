@@ -38,13 +38,16 @@ from nnda.filters.imm import IMMPrediction
 from nnda.filters.kalman import gate_probability
 from nnda.tracking.clutter_density import coverage_area, local_density
 from nnda.tracking.gating import gate
-from nnda.tracking.gibbs import unique_rows
+from nnda.tracking.gibbs import row_order
 from nnda.tracking.lifecycle import birth_log_odds, sensor_noise_m, start_score
 from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.lookup import members, run_starts
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
 from nnda.tracking.phd.tracker import Cardinality
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts, Tracks
+
+#: ln 2
+_LN2 = math.log(2.0)
 
 
 class LabelledConfig(ContactTrackerConfig):
@@ -434,13 +437,50 @@ def normalised(log_w: np.ndarray) -> np.ndarray:
 
 
 def merged(hyp: np.ndarray, log_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Equal global hypotheses (rows of ``hyp`` (H, L)) as one, their log weights (H,) summed."""
+    """Equal global hypotheses (rows of ``hyp`` (H, L)) as one, their log weights (H,) summed: the distinct
+    rows in lexicographic order and their log weights."""
     if not hyp.shape[1]:
         return hyp[:1], np.logaddexp.reduce(log_w, keepdims=True)
-    rows, inverse = unique_rows(hyp)
-    order = np.argsort(inverse, kind="stable")
-    starts = np.flatnonzero(run_starts(inverse[order]))
-    return rows, np.logaddexp.reduceat(log_w[order], starts)
+    return _merged(np.ascontiguousarray(hyp, np.int64), np.asarray(log_w, np.float64))
+
+
+@numba.njit(cache=True, nogil=True)
+def _merged(hyp, log_w):
+    """`merged` of ``hyp`` (H, L), L > 0, and ``log_w`` (H,): the rows sorted (`nnda.tracking.gibbs.row_order`,
+    stable), each run of equal rows' weights summed in its rows' order, as numpy's ``logaddexp.reduceat``
+    would. One compiled pass."""
+    H, L = hyp.shape
+    order = row_order(hyp)
+    first = np.empty(H, np.int64)  # the first row of each run of equal rows
+    w = np.empty(H)
+    k = -1
+    for q in range(H):
+        r = order[q]
+        new = q == 0
+        if not new:
+            for j in range(L):
+                if hyp[r, j] != hyp[order[q - 1], j]:
+                    new = True
+                    break
+        if new:
+            k += 1
+            first[k], w[k] = r, log_w[r]
+        else:
+            w[k] = _logaddexp(w[k], log_w[r])
+    return hyp[first[:k + 1]], w[:k + 1]
+
+
+@numba.njit(cache=True, nogil=True)
+def _logaddexp(x, y):
+    """ln(e^x + e^y) as numpy's ``logaddexp`` works it out (the same operations, so the same bits)."""
+    if x == y:  # equal infinities too
+        return x + _LN2
+    d = x - y
+    if d > 0:
+        return x + math.log1p(math.exp(-d))
+    if d <= 0:
+        return y + math.log1p(math.exp(d))
+    return d  # a NaN
 
 
 @numba.njit(cache=True, nogil=True)
