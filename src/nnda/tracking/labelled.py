@@ -41,7 +41,7 @@ from nnda.tracking.gating import gate
 from nnda.tracking.gibbs import row_order
 from nnda.tracking.lifecycle import birth_log_odds, sensor_noise_m, start_score
 from nnda.tracking.linearisation import update as linearised_update
-from nnda.tracking.lookup import members, run_starts
+from nnda.tracking.lookup import among, run_starts
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
 from nnda.tracking.phd.tracker import Cardinality
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts, Tracks
@@ -388,47 +388,61 @@ class LabelledMixture(ContactTracker):
         """The best hypothesis's labels with their row's estimate and contact, CONFIRMED once their existence
         has reached ``existence_threshold`` (and left out while a confirmed label's existence is below
         ``report_existence``), PRELIMINARY before; then the waiting rows (`_waiting`); then the reported labels
-        deleted in this scan, DELETED with their last estimate."""
-        blocks = []
+        deleted in this scan, DELETED with their last estimate (the labels' bookkeeping: `_bookkeeping`)."""
+        cfg, table = self.config, self.table
         ids, x, P = self.known
-        table = self.table
         rows = None if table is None else self._row_existence()  # (H, L)
+        s = label = np.empty(0, np.int64)
+        r = np.empty(0)
         if table is not None and self.labels.size:
             chosen = self.hyp[int(np.argmax(self.log_w))]
             shown = np.flatnonzero(chosen >= 0)
-            s = chosen[shown]
-            label = self.labels[shown]
+            s, label = chosen[shown], self.labels[shown]
             r = (np.exp(self.log_w) @ rows)[shown]  # `existence`
-            self.confirmed = np.union1d(self.confirmed, label[r >= self.config.existence_threshold])
-            was = members(label, self.confirmed)
-            status = np.where(was, CONFIRMED, PRELIMINARY).astype(np.int8)
-            seen = ~was | (r >= self.config.report_existence)
-            blocks.append((label[seen], status[seen], table.x[s[seen]], table.P[s[seen]], table.hist[s[seen], -1]))
-            stale = ~members(ids, label)
-            ids = np.concatenate([ids[stale], label])
-            x = np.concatenate([x[stale], table.x[s]])
-            P = np.concatenate([P[stale], table.P[s]])
-        live, waiting = self.labels, self._waiting()
-        if waiting:  # only the fields reported, not whole tables joined
-            new, wx, wP, contact = (np.concatenate(a) for a in zip(*((t.tracks.track_id, t.x, t.P, t.hist[:, -1])
-                                                                       for t in waiting)))
-            blocks.append((new, np.full(new.size, PRELIMINARY, np.int8), wx, wP, contact))
-            stale = ~members(ids, new)
-            ids, x, P = (np.concatenate([ids[stale], new]), np.concatenate([x[stale], wx]),
-                         np.concatenate([P[stale], wP]))
-            live = np.concatenate([live, new])
-        gone = ~members(ids, live)
-        if gone.any():
-            blocks.append((ids[gone], np.full(gone.sum(), DELETED, np.int8), x[gone], P[gone],
-                           np.full(gone.sum(), NO_CONTACT)))
-            was = members(ids[gone], self.confirmed)
-            self.deletions["score"] += int(was.sum())
-            self.deletions["unconfirmed"] += int((~was).sum())
-            self.confirmed = self.confirmed[~members(self.confirmed, ids[gone])]
-        self.known = (ids[~gone], x[~gone], P[~gone])
-        out = TrackerOutput.from_blocks(scan, time, blocks)
+        waiting = self._waiting()
+        new, wx, wP, contact = ((np.concatenate(a) for a in zip(*((t.tracks.track_id, t.x, t.P, t.hist[:, -1])
+                                                                   for t in waiting))) if waiting else
+                                (np.empty(0, np.int64), np.empty((0, 4)), np.empty((0, 4, 4)), np.empty(0, np.int64)))
+        self.confirmed, was, seen, old, mine, gone, lost = _bookkeeping(
+            ids, label, r, new, self.labels, self.confirmed, cfg.existence_threshold, cfg.report_existence)
+        self.deletions["score"] += int(lost.sum())
+        self.deletions["unconfirmed"] += int(lost.size - lost.sum())
+        status = np.where(was, CONFIRMED, PRELIMINARY).astype(np.int8)
+        if table is not None:  # the shown rows' estimates, the reported ones first
+            x_s, P_s, c_s = table.x[s], table.P[s], table.hist[s, -1]
+        else:
+            x_s, P_s, c_s = np.empty((0, 4)), np.empty((0, 4, 4)), np.empty(0, np.int64)
+        ids, x, P = (np.concatenate([ids[old], label[mine], new]), np.concatenate([x[old], x_s[mine], wx]),
+                     np.concatenate([P[old], P_s[mine], wP]))
+        kept = ~gone
+        blocks = [(label[seen], status[seen], x_s[seen], P_s[seen], c_s[seen]),
+                  (new, np.full(new.size, PRELIMINARY, np.int8), wx, wP, contact),
+                  (ids[gone], np.full(lost.size, DELETED, np.int8), x[gone], P[gone], np.full(lost.size, NO_CONTACT))]
+        self.known = (ids[kept], x[kept], P[kept])
+        out = TrackerOutput.from_blocks(scan, time, [b for b in blocks if b[0].size])
         self.cardinality = self._count(scan, time, int((out.status == CONFIRMED).sum()), rows)
         return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _bookkeeping(ids, label, r, new, labels, confirmed, threshold, report):
+    """The labels' bookkeeping of `LabelledMixture._report`: ``ids`` (K,) the labels reported before, ``label``
+    (n,) the best hypothesis's labels of existence ``r`` (n,), ``new`` (W,) the waiting rows' labels,
+    ``labels`` (L,) the live labels, ``confirmed`` (C,) ascending, those reported confirmed so far, and the
+    ``existence_threshold`` and ``report_existence``. Returns the confirmed labels after the scan (ascending;
+    the deleted ones gone), which of ``label`` are confirmed (n,) and reported (n,), the labels known after the
+    scan as the old ones kept, ``old`` (indices into ``ids``: those in neither ``label`` nor ``new``), then
+    ``label[mine]``, then ``new``; which of those are deleted (not live), ``gone``, and whether each deleted one
+    was confirmed, ``lost`` (D,). One compiled pass."""
+    confirmed = np.unique(np.concatenate((confirmed, label[r >= threshold])))
+    was = among(label, confirmed)
+    seen = ~was | (r >= report)
+    old = np.flatnonzero(~among(ids, np.concatenate((label, new))))
+    mine = np.flatnonzero(~among(label, new))
+    known = np.concatenate((ids[old], label[mine], new))
+    gone = ~among(known, np.concatenate((labels, new)))
+    lost = among(known[gone], confirmed)
+    return confirmed[~among(confirmed, known[gone])], was, seen, old, mine, gone, lost
 
 
 def normalised(log_w: np.ndarray) -> np.ndarray:
