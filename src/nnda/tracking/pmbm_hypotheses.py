@@ -25,9 +25,10 @@ STHs) is ranked once, for the largest k asked (Murty's ranking yields the same f
 cluster of one Bernoulli is ranked directly (its miss and its contacts by gain), all of them in one sort.
 
 The clusters are independent, so a global hypothesis's k best associations are the k best sums of one
-ranked option per cluster (`best_sums`). Only a few clusters take part: with the deltas of each cluster's
-options from its best (<= 0), an option of delta below the (k-1)-th largest delta of all clusters is in none
-of the k best sums (the best sum with any one of those k - 1 deltas beats it), so the others keep their best.
+ranked option per cluster (`_combined`, every global hypothesis in one compiled pass). Only a few clusters
+take part: with the deltas of each cluster's options from its best (<= 0), an option of delta below the
+(k-1)-th largest delta of all clusters is in none of the k best sums (the best sum with any one of those
+k - 1 deltas beats it), so the others keep their best.
 
 Returns ``children`` (M, L), the child STH of every Bernoulli in each of the M associations (-1 where
 absent), ``log_gain`` (M,), each one's summed gain (its log weight relative to the all-missed association,
@@ -37,6 +38,7 @@ hypothesis h in turn, descending.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from nnda.tracking.kbest import k_best_assignments
@@ -73,19 +75,15 @@ def scan_hypotheses(hyp: np.ndarray, ks: np.ndarray, pair_sth: np.ndarray, pair_
         off[c], length[c] = at[key], done[key][1].size
         child0[node_order[node_at[c]:node_at[c + 1]]] = done[key][0][0]
     flat_gain = np.concatenate([pairs.opt_gain, *ranked_gains])
-
-    def options(c: int) -> tuple[np.ndarray, np.ndarray]:
-        """Cluster c's labels (n,) and options (m, n)."""
-        labels = col[node_order[node_at[c]:node_at[c + 1]]]
-        return labels, done[keys[c]][0] if c in keys else pairs.opt_child[off[c]:off[c] + length[c], None]
-
-    out = []
-    for g in range(H):
-        cs, ns = slice(cl_at[g], cl_at[g + 1]), slice(node_at_h[g], node_at_h[g + 1])
-        out.append(best_sums(hyp[g], int(ks[g]), flat_gain, off[cs], length[cs], col[ns], child0[ns],
-                             lambda c, g=g: options(cl_at[g] + c)))
-    return (np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out]),
-            np.repeat(np.arange(H), [o[1].size for o in out]))
+    # each cluster's options (m, n) flat, by option then node: a single Bernoulli's own, then the ranked
+    ranked_children = [children.ravel() for children, _ in done.values()]
+    child_at = dict(zip(done, pairs.opt_child.size + np.cumsum([0, *(c.size for c in ranked_children)])))
+    child_off = off.copy()
+    for c, key in keys.items():
+        child_off[c] = child_at[key]
+    flat_child = np.concatenate([pairs.opt_child, *ranked_children])
+    return _combined(hyp, ks.astype(np.int64), flat_gain, off, length, flat_child, child_off,
+                     col[node_order], node_at, cl_at, col, child0, node_at_h)
 
 
 class _Pairs:
@@ -150,47 +148,92 @@ def _clusters(h: np.ndarray, sth: np.ndarray, pairs: _Pairs, H: int) -> np.ndarr
     return components(node, h[node] * N + pairs.contact[sel], V)[1]  # union-find, numbered by first node
 
 
-def best_sums(base: np.ndarray, k: int, flat_gain: np.ndarray, off: np.ndarray, length: np.ndarray,
-              cols: np.ndarray, child0: np.ndarray, options) -> tuple[np.ndarray, np.ndarray]:
-    """The k best combinations of one option per cluster of one global hypothesis: ``base`` (L,) the STH of
-    each label before the scan; C clusters, in order, with gains descending ``flat_gain[off[c]:off[c] +
-    length[c]]``; ``cols`` (V,) the labels of their Bernoullis and ``child0`` (V,) each one's child in its
-    cluster's best option; ``options(c)`` cluster c's labels (n,) and options (m, n) (child STH per label).
-    Only the clusters with an option of delta at or above the (k-1)-th largest take part (module docstring);
-    each sum is over every cluster, in order. Returns (children (k', L), gains (k',)), descending."""
-    if not off.size:
-        return base[None, :], np.zeros(1)
-    m = np.minimum(length, k)
-    best = flat_gain[off]
-    part = np.empty(0, np.int64)
-    low = -np.inf
-    if k > 1:
-        n = m - 1
-        delta = flat_gain[np.repeat(off + 1, n) + np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)] - np.repeat(
-            best, n)
-        if delta.size >= k - 1:
-            low = np.partition(delta, delta.size - k + 1)[delta.size - k + 1]
-        two = m > 1
-        part = np.flatnonzero(two & (flat_gain[off + two] - best >= low))
-    total = np.zeros(1)
-    steps = []  # per cluster taking part: the row of the previous combinations and the option each extends
-    for c in part:
-        gains = flat_gain[off[c]:off[c] + m[c]]
-        gains = gains[:1 + int(np.count_nonzero(gains[1:] - gains[0] >= low))]
-        sums = (total[:, None] + gains[None, :]).ravel()
-        keep = np.argsort(-sums, kind="stable")[:k]
-        steps.append((keep // gains.size, keep % gains.size))
-        total = sums[keep]
-    pick = np.zeros((total.size, off.size), np.int64)  # the option of each cluster in each combination
-    row = np.arange(total.size)
-    for c, (parent, option) in zip(part[::-1], steps[::-1]):
-        pick[:, c] = option[row]
-        row = parent[row]
-    sums = np.cumsum(flat_gain[off + pick], axis=1)[:, -1]  # in cluster order
-    order = np.argsort(-sums, kind="stable")
-    children = np.tile(base, (total.size, 1))
-    children[:, cols] = child0
-    for c in part:
-        labels, opts = options(c)
-        children[:, labels] = opts[pick[order, c]]
-    return children, sums[order]
+@numba.njit(cache=True, nogil=True)
+def _combined(hyp, ks, flat_gain, off, length, flat_child, child_off, cluster_cols, node_at, cl_at, cols, child0,
+              node_at_h):
+    """The ``ks[g]`` best combinations of one option per cluster of every global hypothesis g of ``hyp`` (H, L),
+    in turn (module docstring). The C clusters, numbered by hypothesis (hypothesis g's are ``cl_at[g]`` to
+    ``cl_at[g + 1]``), have their gains descending at ``flat_gain[off[c]:off[c] + length[c]]`` and their
+    options (m, n), the child STH of each of their n Bernoullis (labels ``cluster_cols[node_at[c]:node_at[c +
+    1]]``), by option then Bernoulli at ``flat_child[child_off[c]:]``; ``cols`` (V,) the labels of every
+    hypothesis's Bernoullis with pairs and ``child0`` (V,) each one's child in its cluster's best option
+    (hypothesis g's nodes ``node_at_h[g]`` to ``node_at_h[g + 1]``). Only the clusters with an option of delta
+    at or above the (k-1)-th largest of the hypothesis take part; each sum is over every cluster, in order.
+    Returns the children (M, L), the sums (M,) (descending per hypothesis) and each one's hypothesis (M,).
+    One compiled pass."""
+    H, L = hyp.shape
+    bound = np.ones(H, np.int64)  # combinations of each hypothesis at most: k, and the product of its options
+    for g in range(H):
+        for c in range(cl_at[g], cl_at[g + 1]):
+            bound[g] = int(min(float(bound[g]) * min(length[c], ks[g]), float(ks[g])))  # no overflow
+    cap = bound.sum()
+    out = np.empty((cap, L), np.int64)
+    out_gain = np.empty(cap)
+    out_parent = np.empty(cap, np.int64)
+    row0 = 0
+    for g in range(H):
+        k = ks[g]
+        c0, C = cl_at[g], cl_at[g + 1] - cl_at[g]
+        if C == 0:
+            out[row0] = hyp[g]
+            out_gain[row0], out_parent[row0] = 0.0, g
+            row0 += 1
+            continue
+        m = np.minimum(length[c0:c0 + C], k)
+        low = -np.inf
+        part = np.empty(0, np.int64)
+        if k > 1:
+            delta = np.empty((m - 1).sum())
+            d = 0
+            for c in range(C):
+                for i in range(1, m[c]):
+                    delta[d] = flat_gain[off[c0 + c] + i] - flat_gain[off[c0 + c]]
+                    d += 1
+            if delta.size >= k - 1:
+                low = np.partition(delta, delta.size - k + 1)[delta.size - k + 1]
+            takes = np.zeros(C, np.bool_)
+            for c in range(C):
+                takes[c] = m[c] > 1 and flat_gain[off[c0 + c] + 1] - flat_gain[off[c0 + c]] >= low
+            part = np.flatnonzero(takes)
+        total = np.zeros(1)
+        parents = np.empty((part.size, bound[g]), np.int64)  # per cluster taking part: the previous combination
+        options = np.empty((part.size, bound[g]), np.int64)  # and the option each extends
+        for q in range(part.size):
+            c = c0 + part[q]
+            G = 1
+            while G < m[part[q]] and flat_gain[off[c] + G] - flat_gain[off[c]] >= low:
+                G += 1
+            sums = np.empty(total.size * G)
+            for t in range(total.size):
+                for j in range(G):
+                    sums[t * G + j] = total[t] + flat_gain[off[c] + j]
+            keep = np.argsort(-sums, kind="mergesort")[:k]
+            parents[q, :keep.size] = keep // G
+            options[q, :keep.size] = keep % G
+            total = sums[keep]
+        T = total.size
+        pick = np.zeros((T, C), np.int64)  # the option of each cluster in each combination
+        row = np.arange(T)
+        for q in range(part.size - 1, -1, -1):
+            pick[:, part[q]] = options[q][row]
+            row = parents[q][row]
+        sums = np.empty(T)
+        for t in range(T):  # in cluster order, as a cumulative sum would
+            acc = flat_gain[off[c0] + pick[t, 0]]
+            for c in range(1, C):
+                acc += flat_gain[off[c0 + c] + pick[t, c]]
+            sums[t] = acc
+        order = np.argsort(-sums, kind="mergesort")
+        for t in range(T):
+            out[row0 + t] = hyp[g]
+            for v in range(node_at_h[g], node_at_h[g + 1]):
+                out[row0 + t, cols[v]] = child0[v]
+            for q in range(part.size):
+                c = c0 + part[q]
+                n = node_at[c + 1] - node_at[c]
+                option = pick[order[t], part[q]]
+                for j in range(n):
+                    out[row0 + t, cluster_cols[node_at[c] + j]] = flat_child[child_off[c] + option * n + j]
+            out_gain[row0 + t], out_parent[row0 + t] = sums[order[t]], g
+        row0 += T
+    return out[:row0], out_gain[:row0], out_parent[:row0]
