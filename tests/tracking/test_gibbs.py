@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 from nnda.tracking.gibbs import _sampled, all_assignments, gibbs_assignments
-from nnda.tracking.labelled import merged
 
 
 def random_cost(rng: np.random.Generator, n: int, m: int) -> np.ndarray:
@@ -150,22 +149,3 @@ def test_the_compiled_sampler_visits_only_the_allowed_columns_and_draws_the_same
     start = np.searchsorted(rows, np.arange(13))
     got = _sampled(cost, start, cols, cost[rows, cols], group, 40, 1234 + seed)
     np.testing.assert_array_equal(got, dense_draws(cost, group, 40, 1234 + seed))
-
-
-def test_merged_hypotheses_are_numpys():
-    """Random integer rows with repeats and negative entries, 1 to 40 rows of 1 to 6 columns, with random
-    log weights (some -inf, some equal): the distinct rows, in order, equal ``np.unique(axis=0)``, and each
-    one's log weight equals numpy's ``logaddexp.reduceat`` over its rows in their order, to the bit."""
-    rng = np.random.default_rng(0)
-    for _ in range(300):
-        a = rng.integers(-2, 3, (rng.integers(1, 40), rng.integers(1, 7)))
-        a = a[rng.integers(0, len(a), len(a))]
-        log_w = rng.normal(0.0, 3.0, len(a))
-        log_w[rng.random(len(a)) < 0.1] = -np.inf
-        log_w[rng.random(len(a)) < 0.1] = 0.5
-        rows, w = merged(a, log_w)
-        want, inverse = np.unique(a, axis=0, return_inverse=True)
-        order = np.argsort(inverse.ravel(), kind="stable")
-        starts = np.flatnonzero(np.r_[True, np.diff(inverse.ravel()[order]) != 0])
-        np.testing.assert_array_equal(rows, want)
-        np.testing.assert_array_equal(w, np.logaddexp.reduceat(log_w[order], starts))

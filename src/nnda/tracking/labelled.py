@@ -41,7 +41,7 @@ from nnda.tracking.gating import gate
 from nnda.tracking.gibbs import row_order
 from nnda.tracking.lifecycle import birth_log_odds, sensor_noise_m, start_score
 from nnda.tracking.linearisation import update as linearised_update
-from nnda.tracking.lookup import among, run_starts
+from nnda.tracking.lookup import among
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
 from nnda.tracking.phd.tracker import Cardinality
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts, Tracks
@@ -296,14 +296,10 @@ class LabelledMixture(ContactTracker):
         pl = g.pl[ok]
         with np.errstate(divide="ignore"):  # P_D 1: a miss weighs 0
             log_w = np.concatenate([np.log1p(-g.pd), np.log(g.pd[pl]) + g.ll[ok] - np.log(g.clutter[ok])])
-        owner = np.concatenate([np.arange(T), pl])
-        child = np.concatenate([np.arange(T), T + np.flatnonzero(ok)])
-        total = np.full(T, -np.inf)
-        np.logaddexp.at(total, owner, log_w)  # ln of (1 - P_D + sum of P_D l / lambda_c) per label
+        total, chosen = _heaviest(pl, log_w, np.flatnonzero(ok), T)
         alive = self.config.survival_probability * tent.r
         log_odds = np.log(alive) - np.log1p(-alive) + total
-        order = np.lexsort((-log_w, owner))
-        tracks, hist, x, P = self._child_rows(scan, g, child[order[run_starts(owner[order])]])
+        tracks, hist, x, P = self._child_rows(scan, g, chosen)
         return LabelledTable(tracks, np.exp(-np.logaddexp(0.0, -log_odds)), hist, x, P)
 
     def _sorted_tentative(self, kids: LabelledTable) -> tuple[LabelledTable | None, LabelledTable | None]:
@@ -422,6 +418,26 @@ class LabelledMixture(ContactTracker):
         out = TrackerOutput.from_blocks(scan, time, [b for b in blocks if b[0].size])
         self.cardinality = self._count(scan, time, int((out.status == CONFIRMED).sum()), rows)
         return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _heaviest(owner, log_w, pair, T):
+    """Each of T tentative labels' children weighed (`LabelledMixture._tentative_children`): ``log_w`` (T + Q,)
+    the labels' misses, then Q gated pairs of labels ``owner`` (Q,), which are the gated pairs ``pair`` (Q,).
+    Returns each label's summed weight (T,), ln of the sum of its children's weights, added in their order as
+    numpy's ``logaddexp.at`` would, and its heaviest child (T,): the label's miss (its index) or T + the gated
+    pair's index, the first of equal weights. One compiled pass."""
+    total = np.full(T, -np.inf)
+    chosen = np.arange(T)
+    top = np.empty(T)
+    for t in range(T):
+        total[t], top[t] = _logaddexp(total[t], log_w[t]), log_w[t]
+    for q in range(owner.size):
+        t, w = owner[q], log_w[T + q]
+        total[t] = _logaddexp(total[t], w)
+        if w > top[t]:
+            top[t], chosen[t] = w, T + pair[q]
+    return total, chosen
 
 
 @numba.njit(cache=True, nogil=True)
