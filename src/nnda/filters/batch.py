@@ -2,8 +2,8 @@
 
 Trackers add and drop tracks every scan and branch a track over several
 candidate measurements; `Batch.take` (any numpy index along the track axis,
-repeats allowed), `Batch.concat` and `Batch.placed` (a concatenation put in a given
-order) do that for every record built on it.
+repeats allowed), `Batch.concat` and `Batch.gathered` (rows of one batch and all
+of another, put in a given order) do that for every record built on it.
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ from functools import cache
 from operator import attrgetter
 from typing import Self
 
+import numba
 import numpy as np
 
 from nnda.errors import FilterError
@@ -33,13 +34,16 @@ def _values(cls: type) -> Callable[[object], tuple]:
     return getter if len(names) > 1 else lambda record: (getter(record),)
 
 
-def placed_rows(parts: Sequence[np.ndarray], at: Sequence[np.ndarray]) -> np.ndarray:
-    """One array whose rows ``at[i]`` (integer arrays that together name every row once) are ``parts[i]``'s
-    rows in order: ``np.concatenate(parts)`` put in that order, in one copy instead of two."""
-    n = sum(len(a) for a in at)
-    out = np.empty((n, *parts[0].shape[1:]), np.result_type(*parts))
-    for part, rows in zip(parts, at):
-        out[rows] = part
+@numba.njit(cache=True, nogil=True)
+def gathered_rows(a, rows, at_a, b, at_b):
+    """One array (len(at_a) + len(at_b), ...) whose rows ``at_a`` (integer arrays that together name every row
+    once) are ``a``'s rows ``rows`` and rows ``at_b`` are ``b``'s rows in order: ``np.concatenate([a[rows], b])``
+    put in that order, in one copy instead of three."""
+    out = np.empty((at_a.size + at_b.size,) + a.shape[1:], a.dtype)
+    for i in range(at_a.size):
+        out[at_a[i]] = a[rows[i]]
+    for i in range(at_b.size):
+        out[at_b[i]] = b[i]
     return out
 
 
@@ -79,11 +83,12 @@ class Batch:
         return cls(*[changes.get(name, value) for name, value in zip(_names(cls), _values(cls)(self))])
 
     @classmethod
-    def placed(cls, batches: Sequence[Self], at: Sequence[np.ndarray]) -> Self:
-        """One batch whose tracks ``at[i]`` (integer arrays that together name every track once) are those of
-        ``batches[i]`` in order: `concat`, then `take` into that order, in one copy (`placed_rows`)."""
-        return cls(*[type(parts[0]).placed(parts, at) if isinstance(parts[0], Batch) else placed_rows(parts, at)
-                     for parts in zip(*map(_values(cls), batches))])
+    def gathered(cls, a: Self, rows: np.ndarray, at_a: np.ndarray, b: Self, at_b: np.ndarray) -> Self:
+        """One batch whose tracks ``at_a`` are ``a``'s tracks ``rows`` and tracks ``at_b`` are ``b``'s, in order
+        (int64 arrays; ``at_a`` and ``at_b`` together name every track once): `concat` of ``a.take(rows)`` and
+        ``b``, then `take` into that order, in one copy (`gathered_rows`)."""
+        return cls(*[type(u).gathered(u, rows, at_a, v, at_b) if isinstance(u, Batch) else
+                     gathered_rows(u, rows, at_a, v, at_b) for u, v in zip(_values(cls)(a), _values(cls)(b))])
 
     @classmethod
     def concat(cls, batches: Sequence[Self]) -> Self:

@@ -33,7 +33,7 @@ import numba
 import numpy as np
 from pydantic import Field, model_validator
 
-from nnda.filters.batch import Batch, placed_rows
+from nnda.filters.batch import Batch, gathered_rows
 from nnda.filters.imm import IMMPrediction
 from nnda.filters.kalman import gate_probability
 from nnda.tracking.clutter_density import coverage_area, local_density
@@ -207,28 +207,22 @@ class LabelledMixture(ContactTracker):
         estimates x (., 4) and P (., 4, 4). Each child is computed alone (the update and the records row by row),
         so a chosen few are the same as when every child is made."""
         imm, old, pred, S = scan.filter, g.rows, g.pred, len(g.rows)
-        every = np.arange(S + g.pl.size) if chosen is None else chosen
-        pair = every[every >= S] - S
-        parent = every.copy()
-        parent[every >= S] = g.pl[pair]
-        contact = np.full(every.size, NO_CONTACT, np.int64)
-        contact[every >= S] = g.pj[pair]
-        tr = old.tracks
-        if chosen is None:  # every child: the S misses in row order, then the pairs
-            filt, x, P = tr.filt, pred.gating.x, pred.gating.P
-        else:
-            miss = every[every < S]
-            filt, x, P = tr.filt.take(miss), pred.gating.x[miss], pred.gating.P[miss]
+        pair, parent, contact, at_miss, at_pair = _family(np.arange(S + g.pl.size) if chosen is None else chosen, S,
+                                                          g.pl, g.pj)
+        tr, x, P = old.tracks, pred.gating.x, pred.gating.P
+        filt = tr.filt
+        if chosen is not None and not pair.size:
+            filt, x, P = filt.take(parent), x[parent], P[parent]
         if pair.size:  # each child in the place asked (misses and pairs may interleave)
             updated = linearised_update(imm, pred, scan.z[g.pj[pair]], np.ones(pair.size, bool), rows=g.pl[pair])
             x_up, P_up = imm.estimate(updated)
-            if chosen is None:
+            if chosen is None:  # every child: the S misses in row order, then the pairs
                 filt = type(filt).concat([filt, updated])
                 x, P = np.concatenate([x, x_up]), np.concatenate([P, P_up])
             else:
-                at = (np.flatnonzero(every < S), np.flatnonzero(every >= S))
-                filt = type(filt).placed([filt, updated], at)
-                x, P = placed_rows([x, x_up], at), placed_rows([P, P_up], at)
+                miss = parent[at_miss]
+                filt = type(filt).gathered(filt, miss, at_miss, updated, at_pair)
+                x, P = gathered_rows(x, miss, at_miss, x_up, at_pair), gathered_rows(P, miss, at_miss, P_up, at_pair)
         tracks = tr.branched(parent, filt).after_scan(contact, filt, scan.z, scan.xy, scan.time, self.config.lifecycle)
         return tracks, np.concatenate((old.hist[parent, 1:], contact[:, None]), axis=1), x, P
 
@@ -418,6 +412,30 @@ class LabelledMixture(ContactTracker):
         out = TrackerOutput.from_blocks(scan, time, [b for b in blocks if b[0].size])
         self.cardinality = self._count(scan, time, int((out.status == CONFIRMED).sum()), rows)
         return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _family(every, S, pl, pj):
+    """The children ``every`` (M,) of S gated rows (`LabelledMixture._child_rows`: s < S the miss child of row s,
+    S + p that of gated pair p, of row ``pl[p]`` and contact ``pj[p]``): the pairs among them (indices into the
+    pairs), each child's parent row (M,) and contact (M,) (NO_CONTACT for a miss), and the places (into
+    ``every``) of its misses and of its pairs."""
+    n_pair = 0
+    for c in every:
+        n_pair += c >= S
+    pair, at_pair = np.empty(n_pair, np.int64), np.empty(n_pair, np.int64)
+    at_miss = np.empty(every.size - n_pair, np.int64)
+    parent, contact = every.copy(), np.full(every.size, NO_CONTACT, np.int64)
+    p = m = 0
+    for k in range(every.size):
+        if every[k] >= S:
+            pair[p], at_pair[p] = every[k] - S, k
+            parent[k], contact[k] = pl[every[k] - S], pj[every[k] - S]
+            p += 1
+        else:
+            at_miss[m] = k
+            m += 1
+    return pair, parent, contact, at_miss, at_pair
 
 
 @numba.njit(cache=True, nogil=True)
