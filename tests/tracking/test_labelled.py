@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from nnda.tracking.labelled import _heaviest, merged
+from nnda.tracking.labelled import _heaviest, _pruned, merged, n_scan_agrees, normalised
 
 
 def test_merged_hypotheses_are_numpys():
@@ -47,3 +47,33 @@ def test_tentative_children_weighed_as_numpy_would():
         first = np.r_[True, np.diff(everyone[order]) != 0]
         np.testing.assert_array_equal(total, want_total)
         np.testing.assert_array_equal(chosen, child[order[first]])
+
+
+def test_pruning_is_the_numpy_formulation():
+    """Random mixtures (1-20 hypotheses, 0-8 labels over 30 rows), weight floors and caps: the compiled pruning
+    keeps the hypotheses, weights, labels and rows of its numpy formulation, to the bit."""
+    rng = np.random.default_rng(2)
+    for _ in range(300):
+        H, L, S = int(rng.integers(1, 20)), int(rng.integers(0, 8)), 30
+        hyp = np.where(rng.random((H, L)) < 0.6, rng.integers(0, S, (H, L)), -1)
+        log_w = rng.normal(0.0, 3.0, H)
+        oldest = rng.integers(-1, 4, S)
+        least = -np.inf if rng.random() < 0.3 else float(rng.normal(-2.0, 1.0))
+        cap = int(rng.integers(1, 25))
+        over, got, w, live, used = _pruned(hyp, log_w, oldest, least, cap)
+        best = int(np.argmax(log_w))
+        keep = (log_w >= least) & n_scan_agrees(hyp, oldest[np.maximum(hyp, 0)], best)
+        keep[best] = True
+        idx = np.flatnonzero(keep)
+        assert over == max(idx.size - cap, 0)
+        if idx.size > cap:
+            idx = np.sort(idx[np.argsort(-log_w[idx], kind="stable")[:cap]])
+        want_live = (hyp[idx] >= 0).any(axis=0)
+        kept = hyp[idx][:, want_live]
+        want_used = np.unique(kept[kept >= 0])
+        remap = np.full(S, -1)
+        remap[want_used] = np.arange(want_used.size)
+        np.testing.assert_array_equal(got, np.where(kept >= 0, remap[np.maximum(kept, 0)], -1))
+        np.testing.assert_array_equal(w, normalised(log_w[idx]))
+        np.testing.assert_array_equal(live, want_live)
+        np.testing.assert_array_equal(used, want_used)

@@ -17,8 +17,8 @@ start (odds P_D beta_NT / rho_1 times P_D / (A_w rho_2), the pmbm module docstri
 (those no label took in the best hypothesis),
 the tentative labels (births below ``admission_existence``, each updated alone on the free contacts:
 `LabelledMixture._tentative_children`, the glmb module docstring), the pruning (light hypotheses dropped,
-N-scan pruning by the tracker's own rule `LabelledMixture._n_scan_keep`, the cap, the rows and labels no
-hypothesis holds removed), the existence marginals, and the report of the best hypothesis with the confirmed
+N-scan pruning (`n_scan_agrees`), the cap, the rows and labels no hypothesis holds removed, in one
+compiled pass `_pruned`), the existence marginals, and the report of the best hypothesis with the confirmed
 / DELETED bookkeeping, a confirmed label left out while its existence is below ``report_existence`` (a tracker
 may report more rows after it: `LabelledMixture._waiting`, the tentative labels).
 """
@@ -306,38 +306,20 @@ class LabelledMixture(ContactTracker):
         return tuple(kids.kept(m) if m.any() else None for m in (ready, stay))
 
     # ---------------------------------------------------------------------- pruning
-    def _n_scan_keep(self, hyp: np.ndarray, best: int) -> np.ndarray:
-        """N-scan pruning (H,): which hypotheses of ``hyp`` (H, L) agree with the best one, ``best``, on the scan
-        ``n_scan`` back (`n_scan_agrees`, each row's contact there from its history)."""
-        return n_scan_agrees(hyp, self.table.hist[np.maximum(hyp, 0), 0], best)
-
     def _prune(self, hyp: np.ndarray, log_w: np.ndarray) -> None:
         """The mixture ``hyp`` (H, L), ``log_w`` (H,) without the hypotheses lighter than
-        ``min_hypothesis_weight`` or N-scan pruned (`_n_scan_keep`), at most the cap's heaviest (a
-        `BoundWarning` the first time in a run, ``n_capped`` counts the scans), renormalised (`_keep`)."""
+        ``min_hypothesis_weight`` or N-scan pruned (`n_scan_agrees`), at most the cap's heaviest (a
+        `BoundWarning` the first time in a run, ``n_capped`` counts the scans), renormalised, without the labels
+        and rows no hypothesis holds (`_pruned`)."""
         cfg = self.config
-        best = int(np.argmax(log_w))
-        keep = log_w >= math.log(cfg.min_hypothesis_weight) if cfg.min_hypothesis_weight > 0 else np.ones(
-            log_w.size, bool)
-        keep &= self._n_scan_keep(hyp, best)
-        keep[best] = True
-        idx = np.flatnonzero(keep)
         cap = getattr(cfg, self.cap_field)
-        if idx.size > cap:
-            self._bound_hit(self.cap_field, f"{idx.size - cap} {self.hypotheses} pruned past the cap", self.last_time)
+        least = math.log(cfg.min_hypothesis_weight) if cfg.min_hypothesis_weight > 0 else -math.inf
+        over, self.hyp, self.log_w, live, used = _pruned(hyp, log_w, np.ascontiguousarray(self.table.hist[:, 0]),
+                                                         least, cap)
+        if over:
+            self._bound_hit(self.cap_field, f"{over} {self.hypotheses} pruned past the cap", self.last_time)
             self.n_capped += 1
-            idx = idx[np.argsort(-log_w[idx], kind="stable")[:cap]]
-        idx = np.sort(idx)
-        self._keep(hyp[idx], normalised(log_w[idx]))
-
-    def _keep(self, hyp: np.ndarray, log_w: np.ndarray) -> None:
-        """The mixture ``hyp`` (H, L), ``log_w`` (H,), without the labels and rows no hypothesis holds."""
-        live = (hyp >= 0).any(axis=0)
-        hyp = hyp[:, live]
-        used = np.unique(hyp[hyp >= 0])
-        remap = np.full(len(self.table), -1, np.int64)
-        remap[used] = np.arange(used.size)
-        self.hyp, self.log_w, self.labels = np.where(hyp >= 0, remap[np.maximum(hyp, 0)], -1), log_w, self.labels[live]
+        self.labels = self.labels[live]
         self.table = self.table.take(used) if used.size else None
 
     # ---------------------------------------------------------------------- output
@@ -529,6 +511,52 @@ def _logaddexp(x, y):
     if d <= 0:
         return y + math.log1p(math.exp(d))
     return d  # a NaN
+
+
+@numba.njit(cache=True, nogil=True)
+def _pruned(hyp, log_w, oldest, least, cap):
+    """`LabelledMixture._prune` of the mixture ``hyp`` (H, L), ``log_w`` (H,) over S rows, ``oldest`` (S,) each
+    row's contact ``n_scan`` back: the hypotheses of log weight ``least`` or more (-inf: all) that agree with
+    the heaviest on that scan (`n_scan_agrees`; the heaviest always kept), at most the ``cap`` heaviest (ties:
+    the first), in their order, their log weights normalised (summed as numpy's ``logaddexp.reduce`` would);
+    then the labels some kept hypothesis holds and the rows they hold, renumbered in order. Returns how many
+    the cap pruned, the kept hypotheses (H', L'), their log weights (H',), which labels stay (L,) and which
+    rows (ascending). One compiled pass."""
+    H, L = hyp.shape
+    best = np.argmax(log_w)
+    held = np.empty((H, L), np.int64)
+    for h in range(H):
+        for j in range(L):
+            held[h, j] = oldest[max(hyp[h, j], 0)]
+    keep = n_scan_agrees(hyp, held, best)
+    for h in range(H):
+        keep[h] &= least == -np.inf or log_w[h] >= least
+    keep[best] = True
+    idx = np.flatnonzero(keep)
+    over = max(idx.size - cap, 0)
+    if over:
+        idx = np.sort(idx[np.argsort(-log_w[idx], kind="mergesort")[:cap]])
+    w = log_w[idx]
+    total = w[0]
+    for i in range(1, w.size):
+        total = _logaddexp(total, w[i])
+    live = np.zeros(L, np.bool_)
+    rows = np.zeros(oldest.size, np.bool_)
+    for h in idx:
+        for j in range(L):
+            if hyp[h, j] >= 0:
+                live[j] = True
+                rows[hyp[h, j]] = True
+    used = np.flatnonzero(rows)
+    remap = np.full(oldest.size, -1, np.int64)
+    remap[used] = np.arange(used.size)
+    cols = np.flatnonzero(live)
+    out = np.full((idx.size, cols.size), -1, np.int64)
+    for a in range(idx.size):
+        for b in range(cols.size):
+            if hyp[idx[a], cols[b]] >= 0:
+                out[a, b] = remap[hyp[idx[a], cols[b]]]
+    return over, out, w - total, live, used
 
 
 @numba.njit(cache=True, nogil=True)
