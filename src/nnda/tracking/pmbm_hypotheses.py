@@ -48,79 +48,44 @@ from nnda.tracking.marginals import components
 def scan_hypotheses(hyp: np.ndarray, ks: np.ndarray, pair_sth: np.ndarray, pair_contact: np.ndarray,
                     pair_child: np.ndarray, pair_gain: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The ``ks[h]`` best data associations of every global hypothesis h of ``hyp`` (module docstring)."""
-    H = hyp.shape[0]
-    pairs = _Pairs(pair_sth, pair_contact, pair_child, pair_gain, int(hyp.max(initial=-1)) + 1)
-    h, col = np.nonzero(hyp >= 0)  # the present Bernoullis (nodes), by hypothesis then label
-    sth = hyp[h, col]
-    has = pairs.count[sth] > 0
-    h, col, sth = h[has], col[has], sth[has]
-    comp = _clusters(h, sth, pairs, H)  # (V,) cluster of each node, numbered by hypothesis, then first label
-    node_order = np.argsort(comp, kind="stable")  # by cluster, each by label
-    node_at = np.searchsorted(comp[node_order], np.arange(comp.max(initial=-1) + 2))
-    first = node_order[node_at[:-1]]
-    cl_at = np.searchsorted(h[first], np.arange(H + 1))  # the clusters of hypothesis g: cl_at[g]:cl_at[g + 1]
-    node_at_h = np.searchsorted(h, np.arange(H + 1))
-    # each cluster's gains in one flat array (offset, length): a single Bernoulli's options, then the ranked
-    off, length = pairs.opt_start[sth[first]], pairs.count[sth[first]] + 1
-    child0 = pairs.opt_child[pairs.opt_start[sth]]  # (V,) each node's child in its cluster's best option
+    (by_sth, start, opt_child, opt_gain, sth, h, col, node_order, node_at, cl_at, node_at_h, off, length,
+     child0) = _layout(hyp, pair_sth, pair_contact, pair_child, pair_gain)
+    pairs = _Pairs(pair_contact, pair_child, pair_gain, by_sth, start)
     keys, want = {}, {}
-    for c in np.flatnonzero(np.diff(node_at) > 1):
+    for c in np.flatnonzero(np.diff(node_at) > 1):  # the clusters of several Bernoullis, each ranked once
         nodes = node_order[node_at[c]:node_at[c + 1]]
         keys[c] = key = sth[nodes].tobytes()
         want[key] = (sth[nodes], max(int(ks[h[nodes[0]]]), want.get(key, (None, 0))[1]))
     done = {key: pairs.ranked(s, k) for key, (s, k) in want.items()}
     ranked_gains = [gains for _, gains in done.values()]
-    at = dict(zip(done, pairs.opt_gain.size + np.cumsum([0, *(g.size for g in ranked_gains)])))
-    for c, key in keys.items():
-        off[c], length[c] = at[key], done[key][1].size
-        child0[node_order[node_at[c]:node_at[c + 1]]] = done[key][0][0]
-    flat_gain = np.concatenate([pairs.opt_gain, *ranked_gains])
+    at = dict(zip(done, opt_gain.size + np.cumsum([0, *(g.size for g in ranked_gains)])))
     # each cluster's options (m, n) flat, by option then node: a single Bernoulli's own, then the ranked
     ranked_children = [children.ravel() for children, _ in done.values()]
-    child_at = dict(zip(done, pairs.opt_child.size + np.cumsum([0, *(c.size for c in ranked_children)])))
+    child_at = dict(zip(done, opt_child.size + np.cumsum([0, *(c.size for c in ranked_children)])))
     child_off = off.copy()
     for c, key in keys.items():
-        child_off[c] = child_at[key]
-    flat_child = np.concatenate([pairs.opt_child, *ranked_children])
-    return _combined(hyp, ks.astype(np.int64), flat_gain, off, length, flat_child, child_off,
-                     col[node_order], node_at, cl_at, col, child0, node_at_h)
+        off[c], length[c], child_off[c] = at[key], done[key][1].size, child_at[key]
+        child0[node_order[node_at[c]:node_at[c + 1]]] = done[key][0][0]
+    return _combined(hyp, ks.astype(np.int64), np.concatenate([opt_gain, *ranked_gains]), off, length,
+                     np.concatenate([opt_child, *ranked_children]), child_off, col[node_order], node_at, cl_at, col,
+                     child0, node_at_h)
 
 
 class _Pairs:
-    """The gated pairs by STH (``count`` (S,) pairs of each of S STHs, S past every STH a pair or ``n_sth``
-    names) and each STH's options alone: its miss (gain 0) and its pairs, descending by gain (ties: the miss,
-    then the pairs' order)."""
+    """The gated pairs (contact, child and gain (P,) each) by STH: ``by_sth`` (P,) the pairs in STH order,
+    STH s's from ``start[s]`` to ``start[s + 1]``."""
 
-    def __init__(self, sth: np.ndarray, contact: np.ndarray, child: np.ndarray, gain: np.ndarray, n_sth: int):
-        S = max(n_sth, int(sth.max(initial=-1)) + 1)
-        self.contact, self.child, self.gain = contact, child, gain
-        self.by_sth = np.argsort(sth, kind="stable")
-        self.start = np.searchsorted(sth[self.by_sth], np.arange(S + 1))
-        self.count = np.diff(self.start)
-        own = np.flatnonzero(self.count)  # the miss, then the pairs in their order, per STH
-        e_sth = np.concatenate([own, sth])
-        e_gain = np.concatenate([np.zeros(own.size), gain])
-        e_child = np.concatenate([own, child])
-        order = np.lexsort((np.arange(e_sth.size), -e_gain, e_sth))
-        self.opt_child, self.opt_gain = e_child[order], e_gain[order]
-        self.opt_start = np.searchsorted(e_sth[order], np.arange(S + 1))
-
-    def of(self, sths: np.ndarray) -> np.ndarray:
-        """The pairs (indices) of ``sths`` (n,), STH by STH, each in the pairs' order."""
-        n = self.count[sths]
-        offset = np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)
-        return self.by_sth[np.repeat(self.start[sths], n) + offset]
-
-    def single(self, s: int) -> tuple[np.ndarray, np.ndarray]:
-        """STH ``s`` alone: its options (m, 1) child STHs and gains (m,), descending."""
-        at = slice(self.opt_start[s], self.opt_start[s + 1])
-        return self.opt_child[at, None], self.opt_gain[at]
+    def __init__(self, contact: np.ndarray, child: np.ndarray, gain: np.ndarray, by_sth: np.ndarray,
+                 start: np.ndarray):
+        self.contact, self.child, self.gain, self.by_sth, self.start = contact, child, gain, by_sth, start
 
     def ranked(self, sths: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
         """The k best associations of the cluster of ``sths`` (n,) (module docstring): child STHs (m, n) and
         gains (m,), descending."""
-        sel = self.of(sths)
-        row = np.repeat(np.arange(sths.size), self.count[sths])
+        count = self.start[sths + 1] - self.start[sths]
+        sel = self.by_sth[np.repeat(self.start[sths], count) + np.arange(count.sum()) - np.repeat(np.cumsum(count)
+                                                                                                  - count, count)]
+        row = np.repeat(np.arange(sths.size), count)
         contacts, col = np.unique(self.contact[sel], return_inverse=True)
         n, C = sths.size, contacts.size
         cost = np.full((n, C + n), np.inf)  # Bernoullis x (contacts + one miss each)
@@ -135,17 +100,64 @@ class _Pairs:
         return options, -costs
 
 
-def _clusters(h: np.ndarray, sth: np.ndarray, pairs: _Pairs, H: int) -> np.ndarray:
-    """The cluster (V,) of each of V present Bernoullis with pairs, hypothesis ``h`` (V,), STH ``sth`` (V,)
-    (sorted by hypothesis, then label): connected components of the gating graph of every hypothesis,
-    numbered by hypothesis, then by first Bernoulli."""
-    V = h.size
-    if not V:
-        return np.empty(0, np.int64)
-    sel = pairs.of(sth)
-    node = np.repeat(np.arange(V), pairs.count[sth])
-    N = int(pairs.contact.max()) + 1
-    return components(node, h[node] * N + pairs.contact[sel], V)[1]  # union-find, numbered by first node
+@numba.njit(cache=True, nogil=True)
+def _layout(hyp, pair_sth, pair_contact, pair_child, pair_gain):
+    """Everything `scan_hypotheses` needs before it ranks the clusters of several Bernoullis, in one compiled
+    pass. The pairs by STH: ``by_sth`` (P,) in STH order (stable), STH s's from ``start[s]`` to ``start[s +
+    1]``; each STH's options alone, its miss (gain 0) and its pairs, by gain descending (ties: the miss, then
+    the pairs' order), children ``opt_child`` and gains ``opt_gain`` (STH s's from ``opt_start[s]``). The
+    nodes, the present Bernoullis with pairs, by hypothesis then label: STH ``sth``, hypothesis ``h`` and label
+    ``col`` (V,); their clusters (connected components of the gating graph of each hypothesis, by
+    `nnda.tracking.marginals.components`, numbered by hypothesis, then first Bernoulli): the nodes by cluster,
+    ``node_order`` (V,), cluster c's from ``node_at[c]``; hypothesis g's clusters from ``cl_at[g]`` and its
+    nodes from ``node_at_h[g]``; each cluster's options as a single Bernoulli's (``off``, ``length`` into the
+    options; the caller replaces those of the clusters it ranks) and each node's child in its cluster's best
+    option, ``child0`` (V,)."""
+    H, L = hyp.shape
+    S = max(hyp.max() + 1 if hyp.size else 0, pair_sth.max() + 1 if pair_sth.size else 0)
+    by_sth = np.argsort(pair_sth, kind="mergesort")
+    start = np.searchsorted(pair_sth[by_sth], np.arange(S + 1))
+    count = start[1:] - start[:-1]
+    own = np.flatnonzero(count)  # the miss, then the pairs in their order, per STH
+    e_sth = np.concatenate((own, pair_sth))
+    e_gain = np.concatenate((np.zeros(own.size), pair_gain))
+    e_child = np.concatenate((own, pair_child))
+    by_gain = np.argsort(-e_gain, kind="mergesort")
+    order = by_gain[np.argsort(e_sth[by_gain], kind="mergesort")]  # by STH, gain descending, then entry
+    opt_child, opt_gain = e_child[order], e_gain[order]
+    opt_start = np.searchsorted(e_sth[order], np.arange(S + 1))
+    V = 0
+    for g in range(H):
+        for j in range(L):
+            V += hyp[g, j] >= 0 and count[hyp[g, j]] > 0
+    sth, h, col = np.empty(V, np.int64), np.empty(V, np.int64), np.empty(V, np.int64)
+    v = 0
+    for g in range(H):
+        for j in range(L):
+            if hyp[g, j] >= 0 and count[hyp[g, j]] > 0:
+                sth[v], h[v], col[v] = hyp[g, j], g, j
+                v += 1
+    comp = np.empty(0, np.int64)
+    if V:
+        n_pairs = count[sth]
+        node = np.repeat(np.arange(V), n_pairs)
+        key = np.empty(node.size, np.int64)
+        N = pair_contact.max() + 1
+        e = 0
+        for v in range(V):
+            for q in range(start[sth[v]], start[sth[v] + 1]):
+                key[e] = h[v] * N + pair_contact[by_sth[q]]
+                e += 1
+        comp = components(node, key, V)[1]
+    node_order = np.argsort(comp, kind="mergesort")  # by cluster, each by label
+    node_at = np.searchsorted(comp[node_order], np.arange((comp.max() + 2) if V else 1))
+    first = node_order[node_at[:-1]]
+    cl_at = np.searchsorted(h[first], np.arange(H + 1))
+    node_at_h = np.searchsorted(h, np.arange(H + 1))
+    off, length = opt_start[sth[first]], count[sth[first]] + 1
+    child0 = opt_child[opt_start[sth]]
+    return (by_sth, start, opt_child, opt_gain, sth, h, col, node_order, node_at, cl_at, node_at_h, off, length,
+            child0)
 
 
 @numba.njit(cache=True, nogil=True)
