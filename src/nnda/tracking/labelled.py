@@ -37,6 +37,7 @@ from nnda.filters.batch import Batch, gathered_rows
 from nnda.filters.imm import IMMPrediction
 from nnda.filters.kalman import gate_probability
 from nnda.tracking.clutter_density import coverage_area, local_density
+from nnda.tracking.exact import logaddexp
 from nnda.tracking.gating import gate
 from nnda.tracking.gibbs import row_order
 from nnda.tracking.lifecycle import birth_log_odds, sensor_noise_m, start_score
@@ -45,9 +46,6 @@ from nnda.tracking.lookup import among
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
 from nnda.tracking.phd.tracker import Cardinality
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts, Tracks
-
-#: ln 2
-_LN2 = math.log(2.0)
 
 
 class LabelledConfig(ContactTrackerConfig):
@@ -431,10 +429,10 @@ def _heaviest(owner, log_w, pair, T):
     chosen = np.arange(T)
     top = np.empty(T)
     for t in range(T):
-        total[t], top[t] = _logaddexp(total[t], log_w[t]), log_w[t]
+        total[t], top[t] = logaddexp(total[t], log_w[t]), log_w[t]
     for q in range(owner.size):
         t, w = owner[q], log_w[T + q]
-        total[t] = _logaddexp(total[t], w)
+        total[t] = logaddexp(total[t], w)
         if w > top[t]:
             top[t], chosen[t] = w, T + pair[q]
     return total, chosen
@@ -496,21 +494,8 @@ def _merged(hyp, log_w):
             k += 1
             first[k], w[k] = r, log_w[r]
         else:
-            w[k] = _logaddexp(w[k], log_w[r])
+            w[k] = logaddexp(w[k], log_w[r])
     return hyp[first[:k + 1]], w[:k + 1]
-
-
-@numba.njit(cache=True, nogil=True)
-def _logaddexp(x, y):
-    """ln(e^x + e^y) as numpy's ``logaddexp`` works it out (the same operations, so the same bits)."""
-    if x == y:  # equal infinities too
-        return x + _LN2
-    d = x - y
-    if d > 0:
-        return x + math.log1p(math.exp(-d))
-    if d <= 0:
-        return y + math.log1p(math.exp(d))
-    return d  # a NaN
 
 
 @numba.njit(cache=True, nogil=True)
@@ -539,7 +524,7 @@ def _pruned(hyp, log_w, oldest, least, cap):
     w = log_w[idx]
     total = w[0]
     for i in range(1, w.size):
-        total = _logaddexp(total, w[i])
+        total = logaddexp(total, w[i])
     live = np.zeros(L, np.bool_)
     rows = np.zeros(oldest.size, np.bool_)
     for h in idx:

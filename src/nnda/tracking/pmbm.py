@@ -76,10 +76,12 @@ from __future__ import annotations
 import math
 from typing import Annotated, ClassVar, Literal
 
+import numba
 import numpy as np
 from pydantic import Field, model_validator
 
 from nnda.data.dataset import Scan
+from nnda.tracking.exact import add_reduce
 from nnda.tracking.labelled import LabelledConfig, LabelledMixture, LabelledTable, merged, normalised
 from nnda.tracking.output import TrackerOutput
 from nnda.tracking.pmbm_hypotheses import scan_hypotheses
@@ -179,8 +181,7 @@ class PMBMTracker(LabelledMixture):
         gain = np.log(r[pl] * pd[pl]) + u.ll - np.log(u.clutter) - log_miss[pl]
         r_miss = r * (1.0 - pd) / np.exp(log_miss)
         self.table = LabelledTable(u.tracks, np.concatenate([r_miss, np.ones(pl.size)]), u.hist, u.x, u.P)
-        ks = np.array([max(1, math.ceil(cfg.max_global_hypotheses * math.exp(w))) for w in self.log_w])
-        missed = np.array([log_miss[row[row >= 0]].sum() for row in self.hyp])  # (H,) every Bernoulli missed
+        ks, missed = _asked(self.log_w, cfg.max_global_hypotheses, self.hyp, log_miss)
         self.hyp, gains, parent = scan_hypotheses(self.hyp, ks, pl, pj, S + np.arange(pl.size), gain)
         self.log_w = normalised((self.log_w + missed)[parent] + gains)
 
@@ -211,3 +212,23 @@ class PMBMTracker(LabelledMixture):
         self.log_w = normalised(self.log_w + (free * np.logaddexp(0.0, log_odds)).sum(axis=1))
         self.labels = np.concatenate([self.labels, born.track_id])
 
+
+
+@numba.njit(cache=True, nogil=True)
+def _asked(log_w, most, hyp, log_miss):
+    """Per global hypothesis of log weight ``log_w`` (H,) holding the STHs ``hyp`` (H, L) (-1 absent): the
+    associations it asks for, k = ceil(``most`` W_h), at least 1, and its log weight when every Bernoulli
+    is missed, the sum of its STHs' ``log_miss`` (S,) in label order (as numpy sums it, `exact.add_reduce`)."""
+    H, L = hyp.shape
+    ks = np.empty(H, np.int64)
+    missed = np.empty(H)
+    terms = np.empty(L)
+    for h in range(H):
+        ks[h] = max(1, math.ceil(most * math.exp(log_w[h])))
+        n = 0
+        for j in range(L):
+            if hyp[h, j] >= 0:
+                terms[n] = log_miss[hyp[h, j]]
+                n += 1
+        missed[h] = add_reduce(terms[:n])
+    return ks, missed
