@@ -326,7 +326,13 @@ class LabelledMixture(ContactTracker):
         times its row's existence there."""
         if self.table is None:
             return np.zeros(self.labels.size)
-        return np.exp(self.log_w) @ self._row_existence()
+        return self._marginal(self._row_existence())
+
+    def _marginal(self, rows: np.ndarray) -> np.ndarray:
+        """The hypotheses' weighted sum (L,) of ``rows`` (H, L), hypothesis by hypothesis in turn. Not a matrix
+        product: BLAS rounds it by the arrays' alignment in memory, so its last bits would depend on what was
+        allocated before."""
+        return (np.exp(self.log_w)[:, None] * rows).sum(axis=0)
 
     def _row_existence(self) -> np.ndarray:
         """(H, L): the existence of each label's row in each hypothesis, 0 where the label is absent (a table
@@ -341,8 +347,8 @@ class LabelledMixture(ContactTracker):
             r = np.zeros((self.log_w.size, 0)) if self.table is None else self._row_existence()  # (H, L)
         w = np.exp(self.log_w)
         mu = r.sum(axis=1)
-        mean = float(w @ mu)
-        variance = float(w @ ((r * (1.0 - r)).sum(axis=1) + mu ** 2) - mean ** 2)
+        mean = float(np.sum(w * mu))  # numpy's sums, not BLAS's products (`_marginal`)
+        variance = float(np.sum(w * ((r * (1.0 - r)).sum(axis=1) + mu ** 2)) - mean ** 2)
         if self.tentative is not None:
             rt = self.tentative.r
             mean += float(rt.sum())
@@ -368,7 +374,7 @@ class LabelledMixture(ContactTracker):
             chosen = self.hyp[int(np.argmax(self.log_w))]
             shown = np.flatnonzero(chosen >= 0)
             s, label = chosen[shown], self.labels[shown]
-            r = (np.exp(self.log_w) @ rows)[shown]  # `existence`
+            r = self._marginal(rows)[shown]  # `existence`
         waiting = self._waiting()
         new, wx, wP, contact = ((np.concatenate(a) for a in zip(*((t.tracks.track_id, t.x, t.P, t.hist[:, -1])
                                                                    for t in waiting))) if waiting else
