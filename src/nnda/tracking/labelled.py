@@ -40,7 +40,7 @@ from nnda.tracking.clutter_density import coverage_area, local_density
 from nnda.tracking.exact import logaddexp
 from nnda.tracking.gating import gate
 from nnda.tracking.gibbs import row_order
-from nnda.tracking.lifecycle import birth_log_odds, sensor_noise_m, start_score
+from nnda.tracking.lifecycle import birth_log_odds, start_score
 from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.lookup import among
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
@@ -263,8 +263,7 @@ class LabelledMixture(ContactTracker):
                          ) -> tuple[np.ndarray, np.ndarray]:
         """Existence (B,) of each new pair and its log odds (B,), new target against clutter (module
         docstring)."""
-        cfg, sensor = self.config, self.sensors[scan.sensor]
-        area = cfg.lifecycle.window_area(sensor.scan_period_s, sensor_noise_m(sensor))
+        cfg, sensor, area = self.config, self.sensors[scan.sensor], self._window_areas[scan.sensor]
         if cfg.clutter_density is None:
             rho2 = self._contact_density(scan)[contact]
             if self._unexplained:  # the pair's second contact, in the square around its first, left out too
