@@ -363,7 +363,7 @@ class LabelledMixture(ContactTracker):
         """The best hypothesis's labels with their row's estimate and contact, CONFIRMED once their existence
         has reached ``existence_threshold`` (and left out while a confirmed label's existence is below
         ``report_existence``), PRELIMINARY before; then the waiting rows (`_waiting`); then the reported labels
-        deleted in this scan, DELETED with their last estimate (the labels' bookkeeping: `_bookkeeping`)."""
+        deleted in this scan, DELETED with their last estimate (one compiled pass, `_reported`)."""
         cfg, table = self.config, self.table
         ids, x, P = self.known
         rows = None if table is None else self._row_existence()  # (H, L)
@@ -375,26 +375,24 @@ class LabelledMixture(ContactTracker):
             s, label = chosen[shown], self.labels[shown]
             r = self._marginal(rows)[shown]  # `existence`
         waiting = self._waiting()
-        new, wx, wP, contact = ((np.concatenate(a) for a in zip(*((t.tracks.track_id, t.x, t.P, t.hist[:, -1])
-                                                                   for t in waiting))) if waiting else
-                                (np.empty(0, np.int64), np.empty((0, 4)), np.empty((0, 4, 4)), np.empty(0, np.int64)))
-        self.confirmed, was, seen, old, mine, gone, lost = _bookkeeping(
-            ids, label, r, new, self.labels, self.confirmed, cfg.existence_threshold, cfg.report_existence)
+        if len(waiting) == 1:  # only the fields reported, not whole tables joined
+            new, wx, wP, contact = waiting[0].tracks.track_id, waiting[0].x, waiting[0].P, waiting[0].hist[:, -1]
+        elif waiting:
+            new, wx, wP, contact = (np.concatenate(a) for a in zip(*((t.tracks.track_id, t.x, t.P, t.hist[:, -1])
+                                                                      for t in waiting)))
+        else:
+            new, wx, wP, contact = np.empty(0, np.int64), np.empty((0, 4)), np.empty((0, 4, 4)), np.empty(0, np.int64)
+        if table is not None:
+            tx, tP, tc = table.x, table.P, np.ascontiguousarray(table.hist[:, -1])
+        else:
+            tx, tP, tc = np.empty((0, 4)), np.empty((0, 4, 4)), np.empty(0, np.int64)
+        self.confirmed, lost, track_id, status, x, P, contact, *known = _reported(
+            ids, x, P, label, r, s, tx, tP, tc, new, wx, wP, np.ascontiguousarray(contact), self.labels,
+            self.confirmed, cfg.existence_threshold, cfg.report_existence)
         self.deletions["score"] += int(lost.sum())
         self.deletions["unconfirmed"] += int(lost.size - lost.sum())
-        status = np.where(was, CONFIRMED, PRELIMINARY).astype(np.int8)
-        if table is not None:  # the shown rows' estimates, the reported ones first
-            x_s, P_s, c_s = table.x[s], table.P[s], table.hist[s, -1]
-        else:
-            x_s, P_s, c_s = np.empty((0, 4)), np.empty((0, 4, 4)), np.empty(0, np.int64)
-        ids, x, P = (np.concatenate([ids[old], label[mine], new]), np.concatenate([x[old], x_s[mine], wx]),
-                     np.concatenate([P[old], P_s[mine], wP]))
-        kept = ~gone
-        blocks = [(label[seen], status[seen], x_s[seen], P_s[seen], c_s[seen]),
-                  (new, np.full(new.size, PRELIMINARY, np.int8), wx, wP, contact),
-                  (ids[gone], np.full(lost.size, DELETED, np.int8), x[gone], P[gone], np.full(lost.size, NO_CONTACT))]
-        self.known = (ids[kept], x[kept], P[kept])
-        out = TrackerOutput.from_blocks(scan, time, [b for b in blocks if b[0].size])
+        self.known = tuple(known)
+        out = TrackerOutput(scan, time, track_id, status, x, P, contact)
         self.cardinality = self._count(scan, time, int((out.status == CONFIRMED).sum()), rows)
         return out
 
@@ -441,6 +439,58 @@ def _heaviest(owner, log_w, pair, T):
         if w > top[t]:
             top[t], chosen[t] = w, T + pair[q]
     return total, chosen
+
+
+@numba.njit(cache=True, nogil=True)
+def _reported(ids, kx, kP, label, r, s, tx, tP, tc, new, wx, wP, wc, labels, confirmed, threshold, report):
+    """`LabelledMixture._report`'s output and books in one pass: the labels reported before, ``ids`` (K,) with
+    their last estimates kx (K, d), kP (K, d, d); the best hypothesis's labels ``label`` (n,) of existence ``r``
+    (n,) at rows ``s`` (n,) of the table's estimates tx, tP and contacts ``tc``; the waiting rows' labels
+    ``new`` (W,), estimates wx, wP and contacts ``wc``; the live ``labels``, the ``confirmed`` so far and the
+    two thresholds (`_bookkeeping`). Returns the confirmed labels after the scan, whether each deleted label
+    was confirmed (D,), the output's fields (track_id, status, x, P, contact: the reported labels of the best
+    hypothesis, the waiting rows, the deleted labels), and the labels known after the scan with their
+    estimates."""
+    confirmed, was, seen, old, mine, gone, lost = _bookkeeping(ids, label, r, new, labels, confirmed, threshold,
+                                                               report)
+    known = np.concatenate((ids[old], label[mine], new))
+    n_seen = 0
+    for i in range(seen.size):
+        n_seen += seen[i]
+    K = n_seen + new.size + lost.size
+    out_id, out_status = np.empty(K, np.int64), np.empty(K, np.int8)
+    out_x, out_P = np.empty((K,) + tx.shape[1:]), np.empty((K,) + tP.shape[1:])
+    out_c = np.full(K, NO_CONTACT, np.int64)
+    k = 0
+    for i in range(label.size):
+        if seen[i]:
+            out_id[k], out_status[k], out_c[k] = label[i], CONFIRMED if was[i] else PRELIMINARY, tc[s[i]]
+            out_x[k], out_P[k] = tx[s[i]], tP[s[i]]
+            k += 1
+    for i in range(new.size):
+        out_id[k], out_status[k], out_c[k] = new[i], PRELIMINARY, wc[i]
+        out_x[k], out_P[k] = wx[i], wP[i]
+        k += 1
+    n_known = known.size - lost.size
+    known_x, known_P = np.empty((n_known,) + tx.shape[1:]), np.empty((n_known,) + tP.shape[1:])
+    known_id = np.empty(n_known, np.int64)
+    q = 0
+    for i in range(known.size):  # the estimate each known label has now: as before, its row's, or waiting's
+        if i < old.size:
+            x, P = kx[old[i]], kP[old[i]]
+        elif i < old.size + mine.size:
+            x, P = tx[s[mine[i - old.size]]], tP[s[mine[i - old.size]]]
+        else:
+            x, P = wx[i - old.size - mine.size], wP[i - old.size - mine.size]
+        if gone[i]:
+            out_id[k], out_status[k] = known[i], DELETED
+            out_x[k], out_P[k] = x, P
+            k += 1
+        else:
+            known_id[q] = known[i]
+            known_x[q], known_P[q] = x, P
+            q += 1
+    return confirmed, lost, out_id, out_status, out_x, out_P, out_c, known_id, known_x, known_P
 
 
 @numba.njit(cache=True, nogil=True)
