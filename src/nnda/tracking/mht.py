@@ -309,8 +309,8 @@ class MHTTracker(ContactTracker):
         bound in one compiled pass (`_kept`), then the ``max_hypotheses`` cap. None: no leaf left."""
         cfg = self.config
         family = leaves.tracks.track_id
-        kept = _kept(family, leaves.hist, leaves.score, chosen, min(3, cfg.n_scan), cfg.min_branch_probability,
-                     cfg.max_hypotheses_per_track)
+        kept = _kept(family, leaves.hist, np.ascontiguousarray(leaves.score), chosen, min(3, cfg.n_scan),
+                     cfg.min_branch_probability, cfg.max_hypotheses_per_track)  # one layout: one compiled version
         if kept.size > cfg.max_hypotheses:
             self._bound_hit("max_hypotheses", f"{kept.size - cfg.max_hypotheses} hypotheses pruned past the cap",
                             self.last_time)

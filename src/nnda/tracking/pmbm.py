@@ -208,7 +208,9 @@ class PMBMTracker(LabelledMixture):
             last = self.table.hist[self.hyp[rows, cols], -1]
             taken[rows, last] = True  # a miss (-1) marks the spare last column
         free = ~taken[:, contact] | (contact < 0)  # (H, B); a tentative Bernoulli's miss takes nothing
-        self.hyp = np.column_stack([self.hyp, np.where(free, first + np.arange(len(born)), -1)])
+        # C order kept: the compiled passes take the mixture in one layout (an F-ordered copy would compile, and
+        # in a run load, a second version of each)
+        self.hyp = np.ascontiguousarray(np.column_stack([self.hyp, np.where(free, first + np.arange(len(born)), -1)]))
         self.log_w = normalised(self.log_w + (free * np.logaddexp(0.0, log_odds)).sum(axis=1))
         self.labels = np.concatenate([self.labels, born.track_id])
 

@@ -186,7 +186,7 @@ class Linearisation(ABC):
         Mahalanobis distance <= ``gate`` (None: all J x N pairs); ``mp`` its `prediction` when made already."""
         mp = self.prediction(mixture) if mp is None else mp
         j, i = _gated(mp, z, gate, self.noise(None), self.period)
-        keep, nu, log_likelihood = gate_kernels.gated_pairs(j, i, _float(z), mp.z, mp.S, mp.S_inv, mp.log_det_S,
+        keep, nu, log_likelihood = gate_kernels.gated_pairs(j, i, _float(z), _float(mp.z), mp.S, mp.S_inv, mp.log_det_S,
                                                             gate_kernels.NONE, *_limit(gate), self.period)
         return Pairs(j[keep], i[keep], nu, log_likelihood, len(z), mp)
 
@@ -258,7 +258,7 @@ class Linear(Linearisation):
             contact_R = np.broadcast_to(self.measurement.R, (len(z), 2, 2))
         mp = self.prediction(mixture) if mp is None else mp
         j, i = _gated(mp, z, gate, self.noise(contact_R), self.period)
-        keep, nu, log_likelihood = gate_kernels.gated_pairs(j, i, _float(z), mp.z, mp.S, mp.S_inv, mp.log_det_S,
+        keep, nu, log_likelihood = gate_kernels.gated_pairs(j, i, _float(z), _float(mp.z), mp.S, mp.S_inv, mp.log_det_S,
                                                             _float(contact_R), *_limit(gate), 0.0)
         return Pairs(j[keep], i[keep], nu, log_likelihood, len(z), mp, contact_R)
 
