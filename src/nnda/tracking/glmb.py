@@ -74,7 +74,7 @@ from pydantic import Field
 
 from nnda.data.dataset import Scan
 from nnda.tracking.gibbs import NEGLIGIBLE, all_assignments, gibbs_assignments
-from nnda.tracking.labelled import LabelledConfig, LabelledMixture, LabelledTable, merged, normalised
+from nnda.tracking.labelled import GatedRows, LabelledConfig, LabelledMixture, LabelledTable, merged, normalised
 from nnda.tracking.output import NO_CONTACT, TrackerOutput
 from nnda.tracking.reports import Phase
 from nnda.tracking.tracker import ScanContacts, TrackerConfig
@@ -133,10 +133,11 @@ class GLMBTracker(LabelledMixture):
         sc = self._checked(scan, phase)  # a sweep: this tracker takes no asynchronous reports
         if self.born is not None:
             self._admit()
-        if self.table is not None:
-            self._update(sc)
+        mixture, tentative = self._gated(sc)
+        if mixture is not None:
+            self._update(sc, mixture)
             self._prune(self.hyp, self.log_w)
-        waiting = [] if self.tentative is None else self._tentative_update(sc)
+        waiting = [] if tentative is None else self._tentative_update(sc, tentative)
         tent = [*waiting, *([] if self.tentative is None else [self.tentative])]  # the tentative labels updated
         taken = np.concatenate([t.contact for t in tent]) if tent else None
         born, contact = self._births(sc, taken, sum(len(t) for t in tent))
@@ -170,11 +171,11 @@ class GLMBTracker(LabelledMixture):
         self.hyp = np.column_stack([self.hyp, np.tile(first + np.arange(len(born)), (len(self.log_w), 1))])
         self.labels = np.concatenate([self.labels, born.tracks.track_id])
 
-    def _tentative_update(self, scan: ScanContacts) -> list[LabelledTracks]:
-        """The tentative labels updated (`LabelledMixture._tentative_children`); returns those that reached
-        ``admission_existence`` (as one table, or none), to join at the next scan; keeps the others of
-        existence ``min_tentative_existence`` or more in ``tentative``."""
-        k = self._tentative_children(scan, self.tentative)
+    def _tentative_update(self, scan: ScanContacts, g: GatedRows) -> list[LabelledTracks]:
+        """The tentative labels, gated in ``g``, updated (`LabelledMixture._tentative_children`); returns those
+        that reached ``admission_existence`` (as one table, or none), to join at the next scan; keeps the others
+        of existence ``min_tentative_existence`` or more in ``tentative``."""
+        k = self._tentative_children(scan, g)
         kids = LabelledTracks(k.tracks, k.r, k.hist, k.x, k.P, np.full(len(k), -1, np.int64))
         ready, self.tentative = self._sorted_tentative(kids)
         return [] if ready is None else [ready]
@@ -185,12 +186,12 @@ class GLMBTracker(LabelledMixture):
         return [t for t in (self.born, self.tentative) if t is not None]
 
     # ---------------------------------------------------------------------- joint prediction-update
-    def _update(self, scan: ScanContacts) -> None:
-        """Predict, gate and update every track in one batch (`LabelledMixture._predict_update`), then each
-        hypothesis's assignments (module docstring). The new track table: the S miss children (index s), then
-        one child per gated pair."""
+    def _update(self, scan: ScanContacts, g: GatedRows) -> None:
+        """Update every track, predicted and gated in ``g``, in one batch (`LabelledMixture._predict_update`),
+        then each hypothesis's assignments (module docstring). The new track table: the S miss children (index
+        s), then one child per gated pair."""
         cfg, old = self.config, self.table
-        u = self._predict_update(scan)
+        u = self._predict_update(scan, g)
         pl, pj, pd = u.pl, u.pj, u.pd
         alive = cfg.survival_probability * old.r
         die = -np.log1p(-alive)

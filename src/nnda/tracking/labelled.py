@@ -131,12 +131,14 @@ class ScanUpdate:
 @dataclass(frozen=True)
 class GatedRows:
     """S rows of a `LabelledTable` predicted to a scan and gated (`LabelledMixture._gated`): the ``rows``, their
-    IMM prediction ``pred``, each row's detection probability ``pd`` (S,) (0 where the sensor cannot see it)
-    and the gated pairs (row ``pl``, contact ``pj``, IMM log likelihood ``ll``, clutter density in measurement
-    space ``clutter``, each (P,))."""
+    IMM prediction, rows ``first`` to ``first + S`` of ``pred`` (a batch the tracker predicted with other rows),
+    each row's detection probability ``pd`` (S,) (0 where the sensor cannot see it) and the gated pairs (row
+    ``pl`` of these S, contact ``pj``, IMM log likelihood ``ll``, clutter density in measurement space
+    ``clutter``, each (P,))."""
 
     rows: LabelledTable
     pred: IMMPrediction
+    first: int
     pd: np.ndarray
     pl: np.ndarray
     pj: np.ndarray
@@ -166,26 +168,34 @@ class LabelledMixture(ContactTracker):
         self.cardinality: Cardinality | None = None  # the target count after the last scan (`_count`)
 
     # ---------------------------------------------------------------------- one scan
-    def _predict_update(self, scan: ScanContacts, table: LabelledTable | None = None) -> ScanUpdate:
-        """Predict and gate every row of ``table`` (default the mixture's) in one batch (`_gated`), the
-        detection children updated in one batch (`nnda.tracking.linearisation.update`), the miss children
-        keeping their posterior (`_child_rows`)."""
-        g = self._gated(scan, table)
+    def _predict_update(self, scan: ScanContacts, g: GatedRows) -> ScanUpdate:
+        """The children of the gated rows ``g`` (the mixture's, `_gated`): the detection children updated in one
+        batch (`nnda.tracking.linearisation.update`), the miss children keeping their posterior (`_child_rows`)."""
         tracks, hist, x, P = self._child_rows(scan, g)
         return ScanUpdate(g.pd, g.pl, g.pj, g.ll, g.clutter, tracks, hist, x, P)
 
-    def _gated(self, scan: ScanContacts, table: LabelledTable | None = None) -> GatedRows:
-        """The rows of ``table`` (default the mixture's) predicted to the scan and gated, in one batch."""
-        cfg, imm, old = self.config, scan.filter, self.table if table is None else table
-        z, xy, S = scan.z, scan.xy, len(old)
-        tr = old.tracks
-        pred = imm.predict(tr.filt, scan.time - tr.t2, check=False)
-        pd = np.full(S, self.score_pd(scan.sensor))
+    def _gated(self, scan: ScanContacts) -> tuple[GatedRows | None, GatedRows | None]:
+        """The mixture's rows (``table``) and the tentative labels (``tentative``) predicted to the scan and
+        gated, all in one batch (one prediction, one gate); None for a table the tracker has not now. The
+        mixture's rows set the scan's expected detections (`unexplained_density`) before any clutter density is
+        asked."""
+        cfg, imm, z, xy = self.config, scan.filter, scan.z, scan.xy
+        tables = [t for t in (self.table, self.tentative) if t is not None]
+        if not tables:
+            return None, None
+        S = 0 if self.table is None else len(self.table)
+        if len(tables) == 1:
+            filt, t2 = tables[0].tracks.filt, tables[0].tracks.t2
+        else:
+            filt = type(self.table.tracks.filt).concat([t.tracks.filt for t in tables])
+            t2 = np.concatenate([t.tracks.t2 for t in tables])
+        pred = imm.predict(filt, scan.time - t2, check=False)
+        pd = np.full(len(filt), self.score_pd(scan.sensor))
         observed = self._observed(scan, pred)
         if observed is not None:
             pd = np.where(observed, pd, 0.0)
-        if table is None and self._unexplained:
-            self._explained = (scan, pred.gating.x[:, 0:3:2], self._expected_detections(old.r * pd))
+        if S and self._unexplained:
+            self._explained = (scan, pred.gating.x[:S, 0:3:2], self._expected_detections(self.table.r * pd[:S]))
         pl = pj = np.empty(0, np.int64)
         ll = clutter = np.empty(0)
         if len(z):
@@ -196,7 +206,15 @@ class LabelledMixture(ContactTracker):
             if pl.size:
                 ll = imm.pair_log_likelihood(pred, pl, z[pj], check=False)
                 clutter = self._clutter(scan, pj)
-        return GatedRows(old, pred, pd, pl, pj, ll, clutter)
+        parts = []
+        for table, first in ((self.table, 0), (self.tentative, S)):
+            if table is None:
+                parts.append(None)
+                continue
+            mine = (pl >= first) & (pl < first + len(table))
+            parts.append(GatedRows(table, pred, first, pd[first:first + len(table)], pl[mine] - first, pj[mine],
+                                   ll[mine], clutter[mine]))
+        return parts[0], parts[1]
 
     def _child_rows(self, scan: ScanContacts, g: GatedRows, chosen: np.ndarray | None = None
                   ) -> tuple[Tracks, np.ndarray, np.ndarray, np.ndarray]:
@@ -204,15 +222,16 @@ class LabelledMixture(ContactTracker):
         those ``chosen`` (indices into that list, in their order): track records, histories (n_scan columns),
         estimates x (., 4) and P (., 4, 4). Each child is computed alone (the update and the records row by row),
         so a chosen few are the same as when every child is made."""
-        imm, old, pred, S = scan.filter, g.rows, g.pred, len(g.rows)
+        imm, old, pred, S, first = scan.filter, g.rows, g.pred, len(g.rows), g.first
         pair, parent, contact, at_miss, at_pair = _family(np.arange(S + g.pl.size) if chosen is None else chosen, S,
                                                           g.pl, g.pj)
-        tr, x, P = old.tracks, pred.gating.x, pred.gating.P
+        tr, x, P = old.tracks, pred.gating.x[first:first + S], pred.gating.P[first:first + S]
         filt = tr.filt
         if chosen is not None and not pair.size:
             filt, x, P = filt.take(parent), x[parent], P[parent]
         if pair.size:  # each child in the place asked (misses and pairs may interleave)
-            updated = linearised_update(imm, pred, scan.z[g.pj[pair]], np.ones(pair.size, bool), rows=g.pl[pair])
+            updated = linearised_update(imm, pred, scan.z[g.pj[pair]], np.ones(pair.size, bool),
+                                        rows=first + g.pl[pair])
             x_up, P_up = imm.estimate(updated)
             if chosen is None:  # every child: the S misses in row order, then the pairs
                 filt = type(filt).concat([filt, updated])
@@ -277,12 +296,12 @@ class LabelledMixture(ContactTracker):
         log_odds = start_score(pd, area, rho2) + birth_log_odds(pd, cfg.birth_rate / coverage_area(sensor), rho1)
         return np.exp(-np.logaddexp(0.0, -log_odds)), log_odds
 
-    def _tentative_children(self, scan: ScanContacts, tent: LabelledTable) -> LabelledTable:
-        """The T tentative labels ``tent`` each updated alone, in one batch, on the contacts the best hypothesis
-        left free (`nnda.tracking.glmb`, tentative labels): each label's heaviest child (its miss or a gated
-        contact; only those are made, `_child_rows`) with the label's new existence, (T,) rows."""
+    def _tentative_children(self, scan: ScanContacts, g: GatedRows) -> LabelledTable:
+        """The T tentative labels, gated in ``g`` (`_gated`), each updated alone, in one batch, on the contacts
+        the best hypothesis left free (`nnda.tracking.glmb`, tentative labels): each label's heaviest child (its
+        miss or a gated contact; only those are made, `_child_rows`) with the label's new existence, (T,) rows."""
+        tent = g.rows
         T = len(tent)
-        g = self._gated(scan, tent)
         ok = ~self._used(scan)[g.pj]
         pl = g.pl[ok]
         with np.errstate(divide="ignore"):  # P_D 1: a miss weighs 0

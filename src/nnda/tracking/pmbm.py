@@ -82,7 +82,7 @@ from pydantic import Field, model_validator
 
 from nnda.data.dataset import Scan
 from nnda.tracking.exact import add_reduce
-from nnda.tracking.labelled import LabelledConfig, LabelledMixture, LabelledTable, merged, normalised
+from nnda.tracking.labelled import GatedRows, LabelledConfig, LabelledMixture, LabelledTable, merged, normalised
 from nnda.tracking.output import TrackerOutput
 from nnda.tracking.pmbm_hypotheses import scan_hypotheses
 from nnda.tracking.reports import Phase
@@ -142,12 +142,13 @@ class PMBMTracker(LabelledMixture):
     # ---------------------------------------------------------------------- one scan
     def _step(self, scan: Scan, phase: Phase) -> TrackerOutput:
         sc = self._checked(scan, phase)  # a sweep: this tracker takes no asynchronous reports
-        if self.table is not None:
-            self._update(sc)
+        mixture, tentative = self._gated(sc)
+        if mixture is not None:
+            self._update(sc, mixture)
             self._prune_sths()
         ready, taken = None, None
-        if self.tentative is not None:
-            kids = self._tentative_children(sc, self.tentative)
+        if tentative is not None:
+            kids = self._tentative_children(sc, tentative)
             taken = kids.hist[:, -1]
             ready, self.tentative = self._sorted_tentative(kids)
         live = sum(len(t) for t in (ready, self.tentative) if t is not None)
@@ -169,12 +170,12 @@ class PMBMTracker(LabelledMixture):
         return self._report(scan.index, sc.time)
 
     # ---------------------------------------------------------------------- update
-    def _update(self, scan: ScanContacts) -> None:
-        """Predict and update every STH in one batch, then the k best associations of each global
-        hypothesis (module docstring, steps 1-2)."""
+    def _update(self, scan: ScanContacts, g: GatedRows) -> None:
+        """Update every STH, predicted and gated in ``g``, in one batch, then the k best associations of each
+        global hypothesis (module docstring, steps 1-2)."""
         cfg, old = self.config, self.table
         S = len(old)
-        u = self._predict_update(scan)
+        u = self._predict_update(scan, g)
         pl, pj, pd = u.pl, u.pj, u.pd
         r = cfg.survival_probability * old.r
         log_miss = np.log1p(-r * pd)
