@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from nnda.tracking.labelled import _heaviest, _pruned, merged, n_scan_agrees, normalised
+from nnda.tracking.output import NO_CONTACT
 
 
 def test_merged_hypotheses_are_numpys():
@@ -30,7 +31,7 @@ def test_merged_hypotheses_are_numpys():
 def test_tentative_children_weighed_as_numpy_would():
     """Random tentative labels (1 to 30) with 0 to 60 gated pairs, some weights -inf and some tied: each label's
     summed weight equals numpy's ``logaddexp.at`` over its miss and its pairs, and its heaviest child is the
-    first of a lexicographic sort by label, then weight descending (the form it replaced)."""
+    first of a lexicographic sort by label, then weight descending (the form it replaced), with its contact."""
     rng = np.random.default_rng(1)
     for _ in range(300):
         T, Q = int(rng.integers(1, 30)), int(rng.integers(0, 60))
@@ -38,7 +39,8 @@ def test_tentative_children_weighed_as_numpy_would():
         log_w = rng.normal(0.0, 2.0, T + Q).round(int(rng.integers(0, 3)))  # rounded: ties
         log_w[rng.random(T + Q) < 0.1] = -np.inf
         pair = np.sort(rng.choice(3 * Q + 1, Q, replace=False))  # the kept pairs among all gated
-        total, chosen = _heaviest(owner, log_w, pair, T)
+        contact = rng.integers(0, 100, Q)
+        total, chosen, taken = _heaviest(owner, log_w, pair, contact, T)
         everyone = np.concatenate([np.arange(T), owner])
         want_total = np.full(T, -np.inf)
         np.logaddexp.at(want_total, everyone, log_w)
@@ -47,6 +49,7 @@ def test_tentative_children_weighed_as_numpy_would():
         first = np.r_[True, np.diff(everyone[order]) != 0]
         np.testing.assert_array_equal(total, want_total)
         np.testing.assert_array_equal(chosen, child[order[first]])
+        np.testing.assert_array_equal(taken, np.concatenate([np.full(T, NO_CONTACT), contact])[order[first]])
 
 
 def test_pruning_is_the_numpy_formulation():

@@ -137,10 +137,11 @@ class GLMBTracker(LabelledMixture):
         if mixture is not None:
             self._update(sc, mixture)
             self._prune(self.hyp, self.log_w)
-        waiting = [] if tentative is None else self._tentative_update(sc, tentative)
+        used = self._used(sc)
+        waiting = [] if tentative is None else self._tentative_update(sc, tentative, used)
         tent = [*waiting, *([] if self.tentative is None else [self.tentative])]  # the tentative labels updated
         taken = np.concatenate([t.contact for t in tent]) if tent else None
-        born, contact = self._births(sc, taken, sum(len(t) for t in tent))
+        born, contact = self._births(sc, used, taken, sum(len(t) for t in tent))
         if born is not None:
             x, P = self.filter.estimate(born.filt)
             hist = np.full((len(born), self.config.n_scan), NO_CONTACT, np.int64)
@@ -171,13 +172,14 @@ class GLMBTracker(LabelledMixture):
         self.hyp = np.column_stack([self.hyp, np.tile(first + np.arange(len(born)), (len(self.log_w), 1))])
         self.labels = np.concatenate([self.labels, born.tracks.track_id])
 
-    def _tentative_update(self, scan: ScanContacts, g: GatedRows) -> list[LabelledTracks]:
-        """The tentative labels, gated in ``g``, updated (`LabelledMixture._tentative_children`); returns those
-        that reached ``admission_existence`` (as one table, or none), to join at the next scan; keeps the others
-        of existence ``min_tentative_existence`` or more in ``tentative``."""
-        k = self._tentative_children(scan, g)
-        kids = LabelledTracks(k.tracks, k.r, k.hist, k.x, k.P, np.full(len(k), -1, np.int64))
-        ready, self.tentative = self._sorted_tentative(kids)
+    def _tentative_update(self, scan: ScanContacts, g: GatedRows, used: np.ndarray) -> list[LabelledTracks]:
+        """The tentative labels, gated in ``g``, updated on the contacts not ``used``
+        (`LabelledMixture._tentative_children`); returns those that reached ``admission_existence`` (as one
+        table, or none), to join at the next scan; keeps the others of existence ``min_tentative_existence`` or
+        more in ``tentative``."""
+        k, ready, _ = self._tentative_children(scan, g, used)
+        kids = None if k is None else LabelledTracks(k.tracks, k.r, k.hist, k.x, k.P, np.full(len(k), -1, np.int64))
+        ready, self.tentative = self._sorted_tentative(kids, ready)
         return [] if ready is None else [ready]
 
     def _waiting(self) -> list[LabelledTracks]:

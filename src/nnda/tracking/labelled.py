@@ -260,11 +260,11 @@ class LabelledMixture(ContactTracker):
         return self.config.clutter_density * scan.filter.measurement.area_jacobian(scan.z[at])
 
     # ---------------------------------------------------------------------- births
-    def _births(self, scan: ScanContacts, taken: np.ndarray | None = None, live: int = 0
+    def _births(self, scan: ScanContacts, used: np.ndarray, taken: np.ndarray | None = None, live: int = 0
                 ) -> tuple[Tracks | None, np.ndarray | None]:
-        """Two-point starts (`TwoPointInitiation`) with the contacts no label took in the best hypothesis nor
-        ``taken`` (indices into the scan's contacts), given ``live`` labels besides the mixture's."""
-        used = self._used(scan)
+        """Two-point starts (`TwoPointInitiation`) with the contacts no label took in the best hypothesis
+        (``used`` (N,), `_used`; marked further here) nor ``taken`` (indices into the scan's contacts), given
+        ``live`` labels besides the mixture's."""
         if taken is not None:
             used[taken[taken >= 0]] = True
         return self.initiation(scan.z, scan.xy, used, scan.time, self.labels.size + live, scan.sensor)
@@ -296,30 +296,38 @@ class LabelledMixture(ContactTracker):
         log_odds = start_score(pd, area, rho2) + birth_log_odds(pd, cfg.birth_rate / coverage_area(sensor), rho1)
         return np.exp(-np.logaddexp(0.0, -log_odds)), log_odds
 
-    def _tentative_children(self, scan: ScanContacts, g: GatedRows) -> LabelledTable:
+    def _tentative_children(self, scan: ScanContacts, g: GatedRows, used: np.ndarray
+                            ) -> tuple[LabelledTable | None, np.ndarray, np.ndarray]:
         """The T tentative labels, gated in ``g`` (`_gated`), each updated alone, in one batch, on the contacts
-        the best hypothesis left free (`nnda.tracking.glmb`, tentative labels): each label's heaviest child (its
-        miss or a gated contact; only those are made, `_child_rows`) with the label's new existence, (T,) rows."""
-        tent = g.rows
+        the best hypothesis left free (not ``used`` (N,), `_used`; `nnda.tracking.glmb`, tentative labels):
+        each label's heaviest child (its miss or a gated contact) with the label's new existence. Returns the
+        children of existence ``min_tentative_existence`` or more (only those are made, `_child_rows`; None:
+        none), which of them reached ``admission_existence``, and the contact every label's child took (T,)
+        (NO_CONTACT: its miss)."""
+        cfg, tent = self.config, g.rows
         T = len(tent)
-        ok = ~self._used(scan)[g.pj]
+        ok = ~used[g.pj]
         pl = g.pl[ok]
         with np.errstate(divide="ignore"):  # P_D 1: a miss weighs 0
             log_w = np.concatenate([np.log1p(-g.pd), np.log(g.pd[pl]) + g.ll[ok] - np.log(g.clutter[ok])])
-        total, chosen = _heaviest(pl, log_w, np.flatnonzero(ok), T)
-        alive = self.config.survival_probability * tent.r
-        log_odds = np.log(alive) - np.log1p(-alive) + total
-        tracks, hist, x, P = self._child_rows(scan, g, chosen)
-        return LabelledTable(tracks, np.exp(-np.logaddexp(0.0, -log_odds)), hist, x, P)
+        total, chosen, contact = _heaviest(pl, log_w, np.flatnonzero(ok), g.pj[ok], T)
+        alive = cfg.survival_probability * tent.r
+        r = np.exp(-np.logaddexp(0.0, -(np.log(alive) - np.log1p(-alive) + total)))
+        ready = r >= cfg.admission_existence
+        keep = np.flatnonzero(ready | (r >= cfg.min_tentative_existence))
+        if not keep.size:
+            return None, ready[keep], contact
+        tracks, hist, x, P = self._child_rows(scan, g, chosen[keep])
+        return LabelledTable(tracks, r[keep], hist, x, P), ready[keep], contact
 
-    def _sorted_tentative(self, kids: LabelledTable) -> tuple[LabelledTable | None, LabelledTable | None]:
-        """Updated tentative labels ``kids`` split: those of existence ``admission_existence`` or more (to join
-        the hypotheses) and those of ``min_tentative_existence`` or more (tentative still), each None when
-        empty; the rest are dropped."""
-        cfg = self.config
-        ready = kids.r >= cfg.admission_existence
-        stay = ~ready & (kids.r >= cfg.min_tentative_existence)
-        return tuple(kids.kept(m) if m.any() else None for m in (ready, stay))
+    def _sorted_tentative(self, kids: LabelledTable | None, ready: np.ndarray
+                          ) -> tuple[LabelledTable | None, LabelledTable | None]:
+        """Updated tentative labels ``kids`` (`_tentative_children`) split: those that reached
+        ``admission_existence``, ``ready`` (to join the hypotheses), and the rest (tentative still), each None
+        when empty."""
+        if kids is None or not ready.any():
+            return None, kids
+        return kids.take(np.flatnonzero(ready)), None if ready.all() else kids.take(np.flatnonzero(~ready))
 
     # ---------------------------------------------------------------------- pruning
     def _prune(self, hyp: np.ndarray, log_w: np.ndarray) -> None:
@@ -441,14 +449,16 @@ def _family(every, S, pl, pj):
 
 
 @numba.njit(cache=True, nogil=True)
-def _heaviest(owner, log_w, pair, T):
+def _heaviest(owner, log_w, pair, contact, T):
     """Each of T tentative labels' children weighed (`LabelledMixture._tentative_children`): ``log_w`` (T + Q,)
-    the labels' misses, then Q gated pairs of labels ``owner`` (Q,), which are the gated pairs ``pair`` (Q,).
-    Returns each label's summed weight (T,), ln of the sum of its children's weights, added in their order as
-    numpy's ``logaddexp.at`` would, and its heaviest child (T,): the label's miss (its index) or T + the gated
-    pair's index, the first of equal weights. One compiled pass."""
+    the labels' misses, then Q gated pairs of labels ``owner`` (Q,), which are the gated pairs ``pair`` (Q,), of
+    contacts ``contact`` (Q,). Returns each label's summed weight (T,), ln of the sum of its children's
+    weights, added in their order as numpy's ``logaddexp.at`` would; its heaviest child (T,): the label's miss
+    (its index) or T + the gated pair's index, the first of equal weights; and that child's contact (T,)
+    (NO_CONTACT: the miss). One compiled pass."""
     total = np.full(T, -np.inf)
     chosen = np.arange(T)
+    taken = np.full(T, NO_CONTACT, np.int64)
     top = np.empty(T)
     for t in range(T):
         total[t], top[t] = logaddexp(total[t], log_w[t]), log_w[t]
@@ -456,8 +466,8 @@ def _heaviest(owner, log_w, pair, T):
         t, w = owner[q], log_w[T + q]
         total[t] = logaddexp(total[t], w)
         if w > top[t]:
-            top[t], chosen[t] = w, T + pair[q]
-    return total, chosen
+            top[t], chosen[t], taken[t] = w, T + pair[q], contact[q]
+    return total, chosen, taken
 
 
 @numba.njit(cache=True, nogil=True)

@@ -146,13 +146,12 @@ class PMBMTracker(LabelledMixture):
         if mixture is not None:
             self._update(sc, mixture)
             self._prune_sths()
-        ready, taken = None, None
+        ready, taken, used = None, None, self._used(sc)
         if tentative is not None:
-            kids = self._tentative_children(sc, tentative)
-            taken = kids.hist[:, -1]
-            ready, self.tentative = self._sorted_tentative(kids)
+            kids, ready, taken = self._tentative_children(sc, tentative, used)
+            ready, self.tentative = self._sorted_tentative(kids, ready)
         live = sum(len(t) for t in (ready, self.tentative) if t is not None)
-        born, contact = self._births(sc, taken, live)
+        born, contact = self._births(sc, used, taken, live)
         if born is not None:
             r, log_odds = self._birth_existence(born, contact, sc)
             hist = np.full((len(born), self.config.n_scan), UNKNOWN, np.int64)
