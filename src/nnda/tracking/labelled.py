@@ -37,7 +37,7 @@ from nnda.filters.batch import Batch, gathered_rows
 from nnda.filters.imm import IMMPrediction
 from nnda.filters.kalman import gate_probability
 from nnda.tracking.clutter_density import coverage_area, local_density
-from nnda.tracking.exact import logaddexp
+from nnda.tracking.exact import add_reduce, logaddexp
 from nnda.tracking.gating import gate
 from nnda.tracking.gibbs import row_order
 from nnda.tracking.lifecycle import birth_log_odds, start_score
@@ -371,14 +371,13 @@ class LabelledMixture(ContactTracker):
         the tentative labels' Bernoullis added to every hypothesis; ``r`` the `_row_existence` when known."""
         if r is None:
             r = np.zeros((self.log_w.size, 0)) if self.table is None else self._row_existence()  # (H, L)
-        w = np.exp(self.log_w)
-        mu = r.sum(axis=1)
-        mean = float(np.sum(w * mu))  # numpy's sums, not BLAS's products (`_marginal`)
-        variance = float(np.sum(w * ((r * (1.0 - r)).sum(axis=1) + mu ** 2)) - mean ** 2)
+        rt = np.empty(0) if self.tentative is None else self.tentative.r
+        first, second, tentative_mean, tentative_variance = _moments(np.exp(self.log_w), r, rt)
+        mean = float(first)
+        variance = float(second) - mean ** 2
         if self.tentative is not None:
-            rt = self.tentative.r
-            mean += float(rt.sum())
-            variance += float((rt * (1.0 - rt)).sum())
+            mean += float(tentative_mean)
+            variance += float(tentative_variance)
         return Cardinality(scan, time, mean, None, None, extracted, max(variance, 0.0))
 
     def _waiting(self) -> list[LabelledTable]:
@@ -468,6 +467,26 @@ def _heaviest(owner, log_w, pair, contact, T):
         if w > top[t]:
             top[t], chosen[t], taken[t] = w, T + pair[q], contact[q]
     return total, chosen, taken
+
+
+@numba.njit(cache=True, nogil=True)
+def _moments(w, r, rt):
+    """`LabelledMixture._count`'s sums: over the hypotheses of weights ``w`` (H,) with their rows' existence
+    ``r`` (H, L), sum w_h mu_h and sum w_h (v_h + mu_h^2) (mu_h = sum r, v_h = sum r (1 - r) in hypothesis h),
+    and the tentative labels' sum rt and sum rt (1 - rt) (``rt`` (T,)); each sum as numpy's (`exact.add_reduce`;
+    not a matrix product, which BLAS rounds by the arrays' alignment in memory)."""
+    H, L = r.shape
+    first, second = np.empty(H), np.empty(H)
+    spread = np.empty(L)
+    for h in range(H):
+        for j in range(L):
+            spread[j] = r[h, j] * (1.0 - r[h, j])
+        mu = add_reduce(r[h])
+        first[h], second[h] = w[h] * mu, w[h] * (add_reduce(spread) + mu * mu)
+    spread_t = np.empty(rt.size)
+    for t in range(rt.size):
+        spread_t[t] = rt[t] * (1.0 - rt[t])
+    return add_reduce(first), add_reduce(second), add_reduce(rt), add_reduce(spread_t)
 
 
 @numba.njit(cache=True, nogil=True)
