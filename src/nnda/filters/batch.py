@@ -53,6 +53,10 @@ class Batch:
     def __len__(self) -> int:
         return len(getattr(self, _names(type(self))[0]))
 
+    def _fields(self) -> tuple:
+        """The fields' values, in field order."""
+        return _values(type(self))(self)
+
     def take(self, index: np.ndarray | Sequence[int] | slice) -> Self:
         """The tracks selected by ``index`` (integer array, boolean mask of length K, or slice)."""
         if not isinstance(index, slice):

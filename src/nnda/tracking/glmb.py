@@ -163,12 +163,12 @@ class GLMBTracker(LabelledMixture):
         join = born.r >= self.config.admission_existence
         if not join.all():
             rest = born.kept(~join)
-            self.tentative = rest if self.tentative is None else LabelledTracks.concat([self.tentative, rest])
+            self.tentative = rest if self.tentative is None else self.tentative.joined(rest)
             if not join.any():
                 return
             born = born.take(np.flatnonzero(join))
         first = 0 if self.table is None else len(self.table)
-        self.table = born if self.table is None else LabelledTracks.concat([self.table, born])
+        self.table = born if self.table is None else self.table.joined(born)
         self.hyp = np.column_stack([self.hyp, np.tile(first + np.arange(len(born)), (len(self.log_w), 1))])
         self.labels = np.concatenate([self.labels, born.tracks.track_id])
 

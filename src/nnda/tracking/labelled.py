@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Annotated, ClassVar, Literal
+from typing import Annotated, ClassVar, Literal, Self
 
 import numba
 import numpy as np
@@ -107,6 +107,13 @@ class LabelledTable(Batch):
     hist: np.ndarray
     x: np.ndarray
     P: np.ndarray
+
+    def joined(self, other: LabelledTable) -> Self:
+        """These rows, then ``other``'s (of the same class): `Batch.concat` of the two, the tracks' records in one
+        compiled call (`Tracks.joined`)."""
+        ours, theirs = self._fields(), other._fields()
+        return type(self)(self.tracks.joined(other.tracks), *(np.concatenate((a, b)) for a, b in zip(ours[1:],
+                                                                                                    theirs[1:])))
 
 
 @dataclass(frozen=True)

@@ -161,7 +161,7 @@ class PMBMTracker(LabelledMixture):
             wait = r < self.config.admission_existence
             if wait.any():
                 rest = new.kept(wait)
-                self.tentative = rest if self.tentative is None else LabelledTable.concat([self.tentative, rest])
+                self.tentative = rest if self.tentative is None else self.tentative.joined(rest)
             if not wait.all():
                 self._birth(new.take(np.flatnonzero(~wait)), log_odds[~wait], len(sc.z))
         if ready is not None:
@@ -201,7 +201,7 @@ class PMBMTracker(LabelledMixture):
         has ``n_contacts`` contacts."""
         born, contact = new.tracks, new.hist[:, -1]
         first = 0 if self.table is None else len(self.table)
-        self.table = new if self.table is None else LabelledTable.concat([self.table, new])
+        self.table = new if self.table is None else self.table.joined(new)
         taken = np.zeros((len(self.log_w), n_contacts + 1), bool)  # contacts detected, per global hypothesis
         rows, cols = np.nonzero(self.hyp >= 0)
         if rows.size:
