@@ -189,10 +189,7 @@ class PMBMTracker(LabelledMixture):
     def _prune_sths(self) -> None:
         """Step 3 of the module docstring: the STHs below ``min_existence`` dropped, equal global hypotheses
         merged, then `LabelledMixture._prune`."""
-        table = self.table
-        hyp = np.where((self.hyp >= 0) & (table.r[np.maximum(self.hyp, 0)] >= self.config.min_existence), self.hyp,
-                       -1)
-        self._prune(*merged(hyp, self.log_w))
+        self._prune(*merged(_floored(self.hyp, self.table.r, self.config.min_existence), self.log_w))
 
     # ---------------------------------------------------------------------- birth
     def _birth(self, new: LabelledTable, log_odds: np.ndarray, n_contacts: int) -> None:
@@ -234,3 +231,15 @@ def _asked(log_w, most, hyp, log_miss):
                 n += 1
         missed[h] = add_reduce(terms[:n])
     return ks, missed
+
+
+@numba.njit(cache=True, nogil=True)
+def _floored(hyp, r, least):
+    """The global hypotheses ``hyp`` (H, L) without the STHs whose existence (``r`` (S,)) is below ``least``
+    (-1 there, as for an absent Bernoulli): a copy."""
+    out = hyp.copy()
+    for h in range(hyp.shape[0]):
+        for j in range(hyp.shape[1]):
+            if hyp[h, j] >= 0 and not r[hyp[h, j]] >= least:
+                out[h, j] = -1
+    return out
