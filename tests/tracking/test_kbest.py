@@ -7,6 +7,7 @@ import itertools
 import numpy as np
 import pytest
 
+from nnda.tracking import kbest
 from nnda.tracking.kbest import k_best_assignments
 
 
@@ -38,10 +39,14 @@ def random_matrix(rng: np.random.Generator) -> np.ndarray:
     return cost
 
 
+@pytest.mark.parametrize("listed", [True, False], ids=["listed", "murty"])
 @pytest.mark.parametrize("seed", range(6))
-def test_murty_ranks_like_brute_force(seed):
+def test_murty_ranks_like_brute_force(seed, listed, monkeypatch):
     """Many random small matrices (forbidden entries, both rectangular shapes, integer costs with ties): the
-    costs equal the enumeration's k smallest, each assignment is feasible, distinct and of its stated cost."""
+    costs equal the enumeration's k smallest, each assignment is feasible, distinct and of its stated cost; by
+    Murty's partition and by the compiled listing of small problems (`kbest.ENUMERATED`)."""
+    if not listed:
+        monkeypatch.setattr(kbest, "ENUMERATED", 0)
     rng = np.random.default_rng(seed)
     for _ in range(60):
         cost = random_matrix(rng)
@@ -118,3 +123,22 @@ def test_children_are_solved_from_their_parent_by_shortest_paths(monkeypatch):
     assert len(calls) > 20 * R / 2
     np.testing.assert_array_equal(got, want)
     np.testing.assert_array_equal(costs, want_costs)
+
+
+def test_small_problems_listed_give_murtys_ranking_to_the_bit(monkeypatch):
+    """Random matrices of 1-4 rows and up to 8 columns (forbidden entries, real costs: no ties): the compiled
+    listing and Murty's partition give the same assignments in the same order and the same costs, bit for
+    bit."""
+    rng = np.random.default_rng(7)
+    for _ in range(300):
+        R = int(rng.integers(1, 5))
+        C = int(rng.integers(R, 9))
+        cost = rng.normal(0.0, 3.0, (R, C)) * 10.0 ** rng.integers(-3, 4, (R, C))
+        cost[rng.random((R, C)) < 0.4] = np.inf
+        k = int(rng.integers(1, 60))
+        listed = k_best_assignments(cost, k)
+        with monkeypatch.context() as m:
+            m.setattr(kbest, "ENUMERATED", 0)
+            ranked = k_best_assignments(cost, k)
+        np.testing.assert_array_equal(listed[0], ranked[0])
+        np.testing.assert_array_equal(listed[1], ranked[1])

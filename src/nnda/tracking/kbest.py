@@ -22,18 +22,30 @@ column). A child's search touches only the pairs its chains reach, so a ranked a
 matrix (a cluster of hundreds of tracks) costs R small searches, not R full solves; the full solver serves
 where rounding keeps a search from settling (a cycle of zero cost). A child's forced and forbidden pairs are
 built only when it is ranked. Each child's cost is summed in row order, as every assignment's.
+
+A small problem (rows <= columns, at most `ENUMERATED` candidate assignments) is ranked by listing all its
+assignments in one compiled pass and sorting them by cost: the partition's assignments and costs, without a
+search per ranked assignment; only exact ties may come in another order.
 """
 
 from __future__ import annotations
 
 import heapq
 import itertools
+import math
 
 import numba
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from nnda.filters.imm_kernels import kernel_array
+from nnda.tracking.exact import add_reduce
+
+#: a problem of at most this many candidate assignments (the product of its rows' allowed columns, rows <=
+#: columns) is ranked by listing every assignment, compiled, not by Murty's partition: a cluster of a few tracks
+#: and contacts costs one call instead of a search per ranked assignment (the same assignments and costs; among
+#: exactly equal costs the order may differ from the partition's)
+ENUMERATED = 2048
 
 
 def k_best_assignments(cost: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -49,6 +61,9 @@ def k_best_assignments(cost: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray
     if R == 0 or C == 0:
         return np.full((1, R), -1, np.int64), np.zeros(1)
     flipped = R > C
+    allowed = np.isfinite(cost).sum(axis=1)
+    if not flipped and float(np.prod(allowed.astype(float))) <= ENUMERATED:
+        return _enumerated(cost, k, allowed)
     # rows <= columns: every row of ``work`` is assigned; C order, as the kernels take it (one signature)
     work = kernel_array(cost.T) if flipped else cost
     found = list(_ranked(work, k))
@@ -62,6 +77,44 @@ def k_best_assignments(cost: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray
             out[n] = cols
     costs = np.array([_total(cost, row) for row in out])
     return out, costs
+
+
+@numba.njit(cache=True, nogil=True)
+def _enumerated(cost, k, allowed):
+    """`k_best_assignments` of a small ``cost`` (R <= C, R > 0; ``allowed`` (R,) each row's finite entries): every
+    assignment listed (depth first, each row's columns ascending), then the k of least cost (summed in row
+    order as `_total` sums it, `exact.add_reduce`; ties in the listing's order). One compiled pass."""
+    R, C = cost.shape
+    cap = 1
+    for i in range(R):
+        cap *= allowed[i]
+    found = np.empty((cap, R), np.int64)
+    total = np.empty(cap)
+    pick = np.full(R, -1, np.int64)
+    taken = np.zeros(C, np.bool_)
+    terms = np.empty(R)
+    m, i = 0, 0
+    while i >= 0:  # row i tries its next free column of finite cost; past its last, back to row i - 1
+        if pick[i] >= 0:
+            taken[pick[i]] = False
+        j = pick[i] + 1
+        while j < C and (taken[j] or not math.isfinite(cost[i, j])):
+            j += 1
+        if j == C:
+            pick[i] = -1
+            i -= 1
+            continue
+        pick[i] = j
+        taken[j] = True
+        if i < R - 1:
+            i += 1
+            continue
+        for r in range(R):
+            terms[r] = cost[r, pick[r]]
+        found[m], total[m] = pick, add_reduce(terms)
+        m += 1
+    order = np.argsort(total[:m], kind="mergesort")[:k]
+    return found[order], total[order]
 
 
 def _total(cost: np.ndarray, cols: np.ndarray) -> float:
