@@ -82,9 +82,8 @@ class _Pairs:
     def ranked(self, sths: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
         """The k best associations of the cluster of ``sths`` (n,) (module docstring): child STHs (m, n) and
         gains (m,), descending."""
-        count = self.start[sths + 1] - self.start[sths]
-        sel = self.by_sth[np.repeat(self.start[sths], count) + np.arange(count.sum()) - np.repeat(np.cumsum(count)
-                                                                                                  - count, count)]
+        count = self.start[sths + 1] - self.start[sths]  # the pairs of each STH, STH by STH
+        sel = self.by_sth[np.repeat(self.start[sths] - (np.cumsum(count) - count), count) + np.arange(count.sum())]
         row = np.repeat(np.arange(sths.size), count)
         contacts, col = np.unique(self.contact[sel], return_inverse=True)
         n, C = sths.size, contacts.size
