@@ -213,12 +213,16 @@ class LabelledMixture(ContactTracker):
             if pl.size:
                 ll = imm.pair_log_likelihood(pred, pl, z[pj], check=False)
                 clutter = self._clutter(scan, pj)
+        in_order = pl.size < 2 or bool((pl[1:] >= pl[:-1]).all())  # the gate's pairs by row: cut, not picked
         parts = []
         for table, first in ((self.table, 0), (self.tentative, S)):
             if table is None:
                 parts.append(None)
                 continue
-            mine = (pl >= first) & (pl < first + len(table))
+            if in_order:
+                mine = slice(*np.searchsorted(pl, (first, first + len(table))))
+            else:
+                mine = (pl >= first) & (pl < first + len(table))
             parts.append(GatedRows(table, pred, first, pd[first:first + len(table)], pl[mine] - first, pj[mine],
                                    ll[mine], clutter[mine]))
         return parts[0], parts[1]
