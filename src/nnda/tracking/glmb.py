@@ -227,7 +227,6 @@ class GLMBTracker(LabelledMixture):
         return kids, log_gain
 
 
-
 @numba.njit(cache=True, nogil=True)
 def _options(parents, die, miss, pl, pj, cost):
     """One hypothesis's assignment problem: for its tracks ``parents`` (L,) (-1 absent), in label order, the

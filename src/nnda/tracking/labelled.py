@@ -510,9 +510,8 @@ def _reported(ids, kx, kP, label, r, s, tx, tP, tc, new, wx, wP, wc, labels, con
     was confirmed (D,), the output's fields (track_id, status, x, P, contact: the reported labels of the best
     hypothesis, the waiting rows, the deleted labels), and the labels known after the scan with their
     estimates."""
-    confirmed, was, seen, old, mine, gone, lost = _bookkeeping(ids, label, r, new, labels, confirmed, threshold,
-                                                               report)
-    known = np.concatenate((ids[old], label[mine], new))
+    confirmed, was, seen, old, mine, known, gone, lost = _bookkeeping(ids, label, r, new, labels, confirmed,
+                                                                      threshold, report)
     n_seen = 0
     for i in range(seen.size):
         n_seen += seen[i]
@@ -559,9 +558,9 @@ def _bookkeeping(ids, label, r, new, labels, confirmed, threshold, report):
     ``labels`` (L,) the live labels, ``confirmed`` (C,) ascending, those reported confirmed so far, and the
     ``existence_threshold`` and ``report_existence``. Returns the confirmed labels after the scan (ascending;
     the deleted ones gone), which of ``label`` are confirmed (n,) and reported (n,), the labels known after the
-    scan as the old ones kept, ``old`` (indices into ``ids``: those in neither ``label`` nor ``new``), then
-    ``label[mine]``, then ``new``; which of those are deleted (not live), ``gone``, and whether each deleted one
-    was confirmed, ``lost`` (D,). One compiled pass."""
+    scan, ``known``: the old ones kept, ``old`` (indices into ``ids``: those in neither ``label`` nor ``new``),
+    then ``label[mine]``, then ``new``; which of those are deleted (not live), ``gone``, and whether each deleted
+    one was confirmed, ``lost`` (D,). One compiled pass."""
     confirmed = np.unique(np.concatenate((confirmed, label[r >= threshold])))
     was = among(label, confirmed)
     seen = ~was | (r >= report)
@@ -570,7 +569,7 @@ def _bookkeeping(ids, label, r, new, labels, confirmed, threshold, report):
     known = np.concatenate((ids[old], label[mine], new))
     gone = ~among(known, np.concatenate((labels, new)))
     lost = among(known[gone], confirmed)
-    return confirmed[~among(confirmed, known[gone])], was, seen, old, mine, gone, lost
+    return confirmed[~among(confirmed, known[gone])], was, seen, old, mine, known, gone, lost
 
 
 def normalised(log_w: np.ndarray) -> np.ndarray:

@@ -212,7 +212,6 @@ class PMBMTracker(LabelledMixture):
         self.labels = np.concatenate([self.labels, born.track_id])
 
 
-
 @numba.njit(cache=True, nogil=True)
 def _asked(log_w, most, hyp, log_miss):
     """Per global hypothesis of log weight ``log_w`` (H,) holding the STHs ``hyp`` (H, L) (-1 absent): the
