@@ -39,7 +39,7 @@ def check(initiators, contacts, d_min=D_MIN, d_max=D_MAX) -> int:
 @pytest.mark.parametrize("seed", range(6))
 def test_random_scans_give_the_oracle_pairs_in_its_order(seed):
     rng = np.random.default_rng(seed)
-    extent = [2_000.0, 20_000.0, 200_000.0][seed % 3]
+    extent = [2_000.0, 20_000.0, 200_000.0][seed % 3]  # cells in a table of the grid (2, 20 km), hashed (200 km)
     n_init, n_contacts = rng.integers(0, 400, 2)
     offset = rng.uniform(-1e6, 1e6, 2)  # anywhere, not only around the origin
     a = offset + rng.uniform(0, extent, (n_init, 2))

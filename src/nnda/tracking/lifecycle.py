@@ -716,14 +716,22 @@ def _bucket(ix, iy, mask):
     return ((ix * 73856093) ^ (iy * 19349663)) & mask
 
 
+#: `_cell_pairs` counts its contacts into a table of every cell of their grid while the grid has at most
+#: _DENSE_PER_CONTACT cells a contact plus _DENSE_FLOOR (a scan's contacts over its coverage), else into a hash
+#: table (contacts spread thinly over a wide area, where a table of every cell would cost more than the contacts)
+_DENSE_PER_CONTACT, _DENSE_FLOOR = 4, 4_096
+
+
 @numba.njit(cache=True, nogil=True)
 def _cell_pairs(initiators, contacts, d_min, d_max, reach):
-    """`window_pairs`' loop: the contacts bucketed by their square cell of side ``reach`` (> d_max; doubled while
-    an axis would have more than `clutter_density.MAX_CELLS_PER_AXIS`; `clutter_density.contact_cells`) in a hash
-    table of 2 to 4 buckets a contact (`_bucket`, a counting sort: contact order within a bucket), so the grid's
-    extent costs nothing; per initiator, the contacts of the buckets of its cell and the 8 around it (each bucket
-    once) whose squared distance lies in [d_min^2, d_max^2], in contact order. Costs O(N) plus, per initiator,
-    nine look-ups and the contacts of its buckets: linear in the contacts at a given density."""
+    """`window_pairs`' loop: the contacts counted (a counting sort: contact order within a cell) by their square
+    cell of side ``reach`` (> d_max; doubled while an axis would have more than
+    `clutter_density.MAX_CELLS_PER_AXIS`; `clutter_density.contact_cells`), into a table of every cell of the grid
+    while it is small against the contacts (`_DENSE_PER_CONTACT`), else into a hash table of 2 to 4 buckets a
+    contact (`_bucket`), so the grid's extent costs nothing; per initiator, the contacts of its cell and the 8
+    around it (three runs of the table, one per column of cells, or each distinct bucket once) whose squared
+    distance lies in [d_min^2, d_max^2], in contact order. Costs O(N) plus, per initiator, a few look-ups and the
+    contacts of its cells (and of the cells sharing their buckets): linear in the contacts at a given density."""
     n = contacts.shape[0]
     lo0, hi0, lo1, hi1 = contacts[0, 0], contacts[0, 0], contacts[0, 1], contacts[0, 1]
     for b in range(1, n):
@@ -733,50 +741,62 @@ def _cell_pairs(initiators, contacts, d_min, d_max, reach):
     while max(hi0 - lo0, hi1 - lo1) / cell > MAX_CELLS_PER_AXIS:
         cell *= 2.0
     n0, n1 = int((hi0 - lo0) // cell) + 1, int((hi1 - lo1) // cell) + 1
-    size = 64
-    while size < 2 * n:
+    dense = n0 * n1 <= _DENSE_PER_CONTACT * n + _DENSE_FLOOR
+    size = n0 * n1 if dense else 64
+    while not dense and size < 2 * n:
         size *= 2
     mask = size - 1
     ix, iy = contact_cells(contacts, lo0, lo1, cell)
+    key = np.empty(n, np.int64)
+    for b in range(n):
+        key[b] = ix[b] * n1 + iy[b] if dense else _bucket(ix[b], iy[b], mask)
     start = np.zeros(size + 1, np.int64)
     for b in range(n):
-        start[_bucket(ix[b], iy[b], mask) + 1] += 1
+        start[key[b] + 1] += 1
     for k in range(size):
         start[k + 1] += start[k]
     fill = start[:-1].copy()
     order = np.empty(n, np.int64)
     for b in range(n):
-        h = _bucket(ix[b], iy[b], mask)
-        order[fill[h]] = b
-        fill[h] += 1
+        order[fill[key[b]]] = b
+        fill[key[b]] += 1
     n_init = len(initiators)
-    near = np.full((n_init, 9), -1, np.int64)  # per initiator, the distinct buckets of its 3 x 3 cells (-1: none)
+    # per initiator, the non-empty runs [first, last) of ``order`` holding its 3 x 3 cells' contacts (-1: no more)
+    first = np.full((n_init, 9), -1, np.int64)
+    last = np.empty((n_init, 9), np.int64)
     most = 0
     for a in range(n_init):
         u, v = (initiators[a, 0] - lo0) // cell, (initiators[a, 1] - lo1) // cell  # as `contact_cells`
         if not (-1.0 <= u <= n0 and -1.0 <= v <= n1):
             continue
         k = 0
+        v0, v1 = max(int(v) - 1, 0), min(int(v) + 1, n1 - 1)
         for cx in range(max(int(u) - 1, 0), min(int(u) + 1, n0 - 1) + 1):
-            for cy in range(max(int(v) - 1, 0), min(int(v) + 1, n1 - 1) + 1):
-                h = _bucket(cx, cy, mask)
-                seen = False
-                for t in range(k):  # a loop, not ``in`` (which builds a mask array per test)
-                    seen |= near[a, t] == h
-                if not seen:
-                    near[a, k] = h
+            if dense:  # the column's cells v0..v1 are one run of the table
+                if start[cx * n1 + v1 + 1] > start[cx * n1 + v0]:
+                    first[a, k], last[a, k] = start[cx * n1 + v0], start[cx * n1 + v1 + 1]
+                    most += last[a, k] - first[a, k]
                     k += 1
-                    most += start[h + 1] - start[h]
+                continue
+            for cy in range(v0, v1 + 1):
+                h = _bucket(cx, cy, mask)
+                seen = start[h + 1] == start[h]  # empty; else its run's start names the bucket
+                for t in range(k):  # a bucket two cells share, once (a loop: ``in`` builds a mask per test)
+                    seen |= first[a, t] == start[h]
+                if not seen:
+                    first[a, k], last[a, k] = start[h], start[h + 1]
+                    most += last[a, k] - first[a, k]
+                    k += 1
     i = np.empty(most, np.int64)
     j = np.empty(most, np.int64)
     lo2, hi2 = d_min * d_min, d_max * d_max
     m = 0
     for a in range(n_init):
         begin = m
-        for h in near[a]:
-            if h < 0:
+        for k in range(9):
+            if first[a, k] < 0:
                 break
-            for t in range(start[h], start[h + 1]):
+            for t in range(first[a, k], last[a, k]):
                 b = order[t]
                 dx = initiators[a, 0] - contacts[b, 0]
                 dy = initiators[a, 1] - contacts[b, 1]
