@@ -351,15 +351,16 @@ def _messages(track, j, psi, K, sweeps, tolerance):
     n_contacts = j.max() + 1 if P else 0
     to_track = np.ones(P)  # messages contact j -> track t
     to_contact = np.empty(P)
+    weighted = np.empty(P)  # each pair's weight times its contact's message
     by_track, by_contact = np.empty(K), np.empty(n_contacts)
     for _ in range(sweeps):
         by_track[:] = 0.0
         for p in range(P):
-            by_track[track[p]] += psi[p] * to_track[p]
+            weighted[p] = psi[p] * to_track[p]
+            by_track[track[p]] += weighted[p]
         by_contact[:] = 0.0
         for p in range(P):
-            weighted = psi[p] * to_track[p]
-            to_contact[p] = psi[p] / (1.0 + by_track[track[p]] - weighted)  # track t -> contact j
+            to_contact[p] = psi[p] / (1.0 + by_track[track[p]] - weighted[p])  # track t -> contact j
             by_contact[j[p]] += to_contact[p]
         moved = 0.0
         for p in range(P):
