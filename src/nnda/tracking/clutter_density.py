@@ -93,7 +93,7 @@ def local_density(contacts: np.ndarray, at: np.ndarray, radius: float, sensor: S
     ``sensor`` when given (the area is then the square's part inside its coverage). Returns (Q,)."""
     radius = float(radius)
     contacts, at = np.ascontiguousarray(contacts, np.float64), np.ascontiguousarray(at, np.float64)
-    return _density(contacts, at, radius, *_coverage_args(sensor, at, radius), -1)  # -1 given: one signature
+    return _counted(_density, sensor, contacts, at, radius, -1)  # -1 given: one signature
 
 
 def unexplained_density(contacts: np.ndarray, at: np.ndarray, radius: float, scan_area: float,
@@ -113,20 +113,22 @@ def unexplained_density(contacts: np.ndarray, at: np.ndarray, radius: float, sca
     explained = np.ascontiguousarray(np.empty((0, 2)) if explained is None else explained, np.float64)
     expected = np.ascontiguousarray(np.empty(0) if expected is None else expected, np.float64)
     own = np.array(np.broadcast_to(np.asarray(own, np.float64), (len(at),)))  # a copy: never a read-only view
-    return _unexplained(contacts, at, radius, *_coverage_args(sensor, at, radius), explained, expected, own,
-                        float(scan_area))
+    return _counted(_unexplained, sensor, contacts, at, radius, explained, expected, own, float(scan_area))
 
 
-def _coverage_args(sensor: Sensor | None, at: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
-    """`_density`'s covered-part table of ``sensor``'s coverage and its corner, the cells the points ``at``
-    (Q, 2) m read filled (`_fill`); without a sensor the empty table (every square wholly covered)."""
+def _counted(kernel, sensor: Sensor | None, contacts: np.ndarray, at: np.ndarray, radius: float, *rest) -> np.ndarray:
+    """``kernel`` (`_density` or `_unexplained`) of the ``contacts`` around the points ``at`` in squares of half-side
+    ``radius`` (its further arguments ``rest``) over ``sensor``'s lazily filled covered-part table (without a
+    sensor the empty table: every square wholly covered); where the kernel finds cells its points read not
+    computed yet (a scan's first look at a part of the coverage), they are filled (`_fill`) and it runs again."""
     if sensor is None:
-        return _NO_TABLE, _NO_CORNER
+        return kernel(contacts, at, radius, _NO_TABLE, _NO_CORNER, *rest)[0]
     table, corner, coverage = _covered_cells(sensor, radius)
-    missing = _missing(at, table, corner, radius / _CELLS)
-    if len(missing):
+    out, missing = kernel(contacts, at, radius, table, corner, *rest)
+    if missing.shape[0]:
         _fill(coverage, table, corner, missing, radius)
-    return table, corner
+        out = kernel(contacts, at, radius, table, corner, *rest)[0]
+    return out
 
 
 @_jit
@@ -134,35 +136,40 @@ def _density(contacts, at, radius, table, corner, strips=-1):
     """`local_density`: contacts (N, 2) and points at (Q, 2) in m, the square's half-side ``radius`` m, the
     covered-part table (n, n) of `_covered_table` and its lower corner (2,) m, or a (0, 0) table for
     squares wholly covered; counted by `_square_sums`, over the grid's summed-area table or by strips:
-    ``strips`` 0 or 1, or -1 (the default) by the grid's size. Returns (Q,) m^-2."""
+    ``strips`` 0 or 1, or -1 (the default) by the grid's size. Returns (Q,) m^-2 and no cells (0, 2); or, where the
+    points read cells of the table not computed yet, no densities and those cells (`_missing`)."""
     N, Q = contacts.shape[0], at.shape[0]
     cell = radius / _CELLS
     side = (2.0 * radius) ** 2
-    out = np.empty(Q)
+    missing = _missing(at, table, corner, cell)
+    out = np.empty(0 if missing.shape[0] else Q)
+    if missing.shape[0]:
+        return out, missing
     if N == 0 or Q == 0:
         for q in range(Q):
             out[q] = 1.0 / (side * _covered(at[q, 0], at[q, 1], table, corner, cell))
-        return out
+        return out, missing
     lo0, lo1, n0, n1 = _grid(contacts, at, radius)
     wide = strips == 1 or (strips == -1 and n0 * n1 > _STRIP_GRID * (N + Q) + _STRIP_FLOOR)
     n = _square_sums(contacts, np.ones(N), at, radius, lo0, lo1, n0, n1, wide)
     for q in range(Q):
         out[q] = max(n[q], 1.0) / (side * _covered(at[q, 0], at[q, 1], table, corner, cell))
-    return out
+    return out, missing
 
 
 @_jit
 def _unexplained(contacts, at, radius, table, corner, explained, expected, own, scan_area):
     """`unexplained_density` (its arguments, the covered-part table and corner as `_density`'s), the sums
     by `_square_sums` over the grid of the contacts and points (tracks outside it are in no square).
-    Returns (Q,) m^-2."""
+    Returns (Q,) m^-2 and the table's cells not computed yet, as `_density`."""
     N, Q = contacts.shape[0], at.shape[0]
     cell = radius / _CELLS
     side = (2.0 * radius) ** 2
     floor = max(N - expected.sum(), 1.0) / scan_area
-    out = np.empty(Q)
-    if Q == 0:
-        return out
+    missing = _missing(at, table, corner, cell)
+    out = np.empty(0 if missing.shape[0] else Q)
+    if missing.shape[0] or Q == 0:
+        return out, missing
     lo0, lo1, n0, n1 = _grid(contacts, at, radius)
     wide = n0 * n1 > _STRIP_GRID * (N + Q + explained.shape[0]) + _STRIP_FLOOR
     n = _square_sums(contacts, np.ones(N), at, radius, lo0, lo1, n0, n1, wide)
@@ -170,7 +177,7 @@ def _unexplained(contacts, at, radius, table, corner, explained, expected, own, 
     for q in range(Q):
         count = max(n[q] - own[q] - e[q], 0.0)
         out[q] = max(count / (side * _covered(at[q, 0], at[q, 1], table, corner, cell)), floor)
-    return out
+    return out, missing
 
 
 @_jit
