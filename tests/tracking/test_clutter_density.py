@@ -25,6 +25,7 @@ def whole_table(contacts, at, radius, table, corner, strips=-1):
     assert missing.shape == (0, 2)
     return out
 
+
 def direct_count(contacts: np.ndarray, at: np.ndarray, radius: float) -> np.ndarray:
     """The contacts in each point's square, counted one by one (Q,): a contact counts when its cell of the
     radius/4 grid from the points' lower corner less radius and a cell lies in the square's cells [a, b),
