@@ -142,9 +142,9 @@ def _density(contacts, at, radius, table, corner, strips=-1):
     cell = radius / _CELLS
     side = (2.0 * radius) ** 2
     missing = _missing(at, table, corner, cell)
-    out = np.empty(0 if missing.shape[0] else Q)
     if missing.shape[0]:
-        return out, missing
+        return np.empty(0), missing
+    out = np.empty(Q)
     if N == 0 or Q == 0:
         for q in range(Q):
             out[q] = 1.0 / (side * _covered(at[q, 0], at[q, 1], table, corner, cell))
@@ -167,8 +167,10 @@ def _unexplained(contacts, at, radius, table, corner, explained, expected, own, 
     side = (2.0 * radius) ** 2
     floor = max(N - expected.sum(), 1.0) / scan_area
     missing = _missing(at, table, corner, cell)
-    out = np.empty(0 if missing.shape[0] else Q)
-    if missing.shape[0] or Q == 0:
+    if missing.shape[0]:
+        return np.empty(0), missing
+    out = np.empty(Q)
+    if Q == 0:
         return out, missing
     lo0, lo1, n0, n1 = _grid(contacts, at, radius)
     wide = n0 * n1 > _STRIP_GRID * (N + Q + explained.shape[0]) + _STRIP_FLOOR

@@ -142,6 +142,22 @@ def row_order(a):
 
 
 @numba.njit(cache=True, nogil=True)
+def run_heads(a, order):
+    """Which places q of ``order`` (A,), a sort of the rows of ``a`` (A, n) that puts equal rows together
+    (`row_order`), start a run of equal rows, (A,) bool: the first, and each row that differs from the one before."""
+    A, n = a.shape
+    head = np.ones(A, np.bool_)
+    for q in range(1, A):
+        same = True
+        for i in range(n):
+            if a[order[q], i] != a[order[q - 1], i]:
+                same = False
+                break
+        head[q] = not same
+    return head
+
+
+@numba.njit(cache=True, nogil=True)
 def _drawn(cost, group, n_samples, seed, margin):
     """The distinct assignments (A, n) of `gibbs_assignments`, in lexicographic order: ``n_samples`` draws
     (`_sampled`) on ``cost`` (n, 2 + m) with the renumbered ``group`` (n,), then the start's contact-free
@@ -198,15 +214,7 @@ def _drawn(cost, group, n_samples, seed, margin):
             a += 1
     found = found[:a]
     order = row_order(found)
-    distinct = np.ones(a, np.bool_)
-    for q in range(1, a):
-        same = True
-        for i in range(n):
-            if found[order[q], i] != found[order[q - 1], i]:
-                same = False
-                break
-        distinct[q] = not same
-    return found[order[distinct]]
+    return found[order[run_heads(found, order)]]
 
 
 @numba.njit(cache=True, nogil=True)

@@ -39,7 +39,7 @@ from nnda.filters.kalman import gate_probability
 from nnda.tracking.clutter_density import coverage_area, local_density
 from nnda.tracking.exact import add_reduce, logaddexp
 from nnda.tracking.gating import gate
-from nnda.tracking.gibbs import row_order
+from nnda.tracking.gibbs import row_order, run_heads
 from nnda.tracking.lifecycle import birth_log_odds, start_score
 from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.lookup import among
@@ -588,22 +588,17 @@ def merged(hyp: np.ndarray, log_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 @numba.njit(cache=True, nogil=True)
 def _merged(hyp, log_w):
     """`merged` of ``hyp`` (H, L), L > 0, and ``log_w`` (H,): the rows sorted (`nnda.tracking.gibbs.row_order`,
-    stable), each run of equal rows' weights summed in its rows' order, as numpy's ``logaddexp.reduceat``
-    would. One compiled pass."""
-    H, L = hyp.shape
+    stable), each run of equal rows (`nnda.tracking.gibbs.run_heads`) with its weights summed in its rows' order,
+    as numpy's ``logaddexp.reduceat`` would. One compiled pass."""
+    H = hyp.shape[0]
     order = row_order(hyp)
+    head = run_heads(hyp, order)
     first = np.empty(H, np.int64)  # the first row of each run of equal rows
     w = np.empty(H)
     k = -1
     for q in range(H):
         r = order[q]
-        new = q == 0
-        if not new:
-            for j in range(L):
-                if hyp[r, j] != hyp[order[q - 1], j]:
-                    new = True
-                    break
-        if new:
+        if head[q]:
             k += 1
             first[k], w[k] = r, log_w[r]
         else:
