@@ -256,3 +256,32 @@ def test_a_confirmed_label_is_left_out_while_its_existence_is_low_and_keeps_its_
     """The hypotheses where the target has ended stay beside those where it coasts (N-scan pruning constrains no
     absent label), so the label's existence falls with its misses: `labelled_helpers.gap_and_end`."""
     lab.gap_and_end(name, 0.5)
+
+
+@pytest.mark.parametrize("name", ["glmb", "lmb"])
+def test_a_contact_a_tentative_label_took_opens_no_birth(name):
+    """In dense clutter no birth pairs a contact that a tentative label's child took in the same scan, also when
+    the label falls below ``min_tentative_existence`` there and is dropped (as in pmbm)."""
+    ds = lab.dense_clutter()
+    tracker = make_tracker(name, ds.scenario.sensors, {})
+    children, births = tracker._tentative_children, tracker._births
+    seen = {"dropped": 0, "births": 0}
+
+    def took(scan, g, used):
+        kids, ready, contact = children(scan, g, used)
+        kept = 0 if kids is None else int(np.count_nonzero(kids.hist[:, -1] >= 0))
+        seen["dropped"] += int(np.count_nonzero(contact >= 0)) - kept
+        seen["taken"] = contact[contact >= 0]
+        return kids, ready, contact
+
+    def born(scan, used, taken=None, live=0):
+        new, contact = births(scan, used, taken, live)
+        if contact is not None and taken is not None:
+            seen["births"] += contact.size
+            assert not np.isin(contact, seen["taken"]).any()
+        return new, contact
+
+    tracker._tentative_children, tracker._births = took, born
+    for scan in ds.scans():
+        tracker.step(scan)
+    assert seen["dropped"] > 100 and seen["births"] > 1000

@@ -138,3 +138,32 @@ def test_greedy_global_hypothesis_is_compatible_and_never_beats_the_exact_one(se
     assert len(used) == len(set(used))
     assert leaves.score[chosen].sum() <= brute_force(leaves) + 1e-9
     assert (leaves.score[chosen] > 0).all()
+
+
+def new_families_on_kept_contacts(initiation_contacts: str) -> tuple[int, int]:
+    """MHT with ``initiation_contacts`` on a dense-clutter scene: (families opened, those opened on a contact that a
+    leaf of an older family kept after the same scan also took)."""
+    ds = generate(PRESETS["train03"], seed=2)
+    tracker = MHTTracker(ds.scenario.sensor, MHTConfig(initiation_contacts=initiation_contacts))
+    opened = shared = 0
+    for scan in ds.scans():
+        old = set() if tracker.leaves is None else set(tracker.leaves.tracks.track_id.tolist())
+        tracker.step(scan)
+        if tracker.leaves is None:
+            continue
+        leaves = tracker.leaves
+        new = ~np.isin(leaves.tracks.track_id, list(old))
+        taken = leaves.hist[~new, -1]
+        opened += int(new.sum())
+        shared += int(np.isin(leaves.hist[new, -1], taken[taken >= 0]).sum())
+    return opened, shared
+
+
+def test_a_contact_a_kept_leaf_took_opens_no_family():
+    """By default a contact that any leaf kept by the branching took starts no family of its own; with
+    'unchosen' only the global hypothesis's contacts are withheld, so in dense clutter new families share
+    contacts with other families' kept branches."""
+    opened, shared = new_families_on_kept_contacts("untaken")
+    assert opened > 100 and shared == 0
+    opened, shared = new_families_on_kept_contacts("unchosen")
+    assert opened > 100 and shared > 10

@@ -150,6 +150,7 @@ def default_study(gd_model: str | Path, lm_model: str | Path, ext_model: str | P
     Model paths are kept as given (relative ones are resolved when the study is written and read).
     """
     thesis = {"lifecycle": THESIS_LIFECYCLE}  # the thesis's M/N rule, pinned: its comparison keeps its numbers
+    # (and MHT's initiation from the contacts the global hypothesis leaves free, as then)
     phd = dict(SINGLE_SCAN_EXTRACTION)  # and the PHD filters' extraction as measured then
     seed_set = {"feature_set": KINEMATIC.name, **thesis}
     ext_set = {"feature_set": IMM_INNOVATION.name, **thesis}
@@ -161,7 +162,7 @@ def default_study(gd_model: str | Path, lm_model: str | Path, ext_model: str | P
         seed=seed, runs=runs,
         models={"gd": Path(gd_model), "lm": Path(lm_model), "ext": Path(ext_model)},
         ablation=None if ablation is None else Path(ablation),
-        trackers={"mht": TrackerSpec(kind="mht", params=thesis),
+        trackers={"mht": TrackerSpec(kind="mht", params={**thesis, "initiation_contacts": "unchosen"}),
                   "nn-gd": TrackerSpec(kind="nn", model="gd", params=seed_set),
                   "nn-seed": TrackerSpec(kind="nn", model="lm", params=seed_set),
                   "nn-ext": TrackerSpec(kind="nn", model="ext", params=ext_set),

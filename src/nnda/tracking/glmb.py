@@ -50,8 +50,9 @@ becomes a (1 - P_D + sum_z P_D l(z) / lambda_c(z)) / (1 - a + a (1 - P_D + sum_z
 track the heaviest of its miss (1 - P_D) and its gated contacts (P_D l(z) / lambda_c(z)); contacts are not
 exclusive between tentative labels. A tentative label reaching ``admission_existence`` joins every
 hypothesis at the next scan, as a birth does; one below ``min_tentative_existence`` is dropped. The
-contacts the tentative labels take open no birth. ``admission_existence`` 0 puts every birth in the
-hypotheses at once.
+contact a tentative label takes opens no birth, even when the label is dropped in that scan (as in pmbm;
+at 5,000 clutter points a scan in S6's coverage a third fewer births than if only the surviving labels'
+contacts counted). ``admission_existence`` 0 puts every birth in the hypotheses at once.
 
 **Output.** The tracks of the highest-weight hypothesis are reported with their estimate (the
 prediction after a miss) and contact, by label, then the births waiting for the next scan and the tentative
@@ -138,9 +139,8 @@ class GLMBTracker(LabelledMixture):
             self._update(sc, mixture)
             self._prune(self.hyp, self.log_w)
         used = self._used(sc)
-        waiting = [] if tentative is None else self._tentative_update(sc, tentative, used)
+        waiting, taken = ([], None) if tentative is None else self._tentative_update(sc, tentative, used)
         tent = [*waiting, *([] if self.tentative is None else [self.tentative])]  # the tentative labels updated
-        taken = np.concatenate([t.contact for t in tent]) if tent else None
         born, contact = self._births(sc, used, taken, sum(len(t) for t in tent))
         if born is not None:
             x, P = self.filter.estimate(born.filt)
@@ -172,15 +172,17 @@ class GLMBTracker(LabelledMixture):
         self.hyp = np.column_stack([self.hyp, np.tile(first + np.arange(len(born)), (len(self.log_w), 1))])
         self.labels = np.concatenate([self.labels, born.tracks.track_id])
 
-    def _tentative_update(self, scan: ScanContacts, g: GatedRows, used: np.ndarray) -> list[LabelledTracks]:
+    def _tentative_update(self, scan: ScanContacts, g: GatedRows, used: np.ndarray
+                          ) -> tuple[list[LabelledTracks], np.ndarray]:
         """The tentative labels, gated in ``g``, updated on the contacts not ``used``
         (`LabelledMixture._tentative_children`); returns those that reached ``admission_existence`` (as one
-        table, or none), to join at the next scan; keeps the others of existence ``min_tentative_existence`` or
-        more in ``tentative``."""
-        k, ready, _ = self._tentative_children(scan, g, used)
+        table, or none), to join at the next scan, and the contact each label's child took (T,) (NO_CONTACT: its
+        miss), which starts no birth whether the label lives on or not (as in `nnda.tracking.pmbm`); keeps the
+        others of existence ``min_tentative_existence`` or more in ``tentative``."""
+        k, ready, taken = self._tentative_children(scan, g, used)
         kids = None if k is None else LabelledTracks(k.tracks, k.r, k.hist, k.x, k.P, np.full(len(k), -1, np.int64))
         ready, self.tentative = self._sorted_tentative(kids, ready)
-        return [] if ready is None else [ready]
+        return ([] if ready is None else [ready]), taken
 
     def _waiting(self) -> list[LabelledTracks]:
         """The births waiting for the next scan, then the tentative labels (reported PRELIMINARY with their
