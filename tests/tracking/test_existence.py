@@ -26,7 +26,7 @@ from nnda.tracking.lifecycle import (
 from nnda.tracking.marginals import jpda_marginals, log_miss_weight
 from nnda.tracking.output import CONFIRMED, DELETED, PRELIMINARY
 from nnda.tracking.registry import make_tracker
-from nnda.tracking.tracker import Tracks
+from nnda.tracking.tracks import Tracks
 from tolerances import RTOL
 
 PD, GATE = 0.9, 9.21

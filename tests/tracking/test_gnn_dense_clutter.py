@@ -15,7 +15,7 @@ from nnda.tracking.gnn import GNNConfig, _merged
 from nnda.tracking.lag import EndsAtScorePeak, FixedLag
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY
 from nnda.tracking.registry import make_tracker
-from nnda.tracking.tracker import P2, T2
+from nnda.tracking.tracks import P2, T2
 
 MN = {"lifecycle": {"confirmation": "mn", "quality_deletion": False}}
 BOTH = {"shared_preliminary": True, "end_at_score_peak": True}

@@ -20,7 +20,7 @@ from nnda.tracking.lifecycle import THESIS_LIFECYCLE, LifecycleConfig
 from nnda.tracking.neural import NeuralConfig, NeuralTracker
 from nnda.tracking.output import TrackStatus
 from nnda.tracking.registry import make_tracker
-from nnda.tracking.tracker import hard_update
+from nnda.tracking.single_hypothesis import hard_update
 from tolerances import RTOL
 
 THESIS = LifecycleConfig(**THESIS_LIFECYCLE)

@@ -262,7 +262,8 @@ def test_score_gain_by_hand():
     from nnda.data.scenario import Sensor
     from nnda.filters.imm import IMM
     from nnda.tracking.marginals import log_miss_weight
-    from nnda.tracking.tracker import Association, ScanContacts
+    from nnda.tracking.tracker import ScanContacts
+    from nnda.tracking.tracks import Association
     # contacts well inside the 5-30 km ring (every square wholly covered): a tight cluster of three, a pair
     # 2 km apart, and one alone; no contact within an eighth of the radius of another's square edge
     xy = np.array([[0.0, 12_000.0], [400.0, 12_300.0], [-300.0, 11_800.0], [9_000.0, 9_000.0],

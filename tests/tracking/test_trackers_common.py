@@ -23,8 +23,9 @@ from nnda.filters.motion import ConstantVelocity
 from nnda.study.metrics import run_metrics
 from nnda.tracking.gnn import _stage_pairs
 from nnda.tracking.output import NO_CONTACT, TrackStatus
+from nnda.tracking.protocol import Tracker, TrackerConfig
 from nnda.tracking.registry import PEERS, TRACKERS, make_tracker
-from nnda.tracking.tracker import ContactTracker, Tracker, TrackerConfig
+from nnda.tracking.tracker import ContactTracker
 
 MODEL_FREE = [name for name in TRACKERS if name != "nn"]
 #: trackers whose tracks are built from contacts (scored by the contacts they used)

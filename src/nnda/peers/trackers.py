@@ -66,7 +66,8 @@ from nnda.tracking.output import DELETED, TrackerOutput
 from nnda.tracking.phd.birth import measurement_births
 from nnda.tracking.phd.config import CommonConfig, MeasurementBirth
 from nnda.tracking.phd.tracker import Cardinality, clutter, coverage_volume
-from nnda.tracking.tracker import ContactTrackerConfig, TrackerConfig, checked_config, checked_scan
+from nnda.tracking.protocol import TrackerConfig, checked_config, checked_scan
+from nnda.tracking.tracker import ContactTrackerConfig
 
 
 class PeerConfig(ContactTrackerConfig):
@@ -138,7 +139,7 @@ class ObservedStepsDeleter(UpdateTimeStepsDeleter):
 class StoneSoupTracker:
     """A Stone Soup multi-target tracker stepped one scan at a time; subclasses pick the association.
 
-    Meets our `nnda.tracking.tracker.Tracker` protocol: built as ``cls(sensors, config)`` for polar radars
+    Meets our `nnda.tracking.protocol.Tracker` protocol: built as ``cls(sensors, config)`` for polar radars
     and sensors of position fixes in any mix; each scan's detections carry its sensor's measurement model.
     """
 

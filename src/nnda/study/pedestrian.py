@@ -48,8 +48,8 @@ from nnda.filters.measurement import measurement_model
 from nnda.study.pedestrian_scores import Trace, density, score_accuracy, score_run, score_stress
 from nnda.tracking.lifecycle import THESIS_LIFECYCLE
 from nnda.tracking.output import CONFIRMED
+from nnda.tracking.protocol import Tracker
 from nnda.tracking.registry import TRACKERS, make_tracker
-from nnda.tracking.tracker import Tracker
 
 TESTS = ("test1", "test2", "test3", "test4")
 #: the thesis's birth covariance diag in its [x y vx vy] / [x y v alpha] order

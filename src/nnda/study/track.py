@@ -47,9 +47,9 @@ from nnda.study.metrics import DEFAULT_CUTOFF_M, Ownership, RunMetrics, run_metr
 from nnda.study.track_job import dataset_digest, management_record, scalars
 from nnda.tracking.detection_probability import DetectionProbabilities
 from nnda.tracking.output import NO_CONTACT, TrackerOutput, TrackStatus
+from nnda.tracking.protocol import Tracker
 from nnda.tracking.registry import make_tracker
 from nnda.tracking.target_classes import TargetClassUse
-from nnda.tracking.tracker import Tracker
 
 STATE = ("x", "vx", "y", "vy")
 #: (row, column) of the covariance's unique entries, upper triangle row by row

@@ -45,8 +45,8 @@ from nnda.study.measures import RUN_MEASURES, SERIES_MEASURES
 from nnda.study.metrics import RunMetrics, run_metrics
 from nnda.tracking.lag import FixedLag
 from nnda.tracking.output import TrackerOutput, TrackStatus
+from nnda.tracking.protocol import Tracker
 from nnda.tracking.registry import make_tracker
-from nnda.tracking.tracker import Tracker
 
 if TYPE_CHECKING:
     from nnda.study.kinds.track import TrackJob

@@ -77,8 +77,9 @@ from nnda.data.dataset import Scan
 from nnda.tracking.gibbs import NEGLIGIBLE, all_assignments, gibbs_assignments
 from nnda.tracking.labelled import GatedRows, LabelledConfig, LabelledMixture, LabelledTable, merged, normalised
 from nnda.tracking.output import NO_CONTACT, TrackerOutput
+from nnda.tracking.protocol import TrackerConfig
 from nnda.tracking.reports import Phase
-from nnda.tracking.tracker import ScanContacts, TrackerConfig
+from nnda.tracking.tracker import ScanContacts
 
 
 class GLMBConfig(LabelledConfig):

@@ -30,7 +30,7 @@ GOSPA with a lag of 3 scans 240 -> 189 m):
   Scores are needed for that, so the option applies under the score-type rules
   only: under ``lifecycle.confirmation = "mn"`` preliminary tracks keep the
   least-cost assignment.
-* ``end_at_score_peak`` (jpda's and nn's too, `nnda.tracking.tracker.SingleHypothesisConfig`):
+* ``end_at_score_peak`` (jpda's and nn's too, `nnda.tracking.single_hypothesis.SingleHypothesisConfig`):
   a fixed-lag output ends a deleted track where its score last peaked
   (`nnda.tracking.lag`).
 
@@ -51,19 +51,10 @@ from nnda.filters.kalman import GATE_99
 from nnda.tracking.assignment import given, greedy_matching, least_cost_assignment
 from nnda.tracking.gating import gate_tracks, stage_pairs
 from nnda.tracking.output import NO_CONTACT
-from nnda.tracking.tracker import (
-    CLUTTER_ESTIMATE_DOC,
-    T2,
-    X2,
-    Association,
-    ClutterEstimate,
-    ScanContacts,
-    SingleHypothesisConfig,
-    SingleHypothesisTracker,
-    TrackerConfig,
-    Tracks,
-    hard_update,
-)
+from nnda.tracking.protocol import TrackerConfig
+from nnda.tracking.single_hypothesis import SingleHypothesisConfig, SingleHypothesisTracker, hard_update
+from nnda.tracking.tracker import CLUTTER_ESTIMATE_DOC, ClutterEstimate, ScanContacts
+from nnda.tracking.tracks import T2, X2, Association, Tracks
 
 
 class GNNConfig(SingleHypothesisConfig):

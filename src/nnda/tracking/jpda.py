@@ -100,16 +100,10 @@ from nnda.tracking.gating import gate_tracks, stage_pairs
 from nnda.tracking.lifecycle import existence, jipda_log_ratio
 from nnda.tracking.marginals import jpda_marginals
 from nnda.tracking.output import NO_CONTACT
-from nnda.tracking.tracker import (
-    CLUTTER_ESTIMATE_DOC,
-    Association,
-    ClutterEstimate,
-    ScanContacts,
-    SingleHypothesisConfig,
-    SingleHypothesisTracker,
-    TrackerConfig,
-    Tracks,
-)
+from nnda.tracking.protocol import TrackerConfig
+from nnda.tracking.single_hypothesis import SingleHypothesisConfig, SingleHypothesisTracker
+from nnda.tracking.tracker import CLUTTER_ESTIMATE_DOC, ClutterEstimate, ScanContacts
+from nnda.tracking.tracks import Association, Tracks
 
 #: added to probabilities before a log or a division, so a model of probability 0 stays finite
 _TINY = 1e-300

@@ -45,7 +45,8 @@ from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.lookup import among
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
 from nnda.tracking.phd.tracker import Cardinality
-from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts, Tracks
+from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts
+from nnda.tracking.tracks import Tracks
 
 
 class LabelledConfig(ContactTrackerConfig):

@@ -71,7 +71,7 @@ from nnda.filters.imm import IMM
 from nnda.filters.motion import CoordinatedTurn
 from nnda.tracking.lookup import members, sorted_find
 from nnda.tracking.output import CONFIRMED, DELETED, MAX_LAG, NO_CONTACT, PRELIMINARY, TrackerOutput
-from nnda.tracking.tracker import Tracker
+from nnda.tracking.protocol import Tracker
 
 
 @runtime_checkable

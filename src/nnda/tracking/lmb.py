@@ -22,7 +22,7 @@ from pydantic import Field, model_validator
 
 from nnda.tracking.glmb import GLMBConfig, GLMBTracker
 from nnda.tracking.lookup import run_starts
-from nnda.tracking.tracker import TrackerConfig
+from nnda.tracking.protocol import TrackerConfig
 
 
 class LMBConfig(GLMBConfig):

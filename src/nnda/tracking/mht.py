@@ -83,8 +83,10 @@ from nnda.tracking.lifecycle import SANITY_REASONS, advance_score, sanity_kernel
 from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.lookup import members, run_starts, sorted_find
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, TrackerOutput
+from nnda.tracking.protocol import TrackerConfig
 from nnda.tracking.reports import Phase
-from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts, TrackerConfig, Tracks
+from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts
+from nnda.tracking.tracks import Tracks
 
 #: history entry of a scan before the family existed, or whose contact is not known (a miss is NO_CONTACT)
 UNKNOWN = -2

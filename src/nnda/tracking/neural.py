@@ -125,15 +125,10 @@ from nnda.tracking.gating import Gated, gate, gate_tracks
 from nnda.tracking.lookup import sorted_find
 from nnda.tracking.neural_matching import RULES, first_stage, reacquire, reacquired, rest_stage, solved
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY
-from nnda.tracking.tracker import (
-    Association,
-    ScanContacts,
-    SingleHypothesisConfig,
-    SingleHypothesisTracker,
-    TrackerConfig,
-    Tracks,
-    hard_update,
-)
+from nnda.tracking.protocol import TrackerConfig
+from nnda.tracking.single_hypothesis import SingleHypothesisConfig, SingleHypothesisTracker, hard_update
+from nnda.tracking.tracker import ScanContacts
+from nnda.tracking.tracks import Association, Tracks
 
 #: no gate pairs (the gate is off)
 NO_PAIRS = Gated(np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0))

@@ -85,8 +85,9 @@ from nnda.tracking.exact import add_reduce
 from nnda.tracking.labelled import GatedRows, LabelledConfig, LabelledMixture, LabelledTable, merged, normalised
 from nnda.tracking.output import TrackerOutput
 from nnda.tracking.pmbm_hypotheses import scan_hypotheses
+from nnda.tracking.protocol import TrackerConfig
 from nnda.tracking.reports import Phase
-from nnda.tracking.tracker import ScanContacts, TrackerConfig
+from nnda.tracking.tracker import ScanContacts
 
 #: history entry of a scan before the Bernoulli existed (a miss is NO_CONTACT)
 UNKNOWN = -2

@@ -27,8 +27,9 @@ from nnda.tracking.neural import NeuralTracker
 from nnda.tracking.phd.fusion import AAFusionTracker, CentralPHDTracker, FusionTracker, GCIFusionTracker
 from nnda.tracking.phd.tracker import CPHDTracker, EKPHDTracker, GMPHDTracker, UKPHDTracker
 from nnda.tracking.pmbm import PMBMTracker
+from nnda.tracking.protocol import Tracker, reporting_trackers
 from nnda.tracking.target_classes import as_given, class_params, refused
-from nnda.tracking.tracker import ContactTracker, Tracker, reporting_trackers
+from nnda.tracking.tracker import ContactTracker
 
 #: Stone Soup peer trackers: name -> "module:class", imported on first lookup
 PEERS: dict[str, str] = {

@@ -72,7 +72,7 @@ from nnda.errors import ConfigError
 from nnda.filters.ground_motion import DiagonalCV, GroundVehicle, HMMap, ModifiedNCSHT, corridor_hm_map, plus_hm_map
 from nnda.filters.motion import ConstantVelocity, CoordinatedTurn, MotionModel
 from nnda.filters.unscented import UnscentedTransform
-from nnda.tracking.tracker import TrackerConfig
+from nnda.tracking.protocol import TrackerConfig
 from nnda.validation import check_covariance
 
 _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)

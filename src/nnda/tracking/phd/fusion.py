@@ -71,7 +71,7 @@ from nnda.tracking.output import CONFIRMED, NO_CONTACT, TrackerOutput
 from nnda.tracking.phd.config import AAFusionConfig, CentralPHDConfig, FusionConfig, GCIFusionConfig
 from nnda.tracking.phd.extraction import above, coast_floor, coasting, default_coast_misses, persistent
 from nnda.tracking.phd.tracker import Cardinality, GMPHDTracker, sensor_detection
-from nnda.tracking.tracker import TrackerConfig, checked_config, checked_scan
+from nnda.tracking.protocol import TrackerConfig, checked_config, checked_scan
 
 
 def coverage_shares(sensors: Sequence[Sensor], sensor: np.ndarray, means: np.ndarray) -> np.ndarray:

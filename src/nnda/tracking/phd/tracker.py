@@ -100,7 +100,7 @@ from nnda.tracking.phd.extraction import (
     persistent,
     relabel_duplicates,
 )
-from nnda.tracking.tracker import TrackerConfig, checked_config, checked_contacts, checked_scan
+from nnda.tracking.protocol import TrackerConfig, checked_config, checked_contacts, checked_scan
 
 
 @dataclass(frozen=True)
