@@ -30,9 +30,9 @@ half-side ``clutter_radius_m`` around the predicted position) times the predicte
    hypotheses but are not reported;
 3. **initiation** from the contacts no leaf kept by the branching took
    (``initiation_contacts = "untaken"``: a contact some hypothesis explains
-   does not start a family of its own too; in dense clutter this halves
-   the short-lived families) or, with ``"unchosen"``, from those the global
-   hypothesis leaves free;
+   does not start a family of its own too; in S6's coverage 14 % fewer
+   short-lived families at 1,000 clutter points a scan, 40 % fewer at 5,000)
+   or, with ``"unchosen"``, from those the global hypothesis leaves free;
 4. **pruning**: N-scan pruning (the decision ``n_scan`` scans back becomes
    final: a chosen family keeps only the leaves that agree with it there,
    and every leaf using a contact given there to another family goes), branch probability within a family

@@ -22,11 +22,7 @@ from nnda.filters.imm_kernels import estimate
 from nnda.filters.kalman import gate_probability
 from nnda.tracking.assignment import given
 from nnda.tracking.continuation import continuation_pairs
-from nnda.tracking.lifecycle import (
-    SANITY_REASONS,
-    predicted_log_odds,
-    sanity_kernel,
-)
+from nnda.tracking.lifecycle import SANITY_REASONS, predicted_log_odds, sanity_kernel
 from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.lookup import sorted_find
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
