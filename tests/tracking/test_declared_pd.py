@@ -80,9 +80,10 @@ def test_the_declared_pd_is_the_trackers_pd(imported, name, params, monkeypatch)
     assert [s.measurements.tobytes() for s in scans] == [s.measurements.tobytes() for s in same]
     with_declared = _hash(name, declared.scenario.sensors, params, scans)
     assert with_declared != _hash(name, plain.scenario.sensors, params, scans)
-    if name == "gnn":  # no pd field: the score rule's P_D is the tracker default
+    if name == "gnn":  # no pd field: the score rule's P_D is the tracker default, here not learnt
         monkeypatch.setattr(tracker_module, "SCORE_PD", 0.6)
-        assert _hash(name, plain.scenario.sensors, params, scans) == with_declared
+        fixed = params | {"lifecycle": params["lifecycle"] | {"estimate_pd": False}}
+        assert _hash(name, plain.scenario.sensors, fixed, scans) == with_declared
     else:
         assert _hash(name, plain.scenario.sensors, params | {"pd": 0.6}, scans) == with_declared
 
@@ -91,7 +92,7 @@ def test_a_pd_set_in_the_tracker_config_beats_the_declared_one(imported):
     declared, plain, _ = imported
     scans = list(plain.scans())[:SCANS]
     set_to_default = _hash("jpda", declared.scenario.sensors, {"pd": 0.9}, scans)
-    assert set_to_default == _hash("jpda", plain.scenario.sensors, {}, scans)
+    assert set_to_default == _hash("jpda", plain.scenario.sensors, {"lifecycle": {"estimate_pd": False}}, scans)
     tracker = make_tracker("mht", declared.scenario.sensors, {"pd": 0.8})
     assert tracker.detection.values == (0.8,) and tracker.detection.sources == (FROM_CONFIG,)
     assert make_tracker("mht", declared.scenario.sensors).detection.sources == ("declared by sensor 'radar'",)

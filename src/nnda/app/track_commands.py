@@ -175,6 +175,12 @@ def track(
         f"({_per_scan(run.step_seconds)}), total {wall:.2f} s")
     if run.detection is not None:
         say(f"{tracker}: {run.detection.line()}")
+        learnt = (run.management or {}).get("learnt_pd")
+        if learnt is not None:
+            say(f"{tracker}: P_D learnt from the confirmed tracks by the run's end: " + ", ".join(
+                f"{name} {value:.3f}" + (" (as assumed: their record is not below it)" if value == assumed else "")
+                for name, value, assumed in zip(run.detection.sensors, learnt, run.detection.values)
+                if value is not None))
     if run.targets is not None:
         say(f"{tracker}: {run.targets.line()}")
     if late is not None:

@@ -13,7 +13,10 @@ they do not depend on the order jobs finished:
   records written before it was kept), with a tracker of track
   continuation (``continuation_gate`` above 0) the new tracks that
   continued a coasting one (``continued_tracks``; null for the trackers
-  without it; a study without such a tracker has no such column), and the
+  without it; a study without such a tracker has no such column), with a
+  tracker that learns a sensor's P_D (``lifecycle.estimate_pd``) the
+  values learnt by the run's end, per sensor (``learnt_pd``, a list; null
+  for a tracker or sensor not learnt; likewise only when present), and the
   per-scan series as list columns
   (``<series name>_per_scan``). The series of
   ``false_tracks_per_scan`` is named ``false_tracks``, so its list column
@@ -110,6 +113,9 @@ def results_table(records: list[dict]) -> pa.Table:
     cols["too_fast_lines"] = _column([None if m is None else m.get("too_fast_lines") for m in managed], "int")
     if any(m is not None and "continued" in m for m in managed):
         cols["continued_tracks"] = _column([None if m is None else m.get("continued") for m in managed], "int")
+    if any(m is not None and "learnt_pd" in m for m in managed):
+        cols["learnt_pd"] = pa.array([None if m is None else m.get("learnt_pd") for m in managed],
+                                     type=pa.list_(pa.float64()))
     for m in SERIES_MEASURES:  # false_tracks -> false_tracks_per_scan replaces that run value (module docstring)
         kind = pa.int64() if m.integer else pa.float64()
         cols[f"{m.series_name}_per_scan"] = pa.array([r["series"][m.series_name] for r in records],

@@ -15,6 +15,13 @@ assumes (`detection_probabilities`):
 
 Each scan comes from one sensor, so the trackers index the values by
 ``scan.sensor``, resolved once when the tracker is built.
+
+A default is a guess. Where a tracker runs on one (case 3) and its life
+cycle's ``estimate_pd`` is on, the value it uses is learnt as the run goes
+(`DetectionRecord`): the assumed P_D, lowered to the detection record of the
+tracker's confirmed tracks. A score that expects 0.9 from a radar that
+detects 0.8 of the time charges each miss ln(0.1) instead of ln(0.2) and
+deletes the tracks of turning, fading targets too early.
 """
 
 from __future__ import annotations
@@ -23,6 +30,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Annotated
 
+import numpy as np
 from pydantic import BaseModel, Field, TypeAdapter, ValidationError
 
 from nnda.data.scenario import Sensor
@@ -37,6 +45,9 @@ class _AnyTracker(BaseModel):
 
     pd: Annotated[float, Field(gt=0, le=1)] = DEFAULT_PD
 
+
+#: the weight of the assumed P_D in a learnt one (`DetectionRecord`), in observed scans of confirmed tracks
+PRIOR_SCANS = 20.0
 
 #: where a value came from (`DetectionProbabilities.sources`); a declared one is "declared by sensor 'NAME'"
 FROM_CONFIG = "tracker config"
@@ -104,3 +115,46 @@ def _within(tracker: str, sensor: Sensor, bounds: list, field: str) -> float:
                           f"a detection probability {needs}; set the sensor's declared_pd (nnda import-detections "
                           f"--sensor pd=X, or the scenario's sensor table) within that, or the tracker config's "
                           f"{field} to override it") from None
+
+
+class DetectionRecord:
+    """The P_D a tracker uses per sensor as a run goes: the assumed values, and for the sensors it learns
+    (``learn`` (S,) true) the assumed value lowered, never raised, to its confirmed tracks' record so far.
+
+    The record of a sensor is pooled over the tracker's confirmed tracks: the scans of that sensor that
+    observed one (``observed``) and those in which it took a contact (``hits``). The learnt value is
+    min(P_D0, (hits + n0 P_D0) / (observed + n0)), P_D0 the assumed value and n0 = `PRIOR_SCANS`, so a few
+    scans move it little. Every observed scan of a confirmed track counts, the misses of one coasting to its
+    deletion included, so where targets are nearly always detected the record runs below the truth; the
+    value is never raised above the assumed one, which keeps such a radar's tracks as they were. Tracks still
+    preliminary are left out: their record is mostly clutter's. Only a sweep counts (a report says nothing
+    of the targets it does not name).
+    """
+
+    def __init__(self, assumed: DetectionProbabilities, learn: Sequence[bool]) -> None:
+        self.assumed = np.array(assumed.values, float)
+        self.learn = np.array(learn, bool)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the record (a new run): every value back to the assumed one."""
+        self.hits = np.zeros(self.assumed.size)
+        self.observed = np.zeros(self.assumed.size)
+        self.values = self.assumed.copy()
+
+    def __getitem__(self, sensor: int) -> float:
+        return float(self.values[sensor])
+
+    def add(self, sensor: int, hits: int, observed: int) -> None:
+        """Count a scan of ``sensor`` (an index): of its confirmed tracks, ``observed`` were observed and
+        ``hits`` of those took a contact; the sensor's value follows when it learns."""
+        if not (self.learn[sensor] and observed):
+            return
+        self.hits[sensor] += hits
+        self.observed[sensor] += observed
+        p0 = self.assumed[sensor]
+        self.values[sensor] = min(p0, (self.hits[sensor] + PRIOR_SCANS * p0) / (self.observed[sensor] + PRIOR_SCANS))
+
+    def record(self) -> list[float | None]:
+        """What a run records: per sensor the value learnt so far, None for one the tracker does not learn."""
+        return [float(v) if learn else None for v, learn in zip(self.values, self.learn)]

@@ -240,7 +240,7 @@ class JPDATracker(SingleHypothesisTracker):
         contact = np.full(len(tracks), NO_CONTACT, np.int64)
         state = IMMState(pred.state.x.copy(), pred.state.P.copy(), pred.state.mu.copy())
         imm, z = scan.filter, scan.z
-        pd, log_miss = self.score_pd(scan.sensor), self._log_miss[scan.sensor]
+        pd, log_miss = self.score_pd(scan.sensor), self._log_miss(scan.sensor)
         gain = np.full(len(tracks), log_miss)  # the score's increments; a miss's without a reported contact
         if not len(z):
             return Association(contact, state, gain)

@@ -228,6 +228,12 @@ class LifecycleConfig(BaseModel):
         "each scan that misses it weighs it by survival_probability and 1 - P_D P_G), as the labelled trackers' "
         "report_existence does; the track lives on and is reported again, confirmed and with its id, at its next "
         "contact. None: every confirmed track is reported")] = None
+    estimate_pd: bool = Field(True, description="under the score, adaptive and existence rules, learn the P_D of a "
+                              "sensor for which neither the tracker's config nor the sensor gives one: the assumed "
+                              "value lowered, never raised, to the detection record of the tracker's confirmed tracks "
+                              "so far (`nnda.tracking.detection_probability.DetectionRecord`; GNN, JPDA, MHT and the "
+                              "neural tracker). Never under M/N, whose confirmed tracks are mostly clutter's where "
+                              "clutter is dense. False: the assumed value throughout")
     report_gap_s: Annotated[float, Field(
         gt=0, description="asynchronous reports (a sensor with reports = true): the longest a track may go "
         "without a report (s) before each window's end counts as a miss for it (a report of one target says "

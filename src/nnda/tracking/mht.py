@@ -153,6 +153,7 @@ class MHTTracker(ContactTracker):
     """IMM + track-oriented MHT (the classical method of Vargas Avila 2015)."""
 
     name: ClassVar[str] = "mht"
+    learns_pd = True
     takes_reports: ClassVar[bool] = True
     config_type: ClassVar[type[TrackerConfig]] = MHTConfig
 
@@ -172,8 +173,11 @@ class MHTTracker(ContactTracker):
         leaves, shown, chosen = None, None, np.empty(0, np.int64)
         used = np.zeros(len(z), bool)
         if self.leaves is not None and len(self.leaves):
-            leaves, shown = self._branch(self.leaves, sc)
+            leaves, shown, seen = self._branch(self.leaves, sc)
             chosen = self._global_hypothesis(leaves)
+            ids, *_, shown_confirmed = self.known  # the families reported confirmed before this scan
+            self._count_detections(sc, members(leaves.tracks.track_id[chosen], ids[shown_confirmed]),
+                                   None if seen is None else seen[chosen], leaves.hist[chosen, -1])
             now = leaves.hist[chosen if self.config.initiation_contacts == "unchosen" else slice(None), -1]
             used[now[now >= 0]] = True
         families = 0 if leaves is None else int(np.count_nonzero(run_starts(np.sort(leaves.tracks.track_id))))
@@ -210,7 +214,9 @@ class MHTTracker(ContactTracker):
         self._peaks = (ids[keep], peak[keep])
 
     # ---------------------------------------------------------------------- branching
-    def _branch(self, leaves: Leaves, scan: ScanContacts) -> tuple[Leaves, _Shown]:
+    def _branch(self, leaves: Leaves, scan: ScanContacts) -> tuple[Leaves, _Shown, np.ndarray | None]:
+        """The leaves' children in ``scan`` (each leaf's miss and its gated contacts) that live on, their reported
+        states, and which of them the scan observed (None: all)."""
         cfg, imm, tr = self.config, scan.filter, leaves.tracks
         z, xy, time = scan.z, scan.xy, scan.time
         L = len(leaves)
@@ -268,7 +274,7 @@ class MHTTracker(ContactTracker):
         code = sanity_kernel(shown.x, shown.P, quality, *self._sanity_args)  # `lifecycle.sanity_reasons`
         alive = (status != DELETED) & (score >= max_score - cfg.deletion_score_drop) & (code == 0)
         self._count_lost(tracks.track_id, tr.status[parent], status, score, code, alive)
-        return out.take(alive), _Shown(shown.x[alive], shown.P[alive])
+        return out.take(alive), _Shown(shown.x[alive], shown.P[alive]), None if seen is None else seen[alive]
 
     def _count_lost(self, family: np.ndarray, before: np.ndarray, status: np.ndarray, score: np.ndarray,
                     code: np.ndarray, alive: np.ndarray) -> None:

@@ -389,7 +389,7 @@ class NeuralTracker(SingleHypothesisTracker):
         as they would be had they missed it instead (the branches of `_retrodicted`): their last posterior kept,
         the miss counted in their life cycle and score (a branch may come out deleted)."""
         K = len(tracks)
-        gain = None if self.confirmation_rule == "mn" else np.full(K, self._log_miss[sensor])
+        gain = None if self.confirmation_rule == "mn" else np.full(K, self._log_miss(sensor))
         none = np.empty((0, 2))  # a miss reads no contact
         return tracks.after_scan(np.full(K, NO_CONTACT), tracks.filt, none, none, np.nan, self.config.lifecycle,
                                  None, gain)

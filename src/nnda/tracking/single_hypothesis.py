@@ -112,6 +112,8 @@ class SingleHypothesisTracker(ContactTracker):
     Subclasses set ``name`` (and ``config_type``) and implement `associate`.
     """
 
+    learns_pd = True
+
     def reset(self) -> None:
         super().reset()
         self.tracks: Tracks | None = None
@@ -205,6 +207,7 @@ class SingleHypothesisTracker(ContactTracker):
         ``end_at_score_peak``, each track's score peak is kept (`score_peaks`)."""
         cfg, u, k, g = self.config.lifecycle, assoc.filt, tracks.filt, pred.gating
         seen, gain = self._observed(scan, pred, tracks.t2, assoc.contact), self._score_gain(pred, scan, assoc)
+        self._count_detections(scan, tracks.status == CONFIRMED, seen, assoc.contact)
         if self._ends_at_peak:
             self._note_peaks(tracks, gain if seen is None else np.where(seen, gain, 0.0), scan.time)
         args = tracks.scan_args(assoc.contact, scan.z, scan.xy, scan.time, cfg, seen, gain)
@@ -220,7 +223,7 @@ class SingleHypothesisTracker(ContactTracker):
         if alive is not None and self._continuation_gate > 0:
             alive, block = self._continued(tracks, pred, alive, block, seen)
         hidden = None
-        if self._misses_to_hide is not None and alive is not None:
+        if cfg.report_existence is not None and alive is not None:
             consecutive = np.zeros(len(status), np.int64)
             consecutive[block.status != DELETED] = alive.consecutive
             hidden = self._hidden(block.status, consecutive, scan.sensor)

@@ -56,7 +56,13 @@ from nnda.filters.kalman import GATE_99, gate_probability
 from nnda.filters.measurement import MeasurementModel, measurement_model
 from nnda.filters.motion import ConstantVelocity, CoordinatedTurn
 from nnda.tracking.clutter_density import coverage_area, local_density, unexplained_density
-from nnda.tracking.detection_probability import DEFAULT_PD, DetectionProbabilities, detection_probabilities
+from nnda.tracking.detection_probability import (
+    DEFAULT_PD,
+    FROM_DEFAULT,
+    DetectionProbabilities,
+    DetectionRecord,
+    detection_probabilities,
+)
 from nnda.tracking.initiation import TwoPointInitiation
 from nnda.tracking.lifecycle import (
     DELETION_REASONS,
@@ -169,6 +175,9 @@ class ContactTracker(ABC):
     #: the rule of a tracker that confirms its tracks by its own posterior whatever ``lifecycle.confirmation``
     #: says (the labelled random-finite-set trackers: "existence"); None: the life cycle's rule
     own_confirmation: ClassVar[str | None] = None
+    #: whether the tracker counts its confirmed tracks' detections (`_count_detections`), so that it can learn a
+    #: sensor's P_D (``lifecycle.estimate_pd``, `score_pd`)
+    learns_pd: ClassVar[bool] = False
 
     def __init_subclass__(cls, **kwargs) -> None:
         super().__init_subclass__(**kwargs)
@@ -184,6 +193,9 @@ class ContactTracker(ABC):
         #: the P_D of each sensor's scans and where it came from (`score_pd`)
         self.detection: DetectionProbabilities = detection_probabilities(
             self.name, self.config, self.sensors, default=SCORE_PD)
+        learn = self.learns_pd and self.config.lifecycle.estimate_pd and self.confirmation_rule != "mn"
+        #: the P_D each sensor's scans use now: ``detection``'s, or learnt from the run so far (`score_pd`)
+        self.pd_record = DetectionRecord(self.detection, [learn and s == FROM_DEFAULT for s in self.detection.sources])
         self.filter = (track_filter if track_filter is not None
                        else self.config.motion.imm(measurement_model(self.sensors[0])))
         self.filters = (self.filter, *(self.filter.for_measurement(measurement_model(s)) for s in self.sensors[1:]))
@@ -193,6 +205,7 @@ class ContactTracker(ABC):
     def reset(self) -> None:
         """Forget every track and initiator (start of a new run)."""
         self.initiation.reset()
+        self.pd_record.reset()
         self.last_time, self.last_sensor = -np.inf, -1
         self._bounds_hit: set[str] = set()
         self._density_of: tuple[ScanContacts, np.ndarray] | None = None  # (scan, `_contact_density`)
@@ -254,24 +267,16 @@ class ContactTracker(ABC):
         """The sanity rules' settings for this tracker's sensors, gate and life cycle (`sanity_args`)."""
         return sanity_args(self.sensors, self.gate_threshold, self.config.lifecycle)
 
-    @cached_property
-    def _misses_to_hide(self) -> np.ndarray | None:
-        """Per sensor, the misses in a row after which a confirmed track is left out of the output
-        (`lifecycle.misses_to_hide` at the sensor's P_D and the gate's P_G) (S,); None without
-        ``lifecycle.report_existence``."""
-        cfg = self.config.lifecycle
-        if cfg.report_existence is None:
-            return None
-        p_gate = gate_probability(self.gate_threshold)
-        return np.array([misses_to_hide(cfg, self.score_pd(s) * p_gate) for s in range(len(self.sensors))])
-
     def _hidden(self, status: np.ndarray, consecutive: np.ndarray, sensor: int) -> np.ndarray | None:
         """Which of K reported tracks (their ``status`` (K,) after the scan and misses in a row ``consecutive``
         (K,)) are left out of the output after a scan of ``sensor`` (``lifecycle.report_existence``): the
-        confirmed ones past `_misses_to_hide`; None when none is (or without the rule)."""
-        if self._misses_to_hide is None:
+        confirmed ones past `lifecycle.misses_to_hide` at the sensor's P_D and the gate's P_G; None when none is
+        (or without the rule)."""
+        cfg = self.config.lifecycle
+        if cfg.report_existence is None:
             return None
-        hidden = (status == CONFIRMED) & (consecutive >= self._misses_to_hide[sensor])
+        hide = misses_to_hide(cfg, self.score_pd(sensor) * gate_probability(self.gate_threshold))
+        hidden = (status == CONFIRMED) & (consecutive >= hide)
         return hidden if hidden.any() else None
 
     def _quality_density(self, scan: ScanContacts, x: np.ndarray) -> np.ndarray:
@@ -300,8 +305,19 @@ class ContactTracker(ABC):
 
     def score_pd(self, sensor: int) -> float:
         """The detection probability of the track score in a scan of ``sensor`` (an index): the config's ``pd``
-        when set, else the sensor's declared P_D, else the config's default or 0.9 (`SCORE_PD`; ``detection``)."""
-        return self.detection[sensor]
+        when set, else the sensor's declared P_D, else the config's default or 0.9 (`SCORE_PD`; ``detection``),
+        learnt from the run so far with ``lifecycle.estimate_pd`` (`pd_record`)."""
+        return self.pd_record[sensor]
+
+    def _count_detections(self, scan: ScanContacts, confirmed: np.ndarray, seen: np.ndarray | None,
+                          contact: np.ndarray) -> None:
+        """Add a sweep's detections to `pd_record`: of K tracks, those ``confirmed`` (K,) before the scan and
+        observed by it (``seen`` (K,); None: all), and which of them took a contact (``contact`` (K,))."""
+        if scan.phase is not Phase.SWEEP or not self.pd_record.learn[scan.sensor]:
+            return
+        observed = confirmed if seen is None else confirmed & seen
+        self.pd_record.add(scan.sensor, int(np.count_nonzero(observed & (contact != NO_CONTACT))),
+                           int(np.count_nonzero(observed)))
 
     def clutter_density(self, scan: ScanContacts, at: np.ndarray) -> np.ndarray:
         """Clutter density in the measurement space of the scan's sensor (polar: (m rad)^-1) at its
@@ -384,7 +400,8 @@ class ContactTracker(ABC):
         if assoc.score_gain is not None:
             return assoc.score_gain
         mp = pred.measurement
-        gain, rows, at, target = _gains(assoc.contact, self._log_miss[scan.sensor], self._log_pd[scan.sensor], mp.z,
+        sensor = scan.sensor
+        gain, rows, at, target = _gains(assoc.contact, self._log_miss(sensor), math.log(self.score_pd(sensor)), mp.z,
                                         mp.S_inv, mp.log_det_S, pred.state.mu, scan.z, scan.filter.polar)
         gain[rows] = target - np.log(self.clutter_density(scan, at))
         return gain
@@ -394,22 +411,20 @@ class ContactTracker(ABC):
         """The config's ``release_on_deletion`` (False for a tracker without it)."""
         return bool(getattr(self.config, "release_on_deletion", False))
 
-    @cached_property
-    def _log_pd(self) -> tuple[float, ...]:
-        """ln P_D of the track score per sensor (`score_pd`)."""
-        return tuple(math.log(pd) for pd in self.detection.values)
-
-    @cached_property
-    def _log_miss(self) -> tuple[float, ...]:
-        """ln(1 - P_D P_G) per sensor, a miss's score increment (`log_miss_weight`)."""
-        return tuple(log_miss_weight(pd, self.gate_threshold) for pd in self.detection.values)
+    def _log_miss(self, sensor: int) -> float:
+        """ln(1 - P_D P_G) of a scan of ``sensor``, a miss's score increment (`log_miss_weight`, `score_pd`)."""
+        return log_miss_weight(self.score_pd(sensor), self.gate_threshold)
 
     def track_management(self) -> dict:
         """What a study records of the run so far: the confirmation rule, the deletions by reason and the lines
         of contacts the initiation window refused as faster than ``lifecycle.v_max`` (``too_fast_lines``,
-        `TwoPointInitiation.n_too_fast`)."""
-        return {"confirmation": self.confirmation_rule, "deletions": dict(self.deletions),
-                "too_fast_lines": self.initiation.n_too_fast}
+        `TwoPointInitiation.n_too_fast`) and, where it learns a sensor's P_D, the values learnt so far
+        (``learnt_pd``: per sensor, None for one it does not learn; `DetectionRecord`)."""
+        managed = {"confirmation": self.confirmation_rule, "deletions": dict(self.deletions),
+                   "too_fast_lines": self.initiation.n_too_fast}
+        if self.pd_record.learn.any():
+            managed["learnt_pd"] = self.pd_record.record()
+        return managed
 
     def _bound_hit(self, field: str, what: str, time: float) -> None:
         """A BoundWarning the first time in a run that the bound of config ``field`` bites (``what`` it did);
