@@ -172,7 +172,8 @@ def gap_and_end(name: str, report_existence: float) -> tuple[dict, int, set, lis
     sensor, scans = one_target()
     empty = np.empty((0, 2))
     scans = [Scan(s.index, s.time, empty if s.index in GAP or s.index > END else s.measurements) for s in scans]
-    tracker = make_tracker(name, sensor, {"clutter_density": 1e-8, "report_existence": report_existence})
+    tracker = make_tracker(name, sensor, {"clutter_density": 1e-8, "report_existence": report_existence,
+                                          "lifecycle": {"estimate_pd": False}})  # held at 0.9: known existences
     shown = {s.index: tracker.step(s) for s in scans}
     track = int(shown[14].track_id[0])
     assert shown[14].status.tolist() == [TrackStatus.CONFIRMED]

@@ -139,6 +139,7 @@ class GLMBTracker(LabelledMixture):
         if mixture is not None:
             self._update(sc, mixture)
             self._prune(self.hyp, self.log_w)
+            self._count_best(sc)
         used = self._used(sc)
         waiting, taken = ([], None) if tentative is None else self._tentative_update(sc, tentative, used)
         tent = [*waiting, *([] if self.tentative is None else [self.tentative])]  # the tentative labels updated

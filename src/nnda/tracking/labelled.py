@@ -42,7 +42,7 @@ from nnda.tracking.gating import gate
 from nnda.tracking.gibbs import row_order, run_heads
 from nnda.tracking.lifecycle import birth_log_odds, start_score
 from nnda.tracking.linearisation import update as linearised_update
-from nnda.tracking.lookup import among
+from nnda.tracking.lookup import among, members
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
 from nnda.tracking.phd.tracker import Cardinality
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts
@@ -162,6 +162,7 @@ class LabelledMixture(ContactTracker):
     cap_field: ClassVar[str]
     hypotheses: ClassVar[str]
     own_confirmation: ClassVar[str | None] = "existence"  # status from existence alone (module docstrings)
+    learns_pd = True
 
     def reset(self) -> None:
         super().reset()
@@ -174,6 +175,7 @@ class LabelledMixture(ContactTracker):
         self.n_capped = 0  # scans where the hypothesis cap bit
         self.tentative: LabelledTable | None = None  # births below admission_existence, each updated alone
         self.cardinality: Cardinality | None = None  # the target count after the last scan (`_count`)
+        self._unseen: np.ndarray | None = None  # labels the last scan did not observe (`_gated`); None: none
 
     # ---------------------------------------------------------------------- one scan
     def _predict_update(self, scan: ScanContacts, g: GatedRows) -> ScanUpdate:
@@ -200,8 +202,11 @@ class LabelledMixture(ContactTracker):
         pred = imm.predict(filt, scan.time - t2, check=False)
         pd = np.full(len(filt), self.score_pd(scan.sensor))
         observed = self._observed(scan, pred)
+        self._unseen = None
         if observed is not None:
             pd = np.where(observed, pd, 0.0)
+            if S:
+                self._unseen = self.table.tracks.track_id[:S][~observed[:S]]
         if S and self._unexplained:
             self._explained = (scan, pred.gating.x[:S, 0:3:2], self._expected_detections(self.table.r * pd[:S]))
         pl = pj = np.empty(0, np.int64)
@@ -227,6 +232,18 @@ class LabelledMixture(ContactTracker):
             parts.append(GatedRows(table, pred, first, pd[first:first + len(table)], pl[mine] - first, pj[mine],
                                    ll[mine], clutter[mine]))
         return parts[0], parts[1]
+
+    def _count_best(self, scan: ScanContacts) -> None:
+        """After the scan's update: the detections of the best hypothesis's labels reported confirmed before
+        it, for the P_D record (`ContactTracker._count_detections`): each label's row took a contact or missed;
+        a label the scan did not observe is left out."""
+        if not (self.pd_record.learn[scan.sensor] and self.labels.size) or self.table is None:
+            return
+        chosen = self.hyp[int(np.argmax(self.log_w))]
+        shown = np.flatnonzero(chosen >= 0)
+        label = self.labels[shown]
+        seen = None if self._unseen is None else ~members(label, self._unseen)
+        self._count_detections(scan, members(label, self.confirmed), seen, self.table.hist[chosen[shown], -1])
 
     def _child_rows(self, scan: ScanContacts, g: GatedRows, chosen: np.ndarray | None = None
                   ) -> tuple[Tracks, np.ndarray, np.ndarray, np.ndarray]:

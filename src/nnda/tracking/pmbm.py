@@ -147,6 +147,7 @@ class PMBMTracker(LabelledMixture):
         if mixture is not None:
             self._update(sc, mixture)
             self._prune_sths()
+            self._count_best(sc)
         ready, taken, used = None, None, self._used(sc)
         if tentative is not None:
             kids, ready, taken = self._tentative_children(sc, tentative, used)
