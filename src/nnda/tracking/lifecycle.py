@@ -232,8 +232,8 @@ class LifecycleConfig(BaseModel):
                               "sensor for which neither the tracker's config nor the sensor gives one: the assumed "
                               "value lowered, never raised, to the detection record of the tracker's confirmed tracks "
                               "so far (`nnda.tracking.detection_probability.DetectionRecord`; GNN, JPDA, MHT, the "
-                              "neural and the labelled trackers). Never under M/N, whose confirmed tracks are mostly clutter's where "
-                              "clutter is dense. False: the assumed value throughout")
+                              "neural and the labelled trackers). Never under M/N, whose confirmed tracks are mostly "
+                              "clutter's where clutter is dense. False: the assumed value throughout")
     report_gap_s: Annotated[float, Field(
         gt=0, description="asynchronous reports (a sensor with reports = true): the longest a track may go "
         "without a report (s) before each window's end counts as a miss for it (a report of one target says "
