@@ -17,7 +17,7 @@ from nnda.tracking.detection_probability import PRIOR_SCANS, DetectionProbabilit
 from nnda.tracking.output import NO_CONTACT, TrackStatus
 from nnda.tracking.registry import make_tracker
 
-#: the trackers that learn (the neural tracker shares GNN's scan end, `SingleHypothesisTracker`; lmb GLMB's update)
+#: the trackers that learn (lmb has GLMB's update; the neural tracker does not learn: `NeuralTracker.learns_pd`)
 LEARNING = ["gnn", "jpda", "mht", "pmbm", "glmb"]
 
 
@@ -132,3 +132,10 @@ def test_nnda_track_says_the_learnt_pd_and_whether_it_stayed_as_assumed(tmp_path
     assert 0.6 < float(learnt.group(1)) < 0.75 and "as assumed" not in said["faded"]
     assert ("gnn: P_D learnt from the confirmed tracks by the run's end: radar 0.900 (as assumed: their record is "
             "not below it)") in said["sharp"]
+
+
+def test_the_neural_tracker_keeps_the_assumed_pd(model_file):
+    """Its tracks' missing contacts are the network's refusals as often as the radar's misses."""
+    tracker = _run("nn", _s1(0.7), {"model": str(model_file)})[0]
+    assert not tracker.pd_record.learn.any() and "learnt_pd" not in tracker.track_management()
+    assert tracker.score_pd(0) == 0.9

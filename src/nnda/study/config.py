@@ -154,8 +154,6 @@ def default_study(gd_model: str | Path, lm_model: str | Path, ext_model: str | P
     phd = dict(SINGLE_SCAN_EXTRACTION)  # and the PHD filters' extraction as measured then
     seed_set = {"feature_set": KINEMATIC.name, **thesis}
     ext_set = {"feature_set": IMM_INNOVATION.name, **thesis}
-    life = {**ext_set, **life5()}  # its score rule with the fixed P_D of then (no P_D learnt from the tracks)
-    life["lifecycle"] = {**life["lifecycle"], "estimate_pd": False}
     return Study(
         name="thesis-comparison",
         description="IMM + track-oriented MHT against neural association (the thesis's three features with GD and LM "
@@ -168,7 +166,7 @@ def default_study(gd_model: str | Path, lm_model: str | Path, ext_model: str | P
                   "nn-gd": TrackerSpec(kind="nn", model="gd", params=seed_set),
                   "nn-seed": TrackerSpec(kind="nn", model="lm", params=seed_set),
                   "nn-ext": TrackerSpec(kind="nn", model="ext", params=ext_set),
-                  "nn-life": TrackerSpec(kind="nn", model="ext", params=life),
+                  "nn-life": TrackerSpec(kind="nn", model="ext", params={**ext_set, **life5()}),
                   "gnn": TrackerSpec(kind="gnn", params=thesis), "jpda": TrackerSpec(kind="jpda", params=thesis),
                   "ekphd": TrackerSpec(kind="ekphd", params=phd),
                   "cphd": TrackerSpec(kind="cphd", params={**phd, "clutter": "local"})},  # its clutter as then

@@ -231,8 +231,8 @@ class LifecycleConfig(BaseModel):
     estimate_pd: bool = Field(True, description="under the score, adaptive and existence rules, learn the P_D of a "
                               "sensor for which neither the tracker's config nor the sensor gives one: the assumed "
                               "value lowered, never raised, to the detection record of the tracker's confirmed tracks "
-                              "so far (`nnda.tracking.detection_probability.DetectionRecord`; GNN, JPDA, MHT, the "
-                              "neural and the labelled trackers). Never under M/N, whose confirmed tracks are mostly "
+                              "so far (`nnda.tracking.detection_probability.DetectionRecord`; GNN, JPDA, MHT and the "
+                              "labelled trackers). Never under M/N, whose confirmed tracks are mostly "
                               "clutter's where clutter is dense. False: the assumed value throughout")
     report_gap_s: Annotated[float, Field(
         gt=0, description="asynchronous reports (a sensor with reports = true): the longest a track may go "
