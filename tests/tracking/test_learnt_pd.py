@@ -47,7 +47,7 @@ def test_the_record_lowers_the_assumed_pd_to_the_hit_rate_and_never_raises_it():
     record.add(0, 0, 200)
     assert record[0] == pytest.approx((108 + PRIOR_SCANS * 0.9) / (310 + PRIOR_SCANS), rel=1e-12)
     record.reset()
-    assert record[0] == 0.9 and record.observed.tolist() == [0.0, 0.0]
+    assert record[0] == 0.9 and record.observed == [0, 0]
 
 
 @pytest.mark.parametrize("name", LEARNING)
@@ -137,5 +137,5 @@ def test_nnda_track_says_the_learnt_pd_and_whether_it_stayed_as_assumed(tmp_path
 def test_the_neural_tracker_keeps_the_assumed_pd(model_file):
     """Its tracks' missing contacts are the network's refusals as often as the radar's misses."""
     tracker = _run("nn", _s1(0.7), {"model": str(model_file)})[0]
-    assert not tracker.pd_record.learn.any() and "learnt_pd" not in tracker.track_management()
+    assert not any(tracker.pd_record.learn) and "learnt_pd" not in tracker.track_management()
     assert tracker.score_pd(0) == 0.9

@@ -30,7 +30,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Annotated
 
-import numpy as np
 from pydantic import BaseModel, Field, TypeAdapter, ValidationError
 
 from nnda.data.scenario import Sensor
@@ -132,18 +131,18 @@ class DetectionRecord:
     """
 
     def __init__(self, assumed: DetectionProbabilities, learn: Sequence[bool]) -> None:
-        self.assumed = np.array(assumed.values, float)
-        self.learn = np.array(learn, bool)
+        self.assumed = tuple(float(v) for v in assumed.values)
+        self.learn = tuple(bool(v) for v in learn)
         self.reset()
 
     def reset(self) -> None:
         """Forget the record (a new run): every value back to the assumed one."""
-        self.hits = np.zeros(self.assumed.size)
-        self.observed = np.zeros(self.assumed.size)
-        self.values = self.assumed.copy()
+        self.hits = [0] * len(self.assumed)
+        self.observed = [0] * len(self.assumed)
+        self.values = list(self.assumed)
 
     def __getitem__(self, sensor: int) -> float:
-        return float(self.values[sensor])
+        return self.values[sensor]
 
     def add(self, sensor: int, hits: int, observed: int) -> None:
         """Count a scan of ``sensor`` (an index): of its confirmed tracks, ``observed`` were observed and
@@ -157,4 +156,4 @@ class DetectionRecord:
 
     def record(self) -> list[float | None]:
         """What a run records: per sensor the value learnt so far, None for one the tracker does not learn."""
-        return [float(v) if learn else None for v, learn in zip(self.values, self.learn)]
+        return [v if learn else None for v, learn in zip(self.values, self.learn)]

@@ -237,7 +237,7 @@ class LabelledMixture(ContactTracker):
         """After the scan's update: the detections of the best hypothesis's labels reported confirmed before
         it, for the P_D record (`ContactTracker._count_detections`): each label's row took a contact or missed;
         a label the scan did not observe is left out."""
-        if not (self.pd_record.learn[scan.sensor] and self.labels.size) or self.table is None:
+        if not (self._learns(scan) and self.labels.size) or self.table is None:
             return
         chosen = self.hyp[int(np.argmax(self.log_w))]
         shown = np.flatnonzero(chosen >= 0)

@@ -175,9 +175,10 @@ class MHTTracker(ContactTracker):
         if self.leaves is not None and len(self.leaves):
             leaves, shown, seen = self._branch(self.leaves, sc)
             chosen = self._global_hypothesis(leaves)
-            ids, *_, shown_confirmed = self.known  # the families reported confirmed before this scan
-            self._count_detections(sc, members(leaves.tracks.track_id[chosen], ids[shown_confirmed]),
-                                   None if seen is None else seen[chosen], leaves.hist[chosen, -1])
+            if self._learns(sc):
+                ids, *_, shown_confirmed = self.known  # the families reported confirmed before this scan
+                self._count_detections(sc, members(leaves.tracks.track_id[chosen], ids[shown_confirmed]),
+                                       None if seen is None else seen[chosen], leaves.hist[chosen, -1])
             now = leaves.hist[chosen if self.config.initiation_contacts == "unchosen" else slice(None), -1]
             used[now[now >= 0]] = True
         families = 0 if leaves is None else int(np.count_nonzero(run_starts(np.sort(leaves.tracks.track_id))))

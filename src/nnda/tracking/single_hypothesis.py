@@ -207,7 +207,8 @@ class SingleHypothesisTracker(ContactTracker):
         ``end_at_score_peak``, each track's score peak is kept (`score_peaks`)."""
         cfg, u, k, g = self.config.lifecycle, assoc.filt, tracks.filt, pred.gating
         seen, gain = self._observed(scan, pred, tracks.t2, assoc.contact), self._score_gain(pred, scan, assoc)
-        self._count_detections(scan, tracks.status == CONFIRMED, seen, assoc.contact)
+        if self._learns(scan):
+            self._count_detections(scan, tracks.status == CONFIRMED, seen, assoc.contact)
         if self._ends_at_peak:
             self._note_peaks(tracks, gain if seen is None else np.where(seen, gain, 0.0), scan.time)
         args = tracks.scan_args(assoc.contact, scan.z, scan.xy, scan.time, cfg, seen, gain)

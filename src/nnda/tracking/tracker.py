@@ -206,6 +206,7 @@ class ContactTracker(ABC):
         """Forget every track and initiator (start of a new run)."""
         self.initiation.reset()
         self.pd_record.reset()
+        self._log_misses: dict[int, tuple[float, float]] = {}  # per sensor, the last (P_D, `_log_miss`)
         self.last_time, self.last_sensor = -np.inf, -1
         self._bounds_hit: set[str] = set()
         self._density_of: tuple[ScanContacts, np.ndarray] | None = None  # (scan, `_contact_density`)
@@ -309,14 +310,17 @@ class ContactTracker(ABC):
         learnt from the run so far with ``lifecycle.estimate_pd`` (`pd_record`)."""
         return self.pd_record[sensor]
 
+    def _learns(self, scan: ScanContacts) -> bool:
+        """Whether ``scan`` adds to `pd_record`: a sweep of a sensor whose P_D the tracker learns."""
+        return scan.phase is Phase.SWEEP and self.pd_record.learn[scan.sensor]
+
     def _count_detections(self, scan: ScanContacts, confirmed: np.ndarray, seen: np.ndarray | None,
                           contact: np.ndarray) -> None:
-        """Add a sweep's detections to `pd_record`: of K tracks, those ``confirmed`` (K,) before the scan and
-        observed by it (``seen`` (K,); None: all), and which of them took a contact (``contact`` (K,))."""
-        if scan.phase is not Phase.SWEEP or not self.pd_record.learn[scan.sensor]:
-            return
+        """Add a sweep's detections to `pd_record` (callers ask `_learns` first): of K tracks, those
+        ``confirmed`` (K,) before the scan and observed by it (``seen`` (K,); None: all), and which of them took
+        a contact (``contact`` (K,))."""
         observed = confirmed if seen is None else confirmed & seen
-        self.pd_record.add(scan.sensor, int(np.count_nonzero(observed & (contact != NO_CONTACT))),
+        self.pd_record.add(scan.sensor, int(np.count_nonzero(contact[observed] != NO_CONTACT)),
                            int(np.count_nonzero(observed)))
 
     def clutter_density(self, scan: ScanContacts, at: np.ndarray) -> np.ndarray:
@@ -412,8 +416,13 @@ class ContactTracker(ABC):
         return bool(getattr(self.config, "release_on_deletion", False))
 
     def _log_miss(self, sensor: int) -> float:
-        """ln(1 - P_D P_G) of a scan of ``sensor``, a miss's score increment (`log_miss_weight`, `score_pd`)."""
-        return log_miss_weight(self.score_pd(sensor), self.gate_threshold)
+        """ln(1 - P_D P_G) of a scan of ``sensor``, a miss's score increment (`log_miss_weight`, `score_pd`),
+        computed again only when the sensor's P_D changed."""
+        pd = self.score_pd(sensor)
+        last = self._log_misses.get(sensor)
+        if last is None or last[0] != pd:
+            last = self._log_misses[sensor] = (pd, log_miss_weight(pd, self.gate_threshold))
+        return last[1]
 
     def track_management(self) -> dict:
         """What a study records of the run so far: the confirmation rule, the deletions by reason and the lines
@@ -422,7 +431,7 @@ class ContactTracker(ABC):
         (``learnt_pd``: per sensor, None for one it does not learn; `DetectionRecord`)."""
         managed = {"confirmation": self.confirmation_rule, "deletions": dict(self.deletions),
                    "too_fast_lines": self.initiation.n_too_fast}
-        if self.pd_record.learn.any():
+        if any(self.pd_record.learn):
             managed["learnt_pd"] = self.pd_record.record()
         return managed
 
