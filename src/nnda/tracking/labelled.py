@@ -205,7 +205,7 @@ class LabelledMixture(ContactTracker):
         self._unseen = None
         if observed is not None:
             pd = np.where(observed, pd, 0.0)
-            if S:
+            if S and self._learns(scan):  # only `_count_best` reads it
                 self._unseen = self.table.tracks.track_id[:S][~observed[:S]]
         if S and self._unexplained:
             self._explained = (scan, pred.gating.x[:S, 0:3:2], self._expected_detections(self.table.r * pd[:S]))
