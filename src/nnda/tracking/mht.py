@@ -75,18 +75,20 @@ from pydantic import Field, model_validator
 
 from nnda.data.dataset import Scan
 from nnda.filters.batch import Batch
+from nnda.filters.imm import IMMState
+from nnda.filters.imm_kernels import estimate
 from nnda.filters.kalman import GATE_99, gate_probability
 from nnda.tracking.clutter_density import local_density
 from nnda.tracking.gating import gate
 from nnda.tracking.global_hypothesis import global_hypothesis
-from nnda.tracking.lifecycle import SANITY_REASONS, advance_score, sanity_kernel
+from nnda.tracking.lifecycle import SANITY_REASONS, advance_score_kernel, everywhere, miss_run, sanity_kernel
 from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.lookup import members, run_starts, sorted_find
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, TrackerOutput
 from nnda.tracking.protocol import TrackerConfig
 from nnda.tracking.reports import Phase
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts
-from nnda.tracking.tracks import Tracks
+from nnda.tracking.tracks import CONFIRM_AT, CONSECUTIVE, DELETE_AT, Tracks, scanned_moved
 
 #: history entry of a scan before the family existed, or whose contact is not known (a miss is NO_CONTACT)
 UNKNOWN = -2
@@ -253,41 +255,32 @@ class MHTTracker(ContactTracker):
         if dp.size:
             updated = linearised_update(imm, pred, z[dc], np.ones(dp.size, bool), rows=dp)
             filt = type(filt).concat([filt, updated])
-        children = tr.branched(parent, filt)
         # the leaves the scan observed: with reports, those that took one
         seen = detected if scan.phase is Phase.REPORTS else None if observed is None else observed[parent]
-        tracks = children.after_scan(contact, filt, z, xy, time, cfg.lifecycle, seen)
-        max_score = np.maximum(leaves.max_score[parent], score)
-        peak = np.where(score >= leaves.max_score[parent], time, leaves.peak[parent])
-        if self.confirmation_rule != "mn":  # Wald's test on the leaf's score, M/N counts ignored
-            tracks = tracks.replaced(status=advance_score(tr.status[parent], score, max_score, cfg.lifecycle, seen,
-                                                          tracks.confirm_at, tracks.delete_at, tracks.consecutive))
-        status = tracks.status
-        d1 = detected[:, None]
-        hist = np.concatenate((leaves.hist[parent, 1:], contact[:, None]), axis=1)
-        out = Leaves(tracks, score, max_score, hist, peak)
-        x_post, P_post = imm.estimate(filt)
-        shown = _Shown(np.where(d1, x_post, x_pred[parent]), np.where(d1[:, :, None], P_post, P_pred[parent]))
+        life = cfg.lifecycle
+        lower, upper, early = life.score_limits
+        status, counts, scores, history, max_score, peak, hist = _children(
+            parent, contact, everywhere(seen, parent.size), tr.status, tr.counts, tr.scores, tr.history,
+            score, leaves.max_score, leaves.peak, leaves.hist, life.m, life.n - life.m + 1, life.max_misses,
+            self.confirmation_rule != "mn", life.confirmation == "existence", life.confirmation != "existence",
+            life.confirmation == "adaptive", lower, upper, early, miss_run(life), xy, np.ascontiguousarray(z[:, 1]),
+            time)
         quality = np.zeros(len(status))  # the clutter around the confirmed leaves, for the track-quality rule
         judged = status == CONFIRMED
         if judged.any():
             quality[judged] = self._quality_density(scan, x_pred[parent[judged]])
-        code = sanity_kernel(shown.x, shown.P, quality, *self._sanity_args)  # `lifecycle.sanity_reasons`
-        alive = (status != DELETED) & (score >= max_score - cfg.deletion_score_drop) & (code == 0)
-        self._count_lost(tracks.track_id, tr.status[parent], status, score, code, alive)
-        return out.take(alive), _Shown(shown.x[alive], shown.P[alive]), None if seen is None else seen[alive]
-
-    def _count_lost(self, family: np.ndarray, before: np.ndarray, status: np.ndarray, score: np.ndarray,
-                    code: np.ndarray, alive: np.ndarray) -> None:
-        """Count in ``deletions`` the families whose every child leaf dies in this scan's branching, each by
-        the fate of its best-scoring child: a sanity rule (its ``code``), else the life cycle (a preliminary
-        family: unconfirmed; a confirmed one: misses under M/N deletion, score when its score fell). One
-        compiled pass (`_lost`)."""
         ids, *_, shown_confirmed = self.known  # a family reported confirmed ends as a confirmed track
-        counts = _lost(family, before, status, score, code, alive, np.sort(ids[shown_confirmed]),
-                       self.confirmation_rule == "mn", len(SANITY_REASONS))
-        for reason, n in zip(("unconfirmed", "misses", "score", *SANITY_REASONS), counts):
+        kept, fields, lost = _kept_children(
+            parent, detected, tr.track_id, tr.status, status, (filt.x, filt.P, filt.mu), history, counts, scores,
+            score, max_score, hist, peak, x_pred, P_pred, imm.output_dim, quality, self._sanity_args,
+            cfg.deletion_score_drop, np.sort(ids[shown_confirmed]), self.confirmation_rule == "mn",
+            len(SANITY_REASONS))
+        for reason, n in zip(("unconfirmed", "misses", "score", *SANITY_REASONS), lost):
             self.deletions[reason] += int(n)
+        track_id, status, (x, P, mu), history, counts, scores, score, max_score, hist, peak, shown_x, shown_P = fields
+        out = Leaves(Tracks(track_id, status, IMMState(x, P, mu), history, counts, scores), score, max_score, hist,
+                     peak)
+        return out, _Shown(shown_x, shown_P), None if seen is None else seen[kept]
 
     def _clutter_density(self, x_pred: np.ndarray, xy: np.ndarray) -> np.ndarray:
         """Clutter spatial density (m^-2) at each leaf's predicted position, (L,)."""
@@ -408,6 +401,77 @@ class MHTTracker(ContactTracker):
         pick = np.lexsort((gap, owner))
         first = pick[run_starts(owner[pick])]
         return ids[owner[first]], leaves.hist[cand[first]]
+
+
+@numba.njit(cache=True, nogil=True)
+def _children(parent, contact, observed, status, counts, scores, history, score, leaf_max, leaf_peak, leaf_hist,
+              m, misses_to_delete, max_misses, score_rule, exist, own_confirm, own_delete, lower, upper, early, run,
+              xy, azimuth, time):
+    """The life cycle of `MHTTracker._branch`'s M children in one call: child i is leaf ``parent[i]``'s
+    (of the L leaves' track fields status (L,), counts (L, 3), scores (L, 4), history (L, 8), `Tracks`) with
+    ``contact[i]`` (NO_CONTACT: its miss) and the leaf score ``score[i]`` after it. Its M/N counters and contact
+    history move on (`tracks.scanned_moved`, where ``observed`` (M,)); its best score so far and the time it was
+    reached move on from the parent's (``leaf_max``, ``leaf_peak`` (L,)); under the ``score_rule`` its status is
+    Wald's test on the leaf score (`lifecycle.advance_score_kernel`, as `lifecycle.score_bounds` gives its
+    thresholds from ``lower``, ``upper``, ``early``: the child's own confirmation threshold where
+    ``own_confirm``, its own deletion threshold where ``own_delete``), else the M/N counters'; its contact
+    window is the parent's ``leaf_hist`` (L, n_scan) moved on by its contact. Returns the children's status,
+    counts, scores, history, best score, its time and contact window."""
+    M, n = parent.size, leaf_hist.shape[1]
+    before = status[parent]
+    p_scores = scores[parent]
+    bound_low = np.full(M, lower)
+    bound_up = np.full(M, upper)
+    for i in range(M):
+        if own_confirm:
+            bound_up[i] = p_scores[i, CONFIRM_AT]
+        if own_delete:
+            bound_low[i] = p_scores[i, DELETE_AT]
+    new, counts, scores, history = scanned_moved(contact, observed, before, counts[parent], m, misses_to_delete,
+                                                 max_misses, p_scores, np.zeros(M), False, False, exist, bound_low,
+                                                 bound_up, early, run, history[parent], xy, azimuth, time)
+    max_score, peak = np.empty(M), np.empty(M)
+    hist = np.empty((M, n), np.int64)
+    for i in range(M):
+        a, b = leaf_max[parent[i]], score[i]
+        max_score[i] = a if (a >= b or a != a) else b  # np.maximum, NaN and ties included
+        peak[i] = time if b >= a else leaf_peak[parent[i]]
+        hist[i, :n - 1] = leaf_hist[parent[i], 1:]
+        hist[i, n - 1] = contact[i]
+    if score_rule:  # Wald's test on the leaf's score, M/N counts ignored
+        new = advance_score_kernel(before, score, max_score, observed, bound_up, bound_low, early, exist,
+                                   counts[:, CONSECUTIVE], run)
+    return new, counts, scores, history, max_score, peak, hist
+
+
+@numba.njit(cache=True, nogil=True)
+def _kept_children(parent, detected, family, before, status, filt, history, counts, scores, score, max_score, hist,
+                   peak, x_pred, P_pred, d, quality, sanity, score_drop, confirmed_ids, mn, n_reasons):
+    """The end of `MHTTracker._branch` for its M children in one call (child i of leaf ``parent[i]``, whose
+    ``family`` (L,) id and status ``before`` the scan (L,) it inherits; ``detected`` (M,) where it took a
+    contact; its fields after `_children`: ``status``, ``filt`` (x, P, mu), ``history``, ``counts``, ``scores``,
+    ``score``, ``max_score``, ``hist``, ``peak``). The estimate to report is the posterior's where it took a contact
+    (`imm_kernels.estimate` on the first ``d`` entries), else its parent's prediction (x_pred (L, d), P_pred (L, d,
+    d)); the sanity rules judge it (`lifecycle.sanity_kernel` with ``sanity``, the track-quality rule at the clutter
+    density ``quality`` (M,) m^-2); a child lives on unless its life cycle or a sanity rule deleted it or its score
+    fell more than ``score_drop`` below its best. Returns the children kept (ascending), their fields in
+    `Leaves` order with the reported estimate (x, P) last, and the families lost in this scan by reason (`_lost`,
+    with the sorted ``confirmed_ids``, ``mn`` and ``n_reasons``)."""
+    M = parent.size
+    x_post, P_post = estimate(filt[0], filt[1], filt[2], d)
+    for i in range(M):
+        if not detected[i]:
+            x_post[i], P_post[i] = x_pred[parent[i]], P_pred[parent[i]]
+    code = sanity_kernel(x_post, P_post, quality, *sanity)
+    alive = np.empty(M, np.bool_)
+    for i in range(M):
+        alive[i] = status[i] != DELETED and score[i] >= max_score[i] - score_drop and code[i] == 0
+    ids = family[parent]
+    lost = _lost(ids, before[parent], status, score, code, alive, confirmed_ids, mn, n_reasons)
+    kept = np.flatnonzero(alive)
+    fields = (ids[kept], status[kept], (filt[0][kept], filt[1][kept], filt[2][kept]), history[kept], counts[kept],
+              scores[kept], score[kept], max_score[kept], hist[kept], peak[kept], x_post[kept], P_post[kept])
+    return kept, fields, lost
 
 
 @numba.njit(cache=True, nogil=True)
