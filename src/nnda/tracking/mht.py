@@ -83,7 +83,7 @@ from nnda.tracking.gating import gate
 from nnda.tracking.global_hypothesis import global_hypothesis
 from nnda.tracking.lifecycle import SANITY_REASONS, advance_score_kernel, everywhere, miss_run, sanity_kernel
 from nnda.tracking.linearisation import update as linearised_update
-from nnda.tracking.lookup import members, run_starts, sorted_find
+from nnda.tracking.lookup import among, members, run_starts, sorted_find
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, TrackerOutput
 from nnda.tracking.protocol import TrackerConfig
 from nnda.tracking.reports import Phase
@@ -343,29 +343,25 @@ class MHTTracker(ContactTracker):
         ``max_hypotheses`` cap) is reported as deleted only, if it was reported before. With
         ``lifecycle.report_existence``, a confirmed family whose chosen leaf has missed too many scans in a row
         is left out (`ContactTracker._hidden`)."""
-        blocks = []
-        ids, x, P, confirmed = self.known
         alive_ids = self.leaves.tracks.track_id if self.leaves is not None else np.empty(0, np.int64)
-        if leaves is not None and chosen.size:
-            chosen = chosen[members(leaves.tracks.track_id[chosen], alive_ids)]
-        if chosen.size:
-            family = leaves.tracks.track_id[chosen]
-            status = np.where(members(family, ids[confirmed]), CONFIRMED, leaves.tracks.status[chosen]).astype(np.int8)
-            block = (family, status, shown.x[chosen], shown.P[chosen], leaves.hist[chosen, -1])
-            hidden = self._hidden(status, leaves.tracks.consecutive[chosen], self.last_sensor)  # still `known`
-            blocks.append(block if hidden is None else tuple(a[~hidden] for a in block))
-            stale = ~members(ids, family)
-            ids = np.concatenate([ids[stale], family])
-            x = np.concatenate([x[stale], shown.x[chosen]])
-            P = np.concatenate([P[stale], shown.P[chosen]])
-            confirmed = np.concatenate([confirmed[stale], status == CONFIRMED])
-        alive = members(ids, alive_ids)
-        gone = ~alive
-        if gone.any():
-            blocks.append((ids[gone], np.full(gone.sum(), DELETED, np.int8), x[gone], P[gone],
-                           np.full(gone.sum(), NO_CONTACT)))
-        self.known = (ids[alive], x[alive], P[alive], confirmed[alive])
-        return TrackerOutput.from_blocks(scan, time, blocks)
+        if leaves is None:
+            d = self.filter.output_dim
+            leaves, chosen = self._no_leaves, np.empty(0, np.int64)
+            shown = _Shown(np.empty((0, d)), np.empty((0, d, d)))
+        tr = leaves.tracks
+        report, self.known = _reported(self.known, alive_ids, tr.track_id, tr.status, tr.counts[:, CONSECUTIVE],
+                                       leaves.hist[:, -1], shown.x, shown.P, chosen,
+                                       self._misses_to_hide(self.last_sensor))
+        return TrackerOutput(scan, time, *report)
+
+    @property
+    def _no_leaves(self) -> Leaves:
+        """A `Leaves` of no leaf, for `_report`'s scans without any."""
+        r, n = self.filter.n_models, self.filter.dim
+        filt = IMMState(np.empty((0, r, n)), np.empty((0, r, n, n)), np.empty((0, r)))
+        tracks = Tracks(np.empty(0, np.int64), np.empty(0, np.int8), filt, np.empty((0, 8)),
+                        np.empty((0, 3), np.int64), np.empty((0, 4)))
+        return Leaves(tracks, np.empty(0), np.empty(0), np.empty((0, self.config.n_scan), np.int64), np.empty(0))
 
     # ---------------------------------------------------------------------- fixed-lag output
     def best_branch(self, reported: TrackerOutput) -> tuple[np.ndarray, np.ndarray]:
@@ -472,6 +468,38 @@ def _kept_children(parent, detected, family, before, status, filt, history, coun
     fields = (ids[kept], status[kept], (filt[0][kept], filt[1][kept], filt[2][kept]), history[kept], counts[kept],
               scores[kept], score[kept], max_score[kept], hist[kept], peak[kept], x_post[kept], P_post[kept])
     return kept, fields, lost
+
+
+@numba.njit(cache=True, nogil=True)
+def _reported(known, alive_ids, family, status, consecutive, contact, shown_x, shown_P, chosen, hide):
+    """`MHTTracker._report` in one call. ``known`` holds every family reported before and alive (ids (F,), last
+    reported x (F, d), P (F, d, d), whether ever reported confirmed (F,)); ``alive_ids`` the families that keep
+    leaves after the scan; the L leaves' ``family``, ``status``, ``consecutive`` misses and last ``contact`` (L,)
+    and reported estimate (shown_x (L, d), shown_P (L, d, d)); ``chosen`` the global hypothesis' leaves. A
+    chosen leaf of a family still alive is reported (confirmed if its family ever was), unless confirmed with
+    ``hide`` misses in a row or more (`lifecycle.misses_to_hide`); then each known family without leaves, as
+    deleted with its last report. Returns the report (track_id, status, x, P, contact) and the new ``known``."""
+    ids, x, P, confirmed = known
+    chosen = chosen[among(family[chosen], alive_ids)]
+    fam = family[chosen]
+    now = np.empty(chosen.size, np.int8)
+    was = among(fam, ids[confirmed])
+    for i in range(chosen.size):
+        now[i] = CONFIRMED if was[i] else status[chosen[i]]
+    show = np.flatnonzero(~((now == CONFIRMED) & (consecutive[chosen] >= hide)))
+    stale = ~among(ids, fam)
+    ids = np.concatenate((ids[stale], fam))
+    x = np.concatenate((x[stale], shown_x[chosen]))
+    P = np.concatenate((P[stale], shown_P[chosen]))
+    confirmed = np.concatenate((confirmed[stale], now == CONFIRMED))
+    alive = among(ids, alive_ids)
+    gone = np.flatnonzero(~alive)
+    report = (np.concatenate((fam[show], ids[gone])),
+              np.concatenate((now[show], np.full(gone.size, DELETED, np.int8))),
+              np.concatenate((shown_x[chosen][show], x[gone])),
+              np.concatenate((shown_P[chosen][show], P[gone])),
+              np.concatenate((contact[chosen][show], np.full(gone.size, NO_CONTACT, np.int64))))
+    return report, (ids[alive], x[alive], P[alive], confirmed[alive])
 
 
 @numba.njit(cache=True, nogil=True)

@@ -273,12 +273,15 @@ class ContactTracker(ABC):
         (K,)) are left out of the output after a scan of ``sensor`` (``lifecycle.report_existence``): the
         confirmed ones past `lifecycle.misses_to_hide` at the sensor's P_D and the gate's P_G; None when none is
         (or without the rule)."""
-        cfg = self.config.lifecycle
-        if cfg.report_existence is None:
+        if self.config.lifecycle.report_existence is None:
             return None
-        hide = misses_to_hide(cfg, self.score_pd(sensor) * gate_probability(self.gate_threshold))
-        hidden = (status == CONFIRMED) & (consecutive >= hide)
+        hidden = (status == CONFIRMED) & (consecutive >= self._misses_to_hide(sensor))
         return hidden if hidden.any() else None
+
+    def _misses_to_hide(self, sensor: int) -> int:
+        """The misses in a row after which a confirmed track is left out of the output after a scan of ``sensor``
+        (`lifecycle.misses_to_hide` at the sensor's P_D and the gate's P_G; 2^62, never, without the rule)."""
+        return misses_to_hide(self.config.lifecycle, self.score_pd(sensor) * gate_probability(self.gate_threshold))
 
     def _quality_density(self, scan: ScanContacts, x: np.ndarray) -> np.ndarray:
         """The track-quality rule's clutter density (m^-2) around K tracks at positions x (K, 4) ([x, vx, y,
