@@ -142,6 +142,33 @@ class Leaves(Batch):
     hist: np.ndarray
     peak: np.ndarray
 
+    def _rows(self, index: np.ndarray | slice) -> Leaves:
+        """`Batch.take` of an integer array in one compiled call (`_leaf_rows`; MHT prunes its leaves every
+        scan, where a take field by field costs more than the copying)."""
+        if isinstance(index, slice):
+            return super()._rows(index)
+        return Leaves._of(_leaf_rows(self._arrays(), index))
+
+    @classmethod
+    def joined(cls, a: Leaves, b: Leaves) -> Leaves:
+        """`Batch.concat` of ``a`` then ``b`` in one compiled call (`_leaves_joined`; a scan's new families join
+        the leaves every scan)."""
+        return cls._of(_leaves_joined(a._arrays(), b._arrays()))
+
+    def _arrays(self) -> tuple[np.ndarray, ...]:
+        """The fields' arrays, the tracks' in `Tracks` order (the filter state's three in its place) first."""
+        t = self.tracks
+        f = t.filt
+        return (t.track_id, t.status, f.x, f.P, f.mu, t.history, t.counts, t.scores, self.score, self.max_score,
+                self.hist, self.peak)
+
+    @classmethod
+    def _of(cls, arrays: tuple[np.ndarray, ...]) -> Leaves:
+        """The leaves of `_arrays`' tuple."""
+        track_id, status, x, P, mu, history, counts, scores, score, max_score, hist, peak = arrays
+        return cls(Tracks(track_id, status, IMMState(x, P, mu), history, counts, scores), score, max_score, hist,
+                   peak)
+
 
 @dataclass(frozen=True)
 class _Shown:
@@ -189,7 +216,7 @@ class MHTTracker(ContactTracker):
             new = self._new_leaves(self._start_scores(born, sc, contact), contact)
             x, P = self.filter.estimate(born.filt)
             first = 0 if leaves is None else len(leaves)
-            leaves = new if leaves is None else Leaves.concat([leaves, new])
+            leaves = new if leaves is None else Leaves.joined(leaves, new)
             shown = _Shown(x, P) if shown is None else _Shown(np.concatenate([shown.x, x]),
                                                               np.concatenate([shown.P, P]))
             chosen = np.concatenate([chosen, first + np.arange(len(new))])
@@ -270,17 +297,14 @@ class MHTTracker(ContactTracker):
         if judged.any():
             quality[judged] = self._quality_density(scan, x_pred[parent[judged]])
         ids, *_, shown_confirmed = self.known  # a family reported confirmed ends as a confirmed track
-        kept, fields, lost = _kept_children(
+        kept, fields, shown, lost = _kept_children(
             parent, detected, tr.track_id, tr.status, status, (filt.x, filt.P, filt.mu), history, counts, scores,
             score, max_score, hist, peak, x_pred, P_pred, imm.output_dim, quality, self._sanity_args,
             cfg.deletion_score_drop, np.sort(ids[shown_confirmed]), self.confirmation_rule == "mn",
             len(SANITY_REASONS))
         for reason, n in zip(("unconfirmed", "misses", "score", *SANITY_REASONS), lost):
             self.deletions[reason] += int(n)
-        track_id, status, (x, P, mu), history, counts, scores, score, max_score, hist, peak, shown_x, shown_P = fields
-        out = Leaves(Tracks(track_id, status, IMMState(x, P, mu), history, counts, scores), score, max_score, hist,
-                     peak)
-        return out, _Shown(shown_x, shown_P), None if seen is None else seen[kept]
+        return Leaves._of(fields), _Shown(*shown), None if seen is None else seen[kept]
 
     def _clutter_density(self, x_pred: np.ndarray, xy: np.ndarray) -> np.ndarray:
         """Clutter spatial density (m^-2) at each leaf's predicted position, (L,)."""
@@ -400,6 +424,22 @@ class MHTTracker(ContactTracker):
 
 
 @numba.njit(cache=True, nogil=True)
+def _leaf_rows(a, rows):
+    """`Leaves._arrays`' twelve arrays ``a``, each at the leaves ``rows``."""
+    return (a[0][rows], a[1][rows], a[2][rows], a[3][rows], a[4][rows], a[5][rows], a[6][rows], a[7][rows],
+            a[8][rows], a[9][rows], a[10][rows], a[11][rows])
+
+
+@numba.njit(cache=True, nogil=True)
+def _leaves_joined(a, b):
+    """`Leaves._arrays`' twelve arrays ``a`` then ``b``'s, concatenated array by array."""
+    return (np.concatenate((a[0], b[0])), np.concatenate((a[1], b[1])), np.concatenate((a[2], b[2])),
+            np.concatenate((a[3], b[3])), np.concatenate((a[4], b[4])), np.concatenate((a[5], b[5])),
+            np.concatenate((a[6], b[6])), np.concatenate((a[7], b[7])), np.concatenate((a[8], b[8])),
+            np.concatenate((a[9], b[9])), np.concatenate((a[10], b[10])), np.concatenate((a[11], b[11])))
+
+
+@numba.njit(cache=True, nogil=True)
 def _children(parent, contact, observed, status, counts, scores, history, score, leaf_max, leaf_peak, leaf_hist,
               m, misses_to_delete, max_misses, score_rule, exist, own_confirm, own_delete, lower, upper, early, run,
               xy, azimuth, time):
@@ -450,8 +490,8 @@ def _kept_children(parent, detected, family, before, status, filt, history, coun
     (`imm_kernels.estimate` on the first ``d`` entries), else its parent's prediction (x_pred (L, d), P_pred (L, d,
     d)); the sanity rules judge it (`lifecycle.sanity_kernel` with ``sanity``, the track-quality rule at the clutter
     density ``quality`` (M,) m^-2); a child lives on unless its life cycle or a sanity rule deleted it or its score
-    fell more than ``score_drop`` below its best. Returns the children kept (ascending), their fields in
-    `Leaves` order with the reported estimate (x, P) last, and the families lost in this scan by reason (`_lost`,
+    fell more than ``score_drop`` below its best. Returns the children kept (ascending), their fields
+    (`Leaves._arrays`), their reported estimate (x, P) and the families lost in this scan by reason (`_lost`,
     with the sorted ``confirmed_ids``, ``mn`` and ``n_reasons``)."""
     M = parent.size
     x_post, P_post = estimate(filt[0], filt[1], filt[2], d)
@@ -465,9 +505,9 @@ def _kept_children(parent, detected, family, before, status, filt, history, coun
     ids = family[parent]
     lost = _lost(ids, before[parent], status, score, code, alive, confirmed_ids, mn, n_reasons)
     kept = np.flatnonzero(alive)
-    fields = (ids[kept], status[kept], (filt[0][kept], filt[1][kept], filt[2][kept]), history[kept], counts[kept],
-              scores[kept], score[kept], max_score[kept], hist[kept], peak[kept], x_post[kept], P_post[kept])
-    return kept, fields, lost
+    fields = (ids[kept], status[kept], filt[0][kept], filt[1][kept], filt[2][kept], history[kept], counts[kept],
+              scores[kept], score[kept], max_score[kept], hist[kept], peak[kept])
+    return kept, fields, (x_post[kept], P_post[kept]), lost
 
 
 @numba.njit(cache=True, nogil=True)
