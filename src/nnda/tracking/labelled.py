@@ -269,7 +269,7 @@ class LabelledMixture(ContactTracker):
                 miss = parent[at_miss]
                 filt = type(filt).gathered(filt, miss, at_miss, updated, at_pair)
                 x, P = gathered_rows(x, miss, at_miss, x_up, at_pair), gathered_rows(P, miss, at_miss, P_up, at_pair)
-        tracks = tr.branched(parent, filt).after_scan(contact, filt, scan.z, scan.xy, scan.time, self.config.lifecycle)
+        tracks = tr.branched_after_scan(parent, filt, contact, scan.z, scan.xy, scan.time, self.config.lifecycle)
         return tracks, np.concatenate((old.hist[parent, 1:], contact[:, None]), axis=1), x, P
 
     def _expected_detections(self, r_pd: np.ndarray) -> np.ndarray:

@@ -88,7 +88,7 @@ from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, TrackerOutput
 from nnda.tracking.protocol import TrackerConfig
 from nnda.tracking.reports import Phase
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts
-from nnda.tracking.tracks import CONFIRM_AT, CONSECUTIVE, DELETE_AT, Tracks, scanned_moved
+from nnda.tracking.tracks import CONSECUTIVE, Tracks, branched_moved
 
 #: history entry of a scan before the family existed, or whose contact is not known (a miss is NO_CONTACT)
 UNKNOWN = -2
@@ -446,7 +446,7 @@ def _children(parent, contact, observed, status, counts, scores, history, score,
     """The life cycle of `MHTTracker._branch`'s M children in one call: child i is leaf ``parent[i]``'s
     (of the L leaves' track fields status (L,), counts (L, 3), scores (L, 4), history (L, 8), `Tracks`) with
     ``contact[i]`` (NO_CONTACT: its miss) and the leaf score ``score[i]`` after it. Its M/N counters and contact
-    history move on (`tracks.scanned_moved`, where ``observed`` (M,)); its best score so far and the time it was
+    history move on (`tracks.branched_moved`, where ``observed`` (M,)); its best score so far and the time it was
     reached move on from the parent's (``leaf_max``, ``leaf_peak`` (L,)); under the ``score_rule`` its status is
     Wald's test on the leaf score (`lifecycle.advance_score_kernel`, as `lifecycle.score_bounds` gives its
     thresholds from ``lower``, ``upper``, ``early``: the child's own confirmation threshold where
@@ -454,18 +454,9 @@ def _children(parent, contact, observed, status, counts, scores, history, score,
     window is the parent's ``leaf_hist`` (L, n_scan) moved on by its contact. Returns the children's status,
     counts, scores, history, best score, its time and contact window."""
     M, n = parent.size, leaf_hist.shape[1]
-    before = status[parent]
-    p_scores = scores[parent]
-    bound_low = np.full(M, lower)
-    bound_up = np.full(M, upper)
-    for i in range(M):
-        if own_confirm:
-            bound_up[i] = p_scores[i, CONFIRM_AT]
-        if own_delete:
-            bound_low[i] = p_scores[i, DELETE_AT]
-    new, counts, scores, history = scanned_moved(contact, observed, before, counts[parent], m, misses_to_delete,
-                                                 max_misses, p_scores, np.zeros(M), False, False, exist, bound_low,
-                                                 bound_up, early, run, history[parent], xy, azimuth, time)
+    new, counts, scores, history, low, up = branched_moved(parent, contact, observed, status, counts, scores, history,
+                                                           m, misses_to_delete, max_misses, False, exist, own_confirm,
+                                                           own_delete, lower, upper, early, run, xy, azimuth, time)
     max_score, peak = np.empty(M), np.empty(M)
     hist = np.empty((M, n), np.int64)
     for i in range(M):
@@ -475,7 +466,7 @@ def _children(parent, contact, observed, status, counts, scores, history, score,
         hist[i, :n - 1] = leaf_hist[parent[i], 1:]
         hist[i, n - 1] = contact[i]
     if score_rule:  # Wald's test on the leaf's score, M/N counts ignored
-        new = advance_score_kernel(before, score, max_score, observed, bound_up, bound_low, early, exist,
+        new = advance_score_kernel(status[parent], score, max_score, observed, up, low, early, exist,
                                    counts[:, CONSECUTIVE], run)
     return new, counts, scores, history, max_score, peak, hist
 

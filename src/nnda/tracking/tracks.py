@@ -133,6 +133,20 @@ class Tracks(Batch):
         return Tracks(self.track_id[parent], self.status[parent], filt, self.history[parent], self.counts[parent],
                       self.scores[parent])
 
+    def branched_after_scan(self, parent: np.ndarray, filt: IMMState, contact: np.ndarray, z: np.ndarray,
+                            xy: np.ndarray, time: float, lifecycle: LifecycleConfig) -> Tracks:
+        """`branched` then `after_scan` (every track observed, no score gain) in one compiled call
+        (`branched_moved`): the children of rows ``parent`` (M,) with the filter states ``filt`` (M rows), each
+        after the scan at ``time`` with its ``contact`` (M,) of the scan's z, xy (N, 2)."""
+        cfg = lifecycle
+        lower, upper, early = cfg.score_limits
+        status, counts, scores, history, *_ = branched_moved(
+            parent, contact, np.ones(parent.size, np.bool_), self.status, self.counts, self.scores, self.history, cfg.m,
+            cfg.n - cfg.m + 1, cfg.max_misses, cfg.confirmation != "mn", cfg.confirmation == "existence",
+            cfg.confirmation != "existence", cfg.confirmation == "adaptive", lower, upper, early, miss_run(cfg), xy,
+            np.ascontiguousarray(z[:, 1]), time)
+        return Tracks(self.track_id[parent], status, filt, history, counts, scores)
+
     def joined(self, other: Tracks) -> Tracks:
         """These tracks, then ``other``'s: `Batch.concat` of the two in one compiled call (`_joined`; the
         single-hypothesis trackers add a scan's new tracks every scan, where 8 concatenations cost more
@@ -161,6 +175,27 @@ def scanned_moved(contact, observed, status, counts, m, misses_to_delete, max_mi
     return (_scanned(contact, observed, status, counts, m, misses_to_delete, max_misses, scores, gain, scored,
                      score_rule, exist, lower, upper, early, run)
             + (_moved_history(contact, history, xy, azimuth, time),))
+
+
+@numba.njit(cache=True, nogil=True)
+def branched_moved(parent, contact, observed, status, counts, scores, history, m, misses_to_delete, max_misses,
+                   score_rule, exist, own_confirm, own_delete, lower, upper, early, run, xy, azimuth, time):
+    """`scanned_moved` (no score gain) of the children of rows ``parent`` (M,) of K tracks' status (K,), counts (K,
+    3), scores (K, 4) and history (K, 8), with the score test's thresholds of `lifecycle.score_bounds`: the scalars
+    ``lower`` and ``upper``, or per child its own confirmation threshold (``own_confirm``, column `CONFIRM_AT` of its
+    scores) and its own deletion threshold (``own_delete``, column `DELETE_AT`). Returns the children's status,
+    counts, scores and history, and those thresholds (lower, upper (M,) each)."""
+    M = parent.size
+    p_scores = scores[parent]
+    low, up = np.full(M, lower), np.full(M, upper)
+    for i in range(M):
+        if own_confirm:
+            up[i] = p_scores[i, CONFIRM_AT]
+        if own_delete:
+            low[i] = p_scores[i, DELETE_AT]
+    return scanned_moved(contact, observed, status[parent], counts[parent], m, misses_to_delete, max_misses, p_scores,
+                         np.zeros(M), False, score_rule, exist, low, up, early, run, history[parent], xy, azimuth,
+                         time) + (low, up)
 
 
 @numba.njit(cache=True, nogil=True)
