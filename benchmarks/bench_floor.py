@@ -18,7 +18,10 @@ options, `nnda.tracking.neural.life5`), all in this process after an untimed war
 (a seed the timing does not use: code a scene reaches first, such as the fallback update of a track coasting near
 the radar, loads from numba's cache before the clock runs), the ratio tracker / floor, and the floor's mean GOSPA
 beside gnn's (m; a check that its tracks are sane).
-Usage: python benchmarks/bench_floor.py [--runs N] [--scans N] [--model PATH]
+Each run is timed in ``--repeats`` rounds over all the trackers (default 3) and each tracker's fastest round
+counts: the machine's other work slows one round by 10-30 %, and a tracker timed alone in such a spell would
+show a ratio that much off (the same code measured 5.5x and 6.2x the floor in two single-round runs).
+Usage: python benchmarks/bench_floor.py [--runs N] [--scans N] [--model PATH] [--repeats R]
 """
 
 from __future__ import annotations
@@ -193,6 +196,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=3, help="seeded runs of each scenario")
     parser.add_argument("--scans", type=int, help="only the first N scans of each scenario (default: all)")
+    parser.add_argument("--repeats", type=int, default=3, help="rounds over the trackers on each run; each "
+                        "tracker's fastest round counts")
     parser.add_argument("--model", help="model file for the neural tracker (without: nn is skipped)")
     args = parser.parse_args()
     names = ["floor", *(n for n in CONTACT_TRACKERS if not n.startswith("nn") or args.model)]
@@ -208,13 +213,18 @@ def main() -> None:
     for sc in SCENARIOS:
         for run in range(args.runs):
             dataset = generate(shortened(PRESETS[sc], args.scans), seed=run)
+            fastest = {}
+            for _ in range(args.repeats):  # rounds over the trackers: a slow spell of the machine falls on all
+                for name in names:
+                    outputs = []
+                    t = floor_run(dataset, outputs) if name == "floor" else tracker_run(name, args.model, dataset,
+                                                                                        outputs)
+                    if name not in fastest or t.sum() < fastest[name].sum():
+                        fastest[name] = t
+                    if name in ("floor", "gnn") and len(gospa[name, sc]) <= run:
+                        gospa[name, sc].append(float(run_metrics(dataset, outputs).gospa.mean()))
             for name in names:
-                outputs = []
-                t = floor_run(dataset, outputs) if name == "floor" else tracker_run(name, args.model, dataset,
-                                                                                    outputs)
-                ms[name, sc].append(t * 1e3)
-                if name in ("floor", "gnn"):
-                    gospa[name, sc].append(float(run_metrics(dataset, outputs).gospa.mean()))
+                ms[name, sc].append(fastest[name] * 1e3)
     mean = {key: float(np.concatenate(v).mean()) for key, v in ms.items()}
     every = {name: float(np.concatenate([np.concatenate(ms[name, sc]) for sc in SCENARIOS]).mean()) for name in names}
     print(f"\nms per scan on S1-S6 ({args.runs} run(s) each, same process), and the ratio to the floor")
