@@ -318,7 +318,7 @@ class MHTTracker(ContactTracker):
         hist = np.full((k, self.config.n_scan), UNKNOWN, np.int64)
         hist[:, -1] = contact
         if self.confirmation_rule != "mn":  # the clutter model's two-point start, as every contact tracker's
-            score = born.score
+            score = np.ascontiguousarray(born.score)  # a column of the scores: one compiled layout
         else:
             score = np.full(k, math.log(self.config.new_target_ratio))
         return Leaves(born, score, score.copy(), hist, born.t2.copy())
@@ -373,9 +373,10 @@ class MHTTracker(ContactTracker):
             leaves, chosen = self._no_leaves, np.empty(0, np.int64)
             shown = _Shown(np.empty((0, d)), np.empty((0, d, d)))
         tr = leaves.tracks
-        report, self.known = _reported(self.known, alive_ids, tr.track_id, tr.status, tr.counts[:, CONSECUTIVE],
-                                       leaves.hist[:, -1], shown.x, shown.P, chosen,
-                                       self._misses_to_hide(self.last_sensor))
+        report, self.known = _reported(self.known, alive_ids, tr.track_id, tr.status,
+                                       np.ascontiguousarray(tr.counts[:, CONSECUTIVE]),
+                                       np.ascontiguousarray(leaves.hist[:, -1]), shown.x, shown.P, chosen,
+                                       self._misses_to_hide(self.last_sensor))  # columns: one compiled layout
         return TrackerOutput(scan, time, *report)
 
     @property
