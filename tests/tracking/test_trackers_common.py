@@ -292,14 +292,18 @@ def test_joined_tracks_are_the_batch_concatenation():
         np.testing.assert_array_equal(mine, theirs)
 
 
-def test_branched_tracks_are_the_rows_taken_with_the_new_filter_states():
+def test_branched_tracks_are_the_rows_taken_with_the_new_filter_states_after_the_scan():
     tracker = make_tracker("gnn", PRESETS["S1"].sensor)
-    for scan in list(generate(PRESETS["S1"], seed=0).scans())[:3]:
+    scans = list(generate(PRESETS["S1"], seed=0).scans())
+    for scan in scans[:3]:
         tracker.step(scan)
-    tracks = tracker.tracks
+    tracks, after = tracker.tracks, tracker._checked(scans[3])
     parent = np.array([2, 0, 0, len(tracks) - 1])
     other = tracks.take(parent[::-1]).filt  # any filter states of the children's number
-    branched, taken = tracks.branched(parent, other), tracks.take(parent).replaced(filt=other)
+    contact = np.array([NO_CONTACT, 0, 1, NO_CONTACT])
+    life = tracker.config.lifecycle
+    branched = tracks.branched_after_scan(parent, other, contact, after.z, after.xy, after.time, life)
+    taken = tracks.take(parent).replaced(filt=other).after_scan(contact, other, after.z, after.xy, after.time, life)
     assert branched.filt is other
     for mine, theirs in zip(branched._arrays(), taken._arrays()):
         assert mine.dtype == theirs.dtype

@@ -81,14 +81,14 @@ from nnda.filters.kalman import GATE_99, gate_probability
 from nnda.tracking.clutter_density import local_density
 from nnda.tracking.gating import gate
 from nnda.tracking.global_hypothesis import global_hypothesis
-from nnda.tracking.lifecycle import SANITY_REASONS, advance_score_kernel, everywhere, miss_run, sanity_kernel
+from nnda.tracking.lifecycle import SANITY_REASONS, advance_score_kernel, everywhere, sanity_kernel
 from nnda.tracking.linearisation import update as linearised_update
 from nnda.tracking.lookup import among, members, run_starts, sorted_find
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, TrackerOutput
 from nnda.tracking.protocol import TrackerConfig
 from nnda.tracking.reports import Phase
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts
-from nnda.tracking.tracks import CONSECUTIVE, Tracks, branched_moved
+from nnda.tracking.tracks import CONSECUTIVE, Tracks, branched_moved, branching_args
 
 #: history entry of a scan before the family existed, or whose contact is not known (a miss is NO_CONTACT)
 UNKNOWN = -2
@@ -284,14 +284,10 @@ class MHTTracker(ContactTracker):
             filt = type(filt).concat([filt, updated])
         # the leaves the scan observed: with reports, those that took one
         seen = detected if scan.phase is Phase.REPORTS else None if observed is None else observed[parent]
-        life = cfg.lifecycle
-        lower, upper, early = life.score_limits
         status, counts, scores, history, max_score, peak, hist = _children(
             parent, contact, everywhere(seen, parent.size), tr.status, tr.counts, tr.scores, tr.history,
-            score, leaves.max_score, leaves.peak, leaves.hist, life.m, life.n - life.m + 1, life.max_misses,
-            self.confirmation_rule != "mn", life.confirmation == "existence", life.confirmation != "existence",
-            life.confirmation == "adaptive", lower, upper, early, miss_run(life), xy, np.ascontiguousarray(z[:, 1]),
-            time)
+            score, leaves.max_score, leaves.peak, leaves.hist, *branching_args(cfg.lifecycle), xy,
+            np.ascontiguousarray(z[:, 1]), time)
         quality = np.zeros(len(status))  # the clutter around the confirmed leaves, for the track-quality rule
         judged = status == CONFIRMED
         if judged.any():
@@ -368,25 +364,15 @@ class MHTTracker(ContactTracker):
         ``lifecycle.report_existence``, a confirmed family whose chosen leaf has missed too many scans in a row
         is left out (`ContactTracker._hidden`)."""
         alive_ids = self.leaves.tracks.track_id if self.leaves is not None else np.empty(0, np.int64)
-        if leaves is None:
-            d = self.filter.output_dim
-            leaves, chosen = self._no_leaves, np.empty(0, np.int64)
-            shown = _Shown(np.empty((0, d)), np.empty((0, d, d)))
-        tr = leaves.tracks
-        report, self.known = _reported(self.known, alive_ids, tr.track_id, tr.status,
-                                       np.ascontiguousarray(tr.counts[:, CONSECUTIVE]),
-                                       np.ascontiguousarray(leaves.hist[:, -1]), shown.x, shown.P, chosen,
-                                       self._misses_to_hide(self.last_sensor))  # columns: one compiled layout
+        if leaves is None:  # no leaf: only the known families to report gone
+            d, none = self.filter.output_dim, np.empty(0, np.int64)
+            of_leaves = (none, np.empty(0, np.int8), none, none, np.empty((0, d)), np.empty((0, d, d)), none)
+        else:  # the columns contiguous: one compiled layout
+            tr = leaves.tracks
+            of_leaves = (tr.track_id, tr.status, np.ascontiguousarray(tr.counts[:, CONSECUTIVE]),
+                         np.ascontiguousarray(leaves.hist[:, -1]), shown.x, shown.P, chosen)
+        report, self.known = _reported(self.known, alive_ids, *of_leaves, self._misses_to_hide(self.last_sensor))
         return TrackerOutput(scan, time, *report)
-
-    @property
-    def _no_leaves(self) -> Leaves:
-        """A `Leaves` of no leaf, for `_report`'s scans without any."""
-        r, n = self.filter.n_models, self.filter.dim
-        filt = IMMState(np.empty((0, r, n)), np.empty((0, r, n, n)), np.empty((0, r)))
-        tracks = Tracks(np.empty(0, np.int64), np.empty(0, np.int8), filt, np.empty((0, 8)),
-                        np.empty((0, 3), np.int64), np.empty((0, 4)))
-        return Leaves(tracks, np.empty(0), np.empty(0), np.empty((0, self.config.n_scan), np.int64), np.empty(0))
 
     # ---------------------------------------------------------------------- fixed-lag output
     def best_branch(self, reported: TrackerOutput) -> tuple[np.ndarray, np.ndarray]:
@@ -536,8 +522,8 @@ def _reported(known, alive_ids, family, status, consecutive, contact, shown_x, s
 
 @numba.njit(cache=True, nogil=True)
 def _lost(family, before, status, score, code, alive, confirmed_ids, mn, n_reasons):
-    """`MHTTracker._count_lost` over the L children (all (L,)): the families none of whose children is ``alive``,
-    each judged by its best-scoring child (the first of equal scores): counts (3 + ``n_reasons``,) of the
+    """The families `MHTTracker._branch` loses, over the L children (all (L,)): those none of whose children is
+    ``alive``, each judged by its best-scoring child (the first of equal scores): counts (3 + ``n_reasons``,) of the
     unconfirmed, those ended by misses (``mn``) and by their score, then by each sanity reason (``code`` 1, 2,
     ...). A family is confirmed if its child's status ``before`` the scan was, or its id is among the sorted
     ``confirmed_ids`` (reported confirmed before)."""

@@ -127,24 +127,15 @@ class Tracks(Batch):
                 score_gain is not None, score_rule, cfg.confirmation == "existence", lower, upper, early,
                 miss_run(cfg), self.history, xy, np.ascontiguousarray(z[:, 1]), time)
 
-    def branched(self, parent: np.ndarray, filt: IMMState) -> Tracks:
-        """The tracks of rows ``parent`` (M,), as `Batch.take` gives them, with the new filter states ``filt`` (M
-        rows): a scan's children of these tracks, without a copy of the filter states they replace."""
-        return Tracks(self.track_id[parent], self.status[parent], filt, self.history[parent], self.counts[parent],
-                      self.scores[parent])
-
     def branched_after_scan(self, parent: np.ndarray, filt: IMMState, contact: np.ndarray, z: np.ndarray,
                             xy: np.ndarray, time: float, lifecycle: LifecycleConfig) -> Tracks:
-        """`branched` then `after_scan` (every track observed, no score gain) in one compiled call
-        (`branched_moved`): the children of rows ``parent`` (M,) with the filter states ``filt`` (M rows), each
-        after the scan at ``time`` with its ``contact`` (M,) of the scan's z, xy (N, 2)."""
-        cfg = lifecycle
-        lower, upper, early = cfg.score_limits
+        """The children of rows ``parent`` (M,) with the filter states ``filt`` (M rows; a branching's: the tracks
+        taken at ``parent`` with ``filt`` in place of theirs), each after the scan at ``time`` with its ``contact``
+        (M,) of the scan's z, xy (N, 2), as `after_scan` moves them on (every track observed, no score gain), in
+        one compiled call (`branched_moved`)."""
         status, counts, scores, history, *_ = branched_moved(
-            parent, contact, np.ones(parent.size, np.bool_), self.status, self.counts, self.scores, self.history, cfg.m,
-            cfg.n - cfg.m + 1, cfg.max_misses, cfg.confirmation != "mn", cfg.confirmation == "existence",
-            cfg.confirmation != "existence", cfg.confirmation == "adaptive", lower, upper, early, miss_run(cfg), xy,
-            np.ascontiguousarray(z[:, 1]), time)
+            parent, contact, np.ones(parent.size, np.bool_), self.status, self.counts, self.scores, self.history,
+            *branching_args(lifecycle), xy, np.ascontiguousarray(z[:, 1]), time)
         return Tracks(self.track_id[parent], status, filt, history, counts, scores)
 
     def joined(self, other: Tracks) -> Tracks:
@@ -175,6 +166,15 @@ def scanned_moved(contact, observed, status, counts, m, misses_to_delete, max_mi
     return (_scanned(contact, observed, status, counts, m, misses_to_delete, max_misses, scores, gain, scored,
                      score_rule, exist, lower, upper, early, run)
             + (_moved_history(contact, history, xy, azimuth, time),))
+
+
+def branching_args(cfg: LifecycleConfig) -> tuple:
+    """`branched_moved`'s settings from the life cycle ``cfg``, from ``m`` to ``run``: the M/N counts, whether a score
+    rule (and which) decides the status, whether each child's own thresholds replace the scalar ones of
+    `lifecycle.score_bounds`, those scalars and `lifecycle.miss_run`."""
+    lower, upper, early = cfg.score_limits
+    return (cfg.m, cfg.n - cfg.m + 1, cfg.max_misses, cfg.confirmation != "mn", cfg.confirmation == "existence",
+            cfg.confirmation != "existence", cfg.confirmation == "adaptive", lower, upper, early, miss_run(cfg))
 
 
 @numba.njit(cache=True, nogil=True)
