@@ -33,20 +33,21 @@ import numba
 import numpy as np
 from pydantic import Field, model_validator
 
-from nnda.filters.batch import Batch, gathered_rows
-from nnda.filters.imm import IMMPrediction
+from nnda.filters import imm_kernels
+from nnda.filters.batch import Batch
+from nnda.filters.imm import IMMPrediction, IMMState
 from nnda.filters.kalman import gate_probability
 from nnda.tracking.clutter_density import coverage_area, local_density
 from nnda.tracking.exact import add_reduce, logaddexp
 from nnda.tracking.gating import gate
 from nnda.tracking.gibbs import row_order, run_heads
 from nnda.tracking.lifecycle import birth_log_odds, start_score
-from nnda.tracking.linearisation import update as linearised_update
+from nnda.tracking.linearisation import LINEARISATION_LIMIT_RAD, poor_rows
 from nnda.tracking.lookup import among, members
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
 from nnda.tracking.phd.tracker import Cardinality
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts
-from nnda.tracking.tracks import Tracks
+from nnda.tracking.tracks import Tracks, branched_moved, branching_args
 
 
 class LabelledConfig(ContactTrackerConfig):
@@ -249,28 +250,24 @@ class LabelledMixture(ContactTracker):
                   ) -> tuple[Tracks, np.ndarray, np.ndarray, np.ndarray]:
         """The children of the gated rows ``g``: the S miss children (row s), then one per gated pair, or only
         those ``chosen`` (indices into that list, in their order): track records, histories (n_scan columns),
-        estimates x (., 4) and P (., 4, 4). Each child is computed alone (the update and the records row by row),
-        so a chosen few are the same as when every child is made."""
-        imm, old, pred, S, first = scan.filter, g.rows, g.pred, len(g.rows), g.first
-        pair, parent, contact, at_miss, at_pair = _family(np.arange(S + g.pl.size) if chosen is None else chosen, S,
-                                                          g.pl, g.pj)
-        tr, x, P = old.tracks, pred.gating.x[first:first + S], pred.gating.P[first:first + S]
-        filt = tr.filt
-        if chosen is not None and not pair.size:
-            filt, x, P = filt.take(parent), x[parent], P[parent]
-        if pair.size:  # each child in the place asked (misses and pairs may interleave)
-            updated = linearised_update(imm, pred, scan.z[g.pj[pair]], np.ones(pair.size, bool),
-                                        rows=first + g.pl[pair])
-            x_up, P_up = imm.estimate(updated)
-            if chosen is None:  # every child: the S misses in row order, then the pairs
-                filt = type(filt).concat([filt, updated])
-                x, P = np.concatenate([x, x_up]), np.concatenate([P, P_up])
-            else:
-                miss = parent[at_miss]
-                filt = type(filt).gathered(filt, miss, at_miss, updated, at_pair)
-                x, P = gathered_rows(x, miss, at_miss, x_up, at_pair), gathered_rows(P, miss, at_miss, P_up, at_pair)
-        tracks = tr.branched_after_scan(parent, filt, contact, scan.z, scan.xy, scan.time, self.config.lifecycle)
-        return tracks, np.concatenate((old.hist[parent, 1:], contact[:, None]), axis=1), x, P
+        estimates x (., 4) and P (., 4, 4), in one compiled call (`_children`). Each child is computed alone
+        (the update and the records row by row), so a chosen few are the same as when every child is made. A
+        pair whose track the polar model linearises poorly takes the converted-measurement update afterwards,
+        as `nnda.tracking.linearisation.update` gives it."""
+        imm, old, pred, first = scan.filter, g.rows, g.pred, g.first
+        tr, st, mp = old.tracks, pred.state, pred.measurement
+        every = np.arange(len(old) + g.pl.size) if chosen is None else chosen
+        track_id, status, fx, fP, fmu, history, counts, scores, hist, x, P, parent, poor = _children(
+            every, first, g.pl, g.pj, (tr.track_id, tr.status, tr.counts, tr.scores, tr.history, old.hist),
+            (tr.filt.x, tr.filt.P, tr.filt.mu), (pred.gating.x, pred.gating.P),
+            (st.x, st.P, st.mu, mp.z, mp.S_inv, mp.log_det_S, mp.PHt, mp.S), scan.z, scan.xy, scan.time,
+            imm.polar, LINEARISATION_LIMIT_RAD ** 2, imm.output_dim, *branching_args(self.config.lifecycle))
+        if poor.size:  # near the radar: rare
+            xy, R = imm.measurement.position(scan.z[hist[poor, -1]])
+            fixed = imm.update_position(pred.take(first + parent[poor]), xy, R)
+            fx[poor], fP[poor], fmu[poor] = fixed.x, fixed.P, fixed.mu
+            x[poor], P[poor] = imm.estimate(fixed)
+        return Tracks(track_id, status, IMMState(fx, fP, fmu), history, counts, scores), hist, x, P
 
     def _expected_detections(self, r_pd: np.ndarray) -> np.ndarray:
         """Each row's expected detections in this scan (S,): P_G p_S times ``r_pd`` (S,), its existence times
@@ -450,6 +447,53 @@ class LabelledMixture(ContactTracker):
         out = TrackerOutput(scan, time, track_id, status, x, P, contact)
         self.cardinality = self._count(scan, time, int((out.status == CONFIRMED).sum()), rows)
         return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _children(every, first, pl, pj, records, filt, gating, predicted, z, xy, time, polar, limit, d, m,
+              misses_to_delete, max_misses, score_rule, exist, own_confirm, own_delete, lower, upper, early, run):
+    """`LabelledMixture._child_rows` in one pass: the children ``every`` (M,) (`_family`) of S gated rows, rows
+    ``first`` to ``first + S`` of a prediction, with the gated pairs (row ``pl``, contact ``pj``, (P,) each). The
+    rows' ``records`` (track_id, status, counts, scores, history of `Tracks`, and ``hist`` (S, n_scan)) and filter
+    states ``filt`` (x, P, mu); the prediction's combined estimate ``gating`` (x (K, d), P (K, d, d)) and
+    ``predicted``, its model states (x, P, mu) and measurement prediction (z, S_inv, log_det_S, PHt, S) with (K, r)
+    leading; the scan's contacts z (N, 2), their positions xy (N, 2) m and its ``time`` s; whether the sensor is
+    ``polar``, the linearisation's ``limit`` on S_aa (rad^2), the output dimension ``d`` and the life cycle's
+    `branching_args`. A pair child is its row's prediction updated with its contact (`imm_kernels.update`, then
+    `imm_kernels.estimate`), a miss child keeps its row's posterior and reports the prediction; the records move
+    on as `Tracks.branched_after_scan` moves them. Returns the children's track_id, status, x, P, mu, history,
+    counts, scores, hist, estimate x (M, d) and P (M, d, d), parent (M,) (of the S rows) and the pair children
+    whose track the polar model linearises poorly (`nnda.tracking.linearisation.poor_rows`; indices into the M),
+    for the caller's converted-measurement update."""
+    track_id, status, counts, scores, history, hist = records
+    fx, fP, fmu = filt
+    gx, gP = gating
+    xp, Pp, mu_p, z_pred, S_inv, log_det, PHt, S_meas = predicted
+    pair, parent, contact, at_miss, at_pair = _family(every, track_id.size, pl, pj)
+    rows = first + pl[pair]
+    detected = np.ones(pair.size, np.bool_)
+    ux, uP, umu = imm_kernels.update(xp[rows], Pp[rows], mu_p[rows], z[pj[pair]], detected, z_pred[rows],
+                                     S_inv[rows], log_det[rows], PHt[rows], polar)
+    ex, eP = imm_kernels.estimate(ux, uP, umu, d)
+    M = every.size
+    x, P, mu = np.empty((M,) + fx.shape[1:]), np.empty((M,) + fP.shape[1:]), np.empty((M,) + fmu.shape[1:])
+    cx, cP = np.empty((M, d)), np.empty((M, d, d))
+    for i in range(at_miss.size):
+        k, s = at_miss[i], parent[at_miss[i]]
+        x[k], P[k], mu[k], cx[k], cP[k] = fx[s], fP[s], fmu[s], gx[first + s], gP[first + s]
+    for q in range(pair.size):
+        k = at_pair[q]
+        x[k], P[k], mu[k], cx[k], cP[k] = ux[q], uP[q], umu[q], ex[q], eP[q]
+    poor = at_pair[poor_rows(S_meas[rows], detected, limit)] if polar else np.empty(0, np.int64)
+    status, counts, scores, history, _, _ = branched_moved(
+        parent, contact, np.ones(M, np.bool_), status, counts, scores, history, m, misses_to_delete, max_misses,
+        score_rule, exist, own_confirm, own_delete, lower, upper, early, run, xy, z[:, 1].copy(), time)
+    n_scan = hist.shape[1]
+    new_hist = np.empty((M, n_scan), np.int64)
+    for k in range(M):
+        new_hist[k, :n_scan - 1] = hist[parent[k], 1:]
+        new_hist[k, n_scan - 1] = contact[k]
+    return track_id[parent], status, x, P, mu, history, counts, scores, new_hist, cx, cP, parent, poor
 
 
 @numba.njit(cache=True, nogil=True)

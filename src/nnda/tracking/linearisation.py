@@ -71,7 +71,7 @@ def update(imm: IMM, pred: IMMPrediction, z: np.ndarray, detected: np.ndarray, r
     if not imm.polar:
         return state
     S = pred.measurement.S if rows is None else pred.measurement.S[rows]
-    poor = _poor_rows(S, detected, LINEARISATION_LIMIT_RAD**2)
+    poor = poor_rows(S, detected, LINEARISATION_LIMIT_RAD**2)
     if not poor.size:
         return state
     xy, R = imm.measurement.position(z[poor])
@@ -82,7 +82,7 @@ def update(imm: IMM, pred: IMMPrediction, z: np.ndarray, detected: np.ndarray, r
 
 
 @numba.njit(cache=True, nogil=True)
-def _poor_rows(S, detected, limit):
+def poor_rows(S, detected, limit):
     """The ``detected`` (K,) tracks of which some model's prediction, innovation covariance S (K, r, 2, 2), is
     poorly linearised (`poorly_linearised`: S_aa > ``limit``), ascending (one compiled pass each scan)."""
     poor = np.zeros(S.shape[0], np.bool_)
