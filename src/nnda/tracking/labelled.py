@@ -375,30 +375,17 @@ class LabelledMixture(ContactTracker):
     # ---------------------------------------------------------------------- output
     def existence(self) -> np.ndarray:
         """Existence probability (L,) of each live label (``labels``): the weights of the hypotheses holding it,
-        times its row's existence there."""
+        times its row's existence there (`_existence`)."""
         if self.table is None:
             return np.zeros(self.labels.size)
-        return self._marginal(self._row_existence())
+        return _existence(self.hyp, np.exp(self.log_w), self.table.r)[1]
 
-    def _marginal(self, rows: np.ndarray) -> np.ndarray:
-        """The hypotheses' weighted sum (L,) of ``rows`` (H, L), hypothesis by hypothesis in turn. Not a matrix
-        product: BLAS rounds it by the arrays' alignment in memory, so its last bits would depend on what was
-        allocated before."""
-        return (np.exp(self.log_w)[:, None] * rows).sum(axis=0)
-
-    def _row_existence(self) -> np.ndarray:
-        """(H, L): the existence of each label's row in each hypothesis, 0 where the label is absent (a table
-        needed)."""
-        return np.where(self.hyp >= 0, self.table.r[np.maximum(self.hyp, 0)], 0.0)
-
-    def _count(self, scan: int, time: float, extracted: int, r: np.ndarray | None = None) -> Cardinality:
+    def _count(self, scan: int, time: float, extracted: int, moments: tuple[float, float, float, float]
+               ) -> Cardinality:
         """The target count after scan ``scan``: mean and variance of the number of live labels, a mixture over
         the hypotheses (weights w_h) of multi-Bernoulli counts (mean sum r, variance sum r (1 - r) in each),
-        the tentative labels' Bernoullis added to every hypothesis; ``r`` the `_row_existence` when known."""
-        if r is None:
-            r = np.zeros((self.log_w.size, 0)) if self.table is None else self._row_existence()  # (H, L)
-        rt = np.empty(0) if self.tentative is None else self.tentative.r
-        first, second, tentative_mean, tentative_variance = _moments(np.exp(self.log_w), r, rt)
+        the tentative labels' Bernoullis added to every hypothesis, from the ``moments`` of `_moments`."""
+        first, second, tentative_mean, tentative_variance = moments
         mean = float(first)
         variance = float(second) - mean ** 2
         if self.tentative is not None:
@@ -418,14 +405,9 @@ class LabelledMixture(ContactTracker):
         deleted in this scan, DELETED with their last estimate (one compiled pass, `_reported`)."""
         cfg, table = self.config, self.table
         ids, x, P = self.known
-        rows = None if table is None else self._row_existence()  # (H, L)
-        s = label = np.empty(0, np.int64)
-        r = np.empty(0)
-        if table is not None and self.labels.size:
-            chosen = self.hyp[int(np.argmax(self.log_w))]
-            shown = np.flatnonzero(chosen >= 0)
-            s, label = chosen[shown], self.labels[shown]
-            r = self._marginal(rows)[shown]  # `existence`
+        s, label, r, moments = _best_shown(self.hyp, self.log_w, np.exp(self.log_w),
+                                           np.empty(0) if table is None else table.r, self.labels,
+                                           np.empty(0) if self.tentative is None else self.tentative.r)
         waiting = self._waiting()
         if len(waiting) == 1:  # only the fields reported, not whole tables joined
             new, wx, wP, contact = waiting[0].tracks.track_id, waiting[0].x, waiting[0].P, waiting[0].hist[:, -1]
@@ -445,7 +427,7 @@ class LabelledMixture(ContactTracker):
         self.deletions["unconfirmed"] += int(lost.size - lost.sum())
         self.known = tuple(known)
         out = TrackerOutput(scan, time, track_id, status, x, P, contact)
-        self.cardinality = self._count(scan, time, int((out.status == CONFIRMED).sum()), rows)
+        self.cardinality = self._count(scan, time, int((out.status == CONFIRMED).sum()), moments)
         return out
 
 
@@ -540,6 +522,41 @@ def _heaviest(owner, log_w, pair, contact, T):
         if w > top[t]:
             top[t], chosen[t], taken[t] = w, T + pair[q], contact[q]
     return total, chosen, taken
+
+
+@numba.njit(cache=True, nogil=True)
+def _existence(hyp, w, r):
+    """The existence of each label's row in each hypothesis, (H, L) (0 where the label is absent), of the
+    mixture ``hyp`` (H, L) of weights ``w`` (H,) over rows of existence ``r`` (S,), and each label's marginal
+    existence (L,): sum over h of w_h times its row's, added hypothesis by hypothesis as numpy sums a (H, L)
+    array over its first axis (in turn; for one label, a contiguous column: its pairwise sum,
+    `exact.add_reduce`). Not a matrix product: BLAS rounds it by the arrays' alignment in memory."""
+    H, L = hyp.shape
+    rows = np.zeros((H, L))
+    for h in range(H):
+        for j in range(L):
+            if hyp[h, j] >= 0:
+                rows[h, j] = r[hyp[h, j]]
+    marginal = np.zeros(L)
+    if L == 1:
+        marginal[0] = add_reduce(w * rows[:, 0])
+    else:
+        for h in range(H):
+            for j in range(L):
+                marginal[j] += w[h] * rows[h, j]
+    return rows, marginal
+
+
+@numba.njit(cache=True, nogil=True)
+def _best_shown(hyp, log_w, w, r, labels, rt):
+    """What `LabelledMixture._report` shows of the mixture ``hyp`` (H, L) of log weights ``log_w`` (H,) (weights
+    ``w``) over rows of existence ``r`` (S,), of live ``labels`` (L,), with tentative labels of existence ``rt``
+    (T,): the rows of the heaviest hypothesis's labels (the first of equal weights), those labels, their marginal
+    existence (`_existence`), and the count's `_moments`."""
+    rows, marginal = _existence(hyp, w, r)
+    best = hyp[np.argmax(log_w)]
+    shown = np.flatnonzero(best >= 0)
+    return best[shown], labels[shown], marginal[shown], _moments(w, rows, rt)
 
 
 @numba.njit(cache=True, nogil=True)

@@ -50,9 +50,27 @@ def scan_hypotheses(hyp: np.ndarray, ks: np.ndarray, pair_sth: np.ndarray, pair_
     """The ``ks[h]`` best data associations of every global hypothesis h of ``hyp`` (module docstring)."""
     (by_sth, start, opt_child, opt_gain, sth, h, col, node_order, node_at, cl_at, node_at_h, off, length,
      child0) = _layout(hyp, pair_sth, pair_contact, pair_child, pair_gain)
-    pairs = _Pairs(pair_contact, pair_child, pair_gain, by_sth, start)
+    ks, child_off = np.asarray(ks, np.int64), off.copy()
+    several = np.flatnonzero(np.diff(node_at) > 1)  # the clusters of several Bernoullis, each ranked once
+    if several.size:
+        opt_gain, opt_child = _ranked_several(several, _Pairs(pair_contact, pair_child, pair_gain, by_sth, start),
+                                              sth, h, ks, node_order, node_at, off, length, child_off, child0,
+                                              opt_gain, opt_child)
+    return _combined(hyp, ks, opt_gain, off, length, opt_child, child_off, col[node_order], node_at, cl_at, col,
+                     child0, node_at_h)
+
+
+def _ranked_several(several: np.ndarray, pairs: _Pairs, sth: np.ndarray, h: np.ndarray, ks: np.ndarray,
+                    node_order: np.ndarray, node_at: np.ndarray, off: np.ndarray, length: np.ndarray,
+                    child_off: np.ndarray, child0: np.ndarray, opt_gain: np.ndarray, opt_child: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """The clusters ``several`` of several Bernoullis ranked (`_Pairs.ranked`; a cluster of the same STHs in
+    several global hypotheses once, for the largest k asked), their options appended to the single Bernoullis'
+    gains ``opt_gain`` and children ``opt_child``, which are returned; their places written into ``off``,
+    ``length`` and ``child_off``, and each node's child in its cluster's best option into ``child0`` (`_layout`'s
+    arrays)."""
     keys, want = {}, {}
-    for c in np.flatnonzero(np.diff(node_at) > 1):  # the clusters of several Bernoullis, each ranked once
+    for c in several:
         nodes = node_order[node_at[c]:node_at[c + 1]]
         keys[c] = key = sth[nodes].tobytes()
         want[key] = (sth[nodes], max(int(ks[h[nodes[0]]]), want.get(key, (None, 0))[1]))
@@ -62,13 +80,10 @@ def scan_hypotheses(hyp: np.ndarray, ks: np.ndarray, pair_sth: np.ndarray, pair_
     # each cluster's options (m, n) flat, by option then node: a single Bernoulli's own, then the ranked
     ranked_children = [children.ravel() for children, _ in done.values()]
     child_at = dict(zip(done, opt_child.size + np.cumsum([0, *(c.size for c in ranked_children)])))
-    child_off = off.copy()
     for c, key in keys.items():
         off[c], length[c], child_off[c] = at[key], done[key][1].size, child_at[key]
         child0[node_order[node_at[c]:node_at[c + 1]]] = done[key][0][0]
-    return _combined(hyp, ks.astype(np.int64), np.concatenate([opt_gain, *ranked_gains]), off, length,
-                     np.concatenate([opt_child, *ranked_children]), child_off, col[node_order], node_at, cl_at, col,
-                     child0, node_at_h)
+    return np.concatenate([opt_gain, *ranked_gains]), np.concatenate([opt_child, *ranked_children])
 
 
 class _Pairs:
