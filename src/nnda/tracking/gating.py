@@ -43,7 +43,7 @@ class Gated:
 def gate(imm: IMM, mp: MeasurementPrediction, z: np.ndarray, xy: np.ndarray, threshold: float | np.ndarray,
          estimate: tuple[np.ndarray, np.ndarray] | None = None, *, rows: np.ndarray | None = None,
          check: bool = True) -> Gated:
-    """Pairs (track, contact) with squared Mahalanobis distance <= ``threshold``.
+    """Pairs (track, contact) with squared Mahalanobis distance <= ``threshold``, by track row, then contact.
 
     ``mp`` is the combined measurement prediction of K tracks
     (`IMM.combined_measurement`), ``z`` (N, 2) the contacts in the

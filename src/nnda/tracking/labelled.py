@@ -47,7 +47,7 @@ from nnda.tracking.lookup import among, members
 from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, PRELIMINARY, TrackerOutput
 from nnda.tracking.phd.tracker import Cardinality
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts
-from nnda.tracking.tracks import Tracks, branched_moved, branching_args
+from nnda.tracking.tracks import T2, Tracks, branched_moved, branching_args, table_rows, tables_joined
 
 
 class LabelledConfig(ContactTrackerConfig):
@@ -111,11 +111,30 @@ class LabelledTable(Batch):
     P: np.ndarray
 
     def joined(self, other: LabelledTable) -> Self:
-        """These rows, then ``other``'s (of the same class): `Batch.concat` of the two, the tracks' records in one
-        compiled call (`Tracks.joined`)."""
-        ours, theirs = self._fields(), other._fields()
-        return type(self)(self.tracks.joined(other.tracks), *(np.concatenate((a, b)) for a, b in zip(ours[1:],
-                                                                                                    theirs[1:])))
+        """These rows, then ``other``'s (of the same class): `Batch.concat` of the two, the tracks and the four
+        columns in one compiled call (`tracks.tables_joined`), a subclass's further fields after."""
+        return self._of(tables_joined(self._arrays(), other._arrays()),
+                        [np.concatenate((a, b)) for a, b in zip(self._fields()[5:], other._fields()[5:])])
+
+    def _rows(self, index: np.ndarray | slice) -> Self:
+        """`Batch.take` of an integer array: the tracks and the four columns in one compiled call
+        (`tracks.table_rows`; the trackers take rows every scan, where a take field by field costs more than the
+        copying), a subclass's further fields after."""
+        if isinstance(index, slice):
+            return super()._rows(index)
+        return self._of(table_rows(self._arrays(), index), [a[index] for a in self._fields()[5:]])
+
+    def _arrays(self) -> tuple[np.ndarray, ...]:
+        """The tracks' arrays in `Tracks` order (the filter state's three in its place), then r, hist, x and P."""
+        t = self.tracks
+        f = t.filt
+        return t.track_id, t.status, f.x, f.P, f.mu, t.history, t.counts, t.scores, self.r, self.hist, self.x, self.P
+
+    def _of(self, arrays: tuple[np.ndarray, ...], rest: list[np.ndarray]) -> Self:
+        """A table of this class from `_arrays`' tuple and the values of the fields a subclass adds, ``rest``."""
+        track_id, status, x, P, mu, history, counts, scores, r, hist, ex, eP = arrays
+        return type(self)(Tracks(track_id, status, IMMState(x, P, mu), history, counts, scores), r, hist, ex, eP,
+                          *rest)
 
 
 @dataclass(frozen=True)
@@ -198,8 +217,8 @@ class LabelledMixture(ContactTracker):
         if len(tables) == 1:
             filt, t2 = tables[0].tracks.filt, tables[0].tracks.t2
         else:
-            filt = type(self.table.tracks.filt).concat([t.tracks.filt for t in tables])
-            t2 = np.concatenate([t.tracks.t2 for t in tables])
+            x, P, mu, t2 = _stacked(self.table.tracks._arrays(), self.tentative.tracks._arrays())
+            filt = IMMState(x, P, mu)
         pred = imm.predict(filt, scan.time - t2, check=False)
         pd = np.full(len(filt), self.score_pd(scan.sensor))
         observed = self._observed(scan, pred)
@@ -220,19 +239,11 @@ class LabelledMixture(ContactTracker):
             if pl.size:
                 ll = imm.pair_log_likelihood(pred, pl, z[pj], check=False)
                 clutter = self._clutter(scan, pj)
-        in_order = pl.size < 2 or bool((pl[1:] >= pl[:-1]).all())  # the gate's pairs by row: cut, not picked
-        parts = []
-        for table, first in ((self.table, 0), (self.tentative, S)):
-            if table is None:
-                parts.append(None)
-                continue
-            if in_order:
-                mine = slice(*np.searchsorted(pl, (first, first + len(table))))
-            else:
-                mine = (pl >= first) & (pl < first + len(table))
-            parts.append(GatedRows(table, pred, first, pd[first:first + len(table)], pl[mine] - first, pj[mine],
-                                   ll[mine], clutter[mine]))
-        return parts[0], parts[1]
+        cut = int(np.searchsorted(pl, S))  # the gate's pairs come by row: the mixture's, then the tentative labels'
+        return (None if self.table is None else
+                GatedRows(self.table, pred, 0, pd[:S], pl[:cut], pj[:cut], ll[:cut], clutter[:cut]),
+                None if self.tentative is None else
+                GatedRows(self.tentative, pred, S, pd[S:], pl[cut:] - S, pj[cut:], ll[cut:], clutter[cut:]))
 
     def _count_best(self, scan: ScanContacts) -> None:
         """After the scan's update: the detections of the best hypothesis's labels reported confirmed before
@@ -476,6 +487,14 @@ def _children(every, first, pl, pj, records, filt, gating, predicted, z, xy, tim
         new_hist[k, :n_scan - 1] = hist[parent[k], 1:]
         new_hist[k, n_scan - 1] = contact[k]
     return track_id[parent], status, x, P, mu, history, counts, scores, new_hist, cx, cP, parent, poor
+
+
+@numba.njit(cache=True, nogil=True)
+def _stacked(a, b):
+    """The filter states of two `Tracks` records (their `Tracks._arrays`) ``a`` then ``b``, stacked: x, P, mu, and
+    the time (s) of each track's last update, t2."""
+    return (np.concatenate((a[2], b[2])), np.concatenate((a[3], b[3])), np.concatenate((a[4], b[4])),
+            np.concatenate((a[5][:, T2], b[5][:, T2])))
 
 
 @numba.njit(cache=True, nogil=True)

@@ -88,7 +88,7 @@ from nnda.tracking.output import CONFIRMED, DELETED, NO_CONTACT, TrackerOutput
 from nnda.tracking.protocol import TrackerConfig
 from nnda.tracking.reports import Phase
 from nnda.tracking.tracker import ContactTracker, ContactTrackerConfig, ScanContacts
-from nnda.tracking.tracks import CONSECUTIVE, Tracks, branched_moved, branching_args
+from nnda.tracking.tracks import CONSECUTIVE, Tracks, branched_moved, branching_args, table_rows, tables_joined
 
 #: history entry of a scan before the family existed, or whose contact is not known (a miss is NO_CONTACT)
 UNKNOWN = -2
@@ -143,17 +143,17 @@ class Leaves(Batch):
     peak: np.ndarray
 
     def _rows(self, index: np.ndarray | slice) -> Leaves:
-        """`Batch.take` of an integer array in one compiled call (`_leaf_rows`; MHT prunes its leaves every
+        """`Batch.take` of an integer array in one compiled call (`tracks.table_rows`; MHT prunes its leaves every
         scan, where a take field by field costs more than the copying)."""
         if isinstance(index, slice):
             return super()._rows(index)
-        return Leaves._of(_leaf_rows(self._arrays(), index))
+        return Leaves._of(table_rows(self._arrays(), index))
 
     @classmethod
     def joined(cls, a: Leaves, b: Leaves) -> Leaves:
-        """`Batch.concat` of ``a`` then ``b`` in one compiled call (`_leaves_joined`; a scan's new families join
+        """`Batch.concat` of ``a`` then ``b`` in one compiled call (`tracks.tables_joined`; a scan's new families join
         the leaves every scan)."""
-        return cls._of(_leaves_joined(a._arrays(), b._arrays()))
+        return cls._of(tables_joined(a._arrays(), b._arrays()))
 
     def _arrays(self) -> tuple[np.ndarray, ...]:
         """The fields' arrays, the tracks' in `Tracks` order (the filter state's three in its place) first."""
@@ -408,22 +408,6 @@ class MHTTracker(ContactTracker):
         pick = np.lexsort((gap, owner))
         first = pick[run_starts(owner[pick])]
         return ids[owner[first]], leaves.hist[cand[first]]
-
-
-@numba.njit(cache=True, nogil=True)
-def _leaf_rows(a, rows):
-    """`Leaves._arrays`' twelve arrays ``a``, each at the leaves ``rows``."""
-    return (a[0][rows], a[1][rows], a[2][rows], a[3][rows], a[4][rows], a[5][rows], a[6][rows], a[7][rows],
-            a[8][rows], a[9][rows], a[10][rows], a[11][rows])
-
-
-@numba.njit(cache=True, nogil=True)
-def _leaves_joined(a, b):
-    """`Leaves._arrays`' twelve arrays ``a`` then ``b``'s, concatenated array by array."""
-    return (np.concatenate((a[0], b[0])), np.concatenate((a[1], b[1])), np.concatenate((a[2], b[2])),
-            np.concatenate((a[3], b[3])), np.concatenate((a[4], b[4])), np.concatenate((a[5], b[5])),
-            np.concatenate((a[6], b[6])), np.concatenate((a[7], b[7])), np.concatenate((a[8], b[8])),
-            np.concatenate((a[9], b[9])), np.concatenate((a[10], b[10])), np.concatenate((a[11], b[11])))
 
 
 @numba.njit(cache=True, nogil=True)

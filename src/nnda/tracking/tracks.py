@@ -160,6 +160,24 @@ def _joined(a, b):
 
 
 @numba.njit(cache=True, nogil=True)
+def table_rows(a, rows):
+    """A table of tracks taken at ``rows`` (M,): ``a`` its twelve arrays, the eight of its `Tracks`
+    (`Tracks._arrays`) and four the table adds per track (MHT's leaves, the labelled trackers' rows), each at
+    ``rows``, in one call."""
+    return (a[0][rows], a[1][rows], a[2][rows], a[3][rows], a[4][rows], a[5][rows], a[6][rows], a[7][rows],
+            a[8][rows], a[9][rows], a[10][rows], a[11][rows])
+
+
+@numba.njit(cache=True, nogil=True)
+def tables_joined(a, b):
+    """Two tables of tracks as one: `table_rows`' twelve arrays ``a``, then ``b``'s, concatenated array by array."""
+    return (np.concatenate((a[0], b[0])), np.concatenate((a[1], b[1])), np.concatenate((a[2], b[2])),
+            np.concatenate((a[3], b[3])), np.concatenate((a[4], b[4])), np.concatenate((a[5], b[5])),
+            np.concatenate((a[6], b[6])), np.concatenate((a[7], b[7])), np.concatenate((a[8], b[8])),
+            np.concatenate((a[9], b[9])), np.concatenate((a[10], b[10])), np.concatenate((a[11], b[11])))
+
+
+@numba.njit(cache=True, nogil=True)
 def scanned_moved(contact, observed, status, counts, m, misses_to_delete, max_misses, scores, gain, scored,
                    score_rule, exist, lower, upper, early, run, history, xy, azimuth, time):
     """`_scanned`, then `_moved_history`: (status, counts, scores, history)."""
