@@ -217,7 +217,7 @@ class LabelledMixture(ContactTracker):
         if len(tables) == 1:
             filt, t2 = tables[0].tracks.filt, tables[0].tracks.t2
         else:
-            x, P, mu, t2 = _stacked(self.table.tracks._arrays(), self.tentative.tracks._arrays())
+            x, P, mu, t2 = _stacked(self.table._arrays(), self.tentative._arrays())
             filt = IMMState(x, P, mu)
         pred = imm.predict(filt, scan.time - t2, check=False)
         pd = np.full(len(filt), self.score_pd(scan.sensor))
@@ -491,8 +491,8 @@ def _children(every, first, pl, pj, records, filt, gating, predicted, z, xy, tim
 
 @numba.njit(cache=True, nogil=True)
 def _stacked(a, b):
-    """The filter states of two `Tracks` records (their `Tracks._arrays`) ``a`` then ``b``, stacked: x, P, mu, and
-    the time (s) of each track's last update, t2."""
+    """The filter states of two tables' tracks (their `LabelledTable._arrays`) ``a`` then ``b``, stacked: x, P, mu,
+    and the time (s) of each track's last update, t2."""
     return (np.concatenate((a[2], b[2])), np.concatenate((a[3], b[3])), np.concatenate((a[4], b[4])),
             np.concatenate((a[5][:, T2], b[5][:, T2])))
 
