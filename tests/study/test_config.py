@@ -47,6 +47,8 @@ def test_written_study_reads_back_equal(tmp_path):
      "trackers.a.colour: Extra inputs are not permitted"),
     ({"trackers": {"a": {"kind": "gnn"}}, "scenarios": [{"preset": "S1"}], "ownership": "nearest"},
      "ownership: Input should be 'auto', 'contacts' or 'position'"),
+    ({"trackers": {"a": {"kind": "gnn"}}, "scenarios": [{"preset": "S1", "suffix": "-x"}]},
+     "suffix names a changed scenario: give changes too"),
 ])
 def test_malformed_studies_name_the_field(data, message):
     with pytest.raises(ConfigError, match="invalid study") as err:
@@ -92,3 +94,39 @@ def test_a_study_of_every_kind_reads_back_from_its_toml(tmp_path):
                              "tbd": {"runs": 3, "ptcr_db": [7.0]}, "pedestrian": {"tests": ["test4"]}}, "s")
     (tmp_path / "s.toml").write_text(study_to_toml(study, relative_to=tmp_path))
     assert load_study(tmp_path / "s.toml") == study
+
+
+def test_a_study_changes_a_preset_groups_scenarios(tmp_path):
+    """``changes`` on a preset group: every member changed and renamed, as the clutter sweep's stored files spell it
+    out; a change the scenario refuses, or one asked of datasets on disk, names the entry."""
+    from nnda.data.scenario import load_scenario
+    from nnda.study.plan import plan_study
+
+    (tmp_path / "s.toml").write_text("""
+runs = 1
+[trackers.gnn]
+kind = "gnn"
+[[scenarios]]
+preset = "validation"
+suffix = "-c1000"
+[scenarios.changes]
+"clutter.count" = 1000
+[[scenarios]]
+preset = "S2"
+""")
+    study = load_study(tmp_path / "s.toml")
+    (tmp_path / "back.toml").write_text(study_to_toml(study, relative_to=tmp_path))
+    assert load_study(tmp_path / "back.toml") == study
+    scenarios = plan_study(study).kinds["track"].scenarios
+    assert [s.name for s in scenarios] == [f"S{i}-c1000" for i in range(1, 7)] + ["S2"]
+    sweep = Path(__file__).resolve().parents[2] / "studies" / "clutter-sweep"
+    for s in scenarios[:6]:
+        stored = load_scenario(sweep / f"{s.name}.json")
+        assert s.scenario.model_copy(update={"description": stored.description}) == stored
+    for entry, message in ((' preset = "S1"\n[scenarios.changes]\n"clutter.count" = -1', "greater than or equal to 0"),
+                           (' path = "data"\n[scenarios.changes]\n"clutter.count" = 5', "not to the datasets at")):
+        (tmp_path / "bad.toml").write_text(f"[trackers.gnn]\nkind = \"gnn\"\n[[scenarios]]\n{entry}\n")
+        (tmp_path / "data").mkdir(exist_ok=True)
+        with pytest.raises(ConfigError, match=r"scenarios\[0\]") as err:
+            plan_study(load_study(tmp_path / "bad.toml"))
+        assert message in str(err.value)

@@ -11,6 +11,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 from rich.text import Text
 
+from nnda.data.changes import changes_from_text
 from nnda.data.checks import MAX_DETECTIONS
 from nnda.data.dataset import write_collection, write_dataset
 from nnda.data.pedestrian.scenes import PEDESTRIAN_SCENES
@@ -45,6 +46,9 @@ def generate(
         min=1, help="refuse a scenario whose dataset could hold more detections (each about 60 bytes)")
     ] = MAX_DETECTIONS,
     overwrite: Annotated[bool, typer.Option(help="replace an existing output directory")] = False,
+    change: Annotated[list[str] | None, typer.Option(
+        "--set", help="change a field of the scenario (of each, for a group): PATH=VALUE, e.g. clutter.count=1000 "
+        "or sensor.pd=0.8; repeat for more; VALUE is read as JSON, else as text")] = None,
 ) -> None:
     """Generate datasets from a preset, a preset group or a config file.
 
@@ -56,7 +60,7 @@ def generate(
     if (preset is None) == (config is None):
         raise ConfigError("give exactly one of --preset or --config")
     check_output_location(out, [config] if config is not None else [])
-    sources = resolve_scenes(preset=preset, config=config)
+    sources = resolve_scenes(preset=preset, config=config, changes=changes_from_text(change or [], "--set"))
     warn = Console(stderr=True)
     for source in sources:
         try:

@@ -31,11 +31,12 @@ with no ``if`` on scene kinds left to the caller.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol
+from typing import Any, Protocol
 
+from nnda.data.changes import changed_name, changed_scenario
 from nnda.data.checks import MAX_DETECTIONS
 from nnda.data.dataset import (
     DETECTIONS_FILE,
@@ -205,26 +206,51 @@ def _stored(path: Path, name: str | None, shown: str) -> list[StoredDatasets]:
 
 
 def resolve_scenes(preset: str | None = None, config: Path | None = None, path: Path | None = None,
-                   name: str | None = None, shown: str | None = None
-                   ) -> list[GeneratedScenes | StoredDatasets | WalkerScenes]:
+                   name: str | None = None, shown: str | None = None, changes: Mapping[str, Any] | None = None,
+                   suffix: str | None = None) -> list[GeneratedScenes | StoredDatasets | WalkerScenes]:
     """The sources of one of: a ``preset`` name (preset, preset group or walker scene), a ``config`` file (a
     scenario, or a walker scene: one with a ``map``), a ``path`` of datasets on disk (``name`` renames its one
-    scenario). ``shown`` is how descriptions name the file or directory (default: as given)."""
+    scenario). ``shown`` is how descriptions name the file or directory (default: as given). ``changes`` (dotted
+    path -> value, `nnda.data.changes`) change every generated radar scenario, named with ``suffix`` added
+    (`changes.changed_name`); walker scenes and datasets on disk take none."""
     given = [k for k, v in (("preset", preset), ("config", config), ("path", path)) if v is not None]
     if len(given) != 1:
         raise ConfigError(f"give exactly one of preset, config or path (got {', '.join(given) or 'none'})")
     shown = shown or str(config or path)
+    if preset is not None and preset in PEDESTRIAN_SCENES:
+        _unchanged(changes, f"walker scene {preset}")
+        return [WalkerScenes(preset, f"walker scene {preset}", PEDESTRIAN_SCENES[preset])]
     if preset is not None:
-        if preset in PEDESTRIAN_SCENES:
-            return [WalkerScenes(preset, f"walker scene {preset}", PEDESTRIAN_SCENES[preset])]
         try:
-            return [GeneratedScenes(s.name, f"preset {s.name}", s) for s in resolve(preset)]
+            scenarios = [(s, f"preset {s.name}") for s in resolve(preset)]
         except ConfigError as exc:
             raise ConfigError(f"{exc}, or a walker scene ({', '.join(PEDESTRIAN_SCENES)})") from None
-    if config is not None:
+    elif config is not None:
         if is_walker_config(read_config(config, "scenario")):
             scene = load_walker_scene(config)
+            _unchanged(changes, f"walker scene {shown}")
             return [WalkerScenes(scene.name, f"walker scene {shown}", scene)]
-        s = load_scenario(config)
-        return [GeneratedScenes(s.name, f"config {shown}", s)]
-    return _stored(path, name, shown)
+        scenarios = [(load_scenario(config), f"config {shown}")]
+    else:
+        _unchanged(changes, f"the datasets at {shown}")
+        return _stored(path, name, shown)
+    return [_changed(s, described, changes or {}, suffix) for s, described in scenarios]
+
+
+def _changed(scenario: Scenario, described: str, changes: Mapping[str, Any], suffix: str | None) -> GeneratedScenes:
+    """The source of ``scenario`` (from ``described``) with ``changes``, renamed (`changes.changed_name`)."""
+    if not changes:
+        return GeneratedScenes(scenario.name, described, scenario)
+    written = ", ".join(f"{k} = {v!r}" for k, v in changes.items())
+    named = {"name": changed_name(scenario.name, changes, suffix),
+             "description": f"{scenario.description}; changed: {written}"}
+    changed = changed_scenario(scenario, {**changes, **named}, f"changes to {described}")
+    return GeneratedScenes(changed.name, f"{described}, changed: {written}", changed)
+
+
+def _unchanged(changes: Mapping[str, Any] | None, what: str) -> None:
+    """ConfigError if ``changes`` are asked of ``what``, which is not a generated radar scenario."""
+    if changes:
+        raise ConfigError(f"changes ({', '.join(changes)}) apply to generated radar scenarios, not to {what}")
+
+

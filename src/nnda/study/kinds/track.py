@@ -88,7 +88,7 @@ class TrackerSpec(BaseModel):
 
 class ScenarioSpec(BaseModel):
     """Where one or more scenarios come from: a preset (or group, or walker scene), a config file, or datasets
-    on disk (`nnda.data.sources.resolve_scenes`)."""
+    on disk (`nnda.data.sources.resolve_scenes`); a generated radar scenario's fields may be ``changes``d."""
 
     model_config = STRICT
 
@@ -96,6 +96,11 @@ class ScenarioSpec(BaseModel):
     config: Path | None = Field(default=None, description="scenario or walker scene config file (.toml or .json)")
     path: Path | None = Field(default=None, description="dataset or collection directory")
     name: Label | None = Field(default=None, description="name in the report (path scenarios)")
+    changes: dict[str, Any] = Field(default_factory=dict, description="fields of the generated radar scenarios "
+                                    "to change, by dotted path (clutter.count, sensor.pd, sensors.1.clutter.count, "
+                                    "duration_s, targets.0.speed_m_s): for a preset group, of every member")
+    suffix: str | None = Field(default=None, description="added to the name of each changed scenario (default: "
+                               "the changes written out, S1-clutter.count_1000)")
 
     @model_validator(mode="after")
     def _one_source(self) -> ScenarioSpec:
@@ -103,7 +108,10 @@ class ScenarioSpec(BaseModel):
         if len(given) != 1:
             raise ValueError(f"give exactly one of preset, config or path (got {', '.join(given) or 'none'})")
         if self.name is not None and self.path is None:
-            raise ValueError("name is for path scenarios; presets and configs keep their own names")
+            raise ValueError("name is for path scenarios; presets and configs keep their own names (a changed "
+                             "one takes a suffix)")
+        if self.suffix is not None and not self.changes:
+            raise ValueError("suffix names a changed scenario: give changes too")
         return self
 
 
@@ -270,7 +278,8 @@ def scenario_plans(study, where: str) -> tuple[ScenarioPlan, ...]:
         here = f"{where}: scenarios[{i}]"
         shown = study.relative(spec.config or spec.path) if spec.preset is None else None
         try:
-            sources = resolve_scenes(spec.preset, spec.config, spec.path, spec.name, shown)
+            sources = resolve_scenes(spec.preset, spec.config, spec.path, spec.name, shown, spec.changes,
+                                     spec.suffix)
         except (ConfigError, DatasetError) as exc:
             raise type(exc)(f"{here}: {exc}") from None
         plans += [ScenarioPlan(s.name, s, s.stored_runs or study.runs) for s in sources]
