@@ -99,19 +99,6 @@ def test_take_and_concat():
         IMMState.concat([state, other])
     with pytest.raises(FilterError, match="nothing"):
         IMMState.concat([])
-    # gathered: rows of one batch and all of another put in a given order, the same bits as concat then take
-    rows, b = np.array([2, 0, 2]), pred.take(np.array([4, 1]))
-    at = (np.array([1, 3, 4]), np.array([0, 2]))
-    order = np.empty(5, np.int64)
-    order[np.concatenate(at)] = np.arange(5)
-    got, wanted = IMMPrediction.gathered(pred, rows, at[0], b, at[1]), IMMPrediction.concat(
-        [pred.take(rows), b]).take(order)
-    for name in ("x", "P", "mu"):
-        np.testing.assert_array_equal(getattr(got.state, name), getattr(wanted.state, name))
-    np.testing.assert_array_equal(got.measurement.S, wanted.measurement.S)
-    np.testing.assert_array_equal(IMMState.gathered(state, rows, at[0], b.state, at[1]).x,
-                                  IMMState.concat([state.take(rows), b.state]).take(order).x)
-
 
 
 def test_kept_is_take_of_a_mask_and_the_batch_itself_when_all_stay():

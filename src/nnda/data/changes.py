@@ -31,7 +31,8 @@ def changed_scenario(scenario: Scenario, changes: Mapping[str, Any], source: str
         return scenario
     data = scenario.model_dump(mode="json")
     for path, value in changes.items():
-        _put(scenario, data, _spelled_out(scenario, path, f"{source}: {path!r}"), value, f"{source}: {path!r}")
+        where = f"{source}: {path!r}"
+        _put(scenario, data, _spelled_out(scenario, path, where), value, where)
     return scenario_from_dict(data, source)
 
 

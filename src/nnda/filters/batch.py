@@ -2,8 +2,7 @@
 
 Trackers add and drop tracks every scan and branch a track over several
 candidate measurements; `Batch.take` (any numpy index along the track axis,
-repeats allowed), `Batch.concat` and `Batch.gathered` (rows of one batch and all
-of another, put in a given order) do that for every record built on it.
+repeats allowed) and `Batch.concat` do that for every record built on it.
 """
 
 from __future__ import annotations
@@ -14,7 +13,6 @@ from functools import cache
 from operator import attrgetter
 from typing import Self
 
-import numba
 import numpy as np
 
 from nnda.errors import FilterError
@@ -32,19 +30,6 @@ def _values(cls: type) -> Callable[[object], tuple]:
     names = _names(cls)
     getter = attrgetter(*names)
     return getter if len(names) > 1 else lambda record: (getter(record),)
-
-
-@numba.njit(cache=True, nogil=True)
-def gathered_rows(a, rows, at_a, b, at_b):
-    """One array (len(at_a) + len(at_b), ...) whose rows ``at_a`` (integer arrays that together name every row
-    once) are ``a``'s rows ``rows`` and rows ``at_b`` are ``b``'s rows in order: ``np.concatenate([a[rows], b])``
-    put in that order, in one copy instead of three."""
-    out = np.empty((at_a.size + at_b.size,) + a.shape[1:], a.dtype)
-    for i in range(at_a.size):
-        out[at_a[i]] = a[rows[i]]
-    for i in range(at_b.size):
-        out[at_b[i]] = b[i]
-    return out
 
 
 class Batch:
@@ -85,14 +70,6 @@ class Batch:
         if unknown:
             raise FilterError(f"{cls.__name__}.replaced: no field(s) {', '.join(sorted(unknown))}")
         return cls(*[changes.get(name, value) for name, value in zip(_names(cls), _values(cls)(self))])
-
-    @classmethod
-    def gathered(cls, a: Self, rows: np.ndarray, at_a: np.ndarray, b: Self, at_b: np.ndarray) -> Self:
-        """One batch whose tracks ``at_a`` are ``a``'s tracks ``rows`` and tracks ``at_b`` are ``b``'s, in order
-        (int64 arrays; ``at_a`` and ``at_b`` together name every track once): `concat` of ``a.take(rows)`` and
-        ``b``, then `take` into that order, in one copy (`gathered_rows`)."""
-        return cls(*[type(u).gathered(u, rows, at_a, v, at_b) if isinstance(u, Batch) else
-                     gathered_rows(u, rows, at_a, v, at_b) for u, v in zip(_values(cls)(a), _values(cls)(b))])
 
     @classmethod
     def concat(cls, batches: Sequence[Self]) -> Self:

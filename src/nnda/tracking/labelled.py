@@ -454,10 +454,10 @@ def _children(every, first, pl, pj, records, filt, gating, predicted, z, xy, tim
     ``polar``, the linearisation's ``limit`` on S_aa (rad^2), the output dimension ``d`` and the life cycle's
     `branching_args`. A pair child is its row's prediction updated with its contact (`imm_kernels.update`, then
     `imm_kernels.estimate`), a miss child keeps its row's posterior and reports the prediction; the records move
-    on as `Tracks.branched_after_scan` moves them. Returns the children's track_id, status, x, P, mu, history,
-    counts, scores, hist, estimate x (M, d) and P (M, d, d), parent (M,) (of the S rows) and the pair children
-    whose track the polar model linearises poorly (`nnda.tracking.linearisation.poor_rows`; indices into the M),
-    for the caller's converted-measurement update."""
+    on as `Tracks.after_scan` moves a scan's tracks (`tracks.branched_moved`). Returns the children's track_id,
+    status, x, P, mu, history, counts, scores, hist, estimate x (M, d) and P (M, d, d), parent (M,) (of the S
+    rows) and the pair children whose track the polar model linearises poorly
+    (`nnda.tracking.linearisation.poor_rows`; indices into the M), for the caller's converted-measurement update."""
     track_id, status, counts, scores, history, hist = records
     fx, fP, fmu = filt
     gx, gP = gating

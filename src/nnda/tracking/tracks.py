@@ -127,17 +127,6 @@ class Tracks(Batch):
                 score_gain is not None, score_rule, cfg.confirmation == "existence", lower, upper, early,
                 miss_run(cfg), self.history, xy, np.ascontiguousarray(z[:, 1]), time)
 
-    def branched_after_scan(self, parent: np.ndarray, filt: IMMState, contact: np.ndarray, z: np.ndarray,
-                            xy: np.ndarray, time: float, lifecycle: LifecycleConfig) -> Tracks:
-        """The children of rows ``parent`` (M,) with the filter states ``filt`` (M rows; a branching's: the tracks
-        taken at ``parent`` with ``filt`` in place of theirs), each after the scan at ``time`` with its ``contact``
-        (M,) of the scan's z, xy (N, 2), as `after_scan` moves them on (every track observed, no score gain), in
-        one compiled call (`branched_moved`)."""
-        status, counts, scores, history, *_ = branched_moved(
-            parent, contact, np.ones(parent.size, np.bool_), self.status, self.counts, self.scores, self.history,
-            *branching_args(lifecycle), xy, np.ascontiguousarray(z[:, 1]), time)
-        return Tracks(self.track_id[parent], status, filt, history, counts, scores)
-
     def joined(self, other: Tracks) -> Tracks:
         """These tracks, then ``other``'s: `Batch.concat` of the two in one compiled call (`_joined`; the
         single-hypothesis trackers add a scan's new tracks every scan, where 8 concatenations cost more
